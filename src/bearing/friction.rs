@@ -1,0 +1,46 @@
+//! Friction from the Sommerfeld number (paper eqs. 10-11, MODEL.md section 5).
+
+use super::BearingParams;
+
+/// Friction torque and the numbers it comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Friction {
+    /// Friction torque on the journal about `+z`, N·m; opposes the relative spin.
+    pub mz: f64,
+    /// Friction coefficient `f`; `None` where it is infinite (`|W| = 0`, `ω0 ≠ 0`) or
+    /// undefined (`|W| = 0`, `ω0 = 0`).
+    pub coefficient: Option<f64>,
+    /// Sommerfeld number `S`; `None` where it is infinite or undefined (`ω0 = 0`).
+    pub sommerfeld: Option<f64>,
+}
+
+/// Friction for a bearing carrying load `|W|` (N) at relative spin `ω0` (rad/s).
+pub fn friction(params: &BearingParams, w_abs: f64, omega: f64) -> Friction {
+    let phi = params
+        .clearance_convention
+        .relative_clearance(params.clearance, params.radius);
+    if omega == 0.0 {
+        return Friction {
+            mz: 0.0,
+            coefficient: if w_abs > 0.0 { Some(0.0) } else { None },
+            sommerfeld: None,
+        };
+    }
+    let mean_pressure = w_abs / (2.0 * params.radius * params.length);
+    let s = mean_pressure * phi * phi / (params.viscosity * omega.abs());
+    let (coefficient, mz_abs) = if s < 1.0 {
+        // Load-independent torque 6 r0² B μ |ω0| / φ: finite as W -> 0.
+        let torque =
+            6.0 * params.radius * params.radius * params.length * params.viscosity * omega.abs()
+                / phi;
+        (if s > 0.0 { Some(3.0 * phi / s) } else { None }, torque)
+    } else {
+        let f = 3.0 * phi / s.sqrt();
+        (Some(f), f * params.radius * w_abs)
+    };
+    Friction {
+        mz: -omega.signum() * mz_abs,
+        coefficient,
+        sommerfeld: Some(s),
+    }
+}

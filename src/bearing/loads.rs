@@ -1,0 +1,125 @@
+//! From a dimensional bearing state to the kernel's packed input, and from the kernel's
+//! film integrals back to loads, friction and film thickness.
+
+use serde::Serialize;
+
+use super::friction::friction;
+use super::rule::{FilmIntegrals, FilmRule, PackedState};
+use super::{BearingParams, BearingState, StateFault};
+
+/// Everything the film exerts on the journal for one state (MODEL.md sections 4-6). SI.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Loads {
+    /// Film force on the journal along x, N.
+    pub wx: f64,
+    /// Film force on the journal along y, N.
+    pub wy: f64,
+    /// Film moment on the journal about x, about the bore centre of the face `z = 0`, N·m.
+    pub mx: f64,
+    /// Film moment about y, N·m.
+    pub my: f64,
+    /// Friction torque about `+z`, N·m (opposes the relative spin).
+    pub mz: f64,
+    /// Friction coefficient; `null` where infinite or undefined (MODEL.md section 5).
+    pub friction_coefficient: Option<f64>,
+    /// Sommerfeld number; `null` where infinite (`ω0 = 0`).
+    pub sommerfeld: Option<f64>,
+    /// Minimum film thickness, m.
+    pub h_min: f64,
+    /// Friction power loss `|M_z ω0|`, W.
+    pub power_loss: f64,
+}
+
+impl Loads {
+    /// The load vector `(W_x, W_y, M_x/B, M_y/B)` in which accuracy is measured.
+    pub fn load_vector(&self, length_m: f64) -> [f64; 4] {
+        [self.wx, self.wy, self.mx / length_m, self.my / length_m]
+    }
+
+    /// Generalised end-point forces (MODEL.md section 4): `(F_i, F_j)`, each `[x, y]`, N.
+    pub fn end_forces(&self, length_m: f64) -> ([f64; 2], [f64; 2]) {
+        let fj = [self.my / length_m, -self.mx / length_m];
+        ([self.wx - fj[0], self.wy - fj[1]], fj)
+    }
+}
+
+/// A validated state ready for a backend: its packed form and the rate scale (1/s) that
+/// multiplies the kernel's integrals back. A zero scale means no pressure anywhere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Packed {
+    /// Kernel input.
+    pub state: PackedState,
+    /// Rate scale, 1/s.
+    pub rate_scale: f64,
+}
+
+/// Validates `state` and nondimensionalises it for the kernel.
+pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed, StateFault> {
+    state.validate(params.clearance)?;
+    let d = params.clearance;
+    let w = state.omega;
+    let ecc = [state.xi / d, state.yi / d, state.xj / d, state.yj / d];
+    let rate = [
+        w * ecc[0] - 2.0 * state.vyi / d,
+        w * ecc[1] + 2.0 * state.vxi / d,
+        w * ecc[2] - 2.0 * state.vyj / d,
+        w * ecc[3] + 2.0 * state.vxj / d,
+    ];
+    let rate_scale = rate.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if !rate_scale.is_finite() {
+        // Finite but enormous inputs overflowed: name the spin, the usual culprit.
+        return Err(StateFault::NonFinite { field: "omega" });
+    }
+    let inv = if rate_scale > 0.0 {
+        1.0 / rate_scale
+    } else {
+        0.0
+    };
+    Ok(Packed {
+        state: PackedState {
+            ecc,
+            rate: rate.map(|r| r * inv),
+        },
+        rate_scale,
+    })
+}
+
+/// Loads from the kernel's integrals for a state packed by [`pack_state`].
+pub fn finish_loads(
+    params: &BearingParams,
+    state: &BearingState,
+    integrals: &FilmIntegrals,
+    rate_scale: f64,
+) -> Loads {
+    let f = params.force_scale() * rate_scale;
+    let (wx, wy) = (f * integrals[0], f * integrals[1]);
+    let mx = -f * params.length * integrals[3];
+    let my = f * params.length * integrals[2];
+    let fr = friction(params, wx.hypot(wy), state.omega);
+    Loads {
+        wx,
+        wy,
+        mx,
+        my,
+        mz: fr.mz,
+        friction_coefficient: fr.coefficient,
+        sommerfeld: fr.sommerfeld,
+        h_min: state.h_min(params.clearance),
+        power_loss: (fr.mz * state.omega).abs(),
+    }
+}
+
+/// Loads of one state with the default rule on the calling thread.
+pub fn film_loads(
+    params: &BearingParams,
+    state: &BearingState,
+    rule: &FilmRule,
+) -> Result<Loads, StateFault> {
+    let packed = pack_state(params, state)?;
+    let integrals = if packed.rate_scale > 0.0 {
+        rule.integrate(&packed.state).0
+    } else {
+        [0.0; 4]
+    };
+    Ok(finish_loads(params, state, &integrals, packed.rate_scale))
+}

@@ -1,0 +1,20 @@
+//! Hydrodynamic journal-bearing film model (MODEL.md sections 1-7): parameters, states,
+//! the default load rule, friction, the brute-force baseline and reference values.
+
+mod baseline;
+mod friction;
+mod loads;
+mod params;
+pub mod reference;
+mod rule;
+mod state;
+
+pub use baseline::baseline_loads;
+pub use friction::{friction, Friction};
+pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
+pub use params::{BearingParams, ClearanceConvention, ParamError};
+pub use rule::{
+    quartic_roots, slice_integrals, Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings,
+    Singularities, ACCURACY_LEVELS,
+};
+pub use state::{BearingState, End, StateFault};

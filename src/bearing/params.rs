@@ -1,0 +1,115 @@
+//! Bearing geometry and lubricant (MODEL.md section 1), with validation.
+
+use serde::{Deserialize, Serialize};
+
+/// Which relative clearance the friction law of eqs. (10)-(11) uses (MODEL.md section 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClearanceConvention {
+    /// `φ = δ / (2 r0)`, as printed in the paper; needed to reproduce its Fig. 4. Default.
+    #[default]
+    Paper,
+    /// `ψ = δ / r0`, the relative clearance of Vogelpohl's law; its `S < 1` torque is
+    /// 0.95 × Petroff's, where the paper's is 1.91 ×.
+    Vogelpohl,
+}
+
+impl ClearanceConvention {
+    /// Relative clearance used by the friction law, dimensionless.
+    pub fn relative_clearance(self, clearance_m: f64, radius_m: f64) -> f64 {
+        match self {
+            ClearanceConvention::Paper => clearance_m / (2.0 * radius_m),
+            ClearanceConvention::Vogelpohl => clearance_m / radius_m,
+        }
+    }
+
+    /// Name written into every output that reports friction.
+    pub fn name(self) -> &'static str {
+        match self {
+            ClearanceConvention::Paper => "paper",
+            ClearanceConvention::Vogelpohl => "vogelpohl",
+        }
+    }
+}
+
+/// Constant inputs of one hydrodynamic journal bearing. SI units; no field has a
+/// default except `clearance_convention`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BearingParams {
+    /// Journal radius `r0`, m (paper's Table 2: 0.02).
+    pub radius: f64,
+    /// Bearing length `B` along the bore axis, m (Table 2: 0.02).
+    pub length: f64,
+    /// Radial clearance `δ`, m (Table 2: 0.0003).
+    pub clearance: f64,
+    /// Lubricant dynamic viscosity `μ`, Pa·s (Table 2: 0.0242).
+    pub viscosity: f64,
+    /// Relative clearance in the friction law; default `"paper"`.
+    #[serde(default)]
+    pub clearance_convention: ClearanceConvention,
+}
+
+/// A bearing parameter that cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("bearing parameter `{field}` = {value}: {reason}")]
+pub struct ParamError {
+    /// The offending field's JSON name.
+    pub field: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// Why it is rejected.
+    pub reason: &'static str,
+}
+
+impl BearingParams {
+    /// The paper's Table 2 bearing: r0 = 0.02 m, B = 0.02 m, δ = 0.3 mm, μ = 0.0242 Pa·s.
+    pub fn paper_table2() -> Self {
+        BearingParams {
+            radius: 0.02,
+            length: 0.02,
+            clearance: 0.0003,
+            viscosity: 0.0242,
+            clearance_convention: ClearanceConvention::Paper,
+        }
+    }
+
+    /// Every field finite and positive, and the clearance smaller than the radius.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let fields = [
+            ("radius", self.radius),
+            ("length", self.length),
+            ("clearance", self.clearance),
+            ("viscosity", self.viscosity),
+        ];
+        for (field, value) in fields {
+            if !value.is_finite() {
+                return Err(ParamError {
+                    field,
+                    value,
+                    reason: "must be finite",
+                });
+            }
+            if value <= 0.0 {
+                return Err(ParamError {
+                    field,
+                    value,
+                    reason: "must be positive",
+                });
+            }
+        }
+        if self.clearance >= self.radius {
+            return Err(ParamError {
+                field: "clearance",
+                value: self.clearance,
+                reason: "must be smaller than the journal radius",
+            });
+        }
+        Ok(())
+    }
+
+    /// Scale of every film load: `3 μ r0 B³ / δ²`, N·s (times a rate in 1/s gives N).
+    pub fn force_scale(&self) -> f64 {
+        3.0 * self.viscosity * self.radius * self.length.powi(3) / (self.clearance * self.clearance)
+    }
+}

@@ -1,0 +1,82 @@
+//! Reference values for tests and benchmarks: adaptive quadrature to near rounding.
+//! Slow; never on a hot path.
+
+use super::loads::pack_state;
+use super::rule::{slice_integrals, PackedState, RuleSettings, Singularities};
+use super::{BearingParams, BearingState, StateFault};
+use crate::numerics::adaptive_gauss_kronrod;
+
+/// Load vector `[W_x, W_y, M_x, M_y]` with the closed-form arcs and an adaptive
+/// Gauss-Kronrod integral in `z` to relative tolerance `rtol` (split at the rate
+/// vector's zero when it lies inside the bearing).
+pub fn reference_loads(
+    params: &BearingParams,
+    state: &BearingState,
+    rtol: f64,
+) -> Result<[f64; 4], StateFault> {
+    let packed = pack_state(params, state)?;
+    if packed.rate_scale == 0.0 {
+        return Ok([0.0; 4]);
+    }
+    let j = reference_integrals(&packed.state, rtol);
+    let f = params.force_scale() * packed.rate_scale;
+    Ok([
+        f * j[0],
+        f * j[1],
+        -f * params.length * j[3],
+        f * params.length * j[2],
+    ])
+}
+
+/// Film integrals of a packed state by adaptive quadrature in `z`.
+pub fn reference_integrals(state: &PackedState, rtol: f64) -> [f64; 4] {
+    let settings = RuleSettings {
+        nodes: 1,
+        kappa_ahead: 0.5,
+        kappa_behind: 1.0,
+        kink_floor: 0.0,
+        max_panels: 1,
+    };
+    let sing = Singularities::of(state, &settings);
+    let mut breaks = vec![0.0];
+    if sing.kink_s > 0.0 && sing.kink_s < 1.0 {
+        breaks.push(sing.kink_s);
+    }
+    breaks.push(1.0);
+    let [e0x, e0y, ejx, ejy] = state.ecc;
+    let [r0x, r0y, rjx, rjy] = state.rate;
+    let f = |z: f64| {
+        let [c, s] = slice_integrals(
+            e0x + (ejx - e0x) * z,
+            e0y + (ejy - e0y) * z,
+            r0x + (rjx - r0x) * z,
+            r0y + (rjy - r0y) * z,
+        );
+        let g = z * (1.0 - z);
+        [g * c, g * s, g * z * c, g * z * s]
+    };
+    adaptive_gauss_kronrod(f, &breaks, rtol, 1e-300, 20_000).value
+}
+
+/// One slice's `|r| (C, S)` (`C, S = ∫ sin(θ−α) (cos θ, sin θ) / (1 − ε·(cos θ, sin θ))³ dθ`
+/// over the loaded arc `θ − α ∈ (π, 2π)`) by adaptive quadrature in `θ`: an independent
+/// check of the closed form in [`slice_integrals`].
+pub fn reference_slice(ex: f64, ey: f64, rx: f64, ry: f64, rtol: f64) -> [f64; 2] {
+    let alpha = ry.atan2(rx);
+    let r = rx.hypot(ry);
+    // Loaded arc θ ∈ (α+π, α+2π); integrand r sin(θ−α) (cos θ, sin θ)/(1 − ε·(cos θ, sin θ))³.
+    let f = |t: f64| {
+        let th = alpha + std::f64::consts::PI + t;
+        let (s, c) = th.sin_cos();
+        let h = 1.0 - ex * c - ey * s;
+        let v = r * (th - alpha).sin() / (h * h * h);
+        [v * c, v * s]
+    };
+    // Split at the peak of 1/h³ (θ = arg ε) when it is on the arc, for the adaptive rule's sake.
+    let mut breaks = vec![0.0, std::f64::consts::PI];
+    let peak = (ey.atan2(ex) - alpha - std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI);
+    if peak > 0.0 && peak < std::f64::consts::PI {
+        breaks.insert(1, peak);
+    }
+    adaptive_gauss_kronrod(f, &breaks, rtol, 1e-300, 20_000).value
+}

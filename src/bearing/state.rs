@@ -1,0 +1,134 @@
+//! One bearing state (MODEL.md section 1) and its validation.
+
+use serde::{Deserialize, Serialize};
+
+/// Journal kinematics relative to the housing, in the bearing frame: centre at the end
+/// face `z = 0` (`i`) and at `z = B` (`j`), their velocities, and the relative spin.
+/// Positions in m, velocities in m/s, spin in rad/s (any sign).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BearingState {
+    /// Journal centre x at the first end face `z = 0`, m.
+    pub xi: f64,
+    /// Journal centre y at the first end face, m.
+    pub yi: f64,
+    /// Journal centre x at the second end face `z = B`, m.
+    pub xj: f64,
+    /// Journal centre y at the second end face, m.
+    pub yj: f64,
+    /// d(xi)/dt, m/s.
+    pub vxi: f64,
+    /// d(yi)/dt, m/s.
+    pub vyi: f64,
+    /// d(xj)/dt, m/s.
+    pub vxj: f64,
+    /// d(yj)/dt, m/s.
+    pub vyj: f64,
+    /// Relative spin `ω0` of the journal about `+z`, rad/s.
+    pub omega: f64,
+}
+
+/// End face of a bearing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum End {
+    /// `z = 0`.
+    I,
+    /// `z = B`.
+    J,
+}
+
+/// Why a bearing state has no film loads.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum StateFault {
+    /// An input is NaN or infinite.
+    #[error("state field `{field}` is not finite")]
+    NonFinite {
+        /// JSON name of the field.
+        field: &'static str,
+    },
+    /// The journal touches or passes through the bore wall at an end face: `ε >= 1`.
+    #[error("eccentricity ratio {ratio} >= 1 at end {end:?}: journal through the wall")]
+    ThroughWall {
+        /// Which end face.
+        end: End,
+        /// `|e| / δ` at that end.
+        ratio: f64,
+    },
+    /// The backend produced a non-finite result and no fallback could recompute it.
+    #[error("backend returned non-finite loads")]
+    BackendNonFinite,
+    /// The bearing this state refers to is unusable (or does not exist).
+    #[error("bearing parameters unusable: `{field}` {reason}")]
+    InvalidBearing {
+        /// The offending field.
+        field: &'static str,
+        /// Why.
+        reason: &'static str,
+    },
+}
+
+impl StateFault {
+    /// Short machine-readable status code written into JSON outputs.
+    pub fn code(&self) -> &'static str {
+        match self {
+            StateFault::NonFinite { .. } => "non_finite_input",
+            StateFault::ThroughWall { .. } => "through_wall",
+            StateFault::BackendNonFinite => "backend_non_finite",
+            StateFault::InvalidBearing { .. } => "invalid_bearing",
+        }
+    }
+}
+
+impl BearingState {
+    /// Field names and values, in the JSON order.
+    pub fn fields(&self) -> [(&'static str, f64); 9] {
+        [
+            ("xi", self.xi),
+            ("yi", self.yi),
+            ("xj", self.xj),
+            ("yj", self.yj),
+            ("vxi", self.vxi),
+            ("vyi", self.vyi),
+            ("vxj", self.vxj),
+            ("vyj", self.vyj),
+            ("omega", self.omega),
+        ]
+    }
+
+    /// Eccentricity ratios `|e| / δ` at the two end faces.
+    pub fn eccentricity_ratios(&self, clearance_m: f64) -> (f64, f64) {
+        (
+            self.xi.hypot(self.yi) / clearance_m,
+            self.xj.hypot(self.yj) / clearance_m,
+        )
+    }
+
+    /// Minimum film thickness `δ − max(|e_i|, |e_j|)`, m (the film is thinnest at an end face).
+    pub fn h_min(&self, clearance_m: f64) -> f64 {
+        clearance_m - self.xi.hypot(self.yi).max(self.xj.hypot(self.yj))
+    }
+
+    /// Finite inputs and the journal inside the bore at both ends.
+    pub fn validate(&self, clearance_m: f64) -> Result<(), StateFault> {
+        for (field, value) in self.fields() {
+            if !value.is_finite() {
+                return Err(StateFault::NonFinite { field });
+            }
+        }
+        let (ei, ej) = self.eccentricity_ratios(clearance_m);
+        if ei >= 1.0 {
+            return Err(StateFault::ThroughWall {
+                end: End::I,
+                ratio: ei,
+            });
+        }
+        if ej >= 1.0 {
+            return Err(StateFault::ThroughWall {
+                end: End::J,
+                ratio: ej,
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,64 @@
+//! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
+//! errors that name the JSON path and the reason.
+
+mod eval;
+
+pub use eval::{eval_json, EvalOptions};
+
+/// A command failure shown to the user (exit status 2).
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// Input JSON that cannot be used: the path inside the document and why.
+    #[error("{path}: {reason}")]
+    Input {
+        /// JSON path, e.g. `states[3].omega`.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The backend could not be created.
+    #[error(transparent)]
+    Backend(#[from] crate::backend::BackendError),
+}
+
+impl CliError {
+    /// An input error at `path`.
+    pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
+        CliError::Input {
+            path: path.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Reads a whole file, `-` meaning standard input.
+pub fn read_input(path: &str) -> Result<String, CliError> {
+    use std::io::Read;
+    let mut text = String::new();
+    let result = if path == "-" {
+        std::io::stdin().read_to_string(&mut text).map(|_| ())
+    } else {
+        std::fs::read_to_string(path).map(|t| text = t)
+    };
+    result.map_err(|source| CliError::Io {
+        path: path.to_string(),
+        source,
+    })?;
+    Ok(text)
+}
+
+/// Deserialises `value` as `T`, turning serde's message into an error at `path`.
+pub fn from_value<T: serde::de::DeserializeOwned>(
+    value: &serde_json::Value,
+    path: &str,
+) -> Result<T, CliError> {
+    serde_json::from_value(value.clone()).map_err(|e| CliError::input(path, e.to_string()))
+}

@@ -1,0 +1,8 @@
+//! bearing-sweep: rigid rotors in hydrodynamic journal bearings (Stefanelli, Valentini,
+//! Vita, DETC2005-84858), the nonlinear film model evaluated in batches on CPU and GPU.
+//! The physics contract is `MODEL.md` (shipped in `shared/`); conventions there hold here.
+
+pub mod backend;
+pub mod bearing;
+pub mod cli;
+pub mod numerics;

@@ -1,0 +1,58 @@
+//! The `bearing-sweep` command line: argument parsing only; the work is in the library.
+
+use std::process::ExitCode;
+
+use bearing_sweep::backend::BackendKind;
+use bearing_sweep::cli::{eval_json, read_input, EvalOptions};
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "bearing-sweep",
+    version,
+    about = "Rigid rotors in hydrodynamic journal bearings, batched on CPU and GPU"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Film loads of bearing states: `{"bearing": {...}, "states": [...]}` -> `{"loads": [...]}`.
+    Eval {
+        /// Input JSON file, `-` for standard input.
+        file: String,
+        /// Backend: cpu, gpu or auto.
+        #[arg(long, default_value = "cpu")]
+        backend: BackendKind,
+        /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
+        #[arg(long, default_value_t = 1e-6)]
+        accuracy: f64,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval {
+            file,
+            backend,
+            accuracy,
+        } => read_input(&file)
+            .and_then(|text| eval_json(&text, EvalOptions { backend, accuracy }))
+            .map(|(out, notices)| {
+                for n in notices {
+                    eprintln!("{n}");
+                }
+                println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+            }),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
