@@ -6,3 +6,4 @@ pub mod backend;
 pub mod bearing;
 pub mod cli;
 pub mod numerics;
+pub mod plot;

@@ -1,0 +1,145 @@
+//! SVG figures (plotters' SVG backend, no fonts needed): shared line-plot helper.
+
+use plotters::prelude::*;
+
+/// One named curve of `(x, y)` points.
+pub struct Series<'a> {
+    /// Legend label.
+    pub label: &'a str,
+    /// Points in data units.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Axis scaling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// Linear axis.
+    Linear,
+    /// Base-10 logarithmic axis (non-positive values are dropped).
+    Log,
+}
+
+/// Writes a line plot of `series` to an SVG string.
+pub fn line_plot_svg(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+    x_scale: Scale,
+    y_scale: Scale,
+) -> Result<String, String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let keep = |v: f64, s: Scale| v.is_finite() && (s == Scale::Linear || v > 0.0);
+        let pts: Vec<(f64, f64)> = series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|&(x, y)| keep(x, x_scale) && keep(y, y_scale))
+            .collect();
+        if pts.is_empty() {
+            return Err("nothing to plot".into());
+        }
+        let range = |vals: Vec<f64>, scale: Scale| {
+            let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            match scale {
+                Scale::Linear => {
+                    let pad = if hi > lo {
+                        0.05 * (hi - lo)
+                    } else {
+                        lo.abs().max(1e-12) * 0.1
+                    };
+                    (lo - pad, hi + pad)
+                }
+                Scale::Log => (lo / 1.5, hi * 1.5),
+            }
+        };
+        let (x0, x1) = range(pts.iter().map(|p| p.0).collect(), x_scale);
+        let (y0, y1) = range(pts.iter().map(|p| p.1).collect(), y_scale);
+        macro_rules! draw {
+            ($chart:expr) => {{
+                let mut chart = $chart.map_err(|e| e.to_string())?;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_label)
+                    .y_desc(y_label)
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+                for (k, s) in series.iter().enumerate() {
+                    let color = Palette99::pick(k).to_rgba();
+                    let data: Vec<(f64, f64)> = s
+                        .points
+                        .iter()
+                        .copied()
+                        .filter(|&(x, y)| keep(x, x_scale) && keep(y, y_scale))
+                        .collect();
+                    chart
+                        .draw_series(LineSeries::new(data, color.stroke_width(2)))
+                        .map_err(|e| e.to_string())?
+                        .label(s.label)
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                        });
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+            }};
+        }
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70);
+        match (x_scale, y_scale) {
+            (Scale::Linear, Scale::Linear) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1)),
+            (Scale::Log, Scale::Log) => {
+                draw!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()))
+            }
+            (Scale::Linear, Scale::Log) => {
+                draw!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()))
+            }
+            (Scale::Log, Scale::Linear) => {
+                draw!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1))
+            }
+        }
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_an_svg_with_the_title_and_a_path_per_series() {
+        let s = [
+            Series {
+                label: "a",
+                points: vec![(1.0, 1.0), (10.0, 100.0)],
+            },
+            Series {
+                label: "b",
+                points: vec![(1.0, 2.0), (10.0, 3.0)],
+            },
+        ];
+        let svg = line_plot_svg("T", "x", "y", &s, Scale::Log, Scale::Log).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..40.min(svg.len())]);
+        assert!(
+            svg.contains("\nT\n</text>"),
+            "title missing: {}",
+            &svg[..600.min(svg.len())]
+        );
+        assert!(
+            svg.matches("<polyline").count() >= 2,
+            "expected a polyline per series"
+        );
+    }
+}
