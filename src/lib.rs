@@ -5,5 +5,6 @@
 pub mod backend;
 pub mod bearing;
 pub mod cli;
+pub mod integrate;
 pub mod numerics;
 pub mod plot;
