@@ -8,3 +8,4 @@ pub mod cli;
 pub mod integrate;
 pub mod numerics;
 pub mod plot;
+pub mod rotor;

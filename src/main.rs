@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
-use bearing_sweep::cli::{eval_json, read_input, EvalOptions};
+use bearing_sweep::cli::{eval_json, read_input, run_scene_file, EvalOptions, RunOptions};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -30,6 +30,21 @@ enum Command {
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
     },
+    /// Simulate a scene file (rotor, bearings, initial state, integrator; see README):
+    /// writes OUT/<file stem>/result.json and SVG figures 7-10.
+    Run {
+        /// Scene file (JSON).
+        file: String,
+        /// Output root folder.
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
+        /// Backend for the film loads: cpu, gpu or auto.
+        #[arg(long, default_value = "cpu")]
+        backend: BackendKind,
+        /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
+        #[arg(long, default_value_t = 1e-9)]
+        accuracy: f64,
+    },
 }
 
 fn main() -> ExitCode {
@@ -47,6 +62,32 @@ fn main() -> ExitCode {
                 }
                 println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
             }),
+        Command::Run {
+            file,
+            out,
+            backend,
+            accuracy,
+        } => read_input(&file).and_then(|text| {
+            let report = run_scene_file(
+                &file,
+                &text,
+                &RunOptions {
+                    backend,
+                    accuracy,
+                    out,
+                },
+            )?;
+            for n in report.notices {
+                eprintln!("{n}");
+            }
+            for l in report.lines {
+                println!("{l}");
+            }
+            for f in report.files {
+                println!("wrote {}", f.display());
+            }
+            Ok(())
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

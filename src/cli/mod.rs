@@ -2,8 +2,10 @@
 //! errors that name the JSON path and the reason.
 
 mod eval;
+mod run;
 
 pub use eval::{eval_json, EvalOptions};
+pub use run::{figures, run_scene_file, RunOptions, RunReport};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]
