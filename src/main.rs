@@ -3,7 +3,9 @@
 use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
-use bearing_sweep::cli::{eval_json, read_input, run_scene_file, EvalOptions, RunOptions};
+use bearing_sweep::cli::{
+    bench_rotor, eval_json, read_input, run_scene_file, BenchRotorOptions, EvalOptions, RunOptions,
+};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -42,8 +44,24 @@ enum Command {
         #[arg(long, default_value = "cpu")]
         backend: BackendKind,
         /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
-        #[arg(long, default_value_t = 1e-9)]
+        #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
+    },
+    /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
+    /// markdown table, writes log-log SVG diagrams to --out.
+    BenchRotor {
+        /// Simulated time, s.
+        #[arg(long, default_value_t = 0.5)]
+        t_end: f64,
+        /// Film-load accuracy level.
+        #[arg(long, default_value_t = 1e-12)]
+        accuracy: f64,
+        /// Timing repeats per configuration (the fastest counts).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Output folder for the diagrams.
+        #[arg(long, default_value = "out/bench-rotor")]
+        out: std::path::PathBuf,
     },
 }
 
@@ -87,6 +105,24 @@ fn main() -> ExitCode {
                 println!("wrote {}", f.display());
             }
             Ok(())
+        }),
+        Command::BenchRotor {
+            t_end,
+            accuracy,
+            repeats,
+            out,
+        } => bench_rotor(&BenchRotorOptions {
+            t_end,
+            accuracy,
+            repeats,
+            out,
+        })
+        .map(|r| {
+            println!("{}\n", r.reference);
+            print!("{}", r.table);
+            for f in r.files {
+                println!("wrote {}", f.display());
+            }
         }),
     };
     match result {

@@ -1,9 +1,11 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
+mod bench_rotor;
 mod eval;
 mod run;
 
+pub use bench_rotor::{bench_rotor, BenchRotorOptions, BenchRotorReport, BenchRow};
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 
