@@ -8,6 +8,9 @@
 //! done on the rotor by all applied loads, J (a quadrature: `f` does not depend on it).
 //! Axial motion is constrained (`z_G = 0`); the axial force is the constraint's.
 
+// Index loops mirror the matrix subscripts.
+#![allow(clippy::needless_range_loop)]
+
 use super::scene::{ModelKind, Scene, SpinMode};
 use crate::bearing::{friction, BearingParams, BearingState};
 
