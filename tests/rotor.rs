@@ -391,10 +391,12 @@ fn streaming_hands_samples_to_progress_and_keeps_only_statuses() {
             out[k].samples.t.is_empty(),
             "returned result {k} keeps no samples"
         );
-        assert_eq!(
-            streamed[k].as_ref().unwrap(),
-            &kept[k],
-            "streamed result {k}"
+        let st = streamed[k].as_ref().unwrap();
+        assert!(
+            st.samples == kept[k].samples,
+            "streamed samples of result {k} differ"
         );
+        assert_eq!(st.status, kept[k].status);
+        assert_eq!(st.stats.steps, kept[k].stats.steps);
     }
 }
