@@ -5,7 +5,9 @@ mod bench_rotor;
 mod eval;
 mod run;
 
-pub use bench_rotor::{bench_rotor, BenchRotorOptions, BenchRotorReport, BenchRow};
+pub use bench_rotor::{
+    bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
+};
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 
