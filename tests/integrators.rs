@@ -422,3 +422,25 @@ fn a_blow_up_ends_with_a_status_at_its_time_and_no_nan_in_the_samples() {
         );
     }
 }
+
+#[test]
+fn the_step_budget_ends_a_variant_with_max_steps() {
+    for method in METHODS {
+        let mut sys = Ode::new(2, vec![6.0], spring);
+        let mut set = settings(method, 10.0, 0.1, 1e-8, None);
+        set.max_steps = 25;
+        let out = run_batch(method, &mut sys, &[1.0, 0.0], &[set]);
+        match &out[0].0 {
+            Status::MaxSteps { time, steps } => {
+                assert_eq!(*steps, 25, "{method:?}");
+                assert!(*time > 0.0 && *time < 10.0, "{method:?}: time {time}");
+                let last = sys.samples[0].last().unwrap().0;
+                assert!(
+                    last <= *time + 1e-12,
+                    "{method:?}: samples past the end {last} > {time}"
+                );
+            }
+            other => panic!("{method:?}: expected max_steps, got {other:?}"),
+        }
+    }
+}
