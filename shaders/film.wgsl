@@ -6,8 +6,9 @@
 // integrals `[J_c, J_s, K_c, K_s]` that the host turns into loads. No trigonometric,
 // exponential or power function is used in `real` precision (several drivers mishandle
 // them in f64): Gauss-Legendre nodes and weights and the root finder's start angles come
-// from the `table` buffer, `atan2` is evaluated arithmetically (`atan2_arith`), and only the
-// root finder's start radius uses an f32 `pow`, as on the CPU.
+// from the `table` buffer, `atan2` is evaluated arithmetically (`atan2_arith`), sin and
+// cos of the arc's half-length by series, and only the root finder's start radius uses an
+// f32 `pow`, as on the CPU.
 //
 // The block between the PRECISION markers is swapped by the host for an f32 variant
 // (`bearing_sweep::backend::kernel_source`); the rest is precision-agnostic.
@@ -97,8 +98,50 @@ fn atan2_arith(y: real, x: real) -> real {
     return 2.0 * (half_pi_signed - atan_unit(y / (r - x)));
 }
 
-// Closed-form loaded-arc integrals of one slice, |r| (C, S) in the bearing frame
-// (`slice_integrals` in rule.rs).
+// sin and cos of q in [0, pi/2] by their Taylor series (truncation < 1e-18).
+fn sin_cos_small(q: real) -> vec2<real> {
+    let q2 = q * q;
+    var ps: real = 1.9572941063391263e-20;
+    ps = -8.22063524662433e-18 + q2 * ps;
+    ps = 2.8114572543455206e-15 + q2 * ps;
+    ps = -7.647163731819816e-13 + q2 * ps;
+    ps = 1.6059043836821613e-10 + q2 * ps;
+    ps = -2.505210838544172e-08 + q2 * ps;
+    ps = 2.7557319223985893e-06 + q2 * ps;
+    ps = -0.0001984126984126984 + q2 * ps;
+    ps = 0.008333333333333333 + q2 * ps;
+    ps = -0.16666666666666666 + q2 * ps;
+    ps = 1.0 + q2 * ps;
+    var pc: real = -8.896791392450574e-22;
+    pc = 4.110317623312165e-19 + q2 * pc;
+    pc = -1.5619206968586225e-16 + q2 * pc;
+    pc = 4.779477332387385e-14 + q2 * pc;
+    pc = -1.1470745597729725e-11 + q2 * pc;
+    pc = 2.08767569878681e-09 + q2 * pc;
+    pc = -2.755731922398589e-07 + q2 * pc;
+    pc = 2.48015873015873e-05 + q2 * pc;
+    pc = -0.001388888888888889 + q2 * pc;
+    pc = 0.041666666666666664 + q2 * pc;
+    pc = -0.5 + q2 * pc;
+    pc = 1.0 + q2 * pc;
+    return vec2<real>(q * ps, pc);
+}
+
+// Closed-form loaded-arc integrals of one slice, |r| (C, S) in the bearing frame: the
+// rule of `slice_integrals` in rule.rs, with the arc's integrals in the Sommerfeld angle
+// written about the arc's midpoint so that they keep their relative accuracy in f32.
+//
+// On the arc [gamma_a, gamma_b] = [m - h, m + h] the three integrands are
+// (eps + cos g)^2, sin^2 g and sin g (eps + cos g). On the low-pressure side they are
+// small, O((1 - eps)^2), while the antiderivatives of rule.rs are O(1) at both ends: their
+// difference loses ~log10(1/(1-eps)^2) digits, harmless in f64 but 1e-4 in f32. About the
+// midpoint, with A = eps + cos m, the odd parts cancel exactly and
+//   A_cc = 2h A^2 - 4 A cos m f1 + cos^2 m f2 + sin^2 m f3,
+//   A_ss = sin^2 m (h + sin h cos h) + cos^2 m f3,
+//   A_sc = 2 sin m sin h (A - 2 cos m sin^2(h/2)),
+// f1 = h - sin h, f2 = 3h + sin h cos h - 4 sin h, f3 = h - sin h cos h, all O(h^3) or
+// smaller and taken from their Taylor series for h <= 1.5 (cancellation-free; truncation
+// < 1e-17), directly above (cancellation at most a factor ~8).
 fn slice_integrals(ex: real, ey: real, rx: real, ry: real) -> vec2<real> {
     let r = sqrt(rx * rx + ry * ry);
     if r == 0.0 {
@@ -123,14 +166,89 @@ fn slice_integrals(ex: real, ey: real, rx: real, ry: real) -> vec2<real> {
     let sga = -sq * sb / da;
     let cgb = (cb - eps) / db;
     let sgb = sq * sb / db;
-    var dg = atan2_arith(cga * sgb - sga * cgb, cga * cgb + sga * sgb);
+    let dot_ab = cga * cgb + sga * sgb;
+    var dg = atan2_arith(cga * sgb - sga * cgb, dot_ab);
     if dg <= 0.0 {
         dg = dg + 2.0 * PI;
     }
-    let d_sc = sgb * cgb - sga * cga;
-    let a_sc = 0.5 * (sgb * sgb - sga * sga) - eps * (cgb - cga);
-    let a_cc = (0.5 + eps * eps) * dg + 0.5 * d_sc + 2.0 * eps * (sgb - sga);
-    let a_ss = 0.5 * dg - 0.5 * d_sc;
+    let h = 0.5 * dg;
+    // Midpoint direction of the counter-clockwise arc, from whichever of a + b and b - a
+    // is the longer (|.| >= sqrt 2): well conditioned for every arc length.
+    var cm: real;
+    var sm: real;
+    if dot_ab > 0.0 {
+        let x = cga + cgb;
+        let y = sga + sgb;
+        let n = select(real(-1.0), real(1.0), dg < PI) / sqrt(x * x + y * y);
+        cm = x * n;
+        sm = y * n;
+    } else {
+        let x = cgb - cga;
+        let y = sgb - sga;
+        let n = 1.0 / sqrt(x * x + y * y);
+        cm = y * n;
+        sm = -x * n;
+    }
+    let half = sin_cos_small(0.5 * h);
+    let s2 = half.x;
+    let sh = 2.0 * half.x * half.y;
+    let ch = 1.0 - 2.0 * s2 * s2;
+    var f1: real;
+    var f2: real;
+    var f3: real;
+    if h <= 1.5 {
+        let u = h * h;
+        var p1: real = 9.183689863795546e-29;
+        p1 = -6.446950284384474e-26 + u * p1;
+        p1 = 3.868170170630684e-23 + u * p1;
+        p1 = -1.9572941063391263e-20 + u * p1;
+        p1 = 8.22063524662433e-18 + u * p1;
+        p1 = -2.8114572543455206e-15 + u * p1;
+        p1 = 7.647163731819816e-13 + u * p1;
+        p1 = -1.6059043836821613e-10 + u * p1;
+        p1 = 2.505210838544172e-08 + u * p1;
+        p1 = -2.7557319223985893e-06 + u * p1;
+        p1 = 0.0001984126984126984 + u * p1;
+        p1 = -0.008333333333333333 + u * p1;
+        p1 = 0.16666666666666666 + u * p1;
+        var p2: real = -6.1630695735287436e-21;
+        p2 = 1.081618516745786e-18 + u * p2;
+        p2 = -1.6224266146676277e-16 + u * p2;
+        p2 = 2.05236379567223e-14 + u * p2;
+        p2 = -2.154957323550102e-12 + u * p2;
+        p2 = 1.8424041679177067e-10 + u * p2;
+        p2 = -1.252605419272086e-08 + u * p2;
+        p2 = 6.571360738027404e-07 + u * p2;
+        p2 = -2.5553150553150554e-05 + u * p2;
+        p2 = 0.0006944444444444445 + u * p2;
+        p2 = -0.011904761904761904 + u * p2;
+        p2 = 0.1 + u * p2;
+        p2 = 0.0 + u * p2;
+        var p3: real = 6.163069940876338e-21;
+        p3 = -1.0816187746237974e-18 + u * p3;
+        p3 = 1.622428161935696e-16 + u * p3;
+        p3 = -2.0523716248486557e-14 + u * p3;
+        p3 = 2.1549902060910882e-12 + u * p3;
+        p3 = -1.8425166262078804e-10 + u * p3;
+        p3 = 1.2529113058213587e-08 + u * p3;
+        p3 = -6.577784355562133e-07 + u * p3;
+        p3 = 2.565335898669232e-05 + u * p3;
+        p3 = -0.0007054673721340388 + u * p3;
+        p3 = 0.012698412698412698 + u * p3;
+        p3 = -0.13333333333333333 + u * p3;
+        p3 = 0.6666666666666666 + u * p3;
+        f1 = h * u * p1;
+        f2 = h * u * p2;
+        f3 = h * u * p3;
+    } else {
+        f1 = h - sh;
+        f2 = 3.0 * h + sh * ch - 4.0 * sh;
+        f3 = h - sh * ch;
+    }
+    let a = eps + cm;
+    let a_cc = 2.0 * h * a * a - 4.0 * a * cm * f1 + cm * cm * f2 + sm * sm * f3;
+    let a_ss = sm * sm * (h + sh * ch) + cm * cm * f3;
+    let a_sc = 2.0 * sm * sh * (a - 2.0 * cm * s2 * s2);
     let i_sc = a_sc / (sq2 * sq2);
     let i_cc = a_cc / (sq2 * sq2 * sq);
     let i_ss = a_ss / (sq2 * sq);
