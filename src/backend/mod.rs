@@ -1,6 +1,7 @@
 //! Batched film-load evaluation: one interface over the CPU and GPU kernels, and the
 //! evaluator that validates, packs, dispatches, falls back and finishes loads.
 
+pub mod bench;
 mod cpu;
 mod evaluator;
 mod gpu;

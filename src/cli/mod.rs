@@ -1,8 +1,10 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
+mod bench;
 mod eval;
 
+pub use bench::bench_backend;
 pub use eval::{eval_json, EvalOptions};
 
 /// A command failure shown to the user (exit status 2).
