@@ -373,7 +373,7 @@ fn large_batch_is_chunked_and_kept_in_order() {
     for case in cases(accuracy, 8192).into_iter().skip(1) {
         let (got, _) = evaluate(case.backend, &st);
         assert_eq!(got.len(), st.len());
-        let got_sample: Vec<LoadResult> = sample.iter().map(|&k| got[k].clone()).collect();
+        let got_sample: Vec<LoadResult> = sample.iter().map(|&k| got[k]).collect();
         compare(
             case.name,
             &got_sample,

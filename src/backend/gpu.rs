@@ -477,9 +477,17 @@ impl GpuBackend {
             Precision::F64 => SELF_CHECK_TOL_F64,
             Precision::F32 => SELF_CHECK_TOL_F32,
         };
+        if got.len() != want.len() {
+            return Err(BackendError::Device(format!(
+                "self-check: {} results for {} states",
+                got.len(),
+                want.len()
+            )));
+        }
         for (k, (g, w)) in got.iter().zip(&want).enumerate() {
             let d = relative_difference(g, w);
-            if !(d <= tol) {
+            // NaN fails too.
+            if d.is_nan() || d > tol {
                 return Err(BackendError::Device(format!(
                     "self-check state {k}: GPU {g:?} vs CPU {w:?}, relative difference \
                      {d:.2e} > {tol:.0e}"
@@ -543,7 +551,7 @@ impl GpuBackend {
         if self.buffers.as_ref().is_some_and(|b| b.capacity >= n) {
             return Ok(());
         }
-        let capacity = n.next_power_of_two().clamp(256, self.max_chunk.max(n));
+        let capacity = n.next_power_of_two().max(256).min(self.max_chunk.max(n));
         let ins = in_stride(self.precision) as u64 * capacity as u64;
         let outs = out_stride(self.precision) as u64 * capacity as u64;
         let scope_oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
