@@ -458,14 +458,23 @@ fn timed_out_batch_falls_back_to_the_cpu() {
     let Some(mut g) = gpu(None, accuracy, 1 << 20) else {
         return;
     };
-    // A zero wait: the first poll cannot see 20 000 states finished.
+    // A zero wait: the first poll does not see 20 000 states finished on lavapipe (CI).
+    // A device fast enough to finish before the poll takes the normal path, which must
+    // then agree within tolerance.
     g.set_timeout(Duration::ZERO);
+    let (tol, tol_near_wall) = tolerances(g.precision());
     let states = random_states(20_000, 0.95, 5);
     let (st, ratios): (Vec<BearingState>, Vec<f64>) = states.into_iter().unzip();
     let want = reference(accuracy, &st);
     let (got, mut ev) = evaluate(Box::new(g), &st);
-    compare("timeout", &got, &want, &ratios, 0.0, 0.0);
     let notices = ev.take_notices();
+    if notices.is_empty() {
+        eprintln!("notice: the device finished 20 000 states within a zero timeout");
+        compare("no timeout", &got, &want, &ratios, tol, tol_near_wall);
+        return;
+    }
+    // Recomputed by the CPU kernel: exact.
+    compare("timeout", &got, &want, &ratios, 0.0, 0.0);
     assert_eq!(notices.len(), 1, "{notices:?}");
     assert!(notices[0].contains("timeout"), "notice: {}", notices[0]);
     assert_eq!(ev.stats().cpu_recomputed, sent_to_backend(&st));
