@@ -60,13 +60,19 @@ fn render(r: &BenchReport, o: &BenchOptions) -> String {
         "\nFlops per state (counted, mean over {} states): {:.0} ({:.2} panels, {:.1} slices, {:.1} root-finder sweeps).",
         f.states, f.flops, f.panels, f.slices, f.root_iterations
     );
-    let fmt = |c: Option<usize>| c.map_or("none in the sizes run".to_string(), |n| n.to_string());
-    let _ = writeln!(
-        s,
-        "GPU overtakes CPU from batch size: end to end {}, kernel alone {}.",
-        fmt(r.crossover_end_to_end),
-        fmt(r.crossover_kernel)
-    );
+    let both = ["cpu", "gpu"]
+        .iter()
+        .all(|b| r.rows.iter().any(|row| row.backend == *b));
+    if both {
+        let fmt =
+            |c: Option<usize>| c.map_or("none in the sizes run".to_string(), |n| n.to_string());
+        let _ = writeln!(
+            s,
+            "GPU overtakes CPU from batch size: end to end {}, kernel alone {}.",
+            fmt(r.crossover_end_to_end),
+            fmt(r.crossover_kernel)
+        );
+    }
     for n in &r.notices {
         let _ = writeln!(s, "\n{n}");
     }
