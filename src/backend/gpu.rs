@@ -168,6 +168,7 @@ pub struct GpuBackend {
     scratch_f32: Vec<f32>,
     last: GpuTiming,
     notice: Option<String>,
+    software: bool,
 }
 
 /// The uniform block of the shader (`Params`).
@@ -460,6 +461,7 @@ impl GpuBackend {
             scratch_f32: Vec::new(),
             last: GpuTiming::default(),
             notice: None,
+            software: info.device_type == wgpu::DeviceType::Cpu,
         };
         backend.self_check()?;
         Ok(backend)
@@ -500,6 +502,11 @@ impl GpuBackend {
     /// Precision the kernel computes in.
     pub fn precision(&self) -> Precision {
         self.precision
+    }
+
+    /// Whether the adapter is a software rasteriser on the CPU (lavapipe's llvmpipe).
+    pub fn is_software(&self) -> bool {
+        self.software
     }
 
     /// Most states per dispatch.

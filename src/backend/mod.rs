@@ -93,7 +93,9 @@ const F32_ACCURACY_FLOOR: f64 = 1e-5;
 /// Creates the backend of `kind` at `accuracy`. Returns the backend and, for `auto`
 /// falling back to the CPU (or a GPU limited to f32), the one-line notice to show the user.
 /// The GPU adapter follows `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`, its precision
-/// `BEARING_SWEEP_GPU_PRECISION` (see [`GpuOptions::from_env`]).
+/// `BEARING_SWEEP_GPU_PRECISION` (see [`GpuOptions::from_env`]). `auto` passes over a
+/// software adapter (lavapipe: the same CPU, no faster than the CPU backend) unless
+/// `WGPU_ADAPTER_NAME` names it.
 pub fn create_backend(
     kind: BackendKind,
     accuracy: Accuracy,
@@ -101,8 +103,25 @@ pub fn create_backend(
     if kind == BackendKind::Cpu {
         return Ok((Box::new(CpuBackend::new(accuracy, None)), None));
     }
+    let cpu_instead = |why: String| -> (Box<dyn FilmBackend>, Option<String>) {
+        (
+            Box::new(CpuBackend::new(accuracy, None)),
+            Some(format!("notice: {why}; using the CPU backend")),
+        )
+    };
     let gpu = GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o));
     match gpu {
+        Ok(g)
+            if kind == BackendKind::Auto
+                && g.is_software()
+                && std::env::var_os("WGPU_ADAPTER_NAME").is_none() =>
+        {
+            Ok(cpu_instead(format!(
+                "the only GPU adapter is the software rasteriser `{}` (use --backend gpu to \
+                 run on it)",
+                g.info().device
+            )))
+        }
         Ok(mut g) => {
             let mut notice = g.take_notice();
             if g.precision() == Precision::F32 && accuracy.rtol() < F32_ACCURACY_FLOOR {
@@ -118,10 +137,7 @@ pub fn create_backend(
             }
             Ok((Box::new(g), notice))
         }
-        Err(e) if kind == BackendKind::Auto => Ok((
-            Box::new(CpuBackend::new(accuracy, None)),
-            Some(format!("notice: {e}; using the CPU backend")),
-        )),
+        Err(e) if kind == BackendKind::Auto => Ok(cpu_instead(e.to_string())),
         Err(e) => Err(e),
     }
 }
