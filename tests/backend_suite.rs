@@ -108,6 +108,74 @@ fn zero_state() -> BearingState {
     }
 }
 
+/// Hand-picked states at the rule's edges, with their larger end ratio: a rate-vector
+/// kink inside the bearing (squeeze reversing along z), conical whirl, one end at 0.98
+/// and the other centred, spin dominating squeeze by 1e6, a tilted journal at rest
+/// except for spin about a centred end.
+fn edge_states() -> Vec<(BearingState, f64)> {
+    let d = bearing().clearance;
+    let z = zero_state();
+    vec![
+        (
+            BearingState {
+                xi: 0.3 * d,
+                xj: 0.3 * d,
+                vxi: 0.01,
+                vxj: -0.01,
+                ..z
+            },
+            0.3,
+        ),
+        (
+            BearingState {
+                xi: 0.6 * d,
+                xj: -0.6 * d,
+                vyi: 0.02,
+                vyj: -0.02,
+                omega: 50.0,
+                ..z
+            },
+            0.6,
+        ),
+        (
+            BearingState {
+                xi: 0.98 * d,
+                omega: 300.0,
+                ..z
+            },
+            0.98,
+        ),
+        (
+            BearingState {
+                yj: 0.98 * d,
+                vxi: 1e-3,
+                omega: -300.0,
+                ..z
+            },
+            0.98,
+        ),
+        (
+            BearingState {
+                xi: 0.5 * d,
+                yj: 0.9 * d,
+                vxi: 1e-9,
+                omega: 1e3,
+                ..z
+            },
+            0.9,
+        ),
+        (
+            BearingState {
+                xj: 0.95 * d,
+                yj: 0.1 * d,
+                omega: 1e5,
+                ..z
+            },
+            0.95_f64.hypot(0.1),
+        ),
+    ]
+}
+
 /// States every backend must reject with the CPU's status.
 fn bad_states() -> Vec<BearingState> {
     let d = bearing().clearance;
@@ -303,6 +371,7 @@ fn compare(
 fn random_states_match_the_cpu_kernel_on_every_backend() {
     let accuracy = Accuracy::default();
     let mut states = random_states(3000, 0.98, 0x5eed);
+    states.extend(edge_states());
     states.push((zero_state(), 0.0));
     for s in bad_states() {
         states.push((s, 0.0));
