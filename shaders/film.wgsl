@@ -29,6 +29,9 @@ const POLE_PAD: real = 1e-14;
 const FAR: real = 1e30;
 // Largest magnitude accepted as a finite root (NaN fails the comparison too).
 const FINITE_MAX: real = 1e30;
+// Quartic roots within this many kink floors of a (near-)kink of the rate vector are
+// that kink (KINK_MERGE in rule.rs).
+const KINK_MERGE: real = 2.0;
 // Durand-Kerner iterations at most (quadratic convergence: ~10 suffice for simple roots).
 const ROOT_ITERATIONS: u32 = 64u;
 const PI: real = 3.141592653589793;
@@ -369,14 +372,22 @@ fn singularities(st: PackedState) -> Sing {
     }
     let r1sq = r1.x * r1.x + r1.y * r1.y;
     let kink_floor = table[T_KINK_FLOOR];
+    // A (near-)kink of the rate vector wherever it lies: the quartic has a (near-)double
+    // root there, which is the kink itself (`Singularities::of` in rule.rs).
+    var has_kink = false;
+    var kink_at: real = 0.0;
     if r1sq > 0.0 {
         let s_r = -(r0.x * r1.x + r0.y * r1.y) / r1sq;
         let d_r = abs(r0.x * r1.y - r0.y * r1.x) / r1sq;
         if d_r >= kink_floor {
             sing.complex[sing.count] = vec2<real>(s_r, d_r);
             sing.count = sing.count + 1u;
-        } else if s_r > 0.0 && s_r < 1.0 {
-            sing.kink_s = s_r;
+        } else {
+            has_kink = true;
+            kink_at = s_r;
+            if s_r > 0.0 && s_r < 1.0 {
+                sing.kink_s = s_r;
+            }
         }
     }
     let ec = e0 + 0.5 * e1;
@@ -396,7 +407,9 @@ fn singularities(st: PackedState) -> Sing {
     ));
     for (var k = 0u; k < roots.n; k++) {
         let z = roots.z[k];
-        if abs(z.x) <= FINITE_MAX && abs(z.y) <= FINITE_MAX {
+        let dk = z.x + 0.5 - kink_at;
+        let merged = has_kink && sqrt(dk * dk + z.y * z.y) <= KINK_MERGE * kink_floor;
+        if abs(z.x) <= FINITE_MAX && abs(z.y) <= FINITE_MAX && !merged {
             sing.complex[sing.count] = vec2<real>(z.x + 0.5, abs(z.y));
             sing.count = sing.count + 1u;
         }

@@ -548,3 +548,68 @@ fn timed_out_batch_falls_back_to_the_cpu() {
     assert!(notices[0].contains("timeout"), "notice: {}", notices[0]);
     assert_eq!(ev.stats().cpu_recomputed, sent_to_backend(&st));
 }
+
+#[test]
+fn rate_kinks_meet_the_accuracy_promise_on_every_backend() {
+    // The rate vector vanishes on the real axis (a kink), inside the bearing or at an
+    // end: the arc-end quartic has a double root there. Before the rule merged those
+    // roots into the kink, the first state crawled toward a root 5e-18 off the axis,
+    // ran out of panels and was 4.7e-2 off.
+    let accuracy = Accuracy::default();
+    let d = bearing().clearance;
+    let z = zero_state();
+    let kinks = [
+        BearingState {
+            yj: 0.98 * d,
+            vxi: 1e-3,
+            omega: -300.0,
+            ..z
+        },
+        BearingState {
+            xi: 0.98 * d,
+            omega: 300.0,
+            ..z
+        },
+        BearingState {
+            xj: 0.95 * d,
+            yj: 0.1 * d,
+            omega: 1e5,
+            ..z
+        },
+        BearingState {
+            xi: 0.3 * d,
+            xj: 0.3 * d,
+            vxi: 0.01,
+            vxj: -0.01,
+            ..z
+        },
+        BearingState {
+            yi: -0.5 * d,
+            yj: 0.9 * d,
+            vxi: 2e-3,
+            vxj: -5e-3,
+            omega: 40.0,
+            ..z
+        },
+    ];
+    let l = bearing().length;
+    // Promise at end ratio 0.98 (`Accuracy::promise_near_wall`).
+    let tol = accuracy.promise_near_wall();
+    for case in cases(accuracy, 1024) {
+        let (got, _) = evaluate(case.backend, &kinks);
+        for (k, (g, s)) in got.iter().zip(&kinks).enumerate() {
+            let want = bearing_sweep::bearing::reference::reference_loads(&bearing(), s, 1e-12)
+                .expect("valid state");
+            let want = [want[0], want[1], want[2] / l, want[3] / l];
+            let g = g.as_ref().expect("valid state").load_vector(l);
+            let err = bearing_sweep::backend::relative_difference(&g, &want);
+            let t = tol.max(case.tol);
+            assert!(
+                err <= t,
+                "{}: kink state {k}: load vector {g:?} vs reference {want:?}: relative \
+                 error {err:.3e} > tolerance {t:.0e}",
+                case.name
+            );
+        }
+    }
+}
