@@ -185,6 +185,12 @@ struct Params {
 /// best device type (discrete, integrated, virtual, CPU); among the backends that
 /// `WGPU_BACKEND` allows.
 fn select_adapter() -> Result<wgpu::Adapter, BackendError> {
+    if wgpu::Instance::enabled_backend_features().is_empty() {
+        // wgpu would panic: this build has no backend for this platform (Vulkan only).
+        return Err(BackendError::NoAdapter(
+            "this build has no wgpu backend for this platform (it includes Vulkan only)".into(),
+        ));
+    }
     let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     let backends = desc.backends;
     let instance = wgpu::Instance::new(desc);
