@@ -2,10 +2,12 @@
 
 use std::process::ExitCode;
 
+use bearing_sweep::backend::bench::{BenchOptions, BenchTarget};
 use bearing_sweep::backend::BackendKind;
+use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::cli::{
-    bench_rotor, bench_rotor_batch, eval_json, read_input, run_scene_file, BenchRotorOptions,
-    EvalOptions, RunOptions,
+    bench_backend, bench_rotor, bench_rotor_batch, eval_json, read_input, run_scene_file,
+    BenchRotorOptions, CliError, EvalOptions, RunOptions,
 };
 use clap::{Parser, Subcommand};
 
@@ -48,9 +50,46 @@ enum Command {
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
     },
+    /// Benchmarks (Markdown report on stdout).
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Backend throughput and latency against batch size, CPU and GPU.
+    Backend {
+        /// Backends: cpu, gpu or both.
+        #[arg(long, default_value = "both")]
+        backend: String,
+        /// Batch sizes, comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "1,10,100,1000,10000,100000,1000000"
+        )]
+        sizes: Vec<usize>,
+        /// Accuracy level of the rule.
+        #[arg(long, default_value_t = 1e-6)]
+        accuracy: f64,
+        /// CPU backend threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Seconds to spend per measurement (repeats up to --max-reps).
+        #[arg(long, default_value_t = 1.0)]
+        min_time: f64,
+        /// Most repetitions per measurement.
+        #[arg(long, default_value_t = 50)]
+        max_reps: usize,
+        /// Also write the report as JSON to this file.
+        #[arg(long)]
+        json: Option<String>,
+    },
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
-    BenchRotor {
+    Rotor {
         /// Simulated time, s.
         #[arg(long, default_value_t = 0.5)]
         t_end: f64,
@@ -91,6 +130,18 @@ fn main() -> ExitCode {
                 }
                 println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
             }),
+        Command::Bench {
+            what:
+                BenchCommand::Backend {
+                    backend,
+                    sizes,
+                    accuracy,
+                    threads,
+                    min_time,
+                    max_reps,
+                    json,
+                },
+        } => run_bench_backend(&backend, sizes, accuracy, threads, min_time, max_reps, json),
         Command::Run {
             file,
             out,
@@ -117,11 +168,14 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
-        Command::BenchRotor {
-            t_end,
-            batch,
-            threads,
-            ..
+        Command::Bench {
+            what:
+                BenchCommand::Rotor {
+                    t_end,
+                    batch,
+                    threads,
+                    ..
+                },
         } if !batch.is_empty() => {
             println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
             println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
@@ -129,13 +183,16 @@ fn main() -> ExitCode {
                 .iter()
                 .try_for_each(|&n| bench_rotor_batch(n, t_end, threads).map(|row| print!("{row}")))
         }
-        Command::BenchRotor {
-            t_end,
-            accuracy,
-            repeats,
-            out,
-            viscosity,
-            ..
+        Command::Bench {
+            what:
+                BenchCommand::Rotor {
+                    t_end,
+                    accuracy,
+                    repeats,
+                    out,
+                    viscosity,
+                    ..
+                },
         } => bench_rotor(&BenchRotorOptions {
             t_end,
             accuracy,
@@ -158,4 +215,53 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+fn run_bench_backend(
+    backend: &str,
+    sizes: Vec<usize>,
+    accuracy: f64,
+    threads: usize,
+    min_time: f64,
+    max_reps: usize,
+    json: Option<String>,
+) -> Result<(), CliError> {
+    let target = match backend {
+        "cpu" => BenchTarget::Cpu,
+        "gpu" => BenchTarget::Gpu,
+        "both" => BenchTarget::Both,
+        other => {
+            return Err(CliError::input(
+                "--backend",
+                format!("`{other}` (expected cpu, gpu or both)"),
+            ))
+        }
+    };
+    if sizes.is_empty() || sizes.contains(&0) {
+        return Err(CliError::input("--sizes", "batch sizes must be at least 1"));
+    }
+    let accuracy = Accuracy::new(accuracy).ok_or_else(|| {
+        CliError::input(
+            "--accuracy",
+            format!("{accuracy} is not a positive number >= 1e-12"),
+        )
+    })?;
+    let options = BenchOptions {
+        sizes,
+        accuracy,
+        cpu_threads: threads.max(1),
+        target,
+        min_time_s: min_time,
+        max_reps,
+        // BEARING_SWEEP_GPU_PRECISION=f32 benchmarks the f32 kernel.
+        gpu: bearing_sweep::backend::GpuOptions::from_env()?,
+        ..BenchOptions::default()
+    };
+    let (report, md) = bench_backend(&options)?;
+    println!("{md}");
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&report).unwrap_or_default();
+        std::fs::write(&path, text).map_err(|source| CliError::Io { path, source })?;
+    }
+    Ok(())
 }

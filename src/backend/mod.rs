@@ -1,11 +1,14 @@
 //! Batched film-load evaluation: one interface over the CPU and GPU kernels, and the
 //! evaluator that validates, packs, dispatches, falls back and finishes loads.
 
+pub mod bench;
 mod cpu;
 mod evaluator;
+mod gpu;
 
 pub use cpu::CpuBackend;
 pub use evaluator::{EvalStats, LoadEvaluator, LoadRequest, LoadResult};
+pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
 
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};
 
@@ -83,24 +86,58 @@ pub trait FilmBackend: Send {
     ) -> Result<(), BackendError>;
 }
 
+/// Below this requested accuracy an f32 kernel cannot keep its promise (its rounding
+/// error reaches ~1e-5 near the wall); `gpu` and `auto` then say so.
+const F32_ACCURACY_FLOOR: f64 = 1e-5;
+
 /// Creates the backend of `kind` at `accuracy`. Returns the backend and, for `auto`
-/// falling back to the CPU, the one-line notice to show the user.
+/// falling back to the CPU (or a GPU limited to f32), the one-line notice to show the user.
+/// The GPU adapter follows `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`, its precision
+/// `BEARING_SWEEP_GPU_PRECISION` (see [`GpuOptions::from_env`]). `auto` passes over a
+/// software adapter (lavapipe: the same CPU, no faster than the CPU backend) unless
+/// `WGPU_ADAPTER_NAME` names it.
 pub fn create_backend(
     kind: BackendKind,
     accuracy: Accuracy,
 ) -> Result<(Box<dyn FilmBackend>, Option<String>), BackendError> {
-    match kind {
-        BackendKind::Cpu => Ok((Box::new(CpuBackend::new(accuracy, None)), None)),
-        BackendKind::Gpu | BackendKind::Auto => {
-            let err = BackendError::NoAdapter("this build has no GPU backend yet".into());
-            if kind == BackendKind::Gpu {
-                Err(err)
-            } else {
-                Ok((
-                    Box::new(CpuBackend::new(accuracy, None)),
-                    Some(format!("notice: {err}; using the CPU backend")),
-                ))
-            }
+    if kind == BackendKind::Cpu {
+        return Ok((Box::new(CpuBackend::new(accuracy, None)), None));
+    }
+    let cpu_instead = |why: String| -> (Box<dyn FilmBackend>, Option<String>) {
+        (
+            Box::new(CpuBackend::new(accuracy, None)),
+            Some(format!("notice: {why}; using the CPU backend")),
+        )
+    };
+    let gpu = GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o));
+    match gpu {
+        Ok(g)
+            if kind == BackendKind::Auto
+                && g.is_software()
+                && std::env::var_os("WGPU_ADAPTER_NAME").is_none() =>
+        {
+            Ok(cpu_instead(format!(
+                "the only GPU adapter is the software rasteriser `{}` (use --backend gpu to \
+                 run on it)",
+                g.info().device
+            )))
         }
+        Ok(mut g) => {
+            let mut notice = g.take_notice();
+            if g.precision() == Precision::F32 && accuracy.rtol() < F32_ACCURACY_FLOOR {
+                let n = format!(
+                    "notice: the GPU kernel runs in f32 (agreement with f64 ~1e-5), looser than \
+                     the requested accuracy {:e}",
+                    accuracy.rtol()
+                );
+                notice = Some(match notice {
+                    Some(prev) => format!("{prev}\n{n}"),
+                    None => n,
+                });
+            }
+            Ok((Box::new(g), notice))
+        }
+        Err(e) if kind == BackendKind::Auto => Ok(cpu_instead(e.to_string())),
+        Err(e) => Err(e),
     }
 }

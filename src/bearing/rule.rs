@@ -205,6 +205,10 @@ pub struct Singularities {
     pub complex_count: usize,
 }
 
+/// Quartic roots within this many kink floors of a (near-)kink of the rate vector are
+/// that kink (measured: they lie within 1.1 d_r of it, d_r < floor).
+const KINK_MERGE: f64 = 2.0;
+
 /// Durand-Kerner iterations at most (quadratic convergence: ~10 suffice for simple roots).
 const ROOT_ITERATIONS: usize = 64;
 
@@ -296,14 +300,20 @@ impl Singularities {
             sing.pole_hi = (sm + half).max(1.0 + 1e-14);
         }
         let r1sq = r1x * r1x + r1y * r1y;
+        // A (near-)kink of the rate vector, wherever it lies: the quartic below has a
+        // (near-)double root there, which is the kink itself.
+        let mut kink_at = f64::NAN;
         if r1sq > 0.0 {
             let s_r = -(r0x * r1x + r0y * r1y) / r1sq;
             let d_r = (r0x * r1y - r0y * r1x).abs() / r1sq;
             if d_r >= settings.kink_floor {
                 sing.complex[sing.complex_count] = (s_r, d_r);
                 sing.complex_count += 1;
-            } else if s_r > 0.0 && s_r < 1.0 {
-                sing.kink_s = s_r;
+            } else {
+                kink_at = s_r;
+                if s_r > 0.0 && s_r < 1.0 {
+                    sing.kink_s = s_r;
+                }
             }
         }
         // Arc-end quartic in t = s − 1/2: ε = ec + e1 t, r = rc + r1 t.
@@ -323,7 +333,13 @@ impl Singularities {
             a2 * a2,
         ]);
         for &(re, im) in roots.iter().take(n) {
-            if re.is_finite() && im.is_finite() {
+            // Where r(s) = 0 on the real axis, Q = (ε·r)² − r·r has a double root; for a
+            // near-kink (d_r < floor) two roots within ~d_r of it. Treated as the kink
+            // they are (no grading; O(floor²) as for the rate zero itself): grading
+            // toward a root that the root finder puts 1e-18 off the axis would crawl
+            // ~2 log2(1/1e-18) panels, past `max_panels`.
+            let merged = ((re + 0.5) - kink_at).hypot(im) <= KINK_MERGE * settings.kink_floor;
+            if re.is_finite() && im.is_finite() && !merged {
                 sing.complex[sing.complex_count] = (re + 0.5, im.abs());
                 sing.complex_count += 1;
             }

@@ -1,4 +1,4 @@
-//! `bearing-sweep bench-rotor`: work-precision of the integrators on the paper example.
+//! `bearing-sweep bench rotor`: work-precision of the integrators on the paper example.
 //! Each configuration runs alone (one variant, CPU backend on one thread); the error is
 //! the largest distance between its sampled `G` and a tight-tolerance reference.
 
@@ -12,7 +12,7 @@ use crate::integrate::Method;
 use crate::plot::{line_plot_svg, Scale, Series};
 use crate::rotor::{load_scene, simulate_batch, Scene, SimResult};
 
-/// Options of `bench-rotor`.
+/// Options of `bench rotor`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchRotorOptions {
     /// Simulated time, s.

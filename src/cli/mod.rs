@@ -1,10 +1,12 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
+mod bench;
 mod bench_rotor;
 mod eval;
 mod run;
 
+pub use bench::bench_backend;
 pub use bench_rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
 };

@@ -1,0 +1,496 @@
+//! Backend throughput and latency against batch size (`bearing-sweep bench backend`):
+//! end to end through [`LoadEvaluator`] and the kernel alone, the error against the CPU
+//! kernel, flops per state counted from the kernel's operations, and the batch size where
+//! the GPU overtakes the CPU. Measurement only; the CLI prints the report.
+
+use std::time::Instant;
+
+use super::{
+    relative_difference, BackendError, CpuBackend, FilmBackend, GpuBackend, GpuOptions,
+    LoadEvaluator, LoadRequest, LoadResult, Precision,
+};
+use crate::bearing::{
+    pack_state, Accuracy, BearingParams, BearingState, FilmRule, PackedState, RuleSettings,
+};
+
+/// Which backends a benchmark runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchTarget {
+    /// The CPU backend only.
+    Cpu,
+    /// The GPU backend only.
+    Gpu,
+    /// Both, CPU first.
+    Both,
+}
+
+/// Benchmark parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchOptions {
+    /// Batch sizes (states per call).
+    pub sizes: Vec<usize>,
+    /// Rule accuracy level.
+    pub accuracy: Accuracy,
+    /// CPU backend threads.
+    pub cpu_threads: usize,
+    /// Backends to run.
+    pub target: BenchTarget,
+    /// Repeat a measurement until this much time is spent (s), within `max_reps`.
+    pub min_time_s: f64,
+    /// Most repetitions per measurement.
+    pub max_reps: usize,
+    /// Largest end eccentricity ratio of the random states.
+    pub max_ratio: f64,
+    /// GPU options (precision, chunk size).
+    pub gpu: GpuOptions,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions {
+            sizes: vec![1, 10, 100, 1_000, 10_000, 100_000, 1_000_000],
+            accuracy: Accuracy::default(),
+            cpu_threads: 2,
+            target: BenchTarget::Both,
+            min_time_s: 1.0,
+            max_reps: 50,
+            max_ratio: 0.95,
+            gpu: GpuOptions::default(),
+        }
+    }
+}
+
+/// One backend at one batch size.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BenchRow {
+    /// `cpu` or `gpu`.
+    pub backend: String,
+    /// Device description.
+    pub device: String,
+    /// Kernel precision.
+    pub precision: Precision,
+    /// States per call.
+    pub size: usize,
+    /// Repetitions timed.
+    pub reps: usize,
+    /// Median round trip of one `LoadEvaluator::evaluate` call (validate, pack, kernel,
+    /// transfers, finish), s.
+    pub end_to_end_s: f64,
+    /// `size / end_to_end_s`.
+    pub end_to_end_states_per_s: f64,
+    /// Median kernel time alone (no packing, no transfers), s.
+    pub kernel_s: f64,
+    /// How `kernel_s` was measured: `timestamp` (GPU timestamp queries), `wall` (GPU
+    /// submit-to-completion of the dispatch alone) or `cpu` (the CPU backend's call on
+    /// packed states).
+    pub kernel_timer: &'static str,
+    /// `size / kernel_s`.
+    pub kernel_states_per_s: f64,
+    /// Counted flops of the batch over `kernel_s`, GFLOP/s.
+    pub kernel_gflops: f64,
+    /// Largest relative error of the load vector against the single-thread CPU kernel
+    /// over the batch (at most 4096 states compared).
+    pub max_rel_error: f64,
+}
+
+/// Flops per state of the kernel, counted (see [`flop_count`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FlopCount {
+    /// States counted.
+    pub states: usize,
+    /// Mean panels per state.
+    pub panels: f64,
+    /// Mean slices (closed-form arc evaluations) per state.
+    pub slices: f64,
+    /// Mean Durand-Kerner sweeps per state.
+    pub root_iterations: f64,
+    /// Mean flops per state.
+    pub flops: f64,
+}
+
+/// The whole benchmark.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BenchReport {
+    /// One row per backend and size.
+    pub rows: Vec<BenchRow>,
+    /// Flops per state for the benchmark's states.
+    pub flops: FlopCount,
+    /// Smallest size from which the GPU's end-to-end throughput stays above the CPU's.
+    pub crossover_end_to_end: Option<usize>,
+    /// The same for kernel throughput.
+    pub crossover_kernel: Option<usize>,
+    /// Notices (GPU missing, fallbacks).
+    pub notices: Vec<String>,
+}
+
+/// Deterministic benchmark states in the paper's Table 2 bearing: a fifth aligned, the
+/// rest tilted; a quarter without spin (squeeze only), a quarter with negative spin; end
+/// eccentricity ratios up to `max_ratio`. The first state is a tilted one with positive
+/// spin (the batch of one is a typical state).
+pub fn bench_states(n: usize, max_ratio: f64, seed: u64) -> (BearingParams, Vec<LoadRequest>) {
+    let b = BearingParams::paper_table2();
+    let d = b.clearance;
+    let mut x = seed;
+    let mut uniform = move || {
+        // 64-bit LCG, top 53 bits.
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let tau = std::f64::consts::TAU;
+    let requests = (0..n)
+        .map(|k| {
+            let aligned = k % 5 == 4;
+            let ei = max_ratio * uniform().sqrt();
+            let ej = if aligned {
+                ei
+            } else {
+                max_ratio * uniform().sqrt()
+            };
+            let ai = tau * uniform();
+            let aj = if aligned { ai } else { tau * uniform() };
+            let spin = 10.0 + 990.0 * uniform();
+            let omega = match k % 4 {
+                3 => 0.0,
+                1 => -spin,
+                _ => spin,
+            };
+            // Velocities up to clearance × 300 1/s, comparable with the spin term.
+            let mut v = || (2.0 * uniform() - 1.0) * d * 300.0;
+            let (vxi, vyi) = (v(), v());
+            let (vxj, vyj) = if aligned { (vxi, vyi) } else { (v(), v()) };
+            LoadRequest {
+                bearing: 0,
+                state: BearingState {
+                    xi: ei * d * ai.cos(),
+                    yi: ei * d * ai.sin(),
+                    xj: ej * d * aj.cos(),
+                    yj: ej * d * aj.sin(),
+                    vxi,
+                    vyi,
+                    vxj,
+                    vyj,
+                    omega,
+                },
+            }
+        })
+        .collect();
+    (b, requests)
+}
+
+// Flops of the WGSL kernel's pieces, counted by hand from shaders/film.wgsl: add, sub,
+// mul, div and sqrt count 1 each, a multiply-add 2; comparisons, selects and moves 0.
+/// One closed-form slice (`slice_integrals`, the series branch): ~43 in `atan2_arith`,
+/// 45 in `sin_cos_small`, 79 in the three series, the rest in the arc geometry.
+pub const FLOPS_SLICE: f64 = 273.0;
+/// Per Gauss node besides the slice: node position, slice arguments, weight, 4 sums.
+pub const FLOPS_NODE: f64 = 24.0;
+/// Per panel: `panel_end` with its poles (6 + 6 per complex singularity, counted with
+/// the state's singularities) and the panel length.
+pub const FLOPS_PANEL_BASE: f64 = 7.0;
+/// Per complex singularity per panel in `panel_end`.
+pub const FLOPS_PANEL_PER_SINGULARITY: f64 = 6.0;
+/// `singularities` without the root finder's sweeps: poles, kink, quartic coefficients,
+/// root finder setup.
+pub const FLOPS_SINGULARITY_SETUP: f64 = 95.0;
+
+/// Flops of one Durand-Kerner sweep over a monic polynomial of degree `n`: per root a
+/// Horner evaluation (7 per step), the product of differences (8 per factor), the
+/// complex division (11) and the update and convergence measure (4).
+pub fn flops_root_sweep(n: usize) -> f64 {
+    let n = n as f64;
+    n * (7.0 * n + 8.0 * (n - 1.0) + 15.0)
+}
+
+/// Durand-Kerner degree and sweeps of one state (the same operations as
+/// `bearing::quartic_roots`, replayed on the host to count the sweeps).
+fn root_sweeps(state: &PackedState) -> (usize, usize) {
+    let [e0x, e0y, ejx, ejy] = state.ecc;
+    let [r0x, r0y, rjx, rjy] = state.rate;
+    let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
+    let (ecx, ecy) = (e0x + 0.5 * e1x, e0y + 0.5 * e1y);
+    let (rcx, rcy) = (r0x + 0.5 * r1x, r0y + 0.5 * r1y);
+    let a0 = ecx * rcx + ecy * rcy;
+    let a1 = ecx * r1x + ecy * r1y + e1x * rcx + e1y * rcy;
+    let a2 = e1x * r1x + e1y * r1y;
+    let b0 = rcx * rcx + rcy * rcy;
+    let b1 = 2.0 * (rcx * r1x + rcy * r1y);
+    let b2 = r1x * r1x + r1y * r1y;
+    let c = [
+        a0 * a0 - b0,
+        2.0 * a0 * a1 - b1,
+        a1 * a1 + 2.0 * a0 * a2 - b2,
+        2.0 * a1 * a2,
+        a2 * a2,
+    ];
+    let mut norm: f64 = 0.0;
+    let mut scale = 1.0;
+    for &ck in &c {
+        norm = norm.max(ck.abs() * scale);
+        scale *= 2.0;
+    }
+    let mut n = 4;
+    while n > 0 && c[n].abs() * 2f64.powi(n as i32) <= 1e-13 * norm {
+        n -= 1;
+    }
+    if n == 0 {
+        return (0, 0);
+    }
+    let a: Vec<f64> = (0..n).map(|k| c[k] / c[n]).collect();
+    let radius = (a[0].abs() as f32).powf(1.0 / n as f32) as f64;
+    let radius = if radius > 0.0 && radius.is_finite() {
+        radius
+    } else {
+        1.0
+    };
+    let mut roots = [(0.0, 0.0); 4];
+    for (k, root) in roots.iter_mut().enumerate().take(n) {
+        let ang = 0.4 + 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+        *root = (radius * ang.cos(), radius * ang.sin());
+    }
+    for it in 1..=64 {
+        let mut moved: f64 = 0.0;
+        for i in 0..n {
+            let z = roots[i];
+            let mut p = (1.0, 0.0);
+            for k in (0..n).rev() {
+                p = (p.0 * z.0 - p.1 * z.1 + a[k], p.0 * z.1 + p.1 * z.0);
+            }
+            let mut q = (1.0, 0.0);
+            for (j, w) in roots.iter().enumerate().take(n) {
+                if j != i {
+                    let d = (z.0 - w.0, z.1 - w.1);
+                    q = (q.0 * d.0 - q.1 * d.1, q.0 * d.1 + q.1 * d.0);
+                }
+            }
+            let den = q.0 * q.0 + q.1 * q.1;
+            if den == 0.0 {
+                continue;
+            }
+            let step = ((p.0 * q.0 + p.1 * q.1) / den, (p.1 * q.0 - p.0 * q.1) / den);
+            roots[i] = (z.0 - step.0, z.1 - step.1);
+            moved = moved.max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
+        }
+        if moved < 1e-13 {
+            return (n, it);
+        }
+    }
+    (n, 64)
+}
+
+/// Mean counted flops per state of the kernel over `states`: slices and panels from the
+/// CPU rule (the same march), root-finder sweeps replayed, the pieces' counts above.
+pub fn flop_count(settings: RuleSettings, states: &[PackedState]) -> FlopCount {
+    let rule = FilmRule::new(settings);
+    let mut total = FlopCount {
+        states: states.len(),
+        ..FlopCount::default()
+    };
+    for s in states {
+        let (_, slices) = rule.integrate(s);
+        let slices = slices as f64;
+        let aligned = s.ecc[0] == s.ecc[2]
+            && s.ecc[1] == s.ecc[3]
+            && s.rate[0] == s.rate[2]
+            && s.rate[1] == s.rate[3];
+        let mut flops = slices * (FLOPS_SLICE + FLOPS_NODE);
+        if !aligned {
+            let panels = slices / settings.nodes as f64;
+            let (n, sweeps) = root_sweeps(s);
+            // Complex singularities: the quartic's roots and at most the rate zero.
+            let sing = n as f64 + 1.0;
+            flops += FLOPS_SINGULARITY_SETUP
+                + sweeps as f64 * flops_root_sweep(n)
+                + panels * (FLOPS_PANEL_BASE + FLOPS_PANEL_PER_SINGULARITY * sing);
+            total.panels += panels;
+            total.root_iterations += sweeps as f64;
+        } else {
+            total.panels += 1.0;
+        }
+        total.slices += slices;
+        total.flops += flops;
+    }
+    let n = states.len().max(1) as f64;
+    total.panels /= n;
+    total.slices /= n;
+    total.root_iterations /= n;
+    total.flops /= n;
+    total
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Times `f` until `min_time_s` is spent or `max_reps` runs; returns the median seconds
+/// and the repetitions.
+fn time_reps(min_time_s: f64, max_reps: usize, mut f: impl FnMut() -> f64) -> (f64, usize) {
+    let mut times = Vec::new();
+    let start = Instant::now();
+    while times.len() < max_reps.max(1)
+        && (times.is_empty() || start.elapsed().as_secs_f64() < min_time_s)
+    {
+        times.push(f());
+    }
+    let reps = times.len();
+    (median(&mut times), reps)
+}
+
+fn load_error(params: &BearingParams, got: &LoadResult, want: &LoadResult) -> f64 {
+    match (got, want) {
+        (Ok(g), Ok(w)) => {
+            relative_difference(&g.load_vector(params.length), &w.load_vector(params.length))
+        }
+        (Err(a), Err(b)) if a.code() == b.code() => 0.0,
+        _ => f64::INFINITY,
+    }
+}
+
+/// Runs the benchmark.
+pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
+    let max_size = options.sizes.iter().copied().max().unwrap_or(1);
+    let (params, all_requests) = bench_states(max_size, options.max_ratio, 0xbe_4c_11);
+    let all_packed: Vec<PackedState> = all_requests
+        .iter()
+        .filter_map(|r| pack_state(&params, &r.state).ok())
+        .filter(|p| p.rate_scale > 0.0)
+        .map(|p| p.state)
+        .collect();
+    let settings = options.accuracy.settings();
+    let flops = flop_count(settings, &all_packed[..all_packed.len().min(20_000)]);
+    let mut report = BenchReport {
+        rows: Vec::new(),
+        flops,
+        crossover_end_to_end: None,
+        crossover_kernel: None,
+        notices: Vec::new(),
+    };
+    let mut runs: Vec<(Box<dyn FilmBackend>, Option<GpuBackend>)> = Vec::new();
+    if options.target != BenchTarget::Gpu {
+        runs.push((
+            Box::new(CpuBackend::with_settings(
+                settings,
+                Some(options.cpu_threads),
+            )),
+            None,
+        ));
+    }
+    if options.target != BenchTarget::Cpu {
+        let plain = GpuBackend::with_settings(settings, options.gpu.clone())?;
+        let profiled = GpuBackend::with_settings(
+            settings,
+            GpuOptions {
+                profile: true,
+                ..options.gpu.clone()
+            },
+        )?;
+        runs.push((Box::new(plain), Some(profiled)));
+    }
+    for (backend, mut profiled) in runs {
+        let info = backend.info();
+        let mut evaluator = LoadEvaluator::new(backend);
+        let mut cpu_kernel = CpuBackend::with_settings(settings, Some(options.cpu_threads));
+        let mut out = Vec::new();
+        let mut integrals = Vec::new();
+        for &size in &options.sizes {
+            let requests = &all_requests[..size];
+            let packed = &all_packed[..size.min(all_packed.len())];
+            // Counted flops of this batch (its first 20 000 states, scaled).
+            let counted = packed.len().min(20_000);
+            let batch_flops = if counted == 0 {
+                0.0
+            } else {
+                flop_count(settings, &packed[..counted]).flops * packed.len() as f64
+            };
+            // Warm-up (allocations, pipeline caches), then the timed end-to-end calls.
+            evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+            let (e2e, reps) = time_reps(options.min_time_s, options.max_reps, || {
+                let t = Instant::now();
+                evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+                t.elapsed().as_secs_f64()
+            });
+            report.notices.extend(evaluator.take_notices());
+            // Error against the single-thread CPU kernel on up to 4096 states.
+            let stride = (size / 4096).max(1);
+            let sample: Vec<LoadRequest> = requests.iter().step_by(stride).copied().collect();
+            let mut ref_eval =
+                LoadEvaluator::new(Box::new(CpuBackend::with_settings(settings, Some(1))));
+            let mut want = Vec::new();
+            ref_eval.evaluate(std::slice::from_ref(&params), &sample, &mut want);
+            let max_rel_error = out
+                .iter()
+                .step_by(stride)
+                .zip(&want)
+                .map(|(g, w)| load_error(&params, g, w))
+                .fold(0.0, f64::max);
+            // Kernel alone.
+            let (kernel_s, kernel_timer) = match profiled.as_mut() {
+                None => {
+                    let (t, _) = time_reps(options.min_time_s, options.max_reps, || {
+                        let t = Instant::now();
+                        let _ = cpu_kernel.integrate(packed, &mut integrals);
+                        t.elapsed().as_secs_f64()
+                    });
+                    (t, "cpu")
+                }
+                Some(g) => {
+                    g.integrate(packed, &mut integrals)?;
+                    let mut timer = "wall";
+                    let (t, _) = time_reps(options.min_time_s, options.max_reps, || {
+                        if g.integrate(packed, &mut integrals).is_err() {
+                            return f64::NAN;
+                        }
+                        let tm = g.last_timing();
+                        match tm.kernel_device_s {
+                            Some(d) => {
+                                timer = "timestamp";
+                                d
+                            }
+                            None => tm.kernel_wall_s.unwrap_or(f64::NAN),
+                        }
+                    });
+                    (t, timer)
+                }
+            };
+            report.rows.push(BenchRow {
+                backend: info.name.clone(),
+                device: info.device.clone(),
+                precision: info.precision,
+                size,
+                reps,
+                end_to_end_s: e2e,
+                end_to_end_states_per_s: size as f64 / e2e,
+                kernel_s,
+                kernel_timer,
+                kernel_states_per_s: packed.len() as f64 / kernel_s,
+                kernel_gflops: batch_flops / kernel_s * 1e-9,
+                max_rel_error,
+            });
+        }
+    }
+    let crossover = |rate: fn(&BenchRow) -> f64| -> Option<usize> {
+        let mut first = None;
+        for &size in &options.sizes {
+            let get = |name: &str| {
+                report
+                    .rows
+                    .iter()
+                    .find(|r| r.backend == name && r.size == size)
+                    .map(rate)
+            };
+            match (get("gpu"), get("cpu")) {
+                (Some(g), Some(c)) if g >= c => {
+                    first.get_or_insert(size);
+                }
+                (Some(_), Some(_)) => first = None,
+                _ => return None,
+            }
+        }
+        first
+    };
+    report.crossover_end_to_end = crossover(|r| r.end_to_end_states_per_s);
+    report.crossover_kernel = crossover(|r| r.kernel_states_per_s);
+    Ok(report)
+}

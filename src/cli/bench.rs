@@ -1,0 +1,80 @@
+//! `bearing-sweep bench backend`: runs [`crate::backend::bench::run_bench`] and formats
+//! its report as Markdown (for BENCHMARKS.md) and JSON.
+
+use std::fmt::Write;
+
+use super::CliError;
+use crate::backend::bench::{run_bench, BenchOptions, BenchReport};
+
+/// Runs the backend benchmark; returns the report and its Markdown rendering.
+pub fn bench_backend(options: &BenchOptions) -> Result<(BenchReport, String), CliError> {
+    let report = run_bench(options)?;
+    let md = render(&report, options);
+    Ok((report, md))
+}
+
+fn render(r: &BenchReport, o: &BenchOptions) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Accuracy level {:e}, end eccentricity ratios up to {}, CPU backend on {} threads.\n",
+        o.accuracy.rtol(),
+        o.max_ratio,
+        o.cpu_threads
+    );
+    let mut devices: Vec<String> = Vec::new();
+    for row in &r.rows {
+        let d = format!("- `{}`: {} ({:?})", row.backend, row.device, row.precision);
+        if !devices.contains(&d) {
+            devices.push(d);
+        }
+    }
+    let _ = writeln!(s, "{}\n", devices.join("\n"));
+    let _ = writeln!(
+        s,
+        "| backend | batch | reps | round trip (s) | states/s end to end | kernel (s) | kernel timer | states/s kernel | GFLOP/s | max rel. error vs CPU |"
+    );
+    let _ = writeln!(
+        s,
+        "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: |"
+    );
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.3e} | {:.3e} | {:.3e} | {} | {:.3e} | {:.2} | {:.1e} |",
+            row.backend,
+            row.size,
+            row.reps,
+            row.end_to_end_s,
+            row.end_to_end_states_per_s,
+            row.kernel_s,
+            row.kernel_timer,
+            row.kernel_states_per_s,
+            row.kernel_gflops,
+            row.max_rel_error
+        );
+    }
+    let f = &r.flops;
+    let _ = writeln!(
+        s,
+        "\nFlops per state (counted, mean over {} states): {:.0} ({:.2} panels, {:.1} slices, {:.1} root-finder sweeps).",
+        f.states, f.flops, f.panels, f.slices, f.root_iterations
+    );
+    let both = ["cpu", "gpu"]
+        .iter()
+        .all(|b| r.rows.iter().any(|row| row.backend == *b));
+    if both {
+        let fmt =
+            |c: Option<usize>| c.map_or("none in the sizes run".to_string(), |n| n.to_string());
+        let _ = writeln!(
+            s,
+            "GPU overtakes CPU from batch size: end to end {}, kernel alone {}.",
+            fmt(r.crossover_end_to_end),
+            fmt(r.crossover_kernel)
+        );
+    }
+    for n in &r.notices {
+        let _ = writeln!(s, "\n{n}");
+    }
+    s
+}

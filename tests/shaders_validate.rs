@@ -1,0 +1,62 @@
+//! Every WGSL file in `shaders/` parses and validates with naga (the front end wgpu
+//! uses), with f64 allowed; the kernel's f32 variant (its precision block swapped by the
+//! host) validates too, and without the f64 capability.
+
+use bearing_sweep::backend::{kernel_source, Precision};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+fn validate(name: &str, source: &str, caps: Capabilities) {
+    let module = naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{name}: WGSL parse error:\n{}", e.emit_to_string(source)));
+    Validator::new(ValidationFlags::all(), caps)
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: naga validation error: {e:?}"));
+}
+
+#[test]
+fn every_shader_file_validates() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).expect("shaders/ exists") {
+        let path = entry.expect("readable entry").path();
+        if path.extension().and_then(|e| e.to_str()) != Some("wgsl") {
+            continue;
+        }
+        let source = std::fs::read_to_string(&path).expect("readable shader");
+        validate(&path.display().to_string(), &source, Capabilities::FLOAT64);
+        count += 1;
+    }
+    assert!(count >= 1, "no .wgsl file found in {dir}");
+}
+
+#[test]
+fn both_kernel_precisions_validate() {
+    validate(
+        "film.wgsl (f64)",
+        &kernel_source(Precision::F64),
+        Capabilities::FLOAT64,
+    );
+    let f32_src = kernel_source(Precision::F32);
+    let code_lines_with_f64: Vec<&str> = f32_src
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//") && l.contains("f64"))
+        .collect();
+    assert!(
+        code_lines_with_f64.is_empty(),
+        "the f32 variant still uses f64: {code_lines_with_f64:?}"
+    );
+    // The f32 variant must run on adapters without SHADER_F64.
+    validate("film.wgsl (f32)", &f32_src, Capabilities::empty());
+}
+
+#[test]
+fn f64_kernel_needs_the_f64_capability() {
+    // Guards the test above: naga does reject f64 without the capability, so the f32
+    // variant's acceptance means something.
+    let module = naga::front::wgsl::parse_str(&kernel_source(Precision::F64)).expect("parses");
+    assert!(
+        Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&module)
+            .is_err()
+    );
+}
