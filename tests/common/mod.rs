@@ -405,3 +405,9 @@ pub fn rotate_loads(v: [f64; 4], a: f64) -> [f64; 4] {
         sn * v[2] + c * v[3],
     ]
 }
+
+/// `[1.0e-3, 2.5e-7, ...]`: a list of errors for messages.
+pub fn sci(v: &[f64]) -> String {
+    let items: Vec<String> = v.iter().map(|x| format!("{x:.2e}")).collect();
+    format!("[{}]", items.join(", "))
+}
