@@ -3,6 +3,7 @@
 use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
+use bearing_sweep::bench::{bench_loads, bench_loads_markdown, BenchLoadsOptions};
 use bearing_sweep::cli::{eval_json, read_input, EvalOptions};
 use clap::{Parser, Subcommand};
 
@@ -30,6 +31,28 @@ enum Command {
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
     },
+    /// Benchmarks (timings and errors written as JSON, markdown and SVG).
+    Bench {
+        #[command(subcommand)]
+        what: BenchWhat,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchWhat {
+    /// Film loads: evaluations/s against error, graded rule at each accuracy level vs the
+    /// brute-force baseline, one thread and parallel.
+    Loads {
+        /// Threads of the parallel runs (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Number of benchmark states.
+        #[arg(long, default_value_t = 2000)]
+        states: usize,
+        /// Output folder for bench-loads.{json,md,svg}.
+        #[arg(long, default_value = "out/bench")]
+        out: std::path::PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -47,6 +70,22 @@ fn main() -> ExitCode {
                 }
                 println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
             }),
+        Command::Bench {
+            what:
+                BenchWhat::Loads {
+                    threads,
+                    states,
+                    out,
+                },
+        } => bench_loads(&BenchLoadsOptions {
+            threads,
+            states,
+            out,
+            ..Default::default()
+        })
+        .map(|report| {
+            print!("{}", bench_loads_markdown(&report));
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -476,9 +476,8 @@ fn cli_eval_input_errors() {
             "states[1]",
         ),
         (
-            format!(
-                r#"{{"bearing": {{"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "colour": 1}}, "states": []}}"#
-            ),
+            r#"{"bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "colour": 1}, "states": []}"#
+                .to_string(),
             "bearing: unknown field `colour`",
         ),
         (

@@ -220,8 +220,8 @@ fn squeeze_films_are_passive() {
     let rule = FilmRule::new(Accuracy::default().settings());
     let mut rng = Rng::new(0xD155);
     let geoms = geometries();
-    let mut index = 0;
     for k in 0..4000 {
+        let index = k;
         let (gname, p) = &geoms[k % geoms.len()];
         let emax = [0.5, 0.95, 0.99][k % 3];
         let s = random_state(&mut rng, p, Family::SqueezeOnly, emax);
@@ -234,7 +234,6 @@ fn squeeze_films_are_passive() {
             "[{index}] {gname}: squeeze power {power:e} W > 0 (scale {scale:e}); F_i {fi:?}, \
              F_j {fj:?}; state {s:?}"
         );
-        index += 1;
     }
     // A pure approach is strictly resisted.
     let p = table2();
