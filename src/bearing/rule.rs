@@ -302,12 +302,15 @@ impl Singularities {
             sing.pole_hi = (sm + half).max(1.0 + 1e-14);
         }
         let r1sq = r1x * r1x + r1y * r1y;
+        // The rate vector's zero when it is graded toward (not a kink): (s_r, d_r).
+        let mut rate_zero = None;
         if r1sq > 0.0 {
             let s_r = -(r0x * r1x + r0y * r1y) / r1sq;
             let d_r = (r0x * r1y - r0y * r1x).abs() / r1sq;
             if d_r >= settings.kink_floor {
                 sing.complex[sing.complex_count] = (s_r, d_r);
                 sing.complex_count += 1;
+                rate_zero = Some((s_r, d_r));
             } else if s_r > 0.0 && s_r < 1.0 {
                 sing.kink_s = s_r;
             }
@@ -350,9 +353,30 @@ impl Singularities {
             2.0 * a1 * a2,
             a2 * a2,
         ]);
+        // Near the rate vector's zero s_r ± i d_r two roots of Q cluster. Locally
+        // (ε ≈ ε(s_r), r = |r1| (t ê + d_r ê⊥), t = s − s_r) Q/|r1|² is the quadratic
+        // t² (ε∥² − 1) + 2 t d_r ε∥ ε⊥ + d_r² (ε⊥² − 1), whose roots are
+        // t = d_r (ε∥ ε⊥ ± i √(1 − |ε|²)) / (1 − ε∥²): |Im| >= d_r √(1 − |ε|²) and
+        // |t| <= d_r / (1 − |ε|²). But there Q = O(d_r²) is at rounding level for tiny
+        // d_r, and Durand-Kerner can return these roots almost real (measured: Im 1.6e-14
+        // for d_r = 1.2e-8 at the 1e-12 level), which graded ~100 panels toward nothing,
+        // exhausted `max_panels` and left one panel spanning the rest of the bearing
+        // (error 5e-5). Such roots get half the local bound as their imaginary part.
+        let clamp = rate_zero.map(|(s_r, d_r)| {
+            let (ex, ey) = (e0x + e1x * s_r, e0y + e1y * s_r);
+            let gap = (1.0 - (ex * ex + ey * ey)).max(0.0);
+            (s_r, 2.0 * d_r / gap.max(1e-300), 0.5 * d_r * gap.sqrt())
+        });
         for &(re, im) in roots.iter().take(n) {
             if re.is_finite() && im.is_finite() {
-                sing.complex[sing.complex_count] = (re + 0.5, im.abs());
+                let s = re + 0.5;
+                let mut im = im.abs();
+                if let Some((s_r, reach, floor)) = clamp {
+                    if (s - s_r).abs() <= reach {
+                        im = im.max(floor);
+                    }
+                }
+                sing.complex[sing.complex_count] = (s, im);
                 sing.complex_count += 1;
             }
         }
