@@ -194,10 +194,20 @@ pub enum Family {
     /// A half-whirl state whose rate zero is moved off the real axis by `1e-8 .. 1e-2`
     /// (a near-kink where the film may be thin).
     NearKinkWhirl,
+    /// Nearly aligned: the ends differ by `1e-12 .. 1e-2` in eccentricity and velocity
+    /// (the singularities recede to infinity; one panel).
+    NearlyAligned,
+    /// `ω0 = 0` with `v_j = −c v_i`: the squeeze velocity, hence the rate vector, vanishes
+    /// inside the bearing (a kink without spin).
+    SqueezeKink,
+    /// A half-whirl kink or near-kink within 0.02 of an end face, inside or outside.
+    KinkNearEnd,
+    /// Both ends near the wall in unrelated directions, large squeeze.
+    WallBothEnds,
 }
 
 /// All families, for loops.
-pub const FAMILIES: [Family; 7] = [
+pub const FAMILIES: [Family; 11] = [
     Family::General,
     Family::RotationTilted,
     Family::MidplaneTilt,
@@ -205,6 +215,10 @@ pub const FAMILIES: [Family; 7] = [
     Family::SqueezeOnly,
     Family::NearKink,
     Family::NearKinkWhirl,
+    Family::NearlyAligned,
+    Family::SqueezeKink,
+    Family::KinkNearEnd,
+    Family::WallBothEnds,
 ];
 
 /// Builds a state from nondimensional end eccentricity vectors (`ε = e/δ`) and end
@@ -308,6 +322,59 @@ pub fn random_state(rng: &mut Rng, p: &BearingParams, family: Family, emax: f64)
                 (vj.0 + w.0, vj.1 + w.1),
                 omega,
             )
+        }
+        Family::NearlyAligned => {
+            let pert = 10f64.powf(rng.range(-12.0, -2.0));
+            let dir = rng.angle();
+            // Move the other end inward so that its ratio stays below `big`.
+            let ej = (
+                e_big.0 - pert * dir.cos().abs() * e_big.0.signum(),
+                e_big.1 - pert * dir.sin().abs() * e_big.1.signum(),
+            );
+            let v = rng.in_disc(1.0);
+            let dv = rng.in_disc(pert);
+            dimensional(p, e_big, ej, v, (v.0 + dv.0, v.1 + dv.1), omega)
+        }
+        Family::SqueezeKink => {
+            let e_other = rng.in_disc(big);
+            let v = rng.in_disc(1.0);
+            let c = 10f64.powf(rng.range(-2.0, 2.0));
+            dimensional(p, e_big, e_other, v, (-c * v.0, -c * v.1), 0.0)
+        }
+        Family::KinkNearEnd => {
+            let e_other = rng.in_disc(big);
+            let s_star = if rng.sign() > 0.0 {
+                rng.range(-0.02, 0.02)
+            } else {
+                1.0 + rng.range(-0.02, 0.02)
+            };
+            let es = (
+                e_big.0 + (e_other.0 - e_big.0) * s_star,
+                e_big.1 + (e_other.1 - e_big.1) * s_star,
+            );
+            // Velocities in δ|ω|: v* = (sg/2) J e(s*), gradient g; a uniform w moves the
+            // zero off the axis by d (or not at all).
+            let sg = omega.signum();
+            let v_star = (-0.5 * sg * es.1, 0.5 * sg * es.0);
+            let g = rng.in_disc(0.5);
+            let d = if rng.sign() > 0.0 {
+                0.0
+            } else {
+                10f64.powf(rng.range(-10.0, -3.0))
+            };
+            let w = (g.1 * d, -g.0 * d);
+            let vi = (v_star.0 - g.0 * s_star + w.0, v_star.1 - g.1 * s_star + w.1);
+            let vj = (
+                v_star.0 + g.0 * (1.0 - s_star) + w.0,
+                v_star.1 + g.1 * (1.0 - s_star) + w.1,
+            );
+            dimensional(p, e_big, e_other, vi, vj, omega)
+        }
+        Family::WallBothEnds => {
+            let b = rng.angle();
+            let big2 = big * (1.0 - 0.05 * rng.uniform());
+            let ej = (big2 * b.cos(), big2 * b.sin());
+            dimensional(p, e_big, ej, rng.in_disc(3.0), rng.in_disc(3.0), omega)
         }
     }
 }
