@@ -52,6 +52,13 @@ enum BenchWhat {
         /// Output folder for bench-loads.{json,md,svg}.
         #[arg(long, default_value = "out/bench")]
         out: std::path::PathBuf,
+        /// Baseline grids n (n × n in θ × z), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "32,64,128,256,512,1024,2048"
+        )]
+        grids: Vec<usize>,
     },
 }
 
@@ -76,11 +83,13 @@ fn main() -> ExitCode {
                     threads,
                     states,
                     out,
+                    grids,
                 },
         } => bench_loads(&BenchLoadsOptions {
             threads,
             states,
             out,
+            baseline_grids: grids,
             ..Default::default()
         })
         .map(|report| {

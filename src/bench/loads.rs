@@ -37,7 +37,7 @@ impl Default for BenchLoadsOptions {
             threads: None,
             states: 2000,
             out: PathBuf::from("out/bench"),
-            baseline_grids: vec![32, 64, 128, 256, 512, 1024],
+            baseline_grids: vec![32, 64, 128, 256, 512, 1024, 2048],
             min_time_s: 0.5,
         }
     }
@@ -344,6 +344,12 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
 pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliError> {
     if opts.states == 0 {
         return Err(CliError::input("--states", "must be at least 1"));
+    }
+    if let Some(&n) = opts.baseline_grids.iter().find(|&&n| n == 0) {
+        return Err(CliError::input(
+            "--grids",
+            format!("grid size {n} must be at least 1"),
+        ));
     }
     std::fs::create_dir_all(&opts.out).map_err(|source| CliError::Io {
         path: opts.out.display().to_string(),
