@@ -197,6 +197,10 @@ pub const MAX_COMPLEX_SINGULARITIES: usize = 5;
 /// - an arc end `θ = arg(∓r)` meeting the complex pole of `1/h³`, `1 = ε·(∓r/|r|)`: the roots
 ///   of the quartic `Q(s) = (ε(s)·r(s))² − r(s)·r(s)`, complex for `|ε| < 1` on `[0, 1]`,
 ///   at distance `~ acosh(1/ε) / |dβ/ds|` where the arc sweeps past the film minimum.
+///   Two special cases: at a real kink the quartic's double root there is spurious and is
+///   replaced by the two real points `ε(s)·r̂1 = ±1` (outside `[0, 1]`); at a near-kink the
+///   two roots clustered there are at rounding level for Durand-Kerner and get the
+///   imaginary part the local analysis guarantees (comments in [`Singularities::of`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Singularities {
     /// Pole `|ε(s)| = 1` below `s = 0` (`-inf` if none).
