@@ -72,7 +72,8 @@ pub struct RuleSettings {
 
 /// Requested accuracy: the relative error bound on the load vector
 /// `(W_x, W_y, M_x/B, M_y/B)` that the rule promises for states whose larger end
-/// eccentricity ratio is at most 0.95 (and ten times... see [`Accuracy::promise`]).
+/// eccentricity ratio is at most 0.95; states up to 0.99 get
+/// [`Accuracy::promise_near_wall`] (1e-4 at the default level).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Accuracy {
     rtol: f64,
@@ -106,7 +107,10 @@ impl Accuracy {
         self.rtol
     }
 
-    /// The error bound promised up to eccentricity 0.99 (states between 0.95 and 0.99).
+    /// The error bound promised up to eccentricity 0.99 (states between 0.95 and 0.99):
+    /// `min(100 rtol, max(1e-4, rtol))`, i.e. 1e-3, 1e-4, 1e-7, 1e-10 for the four levels
+    /// (the issue asks 1e-4 at the default level). Measured worst errors there are 25 to
+    /// 1500 times smaller (tests/bearing_accuracy.rs).
     pub fn promise_near_wall(&self) -> f64 {
         (self.rtol * 100.0).min(1e-4_f64.max(self.rtol))
     }
