@@ -29,9 +29,8 @@ const POLE_PAD: real = 1e-14;
 const FAR: real = 1e30;
 // Largest magnitude accepted as a finite root (NaN fails the comparison too).
 const FINITE_MAX: real = 1e30;
-// Quartic roots within this many kink floors of a (near-)kink of the rate vector are
-// that kink (KINK_MERGE in rule.rs).
-const KINK_MERGE: real = 2.0;
+// Floor of a denominator that may vanish, representable in f32 and f64 alike.
+const TINY: real = 1e-30;
 // Durand-Kerner iterations at most (quadratic convergence: ~10 suffice for simple roots).
 const ROOT_ITERATIONS: u32 = 64u;
 const PI: real = 3.141592653589793;
@@ -372,23 +371,46 @@ fn singularities(st: PackedState) -> Sing {
     }
     let r1sq = r1.x * r1.x + r1.y * r1.y;
     let kink_floor = table[T_KINK_FLOOR];
-    // A (near-)kink of the rate vector wherever it lies: the quartic has a (near-)double
-    // root there, which is the kink itself (`Singularities::of` in rule.rs).
+    // The rate vector's zero: graded toward when d_r >= floor (`has_zero`), else a
+    // (near-)kink wherever it lies (`has_kink`; a panel boundary inside the bearing).
+    var has_zero = false;
+    var zero_s: real = 0.0;
+    var zero_d: real = 0.0;
     var has_kink = false;
-    var kink_at: real = 0.0;
     if r1sq > 0.0 {
         let s_r = -(r0.x * r1.x + r0.y * r1.y) / r1sq;
         let d_r = abs(r0.x * r1.y - r0.y * r1.x) / r1sq;
         if d_r >= kink_floor {
             sing.complex[sing.count] = vec2<real>(s_r, d_r);
             sing.count = sing.count + 1u;
+            has_zero = true;
+            zero_s = s_r;
+            zero_d = d_r;
         } else {
             has_kink = true;
-            kink_at = s_r;
             if s_r > 0.0 && s_r < 1.0 {
                 sing.kink_s = s_r;
             }
         }
+    }
+    if has_kink {
+        // The quartic has a (near-)double root at the kink, no singularity of either
+        // one-sided integrand; the arc ends point along ∓r̂1 and meet the pole of 1/h³
+        // where ε(s)·r̂1 = ±1: two real points outside [0, 1] (rule.rs explains).
+        let r1n = sqrt(r1sq);
+        let a = e0.x * r1.x + e0.y * r1.y;
+        let b = e1.x * r1.x + e1.y * r1.y;
+        if b != 0.0 {
+            for (var k = 0u; k < 2u; k++) {
+                let side = select(-r1n, r1n, k == 0u);
+                let s_root = (side - a) / b;
+                if abs(s_root) <= FINITE_MAX {
+                    sing.complex[sing.count] = vec2<real>(s_root, 0.0);
+                    sing.count = sing.count + 1u;
+                }
+            }
+        }
+        return sing;
     }
     let ec = e0 + 0.5 * e1;
     let rc = r0 + 0.5 * r1;
@@ -405,12 +427,25 @@ fn singularities(st: PackedState) -> Sing {
         2.0 * a1 * a2,
         a2 * a2,
     ));
+    // Roots clustered at a graded rate zero get at least half their local bound as
+    // imaginary part (Durand-Kerner can return them almost real; rule.rs derives it).
+    var reach: real = -1.0;
+    var im_floor: real = 0.0;
+    if has_zero {
+        let ez = e0 + e1 * zero_s;
+        let gap = max(1.0 - (ez.x * ez.x + ez.y * ez.y), 0.0);
+        reach = 2.0 * zero_d / max(gap, TINY);
+        im_floor = 0.5 * zero_d * sqrt(gap);
+    }
     for (var k = 0u; k < roots.n; k++) {
         let z = roots.z[k];
-        let dk = z.x + 0.5 - kink_at;
-        let merged = has_kink && sqrt(dk * dk + z.y * z.y) <= KINK_MERGE * kink_floor;
-        if abs(z.x) <= FINITE_MAX && abs(z.y) <= FINITE_MAX && !merged {
-            sing.complex[sing.count] = vec2<real>(z.x + 0.5, abs(z.y));
+        if abs(z.x) <= FINITE_MAX && abs(z.y) <= FINITE_MAX {
+            let s_root = z.x + 0.5;
+            var im = abs(z.y);
+            if has_zero && abs(s_root - zero_s) <= reach {
+                im = max(im, im_floor);
+            }
+            sing.complex[sing.count] = vec2<real>(s_root, im);
             sing.count = sing.count + 1u;
         }
     }

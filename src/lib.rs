@@ -4,6 +4,7 @@
 
 pub mod backend;
 pub mod bearing;
+pub mod bench;
 pub mod cli;
 pub mod integrate;
 pub mod numerics;

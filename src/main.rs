@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use bearing_sweep::backend::bench::{BenchOptions, BenchTarget};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bearing::Accuracy;
+use bearing_sweep::bench::{bench_loads, bench_loads_markdown, BenchLoadsOptions};
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, read_input, run_scene_file,
     BenchRotorOptions, CliError, EvalOptions, RunOptions,
@@ -59,6 +60,26 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Film loads: evaluations/s against error, graded rule at each accuracy level vs the
+    /// brute-force baseline, one thread and parallel.
+    Loads {
+        /// Threads of the parallel runs (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Number of benchmark states.
+        #[arg(long, default_value_t = 2000)]
+        states: usize,
+        /// Output folder for bench-loads.{json,md,svg}.
+        #[arg(long, default_value = "out/bench")]
+        out: std::path::PathBuf,
+        /// Baseline grids n (n × n in θ × z), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "32,64,128,256,512,1024,2048"
+        )]
+        grids: Vec<usize>,
+    },
     /// Backend throughput and latency against batch size, CPU and GPU.
     Backend {
         /// Backends: cpu, gpu or both.
@@ -130,6 +151,24 @@ fn main() -> ExitCode {
                 }
                 println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
             }),
+        Command::Bench {
+            what:
+                BenchCommand::Loads {
+                    threads,
+                    states,
+                    out,
+                    grids,
+                },
+        } => bench_loads(&BenchLoadsOptions {
+            threads,
+            states,
+            out,
+            baseline_grids: grids,
+            ..Default::default()
+        })
+        .map(|report| {
+            print!("{}", bench_loads_markdown(&report));
+        }),
         Command::Bench {
             what:
                 BenchCommand::Backend {

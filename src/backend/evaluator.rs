@@ -115,13 +115,12 @@ impl LoadEvaluator {
             };
             match result {
                 Ok(p) => {
-                    // Placeholder loads, overwritten below.
-                    out.push(Ok(finish_loads(
-                        &bearings[req.bearing as usize],
-                        &req.state,
-                        &[0.0; 4],
-                        0.0,
-                    )));
+                    // Final loads of a film without pressure; a placeholder otherwise,
+                    // overwritten below.
+                    out.push(
+                        finish_loads(&bearings[req.bearing as usize], &req.state, &[0.0; 4], 0.0)
+                            .finite_or_fault(),
+                    );
                     if p.rate_scale > 0.0 {
                         self.packed.push(p.state);
                         self.scales.push(p.rate_scale);
@@ -183,12 +182,13 @@ impl LoadEvaluator {
                 continue;
             }
             let req = &requests[k];
-            out[k] = Ok(finish_loads(
+            out[k] = finish_loads(
                 &bearings[req.bearing as usize],
                 &req.state,
                 &self.integrals[n],
                 self.scales[n],
-            ));
+            )
+            .finite_or_fault();
         }
     }
 }

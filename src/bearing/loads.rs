@@ -36,6 +36,29 @@ impl Loads {
         [self.wx, self.wy, self.mx / length_m, self.my / length_m]
     }
 
+    /// `self` if every number in it is finite, else the overflow fault naming the first
+    /// non-finite output (finite inputs cannot give NaN; enormous ones can overflow).
+    pub fn finite_or_fault(self) -> Result<Loads, StateFault> {
+        let fields = [
+            ("wx", self.wx),
+            ("wy", self.wy),
+            ("mx", self.mx),
+            ("my", self.my),
+            ("mz", self.mz),
+            (
+                "friction_coefficient",
+                self.friction_coefficient.unwrap_or(0.0),
+            ),
+            ("sommerfeld", self.sommerfeld.unwrap_or(0.0)),
+            ("h_min", self.h_min),
+            ("power_loss", self.power_loss),
+        ];
+        match fields.iter().find(|(_, v)| !v.is_finite()) {
+            Some(&(quantity, _)) => Err(StateFault::Overflow { quantity }),
+            None => Ok(self),
+        }
+    }
+
     /// Generalised end-point forces (MODEL.md section 4): `(F_i, F_j)`, each `[x, y]`, N.
     pub fn end_forces(&self, length_m: f64) -> ([f64; 2], [f64; 2]) {
         let fj = [self.my / length_m, -self.mx / length_m];
@@ -67,8 +90,19 @@ pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed
     ];
     let rate_scale = rate.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     if !rate_scale.is_finite() {
-        // Finite but enormous inputs overflowed: name the spin, the usual culprit.
-        return Err(StateFault::NonFinite { field: "omega" });
+        // Finite but enormous inputs overflowed: name the input whose term did.
+        let terms = [
+            ("omega", w * ecc.iter().fold(0.0_f64, |m, e| m.max(e.abs()))),
+            ("vxi", 2.0 * state.vxi / d),
+            ("vyi", 2.0 * state.vyi / d),
+            ("vxj", 2.0 * state.vxj / d),
+            ("vyj", 2.0 * state.vyj / d),
+        ];
+        let quantity = terms
+            .iter()
+            .find(|(_, t)| !t.is_finite())
+            .map_or("omega", |&(name, _)| name);
+        return Err(StateFault::Overflow { quantity });
     }
     let inv = if rate_scale > 0.0 {
         1.0 / rate_scale
@@ -121,5 +155,5 @@ pub fn film_loads(
     } else {
         [0.0; 4]
     };
-    Ok(finish_loads(params, state, &integrals, packed.rate_scale))
+    finish_loads(params, state, &integrals, packed.rate_scale).finite_or_fault()
 }

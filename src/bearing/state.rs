@@ -55,6 +55,13 @@ pub enum StateFault {
         /// `|e| / δ` at that end.
         ratio: f64,
     },
+    /// Finite inputs so large that a load overflows `f64` (e.g. a spin of 1e200 rad/s,
+    /// whose power loss `|M_z ω0|` exceeds 1.8e308 W).
+    #[error("`{quantity}` overflows (inputs too large to represent the result)")]
+    Overflow {
+        /// Output (JSON name) that overflowed.
+        quantity: &'static str,
+    },
     /// The backend produced a non-finite result and no fallback could recompute it.
     #[error("backend returned non-finite loads")]
     BackendNonFinite,
@@ -74,6 +81,7 @@ impl StateFault {
         match self {
             StateFault::NonFinite { .. } => "non_finite_input",
             StateFault::ThroughWall { .. } => "through_wall",
+            StateFault::Overflow { .. } => "overflow",
             StateFault::BackendNonFinite => "backend_non_finite",
             StateFault::InvalidBearing { .. } => "invalid_bearing",
         }
