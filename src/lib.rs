@@ -7,3 +7,4 @@ pub mod bearing;
 pub mod cli;
 pub mod numerics;
 pub mod plot;
+pub mod sweep;

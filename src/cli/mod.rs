@@ -2,8 +2,10 @@
 //! errors that name the JSON path and the reason.
 
 mod eval;
+mod sweep;
 
 pub use eval::{eval_json, EvalOptions};
+pub use sweep::{merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]
@@ -27,6 +29,9 @@ pub enum CliError {
     /// The backend could not be created.
     #[error(transparent)]
     Backend(#[from] crate::backend::BackendError),
+    /// A sweep failed (spec, variant, output, merge).
+    #[error(transparent)]
+    Sweep(#[from] crate::sweep::SweepError),
 }
 
 impl CliError {
