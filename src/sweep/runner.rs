@@ -367,8 +367,10 @@ pub fn run_sweep(
                     return;
                 }
                 reported[k].set(true);
-                let line = variant_line(spec, &variants[k], outcome);
-                let result = writeln!(file, "{line}").and_then(|_| file.flush());
+                // One write call per line: a kill leaves at most one torn last line.
+                let mut line = variant_line(spec, &variants[k], outcome).to_string();
+                line.push('\n');
+                let result = file.write_all(line.as_bytes()).and_then(|_| file.flush());
                 if let Err(e) = result {
                     write_error = Some(SweepError::io(&stream, e));
                 }
