@@ -56,7 +56,9 @@ fn synthetic_spec(cost_ms: u64) -> Value {
             {"path": "spin", "logspace": [50, 200, 2]},
             {"path": "fail", "values": [false], "zip": "f"}
         ],
-        "reductions": {"window": {"revolutions": 10}, "keep": ["orbit", "film"], "points": 20}
+        "reductions": {"window": {"revolutions": 10}, "keep": ["orbit", "film"], "points": 20},
+        "plots": [{"name": "whirl", "x": "bearings[0].whirl_ratio", "series": "bearings[*].whirl",
+                   "y": "bearings[0].whirl.subsync_amplitude_m"}]
     })
 }
 
@@ -161,6 +163,18 @@ fn shards_merged_equal_the_unsharded_run() {
     let (ok, err) = run(&args);
     assert!(ok, "{err}");
     let merged_doc = read(&merged);
+    for r in [&full, &merged] {
+        let svg = std::fs::read_to_string(r.with_extension("whirl.svg")).unwrap();
+        assert!(
+            svg.contains("bearings[*].whirl = 0.00002"),
+            "{}: legend missing",
+            r.display()
+        );
+    }
+    assert!(
+        !dir.join("shard0.whirl.svg").exists(),
+        "a shard wrote a plot"
+    );
     assert_eq!(
         deterministic(merged_doc.clone()),
         deterministic(full_doc.clone())

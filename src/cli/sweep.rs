@@ -116,7 +116,7 @@ pub fn run_command(
                     "rotor sweeps need the rotor integrator, which this build does not have yet",
                 )),
             };
-            Ok(vec![format!(
+            let mut lines = vec![format!(
                 "{} of {} variants in this run ({} resumed, {} run, {} not ok); wrote {} (stream {})",
                 summary.in_shard,
                 summary.total,
@@ -125,7 +125,9 @@ pub fn run_command(
                 summary.not_ok,
                 summary.result.display(),
                 summary.stream.display()
-            )])
+            )];
+            lines.extend(plot_lines(&summary.plots));
+            Ok(lines)
         }
     }
 }
@@ -133,10 +135,22 @@ pub fn run_command(
 /// Merges shard results into `out`.
 pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, CliError> {
     let paths: Vec<PathBuf> = shards.iter().map(PathBuf::from).collect();
-    let doc = merge(Path::new(out), &paths)?;
-    Ok(vec![format!(
+    let (doc, plots) = merge(Path::new(out), &paths)?;
+    let mut lines = vec![format!(
         "merged {} shard results: {} variants; wrote {out}",
         shards.len(),
         doc["variants"].as_array().map_or(0, Vec::len)
-    )])
+    )];
+    lines.extend(plot_lines(&plots));
+    Ok(lines)
+}
+
+fn plot_lines(plots: &[Result<PathBuf, String>]) -> Vec<String> {
+    plots
+        .iter()
+        .map(|p| match p {
+            Ok(path) => format!("plot: {}", path.display()),
+            Err(e) => format!("no plot: {e}"),
+        })
+        .collect()
 }

@@ -186,6 +186,8 @@ pub struct RunSummary {
     pub result: PathBuf,
     /// The stream file.
     pub stream: PathBuf,
+    /// Plots written (complete results only), or why one was not.
+    pub plots: Vec<Result<PathBuf, String>>,
 }
 
 /// The stream path for result path `out`: extension replaced by `jsonl`.
@@ -437,6 +439,11 @@ pub fn run_sweep(
         run,
     );
     write_result(&opts.out, &doc)?;
+    let plots = if opts.shard.is_none() {
+        write_plots(spec, &doc, &opts.out)
+    } else {
+        Vec::new()
+    };
     Ok(RunSummary {
         total,
         in_shard: mine.len() as u64,
@@ -445,7 +452,22 @@ pub fn run_sweep(
         not_ok,
         result: opts.out.clone(),
         stream,
+        plots,
     })
+}
+
+/// Writes the spec's plots of a complete result next to it: `R.<name>.svg`.
+pub fn write_plots(spec: &SweepSpec, doc: &Value, out: &Path) -> Vec<Result<PathBuf, String>> {
+    spec.plots
+        .iter()
+        .map(|p| {
+            let path = out.with_extension(format!("{}.svg", p.name));
+            let svg =
+                super::plots::render(doc, p).map_err(|e| format!("plot `{}`: {e}", p.name))?;
+            std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok(path)
+        })
+        .collect()
 }
 
 /// One variant's stream line.
@@ -524,8 +546,12 @@ pub fn deterministic_part(doc: &Value) -> Value {
     d
 }
 
-/// Merges shard results into the result of the unsharded run and writes it to `out`.
-pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Value, SweepError> {
+/// Merges shard results into the result of the unsharded run and writes it to `out`,
+/// with the spec's plots.
+pub fn merge(
+    out: &Path,
+    shards: &[PathBuf],
+) -> Result<(Value, Vec<Result<PathBuf, String>>), SweepError> {
     if shards.is_empty() {
         return Err(SweepError::Output(
             "merge needs at least one shard result".into(),
@@ -622,7 +648,13 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Value, SweepError> {
     );
     o.insert("run".into(), json!({"merged_from": runs}));
     write_result(out, &doc)?;
-    Ok(doc)
+    let plots = match super::spec::parse_spec(&doc["spec"], None) {
+        Ok(spec) => write_plots(&spec, &doc, out),
+        Err(e) => vec![Err(format!(
+            "plots: the spec in the shard results does not parse: {e}"
+        ))],
+    };
+    Ok((doc, plots))
 }
 
 #[cfg(test)]

@@ -195,6 +195,8 @@ pub struct SweepSpec {
     pub mode: Mode,
     /// What each variant keeps.
     pub reductions: ReductionOptions,
+    /// SVG plots written with a complete result.
+    pub plots: Vec<super::plots::PlotSpec>,
     /// The spec with `base` inlined: echoed in outputs and hashed to recognise a resume.
     pub canonical: Value,
 }
@@ -208,6 +210,7 @@ const SPEC_FIELDS: &[&str] = &[
     "axes",
     "mode",
     "reductions",
+    "plots",
 ];
 
 /// Rejects any key of `obj` not in `allowed`, naming its path.
@@ -380,6 +383,7 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
     let mode = parse_mode(obj.get("mode"))?;
     check_mode(&mode, &axes)?;
     let reductions = ReductionOptions::parse(obj.get("reductions"), "reductions")?;
+    let plots = super::plots::parse_plots(obj.get("plots"), &axes)?;
     let mut canonical = obj.clone();
     canonical.insert("base".into(), base.clone());
     canonical.insert("kind".into(), Value::String(kind.name().into()));
@@ -390,6 +394,7 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         axes,
         mode,
         reductions,
+        plots,
         canonical: Value::Object(canonical),
     };
     let count = super::Expansion::new(&spec).count();
