@@ -5,6 +5,8 @@
 pub mod backend;
 pub mod bearing;
 pub mod cli;
+pub mod integrate;
 pub mod numerics;
 pub mod plot;
+pub mod rotor;
 pub mod sweep;

@@ -4,7 +4,8 @@ use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::cli::{
-    eval_json, merge_command, read_input, run_command, EvalOptions, SweepRunOptions,
+    eval_json, is_sweep_spec, merge_command, read_input, run_command, run_scene_file, EvalOptions,
+    RunOptions, SweepRunOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Parser, Subcommand};
@@ -20,6 +21,11 @@ struct Cli {
     command: Command,
 }
 
+/// Film accuracy of a single scene run when `--accuracy` is not given.
+const SCENE_ACCURACY: f64 = 1e-9;
+/// Film accuracy of a sweep when `--accuracy` is not given (speed over the last digits).
+const SWEEP_ACCURACY: f64 = 1e-6;
+
 #[derive(Subcommand)]
 enum Command {
     /// Film loads of bearing states: `{"bearing": {...}, "states": [...]}` -> `{"loads": [...]}`.
@@ -33,30 +39,33 @@ enum Command {
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
     },
-    /// Run a sweep spec (or a friction map): streams variants to OUT.jsonl, writes OUT.
+    /// Simulate a scene file (writes OUT/<file stem>/result.json and SVG figures 7-10), or
+    /// run a sweep spec (a file with `base` or `kind`; writes OUT/<spec stem>/result.json,
+    /// streaming variants to result.jsonl, resumable; see README "Sweeps").
     Run {
-        /// Sweep spec JSON (see README, "Sweeps").
-        spec: String,
-        /// Result file (default `<spec stem>.out.json`, with a shard `<stem>.shard-K-of-N.out.json`).
-        #[arg(long)]
-        out: Option<std::path::PathBuf>,
-        /// Run only shard K of N (variant i belongs to shard i mod N).
-        #[arg(long)]
-        shard: Option<Shard>,
-        /// Variants per lockstep batch, or `auto`.
-        #[arg(long, default_value = "auto")]
-        batch_size: BatchSize,
+        /// Scene file or sweep spec (JSON).
+        file: String,
+        /// Output root folder.
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
         /// Backend for the film loads: cpu, gpu or auto.
         #[arg(long, default_value = "cpu")]
         backend: BackendKind,
-        /// Relative accuracy of the film loads.
-        #[arg(long, default_value_t = 1e-6)]
-        accuracy: f64,
-        /// No progress bar.
+        /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12); default 1e-9
+        /// for a scene, 1e-6 for a sweep.
+        #[arg(long)]
+        accuracy: Option<f64>,
+        /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
+        #[arg(long)]
+        shard: Option<Shard>,
+        /// Sweeps: variants per lockstep batch, or `auto`.
+        #[arg(long, default_value = "auto")]
+        batch_size: BatchSize,
+        /// Sweeps: no progress bar.
         #[arg(long)]
         quiet: bool,
     },
-    /// Merge shard results into the result of the unsharded run.
+    /// Merge sweep shard results into the result of the unsharded run.
     Merge {
         /// Merged result file.
         out: String,
@@ -64,6 +73,12 @@ enum Command {
         #[arg(required = true)]
         shards: Vec<String>,
     },
+}
+
+fn print_lines(lines: Vec<String>) {
+    for l in lines {
+        eprintln!("{l}");
+    }
 }
 
 fn main() -> ExitCode {
@@ -82,33 +97,53 @@ fn main() -> ExitCode {
                 println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
             }),
         Command::Run {
-            spec,
+            file,
             out,
-            shard,
-            batch_size,
             backend,
             accuracy,
+            shard,
+            batch_size,
             quiet,
-        } => {
-            let opts = SweepRunOptions {
-                out,
-                shard,
-                batch: batch_size,
-                backend,
-                accuracy,
-                quiet,
-            };
-            run_command(&spec, &opts, &mut |n| eprintln!("{n}")).map(|lines| {
-                for l in lines {
-                    eprintln!("{l}");
+        } => read_input(&file).and_then(|text| {
+            if is_sweep_spec(&text) {
+                let opts = SweepRunOptions {
+                    out,
+                    shard,
+                    batch: batch_size,
+                    backend,
+                    accuracy: accuracy.unwrap_or(SWEEP_ACCURACY),
+                    quiet,
+                };
+                run_command(&file, &text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
+            } else {
+                if shard.is_some() {
+                    return Err(bearing_sweep::cli::CliError::input(
+                        "--shard",
+                        "only sweep specs are sharded (this file is a scene: wrap it as {\"base\": \"FILE\"})",
+                    ));
                 }
-            })
-        }
-        Command::Merge { out, shards } => merge_command(&out, &shards).map(|lines| {
-            for l in lines {
-                eprintln!("{l}");
+                let report = run_scene_file(
+                    &file,
+                    &text,
+                    &RunOptions {
+                        backend,
+                        accuracy: accuracy.unwrap_or(SCENE_ACCURACY),
+                        out,
+                    },
+                )?;
+                for n in report.notices {
+                    eprintln!("{n}");
+                }
+                for l in report.lines {
+                    println!("{l}");
+                }
+                for f in report.files {
+                    println!("wrote {}", f.display());
+                }
+                Ok(())
             }
         }),
+        Command::Merge { out, shards } => merge_command(&out, &shards).map(print_lines),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -28,6 +28,40 @@ pub fn line_plot_svg(
     x_scale: Scale,
     y_scale: Scale,
 ) -> Result<String, String> {
+    plot_svg(title, x_label, y_label, series, x_scale, y_scale, false)
+}
+
+/// A linear plot with equal data units per pixel on both axes (orbits, trajectories).
+pub fn line_plot_svg_equal_aspect(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+) -> Result<String, String> {
+    plot_svg(
+        title,
+        x_label,
+        y_label,
+        series,
+        Scale::Linear,
+        Scale::Linear,
+        true,
+    )
+}
+
+/// Approximate plotting-area size in pixels of the 800 x 560 canvas (margins, caption
+/// and label areas removed), for equal-aspect ranges.
+const PLOT_AREA_PX: (f64, f64) = (700.0, 440.0);
+
+fn plot_svg(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+    x_scale: Scale,
+    y_scale: Scale,
+    equal_aspect: bool,
+) -> Result<String, String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
@@ -57,7 +91,17 @@ pub fn line_plot_svg(
             }
         };
         let (x0, x1) = range(pts.iter().map(|p| p.0).collect(), x_scale);
-        let (y0, y1) = range(pts.iter().map(|p| p.1).collect(), y_scale);
+        let (mut y0, mut y1) = range(pts.iter().map(|p| p.1).collect(), y_scale);
+        let (mut x0, mut x1) = (x0, x1);
+        if equal_aspect {
+            // Widen the tighter axis so one data unit spans as many pixels on both.
+            let per_px = ((x1 - x0) / PLOT_AREA_PX.0).max((y1 - y0) / PLOT_AREA_PX.1);
+            let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+            x0 = cx - 0.5 * per_px * PLOT_AREA_PX.0;
+            x1 = cx + 0.5 * per_px * PLOT_AREA_PX.0;
+            y0 = cy - 0.5 * per_px * PLOT_AREA_PX.1;
+            y1 = cy + 0.5 * per_px * PLOT_AREA_PX.1;
+        }
         macro_rules! draw {
             ($chart:expr) => {{
                 let mut chart = $chart.map_err(|e| e.to_string())?;

@@ -87,12 +87,12 @@ fn spec_errors_stop_before_any_computation_and_name_the_path() {
     ];
     for (k, (spec, expected)) in cases.iter().enumerate() {
         let p = write(&dir, &format!("bad{k}.json"), spec);
-        let out = dir.join(format!("bad{k}.out.json"));
+        let root = dir.join(format!("out{k}"));
         let (ok, err) = run(&[
             "run",
             p.to_str().unwrap(),
             "--out",
-            out.to_str().unwrap(),
+            root.to_str().unwrap(),
             "--quiet",
         ]);
         assert!(!ok, "case {k}: accepted");
@@ -100,10 +100,7 @@ fn spec_errors_stop_before_any_computation_and_name_the_path() {
             err.contains(expected),
             "case {k}: stderr `{err}` lacks `{expected}`"
         );
-        assert!(
-            !out.exists() && !out.with_extension("jsonl").exists(),
-            "case {k}: wrote output"
-        );
+        assert!(!root.exists(), "case {k}: wrote output");
     }
 }
 
@@ -112,22 +109,16 @@ fn shards_merged_equal_the_unsharded_run() {
     let dir = scratch("shards");
     let spec = write(&dir, "s.json", &synthetic_spec(0));
     let s = spec.to_str().unwrap();
-    let full = dir.join("full.json");
-    let (ok, err) = run(&[
-        "run",
-        s,
-        "--out",
-        full.to_str().unwrap(),
-        "--quiet",
-        "--batch-size",
-        "5",
-    ]);
+    let root = dir.join("out");
+    let r = root.to_str().unwrap();
+    let full = root.join("s/result.json");
+    let (ok, err) = run(&["run", s, "--out", r, "--quiet", "--batch-size", "5"]);
     assert!(ok, "{err}");
     let full_doc = read(&full);
     assert_eq!(full_doc["variants"].as_array().unwrap().len(), 24);
     let mut shard_files = Vec::new();
     for k in 0..3 {
-        let out = dir.join(format!("shard{k}.json"));
+        let out = root.join(format!("s/shard-{k}-of-3/result.json"));
         // Different batch sizes per shard: results must not depend on batching.
         let bs = ["1", "auto", "7"][k];
         let (ok, err) = run(&[
@@ -136,7 +127,7 @@ fn shards_merged_equal_the_unsharded_run() {
             "--shard",
             &format!("{k}/3"),
             "--out",
-            out.to_str().unwrap(),
+            r,
             "--quiet",
             "--batch-size",
             bs,
@@ -156,7 +147,8 @@ fn shards_merged_equal_the_unsharded_run() {
         );
         shard_files.push(out.to_str().unwrap().to_string());
     }
-    let merged = dir.join("merged.json");
+    let merged = dir.join("merged/result.json");
+    std::fs::create_dir_all(merged.parent().unwrap()).unwrap();
     let mut args = vec!["merge", merged.to_str().unwrap()];
     // Any order.
     args.extend(shard_files.iter().rev().map(String::as_str));
@@ -164,7 +156,7 @@ fn shards_merged_equal_the_unsharded_run() {
     assert!(ok, "{err}");
     let merged_doc = read(&merged);
     for r in [&full, &merged] {
-        let svg = std::fs::read_to_string(r.with_extension("whirl.svg")).unwrap();
+        let svg = std::fs::read_to_string(r.parent().unwrap().join("whirl.svg")).unwrap();
         assert!(
             svg.contains("bearings[*].whirl = 0.00002"),
             "{}: legend missing",
@@ -172,7 +164,7 @@ fn shards_merged_equal_the_unsharded_run() {
         );
     }
     assert!(
-        !dir.join("shard0.whirl.svg").exists(),
+        !root.join("s/shard-0-of-3/whirl.svg").exists(),
         "a shard wrote a plot"
     );
     assert_eq!(
@@ -199,26 +191,22 @@ fn a_killed_run_resumes_without_losing_finished_variants() {
     let dir = scratch("resume");
     // Reference: uninterrupted.
     let fast = write(&dir, "fast.json", &synthetic_spec(0));
-    let reference = dir.join("reference.json");
-    let (ok, err) = run(&[
-        "run",
-        fast.to_str().unwrap(),
-        "--out",
-        reference.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let root = dir.join("out");
+    let r = root.to_str().unwrap();
+    let reference = root.join("fast/result.json");
+    let (ok, err) = run(&["run", fast.to_str().unwrap(), "--out", r, "--quiet"]);
     assert!(ok, "{err}");
     // The same sweep, slowed to 40 ms a variant, killed after some variants streamed.
     // `cost_ms` changes the spec (not the signals): compare the variants themselves.
     let slow = write(&dir, "slow.json", &synthetic_spec(40));
-    let out = dir.join("slow.out.json");
+    let out = root.join("slow/result.json");
     let stream = out.with_extension("jsonl");
     let mut child = bin()
         .args([
             "run",
             slow.to_str().unwrap(),
             "--out",
-            out.to_str().unwrap(),
+            r,
             "--batch-size",
             "4",
         ])
@@ -265,7 +253,7 @@ fn a_killed_run_resumes_without_losing_finished_variants() {
         "run",
         slow.to_str().unwrap(),
         "--out",
-        out.to_str().unwrap(),
+        r,
         "--quiet",
         "--batch-size",
         "4",
@@ -286,25 +274,15 @@ fn a_killed_run_resumes_without_losing_finished_variants() {
         .collect();
     assert_eq!(ids, (0..24).collect::<Vec<_>>());
     // A third run has nothing to do and writes the same result.
-    let (ok, err) = run(&[
-        "run",
-        slow.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let (ok, err) = run(&["run", slow.to_str().unwrap(), "--out", r, "--quiet"]);
     assert!(ok, "{err}");
     assert!(err.contains("24 resumed, 0 run"), "{err}");
     assert_eq!(deterministic(read(&out)), deterministic(resumed));
     // Another spec on the same output is refused.
-    let other = write(&dir, "other.json", &synthetic_spec(1));
-    let (ok, err) = run(&[
-        "run",
-        other.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let other_dir = dir.join("other");
+    std::fs::create_dir_all(&other_dir).unwrap();
+    let other = write(&other_dir, "slow.json", &synthetic_spec(1));
+    let (ok, err) = run(&["run", other.to_str().unwrap(), "--out", r, "--quiet"]);
     assert!(!ok && err.contains("different spec"), "{err}");
 }
 
@@ -316,12 +294,13 @@ fn failing_variants_get_a_status_and_the_batch_goes_on() {
     // A whirl that reaches the wall (at t = 0, where every term peaks): film breakdown.
     spec["axes"][0] = json!({"path": "bearings[*].whirl", "values": [0.0, 2.5e-4]});
     let p = write(&dir, "f.json", &spec);
-    let out = dir.join("f.out.json");
+    let root = dir.join("out");
+    let out = root.join("f/result.json");
     let (ok, err) = run(&[
         "run",
         p.to_str().unwrap(),
         "--out",
-        out.to_str().unwrap(),
+        root.to_str().unwrap(),
         "--quiet",
     ]);
     assert!(ok, "{err}");
@@ -347,12 +326,13 @@ fn failing_variants_get_a_status_and_the_batch_goes_on() {
 fn friction_map_runs_no_integrator_and_plots() {
     let dir = scratch("fmap");
     let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/friction-map.json");
-    let out = dir.join("fm.json");
+    let root = dir.join("out");
+    let out = root.join("friction-map/result.json");
     let (ok, err) = run(&[
         "run",
         spec.to_str().unwrap(),
         "--out",
-        out.to_str().unwrap(),
+        root.to_str().unwrap(),
     ]);
     assert!(ok, "{err}");
     assert!(err.contains("no integrator was run"), "{err}");
@@ -382,6 +362,6 @@ fn friction_map_runs_no_integrator_and_plots() {
             "load {w} N: f = {got}, expected {f} (rtol 1e-12)"
         );
     }
-    let svg = std::fs::read_to_string(out.with_extension("svg")).unwrap();
+    let svg = std::fs::read_to_string(root.join("friction-map/friction-map.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.matches("<polyline").count() >= 5);
 }

@@ -2,10 +2,12 @@
 //! errors that name the JSON path and the reason.
 
 mod eval;
+mod run;
 mod sweep;
 
 pub use eval::{eval_json, EvalOptions};
-pub use sweep::{merge_command, run_command, SweepRunOptions};
+pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]

@@ -11,6 +11,7 @@ pub mod friction_map;
 pub mod plots;
 pub mod progress;
 pub mod reduce;
+pub mod rotor_sim;
 pub mod runner;
 pub mod spec;
 pub mod synthetic;

@@ -456,12 +456,13 @@ pub fn run_sweep(
     })
 }
 
-/// Writes the spec's plots of a complete result next to it: `R.<name>.svg`.
+/// Writes the spec's plots of a complete result into its folder: `<name>.svg`.
 pub fn write_plots(spec: &SweepSpec, doc: &Value, out: &Path) -> Vec<Result<PathBuf, String>> {
     spec.plots
         .iter()
         .map(|p| {
-            let path = out.with_extension(format!("{}.svg", p.name));
+            let dir = out.parent().unwrap_or(Path::new("."));
+            let path = dir.join(format!("{}.svg", p.name));
             let svg =
                 super::plots::render(doc, p).map_err(|e| format!("plot `{}`: {e}", p.name))?;
             std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;

@@ -1,0 +1,193 @@
+//! `bearing-sweep run FILE`: simulate a scene file, write `OUT/<name>/result.json` and
+//! the paper's figures (Figs. 7-10) as SVG.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use super::CliError;
+use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::bearing::Accuracy;
+use crate::plot::{line_plot_svg, line_plot_svg_equal_aspect, Scale, Series};
+use crate::rotor::{load_scene, simulate_batch, ModelKind, SimResult};
+
+/// Options of `run` beyond the scene file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunOptions {
+    /// Backend for the film loads.
+    pub backend: BackendKind,
+    /// Relative accuracy of the film loads (a calibrated level, see `eval`).
+    pub accuracy: f64,
+    /// Output root; results go to `out/<file stem>/`.
+    pub out: PathBuf,
+}
+
+/// What `run` wrote, for the terminal.
+#[derive(Debug)]
+pub struct RunReport {
+    /// Output folder.
+    pub dir: PathBuf,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// One line per simulation (name, status, steps).
+    pub lines: Vec<String>,
+    /// Backend notices.
+    pub notices: Vec<String>,
+}
+
+fn write(path: &Path, text: &str) -> Result<(), CliError> {
+    std::fs::write(path, text).map_err(|source| CliError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Runs the scene file at `path` (its text `text`).
+pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunReport, CliError> {
+    let scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
+    let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
+        CliError::input(
+            "--accuracy",
+            format!("{} is not a positive number >= 1e-12", opts.accuracy),
+        )
+    })?;
+    let (backend, notice) = create_backend(opts.backend, accuracy)?;
+    let mut notices: Vec<String> = notice.into_iter().collect();
+    let mut evaluator = LoadEvaluator::new(backend);
+    let mut lines = Vec::new();
+    let results = simulate_batch(&scenes, &mut evaluator, &mut |_, r: &SimResult| {
+        lines.push(format!(
+            "{}: {} ({} model, {}; {} steps, {} rejected, {} film-load evaluations, {:.3} s)",
+            r.name,
+            r.status,
+            match r.model {
+                ModelKind::Bearing => "bearing",
+                ModelKind::Ideal => "ideal-joint",
+            },
+            r.method.name(),
+            r.stats.steps,
+            r.stats.rejected,
+            r.stats.load_evaluations,
+            r.stats.wall_time_s
+        ));
+    });
+    notices.extend(evaluator.take_notices());
+    let stem = Path::new(path)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .filter(|s| !s.is_empty() && *s != "-")
+        .unwrap_or("run");
+    let dir = opts.out.join(stem);
+    std::fs::create_dir_all(&dir).map_err(|source| CliError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let doc = json!({
+        "name": stem,
+        "backend": evaluator.info(),
+        "film_accuracy": accuracy.rtol(),
+        "clearance_convention": scenes.iter().flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name())).collect::<Vec<_>>(),
+        "units": "SI (s, m, m/s, rad/s, N, N·m, J)",
+        "results": results,
+    });
+    let mut files = Vec::new();
+    let result_path = dir.join("result.json");
+    write(
+        &result_path,
+        &serde_json::to_string(&doc).map_err(|e| CliError::input("$", e.to_string()))?,
+    )?;
+    files.push(result_path);
+    for (name, svg) in figures(&results) {
+        let p = dir.join(name);
+        write(&p, &svg)?;
+        files.push(p);
+    }
+    Ok(RunReport {
+        dir,
+        files,
+        lines,
+        notices,
+    })
+}
+
+/// The paper's Figs. 7-10 for any set of results: G's trajectory, x_G(t), y_G(t) (every
+/// result) and bearing 1's journal-centre orbit at its first end face (bearing model).
+pub fn figures(results: &[SimResult]) -> Vec<(String, String)> {
+    let label = |r: &SimResult| match r.model {
+        ModelKind::Bearing => format!("{} (journal bearings)", r.name),
+        ModelKind::Ideal => format!("{} (ideal revolute joints)", r.name),
+    };
+    let labels: Vec<String> = results.iter().map(label).collect();
+    let series =
+        |f: &dyn Fn(&SimResult) -> Vec<(f64, f64)>, only_bearing: bool| -> Vec<Series<'_>> {
+            results
+                .iter()
+                .zip(&labels)
+                .filter(|(r, _)| !only_bearing || r.model == ModelKind::Bearing)
+                .map(|(r, l)| Series {
+                    label: l.as_str(),
+                    points: f(r),
+                })
+                .filter(|s| !s.points.is_empty())
+                .collect()
+        };
+    let zip = |a: &[f64], b: &[f64]| a.iter().copied().zip(b.iter().copied()).collect::<Vec<_>>();
+    let mut out = Vec::new();
+    let plots: [(&str, Result<String, String>); 4] = [
+        (
+            "fig7-g-trajectory.svg",
+            line_plot_svg_equal_aspect(
+                "Fig. 7: trajectory of the centre of mass G",
+                "x_G [m]",
+                "y_G [m]",
+                &series(&|r| zip(&r.samples.x_g, &r.samples.y_g), false),
+            ),
+        ),
+        (
+            "fig8-x-g.svg",
+            line_plot_svg(
+                "Fig. 8: x_G(t)",
+                "t [s]",
+                "x_G [m]",
+                &series(&|r| zip(&r.samples.t, &r.samples.x_g), false),
+                Scale::Linear,
+                Scale::Linear,
+            ),
+        ),
+        (
+            "fig9-y-g.svg",
+            line_plot_svg(
+                "Fig. 9: y_G(t)",
+                "t [s]",
+                "y_G [m]",
+                &series(&|r| zip(&r.samples.t, &r.samples.y_g), false),
+                Scale::Linear,
+                Scale::Linear,
+            ),
+        ),
+        (
+            "fig10-bearing1-orbit.svg",
+            line_plot_svg_equal_aspect(
+                "Fig. 10: bearing 1, journal centre at its first end face",
+                "x_i [m]",
+                "y_i [m]",
+                &series(
+                    &|r| {
+                        r.samples
+                            .bearings
+                            .first()
+                            .map(|b| zip(&b.xi, &b.yi))
+                            .unwrap_or_default()
+                    },
+                    true,
+                ),
+            ),
+        ),
+    ];
+    for (name, svg) in plots {
+        if let Ok(svg) = svg {
+            out.push((name.to_string(), svg));
+        }
+    }
+    out
+}

@@ -1,0 +1,243 @@
+//! Bookkeeping shared by the methods: per-variant tracks, packed call buffers, error
+//! norms, uniform sampling and ending variants.
+
+use std::time::Instant;
+
+use super::system::{BatchSystem, Settings, Stats, Status};
+
+/// Relative step-size floor: a step below `H_FLOOR_REL * max(t_end, |t|)` cannot move `t`
+/// meaningfully (about 4500 ulps of `t`), so the variant ends there.
+const H_FLOOR_REL: f64 = 1e-12;
+
+/// Samples within this fraction of a sample interval past a step's end still belong to
+/// that step (round-off in `k * dt` against an accumulated `t`).
+const SAMPLE_SLACK: f64 = 1e-9;
+
+/// Smallest admissible step at time `t` of a run to `t_end`.
+pub(crate) fn h_floor(t: f64, t_end: f64) -> f64 {
+    H_FLOOR_REL * t_end.abs().max(t.abs())
+}
+
+/// Time left is negligible: the variant has reached `t_end`.
+pub(crate) fn reached(t: f64, t_end: f64) -> bool {
+    t_end - t <= 4.0 * f64::EPSILON * t_end.abs().max(1.0)
+}
+
+/// One variant's progress.
+pub(crate) struct Track<F> {
+    /// Current time.
+    pub t: f64,
+    /// Next step size to try.
+    pub h: f64,
+    /// Status; `Running` while active.
+    pub status: Status<F>,
+    /// Counters.
+    pub stats: Stats,
+    /// Index of the next sample to emit.
+    pub next_sample: usize,
+    /// Number of samples, `floor(t_end / dt) + 1`.
+    pub n_samples: usize,
+    /// Last fault seen by a rejected attempt (reported if the step size collapses).
+    pub fault: Option<F>,
+    /// The last step attempt was rejected.
+    pub last_rejected: bool,
+}
+
+impl<F: Clone> Track<F> {
+    pub(crate) fn new(s: &Settings) -> Self {
+        let n = if s.sample_interval > 0.0 && s.t_end >= 0.0 {
+            (s.t_end / s.sample_interval * (1.0 + SAMPLE_SLACK)).floor() as usize + 1
+        } else {
+            1
+        };
+        Track {
+            t: 0.0,
+            h: 0.0,
+            status: Status::Running,
+            stats: Stats::default(),
+            next_sample: 0,
+            n_samples: n,
+            fault: None,
+            last_rejected: false,
+        }
+    }
+
+    /// Settings that cannot be integrated end the variant at once.
+    pub(crate) fn check_settings(&mut self, s: &Settings) -> bool {
+        let ok = s.t_end.is_finite()
+            && s.t_end >= 0.0
+            && s.sample_interval.is_finite()
+            && s.sample_interval > 0.0
+            && s.rtol.is_finite()
+            && s.rtol > 0.0
+            && s.atol.is_finite()
+            && s.atol > 0.0
+            && s.fixed_step.is_none_or(|h| h.is_finite() && h > 0.0);
+        if !ok {
+            self.status = Status::StepSizeTooSmall {
+                time: 0.0,
+                step: 0.0,
+            };
+        }
+        ok
+    }
+
+    /// Emits the samples in `(t0, t0 + h]` (and at `t0` for the first) into `rec`
+    /// through `interp(theta, out)`, `theta` in `[0, 1]`.
+    pub(crate) fn emit(
+        &mut self,
+        id: usize,
+        s: &Settings,
+        t0: f64,
+        h: f64,
+        dim: usize,
+        rec: &mut Packed<F>,
+        mut interp: impl FnMut(f64, &mut [f64]),
+    ) {
+        let t1 = t0 + h;
+        while self.next_sample < self.n_samples {
+            let tk = self.next_sample as f64 * s.sample_interval;
+            if tk > t1 + SAMPLE_SLACK * s.sample_interval {
+                break;
+            }
+            let theta = if h > 0.0 {
+                ((tk - t0) / h).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let out = rec.push(id, tk, dim);
+            interp(theta, out);
+            self.next_sample += 1;
+        }
+    }
+}
+
+/// Packed states of one call (or one round's samples).
+pub(crate) struct Packed<F> {
+    pub ids: Vec<usize>,
+    pub ts: Vec<f64>,
+    pub ys: Vec<f64>,
+    pub dys: Vec<f64>,
+    pub faults: Vec<Option<F>>,
+}
+
+impl<F: Clone> Packed<F> {
+    pub(crate) fn new() -> Self {
+        Packed {
+            ids: Vec::new(),
+            ts: Vec::new(),
+            ys: Vec::new(),
+            dys: Vec::new(),
+            faults: Vec::new(),
+        }
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.ids.clear();
+        self.ts.clear();
+        self.ys.clear();
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Appends an entry and returns its state slot (zeroed) to fill.
+    pub(crate) fn push(&mut self, id: usize, t: f64, dim: usize) -> &mut [f64] {
+        self.ids.push(id);
+        self.ts.push(t);
+        let n = self.ys.len();
+        self.ys.resize(n + dim, 0.0);
+        &mut self.ys[n..]
+    }
+
+    /// Evaluates all entries in one system call; `stats[id]` counts them.
+    pub(crate) fn eval<S: BatchSystem<Fault = F>>(&mut self, sys: &mut S, tracks: &mut [Track<F>]) {
+        let dim = sys.dim();
+        self.dys.clear();
+        self.dys.resize(self.ys.len(), 0.0);
+        self.faults.clear();
+        self.faults.resize(self.ids.len(), None);
+        if self.ids.is_empty() {
+            return;
+        }
+        for &id in &self.ids {
+            tracks[id].stats.rhs_evaluations += 1;
+        }
+        sys.eval(
+            &self.ids,
+            &self.ts,
+            &self.ys,
+            &mut self.dys,
+            &mut self.faults,
+        );
+        // A system that returns non-finite derivatives without a fault still never
+        // propagates NaN silently: the error norm catches it.
+        debug_assert_eq!(self.dys.len(), self.ids.len() * dim);
+    }
+
+    /// Hands the recorded samples to the system.
+    pub(crate) fn flush_records<S: BatchSystem<Fault = F>>(&mut self, sys: &mut S) {
+        if !self.ids.is_empty() {
+            sys.record(&self.ids, &self.ts, &self.ys);
+        }
+        self.clear();
+    }
+}
+
+/// Weighted RMS norm of `err` with weights `atol * scale + rtol * max(|a|, |b|)`.
+pub(crate) fn err_norm(err: &[f64], a: &[f64], b: &[f64], scale: &[f64], s: &Settings) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..err.len() {
+        let w = s.atol * scale[i] + s.rtol * a[i].abs().max(b[i].abs());
+        let r = err[i] / w;
+        sum += r * r;
+    }
+    (sum / err.len().max(1) as f64).sqrt()
+}
+
+/// Initial step heuristic (Hairer-Norsett-Wanner, first half): `0.01 |y| / |f|` in the
+/// weighted norm, capped by the time span; `1e-6 * t_end` when either norm is tiny.
+pub(crate) fn initial_step(y: &[f64], f: &[f64], scale: &[f64], s: &Settings) -> f64 {
+    if let Some(h) = s.initial_step {
+        return h.min(s.t_end);
+    }
+    let mut d0 = 0.0;
+    let mut d1 = 0.0;
+    for i in 0..y.len() {
+        let w = s.atol * scale[i] + s.rtol * y[i].abs();
+        d0 += (y[i] / w).powi(2);
+        d1 += (f[i] / w).powi(2);
+    }
+    let (d0, d1) = (d0.sqrt(), d1.sqrt());
+    let h = if d0 < 1e-5 || d1 < 1e-5 || !(d0 / d1).is_finite() {
+        1e-6 * s.t_end
+    } else {
+        0.01 * d0 / d1
+    };
+    h.min(s.t_end).min(s.max_step.unwrap_or(f64::INFINITY))
+}
+
+/// Ends variant `id` with `status` (wall time stamped); the caller calls
+/// [`BatchSystem::finished`] after flushing the round's samples.
+pub(crate) fn end<F>(track: &mut Track<F>, status: Status<F>, start: Instant) {
+    track.status = status;
+    track.stats.wall_time_s = start.elapsed().as_secs_f64();
+}
+
+/// Calls `finished` for the variants in `ended` and clears the list.
+pub(crate) fn notify<S: BatchSystem>(
+    sys: &mut S,
+    tracks: &[Track<S::Fault>],
+    ended: &mut Vec<usize>,
+) {
+    for &id in ended.iter() {
+        sys.finished(id, &tracks[id].status, &tracks[id].stats);
+    }
+    ended.clear();
+}
+
+/// All components finite.
+pub(crate) fn finite(y: &[f64]) -> bool {
+    y.iter().all(|v| v.is_finite())
+}

@@ -1,0 +1,299 @@
+//! Dormand-Prince 5(4) in lockstep: six batched stage calls per round (first-same-as-last),
+//! PI step-size control, the 4th-order continuous extension for samples.
+
+use std::time::Instant;
+
+use super::common::{end, err_norm, finite, h_floor, initial_step, notify, reached, Packed, Track};
+use super::system::{BatchSystem, Settings, Stats, Status};
+
+/// Nodes `c_s`.
+const C: [f64; 7] = [0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0, 1.0];
+
+/// Runge-Kutta matrix rows `a_{s,0..s}` (row 6 is the 5th-order solution `b`).
+const A: [&[f64]; 7] = [
+    &[],
+    &[0.2],
+    &[3.0 / 40.0, 9.0 / 40.0],
+    &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
+    &[
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+    ],
+    &[
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+    ],
+    &[
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+
+/// Error weights `b - b*` (5th minus embedded 4th order).
+const E: [f64; 7] = [
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+
+/// Dense-output weights of the continuous extension (Hairer, Norsett, Wanner, II.6).
+const D: [f64; 7] = [
+    -12715105075.0 / 11282082432.0,
+    0.0,
+    87487479700.0 / 32700410799.0,
+    -10690763975.0 / 1880347072.0,
+    701980252875.0 / 199316789632.0,
+    -1453857185.0 / 822651844.0,
+    69997945.0 / 29380423.0,
+];
+
+/// PI controller: exponents `alpha = 1/5 - 0.75 beta`, `beta = 0.04`, safety 0.9.
+const ALPHA: f64 = 0.2 - 0.75 * BETA;
+const BETA: f64 = 0.04;
+const SAFETY: f64 = 0.9;
+/// Step-size change bounds per step.
+const FAC_MIN: f64 = 0.2;
+const FAC_MAX: f64 = 10.0;
+/// Step shrink after a right-hand-side fault in a stage.
+const FAULT_SHRINK: f64 = 0.25;
+
+pub(crate) fn run<S: BatchSystem>(
+    sys: &mut S,
+    y0: &[f64],
+    settings: &[Settings],
+    start: Instant,
+) -> Vec<(Status<S::Fault>, Stats)> {
+    let n = settings.len();
+    let d = sys.dim();
+    let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
+    let mut y = y0.to_vec();
+    let mut ynew = vec![0.0; n * d];
+    let mut k: [Vec<f64>; 7] = std::array::from_fn(|_| vec![0.0; n * d]);
+    let mut scale = vec![1.0; n * d];
+    for id in 0..n {
+        sys.scales(id, &mut scale[id * d..(id + 1) * d]);
+    }
+    let mut err_old: Vec<f64> = vec![1e-4; n];
+    let mut hs = vec![0.0; n];
+    let mut stage_ok = vec![true; n];
+    let mut errv = vec![0.0; d];
+    let mut buf = Packed::new();
+    let mut rec = Packed::new();
+    let mut ended = Vec::new();
+    let mut active = Vec::new();
+
+    for id in 0..n {
+        if tracks[id].check_settings(&settings[id]) && finite(&y[id * d..(id + 1) * d]) {
+            active.push(id);
+        } else {
+            if matches!(tracks[id].status, Status::Running) {
+                end(&mut tracks[id], Status::NonFinite { time: 0.0 }, start);
+            }
+            ended.push(id);
+        }
+    }
+    // f(0, y0) for every variant in one call.
+    buf.clear();
+    for &id in &active {
+        buf.push(id, 0.0, d)
+            .copy_from_slice(&y[id * d..(id + 1) * d]);
+    }
+    buf.eval(sys, &mut tracks);
+    for e in 0..buf.len() {
+        let id = buf.ids[e];
+        let r = id * d..(id + 1) * d;
+        let tr = &mut tracks[id];
+        if let Some(f) = &buf.faults[e] {
+            end(
+                tr,
+                Status::Fault {
+                    time: 0.0,
+                    fault: f.clone(),
+                },
+                start,
+            );
+            ended.push(id);
+            continue;
+        }
+        k[0][r.clone()].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
+        let s = &settings[id];
+        tr.h = s
+            .fixed_step
+            .unwrap_or_else(|| initial_step(&y[r.clone()], &k[0][r.clone()], &scale[r.clone()], s));
+        let y0v = &y[r];
+        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
+            out.copy_from_slice(y0v)
+        });
+        if reached(0.0, s.t_end) {
+            end(tr, Status::Finished, start);
+            ended.push(id);
+        }
+    }
+    active.retain(|&id| matches!(tracks[id].status, Status::Running));
+    rec.flush_records(sys);
+    notify(sys, &tracks, &mut ended);
+
+    while !active.is_empty() {
+        for &id in &active {
+            let tr = &tracks[id];
+            let s = &settings[id];
+            let left = s.t_end - tr.t;
+            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
+            // Land on t_end rather than leave a sliver.
+            if h >= left || left - h < 0.01 * h {
+                h = left;
+            }
+            hs[id] = h;
+            stage_ok[id] = true;
+        }
+        for st in 1..7 {
+            buf.clear();
+            for &id in &active {
+                if !stage_ok[id] {
+                    continue;
+                }
+                let h = hs[id];
+                let slot = buf.push(id, tracks[id].t + C[st] * h, d);
+                let base = id * d;
+                for (i, out) in slot.iter_mut().enumerate() {
+                    let mut acc = 0.0;
+                    for (j, a) in A[st].iter().enumerate() {
+                        acc += a * k[j][base + i];
+                    }
+                    *out = y[base + i] + h * acc;
+                }
+                if st == 6 {
+                    ynew[base..base + d].copy_from_slice(slot);
+                }
+            }
+            buf.eval(sys, &mut tracks);
+            for e in 0..buf.len() {
+                let id = buf.ids[e];
+                match &buf.faults[e] {
+                    Some(f) => {
+                        stage_ok[id] = false;
+                        tracks[id].fault = Some(f.clone());
+                    }
+                    None => {
+                        k[st][id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d])
+                    }
+                }
+            }
+        }
+        for &id in &active {
+            let s = &settings[id];
+            let tr = &mut tracks[id];
+            let h = hs[id];
+            let t0 = tr.t;
+            let r = id * d..(id + 1) * d;
+            let fixed = s.fixed_step.is_some();
+            if !stage_ok[id] {
+                tr.stats.rejected += 1;
+                tr.last_rejected = true;
+                tr.h = h * FAULT_SHRINK;
+                if fixed || tr.h < h_floor(t0, s.t_end) {
+                    let fault = tr.fault.clone().expect("a stage fault was recorded");
+                    end(tr, Status::Fault { time: t0, fault }, start);
+                    ended.push(id);
+                }
+                continue;
+            }
+            for (i, ev) in errv.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (j, e) in E.iter().enumerate() {
+                    acc += e * k[j][id * d + i];
+                }
+                *ev = h * acc;
+            }
+            let norm = if fixed {
+                0.0
+            } else {
+                err_norm(&errv, &y[r.clone()], &ynew[r.clone()], &scale[r.clone()], s)
+            };
+            if !norm.is_finite() || !finite(&ynew[r.clone()]) {
+                tr.stats.rejected += 1;
+                tr.last_rejected = true;
+                tr.h = h * FAC_MIN;
+                if fixed || tr.h < h_floor(t0, s.t_end) {
+                    end(tr, Status::NonFinite { time: t0 }, start);
+                    ended.push(id);
+                }
+                continue;
+            }
+            if norm <= 1.0 {
+                {
+                    let (ya, yb) = (&y[r.clone()], &ynew[r.clone()]);
+                    let base = id * d;
+                    let k = &k;
+                    tr.emit(id, s, t0, h, d, &mut rec, |th, out| {
+                        for (i, o) in out.iter_mut().enumerate() {
+                            let rc2 = yb[i] - ya[i];
+                            let rc3 = h * k[0][base + i] - rc2;
+                            let rc4 = rc2 - h * k[6][base + i] - rc3;
+                            let mut acc = 0.0;
+                            for (j, dj) in D.iter().enumerate() {
+                                acc += dj * k[j][base + i];
+                            }
+                            let rc5 = h * acc;
+                            *o = ya[i]
+                                + th * (rc2 + (1.0 - th) * (rc3 + th * (rc4 + (1.0 - th) * rc5)));
+                        }
+                    });
+                }
+                tr.t = if h == s.t_end - t0 { s.t_end } else { t0 + h };
+                y[r.clone()].copy_from_slice(&ynew[r.clone()]);
+                sys.project(id, &mut y[r.clone()]);
+                let (k0, rest) = k.split_at_mut(1);
+                k0[0][r.clone()].copy_from_slice(&rest[5][r.clone()]);
+                tr.stats.steps += 1;
+                let fac_max = if tr.last_rejected { 1.0 } else { FAC_MAX };
+                let fac = if norm == 0.0 {
+                    FAC_MAX
+                } else {
+                    SAFETY * norm.powf(-ALPHA) * err_old[id].powf(BETA)
+                };
+                tr.h = if fixed {
+                    s.fixed_step.unwrap_or(h)
+                } else {
+                    h * fac.clamp(FAC_MIN, fac_max)
+                };
+                err_old[id] = norm.max(1e-4);
+                tr.last_rejected = false;
+                if reached(tr.t, s.t_end) {
+                    end(tr, Status::Finished, start);
+                    ended.push(id);
+                } else if tr.stats.steps >= s.max_steps {
+                    let (time, steps) = (tr.t, tr.stats.steps);
+                    end(tr, Status::MaxSteps { time, steps }, start);
+                    ended.push(id);
+                }
+            } else {
+                tr.stats.rejected += 1;
+                tr.last_rejected = true;
+                tr.h = h * (SAFETY * norm.powf(-0.2)).max(FAC_MIN);
+                if tr.h < h_floor(t0, s.t_end) {
+                    let step = tr.h;
+                    end(tr, Status::StepSizeTooSmall { time: t0, step }, start);
+                    ended.push(id);
+                }
+            }
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        rec.flush_records(sys);
+        notify(sys, &tracks, &mut ended);
+    }
+    tracks.into_iter().map(|t| (t.status, t.stats)).collect()
+}

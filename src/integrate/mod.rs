@@ -1,0 +1,18 @@
+//! Lockstep batched ODE integrators: N variants advance together, each with its own time,
+//! step size, error control and status, and every stage of all active variants goes to
+//! the right-hand side in ONE call ([`BatchSystem::eval`]), so a film-load backend sees
+//! one large batch per stage. Methods: adaptive Dormand-Prince 5(4) with PI step control
+//! and 4th-order dense output ([`Method::Dopri5`]), the L-stable implicit Radau IIA of
+//! order 5 with simplified Newton and batched finite-difference Jacobians
+//! ([`Method::Radau5`]), and fixed-step classical Runge-Kutta ([`Method::Rk4`]).
+//! Output goes to [`BatchSystem::record`] at uniform sample times from dense output,
+//! independent of the steps taken. Entry point: [`run_batch`].
+
+mod common;
+mod dopri;
+mod linalg;
+mod radau;
+mod rk4;
+mod system;
+
+pub use system::{run_batch, BatchSystem, Method, Settings, Stats, Status};

@@ -1,0 +1,535 @@
+//! Radau IIA of order 5 (3 stages, L-stable) in lockstep, after Hairer and Wanner's
+//! RADAU5: simplified Newton on the real `3n x 3n` system `I - h A (x) J`, the embedded
+//! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians by forward differences
+//! where each column is ONE batched call over all variants that need a Jacobian, Newton
+//! stage calls batched over all variants (3 entries each), cubic collocation dense output.
+//! Jacobians are reused while Newton converges fast (contraction <= 1e-3).
+
+use std::time::Instant;
+
+use super::common::{end, err_norm, finite, h_floor, initial_step, notify, reached, Packed, Track};
+use super::linalg::Lu;
+use super::system::{BatchSystem, Settings, Stats, Status};
+
+const SQ6: f64 = 2.449_489_742_783_178;
+/// Nodes.
+const C: [f64; 3] = [(4.0 - SQ6) / 10.0, (4.0 + SQ6) / 10.0, 1.0];
+/// Runge-Kutta matrix of Radau IIA (s = 3).
+const A: [[f64; 3]; 3] = [
+    [
+        (88.0 - 7.0 * SQ6) / 360.0,
+        (296.0 - 169.0 * SQ6) / 1800.0,
+        (-2.0 + 3.0 * SQ6) / 225.0,
+    ],
+    [
+        (296.0 + 169.0 * SQ6) / 1800.0,
+        (88.0 + 7.0 * SQ6) / 360.0,
+        (-2.0 - 3.0 * SQ6) / 225.0,
+    ],
+    [(16.0 - SQ6) / 36.0, (16.0 + SQ6) / 36.0, 1.0 / 9.0],
+];
+/// Weights of `Z` in the error estimate (Hairer-Wanner IV.8, `dd` of RADAU5).
+const EZ: [f64; 3] = [
+    -(13.0 + 7.0 * SQ6) / 3.0,
+    (-13.0 + 7.0 * SQ6) / 3.0,
+    -1.0 / 3.0,
+];
+/// Newton iterations allowed per step.
+const MAX_NEWTON: usize = 7;
+/// Newton contraction above which the Jacobian is recomputed after the step.
+const THETA_JAC: f64 = 1e-3;
+/// Keep the step (and the LU) when the proposed growth factor is within [1, 1.2].
+const KEEP_H_MAX: f64 = 1.2;
+const FAC_MIN: f64 = 0.2;
+const FAC_MAX: f64 = 8.0;
+/// Step shrink after a right-hand-side fault or a Newton failure with a fresh Jacobian.
+const FAULT_SHRINK: f64 = 0.25;
+const NEWTON_SHRINK: f64 = 0.5;
+
+/// The real eigenvalue `mu` of `A^-1` (= 3 + 3^(2/3) - 3^(1/3)).
+fn mu_real() -> f64 {
+    3.0 + 3f64.powf(2.0 / 3.0) - 3f64.powf(1.0 / 3.0)
+}
+
+/// Inverse of `V[i][j] = c_i^(j+1)`: maps stage values `z_i` to the coefficients of the
+/// collocation polynomial `z(theta) = a1 theta + a2 theta^2 + a3 theta^3`.
+fn collocation_inverse() -> [[f64; 3]; 3] {
+    let mut lu = Lu::new(3);
+    for i in 0..3 {
+        for j in 0..3 {
+            lu.matrix_mut()[i * 3 + j] = C[i].powi(j as i32 + 1);
+        }
+    }
+    lu.factor();
+    let mut inv = [[0.0; 3]; 3];
+    for j in 0..3 {
+        let mut e = [0.0; 3];
+        e[j] = 1.0;
+        lu.solve(&mut e);
+        for i in 0..3 {
+            inv[i][j] = e[i];
+        }
+    }
+    inv
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Newton {
+    Iterating,
+    Converged,
+    Failed,
+    Fault,
+}
+
+struct Var {
+    need_f0: bool,
+    need_jac: bool,
+    jac_current: bool,
+    need_lu: bool,
+    h_lu: f64,
+    eta: f64,
+    have_dense: bool,
+    h_old: f64,
+    newton: Newton,
+    iters: usize,
+    norm_old: f64,
+    theta: f64,
+}
+
+pub(crate) fn run<S: BatchSystem>(
+    sys: &mut S,
+    y0: &[f64],
+    settings: &[Settings],
+    start: Instant,
+) -> Vec<(Status<S::Fault>, Stats)> {
+    let n = settings.len();
+    let d = sys.dim();
+    let jd = sys.jacobian_dim().min(d);
+    let d3 = 3 * d;
+    let mu = mu_real();
+    let vinv = collocation_inverse();
+    let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
+    let mut y = y0.to_vec();
+    let mut f0 = vec![0.0; n * d];
+    let mut jac = vec![0.0; n * d * d];
+    let mut z = vec![0.0; n * d3];
+    let mut dense = vec![0.0; n * d3];
+    let mut scale = vec![1.0; n * d];
+    for id in 0..n {
+        sys.scales(id, &mut scale[id * d..(id + 1) * d]);
+    }
+    let mut lu_m: Vec<Lu> = (0..n).map(|_| Lu::new(d3)).collect();
+    let mut lu_e: Vec<Lu> = (0..n).map(|_| Lu::new(d)).collect();
+    let mut vars: Vec<Var> = (0..n)
+        .map(|_| Var {
+            need_f0: true,
+            need_jac: true,
+            jac_current: false,
+            need_lu: true,
+            h_lu: 0.0,
+            eta: 1.0,
+            have_dense: false,
+            h_old: 0.0,
+            newton: Newton::Iterating,
+            iters: 0,
+            norm_old: 0.0,
+            theta: 0.0,
+        })
+        .collect();
+    let mut hs = vec![0.0; n];
+    let mut dz = vec![0.0; d3];
+    let mut errv = vec![0.0; d];
+    let mut ynew = vec![0.0; d];
+    let mut buf = Packed::new();
+    let mut rec = Packed::new();
+    let mut ended = Vec::new();
+    let mut active = Vec::new();
+    let mut work: Vec<usize> = Vec::new();
+
+    for id in 0..n {
+        let tr = &mut tracks[id];
+        let s = &settings[id];
+        if !tr.check_settings(s) || !finite(&y[id * d..(id + 1) * d]) {
+            if matches!(tr.status, Status::Running) {
+                end(tr, Status::NonFinite { time: 0.0 }, start);
+            }
+            ended.push(id);
+            continue;
+        }
+        let y0v = &y[id * d..(id + 1) * d];
+        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
+            out.copy_from_slice(y0v)
+        });
+        if reached(0.0, s.t_end) {
+            end(tr, Status::Finished, start);
+            ended.push(id);
+        } else {
+            active.push(id);
+        }
+    }
+    rec.flush_records(sys);
+    notify(sys, &tracks, &mut ended);
+    let mut first = true;
+
+    while !active.is_empty() {
+        // 1. f(t, y) where the state is new.
+        buf.clear();
+        for &id in &active {
+            if vars[id].need_f0 {
+                buf.push(id, tracks[id].t, d)
+                    .copy_from_slice(&y[id * d..(id + 1) * d]);
+            }
+        }
+        buf.eval(sys, &mut tracks);
+        for e in 0..buf.len() {
+            let id = buf.ids[e];
+            vars[id].need_f0 = false;
+            if let Some(f) = &buf.faults[e] {
+                let time = tracks[id].t;
+                end(
+                    &mut tracks[id],
+                    Status::Fault {
+                        time,
+                        fault: f.clone(),
+                    },
+                    start,
+                );
+                ended.push(id);
+            } else {
+                f0[id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
+            }
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        if first {
+            for &id in &active {
+                let s = &settings[id];
+                let r = id * d..(id + 1) * d;
+                tracks[id].h = s
+                    .fixed_step
+                    .unwrap_or_else(|| initial_step(&y[r.clone()], &f0[r.clone()], &scale[r], s));
+            }
+            first = false;
+        }
+        // 2. Jacobians: one batched call per column.
+        work.clear();
+        work.extend(active.iter().copied().filter(|&id| vars[id].need_jac));
+        for col in 0..jd {
+            buf.clear();
+            for &id in &work {
+                let slot = buf.push(id, tracks[id].t, d);
+                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                let del = f64::EPSILON.sqrt() * slot[col].abs().max(scale[id * d + col]);
+                slot[col] += del;
+            }
+            buf.eval(sys, &mut tracks);
+            for e in 0..buf.len() {
+                let id = buf.ids[e];
+                if let Some(f) = &buf.faults[e] {
+                    if matches!(tracks[id].status, Status::Running) {
+                        let time = tracks[id].t;
+                        end(
+                            &mut tracks[id],
+                            Status::Fault {
+                                time,
+                                fault: f.clone(),
+                            },
+                            start,
+                        );
+                        ended.push(id);
+                    }
+                    continue;
+                }
+                let del = buf.ys[e * d + col] - y[id * d + col];
+                for p in 0..d {
+                    jac[id * d * d + p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                }
+            }
+        }
+        for &id in &work {
+            let v = &mut vars[id];
+            v.need_jac = false;
+            v.jac_current = true;
+            v.need_lu = true;
+            tracks[id].stats.jacobians += 1;
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        // 3. Step sizes and factorisations.
+        work.clear();
+        for &id in &active {
+            let s = &settings[id];
+            let tr = &tracks[id];
+            let left = s.t_end - tr.t;
+            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
+            if h >= left || left - h < 0.01 * h {
+                h = left;
+            }
+            hs[id] = h;
+            let v = &mut vars[id];
+            if v.need_lu || h != v.h_lu {
+                let jb = &jac[id * d * d..(id + 1) * d * d];
+                let m = lu_m[id].matrix_mut();
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let ha = h * A[i][j];
+                        for p in 0..d {
+                            let row = (i * d + p) * d3 + j * d;
+                            for q in 0..d {
+                                m[row + q] = -ha * jb[p * d + q];
+                            }
+                            if i == j {
+                                m[row + p] += 1.0;
+                            }
+                        }
+                    }
+                }
+                lu_m[id].factor();
+                let e = lu_e[id].matrix_mut();
+                for p in 0..d {
+                    for q in 0..d {
+                        e[p * d + q] = -jb[p * d + q];
+                    }
+                    e[p * d + p] += mu / h;
+                }
+                lu_e[id].factor();
+                tracks[id].stats.factorizations += 1;
+                v.need_lu = false;
+                v.h_lu = h;
+            }
+            // Newton start: the previous collocation polynomial, extrapolated.
+            let zb = &mut z[id * d3..(id + 1) * d3];
+            if v.have_dense {
+                let al = &dense[id * d3..(id + 1) * d3];
+                for i in 0..3 {
+                    let th = 1.0 + C[i] * h / v.h_old;
+                    for p in 0..d {
+                        let q = |t: f64| t * (al[p] + t * (al[d + p] + t * al[2 * d + p]));
+                        zb[i * d + p] = q(th) - q(1.0);
+                    }
+                }
+            } else {
+                zb.fill(0.0);
+            }
+            v.newton = if lu_m[id].singular || lu_e[id].singular {
+                Newton::Failed
+            } else {
+                Newton::Iterating
+            };
+            v.iters = 0;
+            v.eta = v.eta.max(f64::EPSILON).powf(0.8);
+            work.push(id);
+        }
+        // 4. Newton, all variants' three stages in one call per iteration.
+        for iter in 0..MAX_NEWTON {
+            buf.clear();
+            for &id in &work {
+                if vars[id].newton != Newton::Iterating {
+                    continue;
+                }
+                for i in 0..3 {
+                    let slot = buf.push(id, tracks[id].t + C[i] * hs[id], d);
+                    for p in 0..d {
+                        slot[p] = y[id * d + p] + z[id * d3 + i * d + p];
+                    }
+                }
+            }
+            if buf.len() == 0 {
+                break;
+            }
+            buf.eval(sys, &mut tracks);
+            let mut e = 0;
+            while e < buf.len() {
+                let id = buf.ids[e];
+                let s = &settings[id];
+                let h = hs[id];
+                let v = &mut vars[id];
+                let fault = (0..3).find_map(|i| buf.faults[e + i].clone());
+                if let Some(f) = fault {
+                    tracks[id].fault = Some(f);
+                    v.newton = Newton::Fault;
+                    e += 3;
+                    continue;
+                }
+                let fs = &buf.dys[e * d..(e + 3) * d];
+                let zb = &mut z[id * d3..(id + 1) * d3];
+                for i in 0..3 {
+                    for p in 0..d {
+                        let mut acc = 0.0;
+                        for j in 0..3 {
+                            acc += A[i][j] * fs[j * d + p];
+                        }
+                        dz[i * d + p] = -zb[i * d + p] + h * acc;
+                    }
+                }
+                lu_m[id].solve(&mut dz);
+                let mut sum = 0.0;
+                for i in 0..3 {
+                    for p in 0..d {
+                        let w = s.atol * scale[id * d + p] + s.rtol * y[id * d + p].abs();
+                        sum += (dz[i * d + p] / w).powi(2);
+                    }
+                }
+                let norm = (sum / d3 as f64).sqrt();
+                let tol = (10.0 * f64::EPSILON / s.rtol).max(0.03f64.min(s.rtol.sqrt()));
+                v.iters = iter + 1;
+                if !norm.is_finite() {
+                    v.newton = Newton::Failed;
+                    e += 3;
+                    continue;
+                }
+                if iter > 0 {
+                    let theta = norm / v.norm_old;
+                    v.theta = theta;
+                    if theta >= 0.99 {
+                        v.newton = Newton::Failed;
+                        e += 3;
+                        continue;
+                    }
+                    v.eta = theta / (1.0 - theta);
+                    let left = (MAX_NEWTON - 1 - iter) as i32;
+                    if theta.powi(left) / (1.0 - theta) * norm > tol {
+                        v.newton = Newton::Failed;
+                        e += 3;
+                        continue;
+                    }
+                } else {
+                    v.theta = 0.0;
+                }
+                v.norm_old = norm.max(f64::MIN_POSITIVE);
+                for (zv, dv) in zb.iter_mut().zip(dz.iter()) {
+                    *zv += dv;
+                }
+                if norm == 0.0 || v.eta * norm <= tol {
+                    v.newton = Newton::Converged;
+                } else if iter + 1 == MAX_NEWTON {
+                    v.newton = Newton::Failed;
+                }
+                e += 3;
+            }
+        }
+        // 5. Error estimate, accept or reject.
+        for &id in &work {
+            let s = &settings[id];
+            let tr = &mut tracks[id];
+            let v = &mut vars[id];
+            let h = hs[id];
+            let t0 = tr.t;
+            let floor = h_floor(t0, s.t_end);
+            let fixed = s.fixed_step.is_some();
+            match v.newton {
+                Newton::Fault => {
+                    tr.stats.rejected += 1;
+                    tr.h = h * FAULT_SHRINK;
+                    if fixed || tr.h < floor {
+                        let fault = tr.fault.clone().expect("fault recorded");
+                        end(tr, Status::Fault { time: t0, fault }, start);
+                        ended.push(id);
+                    }
+                    continue;
+                }
+                Newton::Failed | Newton::Iterating => {
+                    tr.stats.rejected += 1;
+                    if !v.jac_current {
+                        v.need_jac = true;
+                    } else {
+                        tr.h = h * NEWTON_SHRINK;
+                        if fixed || tr.h < floor {
+                            end(
+                                tr,
+                                Status::StepSizeTooSmall {
+                                    time: t0,
+                                    step: tr.h,
+                                },
+                                start,
+                            );
+                            ended.push(id);
+                        }
+                    }
+                    continue;
+                }
+                Newton::Converged => {}
+            }
+            let zb = &z[id * d3..(id + 1) * d3];
+            let yb = &y[id * d..(id + 1) * d];
+            for p in 0..d {
+                ynew[p] = yb[p] + zb[2 * d + p];
+                let ze = (EZ[0] * zb[p] + EZ[1] * zb[d + p] + EZ[2] * zb[2 * d + p]) / h;
+                errv[p] = f0[id * d + p] + ze;
+            }
+            lu_e[id].solve(&mut errv);
+            let norm = if fixed {
+                0.0
+            } else {
+                err_norm(&errv, yb, &ynew, &scale[id * d..(id + 1) * d], s)
+            };
+            if !norm.is_finite() || !finite(&ynew) {
+                tr.stats.rejected += 1;
+                tr.h = h * FAC_MIN;
+                if fixed || tr.h < floor {
+                    end(tr, Status::NonFinite { time: t0 }, start);
+                    ended.push(id);
+                }
+                continue;
+            }
+            let safety = 0.9 * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + v.iters) as f64;
+            if norm <= 1.0 {
+                let al = &mut dense[id * d3..(id + 1) * d3];
+                for p in 0..d {
+                    for r in 0..3 {
+                        al[r * d + p] = (0..3).map(|i| vinv[r][i] * zb[i * d + p]).sum();
+                    }
+                }
+                {
+                    let al = &*al;
+                    tr.emit(id, s, t0, h, d, &mut rec, |th, out| {
+                        for (p, o) in out.iter_mut().enumerate() {
+                            *o = yb[p] + th * (al[p] + th * (al[d + p] + th * al[2 * d + p]));
+                        }
+                    });
+                }
+                y[id * d..(id + 1) * d].copy_from_slice(&ynew);
+                sys.project(id, &mut y[id * d..(id + 1) * d]);
+                tr.t = if h == s.t_end - t0 { s.t_end } else { t0 + h };
+                tr.stats.steps += 1;
+                tr.last_rejected = false;
+                v.have_dense = true;
+                v.h_old = h;
+                v.need_f0 = true;
+                v.jac_current = false;
+                v.need_jac = v.theta > THETA_JAC;
+                let fac = if norm == 0.0 {
+                    FAC_MAX
+                } else {
+                    (safety * norm.powf(-0.25)).clamp(FAC_MIN, FAC_MAX)
+                };
+                tr.h = if fixed {
+                    s.fixed_step.unwrap_or(h)
+                } else if !v.need_jac && (1.0..=KEEP_H_MAX).contains(&fac) {
+                    h
+                } else {
+                    h * fac
+                };
+                if reached(tr.t, s.t_end) {
+                    end(tr, Status::Finished, start);
+                    ended.push(id);
+                } else if tr.stats.steps >= s.max_steps {
+                    let (time, steps) = (tr.t, tr.stats.steps);
+                    end(tr, Status::MaxSteps { time, steps }, start);
+                    ended.push(id);
+                }
+            } else {
+                tr.stats.rejected += 1;
+                tr.last_rejected = true;
+                tr.h = h * (safety * norm.powf(-0.25)).max(FAC_MIN);
+                if tr.h < floor {
+                    let step = tr.h;
+                    end(tr, Status::StepSizeTooSmall { time: t0, step }, start);
+                    ended.push(id);
+                }
+            }
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        rec.flush_records(sys);
+        notify(sys, &tracks, &mut ended);
+    }
+    tracks.into_iter().map(|t| (t.status, t.stats)).collect()
+}

@@ -1,0 +1,18 @@
+//! Rigid rotors in hydrodynamic journal bearings or ideal revolute joints (MODEL.md
+//! section 8): scene files ([`Scene`], [`load_scene`]), the rigid-body model
+//! ([`RotorModel`]: quaternion attitude, gyroscopic terms, exact end-point film torques
+//! about `G`), and lockstep batched simulation ([`simulate_batch`] → [`SimResult`]).
+
+mod model;
+mod scene;
+mod simulate;
+
+pub use model::{RotorModel, DIM, JAC_DIM};
+pub use scene::{
+    load_scene, BearingSpec, FilmSpec, InitialSpec, IntegratorSpec, ModelKind, RotorSpec, Scene,
+    SceneError, SpinMode,
+};
+pub use simulate::{
+    settings_of, simulate_batch, BearingSeries, RotorFault, SimResult, SimStats, SimStatus,
+    TimeSeries,
+};

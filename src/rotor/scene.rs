@@ -1,0 +1,432 @@
+//! Scene files: the rotor, its bearings, the initial state, the model and the integrator
+//! (serde, unknown fields rejected), validation naming the JSON path, and loading.
+
+use serde::{Deserialize, Serialize};
+
+use crate::bearing::{BearingParams, ClearanceConvention};
+use crate::integrate::Method;
+
+/// Rigid-rotor mass properties. The body frame has its origin at the centre of mass `G`
+/// and its `z` axis parallel to the shaft axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotorSpec {
+    /// Mass, kg (paper: 1.0).
+    pub mass: f64,
+    /// Principal moments of inertia about `G`, kg·m² (paper: `[0.01, 0.01, 0.3]`); the
+    /// third is about the principal axis nearest the shaft axis.
+    pub inertia: [f64; 3],
+    /// Static unbalance: position of `G` relative to the shaft axis, in the body `x, y`
+    /// plane, m (paper: `[0.001, 0]`). Default `[0, 0]`.
+    #[serde(default)]
+    pub static_unbalance: [f64; 2],
+    /// Couple unbalance: the principal axes are the body axes turned by `[bx, by]` rad,
+    /// about body `x` then about the resulting `y` (`I_body = Rx Ry diag(I) Ryᵀ Rxᵀ`).
+    /// Default `[0, 0]`.
+    #[serde(default)]
+    pub couple_unbalance: [f64; 2],
+}
+
+/// One bearing: geometry, lubricant and where it sits along the shaft. The housing is
+/// fixed and the bore coaxial with the global `z` axis; the bearing frame's origin is at
+/// its first end face (mid-plane − length/2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BearingSpec {
+    /// Journal radius `r0`, m.
+    pub radius: f64,
+    /// Bearing length `B`, m.
+    pub length: f64,
+    /// Radial clearance `δ`, m.
+    pub clearance: f64,
+    /// Lubricant dynamic viscosity `μ`, Pa·s.
+    pub viscosity: f64,
+    /// Relative clearance in the friction law: `"paper"` (default) or `"vogelpohl"`.
+    #[serde(default)]
+    pub clearance_convention: ClearanceConvention,
+    /// Axial coordinate of the bearing's mid-plane along the shaft from `G`, m (paper:
+    /// +0.2 and −0.1).
+    pub axial_position: f64,
+}
+
+impl BearingSpec {
+    /// The film model's parameters.
+    pub fn params(&self) -> BearingParams {
+        BearingParams {
+            radius: self.radius,
+            length: self.length,
+            clearance: self.clearance,
+            viscosity: self.viscosity,
+            clearance_convention: self.clearance_convention,
+        }
+    }
+}
+
+/// How the rotor is supported.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelKind {
+    /// Hydrodynamic film at every bearing (MODEL.md sections 1-8).
+    #[default]
+    Bearing,
+    /// Ideal revolute joints: the shaft axis pinned to the bore axis; only the rotation
+    /// about it is free (friction from the joint reactions, MODEL.md section 5).
+    Ideal,
+}
+
+/// The spin about the bore axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpinMode {
+    /// Free: only the loads (friction torques) act about the axis. Default.
+    #[default]
+    Free,
+    /// Held: a drive torque about the global `z` axis keeps the global `z` component of
+    /// the angular velocity at its initial value (an exact constraint torque).
+    Held,
+}
+
+/// Initial state. The rotor starts as a rigid rotation about its shaft axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    /// Angular velocity about the global `z` axis, rad/s (paper: 100).
+    pub spin: f64,
+    /// Rotation angle of the body about `z` at `t = 0`, rad. Default 0.
+    #[serde(default)]
+    pub angle: f64,
+    /// Position of the shaft axis (its point level with `G`) relative to the bore axis,
+    /// m. Default `[0, 0]` (journals centred). Bearing model only.
+    #[serde(default)]
+    pub offset: [f64; 2],
+    /// Velocity of that shaft-axis point, m/s. Default `[0, 0]`. Bearing model only.
+    #[serde(default)]
+    pub velocity: [f64; 2],
+    /// Tilt of the shaft axis: rotations about global `x` then `y`, rad. Default
+    /// `[0, 0]`. Bearing model only.
+    #[serde(default)]
+    pub tilt: [f64; 2],
+}
+
+/// Integrator settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    /// `"dopri5"` (default), `"radau5"` or `"rk4"`.
+    #[serde(default)]
+    pub method: Method,
+    /// Relative tolerance of the local error. Default 1e-7.
+    #[serde(default = "default_tol")]
+    pub rtol: f64,
+    /// Absolute tolerance in units of each component's natural scale (positions: the
+    /// smallest clearance; velocities: clearance × |spin|; quaternion: 1; angular
+    /// velocity: |spin|; work: kinetic energy). Default 1e-7.
+    #[serde(default = "default_tol")]
+    pub atol: f64,
+    /// Simulated time, s (paper: 0.5).
+    pub t_end: f64,
+    /// Interval of the uniform output samples, s. Default 1e-4.
+    #[serde(default = "default_sample")]
+    pub sample_interval: f64,
+    /// Fixed step, s: the step of `rk4` (default there: `sample_interval`); for the
+    /// adaptive methods it switches error control off. Default none.
+    #[serde(default)]
+    pub fixed_step: Option<f64>,
+    /// Largest step, s. Default none.
+    #[serde(default)]
+    pub max_step: Option<f64>,
+    /// Accepted steps before the run stops with `max_steps`. Default 1e6.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u64,
+}
+
+fn default_tol() -> f64 {
+    1e-7
+}
+fn default_sample() -> f64 {
+    1e-4
+}
+fn default_max_steps() -> u64 {
+    1_000_000
+}
+
+/// Film-breakdown handling (MODEL.md section 6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilmSpec {
+    /// Minimum film thickness below which the short-bearing film is not trusted, m; the
+    /// variant then ends with status `film_breakdown`. Default 1e-6.
+    #[serde(default = "default_threshold")]
+    pub threshold: f64,
+}
+
+fn default_threshold() -> f64 {
+    1e-6
+}
+
+impl Default for FilmSpec {
+    fn default() -> Self {
+        FilmSpec {
+            threshold: default_threshold(),
+        }
+    }
+}
+
+/// One simulation: everything [`crate::rotor::simulate_batch`] needs for one variant.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Name used for output folders and legends. Default `"scene"`.
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// `"bearing"` (default) or `"ideal"`.
+    #[serde(default)]
+    pub model: ModelKind,
+    /// When loading a file: also run this scene with ideal joints, named `<name>-ideal`.
+    /// Default false.
+    #[serde(default)]
+    pub compare_ideal: bool,
+    /// Mass properties.
+    pub rotor: RotorSpec,
+    /// The bearings (at least one).
+    pub bearings: Vec<BearingSpec>,
+    /// Gravity vector, m/s² (global frame; the axial component is carried by the axial
+    /// constraint). Default `[0, 0, 0]` (the paper's example has none).
+    #[serde(default)]
+    pub gravity: [f64; 3],
+    /// `"free"` (default) or `"held"`.
+    #[serde(default)]
+    pub spin: SpinMode,
+    /// Initial state.
+    pub initial: InitialSpec,
+    /// Integrator.
+    pub integrator: IntegratorSpec,
+    /// Film-breakdown threshold.
+    #[serde(default)]
+    pub film: FilmSpec,
+}
+
+fn default_name() -> String {
+    "scene".into()
+}
+
+/// A scene that cannot be simulated: the JSON path and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{path}: {reason}")]
+pub struct SceneError {
+    /// JSON path, e.g. `bearings[1].clearance`.
+    pub path: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+fn err(path: impl Into<String>, reason: impl Into<String>) -> SceneError {
+    SceneError {
+        path: path.into(),
+        reason: reason.into(),
+    }
+}
+
+fn positive(path: &str, v: f64) -> Result<(), SceneError> {
+    if !v.is_finite() {
+        Err(err(path, format!("must be finite ({v})")))
+    } else if v <= 0.0 {
+        Err(err(path, format!("must be positive ({v})")))
+    } else {
+        Ok(())
+    }
+}
+
+fn finite(path: &str, vs: &[f64]) -> Result<(), SceneError> {
+    match vs.iter().position(|v| !v.is_finite()) {
+        Some(k) if vs.len() > 1 => Err(err(format!("{path}[{k}]"), "must be finite")),
+        Some(_) => Err(err(path, "must be finite")),
+        None => Ok(()),
+    }
+}
+
+impl Scene {
+    /// Checks every field; the error names the JSON path (relative to the scene) and why.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let r = &self.rotor;
+        positive("rotor.mass", r.mass)?;
+        for (k, &i) in r.inertia.iter().enumerate() {
+            positive(&format!("rotor.inertia[{k}]"), i)?;
+        }
+        // No triangle-inequality check: the paper's own rotor, diag(0.01, 0.01, 0.3),
+        // violates it (no real body has those principal moments), and the equations of
+        // motion do not need it.
+        finite("rotor.static_unbalance", &r.static_unbalance)?;
+        finite("rotor.couple_unbalance", &r.couple_unbalance)?;
+        if self.bearings.is_empty() {
+            return Err(err("bearings", "at least one bearing is needed"));
+        }
+        for (k, bs) in self.bearings.iter().enumerate() {
+            bs.params().validate().map_err(|e| {
+                err(
+                    format!("bearings[{k}].{}", e.field),
+                    format!("{} ({})", e.reason, e.value),
+                )
+            })?;
+            finite(
+                &format!("bearings[{k}].axial_position"),
+                &[bs.axial_position],
+            )?;
+        }
+        if self.model == ModelKind::Ideal && self.bearings.len() >= 2 {
+            let z0 = self.bearings[0].axial_position;
+            if self.bearings.iter().all(|b| b.axial_position == z0) {
+                return Err(err(
+                    "bearings",
+                    "ideal joints need bearings at two different axial positions",
+                ));
+            }
+        }
+        finite("gravity", &self.gravity)?;
+        let i = &self.initial;
+        finite("initial.spin", &[i.spin])?;
+        finite("initial.angle", &[i.angle])?;
+        finite("initial.offset", &i.offset)?;
+        finite("initial.velocity", &i.velocity)?;
+        finite("initial.tilt", &i.tilt)?;
+        if self.model == ModelKind::Ideal {
+            for (name, v) in [
+                ("offset", i.offset),
+                ("velocity", i.velocity),
+                ("tilt", i.tilt),
+            ] {
+                if v != [0.0, 0.0] {
+                    return Err(err(
+                        format!("initial.{name}"),
+                        "must be [0, 0] with ideal joints (the shaft axis is pinned)",
+                    ));
+                }
+            }
+        }
+        let g = &self.integrator;
+        positive("integrator.rtol", g.rtol)?;
+        positive("integrator.atol", g.atol)?;
+        positive("integrator.t_end", g.t_end)?;
+        positive("integrator.sample_interval", g.sample_interval)?;
+        if g.sample_interval > g.t_end {
+            return Err(err("integrator.sample_interval", "must not exceed t_end"));
+        }
+        if g.t_end / g.sample_interval > 1e7 {
+            return Err(err(
+                "integrator.sample_interval",
+                "more than 1e7 samples: choose a longer interval",
+            ));
+        }
+        if let Some(h) = g.fixed_step {
+            positive("integrator.fixed_step", h)?;
+        }
+        if let Some(h) = g.max_step {
+            positive("integrator.max_step", h)?;
+        }
+        if g.max_steps == 0 {
+            return Err(err("integrator.max_steps", "must be at least 1"));
+        }
+        let th = self.film.threshold;
+        if !(th.is_finite() && th >= 0.0) {
+            return Err(err(
+                "film.threshold",
+                format!("must be finite and >= 0 ({th})"),
+            ));
+        }
+        for (k, bs) in self.bearings.iter().enumerate() {
+            if th >= bs.clearance {
+                return Err(err(
+                    "film.threshold",
+                    format!(
+                        "must be smaller than bearings[{k}].clearance ({})",
+                        bs.clearance
+                    ),
+                ));
+            }
+        }
+        // The initial journals must be inside their bores with a film above threshold.
+        if self.model == ModelKind::Bearing {
+            let model = super::model::RotorModel::new(self);
+            let y0 = model.initial_state(self);
+            for (k, (hmin, bs)) in model
+                .initial_film(&y0)
+                .iter()
+                .zip(&self.bearings)
+                .enumerate()
+            {
+                if *hmin <= th {
+                    return Err(err(
+                        "initial",
+                        format!(
+                            "the journal in bearings[{k}] starts with film {hmin:e} m, not above film.threshold {th:e} m (clearance {})",
+                            bs.clearance
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Loads a scene file: one scene object, or `{"scenes": [...]}`. A scene with
+/// `compare_ideal: true` yields two: itself (model `bearing`) and `<name>-ideal`.
+/// Errors name the JSON path (`scenes[2].bearings[1].clearance: must be positive`).
+pub fn load_scene(json: &str) -> Result<Vec<Scene>, SceneError> {
+    let doc: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| err("$", format!("not valid JSON: {e}")))?;
+    let (items, prefix): (Vec<&serde_json::Value>, bool) = match doc.get("scenes") {
+        Some(serde_json::Value::Array(list)) if doc.as_object().is_some_and(|o| o.len() == 1) => {
+            (list.iter().collect(), true)
+        }
+        Some(serde_json::Value::Array(_)) => {
+            return Err(err("$", "a file with `scenes` holds nothing else"))
+        }
+        Some(_) => return Err(err("scenes", "expected an array of scenes")),
+        None => (vec![&doc], false),
+    };
+    if items.is_empty() {
+        return Err(err("scenes", "no scenes"));
+    }
+    let mut out = Vec::new();
+    for (k, item) in items.into_iter().enumerate() {
+        let path = |p: &str| {
+            if prefix {
+                format!("scenes[{k}].{p}")
+            } else {
+                p.to_string()
+            }
+        };
+        let scene: Scene = serde_json::from_value(item.clone()).map_err(|e| {
+            err(
+                if prefix {
+                    format!("scenes[{k}]")
+                } else {
+                    "$".into()
+                },
+                e.to_string(),
+            )
+        })?;
+        scene.validate().map_err(|e| err(path(&e.path), e.reason))?;
+        if scene.compare_ideal {
+            let mut ideal = scene.clone();
+            ideal.model = ModelKind::Ideal;
+            ideal.compare_ideal = false;
+            ideal.name = format!("{}-ideal", scene.name);
+            ideal.validate().map_err(|e| {
+                err(
+                    path(&e.path),
+                    format!("{} (in the ideal-joint comparison)", e.reason),
+                )
+            })?;
+            let mut bearing = scene;
+            bearing.compare_ideal = false;
+            bearing.model = ModelKind::Bearing;
+            out.push(bearing);
+            out.push(ideal);
+        } else {
+            out.push(scene);
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,573 @@
+//! Batched simulation of scenes: the rotor batch as a lockstep [`BatchSystem`] (every
+//! stage of every active variant's bearings in one [`LoadEvaluator::evaluate`] call),
+//! statuses with physical context, sampled time series and counters.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::model::{cross, EndKin, RotorModel, DIM, JAC_DIM, W, WORK};
+use super::scene::{ModelKind, Scene, SceneError};
+use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
+use crate::bearing::{BearingParams, StateFault};
+use crate::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
+
+/// How a simulation ended. Serialised with a `kind` tag (`"finished"`, `"film_breakdown"`, ...).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum SimStatus {
+    /// Reached `t_end`.
+    #[error("finished")]
+    Finished,
+    /// The film in `bearing` became thinner than the scene's threshold.
+    #[error("film breakdown in bearings[{bearing}] at t = {time} s: h_min = {h_min:e} m below the threshold")]
+    FilmBreakdown {
+        /// Time, s.
+        time: f64,
+        /// Index into the scene's bearings.
+        bearing: usize,
+        /// Minimum film thickness there, m.
+        h_min: f64,
+    },
+    /// The journal reached the bore wall (eccentricity ratio >= 1) in `bearing`.
+    #[error("journal through the wall of bearings[{bearing}] at t = {time} s (eccentricity ratio {eccentricity_ratio})")]
+    ThroughWall {
+        /// Time, s.
+        time: f64,
+        /// Index into the scene's bearings.
+        bearing: usize,
+        /// `|e| / δ` at the worse end face.
+        eccentricity_ratio: f64,
+    },
+    /// Error control drove the step below `1e-12 t_end`.
+    #[error("step size collapsed to {step:e} s at t = {time} s")]
+    StepSizeTooSmall {
+        /// Time, s.
+        time: f64,
+        /// Step, s.
+        step: f64,
+    },
+    /// The state became NaN or infinite.
+    #[error("non-finite state at t = {time} s")]
+    NonFinite {
+        /// Time, s.
+        time: f64,
+    },
+    /// The step budget ran out.
+    #[error("{steps} steps taken by t = {time} s (integrator.max_steps)")]
+    MaxSteps {
+        /// Time, s.
+        time: f64,
+        /// Steps.
+        steps: u64,
+    },
+    /// The film loads could not be evaluated.
+    #[error("film loads of bearings[{bearing}] failed at t = {time} s: {reason}")]
+    LoadFailure {
+        /// Time, s.
+        time: f64,
+        /// Index into the scene's bearings.
+        bearing: usize,
+        /// Why.
+        reason: String,
+    },
+    /// The scene failed validation; nothing was simulated.
+    #[error("invalid scene: {path}: {reason}")]
+    InvalidScene {
+        /// JSON path inside the scene.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+impl SimStatus {
+    /// Reached `t_end`.
+    pub fn is_finished(&self) -> bool {
+        matches!(self, SimStatus::Finished)
+    }
+}
+
+/// Why one right-hand-side evaluation has no derivative.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RotorFault {
+    /// Film below threshold.
+    FilmBreakdown {
+        /// Bearing index.
+        bearing: usize,
+        /// m.
+        h_min: f64,
+    },
+    /// Eccentricity ratio >= 1.
+    ThroughWall {
+        /// Bearing index.
+        bearing: usize,
+        /// Ratio.
+        ratio: f64,
+    },
+    /// Derivative not finite.
+    NonFinite,
+    /// Other load failure.
+    Load {
+        /// Bearing index.
+        bearing: usize,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Samples of one bearing, one entry per sample time.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BearingSeries {
+    /// Journal centre at the first end face in the bearing frame, m (bearing 1's `xi,
+    /// yi` is the paper's Fig. 10 orbit). Zero for ideal joints.
+    pub xi: Vec<f64>,
+    /// See `xi`, m.
+    pub yi: Vec<f64>,
+    /// Journal centre at the second end face, m.
+    pub xj: Vec<f64>,
+    /// See `xj`, m.
+    pub yj: Vec<f64>,
+    /// Minimum film thickness, m (the clearance for ideal joints).
+    pub h_min: Vec<f64>,
+    /// Larger end eccentricity ratio `max |e| / δ`.
+    pub eccentricity_max: Vec<f64>,
+    /// Film force (ideal joints: joint reaction) on the journal, x, N.
+    pub wx: Vec<f64>,
+    /// Same, y, N.
+    pub wy: Vec<f64>,
+    /// Friction torque about `+z`, N·m.
+    pub mz: Vec<f64>,
+    /// Friction coefficient (MODEL.md section 5); `null` where infinite or undefined.
+    pub friction_coefficient: Vec<Option<f64>>,
+}
+
+/// Uniform samples of one simulation.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimeSeries {
+    /// Sample times `k * sample_interval`, s.
+    pub t: Vec<f64>,
+    /// Centre of mass `G`, global x, m (Fig. 8).
+    pub x_g: Vec<f64>,
+    /// `G`, global y, m (Fig. 9).
+    pub y_g: Vec<f64>,
+    /// Global `z` component of the angular velocity, rad/s.
+    pub spin: Vec<f64>,
+    /// Kinetic energy, J.
+    pub kinetic_energy: Vec<f64>,
+    /// Work done on the rotor by all applied loads since `t = 0`, J.
+    pub work: Vec<f64>,
+    /// Per bearing, in scene order.
+    pub bearings: Vec<BearingSeries>,
+}
+
+/// Counters of one simulation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SimStats {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected attempts.
+    pub rejected: u64,
+    /// Right-hand-side evaluations (stages, Jacobian columns).
+    pub rhs_evaluations: u64,
+    /// Film-load evaluations for integration (`rhs_evaluations × bearings`; 0 for ideal joints).
+    pub load_evaluations: u64,
+    /// Film-load evaluations for the output samples.
+    pub sample_load_evaluations: u64,
+    /// Jacobians formed (radau5).
+    pub jacobians: u64,
+    /// LU factorisations (radau5).
+    pub factorizations: u64,
+    /// Wall time from the start of the variant's batch to its end, s.
+    pub wall_time_s: f64,
+}
+
+/// One simulation's outcome.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimResult {
+    /// The scene's name.
+    pub name: String,
+    /// `"bearing"` or `"ideal"`.
+    pub model: ModelKind,
+    /// Integration method.
+    pub method: Method,
+    /// How it ended.
+    pub status: SimStatus,
+    /// Samples up to the end (or the failure).
+    pub samples: TimeSeries,
+    /// Counters.
+    pub stats: SimStats,
+}
+
+/// The rotor batch as a lockstep system.
+struct RotorBatch<'a, 'p> {
+    models: Vec<RotorModel>,
+    params: Vec<BearingParams>,
+    offsets: Vec<usize>,
+    evaluator: &'a mut LoadEvaluator,
+    requests: Vec<LoadRequest>,
+    results: Vec<LoadResult>,
+    ends: Vec<EndKin>,
+    ideal_loads: Vec<[f64; 4]>,
+    series: Vec<TimeSeries>,
+    sample_evals: Vec<u64>,
+    scenes: Vec<usize>,
+    names: Vec<String>,
+    method: Method,
+    out: &'a mut [Option<SimResult>],
+    progress: &'a mut (dyn FnMut(usize, &SimResult) + 'p),
+}
+
+impl RotorBatch<'_, '_> {
+    /// Film loads of every bearing-model entry, in one evaluator call.
+    fn film_pass(&mut self, ids: &[usize], ys: &[f64]) {
+        self.requests.clear();
+        self.ends.clear();
+        for (k, &id) in ids.iter().enumerate() {
+            let m = &self.models[id];
+            if m.kind != ModelKind::Bearing {
+                continue;
+            }
+            let kin = m.kin(&ys[k * DIM..(k + 1) * DIM]);
+            for (b, geom) in m.bearings.iter().enumerate() {
+                let e = m.end_kin(&kin, geom);
+                self.requests.push(LoadRequest {
+                    bearing: (self.offsets[id] + b) as u32,
+                    state: m.bearing_state(&kin, &e),
+                });
+                self.ends.push(e);
+            }
+        }
+        self.results.clear();
+        if !self.requests.is_empty() {
+            self.evaluator
+                .evaluate(&self.params, &self.requests, &mut self.results);
+        }
+    }
+}
+
+fn fault_of(bearing: usize, f: &StateFault) -> RotorFault {
+    match f {
+        StateFault::ThroughWall { ratio, .. } => RotorFault::ThroughWall {
+            bearing,
+            ratio: *ratio,
+        },
+        other => RotorFault::Load {
+            bearing,
+            reason: other.to_string(),
+        },
+    }
+}
+
+impl BatchSystem for RotorBatch<'_, '_> {
+    type Fault = RotorFault;
+
+    fn dim(&self) -> usize {
+        DIM
+    }
+
+    fn jacobian_dim(&self) -> usize {
+        JAC_DIM
+    }
+
+    fn scales(&self, id: usize, out: &mut [f64]) {
+        out.copy_from_slice(&self.models[id].scales);
+    }
+
+    fn eval(
+        &mut self,
+        ids: &[usize],
+        _ts: &[f64],
+        ys: &[f64],
+        dys: &mut [f64],
+        faults: &mut [Option<RotorFault>],
+    ) {
+        self.film_pass(ids, ys);
+        let mut cursor = 0;
+        for (k, &id) in ids.iter().enumerate() {
+            let m = &self.models[id];
+            let y = &ys[k * DIM..(k + 1) * DIM];
+            let dy = &mut dys[k * DIM..(k + 1) * DIM];
+            if m.kind == ModelKind::Ideal {
+                m.ideal_derivative(y, dy, &mut self.ideal_loads);
+            } else {
+                let kin = m.kin(y);
+                let mut f = [0.0; 2];
+                let mut tau = [0.0; 3];
+                let mut power = 0.0;
+                let mut fault = None;
+                for (b, geom) in m.bearings.iter().enumerate() {
+                    let e = &self.ends[cursor];
+                    let res = &self.results[cursor];
+                    cursor += 1;
+                    let l = match res {
+                        Ok(l) => l,
+                        Err(sf) => {
+                            fault.get_or_insert(fault_of(b, sf));
+                            continue;
+                        }
+                    };
+                    if l.h_min < m.threshold {
+                        fault.get_or_insert(RotorFault::FilmBreakdown {
+                            bearing: b,
+                            h_min: l.h_min,
+                        });
+                    }
+                    let (fi, fj) = l.end_forces(geom.params.length);
+                    f[0] += fi[0] + fj[0];
+                    f[1] += fi[1] + fj[1];
+                    // Exact torque about G: end-point forces at the journal end centres.
+                    let ti = cross(e.r_i, [fi[0], fi[1], 0.0]);
+                    let tj = cross(e.r_j, [fj[0], fj[1], 0.0]);
+                    for c in 0..3 {
+                        tau[c] += ti[c] + tj[c];
+                    }
+                    tau[2] += l.mz;
+                    power += fi[0] * e.v_i[0]
+                        + fi[1] * e.v_i[1]
+                        + fj[0] * e.v_j[0]
+                        + fj[1] * e.v_j[1]
+                        + l.mz * kin.w_global[2];
+                }
+                if let Some(fl) = fault {
+                    faults[k] = Some(fl);
+                    dy.fill(0.0);
+                    continue;
+                }
+                m.rigid_derivative(y, &kin, f, tau, power, dy);
+            }
+            if !dy.iter().all(|v| v.is_finite()) {
+                faults[k] = Some(RotorFault::NonFinite);
+                dy.fill(0.0);
+            }
+        }
+    }
+
+    fn project(&self, _id: usize, y: &mut [f64]) {
+        let q = &mut y[super::model::Q..super::model::Q + 4];
+        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        if n > 0.0 && n.is_finite() {
+            q.iter_mut().for_each(|v| *v /= n);
+        }
+    }
+
+    fn record(&mut self, ids: &[usize], ts: &[f64], ys: &[f64]) {
+        self.film_pass(ids, ys);
+        let mut cursor = 0;
+        let mut scratch = [0.0; DIM];
+        for (k, &id) in ids.iter().enumerate() {
+            let m = &self.models[id];
+            let y = &ys[k * DIM..(k + 1) * DIM];
+            let s = &mut self.series[id];
+            let g = m.g_position(y);
+            let kin = m.kin(y);
+            s.t.push(ts[k]);
+            s.x_g.push(g[0]);
+            s.y_g.push(g[1]);
+            s.spin.push(kin.w_global[2]);
+            s.kinetic_energy.push(m.kinetic_energy(y));
+            s.work.push(y[WORK]);
+            if s.bearings.len() != m.bearings.len() {
+                s.bearings = vec![BearingSeries::default(); m.bearings.len()];
+            }
+            if m.kind == ModelKind::Ideal {
+                m.ideal_derivative(y, &mut scratch, &mut self.ideal_loads);
+                for (b, geom) in m.bearings.iter().enumerate() {
+                    let bs = &mut s.bearings[b];
+                    let l = self.ideal_loads[b];
+                    for v in [
+                        &mut bs.xi,
+                        &mut bs.yi,
+                        &mut bs.xj,
+                        &mut bs.yj,
+                        &mut bs.eccentricity_max,
+                    ] {
+                        v.push(0.0);
+                    }
+                    bs.h_min.push(geom.params.clearance);
+                    bs.wx.push(l[0]);
+                    bs.wy.push(l[1]);
+                    bs.mz.push(l[2]);
+                    bs.friction_coefficient
+                        .push(l[3].is_finite().then_some(l[3]));
+                }
+                let _ = y[W];
+                continue;
+            }
+            self.sample_evals[id] += m.bearings.len() as u64;
+            for (b, geom) in m.bearings.iter().enumerate() {
+                let st = self.requests[cursor].state;
+                let res = &self.results[cursor];
+                cursor += 1;
+                let bs = &mut s.bearings[b];
+                let d = geom.params.clearance;
+                bs.xi.push(st.xi);
+                bs.yi.push(st.yi);
+                bs.xj.push(st.xj);
+                bs.yj.push(st.yj);
+                let (ei, ej) = st.eccentricity_ratios(d);
+                bs.eccentricity_max.push(ei.max(ej));
+                bs.h_min.push(st.h_min(d));
+                match res {
+                    Ok(l) => {
+                        bs.wx.push(l.wx);
+                        bs.wy.push(l.wy);
+                        bs.mz.push(l.mz);
+                        bs.friction_coefficient.push(l.friction_coefficient);
+                    }
+                    Err(_) => {
+                        // A sample between accepted steps outside the film's domain:
+                        // no loads (never NaN), friction unknown.
+                        bs.wx.push(0.0);
+                        bs.wy.push(0.0);
+                        bs.mz.push(0.0);
+                        bs.friction_coefficient.push(None);
+                    }
+                }
+            }
+        }
+    }
+
+    fn finished(&mut self, id: usize, status: &Status<RotorFault>, stats: &Stats) {
+        let status = match status {
+            Status::Running | Status::Finished => SimStatus::Finished,
+            Status::Fault { time, fault } => match fault {
+                RotorFault::FilmBreakdown { bearing, h_min } => SimStatus::FilmBreakdown {
+                    time: *time,
+                    bearing: *bearing,
+                    h_min: *h_min,
+                },
+                RotorFault::ThroughWall { bearing, ratio } => SimStatus::ThroughWall {
+                    time: *time,
+                    bearing: *bearing,
+                    eccentricity_ratio: *ratio,
+                },
+                RotorFault::NonFinite => SimStatus::NonFinite { time: *time },
+                RotorFault::Load { bearing, reason } => SimStatus::LoadFailure {
+                    time: *time,
+                    bearing: *bearing,
+                    reason: reason.clone(),
+                },
+            },
+            Status::StepSizeTooSmall { time, step } => SimStatus::StepSizeTooSmall {
+                time: *time,
+                step: *step,
+            },
+            Status::NonFinite { time } => SimStatus::NonFinite { time: *time },
+            Status::MaxSteps { time, steps } => SimStatus::MaxSteps {
+                time: *time,
+                steps: *steps,
+            },
+        };
+        let m = &self.models[id];
+        let loads_per_rhs = if m.kind == ModelKind::Bearing {
+            m.bearings.len() as u64
+        } else {
+            0
+        };
+        let result = SimResult {
+            name: self.names[id].clone(),
+            model: m.kind,
+            method: self.method,
+            status,
+            samples: std::mem::take(&mut self.series[id]),
+            stats: SimStats {
+                steps: stats.steps,
+                rejected: stats.rejected,
+                rhs_evaluations: stats.rhs_evaluations,
+                load_evaluations: stats.rhs_evaluations * loads_per_rhs,
+                sample_load_evaluations: self.sample_evals[id],
+                jacobians: stats.jacobians,
+                factorizations: stats.factorizations,
+                wall_time_s: stats.wall_time_s,
+            },
+        };
+        (self.progress)(self.scenes[id], &result);
+        self.out[self.scenes[id]] = Some(result);
+    }
+}
+
+/// Integrator settings of a scene.
+pub fn settings_of(scene: &Scene) -> Settings {
+    let g = &scene.integrator;
+    Settings {
+        t_end: g.t_end,
+        sample_interval: g.sample_interval,
+        rtol: g.rtol,
+        atol: g.atol,
+        fixed_step: g.fixed_step,
+        initial_step: None,
+        max_step: g.max_step,
+        max_steps: g.max_steps,
+    }
+}
+
+/// Simulates every scene. Scenes sharing an integration method advance in one lockstep
+/// batch whose stages each make one `evaluator.evaluate` call for all active variants'
+/// bearings; a variant that fails (film breakdown, journal through the wall, step-size
+/// collapse, ...) ends with its status and samples up to that time while the others go
+/// on. `progress(scene_index, &result)` is called as each variant ends (invalid scenes
+/// at once), so results can be streamed. Returns one result per scene, in input order.
+pub fn simulate_batch(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    progress: &mut dyn FnMut(usize, &SimResult),
+) -> Vec<SimResult> {
+    let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
+    let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
+    for (i, s) in scenes.iter().enumerate() {
+        match s.validate() {
+            Ok(()) => groups
+                .entry(s.integrator.method.name())
+                .or_insert((s.integrator.method, Vec::new()))
+                .1
+                .push(i),
+            Err(SceneError { path, reason }) => {
+                let r = SimResult {
+                    name: s.name.clone(),
+                    model: s.model,
+                    method: s.integrator.method,
+                    status: SimStatus::InvalidScene { path, reason },
+                    samples: TimeSeries::default(),
+                    stats: SimStats::default(),
+                };
+                progress(i, &r);
+                out[i] = Some(r);
+            }
+        }
+    }
+    for (_, (method, idx)) in groups {
+        let models: Vec<RotorModel> = idx.iter().map(|&i| RotorModel::new(&scenes[i])).collect();
+        let mut params = Vec::new();
+        let mut offsets = Vec::new();
+        let mut y0 = Vec::with_capacity(idx.len() * DIM);
+        for (m, &i) in models.iter().zip(&idx) {
+            offsets.push(params.len());
+            params.extend(m.bearings.iter().map(|b| b.params));
+            y0.extend_from_slice(&m.initial_state(&scenes[i]));
+        }
+        let settings: Vec<Settings> = idx.iter().map(|&i| settings_of(&scenes[i])).collect();
+        let n = idx.len();
+        let mut batch = RotorBatch {
+            models,
+            params,
+            offsets,
+            evaluator: &mut *evaluator,
+            requests: Vec::new(),
+            results: Vec::new(),
+            ends: Vec::new(),
+            ideal_loads: Vec::new(),
+            series: vec![TimeSeries::default(); n],
+            sample_evals: vec![0; n],
+            scenes: idx.clone(),
+            names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
+            method,
+            out: &mut out,
+            progress: &mut *progress,
+        };
+        run_batch(method, &mut batch, &y0, &settings);
+    }
+    out.into_iter()
+        .map(|r| r.expect("every scene ends with a result"))
+        .collect()
+}

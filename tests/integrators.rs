@@ -1,0 +1,378 @@
+//! The lockstep integrators on problems with closed-form solutions: a damped linear
+//! oscillator and a torque-free symmetric gyroscope through every method, each method's
+//! convergence order at the step ends and through its dense output, lockstep batches
+//! equal single runs, and one failing variant ending alone.
+
+use bearing_sweep::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
+
+/// A batch of identical-form ODEs `y' = f(t, y, p)` with a per-variant parameter `p`.
+struct Ode<F: FnMut(f64, &[f64], f64, &mut [f64]) -> Result<(), String>> {
+    dim: usize,
+    f: F,
+    params: Vec<f64>,
+    samples: Vec<Vec<(f64, Vec<f64>)>>,
+    statuses: Vec<Option<Status<String>>>,
+    calls: usize,
+}
+
+impl<F: FnMut(f64, &[f64], f64, &mut [f64]) -> Result<(), String>> Ode<F> {
+    fn new(dim: usize, params: Vec<f64>, f: F) -> Self {
+        let n = params.len();
+        Ode {
+            dim,
+            f,
+            params,
+            samples: vec![Vec::new(); n],
+            statuses: vec![None; n],
+            calls: 0,
+        }
+    }
+}
+
+impl<F: FnMut(f64, &[f64], f64, &mut [f64]) -> Result<(), String>> BatchSystem for Ode<F> {
+    type Fault = String;
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn eval(
+        &mut self,
+        ids: &[usize],
+        ts: &[f64],
+        ys: &[f64],
+        dys: &mut [f64],
+        faults: &mut [Option<String>],
+    ) {
+        self.calls += 1;
+        let d = self.dim;
+        for (k, &id) in ids.iter().enumerate() {
+            if let Err(e) = (self.f)(
+                ts[k],
+                &ys[k * d..(k + 1) * d],
+                self.params[id],
+                &mut dys[k * d..(k + 1) * d],
+            ) {
+                faults[k] = Some(e);
+            }
+        }
+    }
+    fn project(&self, _id: usize, y: &mut [f64]) {
+        if self.dim == 7 {
+            let n = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3]).sqrt();
+            y[..4].iter_mut().for_each(|v| *v /= n);
+        }
+    }
+    fn record(&mut self, ids: &[usize], ts: &[f64], ys: &[f64]) {
+        let d = self.dim;
+        for (k, &id) in ids.iter().enumerate() {
+            self.samples[id].push((ts[k], ys[k * d..(k + 1) * d].to_vec()));
+        }
+    }
+    fn finished(&mut self, id: usize, status: &Status<String>, _stats: &Stats) {
+        assert!(self.statuses[id].is_none(), "variant {id} finished twice");
+        self.statuses[id] = Some(status.clone());
+    }
+}
+
+const METHODS: [Method; 3] = [Method::Dopri5, Method::Radau5, Method::Rk4];
+
+/// Damped oscillator `x'' + 2 zeta w x' + w^2 x = 0`, `w = p`, `zeta = 0.1`.
+fn spring(_t: f64, y: &[f64], w: f64, dy: &mut [f64]) -> Result<(), String> {
+    dy[0] = y[1];
+    dy[1] = -2.0 * 0.1 * w * y[1] - w * w * y[0];
+    Ok(())
+}
+
+/// Closed form of [`spring`] from `x = 1, v = 0`: `(x, v)`.
+fn spring_exact(t: f64, w: f64) -> [f64; 2] {
+    let z: f64 = 0.1;
+    let wd = w * (1.0 - z * z).sqrt();
+    let e = (-z * w * t).exp();
+    let (s, c) = (wd * t).sin_cos();
+    let x = e * (c + z * w / wd * s);
+    let v = e * (-wd * s + z * w * c) - z * w * x;
+    [x, v]
+}
+
+fn settings(method: Method, t_end: f64, dt: f64, tol: f64, fixed: Option<f64>) -> Settings {
+    Settings {
+        t_end,
+        sample_interval: dt,
+        rtol: tol,
+        atol: tol,
+        fixed_step: if method == Method::Rk4 {
+            Some(fixed.unwrap_or(1e-3))
+        } else {
+            fixed
+        },
+        ..Settings::default()
+    }
+}
+
+#[test]
+fn damped_oscillator_matches_its_closed_form_through_every_method() {
+    for method in METHODS {
+        let ws = vec![2.0 * std::f64::consts::PI, 3.0, 7.5];
+        let mut sys = Ode::new(2, ws.clone(), spring);
+        let y0: Vec<f64> = ws.iter().flat_map(|_| [1.0, 0.0]).collect();
+        let set: Vec<Settings> = ws
+            .iter()
+            .map(|_| settings(method, 2.0, 0.013, 1e-10, None))
+            .collect();
+        let out = run_batch(method, &mut sys, &y0, &set);
+        let tol = 2e-8;
+        for (id, &w) in ws.iter().enumerate() {
+            assert_eq!(out[id].0, Status::Finished, "{method:?} variant {id}");
+            let samples = &sys.samples[id];
+            assert_eq!(samples.len(), 154, "{method:?}: samples at k * 0.013 <= 2");
+            for (k, (t, y)) in samples.iter().enumerate() {
+                assert!((t - k as f64 * 0.013).abs() < 1e-15, "sample time {t}");
+                let ex = spring_exact(*t, w);
+                for c in 0..2 {
+                    let err = (y[c] - ex[c]).abs() / w.powi(c as i32);
+                    assert!(
+                        err < tol,
+                        "{method:?} w={w} sample {k} t={t} comp {c}: got {}, want {}, tol {tol}",
+                        y[c],
+                        ex[c]
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Torque-free body with `I = diag(1, 1, 2)`: state `(q0..q3, w1, w2, w3)`.
+fn gyro(_t: f64, y: &[f64], _p: f64, dy: &mut [f64]) -> Result<(), String> {
+    let (w0, x, yq, z) = (y[0], y[1], y[2], y[3]);
+    let (a, b, c) = (y[4], y[5], y[6]);
+    dy[0] = -0.5 * (x * a + yq * b + z * c);
+    dy[1] = 0.5 * (w0 * a + yq * c - z * b);
+    dy[2] = 0.5 * (w0 * b + z * a - x * c);
+    dy[3] = 0.5 * (w0 * c + x * b - yq * a);
+    let (i1, i3) = (1.0, 2.0);
+    dy[4] = (i1 - i3) / i1 * b * c;
+    dy[5] = (i3 - i1) / i1 * c * a;
+    dy[6] = 0.0;
+    Ok(())
+}
+
+type M3 = [[f64; 3]; 3];
+
+fn quat_matrix(q: &[f64]) -> M3 {
+    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
+fn axis_angle(u: [f64; 3], a: f64) -> M3 {
+    let (s, c) = a.sin_cos();
+    let t = 1.0 - c;
+    let [x, y, z] = u;
+    [
+        [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+        [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+        [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
+    ]
+}
+
+fn mul(a: &M3, b: &M3) -> M3 {
+    let mut r = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            r[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    r
+}
+
+/// Closed form: body rates turn about the symmetry axis at `lambda = (I3 - I1)/I1 w3`;
+/// the attitude is a precession about the fixed angular momentum `L` at `|L| / I1`
+/// composed with a body rotation about `z` at `-lambda`: `R = Rot(L, |L|t/I1) R0 Rot(z, -lambda t)`.
+fn gyro_exact(t: f64, w0: [f64; 3]) -> ([f64; 3], M3) {
+    let lam = (2.0 - 1.0) / 1.0 * w0[2];
+    let (s, c) = (lam * t).sin_cos();
+    let w = [w0[0] * c - w0[1] * s, w0[0] * s + w0[1] * c, w0[2]];
+    let l = [w0[0], w0[1], 2.0 * w0[2]]; // R0 = I: L = I w0
+    let ln = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt();
+    let r = mul(
+        &axis_angle([l[0] / ln, l[1] / ln, l[2] / ln], ln * t / 1.0),
+        &axis_angle([0.0, 0.0, 1.0], -lam * t),
+    );
+    (w, r)
+}
+
+#[test]
+fn torque_free_symmetric_gyroscope_matches_its_closed_form_through_every_method() {
+    let w0 = [0.6, -0.3, 2.0];
+    for method in METHODS {
+        let mut sys = Ode::new(7, vec![0.0], gyro);
+        let y0 = [1.0, 0.0, 0.0, 0.0, w0[0], w0[1], w0[2]];
+        let set = [settings(method, 3.0, 0.05, 1e-10, Some(5e-4)).with_adaptive(method)];
+        let out = run_batch(method, &mut sys, &y0, &set);
+        assert_eq!(out[0].0, Status::Finished, "{method:?}");
+        let tol = 1e-7;
+        for (t, y) in &sys.samples[0] {
+            let (w, r) = gyro_exact(*t, w0);
+            let rq = quat_matrix(y);
+            for i in 0..3 {
+                let e = (y[4 + i] - w[i]).abs();
+                assert!(
+                    e < tol,
+                    "{method:?} t={t} w[{i}]: got {}, want {}, tol {tol}",
+                    y[4 + i],
+                    w[i]
+                );
+                for j in 0..3 {
+                    let e = (rq[i][j] - r[i][j]).abs();
+                    assert!(
+                        e < tol,
+                        "{method:?} t={t} R[{i}][{j}]: got {}, want {}, tol {tol}",
+                        rq[i][j],
+                        r[i][j]
+                    );
+                }
+            }
+        }
+    }
+}
+
+trait Adaptive {
+    fn with_adaptive(self, m: Method) -> Self;
+}
+impl Adaptive for Settings {
+    /// Adaptive methods run adaptively; only RK4 keeps the fixed step.
+    fn with_adaptive(mut self, m: Method) -> Self {
+        if m != Method::Rk4 {
+            self.fixed_step = None;
+        }
+        self
+    }
+}
+
+/// Max error of the oscillator over the samples and at the end, at fixed step `h`.
+fn fixed_step_errors(method: Method, h: f64, dt: f64) -> (f64, f64) {
+    let w = 2.0 * std::f64::consts::PI;
+    let mut sys = Ode::new(2, vec![w], spring);
+    let set = [Settings {
+        t_end: 1.0,
+        sample_interval: dt,
+        rtol: 1e-14,
+        atol: 1e-14,
+        fixed_step: Some(h),
+        ..Settings::default()
+    }];
+    let out = run_batch(method, &mut sys, &[1.0, 0.0], &set);
+    assert_eq!(out[0].0, Status::Finished, "{method:?} h={h}");
+    let mut max = 0.0f64;
+    let mut last = 0.0;
+    for (t, y) in &sys.samples[0] {
+        let e = (y[0] - spring_exact(*t, w)[0]).abs();
+        max = max.max(e);
+        last = e;
+    }
+    (max, last)
+}
+
+#[test]
+fn each_method_converges_at_its_order_at_step_ends_and_through_dense_output() {
+    // (method, order at step ends, order of the sampled (dense) output)
+    let cases = [
+        (Method::Rk4, 4.0, 4.0),
+        (Method::Dopri5, 5.0, 5.0),
+        (Method::Radau5, 5.0, 4.0),
+    ];
+    for (method, p, p_dense) in cases {
+        let hs = [1.0 / 60.0, 1.0 / 120.0, 1.0 / 240.0];
+        // Samples at the step ends (dt = 1/60) and between them (dt = 0.0137).
+        let ends: Vec<f64> = hs
+            .iter()
+            .map(|&h| fixed_step_errors(method, h, 1.0 / 60.0).1)
+            .collect();
+        let dense: Vec<f64> = hs
+            .iter()
+            .map(|&h| fixed_step_errors(method, h, 0.0137).0)
+            .collect();
+        eprintln!("{method:?}: step-end errors {ends:?}, dense {dense:?}");
+        for k in 0..2 {
+            let order = (ends[k] / ends[k + 1]).log2();
+            assert!(
+                (order - p).abs() < 0.35,
+                "{method:?} step-end order between h={} and h={}: {order:.3} (errors {:.3e}, {:.3e}), want {p} +- 0.35",
+                hs[k], hs[k + 1], ends[k], ends[k + 1]
+            );
+            let order = (dense[k] / dense[k + 1]).log2();
+            assert!(
+                order > p_dense - 0.35,
+                "{method:?} dense-output order between h={} and h={}: {order:.3} (errors {:.3e}, {:.3e}), want >= {p_dense} - 0.35",
+                hs[k], hs[k + 1], dense[k], dense[k + 1]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_batch_equals_single_runs_and_a_failing_variant_ends_alone() {
+    // Variant 1 faults whenever x < -0.5 (reached near t = 0.5): it must end with the
+    // fault at that time while the others finish exactly as they would alone.
+    let f = |t: f64, y: &[f64], p: f64, dy: &mut [f64]| {
+        if p < 0.0 && y[0] < -0.5 {
+            return Err(format!("x below -0.5 at t = {t}"));
+        }
+        spring(t, y, p.abs(), dy)
+    };
+    for method in METHODS {
+        let ws = vec![6.0, -6.0, 6.0, 9.0];
+        let y0: Vec<f64> = ws.iter().flat_map(|_| [1.0, 0.0]).collect();
+        let set: Vec<Settings> = ws
+            .iter()
+            .map(|_| settings(method, 1.5, 0.01, 1e-8, None))
+            .collect();
+        let mut batch = Ode::new(2, ws.clone(), f);
+        let out = run_batch(method, &mut batch, &y0, &set);
+        match &out[1].0 {
+            Status::Fault { time, fault } => {
+                assert!(
+                    *time > 0.2 && *time < 0.6,
+                    "{method:?}: fault at {time}: {fault}"
+                );
+            }
+            other => panic!("{method:?}: variant 1 should fault, got {other:?}"),
+        }
+        assert!(batch.samples[1]
+            .iter()
+            .all(|(_, y)| y.iter().all(|v| v.is_finite())));
+        for id in [0, 2, 3] {
+            assert_eq!(out[id].0, Status::Finished, "{method:?} variant {id}");
+            let mut single = Ode::new(2, vec![ws[id]], f);
+            let one = run_batch(method, &mut single, &[1.0, 0.0], &set[id..id + 1]);
+            assert_eq!(
+                one[0].1.steps, out[id].1.steps,
+                "{method:?} variant {id} steps"
+            );
+            assert_eq!(
+                single.samples[0], batch.samples[id],
+                "{method:?} variant {id} samples differ"
+            );
+        }
+        assert_eq!(
+            batch.samples[0], batch.samples[2],
+            "{method:?}: identical variants differ"
+        );
+    }
+}
