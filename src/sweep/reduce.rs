@@ -21,10 +21,12 @@
 //!   `1 / (4 revolutions)`, then refined by bisection on the slope of `|Z|²` (to
 //!   rounding; golden-section search on `A` where the peak is on a band end). The
 //!   dominant ratio is the largest peak; the sub-synchronous peak is the largest in
-//!   `band` (default 0.3..0.6, oil whirl sits near 0.45); `oil_whirl` is true when it
-//!   reaches `relative_threshold` × the dominant amplitude and `min_amplitude_ratio` ×
-//!   the radial clearance. Resolving two peaks needs them about `2 / revolutions` apart
-//!   (the Hann main-lobe half-width).
+//!   `band` (default 0.3..0.6, oil whirl sits near 0.45); `oil_whirl` is true when it is
+//!   a true peak (not the flank of a peak outside the band), is the dominant peak or lies
+//!   farther than `2 / revolutions` from it (resolved), and reaches `relative_threshold`
+//!   × the dominant amplitude and `min_amplitude_ratio` × the radial clearance.
+//!   Resolving two peaks needs them about `2 / revolutions` apart (the Hann main-lobe
+//!   half-width).
 //! - **Power loss**: time mean of `|M_z · spin|` per bearing, W; `power_loss_w` sums them.
 //! - **Friction torque**: `|M_z|`, N·m; friction coefficient `f` of eq. 11 (samples where
 //!   it is undefined are skipped). **Force**: `|W| = hypot(W_x, W_y)`, N.
@@ -653,7 +655,9 @@ impl Spectrum {
     /// bisection on the slope of `|Z|²` inside the best grid cell's neighbours (the main
     /// lobe: one maximum), or golden-section search on `A` when the maximum sits on an
     /// end of `[lo, hi]`.
-    fn peak(&self, spin: f64, lo: f64, hi: f64, step: f64) -> (f64, f64) {
+    /// Returns `(ratio, amplitude, interior)`, `interior` when the maximum is a true
+    /// peak of the spectrum inside `[lo, hi]` (not the flank of a peak outside it).
+    fn peak(&self, spin: f64, lo: f64, hi: f64, step: f64) -> (f64, f64, bool) {
         let cells = (((hi - lo) / step).ceil() as usize).max(1);
         let h = (hi - lo) / cells as f64;
         let mut best = (lo, -1.0);
@@ -667,7 +671,8 @@ impl Spectrum {
         let (mut a, mut b) = ((best.0 - h).max(lo), (best.0 + h).min(hi));
         // Slope in the ratio variable: d/dr = spin · d/dω.
         let g = |r: f64| spin * self.slope(r * spin);
-        if g(a) > 0.0 && g(b) < 0.0 {
+        let interior = g(a) > 0.0 && g(b) < 0.0;
+        if interior {
             while b - a > 1e-14 * (1.0 + best.0.abs()) {
                 let m = 0.5 * (a + b);
                 if m <= a || m >= b {
@@ -703,9 +708,9 @@ impl Spectrum {
         let r = 0.5 * (a + b);
         let ar = self.amplitude(r * spin);
         if ar >= best.1 {
-            (r, ar)
+            (r, ar, interior)
         } else {
-            best
+            (best.0, best.1, false)
         }
     }
 }
@@ -732,14 +737,20 @@ pub fn whirl(
     // Nyquist: |ω| dt < π, with a 10 % margin.
     let nyquist = 0.9 * std::f64::consts::PI / (dt_max * spin_mean.abs());
     let r_max = opts.max_ratio.min(nyquist);
-    let (ratio, amp) = sp.peak(spin_mean, -r_max, r_max, step);
+    let (ratio, amp, _) = sp.peak(spin_mean, -r_max, r_max, step);
     let (lo, hi) = (opts.band.0.min(r_max), opts.band.1.min(r_max));
-    let (sub_r, sub_a) = if hi > lo {
+    let (sub_r, sub_a, interior) = if hi > lo {
         sp.peak(spin_mean, lo, hi, step)
     } else {
-        (lo, 0.0)
+        (lo, 0.0, false)
     };
-    let oil = sub_a > 0.0
+    // A band maximum on the flank of the dominant peak is leakage, not a whirl: the
+    // sub-synchronous peak must be a true peak, and either the dominant one or resolved
+    // from it (farther than the Hann main-lobe half-width, 2 / revolutions).
+    let resolved = (sub_r - ratio).abs() < 1e-6 || (sub_r - ratio).abs() > 2.0 / revs;
+    let oil = interior
+        && resolved
+        && sub_a > 0.0
         && sub_a >= opts.relative_threshold * amp
         && sub_a >= opts.min_amplitude_ratio * clearance_m;
     Some(Whirl {
@@ -1092,6 +1103,18 @@ mod tests {
             !w.oil_whirl,
             "whirl of 1e-6 m in a 3e-4 m clearance flagged"
         );
+    }
+
+    #[test]
+    fn leakage_of_a_synchronous_orbit_in_a_short_window_is_not_oil_whirl() {
+        // 3 revolutions: the 1x main lobe reaches down to 0.33x, so the band maximum
+        // (at its upper end, 0.6) is large but only leakage.
+        let omega = 100.0;
+        let t = uniform(3.0 * TAU / omega, 301);
+        let (x, y) = tone(&t, &[(1.7e-4, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        assert!(w.subsync_amplitude_m > 0.2 * w.amplitude_m, "{w:?}");
+        assert!(!w.oil_whirl, "leakage flagged as oil whirl: {w:?}");
     }
 
     #[test]
