@@ -26,7 +26,7 @@
 //!   farther than `2 / revolutions` from it (resolved), and reaches `relative_threshold`
 //!   × the dominant amplitude and `min_amplitude_ratio` × the radial clearance.
 //!   Resolving two peaks needs them about `2 / revolutions` apart (the Hann main-lobe
-//!   half-width).
+//!   half-width); a window shorter than one revolution gives no whirl (`null`).
 //! - **Power loss**: time mean of `|M_z · spin|` per bearing, W; `power_loss_w` sums them.
 //! - **Friction torque**: `|M_z|`, N·m; friction coefficient `f` of eq. 11 (samples where
 //!   it is undefined are skipped). **Force**: `|W| = hypot(W_x, W_y)`, N.
@@ -732,6 +732,10 @@ pub fn whirl(
     let n = t.len();
     let span = t[n - 1] - t[0];
     let revs = spin_mean.abs() * span / std::f64::consts::TAU;
+    if revs < 1.0 {
+        // Less than a revolution: no frequency is resolved.
+        return None;
+    }
     let step = 1.0 / (4.0 * revs);
     let dt_max = t.windows(2).map(|p| p[1] - p[0]).fold(0.0, f64::max);
     // Nyquist: |ω| dt < π, with a 10 % margin.
