@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::cli::{
-    eval_json, is_sweep_spec, merge_command, read_input, run_command, run_scene_file, EvalOptions,
-    RunOptions, SweepRunOptions,
+    bench_rotor, eval_json, is_sweep_spec, merge_command, read_input, run_command, run_scene_file,
+    BenchRotorOptions, EvalOptions, RunOptions, SweepRunOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Parser, Subcommand};
@@ -20,11 +20,6 @@ struct Cli {
     #[command(subcommand)]
     command: Command,
 }
-
-/// Film accuracy of a single scene run when `--accuracy` is not given.
-const SCENE_ACCURACY: f64 = 1e-9;
-/// Film accuracy of a sweep when `--accuracy` is not given (speed over the last digits).
-const SWEEP_ACCURACY: f64 = 1e-6;
 
 #[derive(Subcommand)]
 enum Command {
@@ -51,10 +46,9 @@ enum Command {
         /// Backend for the film loads: cpu, gpu or auto.
         #[arg(long, default_value = "cpu")]
         backend: BackendKind,
-        /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12); default 1e-9
-        /// for a scene, 1e-6 for a sweep.
-        #[arg(long)]
-        accuracy: Option<f64>,
+        /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
+        #[arg(long, default_value_t = 1e-6)]
+        accuracy: f64,
         /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
         #[arg(long)]
         shard: Option<Shard>,
@@ -72,6 +66,22 @@ enum Command {
         /// Shard result files.
         #[arg(required = true)]
         shards: Vec<String>,
+    },
+    /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
+    /// markdown table, writes log-log SVG diagrams to --out.
+    BenchRotor {
+        /// Simulated time, s.
+        #[arg(long, default_value_t = 0.5)]
+        t_end: f64,
+        /// Film-load accuracy level.
+        #[arg(long, default_value_t = 1e-12)]
+        accuracy: f64,
+        /// Timing repeats per configuration (the fastest counts).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Output folder for the diagrams.
+        #[arg(long, default_value = "out/bench-rotor")]
+        out: std::path::PathBuf,
     },
 }
 
@@ -111,7 +121,7 @@ fn main() -> ExitCode {
                     shard,
                     batch: batch_size,
                     backend,
-                    accuracy: accuracy.unwrap_or(SWEEP_ACCURACY),
+                    accuracy,
                     quiet,
                 };
                 run_command(&file, &text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
@@ -127,7 +137,7 @@ fn main() -> ExitCode {
                     &text,
                     &RunOptions {
                         backend,
-                        accuracy: accuracy.unwrap_or(SCENE_ACCURACY),
+                        accuracy,
                         out,
                     },
                 )?;
@@ -144,6 +154,24 @@ fn main() -> ExitCode {
             }
         }),
         Command::Merge { out, shards } => merge_command(&out, &shards).map(print_lines),
+        Command::BenchRotor {
+            t_end,
+            accuracy,
+            repeats,
+            out,
+        } => bench_rotor(&BenchRotorOptions {
+            t_end,
+            accuracy,
+            repeats,
+            out,
+        })
+        .map(|r| {
+            println!("{}\n", r.reference);
+            print!("{}", r.table);
+            for f in r.files {
+                println!("wrote {}", f.display());
+            }
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

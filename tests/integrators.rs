@@ -3,6 +3,8 @@
 //! convergence order at the step ends and through its dense output, lockstep batches
 //! equal single runs, and one failing variant ending alone.
 
+#![allow(clippy::needless_range_loop)]
+
 use bearing_sweep::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
 
 /// A batch of identical-form ODEs `y' = f(t, y, p)` with a per-variant parameter `p`.
@@ -205,13 +207,14 @@ fn mul(a: &M3, b: &M3) -> M3 {
 /// the attitude is a precession about the fixed angular momentum `L` at `|L| / I1`
 /// composed with a body rotation about `z` at `-lambda`: `R = Rot(L, |L|t/I1) R0 Rot(z, -lambda t)`.
 fn gyro_exact(t: f64, w0: [f64; 3]) -> ([f64; 3], M3) {
-    let lam = (2.0 - 1.0) / 1.0 * w0[2];
+    let (i1, i3) = (1.0, 2.0);
+    let lam = (i3 - i1) / i1 * w0[2];
     let (s, c) = (lam * t).sin_cos();
     let w = [w0[0] * c - w0[1] * s, w0[0] * s + w0[1] * c, w0[2]];
-    let l = [w0[0], w0[1], 2.0 * w0[2]]; // R0 = I: L = I w0
+    let l = [i1 * w0[0], i1 * w0[1], i3 * w0[2]]; // R0 = I: L = I w0
     let ln = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt();
     let r = mul(
-        &axis_angle([l[0] / ln, l[1] / ln, l[2] / ln], ln * t / 1.0),
+        &axis_angle([l[0] / ln, l[1] / ln, l[2] / ln], ln * t / i1),
         &axis_angle([0.0, 0.0, 1.0], -lam * t),
     );
     (w, r)

@@ -325,3 +325,49 @@ fn cpu_and_gpu_backends_agree_on_the_paper_rotor() {
     let d = g_distance(&on_cpu[0], &on_gpu[0]);
     assert!(d < 1e-8, "max |G_cpu - G_gpu| = {d:e} m, tol 1e-8");
 }
+
+#[test]
+fn a_contact_model_carries_the_rotor_through_film_breakdown() {
+    // The huge-unbalance variant that ends in film breakdown without a contact model
+    // finishes with one: breakdowns are reported as events, outputs stay finite, and
+    // the energy balance still holds (the penalty force's work is in `work`).
+    let (b, _) = paper();
+    let mut s = b.clone();
+    s.name = "contact".into();
+    s.integrator.t_end = 0.1;
+    s.integrator.rtol = 1e-9;
+    s.integrator.atol = 1e-9;
+    s.rotor.static_unbalance = [0.05, 0.0];
+    s.film.threshold = 3e-5;
+    s.film.contact = Some(bearing_sweep::rotor::ContactSpec {
+        stiffness: 1e8,
+        damping: 100.0,
+    });
+    let r = &run(&[s], 1e-6)[0];
+    assert_eq!(r.status, SimStatus::Finished);
+    assert_finite(r);
+    assert!(!r.film_events.is_empty(), "a breakdown event is reported");
+    for ev in &r.film_events {
+        assert!(ev.h_min < 3e-5 && ev.h_min > 0.0, "{ev:?}");
+    }
+    let s = &r.samples;
+    for k in 0..s.t.len() {
+        let dke = s.kinetic_energy[k] - s.kinetic_energy[0];
+        assert!(
+            (dke - s.work[k]).abs() < 1e-6,
+            "sample {k}: dKE {dke}, work {}, tol 1e-6",
+            s.work[k]
+        );
+    }
+    let worst = s
+        .bearings
+        .iter()
+        .flat_map(|b| b.h_min.iter())
+        .fold(f64::INFINITY, |a, &b| a.min(b));
+    assert!(worst > 0.0, "the journal stays off the wall: h_min {worst}");
+    eprintln!(
+        "contact: {} events, thinnest film {worst:e} m, {} steps",
+        r.film_events.len(),
+        r.stats.steps
+    );
+}

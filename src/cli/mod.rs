@@ -1,10 +1,12 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
+mod bench_rotor;
 mod eval;
 mod run;
 mod sweep;
 
+pub use bench_rotor::{bench_rotor, BenchRotorOptions, BenchRotorReport, BenchRow};
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};

@@ -5,6 +5,9 @@
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
 //! Jacobians are reused while Newton converges fast (contraction <= 1e-3).
 
+// Index loops mirror the tableau's subscripts.
+#![allow(clippy::needless_range_loop)]
+
 use std::time::Instant;
 
 use super::common::{end, err_norm, finite, h_floor, initial_step, notify, reached, Packed, Track};

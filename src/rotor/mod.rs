@@ -9,10 +9,10 @@ mod simulate;
 
 pub use model::{RotorModel, DIM, JAC_DIM};
 pub use scene::{
-    load_scene, BearingSpec, FilmSpec, InitialSpec, IntegratorSpec, ModelKind, RotorSpec, Scene,
-    SceneError, SpinMode,
+    load_scene, BearingSpec, ContactSpec, FilmSpec, InitialSpec, IntegratorSpec, ModelKind,
+    RotorSpec, Scene, SceneError, SpinMode,
 };
 pub use simulate::{
-    settings_of, simulate_batch, BearingSeries, RotorFault, SimResult, SimStats, SimStatus,
-    TimeSeries,
+    settings_of, simulate_batch, BearingSeries, FilmEvent, RotorFault, SimResult, SimStats,
+    SimStatus, TimeSeries,
 };

@@ -8,6 +8,9 @@
 //! done on the rotor by all applied loads, J (a quadrature: `f` does not depend on it).
 //! Axial motion is constrained (`z_G = 0`); the axial force is the constraint's.
 
+// Index loops mirror the matrix subscripts.
+#![allow(clippy::needless_range_loop)]
+
 use super::scene::{ModelKind, Scene, SpinMode};
 use crate::bearing::{friction, BearingParams, BearingState};
 
@@ -175,6 +178,8 @@ pub struct RotorModel {
     pub(crate) held: bool,
     pub(crate) bearings: Vec<BearingGeom>,
     pub(crate) threshold: f64,
+    /// Penalty contact `(k N/m, c N·s/m)` below the threshold, if the scene asks.
+    pub(crate) contact: Option<(f64, f64)>,
     /// Moment of inertia about the shaft axis (ideal joints), kg·m².
     pub(crate) j_axis: f64,
     pub(crate) scales: [f64; DIM],
@@ -228,6 +233,11 @@ impl RotorModel {
             held: scene.spin == SpinMode::Held,
             bearings,
             threshold: scene.film.threshold,
+            contact: scene
+                .film
+                .contact
+                .as_ref()
+                .map(|c| (c.stiffness, c.damping)),
             j_axis: inertia[2][2] + r.mass * (u[0] * u[0] + u[1] * u[1]),
             scales,
         }
@@ -447,6 +457,26 @@ impl RotorModel {
             }
         }
     }
+}
+
+/// Penalty contact force at one journal end centre `e` (bearing frame, m) moving at `v`
+/// (m/s): radial, toward the bore axis, when the film `δ − |e|` is below `threshold`.
+pub(crate) fn contact_force(
+    e: [f64; 2],
+    v: [f64; 2],
+    clearance: f64,
+    threshold: f64,
+    (k, c): (f64, f64),
+) -> [f64; 2] {
+    let r = e[0].hypot(e[1]);
+    let depth = threshold - (clearance - r);
+    if depth <= 0.0 || r == 0.0 {
+        return [0.0, 0.0];
+    }
+    let n = [e[0] / r, e[1] / r];
+    let vr = v[0] * n[0] + v[1] * n[1];
+    let f = (k * depth + c * vr).max(0.0);
+    [-f * n[0], -f * n[1]]
 }
 
 /// `q̇ = ½ q ⊗ (0, ω_body)`.

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{cross, EndKin, RotorModel, DIM, JAC_DIM, W, WORK};
+use super::model::{contact_force, cross, EndKin, RotorModel, DIM, JAC_DIM, WORK};
 use super::scene::{ModelKind, Scene, SceneError};
 use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
@@ -116,6 +116,17 @@ pub enum RotorFault {
     },
 }
 
+/// A film falling below the threshold (seen at a sample).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FilmEvent {
+    /// Sample time, s.
+    pub time: f64,
+    /// Bearing index.
+    pub bearing: usize,
+    /// Minimum film thickness there, m.
+    pub h_min: f64,
+}
+
 /// Samples of one bearing, one entry per sample time.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BearingSeries {
@@ -193,6 +204,9 @@ pub struct SimResult {
     pub method: Method,
     /// How it ended.
     pub status: SimStatus,
+    /// Samples at which a film first fell below the threshold (runs with a contact
+    /// model continue through them; one entry each time a bearing enters breakdown).
+    pub film_events: Vec<FilmEvent>,
     /// Samples up to the end (or the failure).
     pub samples: TimeSeries,
     /// Counters.
@@ -211,6 +225,8 @@ struct RotorBatch<'a, 'p> {
     ideal_loads: Vec<[f64; 4]>,
     series: Vec<TimeSeries>,
     sample_evals: Vec<u64>,
+    events: Vec<Vec<FilmEvent>>,
+    below: Vec<bool>,
     scenes: Vec<usize>,
     names: Vec<String>,
     method: Method,
@@ -307,13 +323,27 @@ impl BatchSystem for RotorBatch<'_, '_> {
                             continue;
                         }
                     };
+                    let (mut fi, mut fj) = l.end_forces(geom.params.length);
                     if l.h_min < m.threshold {
-                        fault.get_or_insert(RotorFault::FilmBreakdown {
-                            bearing: b,
-                            h_min: l.h_min,
-                        });
+                        match m.contact {
+                            None => {
+                                fault.get_or_insert(RotorFault::FilmBreakdown {
+                                    bearing: b,
+                                    h_min: l.h_min,
+                                });
+                            }
+                            Some(kc) => {
+                                let st = &self.requests[cursor - 1].state;
+                                let d = geom.params.clearance;
+                                let ci = contact_force([st.xi, st.yi], e.v_i, d, m.threshold, kc);
+                                let cj = contact_force([st.xj, st.yj], e.v_j, d, m.threshold, kc);
+                                for c in 0..2 {
+                                    fi[c] += ci[c];
+                                    fj[c] += cj[c];
+                                }
+                            }
+                        }
                     }
-                    let (fi, fj) = l.end_forces(geom.params.length);
                     f[0] += fi[0] + fj[0];
                     f[1] += fi[1] + fj[1];
                     // Exact torque about G: end-point forces at the journal end centres.
@@ -391,7 +421,6 @@ impl BatchSystem for RotorBatch<'_, '_> {
                     bs.friction_coefficient
                         .push(l[3].is_finite().then_some(l[3]));
                 }
-                let _ = y[W];
                 continue;
             }
             self.sample_evals[id] += m.bearings.len() as u64;
@@ -407,7 +436,18 @@ impl BatchSystem for RotorBatch<'_, '_> {
                 bs.yj.push(st.yj);
                 let (ei, ej) = st.eccentricity_ratios(d);
                 bs.eccentricity_max.push(ei.max(ej));
-                bs.h_min.push(st.h_min(d));
+                let h = st.h_min(d);
+                bs.h_min.push(h);
+                let below = h < m.threshold;
+                let flag = &mut self.below[self.offsets[id] + b];
+                if below && !*flag {
+                    self.events[id].push(FilmEvent {
+                        time: ts[k],
+                        bearing: b,
+                        h_min: h,
+                    });
+                }
+                *flag = below;
                 match res {
                     Ok(l) => {
                         bs.wx.push(l.wx);
@@ -470,6 +510,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
             model: m.kind,
             method: self.method,
             status,
+            film_events: std::mem::take(&mut self.events[id]),
             samples: std::mem::take(&mut self.series[id]),
             stats: SimStats {
                 steps: stats.steps,
@@ -528,6 +569,7 @@ pub fn simulate_batch(
                     model: s.model,
                     method: s.integrator.method,
                     status: SimStatus::InvalidScene { path, reason },
+                    film_events: Vec::new(),
                     samples: TimeSeries::default(),
                     stats: SimStats::default(),
                 };
@@ -548,6 +590,7 @@ pub fn simulate_batch(
         }
         let settings: Vec<Settings> = idx.iter().map(|&i| settings_of(&scenes[i])).collect();
         let n = idx.len();
+        let n_bearings = params.len();
         let mut batch = RotorBatch {
             models,
             params,
@@ -559,12 +602,15 @@ pub fn simulate_batch(
             ideal_loads: Vec::new(),
             series: vec![TimeSeries::default(); n],
             sample_evals: vec![0; n],
+            events: vec![Vec::new(); n],
+            below: Vec::new(),
             scenes: idx.clone(),
             names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
             method,
             out: &mut out,
             progress: &mut *progress,
         };
+        batch.below = vec![false; n_bearings];
         run_batch(method, &mut batch, &y0, &settings);
     }
     out.into_iter()
