@@ -3,7 +3,7 @@
 # rtol = atol = 1e-6, samples every 5e-4 s, film accuracy 1e-6) at N variants: a Latin
 # hypercube over clearance [2e-4, 4e-4] m x viscosity [0.015, 0.04] Pa·s. Prints
 # N, batch size, wall seconds, variants per second and peak RSS (VmHWM) per run.
-#   bash bench/sweep-bench.sh [BIN] [N...]
+#   [BATCH_SIZES="auto 1024"] bash bench/sweep-bench.sh [BIN] [N...]
 set -euo pipefail
 BIN=${1:-target/release/bearing-sweep}
 shift || true
@@ -11,7 +11,7 @@ NS=${*:-1 64 1024 4096}
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
 for N in $NS; do
-  for BS in auto; do
+  for BS in ${BATCH_SIZES:-auto}; do
     cat > "$TMP/bench-$N.json" <<JSON
 {"kind": "rotor",
  "base": {"rotor": {"mass": 1.0, "inertia": [0.01, 0.01, 0.3], "static_unbalance": [0.001, 0.0]},

@@ -150,11 +150,8 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
     Ok(out)
 }
 
-/// Renders `plot` from a complete result document.
-pub fn render(result: &Value, plot: &PlotSpec) -> Result<String, String> {
-    let variants = result["variants"]
-        .as_array()
-        .ok_or("the result has no variants")?;
+/// Renders `plot` from a complete result's variants.
+pub fn render(variants: &[Value], plot: &PlotSpec) -> Result<String, String> {
     let mut curves: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     let mut order: Vec<String> = Vec::new();
     for v in variants {
@@ -231,7 +228,7 @@ mod tests {
                        "reductions": {"bearings": [{"h_min_m": {"value": y}}]}})
             })
             .collect();
-        let svg = render(&json!({"variants": variants}), &spec.plots[0]).unwrap();
+        let svg = render(&variants, &spec.plots[0]).unwrap();
         assert!(
             svg.matches("<polyline").count() >= 2,
             "one line per value of b"

@@ -216,10 +216,22 @@ fn header(spec: &SweepSpec, opts: &RunOptions, total: u64) -> Value {
            "shard": opts.shard.map(Shard::to_json), "count": total})
 }
 
-/// Reads an existing stream: checks its header against `expected`, returns the finished
-/// variant lines by id, and the byte length of its intact prefix (a torn last line, left
-/// by a kill in mid-write, is excluded and gets truncated).
-fn read_stream(path: &Path, expected: &Value) -> Result<(BTreeMap<u64, Value>, u64), SweepError> {
+/// Where one finished variant's line sits in the stream.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LineRef {
+    /// Byte offset of the line.
+    offset: u64,
+    /// Length without the newline.
+    len: usize,
+    /// Its status is `ok`.
+    ok: bool,
+}
+
+/// Reads an existing stream: checks its header against `expected`, returns where each
+/// finished variant's line is (first occurrence per id), and the byte length of its
+/// intact prefix (a torn last line, left by a kill in mid-write, is excluded and gets
+/// truncated). Memory: a few words per variant, whatever the lines hold.
+fn read_stream(path: &Path, expected: &Value) -> Result<(BTreeMap<u64, LineRef>, u64), SweepError> {
     let file = File::open(path).map_err(|e| SweepError::io(path, e))?;
     let mut reader = BufReader::new(file);
     let mut line = Vec::new();
@@ -271,7 +283,12 @@ fn read_stream(path: &Path, expected: &Value) -> Result<(BTreeMap<u64, Value>, u
                     path.display()
                 ))
             })?;
-            lines.entry(id).or_insert(v);
+            let ok = v.get("status").and_then(Value::as_str) == Some("ok");
+            lines.entry(id).or_insert(LineRef {
+                offset: good_len,
+                len: n - 1,
+                ok,
+            });
         }
         good_len += n as u64;
     }
@@ -416,10 +433,7 @@ pub fn run_sweep(
             stream.display()
         )));
     }
-    let not_ok = lines
-        .values()
-        .filter(|v| v.get("status").and_then(Value::as_str) != Some("ok"))
-        .count() as u64;
+    let not_ok = lines.values().filter(|l| !l.ok).count() as u64;
     let ran = todo.len() as u64;
     let run = json!({
         "simulator": sim.info(),
@@ -430,17 +444,35 @@ pub fn run_sweep(
         "wall_s": started.elapsed().as_secs_f64(),
         "peak_rss_bytes": peak_rss_bytes(),
     });
-    let doc = result_doc(
-        spec,
-        &opts.settings,
-        opts.shard,
-        total,
-        lines.into_values().collect(),
-        run,
-    );
-    write_result(&opts.out, &doc)?;
-    let plots = if opts.shard.is_none() {
-        write_plots(spec, &doc, &opts.out)
+    let doc = result_doc(spec, &opts.settings, opts.shard, total, run);
+    // Stream the variants from the stream file into the result in id order, keeping the
+    // light part (params, reductions) only when plots need it.
+    let mut reader = File::open(&stream).map_err(|e| SweepError::io(&stream, e))?;
+    let want_plots = opts.shard.is_none() && !spec.plots.is_empty();
+    let mut light = Vec::new();
+    let mut buf = Vec::new();
+    let mut next = |r: &LineRef| -> Result<String, SweepError> {
+        buf.resize(r.len, 0);
+        reader
+            .seek(SeekFrom::Start(r.offset))
+            .and_then(|_| std::io::Read::read_exact(&mut reader, &mut buf))
+            .map_err(|e| SweepError::io(&stream, e))?;
+        let text = String::from_utf8_lossy(&buf).into_owned();
+        if want_plots {
+            if let Ok(mut v) = serde_json::from_str::<Value>(&text) {
+                if let Some(o) = v.as_object_mut() {
+                    o.remove("series");
+                }
+                light.push(v);
+            }
+        }
+        Ok(text)
+    };
+    let mut iter = lines.values().map(&mut next);
+    write_result_streamed(&opts.out, &doc, &mut iter)?;
+    drop(iter);
+    let plots = if want_plots {
+        write_plots(spec, &light, &opts.out)
     } else {
         Vec::new()
     };
@@ -456,15 +488,19 @@ pub fn run_sweep(
     })
 }
 
-/// Writes the spec's plots of a complete result into its folder: `<name>.svg`.
-pub fn write_plots(spec: &SweepSpec, doc: &Value, out: &Path) -> Vec<Result<PathBuf, String>> {
+/// Writes the spec's plots of a complete result's variants into its folder: `<name>.svg`.
+pub fn write_plots(
+    spec: &SweepSpec,
+    variants: &[Value],
+    out: &Path,
+) -> Vec<Result<PathBuf, String>> {
     spec.plots
         .iter()
         .map(|p| {
             let dir = out.parent().unwrap_or(Path::new("."));
             let path = dir.join(format!("{}.svg", p.name));
             let svg =
-                super::plots::render(doc, p).map_err(|e| format!("plot `{}`: {e}", p.name))?;
+                super::plots::render(variants, p).map_err(|e| format!("plot `{}`: {e}", p.name))?;
             std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
             Ok(path)
         })
@@ -503,7 +539,6 @@ fn result_doc(
     settings: &Value,
     shard: Option<Shard>,
     total: u64,
-    variants: Vec<Value>,
     run: Value,
 ) -> Value {
     json!({
@@ -516,9 +551,47 @@ fn result_doc(
         "count": total,
         "shard": shard.map(Shard::to_json),
         "units": units(),
-        "variants": variants,
+        "variants": [],
         "run": run,
     })
+}
+
+/// Writes `doc` (whose top-level `variants` is empty) with the variant lines from
+/// `variants` (compact JSON, one per line, in order) through a temporary file and a
+/// rename. Memory stays independent of the number of variants.
+fn write_result_streamed(
+    path: &Path,
+    doc: &Value,
+    variants: &mut dyn Iterator<Item = Result<String, SweepError>>,
+) -> Result<(), SweepError> {
+    let text = serde_json::to_string_pretty(doc).unwrap_or_default();
+    // Top-level keys are indented by two spaces; nested ones by more.
+    let marker = "\n  \"variants\": []";
+    let at = text
+        .find(marker)
+        .ok_or_else(|| SweepError::Output("internal: no variants field".into()))?;
+    let tmp = path.with_extension("json.tmp");
+    let file = File::create(&tmp).map_err(|e| SweepError::io(&tmp, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    let io = |e| SweepError::io(&tmp, e);
+    w.write_all(text[..at].as_bytes()).map_err(io)?;
+    w.write_all(b"\n  \"variants\": [").map_err(io)?;
+    let mut first = true;
+    for line in variants {
+        let line = line?;
+        w.write_all(if first { b"\n    " } else { b",\n    " })
+            .map_err(io)?;
+        w.write_all(line.as_bytes()).map_err(io)?;
+        first = false;
+    }
+    w.write_all(if first { b"]" } else { b"\n  ]" })
+        .map_err(io)?;
+    w.write_all(text[at + marker.len()..].as_bytes())
+        .map_err(io)?;
+    w.write_all(b"\n").map_err(io)?;
+    w.flush().map_err(io)?;
+    drop(w);
+    std::fs::rename(&tmp, path).map_err(|e| SweepError::io(path, e))
 }
 
 /// Writes `doc` to `path` through a temporary file and a rename (never half a result).
@@ -643,18 +716,28 @@ pub fn merge(
     let mut doc = f.clone();
     let o = doc.as_object_mut().expect("object");
     o.insert("shard".into(), Value::Null);
-    o.insert(
-        "variants".into(),
-        Value::Array(variants.into_values().collect()),
-    );
+    o.insert("variants".into(), json!([]));
     o.insert("run".into(), json!({"merged_from": runs}));
-    write_result(out, &doc)?;
+    let mut iter = variants.values().map(|v| Ok(v.to_string()));
+    write_result_streamed(out, &doc, &mut iter)?;
+    let light: Vec<Value> = variants
+        .into_values()
+        .map(|mut v| {
+            if let Some(o) = v.as_object_mut() {
+                o.remove("series");
+            }
+            v
+        })
+        .collect();
     let plots = match super::spec::parse_spec(&doc["spec"], None) {
-        Ok(spec) => write_plots(&spec, &doc, out),
+        Ok(spec) => write_plots(&spec, &light, out),
         Err(e) => vec![Err(format!(
             "plots: the spec in the shard results does not parse: {e}"
         ))],
     };
+    doc.as_object_mut()
+        .expect("object")
+        .insert("variants".into(), Value::Array(light));
     Ok((doc, plots))
 }
 
