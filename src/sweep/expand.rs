@@ -20,6 +20,9 @@ use serde_json::{Map, Value};
 use super::spec::{set_path, Mode, SweepSpec};
 use super::SweepError;
 
+/// A scene validator: `Err((JSON path inside the scene, reason))`.
+pub type SceneValidator = dyn Fn(&Value) -> Result<(), (String, String)>;
+
 /// A variant: its id, the value of each axis (spec order), and its scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Variant {
@@ -246,7 +249,7 @@ impl Expansion {
     pub fn validate_all(
         &self,
         spec: &SweepSpec,
-        validator: &dyn Fn(&Value) -> Result<(), (String, String)>,
+        validator: &SceneValidator,
     ) -> Result<(), SweepError> {
         for id in 0..self.count() {
             let v = self.variant(spec, id);

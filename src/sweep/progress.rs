@@ -55,11 +55,9 @@ impl Progress {
         } else {
             "--:--".into()
         };
-        let filled = if self.total > 0 {
-            (WIDTH as u64 * self.done / self.total) as usize
-        } else {
-            WIDTH
-        };
+        let filled = (WIDTH as u64 * self.done)
+            .checked_div(self.total)
+            .map_or(WIDTH, |f| f as usize);
         let bar: String = "#".repeat(filled) + &"-".repeat(WIDTH - filled.min(WIDTH));
         let mut err = std::io::stderr().lock();
         let _ = write!(

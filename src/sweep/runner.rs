@@ -302,7 +302,7 @@ fn read_stream(path: &Path, expected: &Value) -> Result<(BTreeMap<u64, LineRef>,
 /// Runs the sweep (this shard of it), resuming from an existing stream.
 pub fn run_sweep(
     spec: &SweepSpec,
-    validator: &dyn Fn(&Value) -> Result<(), (String, String)>,
+    validator: &super::expand::SceneValidator,
     sim: &mut dyn BatchSimulator,
     opts: &RunOptions,
     notice: &mut dyn FnMut(String),
@@ -396,8 +396,9 @@ pub fn run_sweep(
                 progress.inc();
             };
             sim.run_batch(&jobs, &mut on_done);
-            for k in 0..jobs.len() {
-                if !reported[k].get() {
+            let missing: Vec<usize> = (0..jobs.len()).filter(|&k| !reported[k].get()).collect();
+            for k in missing {
+                {
                     on_done(
                         k,
                         Outcome::failed(
@@ -574,7 +575,7 @@ fn write_result_streamed(
     let file = File::create(&tmp).map_err(|e| SweepError::io(&tmp, e))?;
     let mut w = std::io::BufWriter::new(file);
     let io = |e| SweepError::io(&tmp, e);
-    w.write_all(text[..at].as_bytes()).map_err(io)?;
+    w.write_all(&text.as_bytes()[..at]).map_err(io)?;
     w.write_all(b"\n  \"variants\": [").map_err(io)?;
     let mut first = true;
     for line in variants {
@@ -586,7 +587,7 @@ fn write_result_streamed(
     }
     w.write_all(if first { b"]" } else { b"\n  ]" })
         .map_err(io)?;
-    w.write_all(text[at + marker.len()..].as_bytes())
+    w.write_all(&text.as_bytes()[at + marker.len()..])
         .map_err(io)?;
     w.write_all(b"\n").map_err(io)?;
     w.flush().map_err(io)?;
