@@ -160,7 +160,15 @@ pub fn render(variants: &[Value], plot: &PlotSpec) -> Result<String, String> {
             continue;
         };
         let label = match &plot.series {
-            Some(s) => format!("{s} = {}", params.get(s).cloned().unwrap_or(Value::Null)),
+            Some(s) => match params.get(s) {
+                Some(Value::Number(n)) => {
+                    format!(
+                        "{s} = {}",
+                        crate::plot::tick_label(n.as_f64().unwrap_or(f64::NAN))
+                    )
+                }
+                other => format!("{s} = {}", other.cloned().unwrap_or(Value::Null)),
+            },
             None => plot.y.clone(),
         };
         let y = resolve(&v["reductions"], &plot.y_path)
