@@ -20,7 +20,7 @@ pub enum Scale {
 }
 
 /// A tick label with at most 4 significant digits (log-axis ticks such as
-/// `0.0003000000000000003` become `0.0003`), in scientific notation outside 1e-3..1e5.
+/// `0.0003000000000000003` become `3e-4`), in scientific notation outside 1e-3..1e5.
 pub fn tick_label(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
@@ -192,7 +192,8 @@ mod tests {
     #[test]
     fn tick_labels_are_short() {
         let cases = [
-            (0.0003000000000000003, "0.0003"),
+            (0.0003000000000000003, "3e-4"),
+            (0.003000000000000001, "0.003"),
             (0.00012, "1.2e-4"),
             (100.0, "100"),
             (12345.678, "12346"),
