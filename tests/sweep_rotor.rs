@@ -155,6 +155,22 @@ fn rotor_scene_errors_name_the_json_path_before_running() {
         "{err}"
     );
     assert!(!root.exists(), "output written before the error");
+    // A wrong type from an axis (serde cannot say where): the axis's path is named.
+    let mut wrong = spec(0.1, 2);
+    wrong["axes"][1] = json!({"path": "bearings[*].viscosity", "values": [0.0242, "thick"]});
+    let p = write(&dir, "wrong.json", &wrong);
+    let (ok, err) = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        root.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("variant 1 (bearings[*].clearance = 0.0002, bearings[*].viscosity = \"thick\"): bearings[0].viscosity: invalid type"),
+        "{err}"
+    );
     let mut typo = spec(0.1, 2);
     typo["base"]["bearings"][1]["viscosty"] = json!(0.03);
     let p = write(&dir, "typo.json", &typo);

@@ -253,7 +253,10 @@ impl Expansion {
     ) -> Result<(), SweepError> {
         for id in 0..self.count() {
             let v = self.variant(spec, id);
-            if let Err((path, reason)) = validator(&v.scene) {
+            if let Err((mut path, reason)) = validator(&v.scene) {
+                if path == "$" {
+                    path = self.locate(spec, &v, validator).unwrap_or(path);
+                }
                 return Err(SweepError::Variant {
                     id,
                     assignment: v.assignment(spec),
@@ -263,6 +266,21 @@ impl Expansion {
             }
         }
         Ok(())
+    }
+
+    /// For an error the validator could not place (e.g. serde's "invalid type"): when the
+    /// base alone is valid, the first axis whose value alone breaks the base, as the
+    /// concrete path it sets.
+    fn locate(&self, spec: &SweepSpec, v: &Variant, validator: &SceneValidator) -> Option<String> {
+        validator(&spec.base).ok()?;
+        spec.axes.iter().zip(&v.values).find_map(|(axis, value)| {
+            let mut scene = spec.base.clone();
+            set_path(&mut scene, &axis.segments, value);
+            validator(&scene).err()?;
+            super::spec::resolve(&spec.base, &axis.segments)
+                .ok()
+                .and_then(|t| t.first().map(|(p, _)| p.clone()))
+        })
     }
 }
 
