@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::cli::{
-    bench_rotor, eval_json, is_sweep_spec, merge_command, read_input, run_command, run_scene_file,
-    BenchRotorOptions, EvalOptions, RunOptions, SweepRunOptions,
+    bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command, read_input,
+    run_command, run_scene_file, BenchRotorOptions, EvalOptions, RunOptions, SweepRunOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Parser, Subcommand};
@@ -82,6 +82,13 @@ enum Command {
         /// Output folder for the diagrams.
         #[arg(long, default_value = "out/bench-rotor")]
         out: std::path::PathBuf,
+        /// Instead of the work-precision study: lockstep batches of these sizes against
+        /// one-by-one runs (comma-separated, e.g. 1,16,256).
+        #[arg(long, value_delimiter = ',')]
+        batch: Vec<usize>,
+        /// CPU threads for --batch (default: all).
+        #[arg(long)]
+        threads: Option<usize>,
     },
 }
 
@@ -156,9 +163,22 @@ fn main() -> ExitCode {
         Command::Merge { out, shards } => merge_command(&out, &shards).map(print_lines),
         Command::BenchRotor {
             t_end,
+            batch,
+            threads,
+            ..
+        } if !batch.is_empty() => {
+            println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
+            println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+            batch
+                .iter()
+                .try_for_each(|&n| bench_rotor_batch(n, t_end, threads).map(|row| print!("{row}")))
+        }
+        Command::BenchRotor {
+            t_end,
             accuracy,
             repeats,
             out,
+            ..
         } => bench_rotor(&BenchRotorOptions {
             t_end,
             accuracy,

@@ -379,3 +379,68 @@ fn a_batch_equals_single_runs_and_a_failing_variant_ends_alone() {
         );
     }
 }
+
+#[test]
+fn a_blow_up_ends_with_a_status_at_its_time_and_no_nan_in_the_samples() {
+    // y' = y^2, y(0) = 1 blows up at t = 1: every method must stop there with a status
+    // (step-size collapse or non-finite state), never return NaN samples, and the
+    // healthy variant in the same batch must finish.
+    let f = |_t: f64, y: &[f64], p: f64, dy: &mut [f64]| {
+        dy[0] = if p > 0.0 { y[0] * y[0] } else { -y[0] };
+        Ok(())
+    };
+    for method in METHODS {
+        let mut sys = Ode::new(1, vec![1.0, -1.0], f);
+        let set = [
+            settings(method, 2.0, 0.01, 1e-8, None),
+            settings(method, 2.0, 0.01, 1e-8, None),
+        ];
+        let out = run_batch(method, &mut sys, &[1.0, 1.0], &set);
+        let time = match &out[0].0 {
+            Status::StepSizeTooSmall { time, .. } | Status::NonFinite { time } => *time,
+            other => panic!("{method:?}: blow-up should end with a status, got {other:?}"),
+        };
+        // Fixed-step RK4 (h = 1e-3) may take a few steps past the singularity.
+        assert!(
+            (0.9..=1.01).contains(&time),
+            "{method:?}: ended at {time}, blow-up at 1"
+        );
+        eprintln!("{method:?}: {:?}", out[0].0);
+        assert!(
+            sys.samples[0].iter().all(|(_, y)| y[0].is_finite()),
+            "{method:?}: NaN in samples"
+        );
+        assert_eq!(
+            out[1].0,
+            Status::Finished,
+            "{method:?}: the healthy variant"
+        );
+        let (t, y) = sys.samples[1].last().unwrap();
+        assert!(
+            (y[0] - (-t).exp()).abs() < 1e-6,
+            "{method:?}: healthy variant wrong at {t}"
+        );
+    }
+}
+
+#[test]
+fn the_step_budget_ends_a_variant_with_max_steps() {
+    for method in METHODS {
+        let mut sys = Ode::new(2, vec![6.0], spring);
+        let mut set = settings(method, 10.0, 0.1, 1e-8, None);
+        set.max_steps = 25;
+        let out = run_batch(method, &mut sys, &[1.0, 0.0], &[set]);
+        match &out[0].0 {
+            Status::MaxSteps { time, steps } => {
+                assert_eq!(*steps, 25, "{method:?}");
+                assert!(*time > 0.0 && *time < 10.0, "{method:?}: time {time}");
+                let last = sys.samples[0].last().unwrap().0;
+                assert!(
+                    last <= *time + 1e-12,
+                    "{method:?}: samples past the end {last} > {time}"
+                );
+            }
+            other => panic!("{method:?}: expected max_steps, got {other:?}"),
+        }
+    }
+}

@@ -371,3 +371,32 @@ fn a_contact_model_carries_the_rotor_through_film_breakdown() {
         r.stats.steps
     );
 }
+
+#[test]
+fn streaming_hands_samples_to_progress_and_keeps_only_statuses() {
+    let (b, ideal) = paper();
+    let mut s = b.clone();
+    s.integrator.t_end = 0.02;
+    let mut i = ideal.clone();
+    i.integrator.t_end = 0.02;
+    let kept = run(&[s.clone(), i.clone()], 1e-6);
+    let mut ev = cpu(1e-6);
+    let mut streamed: Vec<Option<SimResult>> = vec![None, None];
+    let out = bearing_sweep::rotor::simulate_batch_streaming(&[s, i], &mut ev, &mut |k, r| {
+        streamed[k] = Some(r.clone())
+    });
+    for k in 0..2 {
+        assert_eq!(out[k].status, SimStatus::Finished);
+        assert!(
+            out[k].samples.t.is_empty(),
+            "returned result {k} keeps no samples"
+        );
+        let st = streamed[k].as_ref().unwrap();
+        assert!(
+            st.samples == kept[k].samples,
+            "streamed samples of result {k} differ"
+        );
+        assert_eq!(st.status, kept[k].status);
+        assert_eq!(st.stats.steps, kept[k].stats.steps);
+    }
+}

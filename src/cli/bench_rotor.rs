@@ -225,3 +225,56 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
         files,
     })
 }
+
+/// CPU time of the calling thread, s (Linux `/proc/thread-self/schedstat`; `None`
+/// elsewhere). On a shared machine this is steadier than wall time.
+fn thread_cpu_s() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Lockstep batch against one-by-one runs: `n` paper-rotor variants (spins spread over
+/// 60-140 rad/s, dopri5 at the default tolerance, 1e-6 loads) on the CPU backend with
+/// `threads` threads. Returns a markdown table row set.
+pub fn bench_rotor_batch(n: usize, t_end: f64, threads: Option<usize>) -> Result<String, CliError> {
+    let base = base_scene(t_end)?;
+    let accuracy = Accuracy::default();
+    let scenes: Vec<Scene> = (0..n)
+        .map(|k| {
+            let mut s = base.clone();
+            s.name = format!("v{k}");
+            s.initial.spin = 60.0 + 80.0 * k as f64 / (n.max(2) - 1) as f64;
+            s
+        })
+        .collect();
+    let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, threads)));
+    let t0 = Instant::now();
+    let c0 = thread_cpu_s();
+    let batch = simulate_batch(&scenes, &mut ev, &mut |_, _| {});
+    let batch_wall = t0.elapsed().as_secs_f64();
+    let batch_cpu = c0.and_then(|c| thread_cpu_s().map(|c1| c1 - c));
+    let calls = ev.stats().calls;
+    let states = ev.stats().states;
+    let mut seq_wall = 0.0;
+    let mut seq_calls = 0;
+    let c0 = thread_cpu_s();
+    for s in &scenes {
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, threads)));
+        let t0 = Instant::now();
+        let r = simulate_batch(std::slice::from_ref(s), &mut ev, &mut |_, _| {});
+        seq_wall += t0.elapsed().as_secs_f64();
+        seq_calls += ev.stats().calls;
+        debug_assert_eq!(r[0].status, batch[0].status);
+    }
+    let seq_cpu = c0.and_then(|c| thread_cpu_s().map(|c1| c1 - c));
+    let cpu = |c: Option<f64>| c.map_or("n/a".to_string(), |c| format!("{c:.3}"));
+    let finished = batch.iter().filter(|r| r.status.is_finished()).count();
+    Ok(format!(
+        "| {n} | {} | {finished} | {calls} | {:.0} | {batch_wall:.3} | {} | {seq_calls} | {seq_wall:.3} | {} |\n",
+        threads.map_or("all".to_string(), |t| t.to_string()),
+        states as f64 / calls.max(1) as f64,
+        cpu(batch_cpu),
+        cpu(seq_cpu),
+    ))
+}

@@ -6,7 +6,9 @@ mod eval;
 mod run;
 mod sweep;
 
-pub use bench_rotor::{bench_rotor, BenchRotorOptions, BenchRotorReport, BenchRow};
+pub use bench_rotor::{
+    bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
+};
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};

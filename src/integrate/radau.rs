@@ -514,6 +514,11 @@ pub(crate) fn run<S: BatchSystem>(
                 if reached(tr.t, s.t_end) {
                     end(tr, Status::Finished, start);
                     ended.push(id);
+                } else if tr.h < h_floor(tr.t, s.t_end) {
+                    // Accepted steps shrinking toward a singularity (Zeno).
+                    let (time, step) = (tr.t, tr.h);
+                    end(tr, Status::StepSizeTooSmall { time, step }, start);
+                    ended.push(id);
                 } else if tr.stats.steps >= s.max_steps {
                     let (time, steps) = (tr.t, tr.stats.steps);
                     end(tr, Status::MaxSteps { time, steps }, start);

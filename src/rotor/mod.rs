@@ -13,6 +13,6 @@ pub use scene::{
     RotorSpec, Scene, SceneError, SpinMode,
 };
 pub use simulate::{
-    settings_of, simulate_batch, BearingSeries, FilmEvent, RotorFault, SimResult, SimStats,
-    SimStatus, TimeSeries,
+    settings_of, simulate_batch, simulate_batch_streaming, BearingSeries, FilmEvent, RotorFault,
+    SimResult, SimStats, SimStatus, TimeSeries,
 };

@@ -231,6 +231,7 @@ struct RotorBatch<'a, 'p> {
     names: Vec<String>,
     method: Method,
     out: &'a mut [Option<SimResult>],
+    keep_samples: bool,
     progress: &'a mut (dyn FnMut(usize, &SimResult) + 'p),
 }
 
@@ -524,7 +525,15 @@ impl BatchSystem for RotorBatch<'_, '_> {
             },
         };
         (self.progress)(self.scenes[id], &result);
-        self.out[self.scenes[id]] = Some(result);
+        let slot = &mut self.out[self.scenes[id]];
+        *slot = Some(if self.keep_samples {
+            result
+        } else {
+            SimResult {
+                samples: TimeSeries::default(),
+                ..result
+            }
+        });
     }
 }
 
@@ -553,6 +562,26 @@ pub fn simulate_batch(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
+) -> Vec<SimResult> {
+    simulate(scenes, evaluator, progress, true)
+}
+
+/// [`simulate_batch`] for large sweeps: each result's samples go to `progress` only and
+/// are dropped after it returns, so memory holds the running variants' series alone. The
+/// returned results carry status, events and counters with empty `samples`.
+pub fn simulate_batch_streaming(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    progress: &mut dyn FnMut(usize, &SimResult),
+) -> Vec<SimResult> {
+    simulate(scenes, evaluator, progress, false)
+}
+
+fn simulate(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    progress: &mut dyn FnMut(usize, &SimResult),
+    keep_samples: bool,
 ) -> Vec<SimResult> {
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
     let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
@@ -608,6 +637,7 @@ pub fn simulate_batch(
             names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
             method,
             out: &mut out,
+            keep_samples,
             progress: &mut *progress,
         };
         batch.below = vec![false; n_bearings];
