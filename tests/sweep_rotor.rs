@@ -324,7 +324,7 @@ fn gpu_and_cpu_sweeps_agree() {
         ("gpu", gpu),
         ("cpu", create_backend(BackendKind::Cpu, accuracy).unwrap().0),
     ] {
-        let mut sim = RotorSimulator::new(LoadEvaluator::new(backend));
+        let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
         let out = dir.join(name).join("result.json");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
         let opts = RunOptions {

@@ -140,7 +140,7 @@ pub fn run_command(
                     if let Some(n) = n {
                         notice(n);
                     }
-                    let mut sim = RotorSimulator::new(LoadEvaluator::new(backend));
+                    let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
                     let settings = sim.settings(accuracy.rtol());
                     run_sweep(
                         &spec,

@@ -6,7 +6,8 @@ use serde_json::{json, Value};
 
 use super::reduce::{BearingSignals, Signals};
 use super::runner::{BatchSimulator, Job, Outcome};
-use crate::backend::{BackendInfo, LoadEvaluator};
+use crate::backend::{BackendInfo, CpuBackend, LoadEvaluator};
+use crate::bearing::Accuracy;
 use crate::rotor::{simulate_batch, Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough states per film call to
@@ -131,16 +132,37 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
 }
 
 /// The rotor integrator as a batch simulator.
+///
+/// On a GPU the whole batch advances in lockstep on one evaluator: every stage is one
+/// dispatch carrying all active variants' bearings. On the CPU the batch is split into
+/// one contiguous sub-batch per thread, each advancing in lockstep on its own
+/// single-threaded CPU evaluator: a film call carries only a few hundred states, too few
+/// to spread over threads, so the parallelism is across variants. Results do not depend
+/// on the split (each variant has its own step-size control and every state's loads are
+/// computed alone).
 pub struct RotorSimulator {
     evaluator: LoadEvaluator,
     info: BackendInfo,
+    workers: Vec<LoadEvaluator>,
 }
 
 impl RotorSimulator {
-    /// Simulates on `evaluator`'s backend.
-    pub fn new(evaluator: LoadEvaluator) -> Self {
+    /// Simulates on `evaluator`'s backend; a CPU backend gets one single-threaded CPU
+    /// evaluator per thread of rayon's pool (`RAYON_NUM_THREADS`) at `accuracy`.
+    pub fn new(evaluator: LoadEvaluator, accuracy: Accuracy) -> Self {
         let info = evaluator.info();
-        RotorSimulator { evaluator, info }
+        let workers = if info.name == "cpu" {
+            (0..rayon::current_num_threads().max(1))
+                .map(|_| LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, Some(1)))))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        RotorSimulator {
+            evaluator,
+            info,
+            workers,
+        }
     }
 
     /// The settings that change results, recorded in the result and checked on resume
@@ -161,7 +183,11 @@ impl BatchSimulator for RotorSimulator {
     }
 
     fn info(&self) -> Value {
-        serde_json::to_value(&self.info).unwrap_or(Value::Null)
+        let mut v = serde_json::to_value(&self.info).unwrap_or(Value::Null);
+        if !self.workers.is_empty() {
+            v["variant_threads"] = json!(self.workers.len());
+        }
+        v
     }
 
     fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
@@ -176,15 +202,44 @@ impl BatchSimulator for RotorSimulator {
                 Err(e) => done(k, Outcome::failed("invalid_scene", e.to_string())),
             }
         }
-        let results = simulate_batch(&scenes, &mut self.evaluator, &mut |i, r| {
-            done(index[i], outcome_of(r, &scenes[i]));
+        if self.workers.len() <= 1 || scenes.len() <= 1 {
+            let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
+            let results = simulate_batch(&scenes, evaluator, &mut |i, r| {
+                done(index[i], outcome_of(r, &scenes[i]));
+            });
+            // The runner has what it needs; free the batch's series at once.
+            drop(results);
+            return;
+        }
+        let per = scenes.len().div_ceil(self.workers.len());
+        let (tx, rx) = std::sync::mpsc::channel::<(usize, Outcome)>();
+        std::thread::scope(|scope| {
+            for (w, (evaluator, chunk)) in
+                self.workers.iter_mut().zip(scenes.chunks(per)).enumerate()
+            {
+                let tx = tx.clone();
+                scope.spawn(move || {
+                    let results = simulate_batch(chunk, evaluator, &mut |i, r| {
+                        // The receiver lives until every worker is done.
+                        let _ = tx.send((w * per + i, outcome_of(r, &chunk[i])));
+                    });
+                    drop(results);
+                });
+            }
+            drop(tx);
+            // Stream outcomes as workers finish variants.
+            for (k, outcome) in rx {
+                done(index[k], outcome);
+            }
         });
-        // The runner has what it needs; free the batch's series at once.
-        drop(results);
     }
 
     fn take_notices(&mut self) -> Vec<String> {
-        self.evaluator.take_notices()
+        let mut n = self.evaluator.take_notices();
+        for w in &mut self.workers {
+            n.extend(w.take_notices());
+        }
+        n
     }
 }
 
