@@ -363,3 +363,40 @@ fn gpu_and_cpu_sweeps_agree() {
         );
     }
 }
+
+#[test]
+fn results_do_not_depend_on_the_number_of_threads() {
+    let dir = scratch("threads");
+    let p = write(&dir, "cv.json", &spec(0.05, 3));
+    let mut docs = Vec::new();
+    for threads in ["1", "3"] {
+        let root = dir.join(format!("t{threads}"));
+        let out = bin()
+            .args([
+                "run",
+                p.to_str().unwrap(),
+                "--out",
+                root.to_str().unwrap(),
+                "--quiet",
+            ])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let d = read(&root.join("cv/result.json"));
+        assert_eq!(
+            d["run"]["simulator"]["variant_threads"],
+            json!(threads.parse::<u64>().unwrap())
+        );
+        docs.push(deterministic(d));
+    }
+    assert_eq!(
+        serde_json::to_string(&docs[0]).unwrap(),
+        serde_json::to_string(&docs[1]).unwrap(),
+        "1 thread and 3 threads differ"
+    );
+}
