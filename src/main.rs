@@ -89,6 +89,9 @@ enum Command {
         /// CPU threads for --batch (default: all).
         #[arg(long)]
         threads: Option<usize>,
+        /// Replace both bearings' viscosity (Pa·s): the stiff variant of the study.
+        #[arg(long)]
+        viscosity: Option<f64>,
     },
 }
 
@@ -178,12 +181,14 @@ fn main() -> ExitCode {
             accuracy,
             repeats,
             out,
+            viscosity,
             ..
         } => bench_rotor(&BenchRotorOptions {
             t_end,
             accuracy,
             repeats,
             out,
+            viscosity,
         })
         .map(|r| {
             println!("{}\n", r.reference);
