@@ -135,7 +135,7 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
 ///
 /// On a GPU the whole batch advances in lockstep on one evaluator: every stage is one
 /// dispatch carrying all active variants' bearings. On the CPU the batch is split into
-/// one contiguous sub-batch per thread, each advancing in lockstep on its own
+/// one sub-batch per thread (dealt round-robin), each advancing in lockstep on its own
 /// single-threaded CPU evaluator: a film call carries only a few hundred states, too few
 /// to spread over threads, so the parallelism is across variants. Results do not depend
 /// on the split (each variant has its own step-size control and every state's loads are
@@ -211,17 +211,25 @@ impl BatchSimulator for RotorSimulator {
             drop(results);
             return;
         }
-        let per = scenes.len().div_ceil(self.workers.len());
+        // Round-robin over the threads: neighbouring variants (often alike in cost, e.g.
+        // along the fastest grid axis) go to different threads.
+        let t = self.workers.len();
+        let mut buckets: Vec<(Vec<usize>, Vec<Scene>)> = vec![(Vec::new(), Vec::new()); t];
+        for (k, scene) in scenes.into_iter().enumerate() {
+            buckets[k % t].0.push(index[k]);
+            buckets[k % t].1.push(scene);
+        }
         let (tx, rx) = std::sync::mpsc::channel::<(usize, Outcome)>();
         std::thread::scope(|scope| {
-            for (w, (evaluator, chunk)) in
-                self.workers.iter_mut().zip(scenes.chunks(per)).enumerate()
-            {
+            for (evaluator, (ids, chunk)) in self.workers.iter_mut().zip(&buckets) {
+                if chunk.is_empty() {
+                    continue;
+                }
                 let tx = tx.clone();
                 scope.spawn(move || {
                     let results = simulate_batch(chunk, evaluator, &mut |i, r| {
                         // The receiver lives until every worker is done.
-                        let _ = tx.send((w * per + i, outcome_of(r, &chunk[i])));
+                        let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
                     });
                     drop(results);
                 });
@@ -229,7 +237,7 @@ impl BatchSimulator for RotorSimulator {
             drop(tx);
             // Stream outcomes as workers finish variants.
             for (k, outcome) in rx {
-                done(index[k], outcome);
+                done(k, outcome);
             }
         });
     }
