@@ -1,4 +1,4 @@
-//! Rotor sweeps: the rotor integrator ([`crate::rotor::simulate_batch`], lockstep batches
+//! Rotor sweeps: the rotor integrator ([`crate::rotor::simulate_batch_streaming`], lockstep batches
 //! whose every stage is one film-load call) behind the runner's [`BatchSimulator`], and
 //! the scene validator that checks every variant before anything runs.
 
@@ -8,12 +8,12 @@ use super::reduce::{BearingSignals, Signals};
 use super::runner::{BatchSimulator, Job, Outcome};
 use crate::backend::{BackendInfo, CpuBackend, LoadEvaluator};
 use crate::bearing::Accuracy;
-use crate::rotor::{simulate_batch, Scene, SimResult};
+use crate::rotor::{simulate_batch_streaming, Scene, SimResult};
 
-/// Variants per batch for `--batch-size auto` on the CPU: enough states per film call to
-/// fill the cores (2 bearings × 256 variants per stage), few enough that the batch's
-/// sampled series (about 1 MB per variant at the default 1e-4 s samples over 0.5 s) stay
-/// in memory comfortably.
+/// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
+/// thread's lockstep sub-batch, few enough that the running variants' sampled series
+/// (about 1 MB per variant at the default 1e-4 s samples over 0.5 s) stay in memory
+/// comfortably.
 pub const AUTO_BATCH_CPU: usize = 256;
 /// ... on a GPU: thousands of states per dispatch amortise its launch cost.
 pub const AUTO_BATCH_GPU: usize = 4096;
@@ -127,6 +127,8 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
             "rejected": r.stats.rejected,
             "rhs_evaluations": r.stats.rhs_evaluations,
             "load_evaluations": r.stats.load_evaluations,
+            // Film breakdowns a contact model carried the run through (film.contact).
+            "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
         })),
     }
 }
@@ -204,7 +206,7 @@ impl BatchSimulator for RotorSimulator {
         }
         if self.workers.len() <= 1 || scenes.len() <= 1 {
             let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
-            let results = simulate_batch(&scenes, evaluator, &mut |i, r| {
+            let results = simulate_batch_streaming(&scenes, evaluator, &mut |i, r| {
                 done(index[i], outcome_of(r, &scenes[i]));
             });
             // The runner has what it needs; free the batch's series at once.
@@ -227,7 +229,7 @@ impl BatchSimulator for RotorSimulator {
                 }
                 let tx = tx.clone();
                 scope.spawn(move || {
-                    let results = simulate_batch(chunk, evaluator, &mut |i, r| {
+                    let results = simulate_batch_streaming(chunk, evaluator, &mut |i, r| {
                         // The receiver lives until every worker is done.
                         let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
                     });
