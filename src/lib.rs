@@ -10,3 +10,4 @@ pub mod integrate;
 pub mod numerics;
 pub mod plot;
 pub mod rotor;
+pub mod sweep;

@@ -7,9 +7,11 @@ use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::bench::{bench_loads, bench_loads_markdown, BenchLoadsOptions};
 use bearing_sweep::cli::{
-    bench_backend, bench_rotor, bench_rotor_batch, eval_json, read_input, run_scene_file,
-    BenchRotorOptions, CliError, EvalOptions, RunOptions,
+    bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
+    read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions, RunOptions,
+    SweepRunOptions,
 };
+use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -36,10 +38,11 @@ enum Command {
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
     },
-    /// Simulate a scene file (rotor, bearings, initial state, integrator; see README):
-    /// writes OUT/<file stem>/result.json and SVG figures 7-10.
+    /// Simulate a scene file (writes OUT/<file stem>/result.json and SVG figures 7-10), or
+    /// run a sweep spec (a file with `base` or `kind`; writes OUT/<spec stem>/result.json,
+    /// streaming variants to result.jsonl, resumable; see README "Sweeps").
     Run {
-        /// Scene file (JSON).
+        /// Scene file or sweep spec (JSON).
         file: String,
         /// Output root folder.
         #[arg(long, default_value = "out")]
@@ -50,6 +53,23 @@ enum Command {
         /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
         #[arg(long, default_value_t = 1e-6)]
         accuracy: f64,
+        /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
+        #[arg(long)]
+        shard: Option<Shard>,
+        /// Sweeps: variants per lockstep batch, or `auto`.
+        #[arg(long, default_value = "auto")]
+        batch_size: BatchSize,
+        /// Sweeps: no progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Merge sweep shard results into the result of the unsharded run.
+    Merge {
+        /// Merged result file.
+        out: String,
+        /// Shard result files.
+        #[arg(required = true)]
+        shards: Vec<String>,
     },
     /// Benchmarks (Markdown report on stdout).
     Bench {
@@ -136,6 +156,12 @@ enum BenchCommand {
     },
 }
 
+fn print_lines(lines: Vec<String>) {
+    for l in lines {
+        eprintln!("{l}");
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -186,27 +212,49 @@ fn main() -> ExitCode {
             out,
             backend,
             accuracy,
+            shard,
+            batch_size,
+            quiet,
         } => read_input(&file).and_then(|text| {
-            let report = run_scene_file(
-                &file,
-                &text,
-                &RunOptions {
+            if is_sweep_spec(&text) {
+                let opts = SweepRunOptions {
+                    out,
+                    shard,
+                    batch: batch_size,
                     backend,
                     accuracy,
-                    out,
-                },
-            )?;
-            for n in report.notices {
-                eprintln!("{n}");
+                    quiet,
+                };
+                run_command(&file, &text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
+            } else {
+                if shard.is_some() {
+                    return Err(CliError::input(
+                        "--shard",
+                        "only sweep specs are sharded (this file is a scene: wrap it as {\"base\": \"FILE\"})",
+                    ));
+                }
+                let report = run_scene_file(
+                    &file,
+                    &text,
+                    &RunOptions {
+                        backend,
+                        accuracy,
+                        out,
+                    },
+                )?;
+                for n in report.notices {
+                    eprintln!("{n}");
+                }
+                for l in report.lines {
+                    println!("{l}");
+                }
+                for f in report.files {
+                    println!("wrote {}", f.display());
+                }
+                Ok(())
             }
-            for l in report.lines {
-                println!("{l}");
-            }
-            for f in report.files {
-                println!("wrote {}", f.display());
-            }
-            Ok(())
         }),
+        Command::Merge { out, shards } => merge_command(&out, &shards).map(print_lines),
         Command::Bench {
             what:
                 BenchCommand::Rotor {

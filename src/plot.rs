@@ -19,6 +19,31 @@ pub enum Scale {
     Log,
 }
 
+/// A tick label with at most 4 significant digits (log-axis ticks such as
+/// `0.0003000000000000003` become `3e-4`), in scientific notation outside 1e-3..1e5.
+pub fn tick_label(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if (1e-3..1e5).contains(&a) {
+        let s = format!("{:.*}", (3 - a.log10().floor() as i32).max(0) as usize, v);
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        let s = format!("{v:.3e}");
+        match s.split_once('e') {
+            Some((m, e)) if m.contains('.') => {
+                format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => s,
+        }
+    }
+}
+
 /// Writes a line plot of `series` to an SVG string.
 pub fn line_plot_svg(
     title: &str,
@@ -109,6 +134,8 @@ fn plot_svg(
                     .configure_mesh()
                     .x_desc(x_label)
                     .y_desc(y_label)
+                    .x_label_formatter(&|v| tick_label(*v))
+                    .y_label_formatter(&|v| tick_label(*v))
                     .draw()
                     .map_err(|e| e.to_string())?;
                 for (k, s) in series.iter().enumerate() {
@@ -161,6 +188,23 @@ fn plot_svg(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_are_short() {
+        let cases = [
+            (0.0003000000000000003, "3e-4"),
+            (0.003000000000000001, "0.003"),
+            (0.00012, "1.2e-4"),
+            (100.0, "100"),
+            (12345.678, "12346"),
+            (0.0225, "0.0225"),
+            (1e6, "1e6"),
+            (-2.5, "-2.5"),
+        ];
+        for (v, e) in cases {
+            assert_eq!(tick_label(v), e, "tick label of {v}");
+        }
+    }
 
     #[test]
     fn writes_an_svg_with_the_title_and_a_path_per_series() {

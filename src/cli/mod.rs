@@ -5,6 +5,7 @@ mod bench;
 mod bench_rotor;
 mod eval;
 mod run;
+mod sweep;
 
 pub use bench::bench_backend;
 pub use bench_rotor::{
@@ -12,6 +13,7 @@ pub use bench_rotor::{
 };
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]
@@ -35,6 +37,9 @@ pub enum CliError {
     /// The backend could not be created.
     #[error(transparent)]
     Backend(#[from] crate::backend::BackendError),
+    /// A sweep failed (spec, variant, output, merge).
+    #[error(transparent)]
+    Sweep(#[from] crate::sweep::SweepError),
 }
 
 impl CliError {

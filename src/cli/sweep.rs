@@ -1,0 +1,191 @@
+//! `bearing-sweep run` and `bearing-sweep merge`: thin wrappers over [`crate::sweep`].
+
+use std::path::{Path, PathBuf};
+
+use serde_json::{json, Value};
+
+use super::CliError;
+use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::bearing::Accuracy;
+use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
+use crate::sweep::rotor_sim::{validate_scene, RotorSimulator};
+use crate::sweep::runner::{merge, run_sweep, write_result, BatchSize, RunOptions, Shard};
+use crate::sweep::spec::{parse_spec, spec_kind};
+use crate::sweep::synthetic::{self, SyntheticSimulator};
+use crate::sweep::{SweepError, SweepKind};
+
+/// Options of `run` for a sweep spec.
+#[derive(Clone, Debug)]
+pub struct SweepRunOptions {
+    /// Output root: results go to `out/<spec stem>/` (a shard: `.../shard-K-of-N/`).
+    pub out: PathBuf,
+    /// Run only this shard.
+    pub shard: Option<Shard>,
+    /// Variants per batch.
+    pub batch: BatchSize,
+    /// Backend for the film loads.
+    pub backend: BackendKind,
+    /// Film accuracy.
+    pub accuracy: f64,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// Whether a `run` input is a sweep spec (an object with `base` or `kind`) rather than a
+/// scene file.
+pub fn is_sweep_spec(text: &str) -> bool {
+    serde_json::from_str::<Value>(text)
+        .ok()
+        .and_then(|v| {
+            v.as_object()
+                .map(|o| o.contains_key("base") || o.contains_key("kind"))
+        })
+        .unwrap_or(false)
+}
+
+/// The result file of a run: `out/<stem>/result.json`, or `out/<stem>/shard-K-of-N/result.json`.
+pub fn result_path(out: &Path, spec_file: &str, shard: Option<Shard>) -> PathBuf {
+    let stem = Path::new(spec_file)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .filter(|s| !s.is_empty() && *s != "-")
+        .unwrap_or("sweep");
+    let dir = out.join(stem);
+    match shard {
+        None => dir.join("result.json"),
+        Some(s) => dir
+            .join(format!("shard-{}-of-{}", s.index, s.count))
+            .join("result.json"),
+    }
+}
+
+/// Runs a sweep spec (file name `spec_file`, contents `text`); returns the lines to print
+/// on standard error when done.
+pub fn run_command(
+    spec_file: &str,
+    text: &str,
+    opts: &SweepRunOptions,
+    notice: &mut dyn FnMut(String),
+) -> Result<Vec<String>, CliError> {
+    let doc: Value = serde_json::from_str(text)
+        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+    let spec_path = Path::new(spec_file);
+    let out = result_path(&opts.out, spec_file, opts.shard);
+    let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
+        CliError::input(
+            "--accuracy",
+            format!("{} is not a positive number >= 1e-12", opts.accuracy),
+        )
+    })?;
+    let mkdir = |dir: &Path| {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Sweep(SweepError::io(dir, e)))
+    };
+    match spec_kind(&doc) {
+        Some("friction_map") => {
+            if opts.shard.is_some() {
+                return Err(CliError::input(
+                    "--shard",
+                    "a friction map is not sharded (it runs no dynamics and takes milliseconds)",
+                ));
+            }
+            let spec = FrictionMapSpec::parse(&doc)?;
+            let (result, svg) = friction_map(&spec, accuracy);
+            let dir = out.parent().unwrap_or(Path::new("."));
+            mkdir(dir)?;
+            write_result(&out, &result)?;
+            let mut lines = vec![format!(
+                "friction map: {} loads x {} speeds from eqs. 10-11{}; no integrator was run; wrote {}",
+                spec.load.len(),
+                spec.speed.len(),
+                if result["model"] == "film" {
+                    " on the static film equilibrium"
+                } else {
+                    ""
+                },
+                out.display()
+            )];
+            match svg {
+                Ok(svg) => {
+                    let svg_path = dir.join("friction-map.svg");
+                    std::fs::write(&svg_path, svg)
+                        .map_err(|e| CliError::Sweep(SweepError::io(&svg_path, e)))?;
+                    lines.push(format!("plot: {}", svg_path.display()));
+                }
+                Err(e) => lines.push(format!("no plot: {e}")),
+            }
+            Ok(lines)
+        }
+        _ => {
+            let spec_dir = spec_path.parent().filter(|_| spec_file != "-");
+            let spec = parse_spec(&doc, spec_dir)?;
+            let run_opts = |settings: Value| RunOptions {
+                out: out.clone(),
+                shard: opts.shard,
+                batch: opts.batch,
+                progress: !opts.quiet,
+                settings,
+            };
+            let summary = match spec.kind {
+                SweepKind::Synthetic => run_sweep(
+                    &spec,
+                    &synthetic::validate,
+                    &mut SyntheticSimulator,
+                    &run_opts(json!({"simulator": "synthetic"})),
+                    notice,
+                )?,
+                SweepKind::Rotor => {
+                    // Check every variant before creating a backend (a GPU start is slow).
+                    crate::sweep::Expansion::new(&spec).validate_all(&spec, &validate_scene)?;
+                    let (backend, n) = create_backend(opts.backend, accuracy)?;
+                    if let Some(n) = n {
+                        notice(n);
+                    }
+                    let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
+                    let settings = sim.settings(accuracy.rtol());
+                    run_sweep(
+                        &spec,
+                        &validate_scene,
+                        &mut sim,
+                        &run_opts(settings),
+                        notice,
+                    )?
+                }
+            };
+            let mut lines = vec![format!(
+                "{} of {} variants in this run ({} resumed, {} run, {} not ok); wrote {} (stream {})",
+                summary.in_shard,
+                summary.total,
+                summary.skipped,
+                summary.ran,
+                summary.not_ok,
+                summary.result.display(),
+                summary.stream.display()
+            )];
+            lines.extend(plot_lines(&summary.plots));
+            Ok(lines)
+        }
+    }
+}
+
+/// Merges shard results into `out`.
+pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, CliError> {
+    let paths: Vec<PathBuf> = shards.iter().map(PathBuf::from).collect();
+    let (doc, plots) = merge(Path::new(out), &paths)?;
+    let mut lines = vec![format!(
+        "merged {} shard results: {} variants; wrote {out}",
+        shards.len(),
+        doc["variants"].as_array().map_or(0, Vec::len)
+    )];
+    lines.extend(plot_lines(&plots));
+    Ok(lines)
+}
+
+fn plot_lines(plots: &[Result<PathBuf, String>]) -> Vec<String> {
+    plots
+        .iter()
+        .map(|p| match p {
+            Ok(path) => format!("plot: {}", path.display()),
+            Err(e) => format!("no plot: {e}"),
+        })
+        .collect()
+}

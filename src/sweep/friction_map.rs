@@ -1,0 +1,475 @@
+//! Friction maps (the paper's Fig. 4): friction coefficient over a load × speed grid for
+//! one bearing. No dynamics: model `"sommerfeld"` evaluates eqs. 10-11 directly; model
+//! `"film"` first finds the static equilibrium of the aligned journal under the load
+//! (eccentricity ratio `ε` with `|W_film(ε)| = load`, by bisection on the film kernel),
+//! reports `ε`, the attitude angle and `h_min`, and takes the friction from those film
+//! loads. Eqs. 10-11 depend on the load only through `|W|`, so both models give the same
+//! `f` up to the bisection tolerance; the film model adds where the journal sits.
+//!
+//! ```json
+//! {"kind": "friction_map",
+//!  "bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242},
+//!  "load": {"logspace": [1, 10000, 61]},
+//!  "speed": [10, 30, 100, 300, 1000],
+//!  "model": "sommerfeld"}
+//! ```
+
+use serde_json::{json, Map, Value};
+
+use super::spec::{deny_unknown, get_f64, get_u64, join, type_name, MAX_VARIANTS};
+use super::SweepError;
+use crate::bearing::{film_loads, friction, Accuracy, BearingParams, BearingState, FilmRule};
+use crate::plot::{line_plot_svg, Scale, Series};
+
+/// Format tag of a friction-map result.
+pub const FORMAT: &str = "bearing-sweep/friction-map/1";
+
+/// How the friction coefficient is obtained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapModel {
+    /// Eqs. 10-11 with `|W|` = the load.
+    Sommerfeld,
+    /// Static film equilibrium under the load, then eqs. 10-11 on the film loads.
+    Film,
+}
+
+/// A parsed friction-map spec.
+#[derive(Clone, Debug)]
+pub struct FrictionMapSpec {
+    /// Optional name.
+    pub name: Option<String>,
+    /// The bearing.
+    pub bearing: BearingParams,
+    /// Loads, N.
+    pub load: Vec<f64>,
+    /// Relative spins, rad/s.
+    pub speed: Vec<f64>,
+    /// Model.
+    pub model: MapModel,
+    /// The spec as given.
+    pub canonical: Value,
+}
+
+/// Numbers from `[..]`, `{"linspace": [a, b, n]}` or `{"logspace": [a, b, n]}`.
+pub fn parse_numbers(v: &Value, at: &str) -> Result<Vec<f64>, SweepError> {
+    match v {
+        Value::Array(a) => {
+            if a.is_empty() {
+                return Err(SweepError::spec(at, "must hold at least one value"));
+            }
+            a.iter()
+                .enumerate()
+                .map(|(k, x)| get_f64(x, &format!("{at}[{k}]")))
+                .collect()
+        }
+        Value::Object(o) if o.len() == 1 => {
+            deny_unknown(o, at, &["linspace", "logspace"])?;
+            let (k, r) = o.iter().next().expect("one entry");
+            let p = join(at, k);
+            let arr = r
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .ok_or_else(|| SweepError::spec(&p, "expected [first, last, count]"))?;
+            let a = get_f64(&arr[0], &format!("{p}[0]"))?;
+            let b = get_f64(&arr[1], &format!("{p}[1]"))?;
+            let n = get_u64(&arr[2], &format!("{p}[2]"))?;
+            if n == 0 || n > MAX_VARIANTS {
+                return Err(SweepError::spec(
+                    format!("{p}[2]"),
+                    format!("count must be in 1..={MAX_VARIANTS}, got {n}"),
+                ));
+            }
+            let values = if k == "logspace" {
+                for (i, x) in [(0, a), (1, b)] {
+                    if x <= 0.0 {
+                        return Err(SweepError::spec(
+                            format!("{p}[{i}]"),
+                            format!("logspace bounds must be positive, got {x}"),
+                        ));
+                    }
+                }
+                super::AxisValues::Logspace { a, b, n: n as usize }
+            } else {
+                super::AxisValues::Linspace { a, b, n: n as usize }
+            };
+            Ok((0..n as usize)
+                .map(|i| values.value(i).as_f64().unwrap_or(f64::NAN))
+                .collect())
+        }
+        other => Err(SweepError::spec(
+            at,
+            format!(
+                "expected a list of numbers, {{\"linspace\": [a, b, n]}} or {{\"logspace\": [a, b, n]}}, got {}",
+                type_name(other)
+            ),
+        )),
+    }
+}
+
+impl FrictionMapSpec {
+    /// Parses and checks a `kind: "friction_map"` document.
+    pub fn parse(doc: &Value) -> Result<Self, SweepError> {
+        let o = doc
+            .as_object()
+            .ok_or_else(|| SweepError::spec("$", "expected an object"))?;
+        deny_unknown(
+            o,
+            "",
+            &[
+                "kind",
+                "name",
+                "description",
+                "bearing",
+                "load",
+                "speed",
+                "model",
+            ],
+        )?;
+        let name = match o.get("name") {
+            None => None,
+            Some(Value::String(s)) => Some(s.clone()),
+            Some(v) => {
+                return Err(SweepError::spec(
+                    "name",
+                    format!("expected a string, got {}", type_name(v)),
+                ))
+            }
+        };
+        let b = o
+            .get("bearing")
+            .ok_or_else(|| SweepError::spec("bearing", "missing"))?;
+        let bearing: BearingParams = serde_json::from_value(b.clone())
+            .map_err(|e| SweepError::spec("bearing", e.to_string()))?;
+        bearing.validate().map_err(|e| {
+            SweepError::spec(
+                format!("bearing.{}", e.field),
+                format!("{} ({})", e.reason, e.value),
+            )
+        })?;
+        let load = parse_numbers(
+            o.get("load")
+                .ok_or_else(|| SweepError::spec("load", "missing (loads in N)"))?,
+            "load",
+        )?;
+        let speed = parse_numbers(
+            o.get("speed")
+                .ok_or_else(|| SweepError::spec("speed", "missing (speeds in rad/s)"))?,
+            "speed",
+        )?;
+        for (k, &w) in load.iter().enumerate() {
+            if w < 0.0 {
+                return Err(SweepError::spec(
+                    format!("load[{k}]"),
+                    format!("a load is a magnitude, must not be negative ({w})"),
+                ));
+            }
+        }
+        let model = match o.get("model").map(|m| m.as_str()) {
+            None | Some(Some("sommerfeld")) => MapModel::Sommerfeld,
+            Some(Some("film")) => MapModel::Film,
+            Some(_) => {
+                return Err(SweepError::spec(
+                    "model",
+                    format!("expected \"sommerfeld\" or \"film\", got {}", o["model"]),
+                ))
+            }
+        };
+        if model == MapModel::Film {
+            if let Some(k) = speed.iter().position(|&w| w == 0.0) {
+                return Err(SweepError::spec(
+                    format!("speed[{k}]"),
+                    "the film model needs a nonzero speed (a still journal carries no load)",
+                ));
+            }
+        }
+        Ok(FrictionMapSpec {
+            name,
+            bearing,
+            load,
+            speed,
+            model,
+            canonical: doc.clone(),
+        })
+    }
+}
+
+/// Static equilibrium of the aligned journal under `load` (N) at spin `omega` (rad/s):
+/// the eccentricity ratio with `|W_film| = load`, by bisection (the Ocvirk force grows
+/// monotonically with `ε`) to a relative load error of 1e-12 or 200 halvings.
+pub fn equilibrium_eccentricity(
+    params: &BearingParams,
+    rule: &FilmRule,
+    load: f64,
+    omega: f64,
+) -> Option<(f64, crate::bearing::Loads)> {
+    let at = |eps: f64| {
+        let state = BearingState {
+            xi: eps * params.clearance,
+            xj: eps * params.clearance,
+            omega,
+            ..Default::default()
+        };
+        film_loads(params, &state, rule).ok()
+    };
+    if load == 0.0 {
+        return at(0.0).map(|l| (0.0, l));
+    }
+    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+    let mut best = None;
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        let l = at(mid)?;
+        let w = l.wx.hypot(l.wy);
+        best = Some((mid, l));
+        if (w - load).abs() <= 1e-12 * load {
+            break;
+        }
+        if w < load {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    best
+}
+
+fn num(x: Option<f64>) -> Value {
+    x.filter(|v| v.is_finite())
+        .and_then(serde_json::Number::from_f64)
+        .map_or(Value::Null, Value::Number)
+}
+
+/// Computes the map: the result document (JSON) and its SVG plot.
+pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Result<String, String>) {
+    let p = &spec.bearing;
+    let rule = FilmRule::new(accuracy.settings());
+    let mut curves = Vec::new();
+    let mut series = Vec::new();
+    let labels: Vec<String> = spec
+        .speed
+        .iter()
+        .map(|w| format!("ω = {w} rad/s"))
+        .collect();
+    for (k, &omega) in spec.speed.iter().enumerate() {
+        let mut points = Vec::new();
+        let mut plot_pts = Vec::new();
+        for &load in &spec.load {
+            let mut m = Map::new();
+            m.insert("load_n".into(), num(Some(load)));
+            let (w_abs, extra) = match spec.model {
+                MapModel::Sommerfeld => (load, None),
+                MapModel::Film => match equilibrium_eccentricity(p, &rule, load, omega) {
+                    Some((eps, l)) => {
+                        let w = l.wx.hypot(l.wy);
+                        // Attitude: angle from the applied load (−W) to the line of centres
+                        // (+x here), in the spin's direction.
+                        let attitude = (omega.signum() * l.wy).atan2(-l.wx).to_degrees();
+                        (
+                            w,
+                            Some(json!({"eccentricity": num(Some(eps)),
+                                        "attitude_deg": num(Some(if eps > 0.0 { attitude } else { 90.0 })),
+                                        "h_min_m": num(Some(l.h_min)),
+                                        "film_force_n": num(Some(w))})),
+                        )
+                    }
+                    None => (f64::NAN, None),
+                },
+            };
+            let fr = friction(p, w_abs, omega);
+            let ok = w_abs.is_finite();
+            m.insert(
+                "friction_coefficient".into(),
+                num(fr.coefficient.filter(|_| ok)),
+            );
+            m.insert("sommerfeld".into(), num(fr.sommerfeld.filter(|_| ok)));
+            m.insert(
+                "friction_torque_nm".into(),
+                num(Some(fr.mz.abs()).filter(|_| ok)),
+            );
+            m.insert(
+                "power_loss_w".into(),
+                num(Some((fr.mz * omega).abs()).filter(|_| ok)),
+            );
+            if let Some(Value::Object(e)) = extra {
+                m.extend(e);
+            } else if spec.model == MapModel::Film {
+                m.insert("status".into(), json!("no_equilibrium"));
+            }
+            if let (Some(f), true) = (fr.coefficient, ok) {
+                plot_pts.push((load, f));
+            }
+            points.push(Value::Object(m));
+        }
+        curves.push(json!({"speed_rad_s": omega, "points": points}));
+        series.push((k, plot_pts));
+    }
+    let plot_series: Vec<Series<'_>> = series
+        .into_iter()
+        .map(|(k, points)| Series {
+            label: &labels[k],
+            points,
+        })
+        .collect();
+    let title = format!(
+        "Friction coefficient, r0 = {} m, B = {} m, δ = {} m, μ = {} Pa·s ({})",
+        p.radius,
+        p.length,
+        p.clearance,
+        p.viscosity,
+        match spec.model {
+            MapModel::Sommerfeld => "eqs. 10-11",
+            MapModel::Film => "film equilibrium",
+        }
+    );
+    let svg = line_plot_svg(
+        &title,
+        "load |W| (N)",
+        "friction coefficient f",
+        &plot_series,
+        Scale::Log,
+        Scale::Log,
+    );
+    let doc = json!({
+        "format": FORMAT,
+        "name": spec.name,
+        "spec": spec.canonical,
+        "model": match spec.model { MapModel::Sommerfeld => "sommerfeld", MapModel::Film => "film" },
+        "integrator": "none (no dynamics: eqs. 10-11 evaluated directly)",
+        "clearance_convention": p.clearance_convention.name(),
+        "accuracy": match spec.model { MapModel::Film => json!(accuracy.rtol()), MapModel::Sommerfeld => Value::Null },
+        "units": {"load_n": "N", "speed_rad_s": "rad/s", "friction_torque_nm": "N·m (magnitude)",
+                  "power_loss_w": "W", "h_min_m": "m", "film_force_n": "N", "attitude_deg": "degrees, from the load to the line of centres",
+                  "friction_coefficient, sommerfeld, eccentricity": "dimensionless"},
+        "curves": curves,
+    });
+    (doc, svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(model: &str) -> FrictionMapSpec {
+        FrictionMapSpec::parse(&json!({"kind": "friction_map",
+            "bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242},
+            "load": {"logspace": [1, 10000, 5]}, "speed": [10, 100, 1000], "model": model}))
+        .unwrap()
+    }
+
+    #[test]
+    fn sommerfeld_map_matches_eqs_10_11() {
+        let (doc, svg) = friction_map(&spec("sommerfeld"), Accuracy::default());
+        // Table 2 bearing: φ = δ/2r0 = 0.0075; S = (W / 8e-4) φ² / (μ ω) = 2.9055 W / ω.
+        let phi = 0.0075;
+        for c in doc["curves"].as_array().unwrap() {
+            let w = c["speed_rad_s"].as_f64().unwrap();
+            for p in c["points"].as_array().unwrap() {
+                let load = p["load_n"].as_f64().unwrap();
+                let s = load / (2.0 * 0.02 * 0.02) * phi * phi / (0.0242 * w);
+                let f = if s < 1.0 {
+                    3.0 * phi / s
+                } else {
+                    3.0 * phi / s.sqrt()
+                };
+                let got = p["friction_coefficient"].as_f64().unwrap();
+                assert!(
+                    (got / f - 1.0).abs() < 1e-14,
+                    "ω {w} load {load}: f = {got}, expected {f} (rtol 1e-14)"
+                );
+            }
+        }
+        let svg = svg.unwrap();
+        assert!(svg.matches("<polyline").count() >= 3);
+    }
+
+    #[test]
+    fn film_equilibrium_matches_ocvirk_and_gives_the_same_friction() {
+        let s = spec("film");
+        let (doc, _) = friction_map(&s, Accuracy::default());
+        let p = s.bearing;
+        for c in doc["curves"].as_array().unwrap() {
+            let w = c["speed_rad_s"].as_f64().unwrap();
+            for pt in c["points"].as_array().unwrap() {
+                let load = pt["load_n"].as_f64().unwrap();
+                let eps = pt["eccentricity"].as_f64().unwrap();
+                // Ocvirk force magnitude at eps (MODEL.md section 7).
+                let k = p.viscosity * w * p.radius * p.length.powi(3) / (p.clearance * p.clearance);
+                let wx = k * eps * eps / (1.0 - eps * eps).powi(2);
+                let wy = k * std::f64::consts::PI * eps / (4.0 * (1.0 - eps * eps).powf(1.5));
+                let w_abs = wx.hypot(wy);
+                assert!(
+                    (w_abs / load - 1.0).abs() < 1e-6,
+                    "ω {w} load {load}: Ocvirk |W|(ε = {eps}) = {w_abs} (rtol 1e-6)"
+                );
+                // Ocvirk attitude angle: atan(π √(1 − ε²) / (4 ε)).
+                let att = (std::f64::consts::PI * (1.0 - eps * eps).sqrt() / (4.0 * eps))
+                    .atan()
+                    .to_degrees();
+                let got = pt["attitude_deg"].as_f64().unwrap();
+                assert!(
+                    (got - att).abs() < 1e-6,
+                    "ω {w} load {load}: attitude {got}°, expected {att}° (tol 1e-6)"
+                );
+                let h = pt["h_min_m"].as_f64().unwrap();
+                assert!(
+                    (h - p.clearance * (1.0 - eps)).abs() < 1e-15,
+                    "h_min {h} vs δ(1 − ε)"
+                );
+                let fr = friction(&p, load, w).coefficient.unwrap();
+                let got = pt["friction_coefficient"].as_f64().unwrap();
+                assert!(
+                    (got / fr - 1.0).abs() < 1e-6,
+                    "film f {got} vs eqs. 10-11 {fr} (rtol 1e-6)"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn spec_errors_name_paths() {
+        let base = json!({"kind": "friction_map",
+            "bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242},
+            "load": [1, 2], "speed": [10]});
+        let with = |k: &str, v: Value| {
+            let mut d = base.clone();
+            d[k] = v;
+            d
+        };
+        let cases = [
+            (with("loads", json!([1])), "loads", "unknown field"),
+            (with("load", json!([1, -2])), "load[1]", "negative"),
+            (
+                with("load", json!({"logspace": [0, 10, 3]})),
+                "load.logspace[0]",
+                "positive",
+            ),
+            (with("speed", json!("fast")), "speed", "expected a list"),
+            (with("model", json!("exact")), "model", "sommerfeld"),
+            (
+                with(
+                    "bearing",
+                    json!({"radius": 0.02, "length": 0.02, "clearance": -1.0, "viscosity": 0.0242}),
+                ),
+                "bearing.clearance",
+                "positive",
+            ),
+        ];
+        for (k, (doc, path, reason)) in cases.iter().enumerate() {
+            match FrictionMapSpec::parse(doc) {
+                Err(SweepError::Spec { path: p, reason: r }) => assert!(
+                    p == *path && r.contains(reason),
+                    "case {k}: got `{p}: {r}`, expected `{path}` with `{reason}`"
+                ),
+                other => panic!("case {k}: expected an error, got {other:?}"),
+            }
+        }
+        let mut d = with("model", json!("film"));
+        d["speed"] = json!([0, 10]);
+        assert!(
+            matches!(FrictionMapSpec::parse(&d), Err(SweepError::Spec { path, .. }) if path == "speed[0]")
+        );
+    }
+}

@@ -1,0 +1,246 @@
+//! SVG plots of a finished sweep: a reduction against one axis, one curve per value of
+//! another axis (e.g. minimum film thickness over clearance, one line per viscosity).
+//!
+//! ```json
+//! "plots": [{"name": "h-min", "x": "bearings[*].clearance", "series": "bearings[*].viscosity",
+//!            "y": "h_min.value_m", "x_scale": "linear", "y_scale": "log",
+//!            "title": "...", "x_label": "...", "y_label": "..."}]
+//! ```
+//! `x` and `series` name axes of the spec; `y` is a path into each variant's
+//! `reductions` (e.g. `bearings[0].friction_coefficient.mean`). Variants whose `y` is
+//! null (failed before the window, or undefined) are left out of their curve. The plot of
+//! result `R.json` is written to `R.<name>.svg`.
+
+use std::collections::BTreeMap;
+
+use serde_json::Value;
+
+use super::spec::{deny_unknown, join, parse_path, resolve, type_name, Axis, PathSeg};
+use super::SweepError;
+use crate::plot::{line_plot_svg, Scale, Series};
+
+/// One plot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlotSpec {
+    /// File-name part.
+    pub name: String,
+    /// Axis path on the horizontal axis.
+    pub x: String,
+    /// Axis path whose values make the curves (none: one curve).
+    pub series: Option<String>,
+    /// Path into a variant's `reductions`.
+    pub y: String,
+    /// Parsed `y`.
+    pub y_path: Vec<PathSeg>,
+    /// Horizontal scale.
+    pub x_scale: Scale,
+    /// Vertical scale.
+    pub y_scale: Scale,
+    /// Title.
+    pub title: Option<String>,
+    /// Horizontal label.
+    pub x_label: Option<String>,
+    /// Vertical label.
+    pub y_label: Option<String>,
+}
+
+fn scale(v: Option<&Value>, at: &str) -> Result<Scale, SweepError> {
+    match v.map(|s| s.as_str()) {
+        None | Some(Some("linear")) => Ok(Scale::Linear),
+        Some(Some("log")) => Ok(Scale::Log),
+        Some(_) => Err(SweepError::spec(at, "expected \"linear\" or \"log\"")),
+    }
+}
+
+fn string(
+    o: &serde_json::Map<String, Value>,
+    key: &str,
+    at: &str,
+) -> Result<Option<String>, SweepError> {
+    match o.get(key) {
+        None => Ok(None),
+        Some(Value::String(s)) => Ok(Some(s.clone())),
+        Some(v) => Err(SweepError::spec(
+            join(at, key),
+            format!("expected a string, got {}", type_name(v)),
+        )),
+    }
+}
+
+/// Parses the spec's `plots` list against its axes.
+pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, SweepError> {
+    let Some(v) = v else { return Ok(Vec::new()) };
+    let list = v.as_array().ok_or_else(|| {
+        SweepError::spec("plots", format!("expected an array, got {}", type_name(v)))
+    })?;
+    let mut out: Vec<PlotSpec> = Vec::new();
+    for (k, p) in list.iter().enumerate() {
+        let at = format!("plots[{k}]");
+        let o = p.as_object().ok_or_else(|| {
+            SweepError::spec(&at, format!("expected an object, got {}", type_name(p)))
+        })?;
+        deny_unknown(
+            o,
+            &at,
+            &[
+                "name", "x", "series", "y", "x_scale", "y_scale", "title", "x_label", "y_label",
+            ],
+        )?;
+        let need = |key: &str| -> Result<String, SweepError> {
+            string(o, key, &at)?.ok_or_else(|| SweepError::spec(join(&at, key), "missing"))
+        };
+        let name = need("name")?;
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(SweepError::spec(
+                join(&at, "name"),
+                "use letters, digits, `-` and `_` (it becomes part of a file name)",
+            ));
+        }
+        if out.iter().any(|q| q.name == name) {
+            return Err(SweepError::spec(
+                join(&at, "name"),
+                format!("`{name}` is used twice"),
+            ));
+        }
+        let axis_names: Vec<&str> = axes.iter().map(|a| a.path.as_str()).collect();
+        let check_axis = |key: &str, path: &str| -> Result<(), SweepError> {
+            if axis_names.contains(&path) {
+                Ok(())
+            } else {
+                Err(SweepError::spec(
+                    join(&at, key),
+                    format!(
+                        "`{path}` is not an axis of this sweep (axes: {})",
+                        axis_names.join(", ")
+                    ),
+                ))
+            }
+        };
+        let x = need("x")?;
+        check_axis("x", &x)?;
+        let series = string(o, "series", &at)?;
+        if let Some(s) = &series {
+            check_axis("series", s)?;
+        }
+        let y = need("y")?;
+        let y_path = parse_path(&y).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
+        if y_path.contains(&PathSeg::All) {
+            return Err(SweepError::spec(
+                join(&at, "y"),
+                "`[*]` is not allowed here: name one bearing, e.g. bearings[0]",
+            ));
+        }
+        out.push(PlotSpec {
+            name,
+            x,
+            series,
+            y,
+            y_path,
+            x_scale: scale(o.get("x_scale"), &join(&at, "x_scale"))?,
+            y_scale: scale(o.get("y_scale"), &join(&at, "y_scale"))?,
+            title: string(o, "title", &at)?,
+            x_label: string(o, "x_label", &at)?,
+            y_label: string(o, "y_label", &at)?,
+        });
+    }
+    Ok(out)
+}
+
+/// Renders `plot` from a complete result's variants.
+pub fn render(variants: &[Value], plot: &PlotSpec) -> Result<String, String> {
+    let mut curves: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut order: Vec<String> = Vec::new();
+    for v in variants {
+        let params = &v["params"];
+        let Some(x) = params.get(&plot.x).and_then(Value::as_f64) else {
+            continue;
+        };
+        let label = match &plot.series {
+            Some(s) => match params.get(s) {
+                Some(Value::Number(n)) => {
+                    format!(
+                        "{s} = {}",
+                        crate::plot::tick_label(n.as_f64().unwrap_or(f64::NAN))
+                    )
+                }
+                other => format!("{s} = {}", other.cloned().unwrap_or(Value::Null)),
+            },
+            None => plot.y.clone(),
+        };
+        let y = resolve(&v["reductions"], &plot.y_path)
+            .ok()
+            .and_then(|r| r.first().and_then(|(_, val)| val.as_f64()));
+        if !order.contains(&label) {
+            order.push(label.clone());
+        }
+        if let Some(y) = y {
+            curves.entry(label).or_default().push((x, y));
+        }
+    }
+    let series: Vec<Series<'_>> = order
+        .iter()
+        .filter_map(|label| {
+            let mut pts = curves.get(label)?.clone();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Some(Series {
+                label: label.as_str(),
+                points: pts,
+            })
+        })
+        .collect();
+    let title = plot
+        .title
+        .clone()
+        .unwrap_or_else(|| format!("{} over {}", plot.y, plot.x));
+    line_plot_svg(
+        &title,
+        plot.x_label.as_deref().unwrap_or(&plot.x),
+        plot.y_label.as_deref().unwrap_or(&plot.y),
+        &series,
+        plot.x_scale,
+        plot.y_scale,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::spec::parse_spec;
+    use serde_json::json;
+
+    #[test]
+    fn plots_are_checked_against_the_axes_and_render_one_curve_per_series() {
+        let base = json!({"a": 0.0, "b": 0.0});
+        let doc = json!({"base": base, "axes": [{"path": "a", "values": [1, 2, 3]}, {"path": "b", "values": [10, 20]}],
+                         "plots": [{"name": "p", "x": "a", "series": "b", "y": "bearings[0].h_min_m.value"}]});
+        let spec = parse_spec(&doc, None).unwrap();
+        assert_eq!(spec.plots.len(), 1);
+        let bad = json!({"base": {"a": 0.0}, "axes": [{"path": "a", "values": [1]}],
+                         "plots": [{"name": "p", "x": "c", "y": "h"}]});
+        match parse_spec(&bad, None) {
+            Err(SweepError::Spec { path, reason }) => {
+                assert_eq!(path, "plots[0].x");
+                assert!(reason.contains("not an axis"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let variants: Vec<Value> = (0..6)
+            .map(|i| {
+                let (a, b) = ([1, 2, 3][i % 3], [10, 20][i / 3]);
+                let y = if i == 4 { Value::Null } else { json!(a * b) };
+                json!({"id": i, "params": {"a": a, "b": b},
+                       "reductions": {"bearings": [{"h_min_m": {"value": y}}]}})
+            })
+            .collect();
+        let svg = render(&variants, &spec.plots[0]).unwrap();
+        assert!(
+            svg.matches("<polyline").count() >= 2,
+            "one line per value of b"
+        );
+        assert!(svg.contains("b = 10") && svg.contains("b = 20"));
+    }
+}

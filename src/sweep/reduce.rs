@@ -1,0 +1,1315 @@
+//! Per-variant reductions of simulated signals (time series in SI units) to the numbers a
+//! design sweep compares, and decimated series. Pure functions on slices: no I/O.
+//!
+//! Definitions (the README's "Sweeps" section repeats them):
+//! - **Evaluation window**: the last `N` revolutions (revolutions counted from the
+//!   integral of `|spin|`), the last fraction of the run, or the last seconds. Windowed
+//!   quantities describe the steady state; run extremes (`h_min`, `eccentricity_max`,
+//!   `force_peak_n`) cover the whole run, start-up included.
+//! - **Mean** of a signal: time average by the trapezoidal rule over the window; `min` and
+//!   `max` over its samples.
+//! - **Orbit** (journal centre at the bearing's first end face `z = 0`, in the bearing
+//!   frame; or `G`): centre = midpoint of the bounding box over the window; `radius_m` =
+//!   largest distance of a sample from that centre; `half_pp_x_m`, `half_pp_y_m` = half
+//!   peak-to-peak in x and y. A circle of radius `r` gives `r` exactly.
+//! - **Whirl**: amplitude spectrum `A(ω) = |Σ w_n (z_n − z̄) e^{−iωt_n}| / Σ w_n` of the complex
+//!   journal-centre signal `z = x + iy` over the window, with `w_n` = Hann window × the
+//!   trapezoidal weight of `t_n` (nonuniform samples are fine) and `z̄` the weighted mean.
+//!   A whirl `A e^{iωt}` gives `A(ω) = A`. The ratio is `ω / spin̄` (signed: positive =
+//!   forward whirl, in the spin's direction), searched over `|ratio| <= max_ratio` (and
+//!   below the Nyquist limit of the coarsest sample step) on a grid of spacing
+//!   `1 / (4 revolutions)`, then refined by bisection on the slope of `|Z|²` (to
+//!   rounding; golden-section search on `A` where the peak is on a band end). The
+//!   dominant ratio is the largest peak; the sub-synchronous peak is the largest in
+//!   `band` (default 0.3..0.6, oil whirl sits near 0.45); `oil_whirl` is true when it is
+//!   a true peak (not the flank of a peak outside the band), is the dominant peak or lies
+//!   farther than `2 / revolutions` from it (resolved), and reaches `relative_threshold`
+//!   × the dominant amplitude and `min_amplitude_ratio` × the radial clearance.
+//!   Resolving two peaks needs them about `2 / revolutions` apart (the Hann main-lobe
+//!   half-width); a window shorter than one revolution gives no whirl (`null`).
+//! - **Power loss**: time mean of `|M_z · spin|` per bearing, W; `power_loss_w` sums them.
+//! - **Friction torque**: `|M_z|`, N·m; friction coefficient `f` of eq. 11 (samples where
+//!   it is undefined are skipped). **Force**: `|W| = hypot(W_x, W_y)`, N.
+
+use std::collections::BTreeSet;
+
+use serde::Serialize;
+use serde_json::{json, Map, Value};
+
+use super::spec::{deny_unknown, get_f64, get_u64, join, type_name};
+use super::SweepError;
+
+/// Time series of one bearing, sampled at the variant's `t`. SI units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BearingSignals {
+    /// Radial clearance `δ`, m (scales the oil-whirl amplitude floor).
+    pub clearance_m: f64,
+    /// Journal centre at the end face `z = 0`, bearing frame, m.
+    pub xi: Vec<f64>,
+    /// y of the same, m.
+    pub yi: Vec<f64>,
+    /// Journal centre at the end face `z = B`, m.
+    pub xj: Vec<f64>,
+    /// y of the same, m.
+    pub yj: Vec<f64>,
+    /// Minimum film thickness, m.
+    pub h_min: Vec<f64>,
+    /// Larger end eccentricity ratio, dimensionless.
+    pub eccentricity_max: Vec<f64>,
+    /// Friction coefficient; `None` where undefined.
+    pub friction_coefficient: Vec<Option<f64>>,
+    /// Friction torque about `+z`, N·m.
+    pub mz: Vec<f64>,
+    /// Film force on the journal, N.
+    pub wx: Vec<f64>,
+    /// Film force on the journal, N.
+    pub wy: Vec<f64>,
+}
+
+/// Time series of one variant. SI units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Signals {
+    /// Sample times, s, increasing.
+    pub t: Vec<f64>,
+    /// Rotor spin about `+z` (the journals' relative spin; housings fixed), rad/s.
+    pub spin: Vec<f64>,
+    /// Centre of mass, global x, m.
+    pub x_g: Vec<f64>,
+    /// Centre of mass, global y, m.
+    pub y_g: Vec<f64>,
+    /// Per bearing.
+    pub bearings: Vec<BearingSignals>,
+}
+
+/// The evaluation window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Window {
+    /// The last `N` revolutions of the rotor.
+    Revolutions(f64),
+    /// The last fraction of the simulated time, in `(0, 1]`.
+    Fraction(f64),
+    /// The last seconds.
+    Seconds(f64),
+}
+
+/// Which samples kept series cover.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Span {
+    /// The evaluation window.
+    Window,
+    /// The whole run.
+    Run,
+}
+
+/// Groups of time series a variant may keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SeriesGroup {
+    /// `x_g, y_g` and per bearing `xi, yi, xj, yj`.
+    Orbit,
+    /// Per bearing `h_min`, `eccentricity_max`.
+    Film,
+    /// Per bearing `friction_coefficient`, `mz`.
+    Friction,
+    /// Per bearing `wx`, `wy`.
+    Forces,
+    /// `spin`.
+    Spin,
+}
+
+impl SeriesGroup {
+    const ALL: [(&'static str, SeriesGroup); 5] = [
+        ("orbit", SeriesGroup::Orbit),
+        ("film", SeriesGroup::Film),
+        ("friction", SeriesGroup::Friction),
+        ("forces", SeriesGroup::Forces),
+        ("spin", SeriesGroup::Spin),
+    ];
+}
+
+/// Whirl detection settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WhirlOptions {
+    /// Sub-synchronous band of whirl ratios (forward), default `(0.3, 0.6)`.
+    pub band: (f64, f64),
+    /// Largest `|ratio|` searched, default 2.5.
+    pub max_ratio: f64,
+    /// Oil whirl when the band peak >= this × the dominant amplitude, default 0.2.
+    pub relative_threshold: f64,
+    /// ... and >= this × the radial clearance, default 0.01.
+    pub min_amplitude_ratio: f64,
+}
+
+impl Default for WhirlOptions {
+    fn default() -> Self {
+        WhirlOptions {
+            band: (0.3, 0.6),
+            max_ratio: 2.5,
+            relative_threshold: 0.2,
+            min_amplitude_ratio: 0.01,
+        }
+    }
+}
+
+/// What each variant computes and keeps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReductionOptions {
+    /// Evaluation window, default the last half of the run.
+    pub window: Window,
+    /// Kept series groups, default none.
+    pub keep: BTreeSet<SeriesGroup>,
+    /// Most samples per kept series (decimated evenly), default 200.
+    pub points: usize,
+    /// Samples the kept series cover, default the whole run.
+    pub span: Span,
+    /// Whirl detection.
+    pub whirl: WhirlOptions,
+}
+
+impl Default for ReductionOptions {
+    fn default() -> Self {
+        ReductionOptions {
+            window: Window::Fraction(0.5),
+            keep: BTreeSet::new(),
+            points: 200,
+            span: Span::Run,
+            whirl: WhirlOptions::default(),
+        }
+    }
+}
+
+fn positive(v: &Value, path: &str) -> Result<f64, SweepError> {
+    let x = get_f64(v, path)?;
+    if x <= 0.0 {
+        return Err(SweepError::spec(path, format!("must be positive, got {x}")));
+    }
+    Ok(x)
+}
+
+impl ReductionOptions {
+    /// Parses the spec's `reductions` object (absent: defaults).
+    pub fn parse(v: Option<&Value>, at: &str) -> Result<Self, SweepError> {
+        let mut o = ReductionOptions::default();
+        let Some(v) = v else { return Ok(o) };
+        let m = v.as_object().ok_or_else(|| {
+            SweepError::spec(at, format!("expected an object, got {}", type_name(v)))
+        })?;
+        deny_unknown(m, at, &["window", "keep", "points", "span", "whirl"])?;
+        if let Some(w) = m.get("window") {
+            let p = join(at, "window");
+            let wm = w.as_object().filter(|wm| wm.len() == 1).ok_or_else(|| {
+                SweepError::spec(
+                    &p,
+                    "expected one of {\"revolutions\": N}, {\"fraction\": F}, {\"seconds\": T}",
+                )
+            })?;
+            deny_unknown(wm, &p, &["revolutions", "fraction", "seconds"])?;
+            let (k, x) = wm.iter().next().expect("one entry");
+            let q = join(&p, k);
+            let x = positive(x, &q)?;
+            o.window = match k.as_str() {
+                "revolutions" => Window::Revolutions(x),
+                "seconds" => Window::Seconds(x),
+                _ => {
+                    if x > 1.0 {
+                        return Err(SweepError::spec(q, format!("must be at most 1, got {x}")));
+                    }
+                    Window::Fraction(x)
+                }
+            };
+        }
+        if let Some(k) = m.get("keep") {
+            let p = join(at, "keep");
+            let list = k.as_array().ok_or_else(|| {
+                SweepError::spec(&p, format!("expected an array, got {}", type_name(k)))
+            })?;
+            for (i, item) in list.iter().enumerate() {
+                let name = item.as_str().unwrap_or("");
+                let g = SeriesGroup::ALL
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .map(|(_, g)| *g)
+                    .ok_or_else(|| {
+                        SweepError::spec(
+                            format!("{p}[{i}]"),
+                            format!(
+                                "unknown series group {item} (expected orbit, film, friction, forces or spin)"
+                            ),
+                        )
+                    })?;
+                o.keep.insert(g);
+            }
+        }
+        if let Some(n) = m.get("points") {
+            let p = join(at, "points");
+            let n = get_u64(n, &p)?;
+            if n < 2 {
+                return Err(SweepError::spec(p, "must be at least 2"));
+            }
+            o.points = n.min(1 << 24) as usize;
+        }
+        if let Some(s) = m.get("span") {
+            o.span = match s.as_str() {
+                Some("run") => Span::Run,
+                Some("window") => Span::Window,
+                _ => {
+                    return Err(SweepError::spec(
+                        join(at, "span"),
+                        format!("expected \"run\" or \"window\", got {s}"),
+                    ))
+                }
+            };
+        }
+        if let Some(w) = m.get("whirl") {
+            let p = join(at, "whirl");
+            let wm = w.as_object().ok_or_else(|| {
+                SweepError::spec(&p, format!("expected an object, got {}", type_name(w)))
+            })?;
+            deny_unknown(
+                wm,
+                &p,
+                &[
+                    "band",
+                    "max_ratio",
+                    "relative_threshold",
+                    "min_amplitude_ratio",
+                ],
+            )?;
+            if let Some(b) = wm.get("band") {
+                let q = join(&p, "band");
+                let arr = b
+                    .as_array()
+                    .filter(|a| a.len() == 2)
+                    .ok_or_else(|| SweepError::spec(&q, "expected [low, high]"))?;
+                let lo = positive(&arr[0], &format!("{q}[0]"))?;
+                let hi = positive(&arr[1], &format!("{q}[1]"))?;
+                if hi <= lo {
+                    return Err(SweepError::spec(
+                        q,
+                        format!("needs low < high, got [{lo}, {hi}]"),
+                    ));
+                }
+                o.whirl.band = (lo, hi);
+            }
+            if let Some(x) = wm.get("max_ratio") {
+                o.whirl.max_ratio = positive(x, &join(&p, "max_ratio"))?;
+            }
+            if let Some(x) = wm.get("relative_threshold") {
+                o.whirl.relative_threshold = positive(x, &join(&p, "relative_threshold"))?;
+            }
+            if let Some(x) = wm.get("min_amplitude_ratio") {
+                let q = join(&p, "min_amplitude_ratio");
+                let x = get_f64(x, &q)?;
+                if x < 0.0 {
+                    return Err(SweepError::spec(
+                        q,
+                        format!("must not be negative, got {x}"),
+                    ));
+                }
+                o.whirl.min_amplitude_ratio = x;
+            }
+            if o.whirl.band.1 > o.whirl.max_ratio {
+                return Err(SweepError::spec(
+                    join(&p, "band"),
+                    format!(
+                        "upper end {} exceeds max_ratio {}",
+                        o.whirl.band.1, o.whirl.max_ratio
+                    ),
+                ));
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// `Some(x)` when finite: results never hold NaN or infinities.
+fn fin(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// Mean (time average), min and max of a signal over the window.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Stats {
+    /// Trapezoidal time average.
+    pub mean: f64,
+    /// Smallest sample.
+    pub min: f64,
+    /// Largest sample.
+    pub max: f64,
+}
+
+/// An extreme value and when it occurred.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Extreme {
+    /// The value.
+    pub value: f64,
+    /// Its time, s.
+    pub t_s: f64,
+}
+
+/// The thinnest film of a variant.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FilmMin {
+    /// Minimum film thickness, m.
+    pub value_m: f64,
+    /// Bearing index (spec order).
+    pub bearing: usize,
+    /// Time, s.
+    pub t_s: f64,
+}
+
+/// Steady orbit over the window.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Orbit {
+    /// Bounding-box centre, m.
+    pub centre_x_m: f64,
+    /// Bounding-box centre, m.
+    pub centre_y_m: f64,
+    /// Largest distance from the centre, m.
+    pub radius_m: f64,
+    /// Half peak-to-peak in x, m.
+    pub half_pp_x_m: f64,
+    /// Half peak-to-peak in y, m.
+    pub half_pp_y_m: f64,
+}
+
+/// Whirl of one journal centre over the window.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Whirl {
+    /// Dominant whirl frequency / mean spin (signed, forward positive).
+    pub ratio: f64,
+    /// Its amplitude, m.
+    pub amplitude_m: f64,
+    /// Strongest ratio in the sub-synchronous band.
+    pub subsync_ratio: f64,
+    /// Its amplitude, m.
+    pub subsync_amplitude_m: f64,
+    /// Sub-synchronous whirl detected (see the module doc).
+    pub oil_whirl: bool,
+}
+
+/// The window actually used.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct WindowInfo {
+    /// Start, s.
+    pub t_start_s: f64,
+    /// End, s.
+    pub t_end_s: f64,
+    /// Revolutions of the rotor inside it.
+    pub revolutions: f64,
+    /// Samples inside it.
+    pub samples: usize,
+    /// The run was shorter than the requested window: the whole run is used.
+    pub truncated: bool,
+}
+
+/// Reductions of one bearing.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BearingReduction {
+    /// Friction coefficient over the window.
+    pub friction_coefficient: Option<Stats>,
+    /// `|M_z|` over the window, N·m.
+    pub friction_torque_nm: Option<Stats>,
+    /// Mean `|M_z · spin|` over the window, W.
+    pub power_loss_w: Option<f64>,
+    /// `|W|` over the window, N.
+    pub force_n: Option<Stats>,
+    /// Peak `|W|` over the run, N (the transmitted bearing force).
+    pub force_peak_n: Option<Extreme>,
+    /// Minimum film thickness over the run, m.
+    pub h_min_m: Option<Extreme>,
+    /// Maximum eccentricity ratio over the run.
+    pub eccentricity_max: Option<Extreme>,
+    /// Journal-centre orbit (end face `z = 0`) over the window.
+    pub orbit: Option<Orbit>,
+    /// Journal-centre whirl over the window.
+    pub whirl: Option<Whirl>,
+}
+
+/// Reductions of one variant.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Reductions {
+    /// The evaluation window.
+    pub window: Option<WindowInfo>,
+    /// Thinnest film over all bearings and the run.
+    pub h_min: Option<FilmMin>,
+    /// Total friction power loss over the window, W.
+    pub power_loss_w: Option<f64>,
+    /// Orbit of the centre of mass over the window.
+    pub g_orbit: Option<Orbit>,
+    /// Dominant whirl ratio of the bearing with the largest whirl amplitude.
+    pub whirl_ratio: Option<f64>,
+    /// Any bearing shows oil whirl.
+    pub oil_whirl: bool,
+    /// Per bearing.
+    pub bearings: Vec<BearingReduction>,
+}
+
+/// Index of the first sample of the window, and whether the run was too short.
+pub fn window_start(t: &[f64], spin: &[f64], window: Window) -> (usize, bool) {
+    let n = t.len();
+    if n < 2 {
+        return (0, n == 1);
+    }
+    let (t0, t1) = (t[0], t[n - 1]);
+    let (start, truncated) = match window {
+        Window::Fraction(f) => {
+            let ts = t1 - f * (t1 - t0);
+            (t.iter().position(|&x| x >= ts).unwrap_or(0), false)
+        }
+        Window::Seconds(s) => {
+            let ts = t1 - s;
+            (t.iter().position(|&x| x >= ts).unwrap_or(0), ts < t0)
+        }
+        Window::Revolutions(r) => {
+            let angle = revolutions_from(t, spin, 0) * std::f64::consts::TAU;
+            let target = r * std::f64::consts::TAU;
+            if angle < target {
+                (0, true)
+            } else {
+                // Angle from sample i to the end, accumulated backwards.
+                let mut acc = 0.0;
+                let mut start = n - 1;
+                for i in (0..n - 1).rev() {
+                    acc += 0.5 * (spin[i].abs() + spin[i + 1].abs()) * (t[i + 1] - t[i]);
+                    if acc > target * (1.0 + 1e-12) {
+                        break;
+                    }
+                    start = i;
+                }
+                (start, false)
+            }
+        }
+    };
+    // At least two samples.
+    (start.min(n - 2), truncated)
+}
+
+/// Revolutions (integral of `|spin|` / 2π) from sample `start` to the end.
+pub fn revolutions_from(t: &[f64], spin: &[f64], start: usize) -> f64 {
+    let mut acc = 0.0;
+    for i in start..t.len().saturating_sub(1) {
+        acc += 0.5 * (spin[i].abs() + spin[i + 1].abs()) * (t[i + 1] - t[i]);
+    }
+    acc / std::f64::consts::TAU
+}
+
+/// Trapezoidal weights of the samples `t` (sum = `t_last − t_first`).
+fn trapezoid_weights(t: &[f64]) -> Vec<f64> {
+    let n = t.len();
+    let mut w = vec![0.0; n];
+    for i in 0..n.saturating_sub(1) {
+        let h = 0.5 * (t[i + 1] - t[i]);
+        w[i] += h;
+        w[i + 1] += h;
+    }
+    w
+}
+
+/// Time average, min and max of `v` over samples `t` (skipping `None`s); `None` when
+/// nothing is defined or a result is non-finite.
+pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<Stats> {
+    let mut min = f64::INFINITY;
+    let mut max = f64::NEG_INFINITY;
+    let mut area = 0.0;
+    let mut span = 0.0;
+    let mut prev: Option<(f64, f64)> = None;
+    let mut count = 0usize;
+    let mut only = 0.0;
+    for (i, &ti) in t.iter().enumerate() {
+        match v(i) {
+            Some(x) => {
+                min = min.min(x);
+                max = max.max(x);
+                count += 1;
+                only = x;
+                if let Some((tp, xp)) = prev {
+                    area += 0.5 * (x + xp) * (ti - tp);
+                    span += ti - tp;
+                }
+                prev = Some((ti, x));
+            }
+            None => prev = None,
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let mean = if span > 0.0 { area / span } else { only };
+    Some(Stats {
+        mean: fin(mean)?,
+        min: fin(min)?,
+        max: fin(max)?,
+    })
+}
+
+/// [`stats_opt`] of a plain signal.
+pub fn stats(t: &[f64], v: &[f64]) -> Option<Stats> {
+    stats_opt(t, |i| Some(v[i]))
+}
+
+/// Smallest (`sign = 1`) or largest (`sign = −1`) sample and its time.
+fn extreme(t: &[f64], v: &[f64], sign: f64) -> Option<Extreme> {
+    let mut best: Option<Extreme> = None;
+    for (&ti, &x) in t.iter().zip(v) {
+        if x.is_finite() && best.is_none_or(|b| sign * x < sign * b.value) {
+            best = Some(Extreme { value: x, t_s: ti });
+        }
+    }
+    best
+}
+
+/// Steady orbit of `(x, y)` (see the module doc).
+pub fn orbit(x: &[f64], y: &[f64]) -> Option<Orbit> {
+    if x.is_empty() {
+        return None;
+    }
+    let range = |v: &[f64]| {
+        v.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &a| {
+                (lo.min(a), hi.max(a))
+            })
+    };
+    let (x0, x1) = range(x);
+    let (y0, y1) = range(y);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let r = x
+        .iter()
+        .zip(y)
+        .map(|(a, b)| (a - cx).hypot(b - cy))
+        .fold(0.0, f64::max);
+    Some(Orbit {
+        centre_x_m: fin(cx)?,
+        centre_y_m: fin(cy)?,
+        radius_m: fin(r)?,
+        half_pp_x_m: fin(0.5 * (x1 - x0))?,
+        half_pp_y_m: fin(0.5 * (y1 - y0))?,
+    })
+}
+
+/// The windowed spectrum of `z = x + iy` at angular frequency `omega` (rad/s).
+struct Spectrum {
+    t: Vec<f64>,
+    zr: Vec<f64>,
+    zi: Vec<f64>,
+    w: Vec<f64>,
+    wsum: f64,
+}
+
+impl Spectrum {
+    fn new(t: &[f64], x: &[f64], y: &[f64]) -> Option<Self> {
+        let n = t.len();
+        let span = t[n - 1] - t[0];
+        if n < 4 || span <= 0.0 {
+            return None;
+        }
+        let mut w = trapezoid_weights(t);
+        for (wi, &ti) in w.iter_mut().zip(t) {
+            *wi *= 0.5 - 0.5 * (std::f64::consts::TAU * (ti - t[0]) / span).cos();
+        }
+        let wsum: f64 = w.iter().sum();
+        if wsum <= 0.0 {
+            return None;
+        }
+        let mx = w.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() / wsum;
+        let my = w.iter().zip(y).map(|(a, b)| a * b).sum::<f64>() / wsum;
+        Some(Spectrum {
+            t: t.iter().map(|&ti| ti - t[0]).collect(),
+            zr: x.iter().map(|&a| a - mx).collect(),
+            zi: y.iter().map(|&b| b - my).collect(),
+            w,
+            wsum,
+        })
+    }
+
+    /// `A(ω)`, m.
+    fn amplitude(&self, omega: f64) -> f64 {
+        let (mut re, mut im) = (0.0, 0.0);
+        for i in 0..self.t.len() {
+            let (s, c) = (omega * self.t[i]).sin_cos();
+            // (zr + i zi)(c − i s)
+            re += self.w[i] * (self.zr[i] * c + self.zi[i] * s);
+            im += self.w[i] * (self.zi[i] * c - self.zr[i] * s);
+        }
+        re.hypot(im) / self.wsum
+    }
+
+    /// `d|Z|²/dω / 2 = Re(conj(Z) dZ/dω)` (unnormalised): positive left of a peak,
+    /// negative right of it, and linear through it, so its zero locates the peak to
+    /// rounding (a search on `A` itself stalls at `sqrt(eps)` of the lobe width).
+    fn slope(&self, omega: f64) -> f64 {
+        let (mut re, mut im, mut dre, mut dim) = (0.0, 0.0, 0.0, 0.0);
+        for i in 0..self.t.len() {
+            let (s, c) = (omega * self.t[i]).sin_cos();
+            let pr = self.w[i] * (self.zr[i] * c + self.zi[i] * s);
+            let pi = self.w[i] * (self.zi[i] * c - self.zr[i] * s);
+            re += pr;
+            im += pi;
+            // d/dω of p e^{−iωt} = −i t p e^{−iωt}
+            dre += self.t[i] * pi;
+            dim -= self.t[i] * pr;
+        }
+        re * dre + im * dim
+    }
+
+    /// Largest `A` over ratios in `[lo, hi]` (times `spin`): grid of step `step`, then
+    /// bisection on the slope of `|Z|²` inside the best grid cell's neighbours (the main
+    /// lobe: one maximum), or golden-section search on `A` when the maximum sits on an
+    /// end of `[lo, hi]`.
+    /// Returns `(ratio, amplitude, interior)`, `interior` when the maximum is a true
+    /// peak of the spectrum inside `[lo, hi]` (not the flank of a peak outside it).
+    fn peak(&self, spin: f64, lo: f64, hi: f64, step: f64) -> (f64, f64, bool) {
+        let cells = (((hi - lo) / step).ceil() as usize).max(1);
+        let h = (hi - lo) / cells as f64;
+        let mut best = (lo, -1.0);
+        for k in 0..=cells {
+            let r = lo + h * k as f64;
+            let a = self.amplitude(r * spin);
+            if a > best.1 {
+                best = (r, a);
+            }
+        }
+        let (mut a, mut b) = ((best.0 - h).max(lo), (best.0 + h).min(hi));
+        // Slope in the ratio variable: d/dr = spin · d/dω.
+        let g = |r: f64| spin * self.slope(r * spin);
+        let interior = g(a) > 0.0 && g(b) < 0.0;
+        if interior {
+            while b - a > 1e-14 * (1.0 + best.0.abs()) {
+                let m = 0.5 * (a + b);
+                if m <= a || m >= b {
+                    break;
+                }
+                if g(m) > 0.0 {
+                    a = m;
+                } else {
+                    b = m;
+                }
+            }
+        } else {
+            let gr = 0.5 * (5f64.sqrt() - 1.0);
+            let mut c = b - gr * (b - a);
+            let mut d = a + gr * (b - a);
+            let (mut fc, mut fd) = (self.amplitude(c * spin), self.amplitude(d * spin));
+            while b - a > 1e-10 * (1.0 + best.0.abs()) {
+                if fc > fd {
+                    b = d;
+                    d = c;
+                    fd = fc;
+                    c = b - gr * (b - a);
+                    fc = self.amplitude(c * spin);
+                } else {
+                    a = c;
+                    c = d;
+                    fc = fd;
+                    d = a + gr * (b - a);
+                    fd = self.amplitude(d * spin);
+                }
+            }
+        }
+        let r = 0.5 * (a + b);
+        let ar = self.amplitude(r * spin);
+        if ar >= best.1 {
+            (r, ar, interior)
+        } else {
+            (best.0, best.1, false)
+        }
+    }
+}
+
+/// Whirl of the journal centre `(x, y)` over window samples `t`, given the mean spin
+/// (rad/s) and the radial clearance (m).
+pub fn whirl(
+    t: &[f64],
+    x: &[f64],
+    y: &[f64],
+    spin_mean: f64,
+    clearance_m: f64,
+    opts: &WhirlOptions,
+) -> Option<Whirl> {
+    if spin_mean == 0.0 || !spin_mean.is_finite() {
+        return None;
+    }
+    let sp = Spectrum::new(t, x, y)?;
+    let n = t.len();
+    let span = t[n - 1] - t[0];
+    let revs = spin_mean.abs() * span / std::f64::consts::TAU;
+    if revs < 1.0 {
+        // Less than a revolution: no frequency is resolved.
+        return None;
+    }
+    let step = 1.0 / (4.0 * revs);
+    let dt_max = t.windows(2).map(|p| p[1] - p[0]).fold(0.0, f64::max);
+    // Nyquist: |ω| dt < π, with a 10 % margin.
+    let nyquist = 0.9 * std::f64::consts::PI / (dt_max * spin_mean.abs());
+    let r_max = opts.max_ratio.min(nyquist);
+    let (ratio, amp, _) = sp.peak(spin_mean, -r_max, r_max, step);
+    let (lo, hi) = (opts.band.0.min(r_max), opts.band.1.min(r_max));
+    let (sub_r, sub_a, interior) = if hi > lo {
+        sp.peak(spin_mean, lo, hi, step)
+    } else {
+        (lo, 0.0, false)
+    };
+    // A band maximum on the flank of the dominant peak is leakage, not a whirl: the
+    // sub-synchronous peak must be a true peak, and either the dominant one or resolved
+    // from it (farther than the Hann main-lobe half-width, 2 / revolutions).
+    let resolved = (sub_r - ratio).abs() < 1e-6 || (sub_r - ratio).abs() > 2.0 / revs;
+    let oil = interior
+        && resolved
+        && sub_a > 0.0
+        && sub_a >= opts.relative_threshold * amp
+        && sub_a >= opts.min_amplitude_ratio * clearance_m;
+    Some(Whirl {
+        ratio: fin(ratio)?,
+        amplitude_m: fin(amp)?,
+        subsync_ratio: fin(sub_r)?,
+        subsync_amplitude_m: fin(sub_a)?,
+        oil_whirl: oil,
+    })
+}
+
+/// Indices of at most `points` samples spread evenly over `start..n`, both ends kept.
+pub fn decimate_indices(start: usize, n: usize, points: usize) -> Vec<usize> {
+    let len = n.saturating_sub(start);
+    if len <= points {
+        return (start..n).collect();
+    }
+    let m = points.max(2);
+    (0..m)
+        .map(|k| start + ((k as f64) * (len - 1) as f64 / (m - 1) as f64).round() as usize)
+        .collect()
+}
+
+fn pick(v: &[f64], idx: &[usize]) -> Value {
+    Value::Array(
+        idx.iter()
+            .map(|&i| serde_json::Number::from_f64(v[i]).map_or(Value::Null, Value::Number))
+            .collect(),
+    )
+}
+
+/// Reduces one variant's signals. Every output number is finite or `null`.
+pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
+    let n = s.t.len();
+    if n == 0 {
+        return Reductions {
+            window: None,
+            h_min: None,
+            power_loss_w: None,
+            g_orbit: None,
+            whirl_ratio: None,
+            oil_whirl: false,
+            bearings: Vec::new(),
+        };
+    }
+    let (w0, truncated) = window_start(&s.t, &s.spin, opts.window);
+    let tw = &s.t[w0..];
+    let spin_mean = stats(tw, &s.spin[w0..]).map(|st| st.mean);
+    let window = WindowInfo {
+        t_start_s: s.t[w0],
+        t_end_s: s.t[n - 1],
+        revolutions: revolutions_from(&s.t, &s.spin, w0),
+        samples: n - w0,
+        truncated,
+    };
+    let mut h_min: Option<FilmMin> = None;
+    let mut total_power = Some(0.0);
+    let mut best_whirl: Option<(f64, f64)> = None;
+    let mut oil = false;
+    let bearings = s
+        .bearings
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let force: Vec<f64> = b.wx.iter().zip(&b.wy).map(|(x, y)| x.hypot(*y)).collect();
+            let power: Vec<f64> =
+                b.mz.iter()
+                    .zip(&s.spin)
+                    .map(|(m, w)| (m * w).abs())
+                    .collect();
+            let torque: Vec<f64> = b.mz.iter().map(|m| m.abs()).collect();
+            let hm = extreme(&s.t, &b.h_min, 1.0);
+            if let Some(e) = hm {
+                if h_min.is_none_or(|h| e.value < h.value_m) {
+                    h_min = Some(FilmMin {
+                        value_m: e.value,
+                        bearing: k,
+                        t_s: e.t_s,
+                    });
+                }
+            }
+            let power_mean = stats(tw, &power[w0..]).map(|st| st.mean);
+            total_power = match (total_power, power_mean) {
+                (Some(a), Some(p)) => Some(a + p),
+                _ => None,
+            };
+            let wh = spin_mean
+                .and_then(|sm| whirl(tw, &b.xi[w0..], &b.yi[w0..], sm, b.clearance_m, &opts.whirl));
+            if let Some(w) = wh {
+                oil |= w.oil_whirl;
+                if best_whirl.is_none_or(|(_, a)| w.amplitude_m > a) {
+                    best_whirl = Some((w.ratio, w.amplitude_m));
+                }
+            }
+            BearingReduction {
+                friction_coefficient: stats_opt(tw, |i| b.friction_coefficient[w0 + i]),
+                friction_torque_nm: stats(tw, &torque[w0..]),
+                power_loss_w: power_mean,
+                force_n: stats(tw, &force[w0..]),
+                force_peak_n: extreme(&s.t, &force, -1.0),
+                h_min_m: hm,
+                eccentricity_max: extreme(&s.t, &b.eccentricity_max, -1.0),
+                orbit: orbit(&b.xi[w0..], &b.yi[w0..]),
+                whirl: wh,
+            }
+        })
+        .collect();
+    Reductions {
+        window: Some(window),
+        h_min,
+        power_loss_w: total_power.and_then(fin),
+        g_orbit: orbit(&s.x_g[w0..], &s.y_g[w0..]),
+        whirl_ratio: best_whirl.map(|(r, _)| r),
+        oil_whirl: oil,
+        bearings,
+    }
+}
+
+/// The kept series, decimated (`None` when nothing is kept).
+pub fn kept_series(s: &Signals, opts: &ReductionOptions) -> Option<Value> {
+    if opts.keep.is_empty() || s.t.is_empty() {
+        return None;
+    }
+    let start = match opts.span {
+        Span::Run => 0,
+        Span::Window => window_start(&s.t, &s.spin, opts.window).0,
+    };
+    let idx = decimate_indices(start, s.t.len(), opts.points);
+    let mut m = Map::new();
+    m.insert("t".into(), pick(&s.t, &idx));
+    let keep = |g| opts.keep.contains(&g);
+    if keep(SeriesGroup::Orbit) {
+        m.insert("x_g".into(), pick(&s.x_g, &idx));
+        m.insert("y_g".into(), pick(&s.y_g, &idx));
+    }
+    if keep(SeriesGroup::Spin) {
+        m.insert("spin".into(), pick(&s.spin, &idx));
+    }
+    let bearings: Vec<Value> = s
+        .bearings
+        .iter()
+        .map(|b| {
+            let mut bm = Map::new();
+            if keep(SeriesGroup::Orbit) {
+                bm.insert("xi".into(), pick(&b.xi, &idx));
+                bm.insert("yi".into(), pick(&b.yi, &idx));
+                bm.insert("xj".into(), pick(&b.xj, &idx));
+                bm.insert("yj".into(), pick(&b.yj, &idx));
+            }
+            if keep(SeriesGroup::Film) {
+                bm.insert("h_min".into(), pick(&b.h_min, &idx));
+                bm.insert("eccentricity_max".into(), pick(&b.eccentricity_max, &idx));
+            }
+            if keep(SeriesGroup::Friction) {
+                bm.insert(
+                    "friction_coefficient".into(),
+                    Value::Array(
+                        idx.iter()
+                            .map(|&i| {
+                                b.friction_coefficient[i]
+                                    .and_then(serde_json::Number::from_f64)
+                                    .map_or(Value::Null, Value::Number)
+                            })
+                            .collect(),
+                    ),
+                );
+                bm.insert("mz".into(), pick(&b.mz, &idx));
+            }
+            if keep(SeriesGroup::Forces) {
+                bm.insert("wx".into(), pick(&b.wx, &idx));
+                bm.insert("wy".into(), pick(&b.wy, &idx));
+            }
+            Value::Object(bm)
+        })
+        .collect();
+    if bearings
+        .iter()
+        .any(|b| b.as_object().is_some_and(|o| !o.is_empty()))
+    {
+        m.insert("bearings".into(), Value::Array(bearings));
+    }
+    Some(Value::Object(m))
+}
+
+/// Units of every reduction, written once into each result file.
+pub fn units() -> Value {
+    json!({
+        "t_s, t_start_s, t_end_s": "s",
+        "*_m, value_m, radius_m, amplitude_m": "m",
+        "friction_torque_nm": "N·m (magnitude)",
+        "force_n, force_peak_n": "N (magnitude of the film force)",
+        "power_loss_w": "W",
+        "ratio, whirl_ratio, subsync_ratio": "whirl frequency / mean spin (signed, forward > 0)",
+        "friction_coefficient, eccentricity_max": "dimensionless",
+        "series": "SI: t s, positions m, spin rad/s, mz N·m, wx wy N"
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::TAU;
+
+    fn close(name: &str, got: f64, expected: f64, tol: f64) {
+        assert!(
+            (got - expected).abs() <= tol,
+            "{name}: got {got}, expected {expected}, tolerance {tol}"
+        );
+    }
+
+    fn uniform(t_end: f64, n: usize) -> Vec<f64> {
+        (0..n).map(|i| t_end * i as f64 / (n - 1) as f64).collect()
+    }
+
+    #[test]
+    fn window_by_revolutions_fraction_and_seconds() {
+        // 100 rad/s for 1 s: 15.915 revolutions.
+        let t = uniform(1.0, 1001);
+        let spin = vec![100.0; t.len()];
+        let (s, tr) = window_start(&t, &spin, Window::Revolutions(5.0));
+        // 5 revolutions = 0.314159 s: the window starts at the first sample with at most
+        // that much left, t = 0.686.
+        assert!(!tr);
+        close("start time (revolutions)", t[s], 0.686, 1e-12);
+        close(
+            "revolutions in window",
+            revolutions_from(&t, &spin, s),
+            0.314 * 100.0 / TAU,
+            1e-9,
+        );
+        let (s, _) = window_start(&t, &spin, Window::Fraction(0.25));
+        close("start time (fraction)", t[s], 0.75, 1e-12);
+        let (s, tr) = window_start(&t, &spin, Window::Seconds(0.1));
+        close("start time (seconds)", t[s], 0.9, 1e-12);
+        assert!(!tr);
+        let (s, tr) = window_start(&t, &spin, Window::Revolutions(100.0));
+        assert_eq!((s, tr), (0, true));
+    }
+
+    #[test]
+    fn stats_of_a_ramp_and_of_gappy_samples() {
+        let t = uniform(2.0, 21);
+        let v: Vec<f64> = t.iter().map(|x| 3.0 * x + 1.0).collect();
+        let st = stats(&t, &v).unwrap();
+        // Mean of 3t + 1 over [0, 2] = 4 (trapezoid exact for a line).
+        close("mean", st.mean, 4.0, 1e-12);
+        close("min", st.min, 1.0, 0.0);
+        close("max", st.max, 7.0, 0.0);
+        let st = stats_opt(&t, |i| (i % 5 != 0).then_some(2.0)).unwrap();
+        close("mean with gaps", st.mean, 2.0, 1e-15);
+        assert!(stats_opt(&t, |_| None).is_none());
+    }
+
+    #[test]
+    fn circle_orbit_has_its_radius_for_any_number_of_turns() {
+        for turns in [1.0, 2.37] {
+            let n = 4001;
+            let (x, y): (Vec<f64>, Vec<f64>) = (0..n)
+                .map(|i| {
+                    let a = TAU * turns * i as f64 / (n - 1) as f64;
+                    (2e-5 + 7e-6 * a.cos(), -1e-5 + 7e-6 * a.sin())
+                })
+                .unzip();
+            let o = orbit(&x, &y).unwrap();
+            // Sampling error of the extremes: r (1 − cos(π turns / n)) < 1e-11 m.
+            close("radius", o.radius_m, 7e-6, 1e-11);
+            close("centre x", o.centre_x_m, 2e-5, 1e-11);
+            close("centre y", o.centre_y_m, -1e-5, 1e-11);
+            close("half pp x", o.half_pp_x_m, 7e-6, 1e-11);
+        }
+    }
+
+    fn tone(t: &[f64], parts: &[(f64, f64)], omega: f64) -> (Vec<f64>, Vec<f64>) {
+        t.iter()
+            .map(|&ti| {
+                parts.iter().fold((0.0, 0.0), |(x, y), &(amp, ratio)| {
+                    let a = ratio * omega * ti + 0.3;
+                    (x + amp * a.cos(), y + amp * a.sin())
+                })
+            })
+            .unzip()
+    }
+
+    #[test]
+    fn whirl_of_a_pure_tone_is_exact() {
+        let omega = 100.0;
+        // 20 revolutions, uniform samples: the tone completes 0.47·20 = 9.4 cycles, not
+        // an integer; a single complex exponential still peaks exactly at its frequency
+        // except for the tiny bias of the removed (windowed) mean.
+        let t: Vec<f64> = uniform(20.0 * TAU / omega, 2001)
+            .iter()
+            .map(|x| x + 0.7)
+            .collect();
+        for ratio in [0.47, 1.0, -0.8, 2.0] {
+            let (x, y) = tone(&t, &[(4e-6, ratio)], omega);
+            let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+            close(&format!("ratio {ratio}"), w.ratio, ratio, 1e-6);
+            close(
+                &format!("amplitude at {ratio}"),
+                w.amplitude_m,
+                4e-6,
+                4e-6 * 1e-4,
+            );
+            assert_eq!(
+                w.oil_whirl,
+                ratio == 0.47,
+                "oil whirl flag for ratio {ratio}"
+            );
+        }
+        // Integer cycles (20 revolutions at 0.45 = 9 cycles): the windowed mean is zero and the ratio is exact to the golden-section tolerance.
+        let (x, y) = tone(&t, &[(4e-6, 0.45)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        close("ratio 0.45 (integer cycles)", w.ratio, 0.45, 1e-9);
+        close("amplitude 0.45", w.amplitude_m, 4e-6, 1e-15);
+        // Negative spin: a whirl in the spin's direction is still a positive ratio.
+        let (x, y) = tone(&t, &[(4e-6, 0.45)], omega);
+        let (xm, ym): (Vec<f64>, Vec<f64>) = (x, y.iter().map(|v| -v).collect());
+        let w = whirl(&t, &xm, &ym, -omega, 3e-4, &WhirlOptions::default()).unwrap();
+        close("ratio 0.45 (mirrored, negative spin)", w.ratio, 0.45, 1e-9);
+    }
+
+    #[test]
+    fn synchronous_orbit_with_sub_synchronous_whirl() {
+        let omega = 150.0;
+        let t = uniform(40.0 * TAU / omega, 4001);
+        let opts = WhirlOptions::default();
+        // Dominant unbalance response at 1x, whirl at 0.45x with 40 % of its amplitude:
+        // oil whirl flagged, dominant ratio 1.
+        let (x, y) = tone(&t, &[(1e-5, 1.0), (4e-6, 0.45)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &opts).unwrap();
+        close("dominant ratio", w.ratio, 1.0, 1e-4);
+        close("dominant amplitude", w.amplitude_m, 1e-5, 1e-8);
+        close("sub-synchronous ratio", w.subsync_ratio, 0.45, 1e-4);
+        close(
+            "sub-synchronous amplitude",
+            w.subsync_amplitude_m,
+            4e-6,
+            1e-8,
+        );
+        assert!(w.oil_whirl);
+        // A 5 % whirl is below the relative threshold: no oil whirl.
+        let (x, y) = tone(&t, &[(1e-5, 1.0), (5e-7, 0.45)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &opts).unwrap();
+        assert!(!w.oil_whirl, "5 % whirl flagged: {w:?}");
+        // A strong but tiny (below 1 % of the clearance) whirl is not flagged either.
+        let (x, y) = tone(&t, &[(1e-6, 0.45)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &opts).unwrap();
+        close("tiny whirl ratio", w.ratio, 0.45, 1e-6);
+        assert!(
+            !w.oil_whirl,
+            "whirl of 1e-6 m in a 3e-4 m clearance flagged"
+        );
+    }
+
+    #[test]
+    fn leakage_of_a_synchronous_orbit_in_a_short_window_is_not_oil_whirl() {
+        // 3 revolutions: the 1x main lobe reaches down to 0.33x, so the band maximum
+        // (at its upper end, 0.6) is large but only leakage.
+        let omega = 100.0;
+        let t = uniform(3.0 * TAU / omega, 301);
+        let (x, y) = tone(&t, &[(1.7e-4, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        assert!(w.subsync_amplitude_m > 0.2 * w.amplitude_m, "{w:?}");
+        assert!(!w.oil_whirl, "leakage flagged as oil whirl: {w:?}");
+    }
+
+    #[test]
+    fn nonuniform_samples_give_the_same_whirl() {
+        let omega = 100.0;
+        let t_end = 20.0 * TAU / omega;
+        // Sample times bunched by a smooth warp.
+        let t: Vec<f64> = uniform(1.0, 3001)
+            .iter()
+            .map(|u| t_end * (u + 0.1 * (TAU * u).sin() / TAU))
+            .collect();
+        assert!(t.windows(2).all(|p| p[1] > p[0]));
+        let (x, y) = tone(&t, &[(3e-6, 0.45)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        close("ratio (nonuniform)", w.ratio, 0.45, 1e-6);
+        close("amplitude (nonuniform)", w.amplitude_m, 3e-6, 3e-6 * 1e-4);
+    }
+
+    #[test]
+    fn decimation_keeps_ends_and_counts() {
+        assert_eq!(decimate_indices(0, 5, 10), vec![0, 1, 2, 3, 4]);
+        assert_eq!(decimate_indices(0, 11, 3), vec![0, 5, 10]);
+        assert_eq!(decimate_indices(10, 110, 5), vec![10, 35, 60, 84, 109]);
+        assert_eq!(decimate_indices(0, 1000, 200).len(), 200);
+    }
+
+    fn signals(n: usize) -> Signals {
+        // Rotor at 100 rad/s for 1 s; G on a circle of 1 mm at 1x; one bearing with the
+        // journal on a 5 µm circle at 1x around (1e-4, 0); |W| = 10 + 2 sin(ωt) N;
+        // Mz = −0.01 N·m; f = 0.02 + 0.01 t; h_min = δ − |e|; dip at t = 0.2.
+        let omega = 100.0;
+        let t = uniform(1.0, n);
+        let mut s = Signals {
+            t: t.clone(),
+            spin: vec![omega; n],
+            ..Default::default()
+        };
+        let mut b = BearingSignals {
+            clearance_m: 3e-4,
+            ..Default::default()
+        };
+        for &ti in &t {
+            let a = omega * ti;
+            s.x_g.push(1e-3 * a.cos());
+            s.y_g.push(1e-3 * a.sin());
+            let (xi, yi) = (1e-4 + 5e-6 * a.cos(), 5e-6 * a.sin());
+            b.xi.push(xi);
+            b.yi.push(yi);
+            b.xj.push(xi);
+            b.yj.push(yi);
+            let e = xi.hypot(yi);
+            let dip = if (ti - 0.2).abs() < 1e-9 { 1e-5 } else { 0.0 };
+            b.h_min.push(3e-4 - e - dip);
+            b.eccentricity_max.push(e / 3e-4);
+            b.friction_coefficient.push(Some(0.02 + 0.01 * ti));
+            b.mz.push(-0.01);
+            let w = 10.0 + 2.0 * a.sin();
+            b.wx.push(w);
+            b.wy.push(0.0);
+        }
+        s.bearings.push(b);
+        s
+    }
+
+    #[test]
+    fn reductions_of_known_signals() {
+        let s = signals(2001);
+        let r = reduce(&s, &ReductionOptions::default());
+        let w = r.window.unwrap();
+        close("window start", w.t_start_s, 0.5, 1e-12);
+        close("window revolutions", w.revolutions, 50.0 / TAU, 1e-9);
+        let b = &r.bearings[0];
+        let f = b.friction_coefficient.unwrap();
+        close(
+            "f mean (0.02 + 0.01 t over [0.5, 1])",
+            f.mean,
+            0.0275,
+            1e-12,
+        );
+        close("f min", f.min, 0.025, 1e-12);
+        close("f max", f.max, 0.03, 1e-12);
+        close(
+            "torque mean",
+            b.friction_torque_nm.unwrap().mean,
+            0.01,
+            1e-15,
+        );
+        close("power loss", b.power_loss_w.unwrap(), 1.0, 1e-12);
+        close("total power loss", r.power_loss_w.unwrap(), 1.0, 1e-12);
+        // Samples are 0.05 rad of spin apart: extremes are missed by at most
+        // 1 − cos(0.025) = 3.1e-4 of an amplitude.
+        let fp = b.force_peak_n.unwrap();
+        close("peak force", fp.value, 12.0, 2.0 * 3.2e-4);
+        // Mean of 10 + 2 sin(100 t) over [0.5, 1]: 10 + 2 (cos 50 − cos 100)/50.
+        let expected_mean = 10.0 + 2.0 * ((50f64).cos() - (100f64).cos()) / 50.0;
+        close("force mean", b.force_n.unwrap().mean, expected_mean, 1e-5);
+        let hm = r.h_min.unwrap();
+        assert_eq!(hm.bearing, 0);
+        close("h_min time", hm.t_s, 0.2, 1e-12);
+        let e_at = ((1e-4 + 5e-6 * (20f64).cos()).powi(2) + (5e-6 * (20f64).sin()).powi(2)).sqrt();
+        close("h_min value", hm.value_m, 3e-4 - e_at - 1e-5, 1e-15);
+        close(
+            "eccentricity max",
+            b.eccentricity_max.unwrap().value,
+            1.05e-4 / 3e-4,
+            5e-6 * 3.2e-4 / 3e-4,
+        );
+        close(
+            "journal orbit radius",
+            b.orbit.unwrap().radius_m,
+            5e-6,
+            5e-6 * 4e-4,
+        );
+        close(
+            "G orbit radius",
+            r.g_orbit.unwrap().radius_m,
+            1e-3,
+            1e-3 * 4e-4,
+        );
+        let wh = b.whirl.unwrap();
+        close("whirl ratio", wh.ratio, 1.0, 1e-6);
+        close("whirl amplitude", wh.amplitude_m, 5e-6, 5e-10);
+        assert!(!wh.oil_whirl);
+        assert_eq!(r.whirl_ratio, Some(wh.ratio));
+        let json = serde_json::to_string(&r).unwrap();
+        assert!(!json.contains("NaN") && !json.contains("inf"), "{json}");
+    }
+
+    #[test]
+    fn kept_series_are_decimated_and_grouped() {
+        let s = signals(2001);
+        let mut o = ReductionOptions::default();
+        assert!(kept_series(&s, &o).is_none());
+        o.keep.insert(SeriesGroup::Orbit);
+        o.points = 11;
+        let v = kept_series(&s, &o).unwrap();
+        assert_eq!(v["t"].as_array().unwrap().len(), 11);
+        assert_eq!(v["t"][10].as_f64(), Some(1.0));
+        assert_eq!(v["bearings"][0]["xi"].as_array().unwrap().len(), 11);
+        assert!(v["bearings"][0].get("h_min").is_none());
+        assert!(v.get("spin").is_none());
+        o.span = Span::Window;
+        let v = kept_series(&s, &o).unwrap();
+        assert_eq!(v["t"][0].as_f64(), Some(0.5));
+    }
+
+    #[test]
+    fn empty_signals_reduce_to_nulls() {
+        let r = reduce(&Signals::default(), &ReductionOptions::default());
+        assert!(r.window.is_none() && r.h_min.is_none() && r.bearings.is_empty());
+    }
+
+    #[test]
+    fn option_errors_name_paths() {
+        let cases = [
+            (
+                serde_json::json!({"keep": ["orbits"]}),
+                "r.keep[0]",
+                "unknown series group",
+            ),
+            (
+                serde_json::json!({"window": {"fraction": 2}}),
+                "r.window.fraction",
+                "at most 1",
+            ),
+            (
+                serde_json::json!({"window": {"turns": 2}}),
+                "r.window.turns",
+                "unknown field",
+            ),
+            (serde_json::json!({"points": 1}), "r.points", "at least 2"),
+            (serde_json::json!({"span": "all"}), "r.span", "expected"),
+            (
+                serde_json::json!({"whirl": {"band": [0.6, 0.3]}}),
+                "r.whirl.band",
+                "low < high",
+            ),
+            (
+                serde_json::json!({"whirl": {"band": [0.3, 3.0]}}),
+                "r.whirl.band",
+                "max_ratio",
+            ),
+        ];
+        for (k, (v, path, reason)) in cases.iter().enumerate() {
+            match ReductionOptions::parse(Some(v), "r") {
+                Err(SweepError::Spec { path: p, reason: r }) => assert!(
+                    p == *path && r.contains(reason),
+                    "case {k}: got `{p}: {r}`, expected `{path}` with `{reason}`"
+                ),
+                other => panic!("case {k}: expected an error, got {other:?}"),
+            }
+        }
+    }
+}

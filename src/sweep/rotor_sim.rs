@@ -1,0 +1,269 @@
+//! Rotor sweeps: the rotor integrator ([`crate::rotor::simulate_batch_streaming`], lockstep batches
+//! whose every stage is one film-load call) behind the runner's [`BatchSimulator`], and
+//! the scene validator that checks every variant before anything runs.
+
+use serde_json::{json, Value};
+
+use super::reduce::{BearingSignals, Signals};
+use super::runner::{BatchSimulator, Job, Outcome};
+use crate::backend::{BackendInfo, CpuBackend, LoadEvaluator};
+use crate::bearing::Accuracy;
+use crate::rotor::{simulate_batch_streaming, Scene, SimResult};
+
+/// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
+/// thread's lockstep sub-batch, few enough that the running variants' sampled series
+/// (about 1 MB per variant at the default 1e-4 s samples over 0.5 s) stay in memory
+/// comfortably.
+pub const AUTO_BATCH_CPU: usize = 256;
+/// ... on a GPU: thousands of states per dispatch amortise its launch cost.
+pub const AUTO_BATCH_GPU: usize = 4096;
+
+/// Checks one variant's scene: `Err((JSON path, reason))`.
+pub fn validate_scene(v: &Value) -> Result<(), (String, String)> {
+    let scene: Scene = serde_json::from_value(v.clone()).map_err(|e| {
+        let msg = e.to_string();
+        (
+            locate_unknown_field(v, &msg).unwrap_or_else(|| "$".into()),
+            msg,
+        )
+    })?;
+    if scene.compare_ideal {
+        return Err((
+            "compare_ideal".into(),
+            "not used in sweeps (one variant is one simulation): sweep an axis {\"path\": \"model\", \"values\": [\"bearing\", \"ideal\"]} instead".into(),
+        ));
+    }
+    scene.validate().map_err(|e| (e.path, e.reason))
+}
+
+/// The JSON path of the object holding the field named in serde's "unknown field `x`"
+/// message (serde does not say where it is).
+fn locate_unknown_field(v: &Value, msg: &str) -> Option<String> {
+    let name = msg.strip_prefix("unknown field `")?.split('`').next()?;
+    fn find(v: &Value, name: &str, at: String) -> Option<String> {
+        match v {
+            Value::Object(o) => {
+                if o.contains_key(name) {
+                    return Some(if at.is_empty() {
+                        name.to_string()
+                    } else {
+                        format!("{at}.{name}")
+                    });
+                }
+                o.iter().find_map(|(k, c)| {
+                    find(
+                        c,
+                        name,
+                        if at.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{at}.{k}")
+                        },
+                    )
+                })
+            }
+            Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .find_map(|(i, c)| find(c, name, format!("{at}[{i}]"))),
+            _ => None,
+        }
+    }
+    find(v, name, String::new())
+}
+
+/// The status name of a simulation (`"ok"` when it reached `t_end`).
+pub fn status_name(r: &SimResult) -> String {
+    if r.status.is_finished() {
+        return "ok".into();
+    }
+    serde_json::to_value(&r.status)
+        .ok()
+        .and_then(|v| v.get("kind").and_then(Value::as_str).map(str::to_string))
+        .unwrap_or_else(|| "failed".into())
+}
+
+/// The runner's signals from a simulation's samples.
+pub fn signals_of(r: &SimResult, scene: &Scene) -> Signals {
+    let s = &r.samples;
+    Signals {
+        t: s.t.clone(),
+        spin: s.spin.clone(),
+        x_g: s.x_g.clone(),
+        y_g: s.y_g.clone(),
+        bearings: s
+            .bearings
+            .iter()
+            .zip(&scene.bearings)
+            .map(|(b, spec)| BearingSignals {
+                clearance_m: spec.clearance,
+                xi: b.xi.clone(),
+                yi: b.yi.clone(),
+                xj: b.xj.clone(),
+                yj: b.yj.clone(),
+                h_min: b.h_min.clone(),
+                eccentricity_max: b.eccentricity_max.clone(),
+                friction_coefficient: b.friction_coefficient.clone(),
+                mz: b.mz.clone(),
+                wx: b.wx.clone(),
+                wy: b.wy.clone(),
+            })
+            .collect(),
+    }
+}
+
+/// The outcome the runner streams for one simulation.
+pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
+    let status = status_name(r);
+    Outcome {
+        message: (status != "ok").then(|| r.status.to_string()),
+        status,
+        signals: Some(signals_of(r, scene)),
+        // Deterministic counters only (wall times go to the run section, not here).
+        extra: Some(json!({
+            "method": r.method.name(),
+            "model": r.model,
+            "steps": r.stats.steps,
+            "rejected": r.stats.rejected,
+            "rhs_evaluations": r.stats.rhs_evaluations,
+            "load_evaluations": r.stats.load_evaluations,
+            // Film breakdowns a contact model carried the run through (film.contact).
+            "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
+        })),
+    }
+}
+
+/// The rotor integrator as a batch simulator.
+///
+/// On a GPU the whole batch advances in lockstep on one evaluator: every stage is one
+/// dispatch carrying all active variants' bearings. On the CPU the batch is split into
+/// one sub-batch per thread (dealt round-robin), each advancing in lockstep on its own
+/// single-threaded CPU evaluator: a film call carries only a few hundred states, too few
+/// to spread over threads, so the parallelism is across variants. Results do not depend
+/// on the split (each variant has its own step-size control and every state's loads are
+/// computed alone).
+pub struct RotorSimulator {
+    evaluator: LoadEvaluator,
+    info: BackendInfo,
+    workers: Vec<LoadEvaluator>,
+}
+
+impl RotorSimulator {
+    /// Simulates on `evaluator`'s backend; a CPU backend gets one single-threaded CPU
+    /// evaluator per thread of rayon's pool (`RAYON_NUM_THREADS`) at `accuracy`.
+    pub fn new(evaluator: LoadEvaluator, accuracy: Accuracy) -> Self {
+        let info = evaluator.info();
+        let workers = if info.name == "cpu" {
+            (0..rayon::current_num_threads().max(1))
+                .map(|_| LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, Some(1)))))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        RotorSimulator {
+            evaluator,
+            info,
+            workers,
+        }
+    }
+
+    /// The settings that change results, recorded in the result and checked on resume
+    /// and merge: backend kind and precision, film accuracy.
+    pub fn settings(&self, accuracy_rtol: f64) -> Value {
+        json!({"simulator": "rotor", "backend": self.info.name, "precision": self.info.precision,
+               "film_accuracy": accuracy_rtol})
+    }
+}
+
+impl BatchSimulator for RotorSimulator {
+    fn auto_batch_size(&self) -> usize {
+        if self.info.name == "cpu" {
+            AUTO_BATCH_CPU
+        } else {
+            AUTO_BATCH_GPU
+        }
+    }
+
+    fn info(&self) -> Value {
+        let mut v = serde_json::to_value(&self.info).unwrap_or(Value::Null);
+        if !self.workers.is_empty() {
+            v["variant_threads"] = json!(self.workers.len());
+        }
+        v
+    }
+
+    fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+        let mut scenes = Vec::with_capacity(jobs.len());
+        let mut index = Vec::with_capacity(jobs.len());
+        for (k, job) in jobs.iter().enumerate() {
+            match serde_json::from_value::<Scene>(job.scene.clone()) {
+                Ok(s) => {
+                    scenes.push(s);
+                    index.push(k);
+                }
+                Err(e) => done(k, Outcome::failed("invalid_scene", e.to_string())),
+            }
+        }
+        if self.workers.len() <= 1 || scenes.len() <= 1 {
+            let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
+            let results = simulate_batch_streaming(&scenes, evaluator, &mut |i, r| {
+                done(index[i], outcome_of(r, &scenes[i]));
+            });
+            // The runner has what it needs; free the batch's series at once.
+            drop(results);
+            return;
+        }
+        // Round-robin over the threads: neighbouring variants (often alike in cost, e.g.
+        // along the fastest grid axis) go to different threads.
+        let t = self.workers.len();
+        let mut buckets: Vec<(Vec<usize>, Vec<Scene>)> = vec![(Vec::new(), Vec::new()); t];
+        for (k, scene) in scenes.into_iter().enumerate() {
+            buckets[k % t].0.push(index[k]);
+            buckets[k % t].1.push(scene);
+        }
+        let (tx, rx) = std::sync::mpsc::channel::<(usize, Outcome)>();
+        std::thread::scope(|scope| {
+            for (evaluator, (ids, chunk)) in self.workers.iter_mut().zip(&buckets) {
+                if chunk.is_empty() {
+                    continue;
+                }
+                let tx = tx.clone();
+                scope.spawn(move || {
+                    let results = simulate_batch_streaming(chunk, evaluator, &mut |i, r| {
+                        // The receiver lives until every worker is done.
+                        let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
+                    });
+                    drop(results);
+                });
+            }
+            drop(tx);
+            // Stream outcomes as workers finish variants.
+            for (k, outcome) in rx {
+                done(k, outcome);
+            }
+        });
+    }
+
+    fn take_notices(&mut self) -> Vec<String> {
+        let mut n = self.evaluator.take_notices();
+        for w in &mut self.workers {
+            n.extend(w.take_notices());
+        }
+        n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_fields_are_located() {
+        let v = json!({"rotor": {"mass": 1.0}, "bearings": [{"radius": 1.0}, {"clerance": 2.0}]});
+        assert_eq!(
+            locate_unknown_field(&v, "unknown field `clerance`, expected one of ..."),
+            Some("bearings[1].clerance".into())
+        );
+        assert_eq!(locate_unknown_field(&v, "missing field `x`"), None);
+    }
+}
