@@ -62,6 +62,9 @@ enum Command {
         /// Sweeps: no progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Turn every model reduction off (README "Model reductions"), exact ones included.
+        #[arg(long)]
+        full_model: bool,
     },
     /// Merge sweep shard results into the result of the unsharded run.
     Merge {
@@ -215,6 +218,7 @@ fn main() -> ExitCode {
             shard,
             batch_size,
             quiet,
+            full_model,
         } => read_input(&file).and_then(|text| {
             if is_sweep_spec(&text) {
                 let opts = SweepRunOptions {
@@ -224,6 +228,7 @@ fn main() -> ExitCode {
                     backend,
                     accuracy,
                     quiet,
+                    full_model,
                 };
                 run_command(&file, &text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
             } else {
@@ -240,6 +245,7 @@ fn main() -> ExitCode {
                         backend,
                         accuracy,
                         out,
+                        full_model,
                     },
                 )?;
                 for n in report.notices {

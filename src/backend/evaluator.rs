@@ -22,42 +22,124 @@ pub type LoadResult = Result<Loads, StateFault>;
 /// Counters over the evaluator's lifetime.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct EvalStats {
-    /// Backend calls made.
+    /// Backend calls made (calls of [`LoadEvaluator::evaluate`]).
     pub calls: u64,
     /// States evaluated (including rejected ones).
     pub states: u64,
     /// States recomputed on the CPU after a backend failure or a non-finite result.
     pub cpu_recomputed: u64,
+    /// States whose packed kernel input equalled an earlier state's in the same call
+    /// (identical bearings in identical states, e.g. identical variants): integrated once,
+    /// the integrals shared. Exact.
+    pub deduplicated: u64,
+    /// Kernel integrations actually run (states sent to the backend or the CPU).
+    pub integrated: u64,
+    /// Calls whose kernel work was small enough to run on the CPU fallback instead of a
+    /// GPU round trip (see [`EvaluatorOptions::cpu_below`]). Exact: the same rule.
+    pub small_batch_cpu_calls: u64,
+    /// States integrated in those calls.
+    pub small_batch_cpu_states: u64,
+}
+
+/// Exact reductions of the evaluator.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct EvaluatorOptions {
+    /// Integrate identical packed states once per call. Default true.
+    pub dedupe: bool,
+    /// With a GPU backend, a call with fewer distinct states than this runs on the CPU
+    /// fallback (a GPU round trip costs ~0.1-0.2 ms whatever the size). 0 turns it off.
+    pub cpu_below: usize,
+}
+
+/// Default crossover for [`EvaluatorOptions::cpu_below`], states per call: below it the
+/// CPU backend beats a GPU round trip (BENCHMARKS.md "GPU backend": lavapipe's round trip
+/// is 0.09-0.16 ms, the CPU backend's 2-3 µs per state on 2 threads, so the CPU wins up to
+/// ~50-100 states; and "Model reductions" for the end-to-end check). A hardware GPU's
+/// round trip is of the same order (submit, wait, read back), so the default holds there.
+pub const DEFAULT_CPU_BELOW: usize = 64;
+
+impl Default for EvaluatorOptions {
+    fn default() -> Self {
+        EvaluatorOptions {
+            dedupe: true,
+            cpu_below: DEFAULT_CPU_BELOW,
+        }
+    }
+}
+
+impl EvaluatorOptions {
+    /// Every reduction off: each state integrated by the backend itself.
+    pub fn full() -> Self {
+        EvaluatorOptions {
+            dedupe: false,
+            cpu_below: 0,
+        }
+    }
+}
+
+/// Bit pattern of a packed state: the key of identical kernel inputs.
+fn key_of(p: &PackedState) -> [u64; 8] {
+    let mut k = [0u64; 8];
+    for (n, v) in p.ecc.iter().chain(p.rate.iter()).enumerate() {
+        // +0 and -0 give identical integrals; one key for both.
+        k[n] = if *v == 0.0 { 0 } else { v.to_bits() };
+    }
+    k
 }
 
 /// Batched load evaluation over any backend, with its scratch buffers kept between calls.
 pub struct LoadEvaluator {
     backend: Box<dyn FilmBackend>,
     fallback: Option<CpuBackend>,
+    options: EvaluatorOptions,
     packed: Vec<PackedState>,
-    scales: Vec<f64>,
-    slots: Vec<usize>,
+    /// Per film state (in request order): its request, rate scale and packed index.
+    slots: Vec<(usize, f64, usize)>,
+    bearing_ok: Vec<Result<(), StateFault>>,
+    seen: std::collections::HashMap<[u64; 8], usize>,
     integrals: Vec<FilmIntegrals>,
+    bad: Vec<bool>,
     notices: Vec<String>,
     stats: EvalStats,
 }
 
 impl LoadEvaluator {
     /// Wraps `backend`; a non-CPU backend gets a CPU fallback at the same rule settings.
+    /// Deduplication on, small-batch CPU routing off (so a GPU backend sees every call;
+    /// the commands use [`LoadEvaluator::with_options`]).
     pub fn new(backend: Box<dyn FilmBackend>) -> Self {
+        Self::with_options(
+            backend,
+            EvaluatorOptions {
+                cpu_below: 0,
+                ..EvaluatorOptions::default()
+            },
+        )
+    }
+
+    /// Wraps `backend` with explicit reductions.
+    pub fn with_options(backend: Box<dyn FilmBackend>, options: EvaluatorOptions) -> Self {
         let info = backend.info();
         let fallback =
             (info.name != "cpu").then(|| CpuBackend::with_settings(backend.settings(), None));
         LoadEvaluator {
             backend,
             fallback,
+            options,
             packed: Vec::new(),
-            scales: Vec::new(),
             slots: Vec::new(),
+            bearing_ok: Vec::new(),
+            seen: std::collections::HashMap::new(),
             integrals: Vec::new(),
+            bad: Vec::new(),
             notices: Vec::new(),
             stats: EvalStats::default(),
         }
+    }
+
+    /// The reductions in force.
+    pub fn options(&self) -> EvaluatorOptions {
+        self.options
     }
 
     /// The backend's description.
@@ -90,50 +172,70 @@ impl LoadEvaluator {
     ) {
         out.clear();
         self.packed.clear();
-        self.scales.clear();
         self.slots.clear();
+        self.seen.clear();
         self.stats.calls += 1;
         self.stats.states += requests.len() as u64;
-        let bearing_ok: Vec<Result<(), StateFault>> = bearings
-            .iter()
-            .map(|b| {
-                b.validate().map_err(|e| StateFault::InvalidBearing {
-                    field: e.field,
-                    reason: e.reason,
-                })
+        self.bearing_ok.clear();
+        self.bearing_ok.extend(bearings.iter().map(|b| {
+            b.validate().map_err(|e| StateFault::InvalidBearing {
+                field: e.field,
+                reason: e.reason,
             })
-            .collect();
+        }));
         for (k, req) in requests.iter().enumerate() {
-            let result = match bearings.get(req.bearing as usize) {
+            let result = match self.bearing_ok.get(req.bearing as usize) {
                 None => Err(StateFault::InvalidBearing {
                     field: "bearing",
                     reason: "index out of range",
                 }),
-                Some(params) => {
-                    bearing_ok[req.bearing as usize].and_then(|_| pack_state(params, &req.state))
+                Some(ok) => {
+                    ok.and_then(|_| pack_state(&bearings[req.bearing as usize], &req.state))
                 }
             };
             match result {
-                Ok(p) => {
-                    // Final loads of a film without pressure; a placeholder otherwise,
-                    // overwritten below.
-                    out.push(
-                        finish_loads(&bearings[req.bearing as usize], &req.state, &[0.0; 4], 0.0)
-                            .finite_or_fault(),
-                    );
-                    if p.rate_scale > 0.0 {
+                Ok(p) if p.rate_scale > 0.0 => {
+                    // Placeholder, overwritten below once the integrals are in.
+                    out.push(Err(StateFault::BackendNonFinite));
+                    let n = if self.options.dedupe {
+                        let next = self.packed.len();
+                        let n = *self.seen.entry(key_of(&p.state)).or_insert(next);
+                        if n == next {
+                            self.packed.push(p.state);
+                        } else {
+                            self.stats.deduplicated += 1;
+                        }
+                        n
+                    } else {
                         self.packed.push(p.state);
-                        self.scales.push(p.rate_scale);
-                        self.slots.push(k);
-                    }
+                        self.packed.len() - 1
+                    };
+                    self.slots.push((k, p.rate_scale, n));
                 }
+                // A film without pressure: its final loads.
+                Ok(_) => out.push(
+                    finish_loads(&bearings[req.bearing as usize], &req.state, &[0.0; 4], 0.0)
+                        .finite_or_fault(),
+                ),
                 Err(fault) => out.push(Err(fault)),
             }
         }
         if self.packed.is_empty() {
             return;
         }
-        if let Err(e) = self.backend.integrate(&self.packed, &mut self.integrals) {
+        self.stats.integrated += self.packed.len() as u64;
+        let small = self.packed.len() < self.options.cpu_below;
+        let done = match self.fallback.as_mut() {
+            Some(cpu) if small => {
+                self.stats.small_batch_cpu_calls += 1;
+                self.stats.small_batch_cpu_states += self.packed.len() as u64;
+                // The CPU kernel cannot fail.
+                let _ = cpu.integrate(&self.packed, &mut self.integrals);
+                Ok(())
+            }
+            _ => self.backend.integrate(&self.packed, &mut self.integrals),
+        };
+        if let Err(e) = done {
             match self.fallback.as_mut() {
                 Some(cpu) => {
                     self.notices.push(format!(
@@ -145,39 +247,42 @@ impl LoadEvaluator {
                     let _ = cpu.integrate(&self.packed, &mut self.integrals);
                 }
                 None => {
-                    for &k in &self.slots {
+                    for &(k, _, _) in &self.slots {
                         out[k] = Err(StateFault::BackendNonFinite);
                     }
                     return;
                 }
             }
         }
-        let mut bad: Vec<usize> = (0..self.packed.len())
-            .filter(|&n| {
-                self.integrals
-                    .get(n)
-                    .is_none_or(|v| !v.iter().all(|x| x.is_finite()))
-            })
-            .collect();
-        if !bad.is_empty() {
+        self.integrals.resize(self.packed.len(), [f64::NAN; 4]);
+        self.bad.clear();
+        self.bad.extend(
+            self.integrals
+                .iter()
+                .map(|v| !v.iter().all(|x| x.is_finite())),
+        );
+        let n_bad = self.bad.iter().filter(|&&b| b).count();
+        if n_bad > 0 {
             if let Some(cpu) = self.fallback.as_mut() {
-                let states: Vec<PackedState> = bad.iter().map(|&n| self.packed[n]).collect();
+                let states: Vec<PackedState> = (0..self.packed.len())
+                    .filter(|&n| self.bad[n])
+                    .map(|n| self.packed[n])
+                    .collect();
                 let mut fixed = Vec::new();
                 let _ = cpu.integrate(&states, &mut fixed);
-                self.integrals.resize(self.packed.len(), [f64::NAN; 4]);
-                for (&n, v) in bad.iter().zip(fixed) {
+                let bad_idx: Vec<usize> = (0..self.packed.len()).filter(|&n| self.bad[n]).collect();
+                for (&n, v) in bad_idx.iter().zip(fixed) {
                     self.integrals[n] = v;
+                    self.bad[n] = !v.iter().all(|x| x.is_finite());
                 }
-                self.stats.cpu_recomputed += bad.len() as u64;
+                self.stats.cpu_recomputed += n_bad as u64;
                 self.notices.push(format!(
-                    "notice: {} non-finite results recomputed on the CPU",
-                    bad.len()
+                    "notice: {n_bad} non-finite results recomputed on the CPU"
                 ));
-                bad.retain(|&n| !self.integrals[n].iter().all(|x| x.is_finite()));
             }
         }
-        for (n, &k) in self.slots.iter().enumerate() {
-            if bad.contains(&n) {
+        for &(k, scale, n) in &self.slots {
+            if self.bad[n] {
                 out[k] = Err(StateFault::BackendNonFinite);
                 continue;
             }
@@ -186,7 +291,7 @@ impl LoadEvaluator {
                 &bearings[req.bearing as usize],
                 &req.state,
                 &self.integrals[n],
-                self.scales[n],
+                scale,
             )
             .finite_or_fault();
         }

@@ -7,7 +7,9 @@ mod evaluator;
 mod gpu;
 
 pub use cpu::CpuBackend;
-pub use evaluator::{EvalStats, LoadEvaluator, LoadRequest, LoadResult};
+pub use evaluator::{
+    EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
+};
 pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
 
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};

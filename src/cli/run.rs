@@ -9,6 +9,7 @@ use super::CliError;
 use crate::backend::{create_backend, BackendKind, LoadEvaluator};
 use crate::bearing::Accuracy;
 use crate::plot::{line_plot_svg, line_plot_svg_equal_aspect, Scale, Series};
+use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
 use crate::rotor::{load_scene, simulate_batch, ModelKind, SimResult};
 
 /// Options of `run` beyond the scene file.
@@ -20,6 +21,8 @@ pub struct RunOptions {
     pub accuracy: f64,
     /// Output root; results go to `out/<file stem>/`.
     pub out: PathBuf,
+    /// Every model reduction off (`--full-model`).
+    pub full_model: bool,
 }
 
 /// What `run` wrote, for the terminal.
@@ -44,7 +47,7 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
 
 /// Runs the scene file at `path` (its text `text`).
 pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunReport, CliError> {
-    let scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
+    let mut scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
     let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
         CliError::input(
             "--accuracy",
@@ -53,7 +56,13 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
     })?;
     let (backend, notice) = create_backend(opts.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
-    let mut evaluator = LoadEvaluator::new(backend);
+    if opts.full_model {
+        for s in &mut scenes {
+            s.reductions = ReductionSpec::full();
+        }
+    }
+    let eval_options = evaluator_options(scenes.iter().map(|s| &s.reductions));
+    let mut evaluator = LoadEvaluator::with_options(backend, eval_options);
     let mut lines = Vec::new();
     let results = simulate_batch(&scenes, &mut evaluator, &mut |_, r: &SimResult| {
         lines.push(format!(
@@ -88,6 +97,7 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
         "film_accuracy": accuracy.rtol(),
         "clearance_convention": scenes.iter().flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name())).collect::<Vec<_>>(),
         "units": "SI (s, m, m/s, rad/s, N, N·m, J)",
+        "model_reductions": evaluator_report(&eval_options, &evaluator.stats(), evaluator.info().name == "gpu", opts.full_model),
         "results": results,
     });
     let mut files = Vec::new();

@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::CliError;
-use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::backend::{create_backend, BackendKind, EvaluatorOptions, LoadEvaluator};
 use crate::bearing::Accuracy;
+use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
 use crate::sweep::rotor_sim::{validate_scene, RotorSimulator};
 use crate::sweep::runner::{merge, run_sweep, write_result, BatchSize, RunOptions, Shard};
@@ -29,6 +30,8 @@ pub struct SweepRunOptions {
     pub accuracy: f64,
     /// No progress bar.
     pub quiet: bool,
+    /// Every model reduction off (`--full-model`).
+    pub full_model: bool,
 }
 
 /// Whether a `run` input is a sweep spec (an object with `base` or `kind`) rather than a
@@ -140,7 +143,23 @@ pub fn run_command(
                     if let Some(n) = n {
                         notice(n);
                     }
-                    let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
+                    // Evaluator-level reductions from the base scene (one evaluator serves
+                    // every variant).
+                    let base: ReductionSpec = spec
+                        .base
+                        .get("reductions")
+                        .and_then(|v| serde_json::from_value(v.clone()).ok())
+                        .unwrap_or_default();
+                    let eval_options = if opts.full_model {
+                        EvaluatorOptions::full()
+                    } else {
+                        evaluator_options([&base])
+                    };
+                    let mut sim = RotorSimulator::new(
+                        LoadEvaluator::with_options(backend, eval_options),
+                        accuracy,
+                    );
+                    sim.set_full_model(opts.full_model);
                     let settings = sim.settings(accuracy.rtol());
                     run_sweep(
                         &spec,

@@ -4,6 +4,7 @@
 //! about `G`), and lockstep batched simulation ([`simulate_batch`] → [`SimResult`]).
 
 mod model;
+pub mod reductions;
 mod scene;
 mod simulate;
 

@@ -228,6 +228,10 @@ pub struct Scene {
     /// Film-breakdown threshold.
     #[serde(default)]
     pub film: FilmSpec,
+    /// Model reductions (README "Model reductions"). Default: the exact ones on, the
+    /// approximations off.
+    #[serde(default)]
+    pub reductions: super::reductions::ReductionSpec,
 }
 
 fn default_name() -> String {
@@ -377,6 +381,9 @@ impl Scene {
                 ));
             }
         }
+        self.reductions
+            .validate()
+            .map_err(|(field, reason)| err(format!("reductions.{field}"), reason))?;
         // The initial journals must be inside their bores with a film above threshold.
         if self.model == ModelKind::Bearing {
             let model = super::model::RotorModel::new(self);

@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::model::{contact_force, cross, EndKin, RotorModel, DIM, JAC_DIM, WORK};
+use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
 use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
@@ -211,6 +212,9 @@ pub struct SimResult {
     pub samples: TimeSeries,
     /// Counters.
     pub stats: SimStats,
+    /// Model reductions applied and declined (README "Model reductions").
+    #[serde(default)]
+    pub model_reductions: ReductionReport,
 }
 
 /// The rotor batch as a lockstep system.
@@ -229,6 +233,9 @@ struct RotorBatch<'a, 'p> {
     below: Vec<bool>,
     scenes: Vec<usize>,
     names: Vec<String>,
+    reductions: Vec<ReductionSpec>,
+    tallies: Vec<ReductionTally>,
+    held: Vec<bool>,
     method: Method,
     out: &'a mut [Option<SimResult>],
     keep_samples: bool,
@@ -248,9 +255,11 @@ impl RotorBatch<'_, '_> {
             let kin = m.kin(&ys[k * DIM..(k + 1) * DIM]);
             for (b, geom) in m.bearings.iter().enumerate() {
                 let e = m.end_kin(&kin, geom);
+                let mut state = m.bearing_state(&kin, &e);
+                self.tallies[id].observe(&self.reductions[id], &geom.params, &mut state);
                 self.requests.push(LoadRequest {
                     bearing: (self.offsets[id] + b) as u32,
-                    state: m.bearing_state(&kin, &e),
+                    state,
                 });
                 self.ends.push(e);
             }
@@ -506,11 +515,23 @@ impl BatchSystem for RotorBatch<'_, '_> {
         } else {
             0
         };
+        let spec = &self.reductions[id];
+        let friction_dev = (spec.constant_friction.enabled && self.held[id])
+            .then(|| friction_deviation(&self.series[id], spec.constant_friction.settle_time))
+            .flatten();
+        let model_reductions = variant_report(
+            spec,
+            spec.is_full(),
+            &self.tallies[id],
+            self.held[id],
+            friction_dev,
+        );
         let result = SimResult {
             name: self.names[id].clone(),
             model: m.kind,
             method: self.method,
             status,
+            model_reductions,
             film_events: std::mem::take(&mut self.events[id]),
             samples: std::mem::take(&mut self.series[id]),
             stats: SimStats {
@@ -535,6 +556,28 @@ impl BatchSystem for RotorBatch<'_, '_> {
             }
         });
     }
+}
+
+/// Largest relative deviation of any bearing's friction coefficient from its value at
+/// the first sample at or after `settle` s (what a coefficient frozen there would cost);
+/// `None` without such samples.
+fn friction_deviation(series: &TimeSeries, settle: f64) -> Option<f64> {
+    let start = series.t.iter().position(|&t| t >= settle)?;
+    let mut dev: Option<f64> = None;
+    for b in &series.bearings {
+        let Some(Some(f0)) = b.friction_coefficient.get(start).copied() else {
+            continue;
+        };
+        for f in b.friction_coefficient[start..].iter().flatten() {
+            let d = if f0 != 0.0 {
+                ((f - f0) / f0).abs()
+            } else {
+                (f - f0).abs()
+            };
+            dev = Some(dev.map_or(d, |m: f64| m.max(d)));
+        }
+    }
+    dev
 }
 
 /// Integrator settings of a scene.
@@ -601,6 +644,7 @@ fn simulate(
                     film_events: Vec::new(),
                     samples: TimeSeries::default(),
                     stats: SimStats::default(),
+                    model_reductions: ReductionReport::default(),
                 };
                 progress(i, &r);
                 out[i] = Some(r);
@@ -635,6 +679,12 @@ fn simulate(
             below: Vec::new(),
             scenes: idx.clone(),
             names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
+            reductions: idx.iter().map(|&i| scenes[i].reductions).collect(),
+            tallies: vec![ReductionTally::default(); n],
+            held: idx
+                .iter()
+                .map(|&i| scenes[i].spin == super::scene::SpinMode::Held)
+                .collect(),
             method,
             out: &mut out,
             keep_samples,

@@ -6,8 +6,9 @@ use serde_json::{json, Value};
 
 use super::reduce::{BearingSignals, Signals};
 use super::runner::{BatchSimulator, Job, Outcome};
-use crate::backend::{BackendInfo, CpuBackend, LoadEvaluator};
+use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
 use crate::bearing::Accuracy;
+use crate::rotor::reductions::{evaluator_report, ReductionSpec};
 use crate::rotor::{simulate_batch_streaming, Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
@@ -128,6 +129,7 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
             "rhs_evaluations": r.stats.rhs_evaluations,
             "load_evaluations": r.stats.load_evaluations,
             // Film breakdowns a contact model carried the run through (film.contact).
+            "model_reductions": r.model_reductions,
             "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
         })),
     }
@@ -146,6 +148,7 @@ pub struct RotorSimulator {
     evaluator: LoadEvaluator,
     info: BackendInfo,
     workers: Vec<LoadEvaluator>,
+    full_model: bool,
 }
 
 impl RotorSimulator {
@@ -155,7 +158,12 @@ impl RotorSimulator {
         let info = evaluator.info();
         let workers = if info.name == "cpu" {
             (0..rayon::current_num_threads().max(1))
-                .map(|_| LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, Some(1)))))
+                .map(|_| {
+                    LoadEvaluator::with_options(
+                        Box::new(CpuBackend::new(accuracy, Some(1))),
+                        evaluator.options(),
+                    )
+                })
                 .collect()
         } else {
             Vec::new()
@@ -164,14 +172,41 @@ impl RotorSimulator {
             evaluator,
             info,
             workers,
+            full_model: false,
         }
+    }
+
+    /// `--full-model`: every variant's scene gets every reduction off.
+    pub fn set_full_model(&mut self, full: bool) {
+        self.full_model = full;
+    }
+
+    /// Evaluator counters summed over the evaluator and the per-thread workers.
+    pub fn eval_stats(&self) -> EvalStats {
+        let mut t = self.evaluator.stats();
+        for w in &self.workers {
+            let s = w.stats();
+            t.calls += s.calls;
+            t.states += s.states;
+            t.cpu_recomputed += s.cpu_recomputed;
+            t.deduplicated += s.deduplicated;
+            t.integrated += s.integrated;
+            t.small_batch_cpu_calls += s.small_batch_cpu_calls;
+            t.small_batch_cpu_states += s.small_batch_cpu_states;
+        }
+        t
     }
 
     /// The settings that change results, recorded in the result and checked on resume
     /// and merge: backend kind and precision, film accuracy.
     pub fn settings(&self, accuracy_rtol: f64) -> Value {
-        json!({"simulator": "rotor", "backend": self.info.name, "precision": self.info.precision,
-               "film_accuracy": accuracy_rtol})
+        let mut v = json!({"simulator": "rotor", "backend": self.info.name, "precision": self.info.precision,
+               "film_accuracy": accuracy_rtol});
+        // Only when set, so results of earlier versions still resume and merge.
+        if self.full_model {
+            v["full_model"] = json!(true);
+        }
+        v
     }
 }
 
@@ -189,6 +224,13 @@ impl BatchSimulator for RotorSimulator {
         if !self.workers.is_empty() {
             v["variant_threads"] = json!(self.workers.len());
         }
+        v["model_reductions"] = serde_json::to_value(evaluator_report(
+            &self.evaluator.options(),
+            &self.eval_stats(),
+            self.info.name == "gpu",
+            self.full_model,
+        ))
+        .unwrap_or(Value::Null);
         v
     }
 
@@ -197,7 +239,10 @@ impl BatchSimulator for RotorSimulator {
         let mut index = Vec::with_capacity(jobs.len());
         for (k, job) in jobs.iter().enumerate() {
             match serde_json::from_value::<Scene>(job.scene.clone()) {
-                Ok(s) => {
+                Ok(mut s) => {
+                    if self.full_model {
+                        s.reductions = ReductionSpec::full();
+                    }
                     scenes.push(s);
                     index.push(k);
                 }
