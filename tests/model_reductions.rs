@@ -22,7 +22,7 @@ use bearing_sweep::rotor::reductions::{
     squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, ReductionSpec,
     SQUEEZE_GAIN,
 };
-use bearing_sweep::rotor::{load_scene, simulate_batch, Scene, SpinMode};
+use bearing_sweep::rotor::{load_scene, simulate_batch, Scene};
 use common::*;
 
 fn lv(l: &Loads, b: f64) -> [f64; 4] {
@@ -513,5 +513,107 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
         .unwrap()
         .contains("--full-model"));
     let _ = std::fs::remove_dir_all(&dir);
-    let _ = SpinMode::Held;
+}
+
+/// A rotor sweep of four identical variants in one lockstep batch integrates each film
+/// state once (3 of 4 served by dedupe), gives four identical variants equal to the
+/// full-model run, and both the variant lines and the run section carry the report.
+#[test]
+fn identical_sweep_variants_share_integrals_and_report_it() {
+    use bearing_sweep::sweep::parse_spec;
+    use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
+    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions as SweepOptions};
+    let dir = std::env::temp_dir().join(format!("bs-reductions-sweep-{}", std::process::id()));
+    let spec = serde_json::json!({
+        "kind": "rotor",
+        "base": {
+            "rotor": {"mass": 1.0, "inertia": [0.01, 0.01, 0.3], "static_unbalance": [0.001, 0.0]},
+            "bearings": [
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": 0.2},
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": -0.1}
+            ],
+            "gravity": [0.0, 0.0, 0.0],
+            "initial": {"spin": 100.0},
+            "integrator": {"method": "dopri5", "t_end": 0.01, "sample_interval": 1e-3}
+        },
+        "axes": [{"path": "gravity", "values": [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]}],
+        "reductions": {"points": 5}
+    });
+    let spec = parse_spec(&spec, None).unwrap();
+    let mut docs = Vec::new();
+    let mut all_stats = Vec::new();
+    for (name, options, full) in [
+        (
+            "reduced",
+            EvaluatorOptions {
+                dedupe: true,
+                cpu_below: 0,
+            },
+            false,
+        ),
+        ("full", EvaluatorOptions::full(), true),
+    ] {
+        let (ev, calls) = counting(options);
+        let mut sim = RotorSimulator::new(ev, Accuracy::default());
+        sim.set_full_model(full);
+        let out = dir.join(name).join("result.json");
+        std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+        let opts = SweepOptions {
+            out: out.clone(),
+            shard: None,
+            batch: BatchSize::Fixed(4),
+            progress: false,
+            settings: sim.settings(1e-6),
+        };
+        run_sweep(&spec, &validate_scene, &mut sim, &opts, &mut |_| {}).unwrap();
+        let stats = sim.eval_stats();
+        let sizes = calls.lock().unwrap().clone();
+        let total: usize = sizes.iter().sum();
+        assert_eq!(
+            total as u64, stats.integrated,
+            "backend saw every integration"
+        );
+        all_stats.push(stats);
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        docs.push(doc);
+    }
+    let (sr, sf) = (all_stats[0], all_stats[1]);
+    assert_eq!(sf.deduplicated, 0);
+    assert_eq!(sr.states, sf.states);
+    assert_eq!(
+        sr.integrated + sr.deduplicated,
+        sf.integrated,
+        "{sr:?} {sf:?}"
+    );
+    // Four identical variants: at most a quarter of the states integrated (fewer where
+    // a variant's two bearings meet the same state).
+    assert!(4 * sr.integrated <= sf.integrated, "{sr:?} {sf:?}");
+    let (red, full) = (&docs[0], &docs[1]);
+    let top = &red["run"]["simulator"]["model_reductions"];
+    assert!(entry(top, "applied", "dedupe").is_some(), "{top}");
+    assert!(entry(
+        &full["run"]["simulator"]["model_reductions"],
+        "declined",
+        "dedupe"
+    )
+    .is_some());
+    assert_eq!(full["settings"]["full_model"], true);
+    let vr = red["variants"].as_array().unwrap();
+    let vf = full["variants"].as_array().unwrap();
+    assert_eq!(vr.len(), 4);
+    for (a, b) in vr.iter().zip(vf) {
+        assert!(
+            a["sim"]["model_reductions"]["declined"].is_array(),
+            "{}",
+            a["sim"]
+        );
+        assert_eq!(b["sim"]["model_reductions"]["full_model"], true);
+        assert_eq!(
+            a["reductions"], vr[0]["reductions"],
+            "identical variants differ"
+        );
+        assert_eq!(a["reductions"], b["reductions"], "dedupe changed a result");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
