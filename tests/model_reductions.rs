@@ -617,3 +617,69 @@ fn identical_sweep_variants_share_integrals_and_report_it() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// On the real GPU backend (lavapipe here; skipped without one unless
+/// BEARING_SWEEP_REQUIRE_GPU=1): calls below the crossover are counted as CPU calls and
+/// are bit-identical to the CPU evaluator; a call above it runs on the GPU and agrees
+/// within the backend tolerance.
+#[test]
+fn gpu_small_batches_run_on_the_cpu() {
+    let accuracy = Accuracy::default();
+    let require = std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1");
+    let gpu = match bearing_sweep::backend::create_backend(BackendKind::Gpu, accuracy) {
+        Ok((b, _)) => b,
+        Err(e) => {
+            assert!(
+                !require,
+                "BEARING_SWEEP_REQUIRE_GPU=1 but no GPU backend: {e}"
+            );
+            eprintln!("skipped: no GPU backend ({e})");
+            return;
+        }
+    };
+    let f32_kernel = gpu.info().precision == Precision::F32;
+    let mut ev = LoadEvaluator::with_options(
+        gpu,
+        EvaluatorOptions {
+            dedupe: true,
+            cpu_below: 64,
+        },
+    );
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(accuracy, Some(1))));
+    let mut rng = Rng::new(0x6C0);
+    let p = table2();
+    let states: Vec<LoadRequest> = (0..200)
+        .map(|_| LoadRequest {
+            bearing: 0,
+            state: state_with_rho(&mut rng, &p, 0.9, 0.5, 0.2),
+        })
+        .collect();
+    let (mut got, mut want) = (Vec::new(), Vec::new());
+    ev.evaluate(&[p], &states[..10], &mut got);
+    cpu.evaluate(&[p], &states[..10], &mut want);
+    assert_eq!(
+        bits(&got),
+        bits(&want),
+        "10 states: the CPU fallback's results"
+    );
+    assert_eq!(ev.stats().small_batch_cpu_calls, 1);
+    ev.evaluate(&[p], &states, &mut got);
+    cpu.evaluate(&[p], &states, &mut want);
+    assert_eq!(
+        ev.stats().small_batch_cpu_calls,
+        1,
+        "200 states went to the GPU"
+    );
+    let tol = if f32_kernel { 3e-5 } else { 1e-9 };
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        let (g, w) = (g.as_ref().unwrap(), w.as_ref().unwrap());
+        assert_close(
+            "gpu above the crossover",
+            k,
+            &lv(g, p.length),
+            &lv(w, p.length),
+            tol,
+            0.0,
+        );
+    }
+}
