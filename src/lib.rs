@@ -7,6 +7,7 @@ pub mod bearing;
 pub mod bench;
 pub mod cli;
 pub mod integrate;
+pub mod json;
 pub mod numerics;
 pub mod plot;
 pub mod rotor;

@@ -478,7 +478,7 @@ fn cli_eval_input_errors() {
         (
             r#"{"bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "colour": 1}, "states": []}"#
                 .to_string(),
-            "bearing: unknown field `colour`",
+            "bearing.colour: unknown field `colour`",
         ),
         (
             format!(r#"{{{BEARING}, "states": [{state}"#),

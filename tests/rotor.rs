@@ -234,7 +234,29 @@ fn scene_errors_name_the_json_path_and_the_reason() {
     let mut doc: serde_json::Value = serde_json::from_str(PAPER).unwrap();
     doc["rotor"]["mas"] = serde_json::json!(1.0);
     let e = load_scene(&doc.to_string()).unwrap_err();
-    assert!(e.to_string().contains("unknown field `mas`"), "{e}");
+    assert!(
+        e.to_string().starts_with("rotor.mas: unknown field `mas`"),
+        "{e}"
+    );
+
+    // Nested unknown fields and wrong types are located, also inside a `scenes` list.
+    let mut doc: serde_json::Value = serde_json::from_str(PAPER).unwrap();
+    doc["bearings"][1]["clearance"] = serde_json::json!("big");
+    let e = load_scene(&doc.to_string()).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("bearings[1].clearance: invalid type"),
+        "{e}"
+    );
+    let mut doc: serde_json::Value = serde_json::from_str(PAPER).unwrap();
+    doc["integrator"]["rtoll"] = serde_json::json!(1e-6);
+    let wrapped = serde_json::json!({"scenes": [doc]});
+    let e = load_scene(&wrapped.to_string()).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("scenes[0].integrator.rtoll: unknown field"),
+        "{e}"
+    );
 
     let mut doc: serde_json::Value = serde_json::from_str(PAPER).unwrap();
     doc["integrator"]["t_end"] = serde_json::json!(0.0);

@@ -73,5 +73,6 @@ pub fn from_value<T: serde::de::DeserializeOwned>(
     value: &serde_json::Value,
     path: &str,
 ) -> Result<T, CliError> {
-    serde_json::from_value(value.clone()).map_err(|e| CliError::input(path, e.to_string()))
+    crate::json::deserialize_at(value)
+        .map_err(|(at, reason)| CliError::input(crate::json::join_path(path, &at), reason))
 }

@@ -437,15 +437,13 @@ pub fn load_scene(json: &str) -> Result<Vec<Scene>, SceneError> {
                 p.to_string()
             }
         };
-        let scene: Scene = serde_json::from_value(item.clone()).map_err(|e| {
-            err(
-                if prefix {
-                    format!("scenes[{k}]")
-                } else {
-                    "$".into()
-                },
-                e.to_string(),
-            )
+        let scene: Scene = crate::json::deserialize_at(item).map_err(|(at, reason)| {
+            let base = if prefix {
+                format!("scenes[{k}]")
+            } else {
+                "$".into()
+            };
+            err(crate::json::join_path(&base, &at), reason)
         })?;
         scene.validate().map_err(|e| err(path(&e.path), e.reason))?;
         if scene.compare_ideal {

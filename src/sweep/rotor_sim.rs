@@ -21,13 +21,7 @@ pub const AUTO_BATCH_GPU: usize = 4096;
 
 /// Checks one variant's scene: `Err((JSON path, reason))`.
 pub fn validate_scene(v: &Value) -> Result<(), (String, String)> {
-    let scene: Scene = serde_json::from_value(v.clone()).map_err(|e| {
-        let msg = e.to_string();
-        (
-            locate_unknown_field(v, &msg).unwrap_or_else(|| "$".into()),
-            msg,
-        )
-    })?;
+    let scene: Scene = crate::json::deserialize_at(v)?;
     if scene.compare_ideal {
         return Err((
             "compare_ideal".into(),
@@ -35,42 +29,6 @@ pub fn validate_scene(v: &Value) -> Result<(), (String, String)> {
         ));
     }
     scene.validate().map_err(|e| (e.path, e.reason))
-}
-
-/// The JSON path of the object holding the field named in serde's "unknown field `x`"
-/// message (serde does not say where it is).
-fn locate_unknown_field(v: &Value, msg: &str) -> Option<String> {
-    let name = msg.strip_prefix("unknown field `")?.split('`').next()?;
-    fn find(v: &Value, name: &str, at: String) -> Option<String> {
-        match v {
-            Value::Object(o) => {
-                if o.contains_key(name) {
-                    return Some(if at.is_empty() {
-                        name.to_string()
-                    } else {
-                        format!("{at}.{name}")
-                    });
-                }
-                o.iter().find_map(|(k, c)| {
-                    find(
-                        c,
-                        name,
-                        if at.is_empty() {
-                            k.clone()
-                        } else {
-                            format!("{at}.{k}")
-                        },
-                    )
-                })
-            }
-            Value::Array(a) => a
-                .iter()
-                .enumerate()
-                .find_map(|(i, c)| find(c, name, format!("{at}[{i}]"))),
-            _ => None,
-        }
-    }
-    find(v, name, String::new())
 }
 
 /// The status name of a simulation (`"ok"` when it reached `t_end`).
@@ -295,20 +253,5 @@ impl BatchSimulator for RotorSimulator {
             n.extend(w.take_notices());
         }
         n
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn unknown_fields_are_located() {
-        let v = json!({"rotor": {"mass": 1.0}, "bearings": [{"radius": 1.0}, {"clerance": 2.0}]});
-        assert_eq!(
-            locate_unknown_field(&v, "unknown field `clerance`, expected one of ..."),
-            Some("bearings[1].clerance".into())
-        );
-        assert_eq!(locate_unknown_field(&v, "missing field `x`"), None);
     }
 }
