@@ -87,6 +87,29 @@ const R_MAX_OF_CLEARANCE: f64 = 0.05;
 /// is 10 % off: the error control ignores an orbit below its absolute tolerance).
 const ATOL_OF_RTOL: f64 = 1e-3;
 
+/// Growth rate (1/s) and whirl ratio of the linearised cylindrical whirl: the centred
+/// film is `F = −c (ė − i ω/2 e)` per bearing (c from the kernel: a centred squeeze
+/// state), so `m s² + 2c (s − i ω/2) = 0`.
+fn linear_whirl(s: &Scene) -> (f64, f64) {
+    use bearing_sweep::bearing::{film_loads, BearingState, FilmRule};
+    let params = s.bearings[0].params();
+    let v = 1e-3; // m/s, any: the centred film is linear in the velocity
+    let squeeze = BearingState {
+        vxi: v,
+        vxj: v,
+        ..BearingState::default()
+    };
+    let rule = FilmRule::new(Accuracy::new(1e-12).unwrap().settings());
+    let c = -film_loads(&params, &squeeze, &rule).unwrap().wx / v; // N·s/m
+    let (m, w, cc) = (s.rotor.mass, s.initial.spin, 2.0 * c);
+    // s = (−C + sqrt(C² + 2 i m C ω)) / (2m), complex square root by hand.
+    let (re, im) = (cc * cc, 2.0 * m * cc * w);
+    let modulus = re.hypot(im).sqrt();
+    let half = 0.5 * im.atan2(re);
+    let (sr, si) = (modulus * half.cos(), modulus * half.sin());
+    ((-cc + sr) / (2.0 * m), si / (2.0 * m) / w)
+}
+
 #[test]
 fn whirl_frequency_and_growth_rate_do_not_depend_on_tolerance_or_step() {
     let base = scene(0.4);
@@ -136,6 +159,18 @@ fn whirl_frequency_and_growth_rate_do_not_depend_on_tolerance_or_step() {
         "whirl ratio {w_ref}, want 0.42 ..= 0.5"
     );
     assert!(s_ref > 5.0 && s_ref < 20.0, "growth rate {s_ref} 1/s");
+    // Against the linearised film: the kernel's centred squeeze damping c (per bearing)
+    // and m s² + 2c (s − i ω/2) = 0, whose root with Re s > 0 is the whirl.
+    let (sigma_lin, ratio_lin) = linear_whirl(&base);
+    eprintln!("linearised film: growth rate {sigma_lin:.4} 1/s, whirl ratio {ratio_lin:.5}");
+    assert!(
+        (s_ref - sigma_lin).abs() < 0.05 * sigma_lin,
+        "growth {s_ref} vs linear theory {sigma_lin}: beyond 5 %"
+    );
+    assert!(
+        (w_ref - ratio_lin).abs() < 5e-3 * ratio_lin,
+        "ratio {w_ref} vs linear theory {ratio_lin}: beyond 0.5 %"
+    );
     // Every tolerance and step size: the same physics to 5e-4 relative (growth) and 1e-5
     // (ratio); measured: 6e-5 and 2e-7 (dopri5 at 1e-5), below 1e-7 for the others.
     for ((sigma, ratio), label) in fits.iter().zip(&labels) {
