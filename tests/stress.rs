@@ -942,7 +942,7 @@ fn count_finite_numbers(v: &serde_json::Value, path: &str) -> usize {
 
 /// The status each case of sweeps/stress.json ends with (README "Stress tests and
 /// stability").
-const STRESS_STATUSES: [(&str, &str); 17] = [
+const STRESS_STATUSES: [(&str, &str); 18] = [
     ("paper", "ok"),
     ("unbalance-into-wall", "film_breakdown"),
     ("unbalance-into-wall-contact", "ok"),
@@ -960,6 +960,7 @@ const STRESS_STATUSES: [(&str, &str); 17] = [
     ("offset-eps-0.99", "ok"),
     ("tilt-eps-0.999-one-end", "ok"),
     ("impact-5m/s", "ok"),
+    ("tilt-contact-1e-9-radau5", "ok"),
 ];
 
 #[test]
