@@ -159,6 +159,30 @@ fn whirl_frequency_and_growth_rate_do_not_depend_on_tolerance_or_step() {
         "whirl ratio {w_ref}, want 0.42 ..= 0.5"
     );
     assert!(s_ref > 5.0 && s_ref < 20.0, "growth rate {s_ref} 1/s");
+    // The sweep reductions' spectral whirl detection (src/sweep/reduce.rs) on the same
+    // samples finds the same sub-synchronous whirl and flags it as oil whirl.
+    let r = &rs[3];
+    let k0 = r.samples.t.iter().position(|&t| t >= T_FROM).unwrap();
+    let b = &r.samples.bearings[0];
+    let w = bearing_sweep::sweep::reduce::whirl(
+        &r.samples.t[k0..],
+        &b.xi[k0..],
+        &b.yi[k0..],
+        spin,
+        d,
+        &bearing_sweep::sweep::reduce::WhirlOptions::default(),
+    )
+    .expect("a window of 16 revolutions resolves the whirl");
+    eprintln!(
+        "reduce::whirl: ratio {:.6}, subsync {:.6}, oil_whirl {}",
+        w.ratio, w.subsync_ratio, w.oil_whirl
+    );
+    assert!(w.oil_whirl, "oil whirl detected: {w:?}");
+    assert!(
+        (w.subsync_ratio - w_ref).abs() < 1e-3,
+        "spectral whirl ratio {} vs fitted {w_ref}: beyond 1e-3",
+        w.subsync_ratio
+    );
     // Against the linearised film: the kernel's centred squeeze damping c (per bearing)
     // and m s² + 2c (s − i ω/2) = 0, whose root with Re s > 0 is the whirl.
     let (sigma_lin, ratio_lin) = linear_whirl(&base);
