@@ -1,6 +1,7 @@
 //! Radau IIA of order 5 (3 stages, L-stable) in lockstep, after Hairer and Wanner's
 //! RADAU5: simplified Newton on the real `3n x 3n` system `I - h A (x) J`, the embedded
 //! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians by forward differences
+//! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
 //! Jacobians are reused while Newton converges fast (contraction <= 1e-3).
@@ -45,6 +46,11 @@ const THETA_JAC: f64 = 1e-3;
 const KEEP_H_MAX: f64 = 1.2;
 const FAC_MIN: f64 = 0.2;
 const FAC_MAX: f64 = 8.0;
+/// Finite-difference increment of Jacobian column entry `v` with component scale `scale`.
+fn jacobian_delta(v: f64, scale: f64) -> f64 {
+    f64::EPSILON.sqrt() * v.abs().max(scale)
+}
+
 /// Step shrink after a right-hand-side fault or a Newton failure with a fresh Jacobian.
 const FAULT_SHRINK: f64 = 0.25;
 const NEWTON_SHRINK: f64 = 0.5;
@@ -148,6 +154,7 @@ pub(crate) fn run<S: BatchSystem>(
     let mut ended = Vec::new();
     let mut active = Vec::new();
     let mut work: Vec<usize> = Vec::new();
+    let mut retry: Vec<usize> = Vec::new();
 
     for id in 0..n {
         let tr = &mut tracks[id];
@@ -221,8 +228,33 @@ pub(crate) fn run<S: BatchSystem>(
             for &id in &work {
                 let slot = buf.push(id, tracks[id].t, d);
                 slot.copy_from_slice(&y[id * d..(id + 1) * d]);
-                let del = f64::EPSILON.sqrt() * slot[col].abs().max(scale[id * d + col]);
-                slot[col] += del;
+                slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
+            }
+            buf.eval(sys, &mut tracks);
+            // A forward difference can leave the domain (a journal 1e-10 m off the wall
+            // is pushed through it by the probe of a quaternion component, 1.5e-8 rad):
+            // those columns are retried as backward differences, which move the other
+            // way; only a state faulting both ways ends the variant.
+            retry.clear();
+            for e in 0..buf.len() {
+                let id = buf.ids[e];
+                if buf.faults[e].is_some() {
+                    retry.push(id);
+                    continue;
+                }
+                let del = buf.ys[e * d + col] - y[id * d + col];
+                for p in 0..d {
+                    jac[id * d * d + p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                }
+            }
+            if retry.is_empty() {
+                continue;
+            }
+            buf.clear();
+            for &id in &retry {
+                let slot = buf.push(id, tracks[id].t, d);
+                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                slot[col] -= jacobian_delta(slot[col], scale[id * d + col]);
             }
             buf.eval(sys, &mut tracks);
             for e in 0..buf.len() {
