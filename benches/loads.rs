@@ -7,12 +7,12 @@
 //! when it starts, so the figures below can be checked with
 //! `cargo bench --bench loads -- --list`):
 //!
-//! | family | 1e-3 | 1e-6 | 1e-9 | 1e-12 |
-//! | --- | ---: | ---: | ---: | ---: |
-//! | aligned | 0 | 0 | 0 | 0 |
-//! | tilted | 2.0e-7 | 1.7e-10 | 1.4e-13 | 3.2e-16 |
-//! | near-wall 0.99 | 1.6e-7 | 2.1e-10 | 2.4e-13 | 4.5e-16 |
-//! | kink | 1.7e-6 | 2.2e-9 | 2.6e-12 | 4.5e-16 |
+//! | family | 1e-3 | 1e-6 | 1e-9 | 1e-12 | slices per state at the four levels |
+//! | --- | ---: | ---: | ---: | ---: | --- |
+//! | aligned | 0 | 0 | 0 | 0 | 1, 1, 1, 1 |
+//! | tilted | 2.0e-7 | 1.7e-10 | 1.4e-13 | 3.2e-16 | 15, 21, 27, 36 |
+//! | near-wall 0.99 | 1.6e-7 | 2.1e-10 | 2.4e-13 | 4.5e-16 | 25, 35, 45, 60 |
+//! | kink | 1.7e-6 | 2.2e-9 | 2.6e-12 | 4.5e-16 | 20, 28, 36, 48 |
 //!
 //! (An aligned state's film is `z`-independent: the closed-form slice is exact, and the
 //! reference integrates the same slice, hence 0.) The benchmark states of `bench loads`
@@ -24,7 +24,7 @@ use std::hint::black_box;
 
 use bearing_sweep::bearing::reference::reference_loads;
 use bearing_sweep::bearing::{
-    film_loads, Accuracy, BearingParams, BearingState, FilmRule, ACCURACY_LEVELS,
+    film_loads, pack_state, Accuracy, BearingParams, BearingState, FilmRule, ACCURACY_LEVELS,
 };
 use criterion::{BenchmarkId, Criterion};
 
@@ -97,7 +97,8 @@ fn rel_error(a: [f64; 4], e: [f64; 4]) -> f64 {
     (num / den).sqrt()
 }
 
-/// Prints the error of every family at every level (the table in the doc comment).
+/// Prints the error and the slices (closed-form arc evaluations, the cost measure) of every
+/// family at every level (the table in the doc comment).
 fn print_errors(p: &BearingParams) {
     for (name, s) in families(p) {
         let r = reference_loads(p, &s, 1e-14).expect("valid state");
@@ -107,7 +108,11 @@ fn print_errors(p: &BearingParams) {
             .map(|&level| {
                 let rule = FilmRule::new(Accuracy::new(level).unwrap().settings());
                 let l = film_loads(p, &s, &rule).expect("valid state");
-                format!("{level:e}: {:.1e}", rel_error(l.load_vector(p.length), e))
+                let slices = rule.integrate(&pack_state(p, &s).expect("valid").state).1;
+                format!(
+                    "{level:e}: {:.1e} ({slices} slices)",
+                    rel_error(l.load_vector(p.length), e)
+                )
             })
             .collect();
         eprintln!("error of {name}: {}", errs.join(", "));

@@ -84,7 +84,7 @@ enum Command {
 enum BenchCommand {
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
-    /// ~1.5 min quick, ~6 min with --full on 2 cores.
+    /// ~20-30 s quick, ~2 min with --full on 2 cores.
     All {
         /// Output folder (index.md, loads/, backend/, rotor/).
         #[arg(long, default_value = "out/bench-all")]

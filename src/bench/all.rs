@@ -2,8 +2,8 @@
 //! backend throughput against batch size, rotor integrators on the paper example and its
 //! stiff variant, lockstep batches), written into one folder with an `index.md` that
 //! lists the machine, the settings, the headline figures (each with its error) and the
-//! files. `--full` uses the settings of BENCHMARKS.md; the default quick settings take
-//! about a minute and a half on 2 cores.
+//! files. `--full` uses the settings of BENCHMARKS.md (about 2 min on the shared 2-core
+//! machine of BENCHMARKS.md); the default quick settings take about 20-30 s there.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -42,7 +42,7 @@ pub struct BenchAllOptions {
 }
 
 impl BenchAllOptions {
-    /// Quick settings (about 1.5 min on the 2-core machine of BENCHMARKS.md): fewer
+    /// Quick settings (about 20-30 s on the 2-core machine of BENCHMARKS.md): fewer
     /// states and shorter timings than BENCHMARKS.md, the rotor studies over 0.1 s.
     pub fn quick(out: PathBuf) -> Self {
         BenchAllOptions {
@@ -72,7 +72,7 @@ impl BenchAllOptions {
         }
     }
 
-    /// The settings of the figures in BENCHMARKS.md (about 6 min on 2 cores).
+    /// The settings of the figures in BENCHMARKS.md (about 2 min on 2 cores).
     pub fn full(out: PathBuf) -> Self {
         BenchAllOptions {
             loads: BenchLoadsOptions::default(),
@@ -90,7 +90,7 @@ impl BenchAllOptions {
             rotor_stiff: true,
             rotor_batch: vec![1, 16, 64, 256],
             rotor_batch_t_end: 0.1,
-            label: "full (BENCHMARKS.md settings)".into(),
+            label: "full: the settings of BENCHMARKS.md".into(),
             out,
         }
     }
@@ -231,9 +231,14 @@ fn loads_headlines(r: &BenchLoadsReport, s: &mut String) {
             row.method, row.max_rel_error, row.median_rel_error, row.error_states
         );
     }
+    let rule_error = r
+        .rows
+        .iter()
+        .find(|x| x.method == "rule" && x.setting == default)
+        .map_or(f64::NAN, |x| x.max_rel_error);
     let _ = writeln!(
         s,
-        "| rule at 1e-6 vs brute-force baseline at the same max error (1 thread) | {:.0}x faster | rule error <= 1e-6 promised; {} | [loads](loads/bench-loads.md) |",
+        "| rule at 1e-6 vs brute-force baseline at max error <= 1e-6 (1 thread) | {:.0}x faster | rule max rel. error {rule_error:.2e}; baseline {} | [loads](loads/bench-loads.md) |",
         r.speedup_at_1e6,
         r.speedup_note.replace('|', "/")
     );
