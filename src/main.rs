@@ -116,6 +116,9 @@ enum BenchCommand {
         /// skips them. Without an adapter they are skipped with a note.
         #[arg(long, default_value_t = bearing_sweep::bench::DEFAULT_GPU_BATCH)]
         gpu_batch: usize,
+        /// Minimum wall time of one timing, s.
+        #[arg(long, default_value_t = 0.5)]
+        min_time: f64,
     },
     /// Backend throughput and latency against batch size, CPU and GPU.
     Backend {
@@ -202,6 +205,7 @@ fn main() -> ExitCode {
                     out,
                     grids,
                     gpu_batch,
+                    min_time,
                 },
         } => bench_loads(&BenchLoadsOptions {
             threads,
@@ -209,7 +213,7 @@ fn main() -> ExitCode {
             out,
             baseline_grids: grids,
             gpu_batch,
-            ..Default::default()
+            min_time_s: min_time,
         })
         .map(|report| {
             print!("{}", bench_loads_markdown(&report));

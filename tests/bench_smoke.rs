@@ -157,3 +157,38 @@ fn bench_all_writes_every_part_and_an_index() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Without a usable adapter (here: `WGPU_ADAPTER_NAME` matching none) `bench loads` still
+/// writes its CPU rows and says why the GPU rows are missing. Runs the binary, so the
+/// environment variable stays in that process.
+#[test]
+fn bench_loads_without_adapter_skips_gpu_rows_with_a_note() {
+    let out = temp_dir("bench-no-adapter");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
+        .args(["bench", "loads", "--states", "10", "--grids", "8,16"])
+        .args([
+            "--gpu-batch",
+            "16",
+            "--threads",
+            "1",
+            "--min-time",
+            "0.001",
+            "--out",
+        ])
+        .arg(&out)
+        .env("WGPU_ADAPTER_NAME", "no-such-adapter-bearing-sweep")
+        .output()
+        .expect("the binary runs");
+    assert!(
+        run.status.success(),
+        "status {:?}, stderr: {}",
+        run.status,
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let md = std::fs::read_to_string(out.join("bench-loads.md")).unwrap();
+    assert!(md.contains("GPU f64 rows skipped"), "{md}");
+    assert!(md.contains("GPU f32 rows skipped"), "{md}");
+    assert!(!md.contains("rule-gpu"), "{md}");
+    assert!(md.contains("| rule | 1e-6 |"), "{md}");
+    let _ = std::fs::remove_dir_all(&out);
+}

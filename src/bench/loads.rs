@@ -475,6 +475,15 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
     if opts.states == 0 {
         return Err(CliError::input("--states", "must be at least 1"));
     }
+    if !(opts.min_time_s.is_finite() && opts.min_time_s >= 0.0) {
+        return Err(CliError::input(
+            "--min-time",
+            format!(
+                "must be a non-negative number of seconds ({})",
+                opts.min_time_s
+            ),
+        ));
+    }
     if let Some(&n) = opts.baseline_grids.iter().find(|&&n| n == 0) {
         return Err(CliError::input(
             "--grids",
