@@ -5,7 +5,9 @@ use std::process::ExitCode;
 use bearing_sweep::backend::bench::{BenchOptions, BenchTarget};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bearing::Accuracy;
-use bearing_sweep::bench::{bench_loads, bench_loads_markdown, BenchLoadsOptions};
+use bearing_sweep::bench::{
+    bench_all, bench_loads, bench_loads_markdown, BenchAllOptions, BenchLoadsOptions,
+};
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
     read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions, RunOptions,
@@ -83,6 +85,17 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
+    /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
+    /// ~20-30 s quick, ~2 min with --full on 2 cores.
+    All {
+        /// Output folder (index.md, loads/, backend/, rotor/).
+        #[arg(long, default_value = "out/bench-all")]
+        out: std::path::PathBuf,
+        /// The settings of BENCHMARKS.md instead of the quick ones.
+        #[arg(long)]
+        full: bool,
+    },
     /// Film loads: evaluations/s against error, graded rule at each accuracy level vs the
     /// brute-force baseline, one thread and parallel.
     Loads {
@@ -102,6 +115,13 @@ enum BenchCommand {
             default_value = "32,64,128,256,512,1024,2048"
         )]
         grids: Vec<usize>,
+        /// States per GPU call for the GPU rows (f64 and f32 kernels at each level); 0
+        /// skips them. Without an adapter they are skipped with a note.
+        #[arg(long, default_value_t = bearing_sweep::bench::DEFAULT_GPU_BATCH)]
+        gpu_batch: usize,
+        /// Minimum wall time of one timing, s.
+        #[arg(long, default_value_t = 0.5)]
+        min_time: f64,
     },
     /// Backend throughput and latency against batch size, CPU and GPU.
     Backend {
@@ -187,17 +207,33 @@ fn main() -> ExitCode {
                     states,
                     out,
                     grids,
+                    gpu_batch,
+                    min_time,
                 },
         } => bench_loads(&BenchLoadsOptions {
             threads,
             states,
             out,
             baseline_grids: grids,
-            ..Default::default()
+            gpu_batch,
+            min_time_s: min_time,
         })
         .map(|report| {
             print!("{}", bench_loads_markdown(&report));
         }),
+        Command::Bench {
+            what: BenchCommand::All { out, full },
+        } => {
+            let opts = if full {
+                BenchAllOptions::full(out)
+            } else {
+                BenchAllOptions::quick(out)
+            };
+            bench_all(&opts).map(|r| {
+                print!("{}", r.index);
+                eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
+            })
+        }
         Command::Bench {
             what:
                 BenchCommand::Backend {

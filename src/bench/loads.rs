@@ -1,6 +1,8 @@
 //! `bench loads`: evaluations per second against relative error of the load vector for
 //! the default rule at each accuracy level and for the brute-force baseline at several
-//! grids, on one thread and on all cores (issue 2's benchmark).
+//! grids, on one thread and on all cores (issue 2's benchmark), plus the rule on the GPU
+//! backend (f64 and f32 kernels, one large batch per call) at each level when an adapter
+//! exists (issue 6).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,7 +10,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::backend::{CpuBackend, LoadEvaluator, LoadRequest, LoadResult};
+use crate::backend::{
+    BackendError, CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest,
+    LoadResult, Precision,
+};
 use crate::bearing::reference::reference_loads;
 use crate::bearing::{
     baseline_loads, pack_state, Accuracy, BearingParams, BearingState, FilmRule, ACCURACY_LEVELS,
@@ -29,6 +34,9 @@ pub struct BenchLoadsOptions {
     pub baseline_grids: Vec<usize>,
     /// Minimum wall time of one timing, s.
     pub min_time_s: f64,
+    /// States per GPU call for the GPU rows' timing (the benchmark states repeated); 0
+    /// skips the GPU rows.
+    pub gpu_batch: usize,
 }
 
 impl Default for BenchLoadsOptions {
@@ -39,21 +47,32 @@ impl Default for BenchLoadsOptions {
             out: PathBuf::from("out/bench"),
             baseline_grids: vec![32, 64, 128, 256, 512, 1024, 2048],
             min_time_s: 0.5,
+            gpu_batch: DEFAULT_GPU_BATCH,
         }
     }
 }
 
+/// States per GPU call in the GPU rows: large enough that the ~0.1-0.2 ms round trip of a
+/// call is amortised (`bench backend`: throughput is flat from ~1e4 states on lavapipe).
+pub const DEFAULT_GPU_BATCH: usize = 100_000;
+
 /// One method at one setting.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BenchRow {
-    /// `"rule"` or `"baseline"`.
+    /// `"rule"` or `"baseline"` (CPU), `"rule-gpu-f64"` or `"rule-gpu-f32"` (GPU backend).
     pub method: String,
     /// The accuracy level (rule) or `"n×n"` grid (baseline).
     pub setting: String,
-    /// Evaluations per second on one thread.
-    pub evals_per_s_1thread: f64,
-    /// Evaluations per second on the parallel pool.
+    /// Device: `"cpu"` or the GPU adapter's description.
+    pub device: String,
+    /// Evaluations per second on one thread (`None` for GPU rows).
+    pub evals_per_s_1thread: Option<f64>,
+    /// Evaluations per second on the parallel pool (CPU rows) or on the GPU, batched
+    /// (`batch_states` per call, whole `LoadEvaluator::evaluate` round trip).
     pub evals_per_s_parallel: f64,
+    /// States per timed call: the benchmark states (CPU rule), the timing subset
+    /// (baseline) or `gpu_batch` (GPU rows).
+    pub batch_states: usize,
     /// Largest relative error of the load vector over the states measured.
     pub max_rel_error: f64,
     /// Median relative error.
@@ -80,6 +99,8 @@ pub struct BenchLoadsReport {
     pub speedup_at_1e6: f64,
     /// How the baseline's rate at 1e-6 was obtained (measured or extrapolated).
     pub speedup_note: String,
+    /// Notes: GPU rows skipped (no adapter) or computed with a fallback.
+    pub notes: Vec<String>,
 }
 
 /// xorshift64*: deterministic benchmark states.
@@ -199,13 +220,101 @@ fn rule_row(
     BenchRow {
         method: "rule".into(),
         setting: format!("{level:e}"),
-        evals_per_s_1thread: single,
+        device: "cpu".into(),
+        evals_per_s_1thread: Some(single),
         evals_per_s_parallel: parallel,
+        batch_states: states.len(),
         max_rel_error: max,
         median_rel_error: median,
         error_states: states.len(),
         mean_slices: slices as f64 / states.len() as f64,
     }
+}
+
+/// The rule on the GPU backend at every accuracy level, f64 then f32 kernel: the error on
+/// the benchmark states against the reference, the rate on `opts.gpu_batch` states per
+/// call (the benchmark states repeated). Adapters without f64, or none at all, leave a
+/// note instead of rows; a call that fell back to the CPU is noted and its row dropped.
+fn gpu_rows(
+    params: &BearingParams,
+    states: &[BearingState],
+    reference: &[[f64; 4]],
+    opts: &BenchLoadsOptions,
+    notes: &mut Vec<String>,
+) -> Vec<BenchRow> {
+    let bearings = [*params];
+    let requests: Vec<LoadRequest> = states
+        .iter()
+        .map(|&state| LoadRequest { bearing: 0, state })
+        .collect();
+    let batch: Vec<LoadRequest> = requests
+        .iter()
+        .cycle()
+        .take(opts.gpu_batch)
+        .copied()
+        .collect();
+    let mut rows = Vec::new();
+    for (precision, tag) in [(Precision::F64, "f64"), (Precision::F32, "f32")] {
+        for &level in ACCURACY_LEVELS.iter() {
+            let acc = Accuracy::new(level).expect("calibrated level");
+            let gpu = GpuBackend::new(
+                acc,
+                GpuOptions {
+                    precision: Some(precision),
+                    ..GpuOptions::default()
+                },
+            );
+            let gpu = match gpu {
+                Ok(g) => g,
+                Err(e @ BackendError::NoAdapter(_)) => {
+                    notes.push(format!("GPU {tag} rows skipped: {e}"));
+                    break;
+                }
+                Err(e) => {
+                    notes.push(format!("GPU {tag} row at {level:e} skipped: {e}"));
+                    continue;
+                }
+            };
+            let device = gpu.info().device;
+            let mut ev = LoadEvaluator::new(Box::new(gpu));
+            let mut out: Vec<LoadResult> = Vec::new();
+            ev.evaluate(&bearings, &requests, &mut out);
+            let errs: Vec<f64> = out
+                .iter()
+                .zip(reference)
+                .map(|(r, e)| match r {
+                    Ok(l) => rel_error(&l.load_vector(params.length), e),
+                    Err(_) => f64::INFINITY,
+                })
+                .collect();
+            let (max, median) = max_and_median(errs);
+            let rate = rate(opts.min_time_s, batch.len(), || {
+                ev.evaluate(&bearings, &batch, &mut out)
+            });
+            let fallbacks = ev.take_notices();
+            if !fallbacks.is_empty() {
+                notes.push(format!(
+                    "GPU {tag} row at {level:e} dropped (the evaluator fell back to the CPU): {}",
+                    fallbacks.join("; ")
+                ));
+                continue;
+            }
+            rows.push(BenchRow {
+                method: format!("rule-gpu-{tag}"),
+                setting: format!("{level:e}"),
+                device,
+                evals_per_s_1thread: None,
+                evals_per_s_parallel: rate,
+                batch_states: batch.len(),
+                max_rel_error: max,
+                median_rel_error: median,
+                error_states: states.len(),
+                // Same rule, same panels: the CPU row's slice count holds.
+                mean_slices: f64::NAN,
+            });
+        }
+    }
+    rows
 }
 
 /// States the baseline's error is measured on (1024² costs ~10 ms a state).
@@ -248,8 +357,10 @@ fn baseline_row(
     BenchRow {
         method: "baseline".into(),
         setting: format!("{n}x{n}"),
-        evals_per_s_1thread: single,
+        device: "cpu".into(),
+        evals_per_s_1thread: Some(single),
         evals_per_s_parallel: parallel,
+        batch_states: subset.len(),
         max_rel_error: max,
         median_rel_error: median,
         error_states: take,
@@ -268,7 +379,7 @@ fn baseline_rate_at(rows: &[BenchRow], grids: &[usize], target: f64) -> (f64, St
         .collect();
     if let Some((r, n)) = base.iter().find(|(r, _)| r.max_rel_error <= target) {
         return (
-            r.evals_per_s_1thread,
+            r.evals_per_s_1thread.unwrap_or(f64::NAN),
             format!(
                 "measured: the {n}x{n} baseline grid reaches max error {:.2e}",
                 r.max_rel_error
@@ -282,7 +393,7 @@ fn baseline_rate_at(rows: &[BenchRow], grids: &[usize], target: f64) -> (f64, St
     let (r2, n2) = base[base.len() - 1];
     let order = (r1.max_rel_error / r2.max_rel_error).ln() / (n2 as f64 / n1 as f64).ln();
     let n_needed = n2 as f64 * (r2.max_rel_error / target).powf(1.0 / order);
-    let rate = r2.evals_per_s_1thread * (n2 as f64 / n_needed).powi(2);
+    let rate = r2.evals_per_s_1thread.unwrap_or(f64::NAN) * (n2 as f64 / n_needed).powi(2);
     // The baseline's asymptotic order is 2 (kinks at the arc ends); a higher observed
     // order between the finest grids makes the extrapolation favour the baseline.
     let n_order2 = n2 as f64 * (r2.max_rel_error / target).sqrt();
@@ -305,30 +416,49 @@ pub fn bench_loads_markdown(report: &BenchLoadsReport) -> String {
     md.push_str(&format!(
         "Load vector `(W_x, W_y, M_x/B, M_y/B)`, Table 2 bearing, {} tilted squeezed states \
          (end eccentricity ratios <= 0.95, spin 100 rad/s); errors against the adaptive \
-         reference at 1e-14; parallel = {} threads.\n\n",
+         reference at 1e-14; parallel = {} threads (CPU rows), one batch of `batch` states \
+         per call (GPU rows: the whole `LoadEvaluator::evaluate` round trip).\n\n",
         report.states, report.parallel_threads
     ));
+    let mut devices: Vec<&str> = Vec::new();
+    for r in report.rows.iter().filter(|r| r.device != "cpu") {
+        if !devices.contains(&r.device.as_str()) {
+            devices.push(&r.device);
+        }
+    }
+    for d in devices {
+        md.push_str(&format!("GPU device: `{d}`\n\n"));
+    }
     md.push_str(
-        "| method | setting | evals/s (1 thread) | evals/s (parallel) | max rel. error | median rel. error | error states | mean slices |\n",
+        "| method | setting | evals/s (1 thread) | evals/s (parallel / GPU) | batch | max rel. error | median rel. error | error states | mean slices |\n",
     );
-    md.push_str("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+    md.push_str("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
     for r in &report.rows {
         md.push_str(&format!(
-            "| {} | {} | {:.3e} | {:.3e} | {:.2e} | {:.2e} | {} | {:.1} |\n",
+            "| {} | {} | {} | {:.3e} | {} | {:.2e} | {:.2e} | {} | {} |\n",
             r.method,
             r.setting,
-            r.evals_per_s_1thread,
+            r.evals_per_s_1thread
+                .map_or("–".to_string(), |x| format!("{x:.3e}")),
             r.evals_per_s_parallel,
+            r.batch_states,
             r.max_rel_error,
             r.median_rel_error,
             r.error_states,
-            r.mean_slices
+            if r.mean_slices.is_finite() {
+                format!("{:.1}", r.mean_slices)
+            } else {
+                "as CPU".to_string()
+            }
         ));
     }
     md.push_str(&format!(
         "\nAt 1e-6 error the default rule is {:.0} times faster than the baseline (one thread; {}).\n",
         report.speedup_at_1e6, report.speedup_note
     ));
+    for n in &report.notes {
+        md.push_str(&format!("\nNote: {n}\n"));
+    }
     md
 }
 
@@ -344,6 +474,15 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
 pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliError> {
     if opts.states == 0 {
         return Err(CliError::input("--states", "must be at least 1"));
+    }
+    if !(opts.min_time_s.is_finite() && opts.min_time_s >= 0.0) {
+        return Err(CliError::input(
+            "--min-time",
+            format!(
+                "must be a non-negative number of seconds ({})",
+                opts.min_time_s
+            ),
+        ));
     }
     if let Some(&n) = opts.baseline_grids.iter().find(|&&n| n == 0) {
         return Err(CliError::input(
@@ -376,10 +515,17 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
     for &n in &opts.baseline_grids {
         rows.push(baseline_row(&params, &states, &reference, n, opts, &pool));
     }
+    let mut notes = Vec::new();
+    if opts.gpu_batch > 0 {
+        rows.extend(gpu_rows(&params, &states, &reference, opts, &mut notes));
+    } else {
+        notes.push("GPU rows not run (gpu batch 0)".into());
+    }
     let default_rate = rows
         .iter()
         .find(|r| r.method == "rule" && r.setting == format!("{:e}", Accuracy::default().rtol()))
-        .map_or(f64::NAN, |r| r.evals_per_s_1thread);
+        .and_then(|r| r.evals_per_s_1thread)
+        .unwrap_or(f64::NAN);
     let (base_rate, note) = baseline_rate_at(&rows, &opts.baseline_grids, 1e-6);
     let report = BenchLoadsReport {
         bearing: params,
@@ -388,6 +534,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
         rows,
         speedup_at_1e6: default_rate / base_rate,
         speedup_note: note,
+        notes,
     };
     let json = serde_json::to_string_pretty(&report)
         .map_err(|e| CliError::input("report", e.to_string()))?;
@@ -405,7 +552,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
                 let rate = if parallel {
                     r.evals_per_s_parallel
                 } else {
-                    r.evals_per_s_1thread
+                    r.evals_per_s_1thread.unwrap_or(f64::NAN)
                 };
                 // A rule error at rounding level reads as 1e-16 on the log axis.
                 (rate, r.max_rel_error.max(1e-16))
@@ -429,7 +576,19 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
             label: "baseline, parallel",
             points: curve("baseline", true),
         },
+        Series {
+            label: "graded rule, GPU f64 (batched)",
+            points: curve("rule-gpu-f64", true),
+        },
+        Series {
+            label: "graded rule, GPU f32 (batched)",
+            points: curve("rule-gpu-f32", true),
+        },
     ];
+    let series: Vec<Series<'_>> = series
+        .into_iter()
+        .filter(|s| !s.points.is_empty())
+        .collect();
     let svg = line_plot_svg(
         "Film loads: work-precision (Table 2 bearing, eps <= 0.95)",
         "evaluations per second",
