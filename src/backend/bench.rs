@@ -11,6 +11,7 @@ use super::{
 };
 use crate::bearing::{
     pack_state, Accuracy, BearingParams, BearingState, FilmRule, PackedState, RuleSettings,
+    Singularities,
 };
 
 /// Which backends a benchmark runs.
@@ -203,82 +204,6 @@ pub fn flops_root_sweep(n: usize) -> f64 {
     n * (7.0 * n + 8.0 * (n - 1.0) + 15.0)
 }
 
-/// Durand-Kerner degree and sweeps of one state (the same operations as
-/// `bearing::quartic_roots`, replayed on the host to count the sweeps).
-fn root_sweeps(state: &PackedState) -> (usize, usize) {
-    let [e0x, e0y, ejx, ejy] = state.ecc;
-    let [r0x, r0y, rjx, rjy] = state.rate;
-    let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
-    let (ecx, ecy) = (e0x + 0.5 * e1x, e0y + 0.5 * e1y);
-    let (rcx, rcy) = (r0x + 0.5 * r1x, r0y + 0.5 * r1y);
-    let a0 = ecx * rcx + ecy * rcy;
-    let a1 = ecx * r1x + ecy * r1y + e1x * rcx + e1y * rcy;
-    let a2 = e1x * r1x + e1y * r1y;
-    let b0 = rcx * rcx + rcy * rcy;
-    let b1 = 2.0 * (rcx * r1x + rcy * r1y);
-    let b2 = r1x * r1x + r1y * r1y;
-    let c = [
-        a0 * a0 - b0,
-        2.0 * a0 * a1 - b1,
-        a1 * a1 + 2.0 * a0 * a2 - b2,
-        2.0 * a1 * a2,
-        a2 * a2,
-    ];
-    let mut norm: f64 = 0.0;
-    let mut scale = 1.0;
-    for &ck in &c {
-        norm = norm.max(ck.abs() * scale);
-        scale *= 2.0;
-    }
-    let mut n = 4;
-    while n > 0 && c[n].abs() * 2f64.powi(n as i32) <= 1e-13 * norm {
-        n -= 1;
-    }
-    if n == 0 {
-        return (0, 0);
-    }
-    let a: Vec<f64> = (0..n).map(|k| c[k] / c[n]).collect();
-    let radius = (a[0].abs() as f32).powf(1.0 / n as f32) as f64;
-    let radius = if radius > 0.0 && radius.is_finite() {
-        radius
-    } else {
-        1.0
-    };
-    let mut roots = [(0.0, 0.0); 4];
-    for (k, root) in roots.iter_mut().enumerate().take(n) {
-        let ang = 0.4 + 2.0 * std::f64::consts::PI * k as f64 / n as f64;
-        *root = (radius * ang.cos(), radius * ang.sin());
-    }
-    for it in 1..=64 {
-        let mut moved: f64 = 0.0;
-        for i in 0..n {
-            let z = roots[i];
-            let mut p = (1.0, 0.0);
-            for k in (0..n).rev() {
-                p = (p.0 * z.0 - p.1 * z.1 + a[k], p.0 * z.1 + p.1 * z.0);
-            }
-            let mut q = (1.0, 0.0);
-            for (j, w) in roots.iter().enumerate().take(n) {
-                if j != i {
-                    let d = (z.0 - w.0, z.1 - w.1);
-                    q = (q.0 * d.0 - q.1 * d.1, q.0 * d.1 + q.1 * d.0);
-                }
-            }
-            let den = q.0 * q.0 + q.1 * q.1;
-            if den == 0.0 {
-                continue;
-            }
-            let step = ((p.0 * q.0 + p.1 * q.1) / den, (p.1 * q.0 - p.0 * q.1) / den);
-            roots[i] = (z.0 - step.0, z.1 - step.1);
-            moved = moved.max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
-        }
-        if moved < 1e-13 {
-            return (n, it);
-        }
-    }
-    (n, 64)
-}
-
 /// Mean counted flops per state of the kernel over `states`: slices and panels from the
 /// CPU rule (the same march), root-finder sweeps replayed, the pieces' counts above.
 pub fn flop_count(settings: RuleSettings, states: &[PackedState]) -> FlopCount {
@@ -297,7 +222,7 @@ pub fn flop_count(settings: RuleSettings, states: &[PackedState]) -> FlopCount {
         let mut flops = slices * (FLOPS_SLICE + FLOPS_NODE);
         if !aligned {
             let panels = slices / settings.nodes as f64;
-            let (n, sweeps) = root_sweeps(s);
+            let (n, sweeps) = Singularities::of(s, &settings).root_work;
             // Complex singularities: the quartic's roots and at most the rate zero.
             let sing = n as f64 + 1.0;
             flops += FLOPS_SINGULARITY_SETUP

@@ -14,7 +14,7 @@ pub use friction::{friction, Friction};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{
-    quartic_roots, slice_integrals, Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings,
-    Singularities, ACCURACY_LEVELS,
+    quartic_roots, quartic_roots_counted, slice_integrals, Accuracy, FilmIntegrals, FilmRule,
+    PackedState, RuleSettings, Singularities, ACCURACY_LEVELS,
 };
 pub use state::{BearingState, End, StateFault};

@@ -217,6 +217,9 @@ pub struct Singularities {
     pub complex: [(f64, f64); MAX_COMPLEX_SINGULARITIES],
     /// How many entries of `complex` are set.
     pub complex_count: usize,
+    /// Degree of the arc-end quartic after dropping negligible leading terms, and the
+    /// Durand-Kerner sweeps spent on it (0, 0 where it was not needed); for flop counts.
+    pub root_work: (usize, usize),
 }
 
 /// Durand-Kerner iterations at most (quadratic convergence: ~10 suffice for simple roots).
@@ -226,6 +229,12 @@ const ROOT_ITERATIONS: usize = 64;
 /// leading coefficients negligible at `|t| = 2` dropped. Written with plain arithmetic so
 /// that the WGSL kernel runs the same algorithm. Returns `(re, im)` pairs and their count.
 pub fn quartic_roots(c: [f64; 5]) -> ([(f64, f64); 4], usize) {
+    let (roots, n, _) = quartic_roots_counted(c);
+    (roots, n)
+}
+
+/// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
+pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     let mut roots = [(0.0, 0.0); 4];
     let mut norm: f64 = 0.0;
     let mut scale = 1.0;
@@ -239,7 +248,7 @@ pub fn quartic_roots(c: [f64; 5]) -> ([(f64, f64); 4], usize) {
         n -= 1;
     }
     if n == 0 {
-        return (roots, 0);
+        return (roots, 0, 0);
     }
     let lead = c[n];
     let a: Vec<f64> = (0..n).map(|k| c[k] / lead).collect();
@@ -254,7 +263,8 @@ pub fn quartic_roots(c: [f64; 5]) -> ([(f64, f64); 4], usize) {
         let ang = 0.4 + 2.0 * std::f64::consts::PI * k as f64 / n as f64;
         *root = (radius * ang.cos(), radius * ang.sin());
     }
-    for _ in 0..ROOT_ITERATIONS {
+    let mut sweeps = ROOT_ITERATIONS;
+    for sweep in 1..=ROOT_ITERATIONS {
         let mut moved: f64 = 0.0;
         for i in 0..n {
             let z = roots[i];
@@ -279,10 +289,11 @@ pub fn quartic_roots(c: [f64; 5]) -> ([(f64, f64); 4], usize) {
             moved = moved.max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
         }
         if moved < 1e-13 {
+            sweeps = sweep;
             break;
         }
     }
-    (roots, n)
+    (roots, n, sweeps)
 }
 
 impl Singularities {
@@ -298,6 +309,7 @@ impl Singularities {
             kink_s: f64::NAN,
             complex: [(0.0, 0.0); MAX_COMPLEX_SINGULARITIES],
             complex_count: 0,
+            root_work: (0, 0),
         };
         let e1sq = e1x * e1x + e1y * e1y;
         if e1sq > 0.0 {
@@ -362,13 +374,14 @@ impl Singularities {
         let b0 = rcx * rcx + rcy * rcy;
         let b1 = 2.0 * (rcx * r1x + rcy * r1y);
         let b2 = r1sq;
-        let (roots, n) = quartic_roots([
+        let (roots, n, sweeps) = quartic_roots_counted([
             a0 * a0 - b0,
             2.0 * a0 * a1 - b1,
             a1 * a1 + 2.0 * a0 * a2 - b2,
             2.0 * a1 * a2,
             a2 * a2,
         ]);
+        sing.root_work = (n, sweeps);
         // Near the rate vector's zero s_r ± i d_r two roots of Q cluster. Locally
         // (ε ≈ ε(s_r), r = |r1| (t ê + d_r ê⊥), t = s − s_r) Q/|r1|² is the quadratic
         // t² (ε∥² − 1) + 2 t d_r ε∥ ε⊥ + d_r² (ε⊥² − 1), whose roots are
