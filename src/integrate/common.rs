@@ -226,6 +226,26 @@ pub(crate) fn end<F>(track: &mut Track<F>, status: Status<F>, start: Instant) {
     track.stats.wall_time_s = start.elapsed().as_secs_f64();
 }
 
+/// After an accepted adaptive step: the status the variant ends with, if any — `t_end`
+/// reached, accepted steps shrinking toward a singularity (Zeno), or the step budget spent.
+pub(crate) fn status_after_accepted<F>(track: &Track<F>, s: &Settings) -> Option<Status<F>> {
+    if reached(track.t, s.t_end) {
+        Some(Status::Finished)
+    } else if track.h < h_floor(track.t, s.t_end) {
+        Some(Status::StepSizeTooSmall {
+            time: track.t,
+            step: track.h,
+        })
+    } else if track.stats.steps >= s.max_steps {
+        Some(Status::MaxSteps {
+            time: track.t,
+            steps: track.stats.steps,
+        })
+    } else {
+        None
+    }
+}
+
 /// Calls `finished` for the variants in `ended` and clears the list.
 pub(crate) fn notify<S: BatchSystem>(
     sys: &mut S,

@@ -3,7 +3,10 @@
 
 use std::time::Instant;
 
-use super::common::{end, err_norm, finite, h_floor, initial_step, notify, reached, Packed, Track};
+use super::common::{
+    end, err_norm, finite, h_floor, initial_step, notify, reached, status_after_accepted, Packed,
+    Track,
+};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 /// Nodes `c_s`.
@@ -272,17 +275,8 @@ pub(crate) fn run<S: BatchSystem>(
                 };
                 err_old[id] = norm.max(1e-4);
                 tr.last_rejected = false;
-                if reached(tr.t, s.t_end) {
-                    end(tr, Status::Finished, start);
-                    ended.push(id);
-                } else if tr.h < h_floor(tr.t, s.t_end) {
-                    // Accepted steps shrinking toward a singularity (Zeno).
-                    let (time, step) = (tr.t, tr.h);
-                    end(tr, Status::StepSizeTooSmall { time, step }, start);
-                    ended.push(id);
-                } else if tr.stats.steps >= s.max_steps {
-                    let (time, steps) = (tr.t, tr.stats.steps);
-                    end(tr, Status::MaxSteps { time, steps }, start);
+                if let Some(status) = status_after_accepted(tr, s) {
+                    end(tr, status, start);
                     ended.push(id);
                 }
             } else {

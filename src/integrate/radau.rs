@@ -11,7 +11,10 @@
 
 use std::time::Instant;
 
-use super::common::{end, err_norm, finite, h_floor, initial_step, notify, reached, Packed, Track};
+use super::common::{
+    end, err_norm, finite, h_floor, initial_step, notify, reached, status_after_accepted, Packed,
+    Track,
+};
 use super::linalg::Lu;
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -543,17 +546,8 @@ pub(crate) fn run<S: BatchSystem>(
                 } else {
                     h * fac
                 };
-                if reached(tr.t, s.t_end) {
-                    end(tr, Status::Finished, start);
-                    ended.push(id);
-                } else if tr.h < h_floor(tr.t, s.t_end) {
-                    // Accepted steps shrinking toward a singularity (Zeno).
-                    let (time, step) = (tr.t, tr.h);
-                    end(tr, Status::StepSizeTooSmall { time, step }, start);
-                    ended.push(id);
-                } else if tr.stats.steps >= s.max_steps {
-                    let (time, steps) = (tr.t, tr.stats.steps);
-                    end(tr, Status::MaxSteps { time, steps }, start);
+                if let Some(status) = status_after_accepted(tr, s) {
+                    end(tr, status, start);
                     ended.push(id);
                 }
             } else {
