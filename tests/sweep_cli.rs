@@ -2,46 +2,14 @@
 //! spec errors, a killed run resumed, shards merged equal to the unsharded run, friction
 //! maps. Rotor sweeps have their own tests once the integrator is wired.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::Path;
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
-}
-
-/// A fresh scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("bearing-sweep-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn write(dir: &Path, name: &str, v: &Value) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string_pretty(v).unwrap()).unwrap();
-    p
-}
-
-fn read(p: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
-
-fn deterministic(mut v: Value) -> Value {
-    v.as_object_mut().unwrap().remove("run");
-    v
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = bin().args(args).output().unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod cli_support;
+use cli_support::*;
 
 /// 4 x 3 x 2 = 24 variants; variant 5 fails on purpose; `cost_ms` slows each variant.
 fn synthetic_spec(cost_ms: u64) -> Value {
@@ -64,7 +32,7 @@ fn synthetic_spec(cost_ms: u64) -> Value {
 
 #[test]
 fn spec_errors_stop_before_any_computation_and_name_the_path() {
-    let dir = scratch("errors");
+    let dir = scratch("sweep-cli", "errors");
     let cases = [
         (
             json!({"kind": "synthetic", "base": {"spin": 1.0}, "axes": [{"path": "spin", "logspace": [-1, 2, 3]}]}),
@@ -106,7 +74,7 @@ fn spec_errors_stop_before_any_computation_and_name_the_path() {
 
 #[test]
 fn shards_merged_equal_the_unsharded_run() {
-    let dir = scratch("shards");
+    let dir = scratch("sweep-cli", "shards");
     let spec = write(&dir, "s.json", &synthetic_spec(0));
     let s = spec.to_str().unwrap();
     let root = dir.join("out");
@@ -188,7 +156,7 @@ fn shards_merged_equal_the_unsharded_run() {
 
 #[test]
 fn a_killed_run_resumes_without_losing_finished_variants() {
-    let dir = scratch("resume");
+    let dir = scratch("sweep-cli", "resume");
     // Reference: uninterrupted.
     let fast = write(&dir, "fast.json", &synthetic_spec(0));
     let root = dir.join("out");
@@ -288,7 +256,7 @@ fn a_killed_run_resumes_without_losing_finished_variants() {
 
 #[test]
 fn failing_variants_get_a_status_and_the_batch_goes_on() {
-    let dir = scratch("fail");
+    let dir = scratch("sweep-cli", "fail");
     let mut spec = synthetic_spec(0);
     spec["axes"][3] = json!({"path": "fail", "values": [false, true]});
     // A whirl that reaches the wall (at t = 0, where every term peaks): film breakdown.
@@ -324,7 +292,7 @@ fn failing_variants_get_a_status_and_the_batch_goes_on() {
 
 #[test]
 fn friction_map_runs_no_integrator_and_plots() {
-    let dir = scratch("fmap");
+    let dir = scratch("sweep-cli", "fmap");
     let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/friction-map.json");
     let root = dir.join("out");
     let out = root.join("friction-map/result.json");

@@ -3,8 +3,8 @@
 //! unsharded run; spec and scene errors name JSON paths before anything runs; GPU and CPU
 //! sweeps agree (skipped without a GPU backend unless BEARING_SWEEP_REQUIRE_GPU=1).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::Path;
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
@@ -14,37 +14,8 @@ use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
 use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions};
 use serde_json::{json, Value};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "bearing-sweep-rotor-test-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn write(dir: &Path, name: &str, v: &Value) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string_pretty(v).unwrap()).unwrap();
-    p
-}
-
-fn read(p: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
-
-fn run(args: &[&str]) -> (bool, String) {
-    let out = bin().args(args).output().unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod cli_support;
+use cli_support::*;
 
 /// The paper rotor (MODEL.md section 8) for `t_end` s, over `n_c` clearances x 2
 /// viscosities.
@@ -68,14 +39,9 @@ fn spec(t_end: f64, n_c: usize) -> Value {
     })
 }
 
-fn deterministic(mut v: Value) -> Value {
-    v.as_object_mut().unwrap().remove("run");
-    v
-}
-
 #[test]
 fn rotor_sweep_reductions_are_physical() {
-    let dir = scratch("physical");
+    let dir = scratch("sweep-rotor", "physical");
     // 0.4 s (6.4 revolutions): the last 3 revolutions are past most of the start-up.
     let mut sp = spec(0.4, 3);
     sp["reductions"]["window"] = json!({"revolutions": 3});
@@ -137,7 +103,7 @@ fn rotor_sweep_reductions_are_physical() {
 
 #[test]
 fn rotor_scene_errors_name_the_json_path_before_running() {
-    let dir = scratch("errors");
+    let dir = scratch("sweep-rotor", "errors");
     let mut bad = spec(0.1, 2);
     bad["axes"][0] = json!({"path": "bearings[*].clearance", "values": [3e-4, 0.03]});
     let p = write(&dir, "bad.json", &bad);
@@ -187,7 +153,7 @@ fn rotor_scene_errors_name_the_json_path_before_running() {
 
 #[test]
 fn rotor_shards_merged_equal_the_unsharded_run() {
-    let dir = scratch("shards");
+    let dir = scratch("sweep-rotor", "shards");
     let p = write(&dir, "cv.json", &spec(0.05, 3));
     let s = p.to_str().unwrap();
     let root = dir.join("out");
@@ -227,7 +193,7 @@ fn rotor_shards_merged_equal_the_unsharded_run() {
 
 #[test]
 fn a_killed_rotor_sweep_resumes_to_the_uninterrupted_result() {
-    let dir = scratch("resume");
+    let dir = scratch("sweep-rotor", "resume");
     let p = write(&dir, "cv.json", &spec(0.05, 8));
     let s = p.to_str().unwrap();
     let reference_root = dir.join("reference");
@@ -317,7 +283,7 @@ fn gpu_and_cpu_sweeps_agree() {
             return;
         }
     };
-    let dir = scratch("gpu");
+    let dir = scratch("sweep-rotor", "gpu");
     let spec = parse_spec(&spec(0.1, 2), None).unwrap();
     let mut results = Vec::new();
     for (name, backend) in [
@@ -366,7 +332,7 @@ fn gpu_and_cpu_sweeps_agree() {
 
 #[test]
 fn results_do_not_depend_on_the_number_of_threads() {
-    let dir = scratch("threads");
+    let dir = scratch("sweep-rotor", "threads");
     let p = write(&dir, "cv.json", &spec(0.05, 3));
     let mut docs = Vec::new();
     for threads in ["1", "3"] {
