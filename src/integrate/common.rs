@@ -226,6 +226,39 @@ pub(crate) fn end<F>(track: &mut Track<F>, status: Status<F>, start: Instant) {
     track.stats.wall_time_s = start.elapsed().as_secs_f64();
 }
 
+/// Starts every variant at t = 0: one with unusable settings or a non-finite initial state
+/// ends (`NonFinite`, queued in `ended`); the others emit their t = 0 sample into `rec` and
+/// are returned as active, except those with `t_end = 0`, which finish at once.
+pub(crate) fn admit<F: Clone>(
+    tracks: &mut [Track<F>],
+    settings: &[Settings],
+    y: &[f64],
+    d: usize,
+    rec: &mut Packed<F>,
+    ended: &mut Vec<usize>,
+    start: Instant,
+) -> Vec<usize> {
+    let mut active = Vec::new();
+    for (id, (tr, s)) in tracks.iter_mut().zip(settings).enumerate() {
+        let y0 = &y[id * d..(id + 1) * d];
+        if !tr.check_settings(s) || !finite(y0) {
+            if matches!(tr.status, Status::Running) {
+                end(tr, Status::NonFinite { time: 0.0 }, start);
+            }
+            ended.push(id);
+            continue;
+        }
+        tr.emit(id, s, 0.0, 0.0, d, rec, |_, out| out.copy_from_slice(y0));
+        if reached(0.0, s.t_end) {
+            end(tr, Status::Finished, start);
+            ended.push(id);
+        } else {
+            active.push(id);
+        }
+    }
+    active
+}
+
 /// After an accepted adaptive step: the status the variant ends with, if any — `t_end`
 /// reached, accepted steps shrinking toward a singularity (Zeno), or the step budget spent.
 pub(crate) fn status_after_accepted<F>(track: &Track<F>, s: &Settings) -> Option<Status<F>> {

@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use super::common::{
-    end, err_norm, finite, h_floor, initial_step, notify, reached, status_after_accepted, Packed,
+    admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
 };
 use super::linalg::Lu;
@@ -155,31 +155,10 @@ pub(crate) fn run<S: BatchSystem>(
     let mut buf = Packed::new();
     let mut rec = Packed::new();
     let mut ended = Vec::new();
-    let mut active = Vec::new();
     let mut work: Vec<usize> = Vec::new();
     let mut retry: Vec<usize> = Vec::new();
 
-    for id in 0..n {
-        let tr = &mut tracks[id];
-        let s = &settings[id];
-        if !tr.check_settings(s) || !finite(&y[id * d..(id + 1) * d]) {
-            if matches!(tr.status, Status::Running) {
-                end(tr, Status::NonFinite { time: 0.0 }, start);
-            }
-            ended.push(id);
-            continue;
-        }
-        let y0v = &y[id * d..(id + 1) * d];
-        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
-            out.copy_from_slice(y0v)
-        });
-        if reached(0.0, s.t_end) {
-            end(tr, Status::Finished, start);
-            ended.push(id);
-        } else {
-            active.push(id);
-        }
-    }
+    let mut active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
     rec.flush_records(sys);
     notify(sys, &tracks, &mut ended);
     let mut first = true;

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use super::common::{end, finite, notify, reached, Packed, Track};
+use super::common::{admit, end, finite, notify, reached, Packed, Track};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 /// Stage nodes and the coefficient of the previous stage in each stage's input.
@@ -38,28 +38,11 @@ pub(crate) fn run<S: BatchSystem>(
     let mut buf = Packed::new();
     let mut rec = Packed::new();
     let mut ended = Vec::new();
-    let mut active = Vec::new();
-    for id in 0..n {
-        let tr = &mut tracks[id];
-        let s = &settings[id];
-        if !tr.check_settings(s) || !finite(&y[id * d..(id + 1) * d]) {
-            if matches!(tr.status, Status::Running) {
-                end(tr, Status::NonFinite { time: 0.0 }, start);
-            }
-            ended.push(id);
-            continue;
-        }
-        tr.h = s.fixed_step.unwrap_or(s.sample_interval);
-        let y0v = &y[id * d..(id + 1) * d];
-        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
-            out.copy_from_slice(y0v)
-        });
-        if reached(0.0, s.t_end) {
-            end(tr, Status::Finished, start);
-            ended.push(id);
-        } else {
-            active.push(id);
-        }
+    let mut active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
+    for &id in &active {
+        tracks[id].h = settings[id]
+            .fixed_step
+            .unwrap_or(settings[id].sample_interval);
     }
     rec.flush_records(sys);
     notify(sys, &tracks, &mut ended);
