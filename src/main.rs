@@ -14,7 +14,7 @@ use bearing_sweep::cli::{
     SweepRunOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
@@ -30,52 +30,13 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Film loads of bearing states: `{"bearing": {...}, "states": [...]}` -> `{"loads": [...]}`.
-    Eval {
-        /// Input JSON file, `-` for standard input.
-        file: String,
-        /// Backend: cpu, gpu or auto.
-        #[arg(long, default_value = "cpu")]
-        backend: BackendKind,
-        /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
-        #[arg(long, default_value_t = 1e-6)]
-        accuracy: f64,
-    },
+    Eval(EvalArgs),
     /// Simulate a scene file (writes OUT/<file stem>/result.json and SVG figures 7-10), or
     /// run a sweep spec (a file with `base` or `kind`; writes OUT/<spec stem>/result.json,
     /// streaming variants to result.jsonl, resumable; see README "Sweeps").
-    Run {
-        /// Scene file or sweep spec (JSON).
-        file: String,
-        /// Output root folder.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-        /// Backend for the film loads: cpu, gpu or auto.
-        #[arg(long, default_value = "cpu")]
-        backend: BackendKind,
-        /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
-        #[arg(long, default_value_t = 1e-6)]
-        accuracy: f64,
-        /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
-        #[arg(long)]
-        shard: Option<Shard>,
-        /// Sweeps: variants per lockstep batch, or `auto`.
-        #[arg(long, default_value = "auto")]
-        batch_size: BatchSize,
-        /// Sweeps: no progress bar.
-        #[arg(long)]
-        quiet: bool,
-        /// Turn every model reduction off (README "Model reductions"), exact ones included.
-        #[arg(long)]
-        full_model: bool,
-    },
+    Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
-    Merge {
-        /// Merged result file.
-        out: String,
-        /// Shard result files.
-        #[arg(required = true)]
-        shards: Vec<String>,
-    },
+    Merge(MergeArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -88,254 +49,172 @@ enum BenchCommand {
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
     /// ~20-30 s quick, ~2 min with --full on 2 cores.
-    All {
-        /// Output folder (index.md, loads/, backend/, rotor/).
-        #[arg(long, default_value = "out/bench-all")]
-        out: std::path::PathBuf,
-        /// The settings of BENCHMARKS.md instead of the quick ones.
-        #[arg(long)]
-        full: bool,
-    },
+    All(BenchAllArgs),
     /// Film loads: evaluations/s against error, graded rule at each accuracy level vs the
     /// brute-force baseline, one thread and parallel.
-    Loads {
-        /// Threads of the parallel runs (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Number of benchmark states.
-        #[arg(long, default_value_t = 2000)]
-        states: usize,
-        /// Output folder for bench-loads.{json,md,svg}.
-        #[arg(long, default_value = "out/bench")]
-        out: std::path::PathBuf,
-        /// Baseline grids n (n × n in θ × z), comma-separated.
-        #[arg(
-            long,
-            value_delimiter = ',',
-            default_value = "32,64,128,256,512,1024,2048"
-        )]
-        grids: Vec<usize>,
-        /// States per GPU call for the GPU rows (f64 and f32 kernels at each level); 0
-        /// skips them. Without an adapter they are skipped with a note.
-        #[arg(long, default_value_t = bearing_sweep::bench::DEFAULT_GPU_BATCH)]
-        gpu_batch: usize,
-        /// Minimum wall time of one timing, s.
-        #[arg(long, default_value_t = 0.5)]
-        min_time: f64,
-    },
+    Loads(BenchLoadsArgs),
     /// Backend throughput and latency against batch size, CPU and GPU.
-    Backend {
-        /// Backends: cpu, gpu or both.
-        #[arg(long, default_value = "both")]
-        backend: String,
-        /// Batch sizes, comma-separated.
-        #[arg(
-            long,
-            value_delimiter = ',',
-            default_value = "1,10,100,1000,10000,100000,1000000"
-        )]
-        sizes: Vec<usize>,
-        /// Accuracy level of the rule.
-        #[arg(long, default_value_t = 1e-6)]
-        accuracy: f64,
-        /// CPU backend threads.
-        #[arg(long, default_value_t = 2)]
-        threads: usize,
-        /// Seconds to spend per measurement (repeats up to --max-reps).
-        #[arg(long, default_value_t = 1.0)]
-        min_time: f64,
-        /// Most repetitions per measurement.
-        #[arg(long, default_value_t = 50)]
-        max_reps: usize,
-        /// Also write the report as JSON to this file.
-        #[arg(long)]
-        json: Option<String>,
-    },
+    Backend(BenchBackendArgs),
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
-    Rotor {
-        /// Simulated time, s.
-        #[arg(long, default_value_t = 0.5)]
-        t_end: f64,
-        /// Film-load accuracy level.
-        #[arg(long, default_value_t = 1e-12)]
-        accuracy: f64,
-        /// Timing repeats per configuration (the fastest counts).
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
-        /// Output folder for the diagrams.
-        #[arg(long, default_value = "out/bench-rotor")]
-        out: std::path::PathBuf,
-        /// Instead of the work-precision study: lockstep batches of these sizes against
-        /// one-by-one runs (comma-separated, e.g. 1,16,256).
-        #[arg(long, value_delimiter = ',')]
-        batch: Vec<usize>,
-        /// CPU threads for --batch (default: all).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Replace both bearings' viscosity (Pa·s): the stiff variant of the study.
-        #[arg(long)]
-        viscosity: Option<f64>,
-    },
+    Rotor(BenchRotorArgs),
 }
 
-fn print_lines(lines: Vec<String>) {
-    for l in lines {
-        eprintln!("{l}");
-    }
+#[derive(Args)]
+struct EvalArgs {
+    /// Input JSON file, `-` for standard input.
+    file: String,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// Scene file or sweep spec (JSON).
+    file: String,
+    /// Output root folder.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Backend for the film loads: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+    /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
+    #[arg(long)]
+    shard: Option<Shard>,
+    /// Sweeps: variants per lockstep batch, or `auto`.
+    #[arg(long, default_value = "auto")]
+    batch_size: BatchSize,
+    /// Sweeps: no progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Turn every model reduction off (README "Model reductions"), exact ones included.
+    #[arg(long)]
+    full_model: bool,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// Merged result file.
+    out: String,
+    /// Shard result files.
+    #[arg(required = true)]
+    shards: Vec<String>,
+}
+
+#[derive(Args)]
+struct BenchAllArgs {
+    /// Output folder (index.md, loads/, backend/, rotor/).
+    #[arg(long, default_value = "out/bench-all")]
+    out: std::path::PathBuf,
+    /// The settings of BENCHMARKS.md instead of the quick ones.
+    #[arg(long)]
+    full: bool,
+}
+
+#[derive(Args)]
+struct BenchLoadsArgs {
+    /// Threads of the parallel runs (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Number of benchmark states.
+    #[arg(long, default_value_t = 2000)]
+    states: usize,
+    /// Output folder for bench-loads.{json,md,svg}.
+    #[arg(long, default_value = "out/bench")]
+    out: std::path::PathBuf,
+    /// Baseline grids n (n × n in θ × z), comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "32,64,128,256,512,1024,2048"
+    )]
+    grids: Vec<usize>,
+    /// States per GPU call for the GPU rows (f64 and f32 kernels at each level); 0
+    /// skips them. Without an adapter they are skipped with a note.
+    #[arg(long, default_value_t = bearing_sweep::bench::DEFAULT_GPU_BATCH)]
+    gpu_batch: usize,
+    /// Minimum wall time of one timing, s.
+    #[arg(long, default_value_t = 0.5)]
+    min_time: f64,
+}
+
+#[derive(Args)]
+struct BenchBackendArgs {
+    /// Backends: cpu, gpu or both.
+    #[arg(long, default_value = "both")]
+    backend: String,
+    /// Batch sizes, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,10,100,1000,10000,100000,1000000"
+    )]
+    sizes: Vec<usize>,
+    /// Accuracy level of the rule.
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+    /// CPU backend threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Seconds to spend per measurement (repeats up to --max-reps).
+    #[arg(long, default_value_t = 1.0)]
+    min_time: f64,
+    /// Most repetitions per measurement.
+    #[arg(long, default_value_t = 50)]
+    max_reps: usize,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    json: Option<String>,
+}
+
+#[derive(Args)]
+struct BenchRotorArgs {
+    /// Simulated time, s.
+    #[arg(long, default_value_t = 0.5)]
+    t_end: f64,
+    /// Film-load accuracy level.
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+    /// Timing repeats per configuration (the fastest counts).
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Output folder for the diagrams.
+    #[arg(long, default_value = "out/bench-rotor")]
+    out: std::path::PathBuf,
+    /// Instead of the work-precision study: lockstep batches of these sizes against
+    /// one-by-one runs (comma-separated, e.g. 1,16,256).
+    #[arg(long, value_delimiter = ',')]
+    batch: Vec<usize>,
+    /// CPU threads for --batch (default: all).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Replace both bearings' viscosity (Pa·s): the stiff variant of the study.
+    #[arg(long)]
+    viscosity: Option<f64>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Eval {
-            file,
-            backend,
-            accuracy,
-        } => read_input(&file)
-            .and_then(|text| eval_json(&text, EvalOptions { backend, accuracy }))
-            .map(|(out, notices)| {
-                for n in notices {
-                    eprintln!("{n}");
-                }
-                println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-            }),
-        Command::Bench {
-            what:
-                BenchCommand::Loads {
-                    threads,
-                    states,
-                    out,
-                    grids,
-                    gpu_batch,
-                    min_time,
-                },
-        } => bench_loads(&BenchLoadsOptions {
-            threads,
-            states,
-            out,
-            baseline_grids: grids,
-            gpu_batch,
-            min_time_s: min_time,
-        })
-        .map(|report| {
-            print!("{}", bench_loads_markdown(&report));
-        }),
-        Command::Bench {
-            what: BenchCommand::All { out, full },
-        } => {
-            let opts = if full {
-                BenchAllOptions::full(out)
-            } else {
-                BenchAllOptions::quick(out)
-            };
-            bench_all(&opts).map(|r| {
-                print!("{}", r.index);
-                eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
-            })
-        }
-        Command::Bench {
-            what:
-                BenchCommand::Backend {
-                    backend,
-                    sizes,
-                    accuracy,
-                    threads,
-                    min_time,
-                    max_reps,
-                    json,
-                },
-        } => run_bench_backend(&backend, sizes, accuracy, threads, min_time, max_reps, json),
-        Command::Run {
-            file,
-            out,
-            backend,
-            accuracy,
-            shard,
-            batch_size,
-            quiet,
-            full_model,
-        } => read_input(&file).and_then(|text| {
-            if is_sweep_spec(&text) {
-                let opts = SweepRunOptions {
-                    out,
-                    shard,
-                    batch: batch_size,
-                    backend,
-                    accuracy,
-                    quiet,
-                    full_model,
-                };
-                run_command(&file, &text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
-            } else {
-                if shard.is_some() {
-                    return Err(CliError::input(
-                        "--shard",
-                        "only sweep specs are sharded (this file is a scene: wrap it as {\"base\": \"FILE\"})",
-                    ));
-                }
-                let report = run_scene_file(
-                    &file,
-                    &text,
-                    &RunOptions {
-                        backend,
-                        accuracy,
-                        out,
-                        full_model,
-                    },
-                )?;
-                for n in report.notices {
-                    eprintln!("{n}");
-                }
-                for l in report.lines {
-                    println!("{l}");
-                }
-                for f in report.files {
-                    println!("wrote {}", f.display());
-                }
-                Ok(())
-            }
-        }),
-        Command::Merge { out, shards } => merge_command(&out, &shards).map(print_lines),
-        Command::Bench {
-            what:
-                BenchCommand::Rotor {
-                    t_end,
-                    batch,
-                    threads,
-                    ..
-                },
-        } if !batch.is_empty() => {
-            println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
-            println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
-            batch
-                .iter()
-                .try_for_each(|&n| bench_rotor_batch(n, t_end, threads).map(|row| print!("{row}")))
-        }
-        Command::Bench {
-            what:
-                BenchCommand::Rotor {
-                    t_end,
-                    accuracy,
-                    repeats,
-                    out,
-                    viscosity,
-                    ..
-                },
-        } => bench_rotor(&BenchRotorOptions {
-            t_end,
-            accuracy,
-            repeats,
-            out,
-            viscosity,
-        })
-        .map(|r| {
-            println!("{}\n", r.reference);
-            print!("{}", r.table);
-            for f in r.files {
-                println!("wrote {}", f.display());
-            }
-        }),
+        Command::Eval(a) => eval(a),
+        Command::Run(a) => run(a),
+        Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
+        Command::Bench { what } => match what {
+            BenchCommand::All(a) => bench_all_cmd(a),
+            BenchCommand::Loads(a) => bench_loads_cmd(a),
+            BenchCommand::Backend(a) => run_bench_backend(
+                &a.backend, a.sizes, a.accuracy, a.threads, a.min_time, a.max_reps, a.json,
+            ),
+            BenchCommand::Rotor(a) if !a.batch.is_empty() => bench_rotor_batch_cmd(a),
+            BenchCommand::Rotor(a) => bench_rotor_cmd(a),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -344,6 +223,131 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// Notices and report lines go to stderr.
+fn print_lines(lines: Vec<String>) {
+    for l in lines {
+        eprintln!("{l}");
+    }
+}
+
+/// `eval`: film loads of the states in a file, JSON on stdout.
+fn eval(a: EvalArgs) -> Result<(), CliError> {
+    let text = read_input(&a.file)?;
+    let (out, notices) = eval_json(
+        &text,
+        EvalOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+        },
+    )?;
+    for n in notices {
+        eprintln!("{n}");
+    }
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    Ok(())
+}
+
+/// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
+fn run(a: RunArgs) -> Result<(), CliError> {
+    let text = read_input(&a.file)?;
+    if is_sweep_spec(&text) {
+        return run_sweep_file(a, &text);
+    }
+    if a.shard.is_some() {
+        return Err(CliError::input(
+            "--shard",
+            "only sweep specs are sharded (this file is a scene: wrap it as {\"base\": \"FILE\"})",
+        ));
+    }
+    let report = run_scene_file(
+        &a.file,
+        &text,
+        &RunOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+            out: a.out,
+            full_model: a.full_model,
+        },
+    )?;
+    for n in report.notices {
+        eprintln!("{n}");
+    }
+    for l in report.lines {
+        println!("{l}");
+    }
+    for f in report.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `run` of a sweep spec: resumable, shardable, streamed.
+fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
+    let opts = SweepRunOptions {
+        out: a.out,
+        shard: a.shard,
+        batch: a.batch_size,
+        backend: a.backend,
+        accuracy: a.accuracy,
+        quiet: a.quiet,
+        full_model: a.full_model,
+    };
+    run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
+}
+
+/// `bench all`: every benchmark into one folder with an index.
+fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
+    let opts = if a.full {
+        BenchAllOptions::full(a.out)
+    } else {
+        BenchAllOptions::quick(a.out)
+    };
+    let r = bench_all(&opts)?;
+    print!("{}", r.index);
+    eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
+    Ok(())
+}
+
+/// `bench loads`: work-precision of the load quadrature.
+fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
+    let report = bench_loads(&BenchLoadsOptions {
+        threads: a.threads,
+        states: a.states,
+        out: a.out,
+        baseline_grids: a.grids,
+        gpu_batch: a.gpu_batch,
+        min_time_s: a.min_time,
+    })?;
+    print!("{}", bench_loads_markdown(&report));
+    Ok(())
+}
+
+/// `bench rotor --batch`: lockstep batches against one-by-one runs.
+fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
+    println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    a.batch
+        .iter()
+        .try_for_each(|&n| bench_rotor_batch(n, a.t_end, a.threads).map(|row| print!("{row}")))
+}
+
+/// `bench rotor`: work-precision of the integrators on the paper example.
+fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
+    let r = bench_rotor(&BenchRotorOptions {
+        t_end: a.t_end,
+        accuracy: a.accuracy,
+        repeats: a.repeats,
+        out: a.out,
+        viscosity: a.viscosity,
+    })?;
+    println!("{}\n", r.reference);
+    print!("{}", r.table);
+    for f in r.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
 }
 
 fn run_bench_backend(

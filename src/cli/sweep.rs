@@ -9,8 +9,9 @@ use crate::backend::{create_backend, BackendKind, EvaluatorOptions, LoadEvaluato
 use crate::bearing::Accuracy;
 use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
+use crate::sweep::merge::merge;
 use crate::sweep::rotor_sim::{validate_scene, RotorSimulator};
-use crate::sweep::runner::{merge, run_sweep, write_result, BatchSize, RunOptions, Shard};
+use crate::sweep::runner::{run_sweep, write_result, BatchSize, RunOptions, Shard};
 use crate::sweep::spec::{parse_spec, spec_kind};
 use crate::sweep::synthetic::{self, SyntheticSimulator};
 use crate::sweep::{SweepError, SweepKind};

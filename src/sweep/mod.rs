@@ -8,6 +8,7 @@
 
 pub mod expand;
 pub mod friction_map;
+pub mod merge;
 pub mod plots;
 pub mod progress;
 pub mod reduce;
