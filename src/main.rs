@@ -10,8 +10,9 @@ use bearing_sweep::bench::{
 };
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
-    read_input, run_command, run_scene_file, serve_command, submit_command, BenchRotorOptions,
-    CliError, EvalOptions, RunOptions, SubmitOptions, SweepRunOptions,
+    print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
+    BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
+    SweepRunOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
@@ -279,6 +280,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout went away (`… | head`): nothing left to tell anyone.
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
@@ -306,8 +309,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
@@ -335,13 +337,14 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     for n in report.notices {
         eprintln!("{n}");
     }
+    let mut out = StdoutWriter::new();
     for l in report.lines {
-        println!("{l}");
+        out.line(&l)?;
     }
     for f in report.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 /// `run` of a sweep spec: resumable, shardable, streamed.
@@ -409,7 +412,7 @@ fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
         BenchAllOptions::quick(a.out)
     };
     let r = bench_all(&opts)?;
-    print!("{}", r.index);
+    print_text(&r.index)?;
     eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
     Ok(())
 }
@@ -424,17 +427,15 @@ fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
         gpu_batch: a.gpu_batch,
         min_time_s: a.min_time,
     })?;
-    print!("{}", bench_loads_markdown(&report));
-    Ok(())
+    print_text(&bench_loads_markdown(&report))
 }
 
 /// `bench rotor --batch`: lockstep batches against one-by-one runs.
 fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
-    println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
-    a.batch
-        .iter()
-        .try_for_each(|&n| bench_rotor_batch(n, a.t_end, a.threads).map(|row| print!("{row}")))
+    print_text("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")?;
+    a.batch.iter().try_for_each(|&n| {
+        bench_rotor_batch(n, a.t_end, a.threads).and_then(|row| print_text(&row))
+    })
 }
 
 /// `bench rotor`: work-precision of the integrators on the paper example.
@@ -446,12 +447,13 @@ fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
         out: a.out,
         viscosity: a.viscosity,
     })?;
-    println!("{}\n", r.reference);
-    print!("{}", r.table);
+    let mut out = StdoutWriter::new();
+    out.line(&format!("{}\n", r.reference))?;
+    out.text(&r.table)?;
     for f in r.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 fn run_bench_backend(
@@ -495,7 +497,7 @@ fn run_bench_backend(
         ..BenchOptions::default()
     };
     let (report, md) = bench_backend(&options)?;
-    println!("{md}");
+    print_text(&format!("{md}\n"))?;
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         std::fs::write(&path, text).map_err(|source| CliError::Io { path, source })?;
