@@ -153,3 +153,152 @@ fn oil_whirl_growth_rate_converges_to_the_exact_eigenvalue_at_small_amplitude() 
         top.sigma_1_s
     );
 }
+
+/// Short-bearing `K δ / W` and `C δ ω / W` (2×2) at `ε` with the load along −y (film force
+/// along +y), from the closed forms of tests/coefficients.rs.
+fn dimensionless_coefficients(eps: f64) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
+    let pi = std::f64::consts::PI;
+    let q = 1.0 - eps * eps;
+    let f_r = eps * eps / (q * q);
+    let f_t = pi * eps / (4.0 * q.powf(1.5));
+    let g_r = pi * (1.0 + 2.0 * eps * eps) / (2.0 * q.powf(2.5));
+    let g_t = 2.0 * eps / (q * q);
+    let df_r = 2.0 * eps * (1.0 + eps * eps) / (q * q * q);
+    let df_t = pi * (1.0 + 2.0 * eps * eps) / (4.0 * q.powf(2.5));
+    let w = f_r.hypot(f_t);
+    let k = [[df_r / w, f_t / (eps * w)], [-df_t / w, f_r / (eps * w)]];
+    let c = [
+        [g_r / w, -2.0 * f_r / (eps * w)],
+        [-g_t / w, 2.0 * f_t / (eps * w)],
+    ];
+    // Turn the line-of-centres frame so that the film force (−f_r, f_t) points along +y.
+    let ang = std::f64::consts::FRAC_PI_2 - f_t.atan2(-f_r);
+    let (s, co) = ang.sin_cos();
+    let rot = |m: [[f64; 2]; 2]| {
+        let r = [[co, -s], [s, co]];
+        let mut rm = [[0.0; 2]; 2];
+        let mut o = [[0.0; 2]; 2];
+        for i in 0..2 {
+            for j in 0..2 {
+                rm[i][j] = (0..2).map(|k| r[i][k] * m[k][j]).sum();
+            }
+        }
+        for i in 0..2 {
+            for j in 0..2 {
+                o[i][j] = (0..2).map(|k| rm[i][k] * r[j][k]).sum();
+            }
+        }
+        o
+    };
+    (rot(k), rot(c))
+}
+
+/// Lund's threshold of a rigid mass on a bearing (the classical stability curve): with
+/// `K_eq = (K_xx C_yy + K_yy C_xx − K_xy C_yx − K_yx C_xy) / (C_xx + C_yy)` and
+/// `γ² = ((K_xx − K_eq)(K_yy − K_eq) − K_xy K_yx) / (C_xx C_yy − C_xy C_yx)` (from
+/// `det(K − m ν² + i ν C) = 0` at `λ = i ν`), the whirl ratio at threshold is `γ` and the
+/// threshold `ω_th √(δ/g) = √(K_eq / γ²)` (dimensionless `K δ/W`, `C δ ω/W`, `W = m g`).
+/// Returns `(ω_th √(δ/g), γ²)`; no threshold where `γ² <= 0`.
+fn lund(eps: f64) -> (f64, f64) {
+    let (k, c) = dimensionless_coefficients(eps);
+    let keq = (k[0][0] * c[1][1] + k[1][1] * c[0][0] - k[0][1] * c[1][0] - k[1][0] * c[0][1])
+        / (c[0][0] + c[1][1]);
+    let g2 = ((k[0][0] - keq) * (k[1][1] - keq) - k[0][1] * k[1][0])
+        / (c[0][0] * c[1][1] - c[0][1] * c[1][0]);
+    ((keq / g2).sqrt(), g2)
+}
+
+/// A symmetric rigid rotor on two identical short bearings under gravity, with the
+/// viscosity chosen so that at `speed` the equilibrium eccentricity is `eps`. The conical
+/// mode is kept out of the way (small transverse inertia: it goes unstable far later).
+fn symmetric_rotor(eps: f64, speed: f64) -> Scene {
+    let (m, g, r0, b, d): (f64, f64, f64, f64, f64) = (2.0, 9.81, 0.02, 0.02, 1e-4);
+    let w = 0.5 * m * g;
+    let cap = bearing_sweep::stability::ocvirk_capacity(eps);
+    let mu = w * d * d / (r0 * b.powi(3) * speed * cap);
+    let json = serde_json::json!({
+        "name": "symmetric",
+        "rotor": {"mass": m, "inertia": [0.002, 0.002, 0.001]},
+        "bearings": [
+            {"radius": r0, "length": b, "clearance": d, "viscosity": mu, "axial_position": 0.1},
+            {"radius": r0, "length": b, "clearance": d, "viscosity": mu, "axial_position": -0.1}
+        ],
+        "gravity": [0.0, -g, 0.0],
+        "spin": "held",
+        "initial": {"spin": speed},
+        "integrator": {"t_end": 0.1}
+    });
+    load_scene(&json.to_string()).unwrap().remove(0)
+}
+
+#[test]
+fn classical_short_bearing_stability_curve() {
+    let (g, d): (f64, f64) = (9.81, 1e-4);
+    let mut ev = evaluator();
+    // ε* where γ² = 0: above it the rotor is stable at every speed.
+    let (mut lo, mut hi) = (0.5, 0.9);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if lund(mid).1 > 0.0 {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    let eps_star = 0.5 * (lo + hi);
+    eprintln!("closed form: stable at every speed above ε* = {eps_star:.5}");
+    eprintln!(
+        "| ε | ω_th √(δ/g) closed form | ours | whirl ratio closed form | ours | ε at threshold |"
+    );
+    for eps in [0.05, 0.2, 0.4, 0.6, 0.7, 0.74] {
+        let (wbar, g2) = lund(eps);
+        let w_th = wbar * (g / d).sqrt();
+        let scene = symmetric_rotor(eps, w_th);
+        let rotor = RotorDescription::from_scene(&scene).unwrap();
+        let grid = bearing_sweep::stability::geometric_grid(0.5 * w_th, 2.0 * w_th, 5);
+        let t = bearing_sweep::stability::thresholds(&mut ev, &[&rotor], &[grid]).remove(0);
+        let speed = t
+            .speed_rad_s
+            .unwrap_or_else(|| panic!("ε {eps}: no threshold ({})", t.note));
+        let ratio = t.whirl_ratio.unwrap();
+        let at = analyse_points(&mut ev, &[(&rotor, speed)])
+            .remove(0)
+            .unwrap();
+        let eps_at = at.linear.bearings[0].eccentricity_ratio;
+        eprintln!(
+            "| {eps} | {wbar:.5} | {:.5} | {:.5} | {ratio:.5} | {eps_at:.6} |",
+            speed / (g / d).sqrt(),
+            g2.sqrt()
+        );
+        let e_speed = (speed - w_th).abs() / w_th;
+        assert!(
+            e_speed < 1e-5,
+            "ε {eps}: threshold {speed} vs closed form {w_th}: {e_speed:e} > 1e-5"
+        );
+        let e_ratio = (ratio - g2.sqrt()).abs();
+        assert!(
+            e_ratio < 1e-5,
+            "ε {eps}: whirl ratio {ratio} vs {}: {e_ratio:e} > 1e-5",
+            g2.sqrt()
+        );
+        assert!(
+            (eps_at - eps).abs() < 1e-5,
+            "ε at threshold {eps_at} vs {eps}"
+        );
+    }
+    // Above ε*: stable whatever the speed (dimensionless 1 .. 1000); just below ε*,
+    // unstable at high speed.
+    for wbar in [1.0, 10.0, 100.0, 1000.0] {
+        let w = wbar * (g / d).sqrt();
+        for (eps, stable) in [
+            (eps_star + 0.01, true),
+            (eps_star - 0.01, wbar < lund(eps_star - 0.01).0),
+        ] {
+            let rotor = RotorDescription::from_scene(&symmetric_rotor(eps, w)).unwrap();
+            let a = analyse_points(&mut ev, &[(&rotor, w)]).remove(0).unwrap();
+            let s = a.max_growth();
+            eprintln!("ε {eps:.4}, ω √(δ/g) = {wbar}: largest growth rate {s:.4e} 1/s");
+            assert_eq!(s < 0.0, stable, "ε {eps}, ω̄ {wbar}: growth {s}");
+        }
+    }
+}
