@@ -12,4 +12,5 @@ pub mod numerics;
 pub mod plot;
 pub mod rotor;
 pub mod service;
+pub mod stability;
 pub mod sweep;
