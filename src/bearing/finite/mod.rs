@@ -7,11 +7,11 @@ mod settings;
 mod solver;
 
 pub use error_map::{
-    compute_short_model_error, error_map_settings, ShortModelError, ERROR_MAP_ASPECTS,
-    ERROR_MAP_ECC,
+    compute_short_model_error, error_map_settings, short_model_error, ShortModelError,
+    ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
 };
 pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError};
 pub use solver::{
-    finite_integrals, finite_loads, finite_solution, FiniteGrid, FiniteJob, FiniteSolution,
-    FiniteSolver, SolveReport,
+    finite_integrals, finite_loads, finite_solution, richardson_estimate, FiniteGrid, FiniteJob,
+    FiniteSolution, FiniteSolver, SolveReport,
 };

@@ -345,3 +345,29 @@ pub fn finite_solution(
         extrapolated,
     })
 }
+
+/// Richardson estimate for loads already computed on `settings`' grid (by any backend):
+/// solves the half grid on the CPU (an eighth of the work) and returns
+/// `|v_h − v_2h| / 3 / |v_h|` for the load vector `(W_x, W_y, M_x/B, M_y/B)`; `None` when
+/// the grid cannot be halved or the state carries no pressure.
+pub fn richardson_estimate(
+    params: &BearingParams,
+    state: &BearingState,
+    settings: &FiniteSettings,
+    fine: &Loads,
+) -> Option<f64> {
+    let coarse = settings.coarse()?;
+    let c = finite_solution(params, state, &coarse, false).ok()?.loads;
+    let (v, w) = (
+        fine.load_vector(params.length),
+        c.load_vector(params.length),
+    );
+    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let diff = v
+        .iter()
+        .zip(&w)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    (norm > 0.0).then(|| diff / 3.0 / norm)
+}
