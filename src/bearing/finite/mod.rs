@@ -10,7 +10,7 @@ pub use error_map::{
     compute_short_model_error, error_map_settings, short_model_error, ShortModelError,
     ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
 };
-pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError};
+pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
     finite_integrals, finite_loads, finite_solution, richardson_estimate, FiniteGrid, FiniteJob,
     FiniteSolution, FiniteSolver, SolveReport,

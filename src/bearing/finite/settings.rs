@@ -30,6 +30,20 @@ impl FilmModel {
     }
 }
 
+/// Where the film is fed (JSON `"finite": {"inlet": ...}`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Inlet {
+    /// No inlet: pure Swift–Stieber complementarity over the whole 360° film; the
+    /// pressure zone's both boundaries are free. Default.
+    #[default]
+    None,
+    /// Ambient pressure held along the line of maximum film thickness (at each `z` the
+    /// grid column nearest it): the 360° bearing of Raimondi and Boyd (1958), fed at the
+    /// maximum film, with Swift–Stieber (Reynolds) cavitation downstream.
+    MaxFilm,
+}
+
 /// Grid and tolerance of the finite-length film (JSON `"finite"` in a bearing's object).
 /// Every field has a default.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -51,6 +65,9 @@ pub struct FiniteSettings {
     /// model-error map) accepted before the finite model is used. Default 0.05 (5 %).
     #[serde(default = "default_auto_tolerance")]
     pub auto_tolerance: f64,
+    /// Film inlet: `"none"` (default) or `"max_film"` (see [`Inlet`]).
+    #[serde(default)]
+    pub inlet: Inlet,
 }
 
 fn default_n_theta() -> u32 {
@@ -73,6 +90,7 @@ impl Default for FiniteSettings {
             n_z: default_n_z(),
             tolerance: default_tolerance(),
             auto_tolerance: default_auto_tolerance(),
+            inlet: Inlet::None,
         }
     }
 }

@@ -17,7 +17,7 @@
 
 use std::f64::consts::PI;
 
-use super::FiniteSettings;
+use super::{FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, Loads, PackedState,
     StateFault,
@@ -32,6 +32,8 @@ pub struct FiniteGrid {
     pub n_z: usize,
     /// Relative iteration tolerance.
     pub tolerance: f64,
+    /// Pressure held at ambient along the maximum-film line.
+    pub max_film_inlet: bool,
 }
 
 impl From<&FiniteSettings> for FiniteGrid {
@@ -40,6 +42,7 @@ impl From<&FiniteSettings> for FiniteGrid {
             n_theta: s.n_theta as usize,
             n_z: s.n_z as usize,
             tolerance: s.tolerance,
+            max_film_inlet: s.inlet == Inlet::MaxFilm,
         }
     }
 }
@@ -157,6 +160,18 @@ impl FiniteSolver {
                 let im = if i == 0 { nt - 1 } else { i - 1 };
                 let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
                 self.inv_d[k] = 1.0 / d;
+            }
+            if g.max_film_inlet {
+                // The column nearest the maximum film, angle arg(−ε(ζ)): held at zero
+                // (a zero inverse diagonal makes the update return 0, see `solve`).
+                let zeta = j as f64 * dz;
+                let ex = e[0] + (e[2] - e[0]) * zeta;
+                let ey = e[1] + (e[3] - e[1]) * zeta;
+                if ex != 0.0 || ey != 0.0 {
+                    let th = (-ey).atan2(-ex).rem_euclid(2.0 * PI);
+                    let i = (th / dt).round() as usize % nt;
+                    self.inv_d[j * nt + i] = 0.0;
+                }
             }
         }
     }
