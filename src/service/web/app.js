@@ -801,6 +801,10 @@ function drawHeatmap(s, q, px, py) {
       r.addEventListener("mousemove", (e) => showTip(e, label));
       r.addEventListener("mouseleave", hideTip);
       s.append(r);
+      // The value in the cell where it fits (dark text on the light end of the scale).
+      if (isNum(val) && cw >= 44 && ch >= 16)
+        s.append(svg("text", { x: ml + (i + 0.5) * cw, y: mt + (yv.length - 1 - j + 0.5) * ch + 4, "text-anchor": "middle",
+          class: norm(val) > 0.6 ? "cv dark" : "cv light" }, fmt(val * q.u.scale, 3)));
     });
   });
   // axis labels: every value when few, else every k-th
@@ -813,7 +817,8 @@ function drawHeatmap(s, q, px, py) {
   const bx = W - mr + 14, bh = H - mt - mb, N = 40;
   for (let k = 0; k < N; k++) s.append(svg("rect", { x: bx, y: mt + bh - ((k + 1) * bh) / N, width: 14, height: bh / N + 0.5, fill: colour((k + 0.5) / N) }));
   if (vals.length) {
-    const ticks = logScale ? logTicks(lo, hi) : niceTicks(lo, hi, 4);
+    let ticks = logScale ? logTicks(lo, hi) : niceTicks(lo, hi, 4);
+    if (ticks.filter((t) => t >= lo && t <= hi).length < 3) ticks = [lo, hi]; // a narrow range: label its ends
     for (const t of ticks) {
       const yy = mt + bh - norm(t) * bh;
       if (yy < mt - 1 || yy > mt + bh + 1) continue;
