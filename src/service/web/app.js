@@ -454,10 +454,19 @@ function watch(id) {
   if (state.streams.has(id)) return;
   if (state.streams.size >= MAX_STREAMS && id !== state.selected) return;
   const throttled = throttle(() => refreshSweep(id), 300);
+  // Events (README "Service"): `status` {status, progress} first and on every change,
+  // `variant` {id (the variant's), status ok|not_ok, progress} per finished variant.
   const close = openEvents(id, (event, data) => {
     if (data && typeof data === "object") {
-      const s = mergeSweep(normSweep({ id, ...data, ...(data.sweep || {}) }));
-      if (state.selected === id) renderProgress();
+      const p = data.progress || {};
+      const upd = { id };
+      if (event === "status" && data.status) upd.status = data.status;
+      // A final status event carries no counts: those come from the status route.
+      if (p.total && !(event === "status" && TERMINAL.has(data.status))) {
+        Object.assign(upd, { done: p.done, failed: p.failed, total: p.total, rate: p.variants_per_s, eta: p.eta_s });
+      }
+      const s = mergeSweep(upd);
+      if (state.selected === id) { renderProgress(); if (event === "variant") loadVariantsThrottled(false); }
       renderQueue();
       if (TERMINAL.has(s.status)) { refreshSweep(id); return; }
     }
