@@ -764,8 +764,9 @@ fn status_event(status: SweepStatus, p: &ProgressSnapshot) -> Event {
         .data(json!({"status": status, "progress": p}).to_string())
 }
 
-/// Server-Sent Events: `status` first (and on every change), one `variant` per finished
-/// variant, and the stream ends after a final status (`done`, `failed`, `cancelled`).
+/// Server-Sent Events: `status` first (and on every change: `{"status", "progress"}`), one
+/// `variant` per committed variant (`{"id", "ok", "progress"}`), and the stream ends after a
+/// final status (`done`, `failed`, `cancelled`).
 #[utoipa::path(get, path = "/api/sweeps/{id}/events",
     params(("id" = String, Path, description = "Sweep id")),
     responses((status = 200, description = "text/event-stream", content_type = "text/event-stream", body = String),
@@ -794,28 +795,33 @@ async fn sweep_events(
     } else {
         Phase::Live(rx, shutdown)
     };
-    let total = r.total;
-    let live = futures_util::stream::unfold(start, move |phase| async move {
-        let Phase::Live(mut rx, mut shutdown) = phase else {
-            return None;
-        };
-        loop {
-            tokio::select! {
-                ev = rx.recv() => match ev {
-                    Ok(SweepEvent::Variant { id, ok, progress }) => {
-                        let e = Event::default().event("variant").data(
-                            json!({"id": id, "status": if ok { "ok" } else { "not_ok" }, "progress": progress}).to_string());
-                        return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
-                    }
-                    Ok(SweepEvent::Status(s)) => {
-                        let p = ProgressSnapshot { total, ..Default::default() };
-                        let next = if s.is_final() { Phase::End } else { Phase::Live(rx, shutdown) };
-                        return Some((Ok(status_event(s, &p)), next));
-                    }
-                    Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
-                    Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
-                },
-                _ = shutdown.changed() => return None,
+    let live = futures_util::stream::unfold(start, move |phase| {
+        let (st, sweep) = (st.clone(), id.clone());
+        async move {
+            let Phase::Live(mut rx, mut shutdown) = phase else {
+                return None;
+            };
+            loop {
+                tokio::select! {
+                    ev = rx.recv() => match ev {
+                        Ok(SweepEvent::Variant { id, ok, progress }) => {
+                            let e = Event::default().event("variant").data(
+                                json!({"id": id, "ok": ok, "progress": progress}).to_string());
+                            return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
+                        }
+                        Ok(SweepEvent::Status(s)) => {
+                            let p = match row_or_404(&st, &sweep).await {
+                                Ok(r) => progress_of(&st, &r),
+                                Err(_) => ProgressSnapshot::default(),
+                            };
+                            let next = if s.is_final() { Phase::End } else { Phase::Live(rx, shutdown) };
+                            return Some((Ok(status_event(s, &p)), next));
+                        }
+                        Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
+                        Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
+                    },
+                    _ = shutdown.changed() => return None,
+                }
             }
         }
     });
