@@ -247,3 +247,92 @@ fn sigterm_drains_and_a_restart_completes_the_sweep() {
     });
     assert_eq!(v["variants_computed"], 30, "{v}");
 }
+
+/// A rotor sweep's running variants stop within about a second of a cancel (the lockstep
+/// integrator polls the flag at every film call), and nothing half-done is stored.
+#[test]
+fn a_running_rotor_sweep_stops_within_a_second_of_cancel() {
+    let dir = scratch("rotor-cancel");
+    let server = Server::start(&dir.join("data"), &[]);
+    let base = server.url.clone();
+    let spec_file =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/clearance-viscosity.json");
+    let mut spec: Value =
+        serde_json::from_str(&std::fs::read_to_string(&spec_file).unwrap()).unwrap();
+    // 20 s of simulated time: each variant takes far longer than the test waits.
+    spec["base"]["integrator"]["t_end"] = serde_json::json!(20.0);
+    let id = submit(&base, &spec, "");
+    wait_for(&base, &id, Duration::from_secs(60), |v| {
+        v["status"] == "running"
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    let t = std::time::Instant::now();
+    assert_eq!(
+        post(&format!("{base}/api/sweeps/{id}/cancel"), b"", None).status,
+        200
+    );
+    let v = wait_for(&base, &id, Duration::from_secs(30), |v| {
+        v["status"] == "cancelled"
+    });
+    let took = t.elapsed();
+    assert!(
+        took < Duration::from_millis(1500),
+        "cancel took {took:?}: {v}"
+    );
+    let page = get(&format!("{base}/api/sweeps/{id}/variants"), None).json();
+    assert_eq!(
+        page["variants"].as_array().unwrap().len() as u64,
+        v["progress"]["done"].as_u64().unwrap(),
+        "{page}"
+    );
+    for rec in page["variants"].as_array().unwrap() {
+        assert_ne!(
+            rec["status"], "load_failure",
+            "a cancelled variant was stored: {rec}"
+        );
+    }
+}
+
+/// `submit --wait` prints the id, then where the result is.
+#[test]
+fn submit_prints_the_id_and_with_wait_where_the_result_is() {
+    let dir = scratch("submit");
+    let server = Server::start(&dir.join("data"), &[]);
+    let spec_file = dir.join("s.json");
+    std::fs::write(&spec_file, synthetic_spec(5, 0).to_string()).unwrap();
+    let out = bin()
+        .args(["submit"])
+        .arg(&spec_file)
+        .args(["--server", &server.url, "--wait"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let id = text.lines().next().unwrap().trim().to_string();
+    assert_eq!(id.len(), 16, "{text}");
+    assert!(
+        text.contains(&format!("{}/api/sweeps/{id}/result", server.url)),
+        "{text}"
+    );
+    let v = get(&format!("{}/api/sweeps/{id}", server.url), None).json();
+    assert_eq!(v["status"], "done", "{v}");
+    // A bad spec: the server's path and message, non-zero exit.
+    std::fs::write(
+        &spec_file,
+        r#"{"kind": "synthetic", "base": {}, "axse": []}"#,
+    )
+    .unwrap();
+    let out = bin()
+        .args(["submit"])
+        .arg(&spec_file)
+        .args(["--server", &server.url])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("axse"), "{err}");
+}
