@@ -87,6 +87,9 @@ struct BenchServeArgs {
     /// A sweep spec to time over HTTP against `run`.
     #[arg(long)]
     sweep: Option<std::path::PathBuf>,
+    /// Timings of the sweep each way (the fastest counts).
+    #[arg(long, default_value_t = 3)]
+    sweep_repeats: usize,
 }
 
 #[derive(Args)]
@@ -436,6 +439,7 @@ fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
         duration_s: a.duration,
         window_ms: a.window_ms,
         sweep: a.sweep,
+        sweep_repeats: a.sweep_repeats,
     })
     .map_err(|e| CliError::input("bench serve", e.to_string()))?;
     print!("{md}");

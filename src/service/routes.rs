@@ -801,6 +801,8 @@ async fn sweep_events(
     State(st): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
+    // Only known sweeps get an event channel.
+    row_or_404(&st, &id).await?;
     // Subscribe before reading the status, so no change falls between the two.
     let job = st.scheduler.job(&id);
     let rx = job.events.subscribe();

@@ -230,6 +230,13 @@ impl Scheduler {
             let _ = me.store.update_sweep(&id, &update);
             if let Some(s) = status {
                 let _ = job.events.send(SweepEvent::Status(s));
+                if s.is_final() {
+                    // Nothing more will happen to it: readers see the stored status.
+                    me.jobs
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .remove(&id);
+                }
             }
             me.counters.running.fetch_sub(1, Ordering::Relaxed);
             me.wake();
