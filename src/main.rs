@@ -312,7 +312,12 @@ fn main() -> ExitCode {
         // The reader of stdout went away (`… | head`): nothing left to tell anyone.
         Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // Messages may quote user input; a backstop against echoing megabytes.
+            let message = bearing_sweep::json::shorten(
+                &e.to_string(),
+                bearing_sweep::json::MAX_MESSAGE_CHARS,
+            );
+            eprintln!("error: {message}");
             ExitCode::from(2)
         }
     }

@@ -59,9 +59,11 @@ impl CliError {
 
     /// An input error at `path`.
     pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
+        // Paths and reasons may quote user input: keep them short (a 100 MB string must
+        // not come back in the message).
         CliError::Input {
-            path: path.into(),
-            reason: reason.into(),
+            path: crate::json::shorten(&path.into(), crate::json::MAX_ECHO_CHARS * 2),
+            reason: crate::json::shorten(&reason.into(), crate::json::MAX_MESSAGE_CHARS),
         }
     }
 }
