@@ -459,3 +459,63 @@ fn general_rotor_linear_modes_match_the_simulated_transient() {
         assert_eq!(linear[0].sigma_1_s < 0.0, factor < 1.0);
     }
 }
+
+#[test]
+fn unbalanced_rotor_synchronous_orbit_is_the_rotating_frame_equilibrium() {
+    // The paper's example (MODEL.md section 8: 1 mm static unbalance, no gravity) with the
+    // spin held: after the transient (least-damped mode σ ≈ −65 1/s) every journal runs on
+    // a circle at the spin, the equilibrium of the frame turning with the shaft.
+    let mut scene = load_scene(include_str!("../sweeps/paper-example.json"))
+        .unwrap()
+        .remove(0);
+    scene.spin = bearing_sweep::rotor::SpinMode::Held;
+    let rotor = RotorDescription::from_scene(&scene).unwrap();
+    assert_eq!(rotor.frame, bearing_sweep::stability::Frame::Rotating);
+    let spin = scene.initial.spin;
+    let mut ev = evaluator();
+    let a = analyse_points(&mut ev, &[(&rotor, spin)])
+        .remove(0)
+        .unwrap();
+    let slowest = a
+        .modes
+        .iter()
+        .map(|m| m.sigma_1_s)
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(slowest < -30.0, "least-damped σ {slowest}");
+    let mut s = scene.clone();
+    s.integrator.t_end = 0.4;
+    s.integrator.rtol = 1e-10;
+    s.integrator.atol = 1e-10;
+    let r = simulate(std::slice::from_ref(&s)).remove(0);
+    assert_eq!(r.status, SimStatus::Finished);
+    // From 0.3 s: the transient is below e^{σ 0.3} ≈ 5e-9 of its start.
+    let k0 = r.samples.t.iter().position(|&t| t >= 0.3).unwrap();
+    for (b, (series, point)) in r
+        .samples
+        .bearings
+        .iter()
+        .zip(&a.linear.bearings)
+        .enumerate()
+    {
+        let st = point.state;
+        for (name, x, y, ex, ey) in [
+            ("i", &series.xi, &series.yi, st.xi, st.yi),
+            ("j", &series.xj, &series.yj, st.xj, st.yj),
+        ] {
+            let want = ex.hypot(ey);
+            let mut worst: f64 = 0.0;
+            for n in k0..r.samples.t.len() {
+                // In the turning frame the end centre stands still at (ex, ey).
+                let ang = spin * r.samples.t[n];
+                let (sn, c) = ang.sin_cos();
+                let (xr, yr) = (c * x[n] + sn * y[n], -sn * x[n] + c * y[n]);
+                worst = worst.max((xr - ex).hypot(yr - ey));
+            }
+            eprintln!("bearing {b} end {name}: orbit radius {want:.6e} m; largest distance from the turning-frame equilibrium {worst:.2e} m");
+            assert!(
+                worst < 1e-6 * want,
+                "bearing {b} end {name}: {worst:e} m off the equilibrium orbit (radius {want:e})"
+            );
+        }
+    }
+}

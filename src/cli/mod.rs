@@ -3,16 +3,22 @@
 
 mod bench;
 mod bench_rotor;
+mod coefficients;
 mod eval;
 mod run;
+mod stability;
 mod sweep;
 
 pub use bench::bench_backend;
 pub use bench_rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
 };
+pub use coefficients::{
+    coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
+};
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
