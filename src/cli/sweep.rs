@@ -137,6 +137,32 @@ pub fn run_command(
                     &run_opts(json!({"simulator": "synthetic"})),
                     notice,
                 )?,
+                SweepKind::Stability => {
+                    crate::sweep::Expansion::new(&spec).validate_all(&spec, &validate_scene)?;
+                    // The coefficients are differences of film loads: always the tightest
+                    // level (README "Coefficients and stability").
+                    let tight = Accuracy::new(1e-12).expect("a calibrated level");
+                    if accuracy.rtol() != tight.rtol() {
+                        notice(format!(
+                            "notice: stability sweeps evaluate the film at accuracy 1e-12 (not {:e})",
+                            accuracy.rtol()
+                        ));
+                    }
+                    let (backend, n) = create_backend(opts.backend, tight)?;
+                    if let Some(n) = n {
+                        notice(n);
+                    }
+                    let mut sim =
+                        crate::stability::StabilitySimulator::new(LoadEvaluator::new(backend));
+                    let settings = sim.settings(tight.rtol());
+                    run_sweep(
+                        &spec,
+                        &validate_scene,
+                        &mut sim,
+                        &run_opts(settings),
+                        notice,
+                    )?
+                }
                 SweepKind::Rotor => {
                     // Check every variant before creating a backend (a GPU start is slow).
                     crate::sweep::Expansion::new(&spec).validate_all(&spec, &validate_scene)?;

@@ -9,6 +9,7 @@ mod error;
 mod linear;
 mod modes;
 mod plots;
+mod sweep_sim;
 
 pub use analysis::{
     analyse_points, geometric_grid, thresholds, SpeedAnalysis, Threshold, THRESHOLD_RTOL,
@@ -27,3 +28,4 @@ pub use linear::{
 };
 pub use modes::{max_growth, modes, Mode, Shape};
 pub use plots::{campbell_svg, damping_svg};
+pub use sweep_sim::{StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};

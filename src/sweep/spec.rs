@@ -31,6 +31,9 @@ pub enum SweepKind {
     Rotor,
     /// Analytic stand-in signals with known reductions (tests, trying the machinery).
     Synthetic,
+    /// Rotor scenes analysed by linear stability (threshold speed, least log-dec; no time
+    /// integration; `crate::stability::StabilitySimulator`).
+    Stability,
 }
 
 impl SweepKind {
@@ -39,6 +42,7 @@ impl SweepKind {
         match self {
             SweepKind::Rotor => "rotor",
             SweepKind::Synthetic => "synthetic",
+            SweepKind::Stability => "stability",
         }
     }
 }
@@ -289,22 +293,24 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         SweepError::spec("$", format!("expected an object, got {}", type_name(doc)))
     })?;
     deny_unknown(obj, "", SPEC_FIELDS)?;
-    let kind = match obj.get("kind").map(|k| (k, k.as_str())) {
-        None | Some((_, Some("rotor"))) => SweepKind::Rotor,
-        Some((_, Some("synthetic"))) => SweepKind::Synthetic,
-        Some((_, Some(other))) => {
-            return Err(SweepError::spec(
+    let kind =
+        match obj.get("kind").map(|k| (k, k.as_str())) {
+            None | Some((_, Some("rotor"))) => SweepKind::Rotor,
+            Some((_, Some("synthetic"))) => SweepKind::Synthetic,
+            Some((_, Some("stability"))) => SweepKind::Stability,
+            Some((_, Some(other))) => return Err(SweepError::spec(
                 "kind",
-                format!("unknown kind `{other}` (expected rotor, synthetic or friction_map)"),
-            ))
-        }
-        Some((k, None)) => {
-            return Err(SweepError::spec(
-                "kind",
-                format!("expected a string, got {}", type_name(k)),
-            ))
-        }
-    };
+                format!(
+                    "unknown kind `{other}` (expected rotor, synthetic, stability or friction_map)"
+                ),
+            )),
+            Some((k, None)) => {
+                return Err(SweepError::spec(
+                    "kind",
+                    format!("expected a string, got {}", type_name(k)),
+                ))
+            }
+        };
     let name = match obj.get("name") {
         None => None,
         Some(Value::String(s)) => Some(s.clone()),
