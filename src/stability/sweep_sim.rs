@@ -12,7 +12,7 @@ use crate::rotor::Scene;
 use crate::sweep::runner::{BatchSimulator, Job, Outcome};
 
 /// Speeds of each variant's threshold scan: geometric from `SCAN_LOW ×` to `SCAN_HIGH ×`
-/// the scene's spin, then bisection to [`super::THRESHOLD_RTOL`].
+/// the scene's spin, then regula falsi to [`super::THRESHOLD_RTOL`].
 pub const SCAN_POINTS: usize = 16;
 /// Lowest scanned speed over the scene's spin.
 pub const SCAN_LOW: f64 = 0.1;
@@ -43,7 +43,7 @@ impl StabilitySimulator {
         json!({"simulator": "stability", "backend": self.info.name, "precision": self.info.precision,
                "film_accuracy": accuracy_rtol,
                "scan": {"points": SCAN_POINTS, "low_over_spin": SCAN_LOW, "high_over_spin": SCAN_HIGH,
-                        "bisection_rtol": super::THRESHOLD_RTOL}})
+                        "bracket_rtol": super::THRESHOLD_RTOL}})
     }
 }
 
@@ -150,7 +150,7 @@ impl BatchSimulator for StabilitySimulator {
                         "reductions": reductions,
                         "frame": a.linear.frame,
                         "newton_iterations": a.linear.newton_iterations,
-                        "threshold_bisections": t.bisections,
+                        "threshold_iterations": t.iterations,
                         "notes": r.notes,
                     })),
                 },

@@ -293,24 +293,25 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         SweepError::spec("$", format!("expected an object, got {}", type_name(doc)))
     })?;
     deny_unknown(obj, "", SPEC_FIELDS)?;
-    let kind =
-        match obj.get("kind").map(|k| (k, k.as_str())) {
-            None | Some((_, Some("rotor"))) => SweepKind::Rotor,
-            Some((_, Some("synthetic"))) => SweepKind::Synthetic,
-            Some((_, Some("stability"))) => SweepKind::Stability,
-            Some((_, Some(other))) => return Err(SweepError::spec(
+    let kind = match obj.get("kind").map(|k| (k, k.as_str())) {
+        None | Some((_, Some("rotor"))) => SweepKind::Rotor,
+        Some((_, Some("synthetic"))) => SweepKind::Synthetic,
+        Some((_, Some("stability"))) => SweepKind::Stability,
+        Some((_, Some(other))) => {
+            return Err(SweepError::spec(
                 "kind",
                 format!(
                     "unknown kind `{other}` (expected rotor, synthetic, stability or friction_map)"
                 ),
-            )),
-            Some((k, None)) => {
-                return Err(SweepError::spec(
-                    "kind",
-                    format!("expected a string, got {}", type_name(k)),
-                ))
-            }
-        };
+            ))
+        }
+        Some((k, None)) => {
+            return Err(SweepError::spec(
+                "kind",
+                format!("expected a string, got {}", type_name(k)),
+            ))
+        }
+    };
     let name = match obj.get("name") {
         None => None,
         Some(Value::String(s)) => Some(s.clone()),
