@@ -519,3 +519,98 @@ fn unbalanced_rotor_synchronous_orbit_is_the_rotating_frame_equilibrium() {
         }
     }
 }
+
+mod cli_support;
+
+#[test]
+fn stability_cli_and_sweep_agree_with_the_library() {
+    use bearing_sweep::stability::{geometric_grid, thresholds, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
+    let dir = cli_support::scratch("stability", "cli");
+    // `stability SCENE`: the modes and threshold of the library, and the figures.
+    let scene_path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/oil-whirl.json");
+    let out = cli_support::bin()
+        .args(["stability", scene_path, "--speeds", "100,300,600", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let scene = load_scene(WHIRL).unwrap().remove(0);
+    let rotor = RotorDescription::from_scene(&scene).unwrap();
+    let mut ev = evaluator();
+    let a = analyse_points(&mut ev, &[(&rotor, 300.0)])
+        .remove(0)
+        .unwrap();
+    assert_eq!(
+        doc["modes"][0]["sigma_1_s"].as_f64().unwrap(),
+        a.modes[0].sigma_1_s
+    );
+    assert_eq!(
+        doc["modes"][0]["whirl_ratio"].as_f64().unwrap(),
+        a.modes[0].whirl_ratio
+    );
+    // The unloaded centred journal whirls at every speed: no threshold, and it says why.
+    assert!(doc["threshold_speed_rad_s"].is_null());
+    assert!(doc["threshold"]["note"]
+        .as_str()
+        .unwrap()
+        .contains("unstable already"));
+    assert_eq!(doc["campbell"].as_array().unwrap().len(), 3);
+    for f in ["stability.json", "campbell.svg", "damping.svg"] {
+        let p = dir.join("oil-whirl").join(f);
+        let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(text.len() > 200, "{f}: {} bytes", text.len());
+    }
+    // Bad speeds name the option.
+    let (ok, err) = cli_support::run(&["stability", scene_path, "--speeds", "100,-5"]);
+    assert!(!ok && err.contains("--speeds[1]"), "{err}");
+
+    // A `stability` sweep: each variant's threshold is the library's on the same grid.
+    let spec = serde_json::json!({
+        "kind": "stability",
+        "base": serde_json::to_value(general_rotor(500.0)).unwrap(),
+        "axes": [
+            {"path": "bearings[*].clearance", "values": [8e-5, 1.5e-4]},
+            {"path": "bearings[*].viscosity", "values": [0.01, 0.03]}
+        ]
+    });
+    let spec_path = cli_support::write(&dir, "stab.json", &spec);
+    let (ok, err) = cli_support::run(&[
+        "run",
+        spec_path.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let result = cli_support::read(&dir.join("stab").join("result.json"));
+    let variants = result["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), 4);
+    for v in variants {
+        assert_eq!(v["status"], "ok", "{v}");
+        let mut s = general_rotor(500.0);
+        for b in &mut s.bearings {
+            b.clearance = v["params"]["bearings[*].clearance"].as_f64().unwrap();
+            b.viscosity = v["params"]["bearings[*].viscosity"].as_f64().unwrap();
+        }
+        let r = RotorDescription::from_scene(&s).unwrap();
+        let grid = geometric_grid(SCAN_LOW * 500.0, SCAN_HIGH * 500.0, SCAN_POINTS);
+        let t = thresholds(&mut ev, &[&r], &[grid]).remove(0);
+        let got = v["reductions"]["threshold_speed_rad_s"].as_f64();
+        assert_eq!(
+            got, t.speed_rad_s,
+            "variant {}: sweep {got:?} vs library {:?}",
+            v["id"], t.speed_rad_s
+        );
+        let a = analyse_points(&mut ev, &[(&r, 500.0)]).remove(0).unwrap();
+        assert_eq!(
+            v["reductions"]["stable"].as_bool().unwrap(),
+            a.max_growth() < 0.0
+        );
+        assert!(v["reductions"]["log_dec_min"].as_f64().is_some());
+    }
+}
