@@ -614,3 +614,105 @@ fn stability_cli_and_sweep_agree_with_the_library() {
         assert!(v["reductions"]["log_dec_min"].as_f64().is_some());
     }
 }
+
+/// Writes the figures of docs/stability.md when `BEARING_SWEEP_STABILITY_FIGURES` names a
+/// folder (nothing otherwise): the short-bearing stability curve (ours against Lund's
+/// closed form) and the general rotor's Campbell and damping diagrams.
+#[test]
+fn figures() {
+    use bearing_sweep::plot::{line_plot_svg, Scale, Series};
+    use bearing_sweep::stability::{campbell_svg, damping_svg, geometric_grid, thresholds};
+    let Ok(dir) = std::env::var("BEARING_SWEEP_STABILITY_FIGURES") else {
+        return;
+    };
+    let dir = std::path::PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (g, d): (f64, f64) = (9.81, 1e-4);
+    let mut ev = evaluator();
+    let mut closed = Vec::new();
+    let mut closed_ratio = Vec::new();
+    let mut eps = 0.02;
+    while eps < 0.755 {
+        let (w, g2) = lund(eps);
+        closed.push((eps, w));
+        closed_ratio.push((eps, g2.sqrt()));
+        eps += 0.005;
+    }
+    let mut ours = Vec::new();
+    let mut ours_ratio = Vec::new();
+    for eps in [
+        0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65, 0.7, 0.72, 0.74, 0.75,
+    ] {
+        let w_th = lund(eps).0 * (g / d).sqrt();
+        let rotor = RotorDescription::from_scene(&symmetric_rotor(eps, w_th)).unwrap();
+        let t = thresholds(
+            &mut ev,
+            &[&rotor],
+            &[geometric_grid(0.5 * w_th, 2.0 * w_th, 5)],
+        )
+        .remove(0);
+        ours.push((eps, t.speed_rad_s.unwrap() / (g / d).sqrt()));
+        ours_ratio.push((eps, t.whirl_ratio.unwrap()));
+    }
+    let svg = line_plot_svg(
+        "Short-bearing stability curve (rigid symmetric rotor)",
+        "eccentricity ratio at threshold",
+        "threshold speed x sqrt(clearance / g)",
+        &[
+            Series {
+                label: "Lund's closed form (short-bearing K, C)",
+                points: closed,
+            },
+            Series {
+                label: "this code: eigenvalues + threshold search",
+                points: ours,
+            },
+        ],
+        Scale::Linear,
+        Scale::Log,
+    )
+    .unwrap();
+    std::fs::write(dir.join("stability-curve.svg"), svg).unwrap();
+    let svg = line_plot_svg(
+        "Whirl ratio at the threshold",
+        "eccentricity ratio at threshold",
+        "whirl frequency / speed",
+        &[
+            Series {
+                label: "Lund's closed form",
+                points: closed_ratio,
+            },
+            Series {
+                label: "this code",
+                points: ours_ratio,
+            },
+        ],
+        Scale::Linear,
+        Scale::Linear,
+    )
+    .unwrap();
+    std::fs::write(dir.join("stability-whirl-ratio.svg"), svg).unwrap();
+    let rotor = RotorDescription::from_scene(&general_rotor(500.0)).unwrap();
+    let speeds = geometric_grid(50.0, 1500.0, 40);
+    let pts: Vec<_> = speeds.iter().map(|&w| (&rotor, w)).collect();
+    let runs: Vec<_> = analyse_points(&mut ev, &pts)
+        .into_iter()
+        .map(Result::unwrap)
+        .collect();
+    let th = thresholds(&mut ev, &[&rotor], &[speeds.clone()]).remove(0);
+    std::fs::write(
+        dir.join("stability-campbell.svg"),
+        campbell_svg(
+            "Campbell diagram: general rigid rotor (tests/stability.rs)",
+            &runs,
+            th.speed_rad_s,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("stability-damping.svg"),
+        damping_svg("Damping ratio vs speed: general rigid rotor", &runs).unwrap(),
+    )
+    .unwrap();
+}
