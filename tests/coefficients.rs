@@ -510,3 +510,77 @@ fn bad_coefficient_inputs_name_the_field() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn gpu_backend_gives_the_cpu_coefficients_within_their_error() {
+    // The perturbed states go through whatever backend the evaluator wraps: the f64 GPU
+    // kernel must give the CPU's coefficients to within the differences' own error
+    // estimate. Skips with a notice without an adapter, unless BEARING_SWEEP_REQUIRE_GPU=1.
+    use bearing_sweep::backend::{GpuBackend, GpuOptions, Precision};
+    let accuracy = Accuracy::new(1e-12).unwrap();
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let gpu = match GpuBackend::new(accuracy, options) {
+        Ok(g) => g,
+        Err(e) if std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1") => {
+            panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}")
+        }
+        Err(e) => {
+            eprintln!("notice: skipping the GPU case: {e}");
+            return;
+        }
+    };
+    let mut gev = LoadEvaluator::new(Box::new(gpu));
+    let mut cev = evaluator();
+    let p = bearing(0.02, 0.02, 3e-4, 0.0242);
+    // An aligned loaded state, a tilted whirling one and the centred one, in one call each.
+    let mut tilted = aligned_state(1.2e-4, -0.6e-4, 150.0);
+    tilted.xj = 0.5e-4;
+    tilted.vyi = 3e-3;
+    let jobs: Vec<CoefficientJob> = [
+        aligned_state(1.5e-4, 0.4e-4, 100.0),
+        tilted,
+        aligned_state(0.0, 0.0, 300.0),
+    ]
+    .iter()
+    .map(|s| CoefficientJob {
+        params: p,
+        state: *s,
+    })
+    .collect();
+    let g = coefficients_batch(&mut gev, &jobs, &DiffOptions::default());
+    let c = coefficients_batch(&mut cev, &jobs, &DiffOptions::default());
+    for (n, (g, c)) in g.iter().zip(&c).enumerate() {
+        let (g, c) = (g.as_ref().unwrap(), c.as_ref().unwrap());
+        let ks = c
+            .stiffness
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let cs = c
+            .damping
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        for i in 0..4 {
+            for j in 0..4 {
+                let tk = 2.0 * c.stiffness_error[i][j] + 1e-9 * ks;
+                let tc = 2.0 * c.damping_error[i][j] + 1e-9 * cs;
+                check(
+                    &format!("state {n}: GPU K[{i}][{j}]"),
+                    g.stiffness[i][j],
+                    c.stiffness[i][j],
+                    tk,
+                );
+                check(
+                    &format!("state {n}: GPU C[{i}][{j}]"),
+                    g.damping[i][j],
+                    c.damping[i][j],
+                    tc,
+                );
+            }
+        }
+    }
+}
