@@ -271,6 +271,10 @@ fn classical_short_bearing_stability_curve() {
             g2.sqrt()
         );
         let e_speed = (speed - w_th).abs() / w_th;
+        eprintln!(
+            "  relative threshold error {e_speed:.1e}, whirl ratio error {:.1e}",
+            (ratio - g2.sqrt()).abs()
+        );
         assert!(
             e_speed < 1e-5,
             "ε {eps}: threshold {speed} vs closed form {w_th}: {e_speed:e} > 1e-5"
@@ -699,7 +703,7 @@ fn figures() {
         .into_iter()
         .map(Result::unwrap)
         .collect();
-    let th = thresholds(&mut ev, &[&rotor], &[speeds.clone()]).remove(0);
+    let th = thresholds(&mut ev, &[&rotor], std::slice::from_ref(&speeds)).remove(0);
     std::fs::write(
         dir.join("stability-campbell.svg"),
         campbell_svg(
