@@ -720,3 +720,55 @@ fn figures() {
     )
     .unwrap();
 }
+
+#[test]
+fn scenes_without_a_linearisation_fail_with_the_field_named() {
+    let base = general_rotor(500.0);
+    let mut ideal = base.clone();
+    ideal.model = bearing_sweep::rotor::ModelKind::Ideal;
+    let e = RotorDescription::from_scene(&ideal).unwrap_err();
+    assert!(e.to_string().starts_with("model:"), "{e}");
+    let mut bad = base.clone();
+    bad.bearings[1].clearance = -1.0;
+    let e = RotorDescription::from_scene(&bad).unwrap_err();
+    assert!(e.to_string().starts_with("bearings[1].clearance"), "{e}");
+    // In a sweep, a variant without spin fails alone; the others are analysed.
+    let dir = cli_support::scratch("stability", "bad");
+    let spec = serde_json::json!({
+        "kind": "stability",
+        "base": serde_json::to_value(&base).unwrap(),
+        "axes": [{"path": "initial.spin", "values": [0.0, 500.0]}]
+    });
+    let spec_path = cli_support::write(&dir, "spin.json", &spec);
+    let (ok, err) = cli_support::run(&[
+        "run",
+        spec_path.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let result = cli_support::read(&dir.join("spin").join("result.json"));
+    let v = result["variants"].as_array().unwrap();
+    assert_eq!(v[0]["status"], "invalid_scene");
+    assert!(
+        v[0]["message"].as_str().unwrap().contains("initial.spin"),
+        "{}",
+        v[0]
+    );
+    assert_eq!(v[1]["status"], "ok");
+    assert!(v[1]["reductions"]["threshold_speed_rad_s"]
+        .as_f64()
+        .is_some());
+    // A scene file with no film model: the stability command says so.
+    let mut scene = serde_json::to_value(&ideal).unwrap();
+    scene["initial"]["offset"] = serde_json::json!([0.0, 0.0]);
+    let p = cli_support::write(&dir, "ideal.json", &scene);
+    let (ok, err) = cli_support::run(&[
+        "stability",
+        p.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.starts_with("error: model"), "{err}");
+}
