@@ -14,6 +14,9 @@ use bearing_sweep::cli::{
     BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
     SweepRunOptions,
 };
+use bearing_sweep::cli::{
+    coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
+};
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
 
@@ -42,6 +45,13 @@ enum Command {
     Serve(ServeArgs),
     /// Submit a sweep spec to a running service; prints its id.
     Submit(SubmitArgs),
+    /// Linearised bearing coefficients: `{"bearing", "speed" (or "speeds"), "load"}` or
+    /// `{"bearing", "state"}` -> equilibrium and 4x4 stiffness and damping (with tilt) and
+    /// their error estimates; `--format ross-csv` for ROSS BearingElement rows.
+    Coefficients(CoefficientsArgs),
+    /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
+    /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
+    Stability(StabilityArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -188,6 +198,40 @@ struct SubmitArgs {
 }
 
 #[derive(Args)]
+struct CoefficientsArgs {
+    /// Input JSON file, `-` for standard input.
+    file: String,
+    /// Output: `json` or `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy).
+    #[arg(long, default_value = "json")]
+    format: String,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads (the coefficients are differences of loads).
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
+struct StabilityArgs {
+    /// Scene file (as `run` reads it).
+    file: String,
+    /// Speeds of the Campbell diagram and threshold scan, rad/s, comma-separated
+    /// (default: 41 speeds from 0.1x to 10x the scene's spin).
+    #[arg(long, value_delimiter = ',')]
+    speeds: Vec<f64>,
+    /// Output root folder (stability.json, campbell.svg, damping.svg in OUT/<stem>/).
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
 struct MergeArgs {
     /// Merged result file.
     out: String,
@@ -296,6 +340,8 @@ fn main() -> ExitCode {
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
         Command::Serve(a) => serve(a),
         Command::Submit(a) => submit(a),
+        Command::Coefficients(a) => coefficients_cmd(a),
+        Command::Stability(a) => stability_cmd(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
@@ -328,6 +374,56 @@ fn print_lines(lines: Vec<String>) {
     for l in lines {
         eprintln!("{l}");
     }
+}
+
+/// `coefficients`: linearised K and C, JSON (or ROSS CSV) on stdout.
+fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
+    if a.format != "json" && a.format != "ross-csv" {
+        return Err(CliError::input(
+            "--format",
+            format!("`{}`: expected json or ross-csv", a.format),
+        ));
+    }
+    let text = read_input(&a.file)?;
+    let (out, notices) = coefficients_json_with(
+        &text,
+        CoefficientOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+        },
+    )?;
+    for n in notices {
+        eprintln!("{n}");
+    }
+    if a.format == "ross-csv" {
+        print!("{}", ross_csv(&out));
+    } else {
+        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    }
+    Ok(())
+}
+
+/// `stability`: modes, threshold and Campbell diagram of a scene.
+fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
+    let text = read_input(&a.file)?;
+    let (out, files, notices) = stability_scene_file(
+        &a.file,
+        &text,
+        &StabilityOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+            speeds: a.speeds,
+            out: Some(a.out),
+        },
+    )?;
+    for n in notices {
+        eprintln!("{n}");
+    }
+    for f in files {
+        eprintln!("wrote {}", f.display());
+    }
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    Ok(())
 }
 
 /// `eval`: film loads of the states in a file, JSON on stdout.

@@ -358,3 +358,230 @@ fn centred_journal_is_a_damper_with_half_speed_cross_coupling() {
         }
     }
 }
+
+mod cli_support;
+
+/// Runs the binary: (success, stdout, stderr).
+fn run_cli(args: &[&str], stdin: Option<&str>) -> (bool, String, String) {
+    use std::io::Write;
+    let mut cmd = cli_support::bin();
+    cmd.args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    let mut child = cmd.spawn().unwrap();
+    if let Some(text) = stdin {
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all(text.as_bytes())
+            .unwrap();
+    } else {
+        drop(child.stdin.take());
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const FRISWELL: &str = r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1},
+                           "speed": 157.1, "load": [0, -525]}"#;
+
+#[test]
+fn cli_service_function_and_ross_rows_agree_with_the_library() {
+    let (ok, out, err) = run_cli(&["coefficients", "-"], Some(FRISWELL));
+    assert!(ok, "{err}");
+    let cli: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // The service's one-line entry point gives the same document.
+    let lib = bearing_sweep::cli::coefficients_json(FRISWELL).unwrap();
+    assert_eq!(cli["stiffness"], lib["stiffness"]);
+    assert_eq!(cli["damping"], lib["damping"]);
+    // ... and the same as the library's own pieces.
+    let p = bearing(0.05, 0.03, 1e-4, 0.1);
+    let mut ev = evaluator();
+    let eq = bearing_equilibria(&mut ev, &[(p, 157.1, [0.0, -525.0])])
+        .remove(0)
+        .unwrap();
+    let c = coeffs_at(&mut ev, p, eq.x, eq.y, 157.1);
+    for i in 0..4 {
+        for j in 0..4 {
+            let k = cli["stiffness"][i][j].as_f64().unwrap();
+            assert_eq!(
+                k, c.stiffness[i][j],
+                "K[{i}][{j}]: CLI {k} vs library {}",
+                c.stiffness[i][j]
+            );
+        }
+    }
+    assert_eq!(
+        cli["order"],
+        serde_json::json!(["x", "y", "tilt_x", "tilt_y"])
+    );
+    let eps = cli["equilibrium"]["eccentricity_ratio"].as_f64().unwrap();
+    check("CLI ε", eps, 0.2663, 5e-5);
+    // ROSS rows: speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy (the force block).
+    let (ok, csv, err) = run_cli(
+        &["coefficients", "--format", "ross-csv", "-"],
+        Some(FRISWELL),
+    );
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "speed,kxx,kxy,kyx,kyy,cxx,cxy,cyx,cyy");
+    let row: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
+    let want = [
+        157.1,
+        c.stiffness[0][0],
+        c.stiffness[0][1],
+        c.stiffness[1][0],
+        c.stiffness[1][1],
+        c.damping[0][0],
+        c.damping[0][1],
+        c.damping[1][0],
+        c.damping[1][1],
+    ];
+    for (k, (a, e)) in row.iter().zip(want).enumerate() {
+        check(&format!("ROSS column {k}"), *a, e, 1e-12 * e.abs());
+    }
+    // A speed list: one row per speed, rising direct stiffness... and each row equal to
+    // its single-speed run.
+    let (ok, out, err) = run_cli(
+        &["coefficients", "-"],
+        Some(
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1},
+                 "speeds": [100, 157.1, 300], "load": [0, -525]}"#,
+        ),
+    );
+    assert!(ok, "{err}");
+    let many: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(many["points"].as_array().unwrap().len(), 3);
+    assert_eq!(many["points"][1]["stiffness"], cli["stiffness"]);
+}
+
+#[test]
+fn bad_coefficient_inputs_name_the_field() {
+    let cases = [
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": -1e-4, "viscosity": 0.1}, "speed": 1, "load": [0, 1]}"#,
+            "bearing.clearance",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speed": 1}"#,
+            "load",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speed": "fast", "load": [0, 1]}"#,
+            "speed",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speeds": [1, null], "load": [0, 1]}"#,
+            "speeds[1]",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speed": 0, "load": [0, 1]}"#,
+            "speed",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speed": 1, "load": [0]}"#,
+            "load",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "state": {"xi": 2e-4}}"#,
+            "state",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "state": {"xi": 0}, "speed": 3}"#,
+            "speed",
+        ),
+        (
+            r#"{"bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1}, "speed": 1, "load": [0, 1], "lod": 2}"#,
+            "lod",
+        ),
+    ];
+    for (input, field) in cases {
+        let (ok, out, err) = run_cli(&["coefficients", "-"], Some(input));
+        assert!(!ok, "{input}: succeeded with {out}");
+        assert!(
+            err.starts_with(&format!("error: {field}")),
+            "{input}: want an error at `{field}`, got {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn gpu_backend_gives_the_cpu_coefficients_within_their_error() {
+    // The perturbed states go through whatever backend the evaluator wraps: the f64 GPU
+    // kernel must give the CPU's coefficients to within the differences' own error
+    // estimate. Skips with a notice without an adapter, unless BEARING_SWEEP_REQUIRE_GPU=1.
+    use bearing_sweep::backend::{GpuBackend, GpuOptions, Precision};
+    let accuracy = Accuracy::new(1e-12).unwrap();
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let gpu = match GpuBackend::new(accuracy, options) {
+        Ok(g) => g,
+        Err(e) if std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1") => {
+            panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}")
+        }
+        Err(e) => {
+            eprintln!("notice: skipping the GPU case: {e}");
+            return;
+        }
+    };
+    let mut gev = LoadEvaluator::new(Box::new(gpu));
+    let mut cev = evaluator();
+    let p = bearing(0.02, 0.02, 3e-4, 0.0242);
+    // An aligned loaded state, a tilted whirling one and the centred one, in one call each.
+    let mut tilted = aligned_state(1.2e-4, -0.6e-4, 150.0);
+    tilted.xj = 0.5e-4;
+    tilted.vyi = 3e-3;
+    let jobs: Vec<CoefficientJob> = [
+        aligned_state(1.5e-4, 0.4e-4, 100.0),
+        tilted,
+        aligned_state(0.0, 0.0, 300.0),
+    ]
+    .iter()
+    .map(|s| CoefficientJob {
+        params: p,
+        state: *s,
+    })
+    .collect();
+    let g = coefficients_batch(&mut gev, &jobs, &DiffOptions::default());
+    let c = coefficients_batch(&mut cev, &jobs, &DiffOptions::default());
+    for (n, (g, c)) in g.iter().zip(&c).enumerate() {
+        let (g, c) = (g.as_ref().unwrap(), c.as_ref().unwrap());
+        let ks = c
+            .stiffness
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let cs = c
+            .damping
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        for i in 0..4 {
+            for j in 0..4 {
+                let tk = 2.0 * c.stiffness_error[i][j] + 1e-9 * ks;
+                let tc = 2.0 * c.damping_error[i][j] + 1e-9 * cs;
+                check(
+                    &format!("state {n}: GPU K[{i}][{j}]"),
+                    g.stiffness[i][j],
+                    c.stiffness[i][j],
+                    tk,
+                );
+                check(
+                    &format!("state {n}: GPU C[{i}][{j}]"),
+                    g.damping[i][j],
+                    c.damping[i][j],
+                    tc,
+                );
+            }
+        }
+    }
+}

@@ -271,6 +271,10 @@ fn classical_short_bearing_stability_curve() {
             g2.sqrt()
         );
         let e_speed = (speed - w_th).abs() / w_th;
+        eprintln!(
+            "  relative threshold error {e_speed:.1e}, whirl ratio error {:.1e}",
+            (ratio - g2.sqrt()).abs()
+        );
         assert!(
             e_speed < 1e-5,
             "ε {eps}: threshold {speed} vs closed form {w_th}: {e_speed:e} > 1e-5"
@@ -458,4 +462,313 @@ fn general_rotor_linear_modes_match_the_simulated_transient() {
         );
         assert_eq!(linear[0].sigma_1_s < 0.0, factor < 1.0);
     }
+}
+
+#[test]
+fn unbalanced_rotor_synchronous_orbit_is_the_rotating_frame_equilibrium() {
+    // The paper's example (MODEL.md section 8: 1 mm static unbalance, no gravity) with the
+    // spin held: after the transient (least-damped mode σ ≈ −65 1/s) every journal runs on
+    // a circle at the spin, the equilibrium of the frame turning with the shaft.
+    let mut scene = load_scene(include_str!("../sweeps/paper-example.json"))
+        .unwrap()
+        .remove(0);
+    scene.spin = bearing_sweep::rotor::SpinMode::Held;
+    let rotor = RotorDescription::from_scene(&scene).unwrap();
+    assert_eq!(rotor.frame, bearing_sweep::stability::Frame::Rotating);
+    let spin = scene.initial.spin;
+    let mut ev = evaluator();
+    let a = analyse_points(&mut ev, &[(&rotor, spin)])
+        .remove(0)
+        .unwrap();
+    let slowest = a
+        .modes
+        .iter()
+        .map(|m| m.sigma_1_s)
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(slowest < -30.0, "least-damped σ {slowest}");
+    let mut s = scene.clone();
+    s.integrator.t_end = 0.4;
+    s.integrator.rtol = 1e-10;
+    s.integrator.atol = 1e-10;
+    let r = simulate(std::slice::from_ref(&s)).remove(0);
+    assert_eq!(r.status, SimStatus::Finished);
+    // From 0.3 s: the transient is below e^{σ 0.3} ≈ 5e-9 of its start.
+    let k0 = r.samples.t.iter().position(|&t| t >= 0.3).unwrap();
+    for (b, (series, point)) in r
+        .samples
+        .bearings
+        .iter()
+        .zip(&a.linear.bearings)
+        .enumerate()
+    {
+        let st = point.state;
+        for (name, x, y, ex, ey) in [
+            ("i", &series.xi, &series.yi, st.xi, st.yi),
+            ("j", &series.xj, &series.yj, st.xj, st.yj),
+        ] {
+            let want = ex.hypot(ey);
+            let mut worst: f64 = 0.0;
+            for n in k0..r.samples.t.len() {
+                // In the turning frame the end centre stands still at (ex, ey).
+                let ang = spin * r.samples.t[n];
+                let (sn, c) = ang.sin_cos();
+                let (xr, yr) = (c * x[n] + sn * y[n], -sn * x[n] + c * y[n]);
+                worst = worst.max((xr - ex).hypot(yr - ey));
+            }
+            eprintln!("bearing {b} end {name}: orbit radius {want:.6e} m; largest distance from the turning-frame equilibrium {worst:.2e} m");
+            assert!(
+                worst < 1e-6 * want,
+                "bearing {b} end {name}: {worst:e} m off the equilibrium orbit (radius {want:e})"
+            );
+        }
+    }
+}
+
+mod cli_support;
+
+#[test]
+fn stability_cli_and_sweep_agree_with_the_library() {
+    use bearing_sweep::stability::{geometric_grid, thresholds, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
+    let dir = cli_support::scratch("stability", "cli");
+    // `stability SCENE`: the modes and threshold of the library, and the figures.
+    let scene_path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/oil-whirl.json");
+    let out = cli_support::bin()
+        .args(["stability", scene_path, "--speeds", "100,300,600", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let scene = load_scene(WHIRL).unwrap().remove(0);
+    let rotor = RotorDescription::from_scene(&scene).unwrap();
+    let mut ev = evaluator();
+    let a = analyse_points(&mut ev, &[(&rotor, 300.0)])
+        .remove(0)
+        .unwrap();
+    assert_eq!(
+        doc["modes"][0]["sigma_1_s"].as_f64().unwrap(),
+        a.modes[0].sigma_1_s
+    );
+    assert_eq!(
+        doc["modes"][0]["whirl_ratio"].as_f64().unwrap(),
+        a.modes[0].whirl_ratio
+    );
+    // The unloaded centred journal whirls at every speed: no threshold, and it says why.
+    assert!(doc["threshold_speed_rad_s"].is_null());
+    assert!(doc["threshold"]["note"]
+        .as_str()
+        .unwrap()
+        .contains("unstable already"));
+    assert_eq!(doc["campbell"].as_array().unwrap().len(), 3);
+    for f in ["stability.json", "campbell.svg", "damping.svg"] {
+        let p = dir.join("oil-whirl").join(f);
+        let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(text.len() > 200, "{f}: {} bytes", text.len());
+    }
+    // Bad speeds name the option.
+    let (ok, err) = cli_support::run(&["stability", scene_path, "--speeds", "100,-5"]);
+    assert!(!ok && err.contains("--speeds[1]"), "{err}");
+
+    // A `stability` sweep: each variant's threshold is the library's on the same grid.
+    let spec = serde_json::json!({
+        "kind": "stability",
+        "base": serde_json::to_value(general_rotor(500.0)).unwrap(),
+        "axes": [
+            {"path": "bearings[*].clearance", "values": [8e-5, 1.5e-4]},
+            {"path": "bearings[*].viscosity", "values": [0.01, 0.03]}
+        ]
+    });
+    let spec_path = cli_support::write(&dir, "stab.json", &spec);
+    let (ok, err) = cli_support::run(&[
+        "run",
+        spec_path.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let result = cli_support::read(&dir.join("stab").join("result.json"));
+    let variants = result["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), 4);
+    for v in variants {
+        assert_eq!(v["status"], "ok", "{v}");
+        let mut s = general_rotor(500.0);
+        for b in &mut s.bearings {
+            b.clearance = v["params"]["bearings[*].clearance"].as_f64().unwrap();
+            b.viscosity = v["params"]["bearings[*].viscosity"].as_f64().unwrap();
+        }
+        let r = RotorDescription::from_scene(&s).unwrap();
+        let grid = geometric_grid(SCAN_LOW * 500.0, SCAN_HIGH * 500.0, SCAN_POINTS);
+        let t = thresholds(&mut ev, &[&r], &[grid]).remove(0);
+        let got = v["reductions"]["threshold_speed_rad_s"].as_f64();
+        assert_eq!(
+            got, t.speed_rad_s,
+            "variant {}: sweep {got:?} vs library {:?}",
+            v["id"], t.speed_rad_s
+        );
+        let a = analyse_points(&mut ev, &[(&r, 500.0)]).remove(0).unwrap();
+        assert_eq!(
+            v["reductions"]["stable"].as_bool().unwrap(),
+            a.max_growth() < 0.0
+        );
+        assert!(v["reductions"]["log_dec_min"].as_f64().is_some());
+    }
+}
+
+/// Writes the figures of docs/stability.md when `BEARING_SWEEP_STABILITY_FIGURES` names a
+/// folder (nothing otherwise): the short-bearing stability curve (ours against Lund's
+/// closed form) and the general rotor's Campbell and damping diagrams.
+#[test]
+fn figures() {
+    use bearing_sweep::plot::{line_plot_svg, Scale, Series};
+    use bearing_sweep::stability::{campbell_svg, damping_svg, geometric_grid, thresholds};
+    let Ok(dir) = std::env::var("BEARING_SWEEP_STABILITY_FIGURES") else {
+        return;
+    };
+    let dir = std::path::PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (g, d): (f64, f64) = (9.81, 1e-4);
+    let mut ev = evaluator();
+    let mut closed = Vec::new();
+    let mut closed_ratio = Vec::new();
+    let mut eps = 0.02;
+    while eps < 0.755 {
+        let (w, g2) = lund(eps);
+        closed.push((eps, w));
+        closed_ratio.push((eps, g2.sqrt()));
+        eps += 0.005;
+    }
+    let mut ours = Vec::new();
+    let mut ours_ratio = Vec::new();
+    for eps in [
+        0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65, 0.7, 0.72, 0.74, 0.75,
+    ] {
+        let w_th = lund(eps).0 * (g / d).sqrt();
+        let rotor = RotorDescription::from_scene(&symmetric_rotor(eps, w_th)).unwrap();
+        let t = thresholds(
+            &mut ev,
+            &[&rotor],
+            &[geometric_grid(0.5 * w_th, 2.0 * w_th, 5)],
+        )
+        .remove(0);
+        ours.push((eps, t.speed_rad_s.unwrap() / (g / d).sqrt()));
+        ours_ratio.push((eps, t.whirl_ratio.unwrap()));
+    }
+    let svg = line_plot_svg(
+        "Short-bearing stability curve (rigid symmetric rotor)",
+        "eccentricity ratio at threshold",
+        "threshold speed x sqrt(clearance / g)",
+        &[
+            Series {
+                label: "Lund's closed form (short-bearing K, C)",
+                points: closed,
+            },
+            Series {
+                label: "this code: eigenvalues + threshold search",
+                points: ours,
+            },
+        ],
+        Scale::Linear,
+        Scale::Log,
+    )
+    .unwrap();
+    std::fs::write(dir.join("stability-curve.svg"), svg).unwrap();
+    let svg = line_plot_svg(
+        "Whirl ratio at the threshold",
+        "eccentricity ratio at threshold",
+        "whirl frequency / speed",
+        &[
+            Series {
+                label: "Lund's closed form",
+                points: closed_ratio,
+            },
+            Series {
+                label: "this code",
+                points: ours_ratio,
+            },
+        ],
+        Scale::Linear,
+        Scale::Linear,
+    )
+    .unwrap();
+    std::fs::write(dir.join("stability-whirl-ratio.svg"), svg).unwrap();
+    let rotor = RotorDescription::from_scene(&general_rotor(500.0)).unwrap();
+    let speeds = geometric_grid(50.0, 1500.0, 40);
+    let pts: Vec<_> = speeds.iter().map(|&w| (&rotor, w)).collect();
+    let runs: Vec<_> = analyse_points(&mut ev, &pts)
+        .into_iter()
+        .map(Result::unwrap)
+        .collect();
+    let th = thresholds(&mut ev, &[&rotor], std::slice::from_ref(&speeds)).remove(0);
+    std::fs::write(
+        dir.join("stability-campbell.svg"),
+        campbell_svg(
+            "Campbell diagram: general rigid rotor (tests/stability.rs)",
+            &runs,
+            th.speed_rad_s,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("stability-damping.svg"),
+        damping_svg("Damping ratio vs speed: general rigid rotor", &runs).unwrap(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn scenes_without_a_linearisation_fail_with_the_field_named() {
+    let base = general_rotor(500.0);
+    let mut ideal = base.clone();
+    ideal.model = bearing_sweep::rotor::ModelKind::Ideal;
+    let e = RotorDescription::from_scene(&ideal).unwrap_err();
+    assert!(e.to_string().starts_with("model:"), "{e}");
+    let mut bad = base.clone();
+    bad.bearings[1].clearance = -1.0;
+    let e = RotorDescription::from_scene(&bad).unwrap_err();
+    assert!(e.to_string().starts_with("bearings[1].clearance"), "{e}");
+    // In a sweep, a variant without spin fails alone; the others are analysed.
+    let dir = cli_support::scratch("stability", "bad");
+    let spec = serde_json::json!({
+        "kind": "stability",
+        "base": serde_json::to_value(&base).unwrap(),
+        "axes": [{"path": "initial.spin", "values": [0.0, 500.0]}]
+    });
+    let spec_path = cli_support::write(&dir, "spin.json", &spec);
+    let (ok, err) = cli_support::run(&[
+        "run",
+        spec_path.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let result = cli_support::read(&dir.join("spin").join("result.json"));
+    let v = result["variants"].as_array().unwrap();
+    assert_eq!(v[0]["status"], "invalid_scene");
+    assert!(
+        v[0]["message"].as_str().unwrap().contains("initial.spin"),
+        "{}",
+        v[0]
+    );
+    assert_eq!(v[1]["status"], "ok");
+    assert!(v[1]["reductions"]["threshold_speed_rad_s"]
+        .as_f64()
+        .is_some());
+    // A scene file with no film model: the stability command says so.
+    let mut scene = serde_json::to_value(&ideal).unwrap();
+    scene["initial"]["offset"] = serde_json::json!([0.0, 0.0]);
+    let p = cli_support::write(&dir, "ideal.json", &scene);
+    let (ok, err) = cli_support::run(&[
+        "stability",
+        p.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.starts_with("error: model"), "{err}");
 }

@@ -3,10 +3,12 @@
 
 mod bench;
 mod bench_rotor;
+mod coefficients;
 mod eval;
 mod output;
 mod run;
 mod serve;
+mod stability;
 mod submit;
 mod sweep;
 
@@ -14,10 +16,14 @@ pub use bench::bench_backend;
 pub use bench_rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
 };
+pub use coefficients::{
+    coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
+};
 pub use eval::{eval_json, EvalOptions};
 pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use serve::{serve_command, TOKEN_ENV};
+pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 

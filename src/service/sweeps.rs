@@ -56,7 +56,9 @@ pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
 /// stored).
 pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {
     let validator: &crate::sweep::expand::SceneValidator = match spec.kind {
-        crate::sweep::SweepKind::Rotor => &crate::sweep::rotor_sim::validate_scene,
+        crate::sweep::SweepKind::Rotor | crate::sweep::SweepKind::Stability => {
+            &crate::sweep::rotor_sim::validate_scene
+        }
         crate::sweep::SweepKind::Synthetic => &crate::sweep::synthetic::validate,
     };
     Expansion::new(spec).validate_all(spec, validator)

@@ -1,6 +1,6 @@
 //! Stability of rotors over speed: modes at given speeds, and the threshold speed (the
 //! lowest speed where the least-damped growth rate crosses zero) by a scan over a speed
-//! grid and bisection, every step in lockstep over all rotors (one evaluator call per
+//! grid and regula falsi (Illinois), every step in lockstep over all rotors (one evaluator call per
 //! Newton iteration for all of them).
 
 use serde::Serialize;
@@ -59,10 +59,10 @@ pub struct Threshold {
     pub whirl_ratio: Option<f64>,
     /// Its whirl frequency, rad/s.
     pub frequency_rad_s: Option<f64>,
-    /// Bracket `[stable, unstable]` after the bisection, rad/s.
+    /// Bracket `[stable, unstable]` after the search, rad/s.
     pub bracket_rad_s: Option<[f64; 2]>,
-    /// Bisection steps.
-    pub bisections: u32,
+    /// Bracketing steps after the scan (Illinois regula falsi).
+    pub iterations: u32,
     /// Largest growth rate at each grid speed, 1/s (`null` where the analysis failed).
     pub grid_growth_1_s: Vec<Option<f64>>,
     /// Grid speeds, rad/s.
@@ -71,9 +71,9 @@ pub struct Threshold {
     pub note: String,
 }
 
-/// Relative width of the final bisection bracket.
+/// Relative width of the final bracket.
 pub const THRESHOLD_RTOL: f64 = 1e-7;
-/// Bisection steps at most.
+/// Bracketing steps at most.
 const MAX_BISECTIONS: u32 = 60;
 
 /// Geometric speed grid of `n` points from `lo` to `hi`, rad/s.
@@ -137,22 +137,34 @@ pub fn thresholds(
             whirl_ratio: None,
             frequency_rad_s: None,
             bracket_rad_s: bracket.map(|(a, b)| [a, b]),
-            bisections: 0,
+            iterations: 0,
             grid_growth_1_s: growth,
             grid_rad_s: g.clone(),
             note,
         });
     }
-    // Bisection, in lockstep. The crossing mode is the least-damped one at the unstable end.
+    // Bracketing in lockstep: the Illinois variant of regula falsi on the largest growth
+    // rate (smooth near the crossing: one mode crosses), which keeps the bracket and
+    // converges superlinearly (about 6-8 steps to 1e-7 instead of bisection's 22). The
+    // crossing mode is the least-damped one at the unstable end.
     let mut last_unstable: Vec<Option<Mode>> = vec![None; rotors.len()];
+    // (g_lo, g_hi, side last moved: -1 lo, +1 hi, 0 none)
+    let mut gvals: Vec<(f64, f64, i8)> = vec![(0.0, 0.0, 0); rotors.len()];
+    let mut offset = 0;
     for (k, b) in brackets.iter().enumerate() {
-        if let Some((_, hi)) = b {
-            let idx: usize = grids[..k].iter().map(Vec::len).sum::<usize>()
-                + grids[k].iter().position(|w| w == hi).unwrap_or(0);
-            if let Ok(a) = &scan[idx] {
+        if let Some((lo, hi)) = b {
+            let i_lo = grids[k].iter().position(|w| w == lo).unwrap_or(0);
+            let i_hi = grids[k].iter().position(|w| w == hi).unwrap_or(0);
+            gvals[k] = (
+                out[k].grid_growth_1_s[i_lo].unwrap_or(-1.0),
+                out[k].grid_growth_1_s[i_hi].unwrap_or(1.0),
+                0,
+            );
+            if let Ok(a) = &scan[offset + i_hi] {
                 last_unstable[k] = top_mode(&a.modes);
             }
         }
+        offset += grids[k].len();
     }
     for _ in 0..MAX_BISECTIONS {
         let active: Vec<usize> = (0..rotors.len())
@@ -165,21 +177,39 @@ pub fn thresholds(
             .iter()
             .map(|&k| {
                 let (lo, hi) = brackets[k].expect("active");
-                (rotors[k], 0.5 * (lo + hi))
+                let (glo, ghi, _) = gvals[k];
+                let x = (lo * ghi - hi * glo) / (ghi - glo);
+                // Safeguard: strictly inside, not closer than 1e-3 of the width... unless
+                // the bracket is already tiny (then the midpoint).
+                let w = hi - lo;
+                let x = if x.is_finite() {
+                    x.clamp(lo + 1e-3 * w, hi - 1e-3 * w)
+                } else {
+                    0.5 * (lo + hi)
+                };
+                (rotors[k], x)
             })
             .collect();
         let res = analyse_points(evaluator, &pts);
         for ((&k, (_, mid)), r) in active.iter().zip(&pts).zip(res) {
             let (lo, hi) = brackets[k].expect("active");
-            out[k].bisections += 1;
+            let (glo, ghi, side) = gvals[k];
+            out[k].iterations += 1;
             match r {
                 Ok(a) if a.max_growth() >= 0.0 => {
                     brackets[k] = Some((lo, *mid));
+                    // Illinois: the same end moved twice in a row halves the other's value.
+                    let glo = if side == 1 { 0.5 * glo } else { glo };
+                    gvals[k] = (glo, a.max_growth(), 1);
                     last_unstable[k] = top_mode(&a.modes);
                 }
-                Ok(_) => brackets[k] = Some((*mid, hi)),
+                Ok(a) => {
+                    brackets[k] = Some((*mid, hi));
+                    let ghi = if side == -1 { 0.5 * ghi } else { ghi };
+                    gvals[k] = (a.max_growth(), ghi, -1);
+                }
                 Err(e) => {
-                    out[k].note = format!("bisection stopped at {mid} rad/s: {e}");
+                    out[k].note = format!("threshold search stopped at {mid} rad/s: {e}");
                     brackets[k] = None;
                     out[k].bracket_rad_s = Some([lo, hi]);
                 }

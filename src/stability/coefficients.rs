@@ -9,6 +9,9 @@
 //! from the mid-plane is `(x + ζ tilt_y, y − ζ tilt_x)`. Loads: the film force on the
 //! journal `(W_x, W_y)`, N, and its moment about the mid-plane centre `(M_x, M_y)`, N·m.
 
+// Index loops mirror the matrix subscripts.
+#![allow(clippy::needless_range_loop)]
+
 use super::StabilityError;
 use crate::backend::{LoadEvaluator, LoadRequest};
 use crate::bearing::{BearingParams, BearingState, Loads};

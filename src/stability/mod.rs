@@ -8,6 +8,8 @@ mod equilibrium;
 mod error;
 mod linear;
 mod modes;
+mod plots;
+mod sweep_sim;
 
 pub use analysis::{
     analyse_points, geometric_grid, thresholds, SpeedAnalysis, Threshold, THRESHOLD_RTOL,
@@ -25,3 +27,5 @@ pub use linear::{
     bearing_state, linearise_batch, BearingPoint, Frame, LinearRotor, RotorDescription, M4,
 };
 pub use modes::{max_growth, modes, Mode, Shape};
+pub use plots::{campbell_svg, damping_svg};
+pub use sweep_sim::{StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};

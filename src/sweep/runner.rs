@@ -612,7 +612,7 @@ pub fn write_plots(
 }
 
 /// One variant's stream line.
-fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outcome) -> Value {
+fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, mut o: Outcome) -> Value {
     let mut m = Map::new();
     m.insert("id".into(), json!(v.id));
     m.insert("params".into(), v.params(spec));
@@ -629,6 +629,14 @@ fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outcome) -> Val
         if let Some(series) = kept_series(s, &spec.reductions) {
             m.insert("series".into(), series);
         }
+    } else if let Some(r) = o
+        .extra
+        .as_mut()
+        .and_then(|e| e.as_object_mut())
+        .and_then(|e| e.remove("reductions"))
+    {
+        // A simulator without signals (the stability analysis) reports its own reductions.
+        m.insert("reductions".into(), r);
     } else {
         m.insert("reductions".into(), Value::Null);
     }

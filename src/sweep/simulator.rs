@@ -58,6 +58,29 @@ pub fn prepare_simulator(
             validator: &synthetic::validate,
             settings: json!({"simulator": "synthetic"}),
         }),
+        SweepKind::Stability => {
+            super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
+            // The coefficients are differences of film loads: always the tightest level
+            // (README "Coefficients and stability").
+            let tight = Accuracy::new(1e-12).expect("a calibrated level");
+            if choice.accuracy.rtol() != tight.rtol() {
+                notice(format!(
+                    "notice: stability sweeps evaluate the film at accuracy 1e-12 (not {:e})",
+                    choice.accuracy.rtol()
+                ));
+            }
+            let (backend, n) = create_backend(choice.backend, tight)?;
+            if let Some(n) = n {
+                notice(n);
+            }
+            let sim = crate::stability::StabilitySimulator::new(LoadEvaluator::new(backend));
+            let settings = sim.settings(tight.rtol());
+            Ok(PreparedSimulator {
+                sim: Box::new(sim),
+                validator: &validate_scene,
+                settings,
+            })
+        }
         SweepKind::Rotor => {
             super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
             let (backend, n) = create_backend(choice.backend, choice.accuracy)?;

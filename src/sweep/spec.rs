@@ -31,6 +31,9 @@ pub enum SweepKind {
     Rotor,
     /// Analytic stand-in signals with known reductions (tests, trying the machinery).
     Synthetic,
+    /// Rotor scenes analysed by linear stability (threshold speed, least log-dec; no time
+    /// integration; `crate::stability::StabilitySimulator`).
+    Stability,
 }
 
 impl SweepKind {
@@ -39,6 +42,7 @@ impl SweepKind {
         match self {
             SweepKind::Rotor => "rotor",
             SweepKind::Synthetic => "synthetic",
+            SweepKind::Stability => "stability",
         }
     }
 }
@@ -301,11 +305,12 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
     let kind = match obj.get("kind").map(|k| (k, k.as_str())) {
         None | Some((_, Some("rotor"))) => SweepKind::Rotor,
         Some((_, Some("synthetic"))) => SweepKind::Synthetic,
+        Some((_, Some("stability"))) => SweepKind::Stability,
         Some((_, Some(other))) => {
             return Err(SweepError::spec(
                 "kind",
                 format!(
-                    "unknown kind `{}` (expected rotor, synthetic or friction_map)",
+                    "unknown kind `{}` (expected rotor, synthetic, stability or friction_map)",
                     crate::json::quote(other)
                 ),
             ))

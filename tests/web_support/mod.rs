@@ -148,7 +148,10 @@ impl Server {
                     break;
                 }
             }
-            assert!(Instant::now() < deadline, "{base}/healthz not ready within 60 s");
+            assert!(
+                Instant::now() < deadline,
+                "{base}/healthz not ready within 60 s"
+            );
             std::thread::sleep(Duration::from_millis(100));
         }
         Server {
@@ -187,7 +190,11 @@ impl Drop for Browser {
 
 impl Browser {
     /// Starts chromedriver and a headless chromium session at the given viewport size.
-    pub fn start(chromium: &Path, chromedriver: &Path, profile: PathBuf) -> Result<Browser, String> {
+    pub fn start(
+        chromium: &Path,
+        chromedriver: &Path,
+        profile: PathBuf,
+    ) -> Result<Browser, String> {
         let port = free_port();
         let child = Command::new(chromedriver)
             .arg(format!("--port={port}"))
@@ -293,14 +300,18 @@ impl Browser {
 
     /// Clicks the first match (scrolled into view by the driver, as a person would).
     pub fn click(&self, css: &str) {
-        let id = self.find(css).unwrap_or_else(|e| panic!("click {css}: {e}"));
+        let id = self
+            .find(css)
+            .unwrap_or_else(|e| panic!("click {css}: {e}"));
         self.cmd("POST", &format!("/element/{id}/click"), Some(json!({})))
             .unwrap_or_else(|e| panic!("click {css}: {e}"));
     }
 
     /// Types text into the first match (keys, as a person would).
     pub fn type_into(&self, css: &str, text: &str) {
-        let id = self.find(css).unwrap_or_else(|e| panic!("type into {css}: {e}"));
+        let id = self
+            .find(css)
+            .unwrap_or_else(|e| panic!("type into {css}: {e}"));
         self.cmd(
             "POST",
             &format!("/element/{id}/value"),
@@ -310,7 +321,9 @@ impl Browser {
     }
 
     pub fn clear(&self, css: &str) {
-        let id = self.find(css).unwrap_or_else(|e| panic!("clear {css}: {e}"));
+        let id = self
+            .find(css)
+            .unwrap_or_else(|e| panic!("clear {css}: {e}"));
         self.cmd("POST", &format!("/element/{id}/clear"), Some(json!({})))
             .unwrap_or_else(|e| panic!("clear {css}: {e}"));
     }
