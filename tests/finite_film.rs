@@ -358,3 +358,217 @@ fn raimondi_boyd_full_bearing() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Backends and interfaces.
+
+use bearing_sweep::backend::{
+    CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest, Precision,
+};
+
+/// States over the film's range: aligned, tilted, whirling, squeezing, near the wall.
+fn mixed_states(p: &BearingParams, n: usize) -> Vec<BearingState> {
+    let d = p.clearance;
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * 0.7;
+            let e = 0.05 + 0.9 * ((k * 37 % 101) as f64 / 100.0);
+            let tilt = if k % 3 == 0 { 0.0 } else { 0.3 };
+            BearingState {
+                xi: e * d * t.cos(),
+                yi: e * d * t.sin(),
+                xj: e * d * (1.0 - tilt) * (t + 0.2).cos(),
+                yj: e * d * (1.0 - tilt) * (t + 0.2).sin(),
+                vxi: if k % 4 == 1 { 0.2 * d } else { 0.0 },
+                vyi: if k % 4 == 2 { -0.3 * d } else { 0.0 },
+                vxj: 0.0,
+                vyj: if k % 5 == 0 { 0.1 * d } else { 0.0 },
+                omega: if k % 7 == 3 { 0.0 } else { 1.0 },
+            }
+        })
+        .collect()
+}
+
+fn gpu_required() -> bool {
+    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+fn gpu_f64() -> Option<GpuBackend> {
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    match GpuBackend::new(Accuracy::default(), options) {
+        Ok(b) => Some(b),
+        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
+        Err(e) => {
+            eprintln!("notice: skipping the finite-film GPU cases: {e}");
+            None
+        }
+    }
+}
+
+fn eval_all(ev: &mut LoadEvaluator, p: &BearingParams, states: &[BearingState]) -> Vec<Loads> {
+    let req: Vec<LoadRequest> = states
+        .iter()
+        .map(|&state| LoadRequest { bearing: 0, state })
+        .collect();
+    let mut out = Vec::new();
+    ev.evaluate(&[*p], &req, &mut out);
+    out.into_iter()
+        .enumerate()
+        .map(|(k, r)| r.unwrap_or_else(|e| panic!("state {k}: {e}")))
+        .collect()
+}
+
+fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    let n = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+    // A state without pressure (no spin, no squeeze): both zero.
+    if n > 0.0 {
+        d / n
+    } else {
+        d
+    }
+}
+
+/// The evaluator's finite path (CPU backend, threads over states) equals the single-state
+/// solver bit for bit (same sweeps, same order), for both inlets.
+#[test]
+fn evaluator_cpu_path_equals_the_direct_solver() {
+    for inlet in [Inlet::None, Inlet::MaxFilm] {
+        let g = FiniteSettings {
+            inlet,
+            ..grid(32, 8)
+        };
+        let p = bearing(0.5, FilmModel::Finite, g);
+        let states = mixed_states(&p, 40);
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        ev.set_warm_start(false);
+        let got = eval_all(&mut ev, &p, &states);
+        for (k, (s, l)) in states.iter().zip(&got).enumerate() {
+            let want = finite_loads(&p, s, &g).unwrap();
+            assert_eq!(
+                l.load_vector(p.length),
+                want.load_vector(p.length),
+                "{inlet:?} state {k}: evaluator vs direct solver"
+            );
+        }
+        let loaded = states
+            .iter()
+            .filter(|s| {
+                bearing_sweep::bearing::pack_state(&p, s)
+                    .unwrap()
+                    .rate_scale
+                    > 0.0
+            })
+            .count();
+        assert_eq!(ev.stats().finite_states, loaded as u64);
+    }
+}
+
+/// Warm start: re-evaluating slightly moved states (1e-4 relative, a time step's worth)
+/// from the previous fields gives the cold result to the solver tolerance (checked at
+/// 1e-6 relative with tolerance 1e-9) in fewer sweeps (SOR converges linearly, so a start
+/// 1e-4 off saves about log(1e-4)/log(1e-9) of the sweeps).
+#[test]
+fn warm_start_agrees_with_cold_start_in_fewer_sweeps() {
+    let g = FiniteSettings {
+        tolerance: 1e-9,
+        ..grid(64, 16)
+    };
+    let p = bearing(0.5, FilmModel::Finite, g);
+    let states = mixed_states(&p, 24);
+    let moved: Vec<BearingState> = states
+        .iter()
+        .map(|s| BearingState {
+            xi: s.xi * (1.0 + 1e-4),
+            yj: s.yj * (1.0 - 1e-4) + 1e-6 * p.clearance,
+            ..*s
+        })
+        .collect();
+    let mut warm = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    eval_all(&mut warm, &p, &states);
+    let before = warm.stats();
+    let w = eval_all(&mut warm, &p, &moved);
+    let after = warm.stats();
+    let mut cold = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    cold.set_warm_start(false);
+    eval_all(&mut cold, &p, &states);
+    let c0 = cold.stats();
+    let c = eval_all(&mut cold, &p, &moved);
+    let c1 = cold.stats();
+    for (k, (a, b)) in w.iter().zip(&c).enumerate() {
+        let e = rel(&a.load_vector(p.length), &b.load_vector(p.length));
+        check("warm vs cold", k, e, 0.0, 1e-6);
+    }
+    let warm_sweeps = after.finite_sweeps - before.finite_sweeps;
+    let cold_sweeps = c1.finite_sweeps - c0.finite_sweeps;
+    println!("sweeps for 24 moved states: warm {warm_sweeps}, cold {cold_sweeps}");
+    let solved = after.finite_states - before.finite_states;
+    assert_eq!(after.finite_warm_starts - before.finite_warm_starts, solved);
+    assert!(
+        (warm_sweeps as f64) < 0.7 * cold_sweeps as f64,
+        "warm start must save sweeps: warm {warm_sweeps}, cold {cold_sweeps}"
+    );
+}
+
+/// CPU and the WGSL kernel agree to the solver tolerance (tolerance 1e-10: load vectors
+/// within 1e-8 relative), cold and warm, both inlets; lavapipe here.
+#[test]
+fn cpu_and_gpu_agree() {
+    let Some(gpu) = gpu_f64() else { return };
+    let mut gpu_ev = LoadEvaluator::new(Box::new(gpu));
+    for inlet in [Inlet::None, Inlet::MaxFilm] {
+        let g = FiniteSettings {
+            inlet,
+            tolerance: 1e-10,
+            ..grid(64, 16)
+        };
+        let p = bearing(0.5, FilmModel::Finite, g);
+        let states = mixed_states(&p, 48);
+        let mut cpu_ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        for pass in 0..2 {
+            let c = eval_all(&mut cpu_ev, &p, &states);
+            let gl = eval_all(&mut gpu_ev, &p, &states);
+            for (k, (a, b)) in gl.iter().zip(&c).enumerate() {
+                let e = rel(&a.load_vector(p.length), &b.load_vector(p.length));
+                check(
+                    &format!("GPU vs CPU ({inlet:?}, pass {pass})"),
+                    k,
+                    e,
+                    0.0,
+                    1e-8,
+                );
+            }
+        }
+        assert!(gpu_ev.take_notices().is_empty(), "no CPU fallback expected");
+    }
+    let st = gpu_ev.stats();
+    assert!(
+        st.finite_warm_starts > 0 && st.cpu_recomputed == 0,
+        "{st:?}"
+    );
+}
+
+/// A grid too large for the kernel's workgroup memory is recomputed on the CPU with a
+/// notice, not lost.
+#[test]
+fn gpu_grid_beyond_workgroup_memory_falls_back_to_cpu() {
+    let Some(gpu) = gpu_f64() else { return };
+    let g = grid(128, 32);
+    let p = bearing(0.5, FilmModel::Finite, g);
+    let states = mixed_states(&p, 3);
+    let mut ev = LoadEvaluator::new(Box::new(gpu));
+    let got = eval_all(&mut ev, &p, &states);
+    let notices = ev.take_notices();
+    assert!(
+        notices.iter().any(|n| n.contains("workgroup memory")),
+        "{notices:?}"
+    );
+    for (k, (s, l)) in states.iter().zip(&got).enumerate() {
+        let want = finite_loads(&p, s, &g).unwrap();
+        let e = rel(&l.load_vector(p.length), &want.load_vector(p.length));
+        check("fallback vs direct", k, e, 0.0, 1e-12);
+    }
+}
