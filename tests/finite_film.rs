@@ -572,3 +572,215 @@ fn gpu_grid_beyond_workgroup_memory_falls_back_to_cpu() {
         check("fallback vs direct", k, e, 0.0, 1e-12);
     }
 }
+
+/// The stored model-error map is what the code computes: entries recomputed on the map's
+/// grid match to the stored rounding (5 decimals in load, 3 in attitude degrees); an
+/// interpolated point between nodes is within 10 % (load) of a direct computation.
+#[test]
+fn stored_error_map_matches_recomputation() {
+    let g = error_map_settings();
+    for (n, &(bi, ei)) in [(0usize, 6usize), (4, 6), (9, 10), (2, 0), (6, 3)]
+        .iter()
+        .enumerate()
+    {
+        let (bd, ecc) = (ERROR_MAP_ASPECTS[bi], ERROR_MAP_ECC[ei]);
+        let direct = compute_short_model_error(bd, ecc, &g);
+        let stored = short_model_error(bd, ecc);
+        check("map load", n, stored.load, direct.load, 1e-5);
+        check(
+            "map attitude, deg",
+            n,
+            stored.attitude_deg,
+            direct.attitude_deg,
+            1e-3,
+        );
+        assert!(!stored.extrapolated);
+    }
+    let (bd, ecc) = (0.45, 0.65);
+    let direct = compute_short_model_error(bd, ecc, &g);
+    let interp = short_model_error(bd, ecc);
+    check(
+        "map interpolation (relative)",
+        0,
+        interp.load / direct.load,
+        1.0,
+        0.10,
+    );
+    // Outside: below B/D = 0.1 the (B/D)² law, beyond the edges flagged.
+    let small = short_model_error(0.05, 0.6);
+    check(
+        "map (B/D)² below 0.1",
+        0,
+        small.load,
+        short_model_error(0.1, 0.6).load / 4.0,
+        1e-12,
+    );
+    assert!(short_model_error(1.5, 0.5).extrapolated && short_model_error(0.5, 0.97).extrapolated);
+}
+
+/// `"model": "auto"` evaluates a state with the short model where the map's error at its
+/// eccentricity is under `finite.auto_tolerance`, else with the finite one, and the loads
+/// are exactly those of the chosen model.
+#[test]
+fn auto_model_switches_on_the_mapped_error() {
+    let g = FiniteSettings {
+        auto_tolerance: 0.05,
+        ..grid(64, 16)
+    };
+    let p = bearing(0.1, FilmModel::Auto, g);
+    // B/D = 0.1: 1.4 % at ε = 0.6 (short), 14 % at ε = 0.95 (finite).
+    let states = [aligned(&p, 0.6), aligned(&p, 0.95)];
+    let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let got = eval_all(&mut ev, &p, &states);
+    assert_eq!(ev.stats().finite_states, 1);
+    let rule = FilmRule::new(Accuracy::default().settings());
+    let want_short = film_loads(&p, &states[0], &rule).unwrap();
+    assert_eq!(
+        got[0].load_vector(p.length),
+        want_short.load_vector(p.length)
+    );
+    let want_finite = finite_loads(&p, &states[1], &g).unwrap();
+    assert_eq!(
+        got[1].load_vector(p.length),
+        want_finite.load_vector(p.length)
+    );
+}
+
+/// The bearing object takes `model` and `finite` wherever a bearing is given; bad values
+/// are rejected naming the field.
+#[test]
+fn bearing_json_takes_model_and_rejects_bad_settings() {
+    let p: BearingParams = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
+        "model": "finite", "finite": {"n_theta": 48, "n_z": 12, "inlet": "max_film"}
+    }))
+    .unwrap();
+    assert_eq!(p.model, FilmModel::Finite);
+    assert_eq!(
+        (p.finite.n_theta, p.finite.n_z, p.finite.inlet),
+        (48, 12, Inlet::MaxFilm)
+    );
+    assert_eq!(p.finite.tolerance, FiniteSettings::default().tolerance);
+    let default: BearingParams = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242
+    }))
+    .unwrap();
+    assert_eq!(default.model, FilmModel::Short);
+    for (finite, field) in [
+        (
+            serde_json::json!({"n_theta": 51, "n_z": 8}),
+            "finite.n_theta",
+        ),
+        (serde_json::json!({"n_theta": 64, "n_z": 1}), "finite.n_z"),
+        (serde_json::json!({"tolerance": 0.0}), "finite.tolerance"),
+        (
+            serde_json::json!({"auto_tolerance": -1.0}),
+            "finite.auto_tolerance",
+        ),
+    ] {
+        let p = BearingParams {
+            finite: serde_json::from_value(finite.clone()).unwrap(),
+            ..BearingParams::paper_table2()
+        };
+        let e = p.validate().expect_err("must be rejected");
+        assert_eq!(e.field, field, "{finite}: {e}");
+    }
+    let bad: Result<BearingParams, _> = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242, "model": "long"
+    }));
+    assert!(bad.unwrap_err().to_string().contains("unknown variant"));
+}
+
+/// A rotor scene runs with either model (the paper rotor, 0.05 s): both finish, the
+/// finite film carries the rotor at a larger eccentricity (the short model overestimates
+/// the load at B/D = 0.5 by ~30 %), and the run reports the short model's mapped error.
+#[test]
+fn rotor_scene_runs_with_either_model() {
+    use bearing_sweep::rotor::{load_scene, simulate_batch, SimStatus};
+    let base: serde_json::Value =
+        serde_json::from_str(include_str!("../sweeps/paper-example.json")).unwrap();
+    let mut results = Vec::new();
+    for model in ["short", "finite"] {
+        let mut s = base.clone();
+        s["compare_ideal"] = serde_json::json!(false);
+        s["integrator"]["t_end"] = serde_json::json!(0.05);
+        for b in s["bearings"].as_array_mut().unwrap() {
+            b["model"] = serde_json::json!(model);
+        }
+        let scenes = load_scene(&s.to_string()).unwrap();
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        let r = simulate_batch(&scenes, &mut ev, &mut |_, _| {}).remove(0);
+        assert!(
+            matches!(r.status, SimStatus::Finished),
+            "{model}: {:?}",
+            r.status
+        );
+        let fe = r
+            .model_reductions
+            .film_model_error
+            .clone()
+            .expect("film model report");
+        if model == "short" {
+            assert_eq!(fe.applied_to, fe.of);
+            assert!(fe.error.unwrap() > 0.05, "{fe:?}");
+            assert_eq!(ev.stats().finite_states, 0);
+        } else {
+            assert_eq!(fe.applied_to, Some(0));
+            assert!(ev.stats().finite_states > 0);
+        }
+        results.push(r);
+    }
+    let ecc_max = |r: &bearing_sweep::rotor::SimResult| {
+        r.samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.eccentricity_max.iter().copied())
+            .fold(0.0, f64::max)
+    };
+    let (es, ef) = (ecc_max(&results[0]), ecc_max(&results[1]));
+    println!("ε_max short {es:.4}, finite {ef:.4}");
+    assert!(ef > es, "finite film is softer: ε_max {ef} vs {es}");
+}
+
+/// `eval` with a finite bearing reports the model and a Richardson error estimate per
+/// state, and the estimate tracks the true discretisation error of the default grid
+/// (against 256×64 extrapolated): within a factor 3 either way.
+#[test]
+fn eval_reports_model_and_a_truthful_error_estimate() {
+    use bearing_sweep::cli::{eval_json, EvalOptions};
+    let input = serde_json::json!({
+        "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
+                    "model": "finite"},
+        "states": [
+            {"xi": 1.8e-4, "yi": 0.0, "xj": 1.8e-4, "yj": 0.0, "vxi": 0.0, "vyi": 0.0,
+             "vxj": 0.0, "vyj": 0.0, "omega": 100.0},
+            {"xi": 1.5e-4, "yi": 6e-5, "xj": 6e-5, "yj": -1.2e-4, "vxi": 3e-3, "vyi": 6e-3,
+             "vxj": -3e-3, "vyj": 9e-3, "omega": 100.0}
+        ]
+    });
+    let (out, _) = eval_json(&input.to_string(), EvalOptions::default()).unwrap();
+    assert_eq!(out["film_model"], "finite");
+    let p: BearingParams = serde_json::from_value(input["bearing"].clone()).unwrap();
+    for k in 0..2 {
+        let l = &out["loads"][k];
+        assert_eq!(l["film_model"], "finite");
+        let est = l["finite_error_estimate"].as_f64().unwrap();
+        let s: BearingState = serde_json::from_value(input["states"][k].clone()).unwrap();
+        let reference = extrapolated(&p, &s, grid(256, 64));
+        let got = [
+            l["wx"].as_f64().unwrap(),
+            l["wy"].as_f64().unwrap(),
+            l["mx"].as_f64().unwrap() / p.length,
+            l["my"].as_f64().unwrap() / p.length,
+        ];
+        let actual = rel(&got, &reference);
+        println!("state {k}: estimate {est:.3e}, actual {actual:.3e}");
+        check(
+            "estimate / actual (log10)",
+            k,
+            (est / actual).log10(),
+            0.0,
+            3f64.log10(),
+        );
+    }
+}
