@@ -5,6 +5,7 @@ pub mod bench;
 mod cpu;
 mod evaluator;
 mod finite;
+pub mod finite_bench;
 mod finite_gpu;
 mod gpu;
 
