@@ -96,6 +96,9 @@ struct FiniteArgs {
     /// Timed calls per grid.
     #[arg(long, default_value_t = 3)]
     reps: usize,
+    /// Simulated time of the rotor-scene cost benchmark, s (the paper's run is 0.5 s).
+    #[arg(long, default_value_t = 0.1)]
+    rotor_t_end: f64,
 }
 
 #[derive(Args)]

@@ -127,7 +127,7 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
                 .unwrap_or([f64::NAN; 4])
         })
         .collect();
-    let grids = [(32, 8), (64, 16), (96, 16)];
+    let grids = [(32, 8), (64, 16), (128, 32)];
     let mut md = format!(
         "Finite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
          third whirling/squeezing), cold start, tolerance 1e-8; error: load vector \
@@ -156,6 +156,13 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
                 let name = g.info().device;
                 let mut ev = LoadEvaluator::new(Box::new(g));
                 for gr in grids {
+                    if (gr.0 * (gr.1 - 1)) as usize > super::FINITE_MAX_NODES {
+                        md += &format!(
+                            "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | | |\n",
+                            gr.0, gr.1
+                        );
+                        continue;
+                    }
                     let r = run_grid(&mut ev, &p, &states, &reference, gr, reps);
                     let nodes = (gr.0 * (gr.1 - 1)) as f64;
                     let gf = r.states_per_s * r.sweeps * nodes * GPU_FLOPS_PER_NODE_SWEEP * 1e-9;
@@ -171,6 +178,67 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
             }
             Err(e) => md += &format!("\nGPU skipped: {e}\n"),
         }
+    }
+    md
+}
+
+/// Rotor-scene cost: the paper's example (MODEL.md section 8, free spin, dopri5 at
+/// rtol 1e-6) over `t_end` seconds with the short film, the finite film with warm start,
+/// and the finite film from cold starts; CPU backend. Markdown rows.
+pub fn bench_finite_rotor(t_end: f64) -> String {
+    use crate::rotor::{load_scene, simulate_batch};
+    let mut base: serde_json::Value =
+        serde_json::from_str(include_str!("../../sweeps/paper-example.json"))
+            .expect("the paper example parses");
+    base["compare_ideal"] = serde_json::json!(false);
+    base["integrator"]["t_end"] = serde_json::json!(t_end);
+    let mut md = format!(
+        "Paper rotor, {t_end} s, dopri5 rtol 1e-6, CPU backend (2 threads):\n\n\
+         | film | wall s | load evaluations | sweeps/evaluation | warm starts | ε_max | min h_min µm |\n\
+         |---|---|---|---|---|---|---|\n"
+    );
+    for (label, model, warm) in [
+        ("short", "short", true),
+        ("finite 64×16, warm start", "finite", true),
+        ("finite 64×16, cold start", "finite", false),
+    ] {
+        let mut s = base.clone();
+        for b in s["bearings"].as_array_mut().expect("bearings") {
+            b["model"] = serde_json::json!(model);
+        }
+        let scenes = match load_scene(&s.to_string()) {
+            Ok(x) => x,
+            Err(e) => return format!("scene error: {e}"),
+        };
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        ev.set_warm_start(warm);
+        let t = Instant::now();
+        let r = simulate_batch(&scenes, &mut ev, &mut |_, _| {}).remove(0);
+        let wall = t.elapsed().as_secs_f64();
+        let st = ev.stats();
+        let ecc = r
+            .samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.eccentricity_max.iter().copied())
+            .fold(0.0, f64::max);
+        let hmin = r
+            .samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.h_min.iter().copied())
+            .fold(f64::INFINITY, f64::min);
+        let sweeps = if st.finite_states > 0 {
+            format!("{:.1}", st.finite_sweeps as f64 / st.finite_states as f64)
+        } else {
+            "—".into()
+        };
+        md += &format!(
+            "| {label} | {wall:.2} | {} | {sweeps} | {} | {ecc:.4} | {:.2} |\n",
+            st.states,
+            st.finite_warm_starts,
+            hmin * 1e6
+        );
     }
     md
 }
