@@ -292,6 +292,10 @@ fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
                 a.gpu
             )
         );
+        println!(
+            "{}",
+            bearing_sweep::backend::finite_bench::bench_finite_rotor(a.rotor_t_end)
+        );
     }
     if a.map.is_none() && !a.bench {
         return Err(CliError::input("finite", "give --map DIR and/or --bench"));
