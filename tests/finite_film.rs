@@ -363,7 +363,7 @@ fn raimondi_boyd_full_bearing() {
 // Backends and interfaces.
 
 use bearing_sweep::backend::{
-    CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest, Precision,
+    CpuBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest, Precision,
 };
 
 /// States over the film's range: aligned, tilted, whirling, squeezing, near the wall.

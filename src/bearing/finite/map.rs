@@ -61,6 +61,9 @@ const BAND_COLOURS: [RGBColor; 4] = [
 ];
 const BAND_NAMES: [&str; 4] = ["< 1 %", "1-5 %", "5-20 %", "> 20 %"];
 
+/// A map cell's banded value by (row, column).
+type CellValue<'a> = Box<dyn Fn(usize, usize) -> f64 + 'a>;
+
 /// Two banded panels (load magnitude, attitude) as one SVG, 1200 × 560 px.
 pub fn error_map_svg(map: &ErrorMap) -> Result<String, String> {
     let mut svg = String::new();
@@ -81,7 +84,7 @@ pub fn error_map_svg(map: &ErrorMap) -> Result<String, String> {
             };
             (lo, hi)
         };
-        let panels: [(&DrawingArea<_, _>, &str, Box<dyn Fn(usize, usize) -> f64>); 2] = [
+        let panels: [(&DrawingArea<_, _>, &str, CellValue); 2] = [
             (
                 &left,
                 "load magnitude |W_short|/|W_finite| - 1",
