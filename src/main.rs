@@ -52,6 +52,9 @@ enum Command {
     /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
     /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
     Stability(StabilityArgs),
+    /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
+    /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
+    Finite(FiniteArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -113,6 +116,32 @@ struct EvalArgs {
     /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
     #[arg(long, default_value_t = 1e-6)]
     accuracy: f64,
+}
+
+#[derive(Args)]
+struct FiniteArgs {
+    /// Write `finite-error-map.svg` and `finite-error-map.md` into this folder.
+    #[arg(long)]
+    map: Option<std::path::PathBuf>,
+    /// Map cells per unit of B/D and of ε for the figure (the table uses the stored map's
+    /// nodes).
+    #[arg(long, default_value_t = 20)]
+    map_resolution: usize,
+    /// Run the finite-film benchmark (CPU; add --gpu for the WGSL kernel).
+    #[arg(long)]
+    bench: bool,
+    /// Include the GPU kernel in the benchmark.
+    #[arg(long)]
+    gpu: bool,
+    /// States per benchmark call.
+    #[arg(long, default_value_t = 64)]
+    states: usize,
+    /// Timed calls per grid.
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Simulated time of the rotor-scene cost benchmark, s (the paper's run is 0.5 s).
+    #[arg(long, default_value_t = 0.1)]
+    rotor_t_end: f64,
 }
 
 #[derive(Args)]
@@ -342,6 +371,7 @@ fn main() -> ExitCode {
         Command::Submit(a) => submit(a),
         Command::Coefficients(a) => coefficients_cmd(a),
         Command::Stability(a) => stability_cmd(a),
+        Command::Finite(a) => finite_cmd(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
@@ -367,6 +397,54 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `finite`: the model-error map and the finite-film benchmark.
+fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
+    use bearing_sweep::bearing::finite as fin;
+    if let Some(dir) = &a.map {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::input("--map", format!("{}: {e}", dir.display())))?;
+        let settings = fin::error_map_settings();
+        let n = a.map_resolution.max(2);
+        let aspects: Vec<f64> = (0..=(9 * n / 10))
+            .map(|k| 0.1 + k as f64 / n as f64)
+            .filter(|&v| v <= 1.0 + 1e-9)
+            .collect();
+        let eccs: Vec<f64> = (0..=(95 * n / 100)).map(|k| k as f64 / n as f64).collect();
+        let fine = fin::compute_error_map(&aspects, &eccs, &settings);
+        let svg = fin::error_map_svg(&fine).map_err(|e| CliError::input("--map", e))?;
+        let table = fin::compute_error_map(&fin::ERROR_MAP_ASPECTS, &fin::ERROR_MAP_ECC, &settings);
+        let md = fin::error_map_markdown(&table);
+        for (name, text) in [
+            ("finite-error-map.svg", svg),
+            ("finite-error-map.md", md.clone()),
+        ] {
+            let path = dir.join(name);
+            std::fs::write(&path, text)
+                .map_err(|e| CliError::input("--map", format!("{}: {e}", path.display())))?;
+            eprintln!("wrote {}", path.display());
+        }
+        println!("{md}");
+    }
+    if a.bench {
+        println!(
+            "{}",
+            bearing_sweep::backend::finite_bench::bench_finite(
+                a.states.max(1),
+                a.reps.max(1),
+                a.gpu
+            )
+        );
+        println!(
+            "{}",
+            bearing_sweep::backend::finite_bench::bench_finite_rotor(a.rotor_t_end)
+        );
+    }
+    if a.map.is_none() && !a.bench {
+        return Err(CliError::input("finite", "give --map DIR and/or --bench"));
+    }
+    Ok(())
 }
 
 /// Notices and report lines go to stderr.

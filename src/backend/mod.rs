@@ -5,6 +5,8 @@ pub mod bench;
 mod cpu;
 mod evaluator;
 mod finite;
+pub mod finite_bench;
+mod finite_gpu;
 mod gpu;
 
 pub use cpu::CpuBackend;
@@ -12,6 +14,7 @@ pub use evaluator::{
     EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
 };
 pub use finite::effective_model;
+pub use finite_gpu::{FINITE_MAX_NODES, FINITE_WGSL};
 pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
 
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
