@@ -110,8 +110,8 @@ struct BenchServeArgs {
 struct EvalArgs {
     /// Input JSON file, `-` for standard input.
     file: String,
-    /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend: cpu, gpu or auto (a hardware GPU for 64 states or more, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
     #[arg(long, default_value_t = 1e-6)]
@@ -151,8 +151,9 @@ struct RunArgs {
     /// Output root folder.
     #[arg(long, default_value = "out")]
     out: std::path::PathBuf,
-    /// Backend for the film loads: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend for the film loads: cpu, gpu or auto (a hardware GPU when a stage carries
+    /// 64 bearing states or more, e.g. a sweep, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
     #[arg(long, default_value_t = 1e-6)]
