@@ -48,9 +48,9 @@ pub fn example_role(doc: &Value) -> &'static str {
     }
 }
 
-/// The routes of the page and of the examples; merge into the service's router (before
-/// its authorisation layer, which then guards `/api/examples` like every `/api` route).
-pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
+/// The page's routes (`/`, `/index.html`, `/app.js`, `/style.css`): merge into the
+/// service's root router; they are open, like `/healthz` (the page holds no data).
+pub fn pages<S: Clone + Send + Sync + 'static>() -> Router<S> {
     Router::new()
         .route("/", get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }))
         .route(
@@ -65,8 +65,14 @@ pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
             "/style.css",
             get(|| async { asset(STYLE_CSS, "text/css; charset=utf-8") }),
         )
-        .route("/api/examples", get(list_examples))
-        .route("/api/examples/{name}", get(get_example))
+}
+
+/// The example routes relative to `/api` (`/examples`, `/examples/{name}`): merge into
+/// the service's `/api` router, whose token check then guards them like every `/api` route.
+pub fn api<S: Clone + Send + Sync + 'static>() -> Router<S> {
+    Router::new()
+        .route("/examples", get(list_examples))
+        .route("/examples/{name}", get(get_example))
 }
 
 fn asset(body: &'static str, content_type: &'static str) -> Response {

@@ -552,9 +552,11 @@ function renderProgress() {
   msg.hidden = !s.message;
   msg.textContent = s.message || "";
 }
-let variantsTimer = null, variantsLast = 0;
+// Reloads while a sweep runs: at most every 1.5 s, and at most 20 % of the time when the
+// records are large (a reload that takes 1 s waits 5 s before the next).
+let variantsTimer = null, variantsLast = 0, variantsCost = 0;
 function loadVariantsThrottled(force) {
-  const wait = force ? 0 : Math.max(0, 1500 - (Date.now() - variantsLast));
+  const wait = force ? 0 : Math.max(0, Math.max(1500, 5 * variantsCost) - (Date.now() - variantsLast));
   if (variantsTimer && !force) return;
   clearTimeout(variantsTimer);
   variantsTimer = setTimeout(() => { variantsTimer = null; loadVariants(force); }, wait);
@@ -575,6 +577,7 @@ async function loadVariants(withResult) {
     if (page.length < LIMIT) break;
   }
   if (state.selected !== id) return;
+  variantsCost = Date.now() - variantsLast;
   all.sort((a, b) => a.id - b.id);
   state.variants = all;
   if (withResult && s && s.status === "done" && !state.result) {
@@ -598,9 +601,12 @@ function axesOf() {
   return keys;
 }
 function renderDetail() {
-  const isMap = state.result && Array.isArray(state.result.curves);
+  // A friction_map sweep has no variant records: its result is Fig. 4's curves.
+  const isMap = Boolean(state.result && Array.isArray(state.result.curves));
   $("#fig4-fig").hidden = !isMap;
-  if (isMap) drawFig4(state.result);
+  for (const sel of ["#variant-h", "#variant-h + .row", "#variant-note", "#detail .grid2:not(#maps)", "#variant-params", "#table-h", "#table-h + .row", "#detail .tablewrap"])
+    for (const e of document.querySelectorAll(sel)) e.hidden = isMap;
+  if (isMap) { drawFig4(state.result); $("#maps-controls").hidden = true; $("#curves-controls").hidden = true; $("#curves-fig").hidden = true; $("#maps").innerHTML = ""; $("#maps-note").textContent = ""; return; }
   renderTable();
   renderMaps();
   renderCurves();
