@@ -262,6 +262,13 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
             .then_some(())
     });
     eprintln!("progress texts seen: {seen_counts:?}");
+    // `done` came through the event stream (not only through the list's polling).
+    let live = b.exec(
+        "const d = document.querySelector('#detail').dataset; return [Number(d.events || 0), d.lastEvent || '']",
+        json!([]),
+    );
+    assert_eq!(live[1], json!("status:done"), "last live event: {live}");
+    assert!(live[0].as_u64().unwrap() >= 2, "live events: {live}");
 
     // 4. The table against result.json: row count and numbers.
     let (status, result) = get_json(&format!("{base}/api/sweeps/{id}/result"));
@@ -348,6 +355,18 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         }
     }
     assert!(tip.contains("variant 0"), "hover text {tip:?}");
+    // By keyboard: a focused map cell opens its variant with Enter.
+    let cell1 = b.find("#map-h_min rect.cell[data-id='1']").unwrap();
+    b.exec("document.querySelector(\"#map-h_min rect.cell[data-id='1']\").focus()", json!([]));
+    b.cmd(
+        "POST",
+        &format!("/element/{cell1}/value"),
+        Some(json!({"text": "\u{E007}"})),
+    )
+    .expect("Enter on a map cell");
+    b.wait("variant 1 opened by keyboard", short, || {
+        b.text("#variant-id").starts_with("1 ").then_some(())
+    });
 
     // 6. The eval panel: its loads against the same request straight to the API.
     b.click("#eval-run");
@@ -386,7 +405,40 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.type_into("#eval-b-clearance", "0.0003");
     b.click("#eval-run");
 
-    // 7. Screenshots, and no sideways scrolling at phone width.
+    // 7. Cancel a running sweep from the page: it stops, its finished variants stay readable.
+    let mut long_spec = spec.clone();
+    long_spec["name"] = json!("web test: cancelled");
+    long_spec["base"]["integrator"]["t_end"] = json!(3.0);
+    type_spec(&b, &serde_json::to_string(&long_spec).unwrap());
+    b.click("#submit");
+    let long_id = b.wait("the second sweep selected", short, || {
+        let v = b.exec(
+            "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
+            json!([]),
+        );
+        v.as_str().filter(|s| *s != id).map(str::to_string)
+    });
+    b.wait("the second sweep running", long, || {
+        (b.text("#sweep-status") == "running").then_some(())
+    });
+    b.click("#detail-cancel");
+    b.wait("status cancelled", short, || {
+        (b.text("#sweep-status") == "cancelled").then_some(())
+    });
+    let (_, info) = get_json(&format!("{base}/api/sweeps/{long_id}"));
+    assert_eq!(info["status"], "cancelled", "{info}");
+    let done = info["progress"]["done"].as_u64().unwrap() as usize;
+    assert!(done < n, "cancelled after {done} of {n}: too late to show a cancel");
+    b.wait("the finished variants of the cancelled sweep", short, || {
+        (b.count("#variants tbody tr") == done).then_some(())
+    });
+    // Back to the finished sweep for the screenshots.
+    b.click(&format!("#queue tbody tr[data-id='{id}'] button.link"));
+    b.wait("the first sweep again", short, || {
+        (b.count("#variants tbody tr") == n).then_some(())
+    });
+
+    // 8. Screenshots, and no sideways scrolling at phone width.
     let shots = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
     b.click("#map-h_min rect.cell[data-id='3']");
     b.exec("document.getElementById('detail-h').scrollIntoView()", json!([]));

@@ -292,10 +292,20 @@ impl Browser {
     }
 
     /// Clicks the first match (scrolled into view by the driver, as a person would).
+    /// (The page re-renders parts of itself as events arrive: a reference that went stale
+    /// between finding and clicking is found again, a few times.)
     pub fn click(&self, css: &str) {
-        let id = self.find(css).unwrap_or_else(|e| panic!("click {css}: {e}"));
-        self.cmd("POST", &format!("/element/{id}/click"), Some(json!({})))
-            .unwrap_or_else(|e| panic!("click {css}: {e}"));
+        let mut last = String::new();
+        for _ in 0..5 {
+            let id = self.find(css).unwrap_or_else(|e| panic!("click {css}: {e}"));
+            match self.cmd("POST", &format!("/element/{id}/click"), Some(json!({}))) {
+                Ok(_) => return,
+                Err(e) if e.contains("stale element") => last = e,
+                Err(e) => panic!("click {css}: {e}"),
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        panic!("click {css}: {last}");
     }
 
     /// Types text into the first match (keys, as a person would).

@@ -427,25 +427,44 @@ async function refreshQueue() {
 function statusClass(s) {
   return ["ok", "done", "running", "queued", "failed", "cancelled", "film_breakdown", "through_wall"].includes(s) ? `st-${s}` : "st-other";
 }
+// Rows are updated in place (keyed by id), so focus and hover survive the refreshes.
 function renderQueue() {
   const tb = $("#queue tbody");
-  tb.innerHTML = "";
   const rows = [...state.sweeps.values()].sort((a, b) => String(b.created ?? "").localeCompare(String(a.created ?? "")) || (b.id > a.id ? 1 : -1));
   $("#queue-empty").hidden = rows.length > 0;
-  for (const s of rows) {
-    const frac = s.total ? s.done / s.total : 0;
-    const tr = el("tr", { "data-id": s.id, class: s.id === state.selected ? "sel" : null },
-      el("td", {}, el("button", { class: "link", type: "button", text: s.name || s.id, title: `open sweep ${s.id}`, onclick: () => selectSweep(s.id) })),
-      el("td", { class: statusClass(s.status), text: s.status }),
-      el("td", {}, el("progress", { max: 1, value: frac, "aria-label": `${s.name || s.id} progress` }), ` ${s.done}/${s.total ?? "?"}`),
-      el("td", { class: "num", text: String(s.failed) }),
-      el("td", { class: "num", text: isNum(s.rate) ? `${fmt(s.rate, 3)} /s` : "—" }),
-      el("td", { class: "num", text: TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta) }),
-      el("td", {},
-        TERMINAL.has(s.status) ? null : el("button", { type: "button", text: "Cancel", "aria-label": `cancel ${s.name || s.id}`, onclick: () => cancelSweep(s.id) }),
-        TERMINAL.has(s.status) ? el("button", { type: "button", text: "Delete", "aria-label": `delete ${s.name || s.id}`, onclick: () => deleteSweep(s.id) }) : null));
-    tb.append(tr);
-  }
+  const existing = new Map([...tb.children].map((tr) => [tr.dataset.id, tr]));
+  for (const [id, tr] of existing) if (!state.sweeps.has(id)) tr.remove();
+  rows.forEach((s, k) => {
+    let tr = existing.get(s.id);
+    if (!tr) {
+      tr = el("tr", { "data-id": s.id },
+        el("td", {}, el("button", { class: "link", type: "button", onclick: () => selectSweep(s.id) })),
+        el("td"), el("td", {}, el("progress", { max: 1, value: 0 }), el("span")), el("td", { class: "num" }),
+        el("td", { class: "num" }), el("td", { class: "num" }), el("td"));
+    }
+    const label = s.name || s.id;
+    const c = tr.children;
+    tr.classList.toggle("sel", s.id === state.selected);
+    const open = c[0].firstChild;
+    if (open.textContent !== label) { open.textContent = label; open.title = `open sweep ${s.id}`; }
+    if (c[1].textContent !== s.status) { c[1].textContent = s.status; c[1].className = statusClass(s.status); }
+    const bar = c[2].firstChild;
+    bar.value = s.total ? s.done / s.total : 0;
+    bar.setAttribute("aria-label", `${label} progress`);
+    c[2].lastChild.textContent = ` ${s.done}/${s.total ?? "?"}`;
+    c[3].textContent = String(s.failed);
+    c[4].textContent = isNum(s.rate) && s.rate > 0 ? `${fmt(s.rate, 3)} /s` : "—";
+    c[5].textContent = TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta);
+    const term = TERMINAL.has(s.status) ? "1" : "0";
+    if (tr.dataset.term !== term) {
+      tr.dataset.term = term;
+      c[6].innerHTML = "";
+      c[6].append(term === "1"
+        ? el("button", { type: "button", text: "Delete", "aria-label": `delete ${label}`, onclick: () => deleteSweep(s.id) })
+        : el("button", { type: "button", text: "Cancel", "aria-label": `cancel ${label}`, onclick: () => cancelSweep(s.id) }));
+    }
+    if (tb.children[k] !== tr) tb.insertBefore(tr, tb.children[k] || null);
+  });
 }
 // Live progress: an SSE stream per unfinished sweep (at most 4 open; the browser allows
 // ~6 connections per server), each event refreshes that sweep's status.
@@ -457,6 +476,11 @@ function watch(id) {
   // Events (README "Service"): `status` {status, progress} first and on every change,
   // `variant` {id (the variant's), status ok|not_ok, progress} per finished variant.
   const close = openEvents(id, (event, data) => {
+    if (state.selected === id) { // what arrived live, for a look in the inspector (and the browser test)
+      const d = $("#detail").dataset;
+      d.events = String(Number(d.events || 0) + 1);
+      d.lastEvent = `${event}:${data && data.status}`;
+    }
     if (data && typeof data === "object") {
       const p = data.progress || {};
       const upd = { id };
@@ -521,6 +545,7 @@ async function deleteSweep(id) {
 async function selectSweep(id) {
   if (state.selected !== id) {
     state.selected = id;
+    delete $("#detail").dataset.events; delete $("#detail").dataset.lastEvent;
     state.variants = []; state.result = null; state.spec = null; state.variantId = null;
     $("#variant-id").textContent = "(click a map cell or a table row)";
     $("#variant-params").textContent = "";
@@ -636,6 +661,7 @@ function cellText(col, x) {
 function renderTable() {
   const cols = tableColumns();
   const thead = $("#variants thead");
+  const focusKey = document.activeElement && document.activeElement.closest && document.activeElement.closest("#variants thead th") ? document.activeElement.closest("th").dataset.key : null;
   thead.innerHTML = "";
   const hr = el("tr");
   for (const c of cols) {
@@ -648,6 +674,7 @@ function renderTable() {
     hr.append(th);
   }
   thead.append(hr);
+  if (focusKey) { const f = thead.querySelector(`th[data-key="${CSS.escape(focusKey)}"] button`); if (f) f.focus(); }
   // status filter choices
   const fsel = $("#status-filter");
   const cur = fsel.value;
@@ -666,6 +693,9 @@ function renderTable() {
     return (x < y ? -1 : 1) * state.sort.dir;
   });
   const tb = $("#variants tbody");
+  // Rebuilt on every reload while the sweep runs: keep the keyboard focus where it was.
+  const act = document.activeElement;
+  const focusRow = act && act.closest && act.closest("#variants tbody tr") ? act.closest("tr").dataset.id : null;
   tb.innerHTML = "";
   const MAX_ROWS = 2000; // the DOM stays responsive; downloads have all rows
   for (const v of rows.slice(0, MAX_ROWS)) {
@@ -680,6 +710,7 @@ function renderTable() {
     }
     tb.append(tr);
   }
+  if (focusRow !== null) { const r = tb.querySelector(`tr[data-id="${focusRow}"]`); if (r) r.focus(); }
   const s = state.sweeps.get(state.selected);
   $("#table-count").textContent = `${rows.length} of ${state.variants.length} variants shown${rows.length > MAX_ROWS ? ` (first ${MAX_ROWS} rows; the downloads have all)` : ""}${s && s.total ? `; sweep has ${s.total}` : ""}`;
 }
