@@ -356,14 +356,9 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     }
     assert!(tip.contains("variant 0"), "hover text {tip:?}");
     // By keyboard: a focused map cell opens its variant with Enter.
-    let cell1 = b.find("#map-h_min rect.cell[data-id='1']").unwrap();
-    b.exec("document.querySelector(\"#map-h_min rect.cell[data-id='1']\").focus()", json!([]));
-    b.cmd(
-        "POST",
-        &format!("/element/{cell1}/value"),
-        Some(json!({"text": "\u{E007}"})),
-    )
-    .expect("Enter on a map cell");
+    let cell1 = "#map-h_min rect.cell[data-id='1']";
+    b.exec("document.querySelector(arguments[0]).focus()", json!([cell1]));
+    b.type_into(cell1, "\u{E007}");
     b.wait("variant 1 opened by keyboard", short, || {
         b.text("#variant-id").starts_with("1 ").then_some(())
     });

@@ -615,8 +615,13 @@ async function loadVariants(withResult) {
     loadServerPlots(id);
   }
   if (!state.spec && s && s.raw && s.raw.spec) state.spec = s.raw.spec;
+  // Redraw only when something changed (a redraw loses hover and keyboard focus).
+  const sig = `${id}|${state.variants.length}|${state.variants.length ? state.variants[state.variants.length - 1].id : ""}|${Boolean(state.result)}`;
+  if (sig === renderedSig) return;
+  renderedSig = sig;
   renderDetail();
 }
+let renderedSig = "";
 function axesOf() {
   // Axis paths from the spec if known, else from the variants' params (in key order).
   const fromSpec = state.spec && Array.isArray(state.spec.axes) ? state.spec.axes.map((a) => a.path) : null;
@@ -793,6 +798,8 @@ function renderMaps() {
     if (prev[p] && vals.includes(prev[p])) sel.value = prev[p];
     fixed.append(el("label", { for: id, text: `${pathLabel(p)} =` }), sel);
   }
+  const act = document.activeElement;
+  const focusCell = act && act.closest && act.closest("#maps rect.cell") ? [act.closest("svg").id, act.dataset.id] : null;
   const quantities = QUANTITIES.filter((q) => q.map && state.variants.some((v) => isNum(q.get(v))));
   $("#maps-note").textContent = `Hover or focus a cell to read it; click (or Enter) opens that variant's orbit. Colour scale logarithmic where the values span more than a factor 20.`;
   for (const q of quantities) {
@@ -802,6 +809,7 @@ function renderMaps() {
     holder.append(fig);
     drawHeatmap(s, q, xs.value, ys.value);
   }
+  if (focusCell) { const c = document.querySelector(`#${focusCell[0]} rect.cell[data-id="${focusCell[1]}"]`); if (c) c.focus(); }
 }
 function matchesFixed(v) {
   for (const sel of $("#map-fixed").querySelectorAll("select")) {
