@@ -296,6 +296,36 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         let shown: f64 = cell[1].as_str().unwrap().parse().unwrap();
         assert_close(&format!("variant {vid}: h_min shown (µm)"), shown, expected * 1e6, 5e-4);
     }
+    // The spec's own figures, as `run` draws them, each shown once.
+    let (_, plots) = get_json(&format!("{base}/api/sweeps/{id}/plots"));
+    let plots = plots["plots"].as_array().map_or(0, Vec::len);
+    assert_eq!(plots, 2, "the spec asks for two plots");
+    b.wait("the server's figures", short, || {
+        (b.count("#server-plots figure img") == plots).then_some(())
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(b.count("#server-plots figure img"), plots, "figures shown twice");
+    // The CSV download is the API's CSV.
+    let downloads = data.join("downloads");
+    std::fs::create_dir_all(&downloads).unwrap();
+    b.cmd(
+        "POST",
+        "/goog/cdp/execute",
+        Some(json!({"cmd": "Browser.setDownloadBehavior",
+                    "params": {"behavior": "allow", "downloadPath": downloads.to_string_lossy()}})),
+    )
+    .expect("allow downloads");
+    b.click("#dl-csv");
+    let csv = b.wait("the CSV download", short, || {
+        let f = std::fs::read_dir(&downloads).ok()?.flatten().find(|e| {
+            e.path().extension().is_some_and(|x| x == "csv")
+        })?;
+        std::fs::read_to_string(f.path()).ok().filter(|t| !t.is_empty())
+    });
+    let (s_csv, api_csv) = get(&format!("{base}/api/sweeps/{id}/variants?format=csv"), None);
+    assert_eq!(s_csv, 200);
+    assert_eq!(csv, api_csv.split_once('\n').unwrap().1, "downloaded CSV vs the API's");
+    assert_eq!(csv.lines().count(), n + 1, "CSV: a header and one row per variant");
     let header = b.text("#variants thead th[data-key='h_min']");
     assert!(header.contains("µm"), "the h_min column names its unit: {header:?}");
     // Sorting by h_min (button in the header) orders the rows by it.

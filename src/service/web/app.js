@@ -551,6 +551,7 @@ async function selectSweep(id) {
     $("#variant-params").textContent = "";
     $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
     $("#server-plots").innerHTML = "";
+    plotsFor = null;
   }
   $("#detail").hidden = false;
   renderQueue();
@@ -993,17 +994,20 @@ function drawFig4(result) {
     xs: c.points.map((p) => p.load_n), ys: c.points.map((p) => p.friction_coefficient) }));
   lineChart($("#fig4"), series, { title: "Friction coefficient (Fig. 4)", xLabel: "load (N)", yLabel: "friction coefficient f", xLog: true, yLog: true, xName: "load", yName: "f" });
 }
+let plotsFor = null;
 async function loadServerPlots(id) {
+  if (plotsFor === id) return; // once per selected sweep (several reloads may ask at once)
+  plotsFor = id;
   const holder = $("#server-plots");
   holder.innerHTML = "";
   const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots`);
-  if (!r.ok || state.selected !== id) return;
+  if (!r.ok || state.selected !== id) { if (plotsFor === id) plotsFor = null; return; }
   const names = (Array.isArray(r.data) ? r.data : r.data.plots || []).map((p) => (typeof p === "string" ? p : p.name)).filter(Boolean);
   if (!names.length) return;
   holder.append(el("p", { class: "note", text: "Plots the spec asks for, as `run` writes them:" }));
   for (const name of names) {
     const rr = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots/${encodeURIComponent(name)}`);
-    if (!rr.ok || state.selected !== id) continue;
+    if (!rr.ok || state.selected !== id || plotsFor !== id) continue;
     const url = URL.createObjectURL(new Blob([rr.text], { type: "image/svg+xml" }));
     holder.append(el("figure", { class: "server-plot" }, el("img", { src: url, alt: `server plot ${name}` }), el("figcaption", { text: name })));
   }
