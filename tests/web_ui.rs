@@ -146,6 +146,20 @@ fn page_assets_and_examples_are_served() {
     }
     let sweep = list.iter().find(|e| e["name"] == "clearance-viscosity").unwrap();
     assert_eq!(sweep["role"], "sweep");
+    // The check behind "Check spec": the submission's verdict, nothing stored.
+    let good = serde_json::to_string(&small_spec()).unwrap();
+    let (s, v) = post_json(&format!("{base}/api/validate"), &good);
+    assert_eq!((s, &v["variants"], &v["kind"]), (200, &json!(6), &json!("rotor")), "{v}");
+    let mut bad = small_spec();
+    bad["base"]["bearings"][1]["length"] = json!(-0.02);
+    let bad = serde_json::to_string(&bad).unwrap();
+    let (s1, checked) = post_json(&format!("{base}/api/validate"), &bad);
+    let (s2, submitted) = post_json(&format!("{base}/api/sweeps"), &bad);
+    assert_eq!((s1, &checked), (s2, &submitted), "validate vs submit of a bad spec");
+    assert_eq!(s1, 422);
+    let (s, v) = post_json(&format!("{base}/api/validate?backend=abacus"), &good);
+    assert_eq!((s, &v["error"]["path"]), (422, &json!("?backend")), "{v}");
+    assert_eq!(sweep_count(base), 0, "validate stored a sweep");
     // An example that is not there: 404 with the JSON error shape naming the field.
     let (s, err) = get_json(&format!("{base}/api/examples/nope"));
     assert_eq!(s, 404);
@@ -211,15 +225,25 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     let message = server_err["error"]["message"].as_str().unwrap().to_string();
     assert!(path.contains("bearings[1].length"), "error path names the field: {server_err}");
     type_spec(&b, &bad_text);
-    b.click("#submit");
-    let shown = b.wait("the inline error", short, || {
-        let t = b.text("#spec-error");
-        (!t.is_empty()).then_some(t)
-    });
-    assert!(
-        shown.contains(&path) && shown.contains(&message),
-        "inline error {shown:?} lacks the server's path {path:?} or message {message:?}"
-    );
+    // "Check spec" (nothing stored) and "Submit" both show it at the field.
+    for button in ["#check", "#submit"] {
+        b.exec("document.querySelector('#spec-error').hidden = true; document.querySelector('#spec-error').textContent = ''", json!([]));
+        b.click(button);
+        let shown = b.wait("the inline error", short, || {
+            let t = b.text("#spec-error");
+            (!t.is_empty()).then_some(t)
+        });
+        assert!(
+            shown.contains(&path) && shown.contains(&message),
+            "{button}: inline error {shown:?} lacks the server's path {path:?} or message {message:?}"
+        );
+        // The editor's cursor is put at the bad field (line of "length": -0.02).
+        let caret = b.exec(
+            "const t = document.querySelector('#spec'); return t.value.slice(t.selectionStart, t.selectionStart + 5)",
+            json!([]),
+        );
+        assert_eq!(caret, json!("-0.02"), "{button}: the cursor is not at the bad value");
+    }
     let invalid = b.exec(
         "return document.querySelector('#spec').getAttribute('aria-invalid')",
         json!([]),
@@ -230,6 +254,11 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     // 3. Submit the small sweep; watch the live progress reach done.
     let spec = small_spec();
     type_spec(&b, &serde_json::to_string_pretty(&spec).unwrap());
+    b.click("#check");
+    b.wait("the check's verdict", short, || {
+        b.text("#submit-status").contains("6 variants").then_some(())
+    });
+    assert_eq!(sweep_count(&base), before, "a checked spec was stored");
     b.click("#submit");
     b.wait("the error box to clear", short, || {
         b.text("#spec-error").is_empty().then_some(())

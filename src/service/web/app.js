@@ -382,12 +382,10 @@ async function checkSpec() {
   if (specJson() === null) return;
   const st = $("#submit-status");
   st.textContent = "checking…";
-  const r = await api("POST", `/api/sweeps/validate${submitQuery()}`, $("#spec").value);
+  const r = await api("POST", `/api/validate${submitQuery()}`, $("#spec").value);
   if (r.ok) {
-    const n = r.data && (r.data.variants ?? r.data.count);
-    st.textContent = `spec is valid${isNum(n) ? `: ${n} variants` : ""}`;
-  } else if (r.status === 404 || r.status === 405) {
-    st.textContent = "this server has no check route; Submit checks the spec before anything runs";
+    const n = r.data && r.data.variants;
+    st.textContent = `spec is valid: ${r.data.kind || "sweep"}${isNum(n) ? `, ${n} variants` : ""} (nothing stored or run)`;
   } else { st.textContent = ""; showSpecError(r.error); }
 }
 async function submitSpec() {
