@@ -486,6 +486,40 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.wait("the finished variants of the cancelled sweep", short, || {
         (b.count("#variants tbody tr") == done).then_some(())
     });
+    // A friction map (Fig. 4) straight from the example picker: one curve per speed.
+    b.click("#example option[value='friction-map']");
+    b.click("#example-load");
+    b.wait("the friction-map example", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str().unwrap_or("").contains("friction_map").then_some(())
+    });
+    b.click("#submit");
+    b.wait("the friction map done", long, || {
+        (b.text("#detail-name").starts_with("Fig. 4") && b.text("#sweep-status") == "done").then_some(())
+    });
+    let fm_id = b.exec(
+        "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
+        json!([]),
+    );
+    let (_, fm) = get_json(&format!("{base}/api/sweeps/{}/result", fm_id.as_str().unwrap()));
+    let curves = fm["curves"].as_array().expect("a friction map result has curves");
+    let drawn = b.wait("Fig. 4 drawn", short, || {
+        let v = b.exec(
+            "return [...document.querySelectorAll('#fig4 path.series')].map(p => (p.getAttribute('d').match(/[ML]/g) || []).length)",
+            json!([]),
+        );
+        let v: Vec<usize> = v.as_array()?.iter().map(|x| x.as_u64().unwrap() as usize).collect();
+        (!v.is_empty()).then_some(v)
+    });
+    let expected: Vec<usize> = curves.iter().map(|c| c["points"].as_array().unwrap().len()).collect();
+    assert_eq!(drawn, expected, "Fig. 4: points per speed curve drawn vs result.json");
+    b.exec("document.getElementById('detail-h').scrollIntoView()", json!([]));
+    std::thread::sleep(Duration::from_millis(400));
+    b.screenshot(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots/desktop-fig4.png"),
+        false,
+    );
+
     // Back to the finished sweep for the screenshots.
     b.click(&format!("#queue tbody tr[data-id='{id}'] button.link"));
     b.wait("the first sweep again", short, || {

@@ -33,11 +33,7 @@ function fmt(x, sig = 4) {
   if (!Number.isFinite(x)) return String(x);
   if (x === 0) return "0";
   const a = Math.abs(x);
-  if (a >= 1e-3 && a < 1e5) {
-    let s = x.toPrecision(sig);
-    if (s.includes(".") && !s.includes("e")) s = s.replace(/0+$/, "").replace(/\.$/, "");
-    return s;
-  }
+  if (a >= 1e-3 && a < 1e5) return String(Number(x.toPrecision(sig))); // 1000, not 1.00e+3
   const [m, e] = x.toExponential(sig - 1).split("e");
   return `${m.replace(/0+$/, "").replace(/\.$/, "")}e${Number(e)}`;
 }
@@ -569,6 +565,11 @@ function renderProgress() {
   const p = $("#sweep-progress");
   p.value = s.total ? s.done / s.total : 0;
   $("#sweep-counts").textContent = `${s.done} / ${s.total ?? "?"} done, ${s.failed} failed`;
+  const curves = state.result && state.result.curves;
+  if (Array.isArray(curves) && curves.length) { // a friction map: one document, no variant records
+    p.value = 1;
+    $("#sweep-counts").textContent = `friction map: ${curves.length} speeds × ${curves[0].points.length} loads`;
+  }
   $("#sweep-rate").textContent = isNum(s.rate) ? `${fmt(s.rate, 3)} variants/s` : "";
   $("#sweep-eta").textContent = !TERMINAL.has(s.status) && isNum(s.eta) ? `ETA ${fmtDuration(s.eta)}` : "";
   $("#detail-cancel").hidden = TERMINAL.has(s.status);
@@ -635,7 +636,9 @@ function renderDetail() {
   $("#fig4-fig").hidden = !isMap;
   for (const sel of ["#variant-h", "#variant-h + .row", "#variant-note", "#detail .grid2:not(#maps)", "#variant-params", "#table-h", "#table-h + .row", "#detail .tablewrap"])
     for (const e of document.querySelectorAll(sel)) e.hidden = isMap;
-  if (isMap) { drawFig4(state.result); $("#maps-controls").hidden = true; $("#curves-controls").hidden = true; $("#curves-fig").hidden = true; $("#maps").innerHTML = ""; $("#maps-note").textContent = ""; return; }
+  if (isMap) {
+    renderProgress();
+    drawFig4(state.result); $("#maps-controls").hidden = true; $("#curves-controls").hidden = true; $("#curves-fig").hidden = true; $("#maps").innerHTML = ""; $("#maps-note").textContent = ""; return; }
   renderTable();
   renderMaps();
   renderCurves();
@@ -738,8 +741,10 @@ function niceTicks(lo, hi, n = 5) {
 }
 function logTicks(lo, hi) {
   const out = [];
+  const decades = Math.log10(hi / lo);
+  const mults = decades > 2.5 ? [1] : decades > 1.2 ? [1, 3] : [1, 2, 5]; // labels that fit
   for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
-    for (const m of [1, 2, 5]) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
+    for (const m of mults) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
   }
   return out.length >= 2 ? out : niceTicks(lo, hi);
 }
@@ -886,7 +891,7 @@ const PALETTE = ["#1f5fbf", "#d1495b", "#2a9d8f", "#e9a03b", "#6a4c93", "#4d908e
 // series: [{name, xs, ys}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}
 function lineChart(s, series, opts) {
   s.innerHTML = "";
-  const W = 520, H = opts.equal ? 460 : 330, ml = 70, mr = 14, mt = 26, mb = 46;
+  const W = 520, H = opts.equal ? 460 : 330, ml = 70, mr = 28, mt = 26, mb = 46; // mr: room for the last x label
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0));
   s.append(svg("text", { x: ml, y: 16, class: "title" }, opts.title || ""));
