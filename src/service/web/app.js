@@ -761,6 +761,13 @@ function showTip(evt, text) {
 }
 const hideTip = () => { tip().hidden = true; };
 
+// Drawing width in SVG units: the figure's CSS width on narrow screens (so 11 px text
+// stays 11 px on a phone), 520 otherwise (scaled up on wide ones).
+function figWidth(s) {
+  const w = (s.parentElement && s.parentElement.clientWidth) || 520;
+  return Math.round(Math.min(520, Math.max(330, w)));
+}
+
 // ---- clearance x viscosity maps (any two numeric axes), heatmaps in SVG
 function numericAxes() {
   return axesOf().filter((p) => state.variants.some((v) => isNum((v.params || {})[p])));
@@ -833,7 +840,7 @@ function drawHeatmap(s, q, px, py) {
   const lo = Math.min(...vals), hi = Math.max(...vals);
   const logScale = lo > 0 && hi / lo > 20;
   const norm = (x) => (hi === lo ? 0.5 : logScale ? Math.log(x / lo) / Math.log(hi / lo) : (x - lo) / (hi - lo));
-  const W = 520, H = 330, ml = 78, mr = 86, mt = 26, mb = 52;
+  const W = figWidth(s), H = 330, ml = 78, mr = 86, mt = 26, mb = 52;
   const cw = (W - ml - mr) / xv.length, ch = (H - mt - mb) / yv.length;
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   s.append(svg("text", { x: ml, y: 16, class: "title" }, `${q.label}${q.u.unit ? ` (${q.u.unit})` : ""}`));
@@ -891,7 +898,7 @@ const PALETTE = ["#1f5fbf", "#d1495b", "#2a9d8f", "#e9a03b", "#6a4c93", "#4d908e
 // series: [{name, xs, ys}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}
 function lineChart(s, series, opts) {
   s.innerHTML = "";
-  const W = 520, H = opts.equal ? 460 : 330, ml = 70, mr = 28, mt = 26, mb = 46; // mr: room for the last x label
+  const W = figWidth(s), H = opts.equal ? 460 : 330, ml = 70, mr = 28, mt = 26, mb = 46; // mr: room for the last x label
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0));
   s.append(svg("text", { x: ml, y: 16, class: "title" }, opts.title || ""));
@@ -1200,4 +1207,12 @@ document.addEventListener("DOMContentLoaded", () => {
   refreshAll();
   setInterval(refreshQueue, 3000); // the list (other clients' sweeps); live progress comes by SSE
   setInterval(checkHealth, 15000);
+  // Figures are drawn for their width: redraw when it changes (phone turned, window resized).
+  let resizeTimer = null, lastWidth = window.innerWidth;
+  window.addEventListener("resize", () => {
+    clearTimeout(resizeTimer);
+    resizeTimer = setTimeout(() => {
+      if (window.innerWidth !== lastWidth && state.selected) { lastWidth = window.innerWidth; renderDetail(); }
+    }, 200);
+  });
 });
