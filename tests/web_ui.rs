@@ -18,10 +18,7 @@ use serde_json::{json, Value};
 use web_support::{agent, browser_required, find_program, read_json, Browser, Server};
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "bearing-sweep-web-{}-{name}",
-        std::process::id()
-    ));
+    let d = std::env::temp_dir().join(format!("bearing-sweep-web-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -117,7 +114,10 @@ fn page_assets_and_examples_are_served() {
     let base = &server.base;
     let (s, page) = get(&format!("{base}/"), None);
     assert_eq!(s, 200);
-    assert!(page.starts_with("text/html"), "GET / content type: {page:.80}");
+    assert!(
+        page.starts_with("text/html"),
+        "GET / content type: {page:.80}"
+    );
     assert!(page.contains(r#"<script src="/app.js""#) && page.contains("/style.css"));
     for (path, ctype, file) in [
         ("/app.js", "text/javascript", "src/service/web/app.js"),
@@ -126,8 +126,12 @@ fn page_assets_and_examples_are_served() {
         let (s, body) = get(&format!("{base}{path}"), None);
         assert_eq!(s, 200, "GET {path}");
         let (got_type, got) = body.split_once('\n').unwrap();
-        assert!(got_type.starts_with(ctype), "GET {path}: type {got_type}, expected {ctype}");
-        let want = std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
+        assert!(
+            got_type.starts_with(ctype),
+            "GET {path}: type {got_type}, expected {ctype}"
+        );
+        let want =
+            std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
         assert_eq!(got, want, "GET {path} is not the compiled-in {file}");
     }
     // Examples: every sweeps/ file listed, each served byte for byte.
@@ -136,7 +140,11 @@ fn page_assets_and_examples_are_served() {
     let list = list.as_array().expect("an array of examples").clone();
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("sweeps");
     let files = std::fs::read_dir(&dir).unwrap().count();
-    assert_eq!(list.len(), files, "examples listed vs files in sweeps/: {list:?}");
+    assert_eq!(
+        list.len(),
+        files,
+        "examples listed vs files in sweeps/: {list:?}"
+    );
     for e in &list {
         let name = e["name"].as_str().unwrap();
         let (s, body) = get(&format!("{base}/api/examples/{name}"), None);
@@ -144,18 +152,29 @@ fn page_assets_and_examples_are_served() {
         let want = std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap();
         assert_eq!(body.split_once('\n').unwrap().1, want, "example {name}");
     }
-    let sweep = list.iter().find(|e| e["name"] == "clearance-viscosity").unwrap();
+    let sweep = list
+        .iter()
+        .find(|e| e["name"] == "clearance-viscosity")
+        .unwrap();
     assert_eq!(sweep["role"], "sweep");
     // The check behind "Check spec": the submission's verdict, nothing stored.
     let good = serde_json::to_string(&small_spec()).unwrap();
     let (s, v) = post_json(&format!("{base}/api/validate"), &good);
-    assert_eq!((s, &v["variants"], &v["kind"]), (200, &json!(6), &json!("rotor")), "{v}");
+    assert_eq!(
+        (s, &v["variants"], &v["kind"]),
+        (200, &json!(6), &json!("rotor")),
+        "{v}"
+    );
     let mut bad = small_spec();
     bad["base"]["bearings"][1]["length"] = json!(-0.02);
     let bad = serde_json::to_string(&bad).unwrap();
     let (s1, checked) = post_json(&format!("{base}/api/validate"), &bad);
     let (s2, submitted) = post_json(&format!("{base}/api/sweeps"), &bad);
-    assert_eq!((s1, &checked), (s2, &submitted), "validate vs submit of a bad spec");
+    assert_eq!(
+        (s1, &checked),
+        (s2, &submitted),
+        "validate vs submit of a bad spec"
+    );
     assert_eq!(s1, 422);
     let (s, v) = post_json(&format!("{base}/api/validate?backend=abacus"), &good);
     assert_eq!((s, &v["error"]["path"]), (422, &json!("?backend")), "{v}");
@@ -164,7 +183,10 @@ fn page_assets_and_examples_are_served() {
     let (s, err) = get_json(&format!("{base}/api/examples/nope"));
     assert_eq!(s, 404);
     assert_eq!(err["error"]["path"], "name", "{err}");
-    assert!(err["error"]["message"].as_str().unwrap().contains("clearance-viscosity"));
+    assert!(err["error"]["message"]
+        .as_str()
+        .unwrap()
+        .contains("clearance-viscosity"));
 }
 
 /// A small rotor sweep: the paper rotor for 0.1 s over 3 clearances x 2 viscosities.
@@ -184,7 +206,11 @@ fn type_spec(b: &Browser, text: &str) {
     b.clear("#spec");
     b.type_into("#spec", text);
     let got = b.exec("return document.querySelector('#spec').value", json!([]));
-    assert_eq!(got.as_str().unwrap(), text, "the editor holds what was typed");
+    assert_eq!(
+        got.as_str().unwrap(),
+        text,
+        "the editor holds what was typed"
+    );
 }
 
 #[test]
@@ -210,7 +236,10 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.click("#example-load");
     b.wait("the example in the editor", short, || {
         let v = b.exec("return document.querySelector('#spec').value", json!([]));
-        v.as_str().unwrap_or("").contains("Paper rotor").then_some(())
+        v.as_str()
+            .unwrap_or("")
+            .contains("Paper rotor")
+            .then_some(())
     });
 
     // 2. A bad spec: the server's error at its field, inline, and nothing stored or run.
@@ -223,7 +252,10 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     assert_eq!(status, 422, "the API refuses the bad spec: {server_err}");
     let path = server_err["error"]["path"].as_str().unwrap().to_string();
     let message = server_err["error"]["message"].as_str().unwrap().to_string();
-    assert!(path.contains("bearings[1].length"), "error path names the field: {server_err}");
+    assert!(
+        path.contains("bearings[1].length"),
+        "error path names the field: {server_err}"
+    );
     type_spec(&b, &bad_text);
     // "Check spec" (nothing stored) and "Submit" both show it at the field.
     for button in ["#check", "#submit"] {
@@ -242,7 +274,11 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
             "const t = document.querySelector('#spec'); return t.value.slice(t.selectionStart, t.selectionStart + 5)",
             json!([]),
         );
-        assert_eq!(caret, json!("-0.02"), "{button}: the cursor is not at the bad value");
+        assert_eq!(
+            caret,
+            json!("-0.02"),
+            "{button}: the cursor is not at the bad value"
+        );
     }
     let invalid = b.exec(
         "return document.querySelector('#spec').getAttribute('aria-invalid')",
@@ -256,7 +292,9 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     type_spec(&b, &serde_json::to_string_pretty(&spec).unwrap());
     b.click("#check");
     b.wait("the check's verdict", short, || {
-        b.text("#submit-status").contains("6 variants").then_some(())
+        b.text("#submit-status")
+            .contains("6 variants")
+            .then_some(())
     });
     assert_eq!(sweep_count(&base), before, "a checked spec was stored");
     b.click("#submit");
@@ -323,7 +361,12 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         );
         // Shown in µm with 4 significant digits: within half a unit of the 4th digit.
         let shown: f64 = cell[1].as_str().unwrap().parse().unwrap();
-        assert_close(&format!("variant {vid}: h_min shown (µm)"), shown, expected * 1e6, 5e-4);
+        assert_close(
+            &format!("variant {vid}: h_min shown (µm)"),
+            shown,
+            expected * 1e6,
+            5e-4,
+        );
     }
     // The spec's own figures, as `run` draws them, each shown once.
     let (_, plots) = get_json(&format!("{base}/api/sweeps/{id}/plots"));
@@ -333,7 +376,11 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         (b.count("#server-plots figure img") == plots).then_some(())
     });
     std::thread::sleep(Duration::from_millis(500));
-    assert_eq!(b.count("#server-plots figure img"), plots, "figures shown twice");
+    assert_eq!(
+        b.count("#server-plots figure img"),
+        plots,
+        "figures shown twice"
+    );
     // The CSV download is the API's CSV.
     let downloads = data.join("downloads");
     std::fs::create_dir_all(&downloads).unwrap();
@@ -346,29 +393,53 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     .expect("allow downloads");
     b.click("#dl-csv");
     let csv = b.wait("the CSV download", short, || {
-        let f = std::fs::read_dir(&downloads).ok()?.flatten().find(|e| {
-            e.path().extension().is_some_and(|x| x == "csv")
-        })?;
-        std::fs::read_to_string(f.path()).ok().filter(|t| !t.is_empty())
+        let f = std::fs::read_dir(&downloads)
+            .ok()?
+            .flatten()
+            .find(|e| e.path().extension().is_some_and(|x| x == "csv"))?;
+        std::fs::read_to_string(f.path())
+            .ok()
+            .filter(|t| !t.is_empty())
     });
     let (s_csv, api_csv) = get(&format!("{base}/api/sweeps/{id}/variants?format=csv"), None);
     assert_eq!(s_csv, 200);
-    assert_eq!(csv, api_csv.split_once('\n').unwrap().1, "downloaded CSV vs the API's");
-    assert_eq!(csv.lines().count(), n + 1, "CSV: a header and one row per variant");
+    assert_eq!(
+        csv,
+        api_csv.split_once('\n').unwrap().1,
+        "downloaded CSV vs the API's"
+    );
+    assert_eq!(
+        csv.lines().count(),
+        n + 1,
+        "CSV: a header and one row per variant"
+    );
     let header = b.text("#variants thead th[data-key='h_min']");
-    assert!(header.contains("µm"), "the h_min column names its unit: {header:?}");
+    assert!(
+        header.contains("µm"),
+        "the h_min column names its unit: {header:?}"
+    );
     // Sorting by h_min (button in the header) orders the rows by it.
     b.click("#variants thead th[data-key='h_min'] button");
     let order = b.exec(
         "return [...document.querySelectorAll('#variants tbody td[data-key=h_min]')].map(c => Number(c.dataset.value))",
         json!([]),
     );
-    let order: Vec<f64> = order.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
-    assert!(order.windows(2).all(|w| w[0] <= w[1]), "not ascending: {order:?}");
+    let order: Vec<f64> = order
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        order.windows(2).all(|w| w[0] <= w[1]),
+        "not ascending: {order:?}"
+    );
 
     // 5. A figure: the h_min map cell of variant 3 holds its value; clicking opens its orbit.
     let cell = "#map-h_min rect.cell[data-id='3']";
-    b.wait("the h_min map", short, || (b.count(cell) == 1).then_some(()));
+    b.wait("the h_min map", short, || {
+        (b.count(cell) == 1).then_some(())
+    });
     let map_value = b.exec(
         "return Number(document.querySelector(arguments[0]).dataset.value)",
         json!([cell]),
@@ -387,9 +458,15 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         "const p = document.querySelector('#orbit path.series'); return p ? (p.getAttribute('d').match(/[ML]/g) || []).length : 0",
         json!([]),
     );
-    let kept = v3["series"]["bearings"][0]["xi"].as_array().map_or(0, Vec::len);
+    let kept = v3["series"]["bearings"][0]["xi"]
+        .as_array()
+        .map_or(0, Vec::len);
     assert!(kept > 10, "the spec keeps the orbit: {kept} points");
-    assert_eq!(points.as_u64().unwrap() as usize, kept, "orbit path points vs kept samples");
+    assert_eq!(
+        points.as_u64().unwrap() as usize,
+        kept,
+        "orbit path points vs kept samples"
+    );
     // Hover reads a value (after the page's smooth scroll to the orbit has settled).
     let hover_cell = "#map-h_min rect.cell[data-id='0']";
     let mut tip = String::new();
@@ -416,7 +493,10 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     assert!(tip.contains("variant 0"), "hover text {tip:?}");
     // By keyboard: a focused map cell opens its variant with Enter.
     let cell1 = "#map-h_min rect.cell[data-id='1']";
-    b.exec("document.querySelector(arguments[0]).focus()", json!([cell1]));
+    b.exec(
+        "document.querySelector(arguments[0]).focus()",
+        json!([cell1]),
+    );
     b.type_into(cell1, "\u{E007}");
     b.wait("variant 1 opened by keyboard", short, || {
         b.text("#variant-id").starts_with("1 ").then_some(())
@@ -440,7 +520,12 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     );
     let (status, direct) = post_json(&format!("{base}/api/eval"), &input.to_string());
     assert_eq!(status, 200, "{direct}");
-    assert_close("eval wx page vs API", wx, direct["loads"][0]["wx"].as_f64().unwrap(), 1e-12);
+    assert_close(
+        "eval wx page vs API",
+        wx,
+        direct["loads"][0]["wx"].as_f64().unwrap(),
+        1e-12,
+    );
     // A bad bearing field: the error at that input.
     b.clear("#eval-b-clearance");
     b.type_into("#eval-b-clearance", "-0.0003");
@@ -482,27 +567,41 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     let (_, info) = get_json(&format!("{base}/api/sweeps/{long_id}"));
     assert_eq!(info["status"], "cancelled", "{info}");
     let done = info["progress"]["done"].as_u64().unwrap() as usize;
-    assert!(done < n, "cancelled after {done} of {n}: too late to show a cancel");
-    b.wait("the finished variants of the cancelled sweep", short, || {
-        (b.count("#variants tbody tr") == done).then_some(())
-    });
+    assert!(
+        done < n,
+        "cancelled after {done} of {n}: too late to show a cancel"
+    );
+    b.wait(
+        "the finished variants of the cancelled sweep",
+        short,
+        || (b.count("#variants tbody tr") == done).then_some(()),
+    );
     // A friction map (Fig. 4) straight from the example picker: one curve per speed.
     b.click("#example option[value='friction-map']");
     b.click("#example-load");
     b.wait("the friction-map example", short, || {
         let v = b.exec("return document.querySelector('#spec').value", json!([]));
-        v.as_str().unwrap_or("").contains("friction_map").then_some(())
+        v.as_str()
+            .unwrap_or("")
+            .contains("friction_map")
+            .then_some(())
     });
     b.click("#submit");
     b.wait("the friction map done", long, || {
-        (b.text("#detail-name").starts_with("Fig. 4") && b.text("#sweep-status") == "done").then_some(())
+        (b.text("#detail-name").starts_with("Fig. 4") && b.text("#sweep-status") == "done")
+            .then_some(())
     });
     let fm_id = b.exec(
         "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
         json!([]),
     );
-    let (_, fm) = get_json(&format!("{base}/api/sweeps/{}/result", fm_id.as_str().unwrap()));
-    let curves = fm["curves"].as_array().expect("a friction map result has curves");
+    let (_, fm) = get_json(&format!(
+        "{base}/api/sweeps/{}/result",
+        fm_id.as_str().unwrap()
+    ));
+    let curves = fm["curves"]
+        .as_array()
+        .expect("a friction map result has curves");
     let drawn = b.wait("Fig. 4 drawn", short, || {
         let v = b.exec(
             "return [...document.querySelectorAll('#fig4 path.series')].map(p => (p.getAttribute('d').match(/[ML]/g) || []).length)",
@@ -511,9 +610,18 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         let v: Vec<usize> = v.as_array()?.iter().map(|x| x.as_u64().unwrap() as usize).collect();
         (!v.is_empty()).then_some(v)
     });
-    let expected: Vec<usize> = curves.iter().map(|c| c["points"].as_array().unwrap().len()).collect();
-    assert_eq!(drawn, expected, "Fig. 4: points per speed curve drawn vs result.json");
-    b.exec("document.getElementById('detail-h').scrollIntoView()", json!([]));
+    let expected: Vec<usize> = curves
+        .iter()
+        .map(|c| c["points"].as_array().unwrap().len())
+        .collect();
+    assert_eq!(
+        drawn, expected,
+        "Fig. 4: points per speed curve drawn vs result.json"
+    );
+    b.exec(
+        "document.getElementById('detail-h').scrollIntoView()",
+        json!([]),
+    );
     std::thread::sleep(Duration::from_millis(400));
     b.screenshot(
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots/desktop-fig4.png"),
@@ -529,7 +637,10 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     // 8. Screenshots, and no sideways scrolling at phone width.
     let shots = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
     b.click("#map-h_min rect.cell[data-id='3']");
-    b.exec("document.getElementById('detail-h').scrollIntoView()", json!([]));
+    b.exec(
+        "document.getElementById('detail-h').scrollIntoView()",
+        json!([]),
+    );
     std::thread::sleep(Duration::from_millis(600));
     b.screenshot(&shots.join("desktop.png"), false);
     b.exec("window.scrollTo(0, 0)", json!([]));
@@ -545,8 +656,15 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         json!([]),
     );
     let sw = widths[0].as_u64().unwrap();
-    assert!(sw <= 390, "page wider than the 390 px phone: {sw} CSS px; widest: {}", widths[1]);
-    b.exec("document.getElementById('figures-h').scrollIntoView()", json!([]));
+    assert!(
+        sw <= 390,
+        "page wider than the 390 px phone: {sw} CSS px; widest: {}",
+        widths[1]
+    );
+    b.exec(
+        "document.getElementById('figures-h').scrollIntoView()",
+        json!([]),
+    );
     std::thread::sleep(Duration::from_millis(400));
     b.screenshot(&shots.join("phone.png"), false);
     b.exec("window.scrollTo(0, 0)", json!([]));
@@ -589,7 +707,10 @@ fn page_with_a_token_says_401_plainly_then_works() {
     b.wait("the banner to go", short, || {
         b.text("#auth-banner").is_empty().then_some(())
     });
-    let kept = b.exec("return sessionStorage.getItem('bearing-sweep-token')", json!([]));
+    let kept = b.exec(
+        "return sessionStorage.getItem('bearing-sweep-token')",
+        json!([]),
+    );
     assert_eq!(kept, json!(token), "the token is kept in sessionStorage");
     drop(b);
     drop(server);

@@ -35,7 +35,6 @@ const MAX_PAGE: u64 = 10_000;
 /// SSE keep-alive comment interval.
 const KEEP_ALIVE: Duration = Duration::from_secs(15);
 
-
 /// The API description.
 #[derive(OpenApi)]
 #[openapi(

@@ -35,9 +35,15 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../sweeps/synthetic-whirl.json"),
     ),
     ("stress", include_str!("../../sweeps/stress.json")),
-    ("friction-map", include_str!("../../sweeps/friction-map.json")),
+    (
+        "friction-map",
+        include_str!("../../sweeps/friction-map.json"),
+    ),
     ("eval-states", include_str!("../../sweeps/eval-states.json")),
-    ("paper-example", include_str!("../../sweeps/paper-example.json")),
+    (
+        "paper-example",
+        include_str!("../../sweeps/paper-example.json"),
+    ),
     ("oil-whirl", include_str!("../../sweeps/oil-whirl.json")),
 ];
 
@@ -58,7 +64,10 @@ pub fn example_role(doc: &Value) -> &'static str {
 /// service's root router; they are open, like `/healthz` (the page holds no data).
 pub fn pages<S: Clone + Send + Sync + 'static>() -> Router<S> {
     Router::new()
-        .route("/", get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }))
+        .route(
+            "/",
+            get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }),
+        )
         .route(
             "/index.html",
             get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }),
@@ -87,7 +96,11 @@ pub fn api() -> Router<AppState> {
 /// options of the query, the variant limit) without storing or running anything; the page's
 /// "Check spec". `200 {"valid": true, "kind", "name", "variants"}` or the same error as a
 /// submission would get.
-async fn validate(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Json<Value>, ApiError> {
+async fn validate(
+    State(st): State<AppState>,
+    uri: Uri,
+    body: Body,
+) -> Result<Json<Value>, ApiError> {
     let q = axum::extract::Query::<HashMap<String, String>>::try_from_uri(&uri)
         .map_err(|e| ApiError::bad_request("?", format!("malformed query: {e}")))?
         .0;
@@ -101,7 +114,9 @@ async fn validate(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Js
         ApiError::new(
             StatusCode::PAYLOAD_TOO_LARGE,
             "$",
-            format!("the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"),
+            format!(
+                "the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"
+            ),
         )
     })?;
     let doc: Value = serde_json::from_slice(&bytes)
@@ -214,7 +229,10 @@ mod tests {
             assert!(doc.is_object(), "sweeps/{name}.json is not an object");
         }
         let roles: Vec<&str> = list.iter().map(|e| e["role"].as_str().unwrap()).collect();
-        let first_other = roles.iter().position(|r| *r != "sweep").unwrap_or(roles.len());
+        let first_other = roles
+            .iter()
+            .position(|r| *r != "sweep")
+            .unwrap_or(roles.len());
         assert!(
             roles[first_other..].iter().all(|r| *r != "sweep"),
             "sweeps not first: {roles:?}"
@@ -242,7 +260,8 @@ mod tests {
             }
             let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
             let listed = EXAMPLES.iter().find(|(n, _)| *n == stem);
-            let (_, text) = listed.unwrap_or_else(|| panic!("sweeps/{stem}.json is not in web::EXAMPLES"));
+            let (_, text) =
+                listed.unwrap_or_else(|| panic!("sweeps/{stem}.json is not in web::EXAMPLES"));
             assert_eq!(
                 *text,
                 std::fs::read_to_string(&path).unwrap(),

@@ -148,7 +148,10 @@ impl Server {
                     break;
                 }
             }
-            assert!(Instant::now() < deadline, "{base}/healthz not ready within 60 s");
+            assert!(
+                Instant::now() < deadline,
+                "{base}/healthz not ready within 60 s"
+            );
             std::thread::sleep(Duration::from_millis(100));
         }
         Server {
@@ -187,7 +190,11 @@ impl Drop for Browser {
 
 impl Browser {
     /// Starts chromedriver and a headless chromium session at the given viewport size.
-    pub fn start(chromium: &Path, chromedriver: &Path, profile: PathBuf) -> Result<Browser, String> {
+    pub fn start(
+        chromium: &Path,
+        chromedriver: &Path,
+        profile: PathBuf,
+    ) -> Result<Browser, String> {
         let port = free_port();
         let child = Command::new(chromedriver)
             .arg(format!("--port={port}"))
@@ -301,10 +308,17 @@ impl Browser {
     /// Runs a command on the first match of `css`. The page re-renders parts of itself as
     /// events arrive: a reference that went stale between finding and using is found
     /// again, a few times.
-    pub fn on_element(&self, css: &str, what: &str, f: impl Fn(&str) -> Result<Value, String>) -> Value {
+    pub fn on_element(
+        &self,
+        css: &str,
+        what: &str,
+        f: impl Fn(&str) -> Result<Value, String>,
+    ) -> Value {
         let mut last = String::new();
         for _ in 0..5 {
-            let id = self.find(css).unwrap_or_else(|e| panic!("{what} {css}: {e}"));
+            let id = self
+                .find(css)
+                .unwrap_or_else(|e| panic!("{what} {css}: {e}"));
             match f(&id) {
                 Ok(v) => return v,
                 Err(e) if e.contains("stale element") => last = e,
