@@ -12,6 +12,7 @@ mod scheduler;
 mod sqlite;
 mod store;
 mod sweeps;
+pub mod web;
 
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use eval::{Coalescer, EvalCounters};
