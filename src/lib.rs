@@ -11,4 +11,5 @@ pub mod json;
 pub mod numerics;
 pub mod plot;
 pub mod rotor;
+pub mod service;
 pub mod sweep;

@@ -10,8 +10,8 @@ use bearing_sweep::bench::{
 };
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
-    read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions, RunOptions,
-    SweepRunOptions,
+    read_input, run_command, run_scene_file, worker_command, BenchRotorOptions, CliError,
+    EvalOptions, RunOptions, SweepRunOptions, WorkerCommandOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
@@ -37,6 +37,9 @@ enum Command {
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
+    /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
+    /// until stopped (README "Workers and PostgreSQL").
+    Worker(WorkerArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -106,6 +109,33 @@ struct MergeArgs {
     /// Shard result files.
     #[arg(required = true)]
     shards: Vec<String>,
+}
+
+#[derive(Args)]
+struct WorkerArgs {
+    /// The queue's database: postgres://user[:password]@host:port/database.
+    #[arg(long)]
+    database: String,
+    /// Backend for the film loads: cpu, gpu or auto (workers claim only sweeps that allow it).
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Variants per claimed lockstep batch (default 256 on the CPU, 4096 on a GPU).
+    #[arg(long)]
+    batch: Option<usize>,
+    /// Lease time to live without a heartbeat, s: a dead worker's batch runs elsewhere
+    /// after this long.
+    #[arg(long, default_value_t = 30.0)]
+    lease_ttl: f64,
+    /// Heartbeat period, s (default a third of --lease-ttl); cancel reaches the worker
+    /// within one period.
+    #[arg(long)]
+    heartbeat: Option<f64>,
+    /// Exit after this many seconds without work (default: run until SIGTERM/Ctrl-C).
+    #[arg(long)]
+    exit_when_idle: Option<f64>,
+    /// Worker id in leases and results (default host/pid/nonce).
+    #[arg(long)]
+    id: Option<String>,
 }
 
 #[derive(Args)]
@@ -206,6 +236,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval(a),
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
+        Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
@@ -295,6 +326,20 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
         full_model: a.full_model,
     };
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
+}
+
+/// `worker`: pulls work from a PostgreSQL queue until stopped.
+fn worker(a: WorkerArgs) -> Result<(), CliError> {
+    worker_command(&WorkerCommandOptions {
+        database: a.database,
+        backend: a.backend,
+        batch: a.batch,
+        lease_ttl_s: a.lease_ttl,
+        heartbeat_s: a.heartbeat,
+        exit_when_idle_s: a.exit_when_idle,
+        id: a.id,
+    })
+    .map(print_lines)
 }
 
 /// `bench all`: every benchmark into one folder with an index.

@@ -6,6 +6,7 @@ mod bench_rotor;
 mod eval;
 mod run;
 mod sweep;
+mod worker;
 
 pub use bench::bench_backend;
 pub use bench_rotor::{
@@ -14,6 +15,7 @@ pub use bench_rotor::{
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
+pub use worker::{worker_command, WorkerCommandOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]

@@ -509,7 +509,7 @@ pub fn write_plots(
 }
 
 /// One variant's stream line.
-fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outcome) -> Value {
+pub(crate) fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outcome) -> Value {
     let mut m = Map::new();
     m.insert("id".into(), json!(v.id));
     m.insert("params".into(), v.params(spec));
@@ -535,7 +535,7 @@ fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outcome) -> Val
     Value::Object(m)
 }
 
-fn result_doc(
+pub(crate) fn result_doc(
     spec: &SweepSpec,
     settings: &Value,
     shard: Option<Shard>,
