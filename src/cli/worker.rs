@@ -62,8 +62,8 @@ pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, CliError>
         .exit_when_idle_s
         .map(|s| seconds("--exit-when-idle", s))
         .transpose()?;
-    let queue = PgQueue::new(&o.database, 4)
-        .map_err(|e| CliError::input("--database", e.to_string()))?;
+    let queue =
+        PgQueue::new(&o.database, 4).map_err(|e| CliError::input("--database", e.to_string()))?;
     let opts = WorkerOptions {
         backend: o.backend,
         batch: o.batch,

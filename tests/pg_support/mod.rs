@@ -42,7 +42,11 @@ pub fn required() -> bool {
 /// The folder holding `initdb`, `pg_ctl` and `postgres`: `$BEARING_SWEEP_PG_BIN`, the
 /// newest `/usr/lib/postgresql/<version>/bin` (Debian), or the folder of `pg_ctl` on PATH.
 pub fn find_bin() -> Option<PathBuf> {
-    let has_all = |d: &Path| ["initdb", "pg_ctl", "postgres"].iter().all(|b| d.join(b).is_file());
+    let has_all = |d: &Path| {
+        ["initdb", "pg_ctl", "postgres"]
+            .iter()
+            .all(|b| d.join(b).is_file())
+    };
     if let Ok(d) = std::env::var(BIN_ENV) {
         let d = PathBuf::from(d);
         return has_all(&d).then_some(d);
@@ -209,7 +213,14 @@ impl PgCluster {
     fn pg_ctl_stop(&self, mode: &str) -> bool {
         self.pg(
             "pg_ctl",
-            &["-D", self.data().to_str().unwrap(), "-m", mode, "-w", "stop"],
+            &[
+                "-D",
+                self.data().to_str().unwrap(),
+                "-m",
+                mode,
+                "-w",
+                "stop",
+            ],
         )
         .status
         .success()
@@ -224,7 +235,15 @@ impl PgCluster {
     pub fn create_database(&self, name: &str) -> String {
         let out = self.pg(
             "createdb",
-            &["-h", "127.0.0.1", "-p", &self.port.to_string(), "-U", DB_USER, name],
+            &[
+                "-h",
+                "127.0.0.1",
+                "-p",
+                &self.port.to_string(),
+                "-U",
+                DB_USER,
+                name,
+            ],
         );
         assert!(
             out.status.success(),
@@ -239,7 +258,8 @@ impl PgCluster {
     pub fn restart(&self, down: Duration) {
         assert!(self.pg_ctl_stop("fast"), "pg_ctl stop failed");
         std::thread::sleep(down);
-        self.pg_ctl_start().expect("postgres restarts on the same port");
+        self.pg_ctl_start()
+            .expect("postgres restarts on the same port");
     }
 
     /// The server's log so far (for failure messages).

@@ -54,7 +54,10 @@ pub async fn migrate(client: &mut Client, target: &str) -> Result<Vec<i32>, PgEr
     .await
     .map_err(db("creating schema_migrations"))?;
     let applied: Vec<i32> = tx
-        .query("SELECT version FROM schema_migrations ORDER BY version", &[])
+        .query(
+            "SELECT version FROM schema_migrations ORDER BY version",
+            &[],
+        )
         .await
         .map_err(db("reading schema_migrations"))?
         .iter()

@@ -12,12 +12,12 @@ mod worker;
 pub use error::PgError;
 pub use migrations::{migrate, Migration, MIGRATIONS};
 pub use queue::{
-    BatchStats, Completion, Lease, LeaseState, NewSweep, PgQueue, SweepJob, SweepOptions,
-    SweepRow, VariantRow, DEFAULT_BATCH_VARIANTS,
+    BatchStats, Completion, Lease, LeaseState, NewSweep, PgQueue, SweepJob, SweepOptions, SweepRow,
+    VariantRow, DEFAULT_BATCH_VARIANTS,
 };
 pub use result::result_document;
 pub use submit::{new_sweep_id, submit_spec};
 pub use worker::{
-    build_simulator, default_worker_id, resolve_backend, run_variants, run_worker,
-    WorkerOptions, WorkerSummary,
+    build_simulator, default_worker_id, resolve_backend, run_variants, run_worker, WorkerOptions,
+    WorkerSummary,
 };

@@ -309,8 +309,8 @@ impl PgQueue {
         .map_err(self.db("inserting a sweep"))?;
         tx.execute(
             "INSERT INTO work_batches (sweep_id, batch_no, first_id, end_id)
-             SELECT $1, g, g::bigint * $2, LEAST((g::bigint + 1) * $2, $3)
-             FROM generate_series(0, (($3 + $2 - 1) / $2)::int - 1) AS g",
+             SELECT $1, g, g::bigint * $2::bigint, LEAST((g::bigint + 1) * $2::bigint, $3::bigint)
+             FROM generate_series(0, (($3::bigint + $2::bigint - 1) / $2::bigint)::int - 1) AS g",
             &[&s.id, &(s.batch_variants as i64), &total],
         )
         .await
@@ -405,7 +405,7 @@ impl PgQueue {
             let lease_id: i64 = tx
                 .query_one(
                     "INSERT INTO leases (sweep_id, worker_id, variants, expires_at)
-                     VALUES ($1, $2, $3, now() + $4 * interval '1 millisecond')
+                     VALUES ($1, $2, $3, now() + $4::float8 * interval '1 millisecond')
                      RETURNING id",
                     &[&sweep_id, &worker_id, &n, &millis(ttl)],
                 )
@@ -438,7 +438,7 @@ impl PgQueue {
         let row = c
             .query_opt(
                 "UPDATE leases l SET heartbeat_at = now(),
-                        expires_at = now() + $3 * interval '1 millisecond'
+                        expires_at = now() + $3::float8 * interval '1 millisecond'
                  WHERE l.id = $1 AND l.worker_id = $2
                  RETURNING (SELECT s.status FROM sweeps s WHERE s.id = l.sweep_id),
                            (SELECT count(*) FROM work_batches b
@@ -485,11 +485,19 @@ impl PgQueue {
             .map_err(self.db(CTX))?;
         let mine = |r: &tokio_postgres::Row| r.get::<_, Option<i64>>(1) == Some(lease.id);
         let all = held.len() == lease.batches.len();
-        if all && held.iter().all(|r| mine(r) && r.get::<_, String>(0) == "done") {
+        if all
+            && held
+                .iter()
+                .all(|r| mine(r) && r.get::<_, String>(0) == "done")
+        {
             tx.rollback().await.map_err(self.db(CTX))?;
             return Ok(Completion::AlreadyCommitted);
         }
-        if !all || !held.iter().all(|r| mine(r) && r.get::<_, String>(0) == "leased") {
+        if !all
+            || !held
+                .iter()
+                .all(|r| mine(r) && r.get::<_, String>(0) == "leased")
+        {
             tx.rollback().await.map_err(self.db(CTX))?;
             return Ok(Completion::LeaseLost);
         }
@@ -555,7 +563,14 @@ impl PgQueue {
             "INSERT INTO variant_results (sweep_id, variant_id, ok, line, lease_id, worker_id)
              SELECT $1, v.id, v.ok, v.line, $5, $6
              FROM unnest($2::bigint[], $3::bool[], $4::text[]) AS v(id, ok, line)",
-            &[&lease.sweep_id, &ids, &oks, &lines, &lease.id, &lease.worker_id],
+            &[
+                &lease.sweep_id,
+                &ids,
+                &oks,
+                &lines,
+                &lease.id,
+                &lease.worker_id,
+            ],
         )
         .await
         .map_err(self.db(CTX))?;

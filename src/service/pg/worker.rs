@@ -434,14 +434,7 @@ async fn process_lease(
 ) {
     let (reply, mut answer) = oneshot::channel();
     let ids = lease.variant_ids();
-    if tx
-        .send(ComputeRequest {
-            job,
-            ids,
-            reply,
-        })
-        .is_err()
-    {
+    if tx.send(ComputeRequest { job, ids, reply }).is_err() {
         log("the compute thread is gone; giving the lease back".into());
         let _ = queue.release(lease).await;
         return;
@@ -480,7 +473,10 @@ async fn process_lease(
         }
         Some(LeaseState::Stopped(s)) => {
             summary.stopped += 1;
-            log(format!("sweep {} is {s}; lease {} dropped", lease.sweep_id, lease.id));
+            log(format!(
+                "sweep {} is {s}; lease {} dropped",
+                lease.sweep_id, lease.id
+            ));
             return;
         }
         _ => {}
@@ -516,7 +512,10 @@ async fn process_lease(
         }
         Ok(Completion::Stopped(s)) => {
             summary.stopped += 1;
-            log(format!("sweep {} is {s}; lease {} dropped", lease.sweep_id, lease.id));
+            log(format!(
+                "sweep {} is {s}; lease {} dropped",
+                lease.sweep_id, lease.id
+            ));
         }
         Err(e) => {
             log(format!("completing lease {}: {e}", lease.id));
