@@ -638,7 +638,7 @@ pub(crate) fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, o: Outc
     Value::Object(m)
 }
 
-pub(crate) fn result_doc(
+fn result_doc(
     spec: &SweepSpec,
     settings: &Value,
     shard: Option<Shard>,

@@ -6,7 +6,7 @@ use serde_json::{json, Value};
 
 use super::error::PgError;
 use super::queue::PgQueue;
-use crate::sweep::runner::result_doc;
+use crate::sweep::runner::result_skeleton;
 use crate::sweep::spec::parse_spec;
 
 /// Variants read per query while assembling a result.
@@ -48,7 +48,7 @@ pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError
         "variants_per_s": if wall > 0.0 { row.total as f64 / wall } else { 0.0 },
     });
     let settings = row.settings.clone().unwrap_or(Value::Null);
-    let mut doc = result_doc(&spec, &settings, None, row.total, run);
+    let mut doc = result_skeleton(&spec, &settings, None, row.total, run);
     let mut variants = Vec::with_capacity(row.total as usize);
     let mut next = 0u64;
     loop {

@@ -8,7 +8,6 @@ use serde_json::Value;
 use super::error::PgError;
 use super::queue::{NewSweep, PgQueue, SweepOptions};
 use crate::sweep::rotor_sim::validate_scene;
-use crate::sweep::runner::fnv1a64;
 use crate::sweep::spec::parse_spec;
 use crate::sweep::{synthetic, Expansion, SweepKind};
 
@@ -21,7 +20,11 @@ pub fn new_sweep_id() -> String {
         .map_or(0, |d| d.as_nanos());
     let n = SUBMITTED.fetch_add(1, Ordering::Relaxed);
     let seed = format!("{nanos}/{}/{n}", std::process::id());
-    format!("{:016x}", fnv1a64(seed.as_bytes()))
+    use sha2::{Digest, Sha256};
+    Sha256::digest(seed.as_bytes())[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Validates spec `doc` (every variant) and enqueues it in work batches of

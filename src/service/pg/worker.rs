@@ -8,23 +8,22 @@
 //! over is dropped at the next heartbeat.
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use serde_json::{json, Value};
+use serde_json::Value;
 use tokio::sync::{oneshot, watch};
 
 use super::error::PgError;
 use super::queue::{Completion, Lease, LeaseState, PgQueue, SweepJob, SweepOptions, VariantRow};
-use crate::backend::{create_backend, BackendKind, EvaluatorOptions, LoadEvaluator};
+use crate::backend::{create_backend, BackendKind};
 use crate::bearing::Accuracy;
-use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 use crate::sweep::expand::Expansion;
 use crate::sweep::rotor_sim::{AUTO_BATCH_CPU, AUTO_BATCH_GPU};
 use crate::sweep::runner::{variant_line, BatchSimulator, Job, Outcome};
+use crate::sweep::simulator::{prepare_simulator, SimulatorChoice};
 use crate::sweep::spec::{parse_spec, SweepSpec};
-use crate::sweep::synthetic::SyntheticSimulator;
-use crate::sweep::SweepKind;
 
 /// First retry delay after a transient database error.
 const BACKOFF_START: Duration = Duration::from_millis(100);
@@ -99,54 +98,38 @@ pub fn default_worker_id() -> String {
     format!("{host}/{}/{nonce:08x}", std::process::id())
 }
 
-/// A sweep's simulator and the settings it computes with, as `run` builds them.
+/// A sweep's simulator and the settings it computes with, built as `run` builds them
+/// (`worker --backend` decides the film backend; the sweep's options the rest).
 pub fn build_simulator(
     spec: &SweepSpec,
     options: &SweepOptions,
     backend: BackendKind,
 ) -> Result<(Box<dyn BatchSimulator>, Value), String> {
-    match spec.kind {
-        SweepKind::Synthetic => Ok((
-            Box::new(SyntheticSimulator),
-            json!({"simulator": "synthetic"}),
-        )),
-        SweepKind::Rotor => {
-            let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
-                format!(
-                    "accuracy: {} is not a positive number >= 1e-12",
-                    options.accuracy
-                )
-            })?;
-            let (film, _notice) = create_backend(backend, accuracy).map_err(|e| e.to_string())?;
-            let base: ReductionSpec = spec
-                .base
-                .get("reductions")
-                .and_then(|v| serde_json::from_value(v.clone()).ok())
-                .unwrap_or_default();
-            let eval_options = if options.full_model {
-                EvaluatorOptions::full()
-            } else {
-                evaluator_options([&base])
-            };
-            let mut sim = crate::sweep::rotor_sim::RotorSimulator::new(
-                LoadEvaluator::with_options(film, eval_options),
-                accuracy,
-            );
-            sim.set_full_model(options.full_model);
-            let settings = sim.settings(accuracy.rtol());
-            Ok((Box::new(sim), settings))
-        }
-    }
+    let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
+        format!(
+            "accuracy: {} is not a positive number >= 1e-12",
+            options.accuracy
+        )
+    })?;
+    let choice = SimulatorChoice {
+        backend,
+        accuracy,
+        full_model: options.full_model,
+    };
+    let prepared = prepare_simulator(spec, &choice, &mut |_| {}).map_err(|e| e.to_string())?;
+    Ok((prepared.sim, prepared.settings))
 }
 
 /// Runs `ids` of a parsed sweep on `sim`: one lockstep batch, one line per variant
 /// exactly as `run` streams it (a variant the simulator does not report becomes
-/// `internal_error`).
+/// `internal_error`). Once `cancel` is set the simulator stops early; the caller then
+/// drops the rows.
 pub fn run_variants(
     spec: &SweepSpec,
     exp: &Expansion,
     sim: &mut dyn BatchSimulator,
     ids: &[u64],
+    cancel: &AtomicBool,
 ) -> Vec<VariantRow> {
     let variants: Vec<_> = ids.iter().map(|&id| exp.variant(spec, id)).collect();
     let jobs: Vec<Job> = variants
@@ -169,7 +152,7 @@ pub fn run_variants(
                 });
             }
         };
-        sim.run_batch(&jobs, &mut on_done);
+        sim.run_batch_cancellable(&jobs, cancel, &mut on_done);
         for k in 0..jobs.len() {
             on_done(
                 k,
@@ -195,6 +178,8 @@ struct Prepared {
 struct ComputeRequest {
     job: Arc<SweepJob>,
     ids: Vec<u64>,
+    /// Set when the lease is lost or its sweep stopped: the simulation stops early.
+    cancel: Arc<AtomicBool>,
     reply: oneshot::Sender<Result<(Vec<VariantRow>, Value), String>>,
 }
 
@@ -234,7 +219,7 @@ fn compute_thread(backend: BackendKind, rx: std::sync::mpsc::Receiver<ComputeReq
             }
             let (t, p) = cache.get_mut(&req.job.id).expect("inserted above");
             *t = tick;
-            let rows = run_variants(&p.spec, &p.exp, p.sim.as_mut(), &req.ids);
+            let rows = run_variants(&p.spec, &p.exp, p.sim.as_mut(), &req.ids, &req.cancel);
             Ok((rows, p.settings.clone()))
         }));
         let result = result.unwrap_or_else(|panic| {
@@ -434,7 +419,14 @@ async fn process_lease(
 ) {
     let (reply, mut answer) = oneshot::channel();
     let ids = lease.variant_ids();
-    if tx.send(ComputeRequest { job, ids, reply }).is_err() {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let request = ComputeRequest {
+        job,
+        ids,
+        cancel: cancel.clone(),
+        reply,
+    };
+    if tx.send(request).is_err() {
         log("the compute thread is gone; giving the lease back".into());
         let _ = queue.release(lease).await;
         return;
@@ -452,8 +444,11 @@ async fn process_lease(
                 }
                 match queue.heartbeat(lease, opts.lease_ttl).await {
                     Ok(LeaseState::Held) => {}
-                    // The batch in hand cannot be interrupted; its results are dropped.
-                    Ok(state) => why = Some(state),
+                    // Stop the simulation; whatever it returns is dropped.
+                    Ok(state) => {
+                        cancel.store(true, Ordering::Relaxed);
+                        why = Some(state);
+                    }
                     Err(e) => {
                         *retries += 1;
                         log(format!("heartbeat of lease {}: {e}", lease.id));
