@@ -10,8 +10,9 @@ use bearing_sweep::bench::{
 };
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
-    read_input, run_command, run_scene_file, worker_command, BenchRotorOptions, CliError,
-    EvalOptions, RunOptions, SweepRunOptions, WorkerCommandOptions,
+    read_input, run_command, run_scene_file, serve_command, submit_command, worker_command,
+    BenchRotorOptions, CliError, EvalOptions, RunOptions, SubmitOptions, SweepRunOptions,
+    WorkerCommandOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
@@ -37,6 +38,10 @@ enum Command {
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
+    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
+    Serve(ServeArgs),
+    /// Submit a sweep spec to a running service; prints its id.
+    Submit(SubmitArgs),
     /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
     /// until stopped (README "Workers and PostgreSQL").
     Worker(WorkerArgs),
@@ -98,6 +103,61 @@ struct RunArgs {
     #[arg(long)]
     quiet: bool,
     /// Turn every model reduction off (README "Model reductions"), exact ones included.
+    #[arg(long)]
+    full_model: bool,
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    /// Address and port to listen on (port 0: any free port, printed at start).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    bind: std::net::SocketAddr,
+    /// Folder of the job store (SQLite database).
+    #[arg(long, default_value = "bearing-sweep-data")]
+    data: std::path::PathBuf,
+    /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
+    #[arg(long)]
+    token: Option<String>,
+    /// Sweeps running at once.
+    #[arg(long, default_value_t = 1)]
+    max_running: usize,
+    /// Largest request body, bytes (413 beyond).
+    #[arg(long, default_value_t = 4 << 20)]
+    max_body_bytes: usize,
+    /// Most variants per sweep (422 beyond).
+    #[arg(long, default_value_t = 1_000_000)]
+    max_variants: u64,
+    /// Most sweeps queued or running (429 beyond).
+    #[arg(long, default_value_t = 64)]
+    max_queued: u64,
+    /// Coalescing window of /api/eval, ms.
+    #[arg(long, default_value_t = 2.0)]
+    eval_window_ms: f64,
+    /// Backend of /api/eval: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    eval_backend: BackendKind,
+}
+
+#[derive(Args)]
+struct SubmitArgs {
+    /// Sweep spec (JSON), `-` for standard input.
+    spec: String,
+    /// Service URL.
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    server: String,
+    /// Bearer token (else BEARING_SWEEP_TOKEN).
+    #[arg(long)]
+    token: Option<String>,
+    /// Wait for the end with a progress bar, then print where the result is.
+    #[arg(long)]
+    wait: bool,
+    /// Backend for the film loads: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+    /// Turn every model reduction off.
     #[arg(long)]
     full_model: bool,
 }
@@ -236,6 +296,8 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval(a),
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
+        Command::Serve(a) => serve(a),
+        Command::Submit(a) => submit(a),
         Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
@@ -326,6 +388,49 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
         full_model: a.full_model,
     };
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
+}
+
+/// `serve`: the sweep service until SIGTERM / Ctrl-C.
+fn serve(a: ServeArgs) -> Result<(), CliError> {
+    let config = bearing_sweep::service::ServiceConfig {
+        bind: a.bind,
+        data: a.data,
+        token: a.token,
+        max_running: a.max_running,
+        max_body_bytes: a.max_body_bytes,
+        max_variants: a.max_variants,
+        max_queued: a.max_queued,
+        eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
+        eval_backend: a.eval_backend,
+    };
+    serve_command(config, &mut |n| eprintln!("{n}"))
+}
+
+/// `submit`: a sweep spec to a running service.
+fn submit(a: SubmitArgs) -> Result<(), CliError> {
+    let text = read_input(&a.spec)?;
+    let backend = match a.backend {
+        BackendKind::Cpu => "cpu",
+        BackendKind::Gpu => "gpu",
+        BackendKind::Auto => "auto",
+    };
+    let mut query = format!("backend={backend}&accuracy={:e}", a.accuracy);
+    if a.full_model {
+        query.push_str("&full_model=true");
+    }
+    let lines = submit_command(
+        &text,
+        &SubmitOptions {
+            server: a.server,
+            token: a.token,
+            wait: a.wait,
+            query,
+        },
+    )?;
+    for l in lines {
+        println!("{l}");
+    }
+    Ok(())
 }
 
 /// `worker`: pulls work from a PostgreSQL queue until stopped.

@@ -5,6 +5,8 @@ mod bench;
 mod bench_rotor;
 mod eval;
 mod run;
+mod serve;
+mod submit;
 mod sweep;
 mod worker;
 
@@ -14,6 +16,8 @@ pub use bench_rotor::{
 };
 pub use eval::{eval_json, EvalOptions};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use serve::{serve_command, TOKEN_ENV};
+pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 pub use worker::{worker_command, WorkerCommandOptions};
 
