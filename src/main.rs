@@ -115,6 +115,10 @@ struct ServeArgs {
     /// Folder of the job store (SQLite database).
     #[arg(long, default_value = "bearing-sweep-data")]
     data: std::path::PathBuf,
+    /// Keep sweeps in PostgreSQL (postgres://user[:password]@host:port/database) and let
+    /// `worker` processes run them, instead of the SQLite store in --data.
+    #[arg(long)]
+    database: Option<String>,
     /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
     #[arg(long)]
     token: Option<String>,
@@ -402,6 +406,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         max_queued: a.max_queued,
         eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
         eval_backend: a.eval_backend,
+        database: a.database,
     };
     serve_command(config, &mut |n| eprintln!("{n}"))
 }

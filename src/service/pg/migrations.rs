@@ -18,11 +18,18 @@ pub struct Migration {
 }
 
 /// Every migration this program knows, oldest first.
-pub const MIGRATIONS: &[Migration] = &[Migration {
-    version: 1,
-    name: "queue",
-    sql: include_str!("migrations/0001_queue.sql"),
-}];
+pub const MIGRATIONS: &[Migration] = &[
+    Migration {
+        version: 1,
+        name: "queue",
+        sql: include_str!("migrations/0001_queue.sql"),
+    },
+    Migration {
+        version: 2,
+        name: "service",
+        sql: include_str!("migrations/0002_service.sql"),
+    },
+];
 
 /// Advisory lock key of the migrations ("bsweepmg" as eight ASCII bytes).
 const MIGRATION_LOCK: i64 = 0x6273_7765_6570_6d67;

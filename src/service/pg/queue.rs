@@ -68,6 +68,12 @@ pub struct NewSweep {
     pub total: u64,
     /// Variants per work batch row (> 0).
     pub batch_variants: i32,
+    /// The document as posted to the service, if it came that way.
+    pub posted: Option<Value>,
+    /// Run by the server itself (no work batches; e.g. a friction map).
+    pub local: bool,
+    /// Submission time, s since the Unix epoch (`None`: now).
+    pub created_unix_s: Option<f64>,
 }
 
 /// A sweep as stored.
@@ -242,6 +248,23 @@ impl PgQueue {
         Ok(PgQueue { pool, target })
     }
 
+    /// A pooled connection (for the store's own statements).
+    pub async fn connection(
+        &self,
+        context: &'static str,
+    ) -> Result<deadpool_postgres::Object, PgError> {
+        self.client(context).await
+    }
+
+    /// The error of a failed statement while doing `context`.
+    pub fn db_error(&self, context: &'static str, source: tokio_postgres::Error) -> PgError {
+        PgError::Db {
+            target: self.target.clone(),
+            context,
+            source,
+        }
+    }
+
     /// `host:port/db` (no credentials), for messages.
     pub fn target(&self) -> &str {
         &self.target
@@ -281,7 +304,8 @@ impl PgQueue {
         let options = serde_json::to_string(&s.options).unwrap_or_default();
         let spec = serde_json::to_string(&s.spec).unwrap_or_default();
         let total = s.total as i64;
-        let done_at_once = total == 0;
+        let done_at_once = total == 0 && !s.local;
+        let posted = s.posted.as_ref().map(Value::to_string);
         let mut c = self.client("submitting a sweep").await?;
         let tx = c
             .transaction()
@@ -289,10 +313,11 @@ impl PgQueue {
             .map_err(self.db("submitting a sweep"))?;
         tx.execute(
             "INSERT INTO sweeps (id, name, kind, spec, options, backend, batch_variants, total,
-                                 status, finished_at)
+                                 status, finished_at, posted_spec, local, created_at)
              VALUES ($1, $2, $3, $4, $5, $6, $7, $8,
                      CASE WHEN $9 THEN 'done' ELSE 'queued' END,
-                     CASE WHEN $9 THEN now() END)",
+                     CASE WHEN $9 THEN now() END, $10, $11,
+                     COALESCE(to_timestamp($12::float8), now()))",
             &[
                 &s.id,
                 &s.name,
@@ -303,10 +328,17 @@ impl PgQueue {
                 &s.batch_variants,
                 &total,
                 &done_at_once,
+                &posted,
+                &s.local,
+                &s.created_unix_s,
             ],
         )
         .await
         .map_err(self.db("inserting a sweep"))?;
+        if s.local {
+            tx.commit().await.map_err(self.db("submitting a sweep"))?;
+            return Ok(());
+        }
         tx.execute(
             "INSERT INTO work_batches (sweep_id, batch_no, first_id, end_id)
              SELECT $1, g, g::bigint * $2::bigint, LEAST((g::bigint + 1) * $2::bigint, $3::bigint)
@@ -584,7 +616,7 @@ impl PgQueue {
         let not_ok = rows.iter().filter(|r| !r.ok).count() as i64;
         let status: String = tx
             .query_one(
-                "UPDATE sweeps SET done = done + $2, failed = failed + $3,
+                "UPDATE sweeps SET done = done + $2, failed = failed + $3, computed = computed + $2,
                         status = CASE WHEN done + $2 >= total THEN 'done' ELSE status END,
                         finished_at = CASE WHEN done + $2 >= total THEN now() ELSE finished_at END
                  WHERE id = $1 RETURNING status",

@@ -2,9 +2,10 @@
 //! result.json for the same spec and settings (everything but the `run` section, which
 //! describes the workers and leases instead of one process).
 
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use super::error::PgError;
+use super::monitor::run_section;
 use super::queue::PgQueue;
 use crate::sweep::runner::result_skeleton;
 use crate::sweep::spec::parse_spec;
@@ -32,21 +33,10 @@ pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError
         id: id.to_string(),
         reason: format!("the stored spec does not parse: {e}"),
     })?;
-    let stats = queue.batch_stats(id).await?;
-    let wall = match (row.started_unix_s, row.finished_unix_s) {
-        (Some(a), Some(b)) => b - a,
-        _ => 0.0,
+    let run = match &row_run(queue, id).await? {
+        Some(r) => r.clone(),
+        None => run_section(queue, id).await?,
     };
-    let run = json!({
-        "store": "postgres",
-        "workers": stats.workers,
-        "leases": stats.leases,
-        "batch_claims": stats.claims,
-        "work_batches": stats.done,
-        "backend": row.backend_resolved,
-        "wall_s": wall,
-        "variants_per_s": if wall > 0.0 { row.total as f64 / wall } else { 0.0 },
-    });
     let settings = row.settings.clone().unwrap_or(Value::Null);
     let mut doc = result_skeleton(&spec, &settings, None, row.total, run);
     let mut variants = Vec::with_capacity(row.total as usize);
@@ -77,4 +67,15 @@ pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError
     }
     doc["variants"] = Value::Array(variants);
     Ok(doc)
+}
+
+/// The stored `run` section (written when the server saw the sweep done).
+async fn row_run(queue: &PgQueue, id: &str) -> Result<Option<Value>, PgError> {
+    let c = queue.connection("reading the run section").await?;
+    let r = c
+        .query_opt("SELECT run FROM sweeps WHERE id = $1", &[&id])
+        .await
+        .map_err(|e| queue.db_error("reading the run section", e))?;
+    Ok(r.and_then(|r| r.get::<_, Option<String>>(0))
+        .and_then(|t| serde_json::from_str(&t).ok()))
 }

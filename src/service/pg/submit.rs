@@ -60,6 +60,9 @@ pub async fn submit_spec(
             options,
             total,
             batch_variants,
+            posted: None,
+            local: false,
+            created_unix_s: None,
         })
         .await?;
     Ok((id, total))
