@@ -66,6 +66,31 @@ enum BenchCommand {
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
     Rotor(BenchRotorArgs),
+    /// Load generator for the service: concurrent eval clients (states/s, p50/p99) beside
+    /// one `eval` call, and one sweep over HTTP against `run`.
+    Serve(BenchServeArgs),
+}
+
+#[derive(Args)]
+struct BenchServeArgs {
+    /// A running service; default: one started in this process on 127.0.0.1.
+    #[arg(long)]
+    server: Option<String>,
+    /// Concurrent clients, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,8,64,256")]
+    clients: Vec<usize>,
+    /// States per request, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,64")]
+    states: Vec<usize>,
+    /// Seconds per row.
+    #[arg(long, default_value_t = 10.0)]
+    duration: f64,
+    /// Coalescing window of the in-process server, ms.
+    #[arg(long, default_value_t = 2.0)]
+    window_ms: f64,
+    /// A sweep spec to time over HTTP against `run`.
+    #[arg(long)]
+    sweep: Option<std::path::PathBuf>,
 }
 
 #[derive(Args)]
@@ -311,6 +336,7 @@ fn main() -> ExitCode {
             ),
             BenchCommand::Rotor(a) if !a.batch.is_empty() => bench_rotor_batch_cmd(a),
             BenchCommand::Rotor(a) => bench_rotor_cmd(a),
+            BenchCommand::Serve(a) => bench_serve_cmd(a),
         },
     };
     match result {
@@ -450,6 +476,21 @@ fn worker(a: WorkerArgs) -> Result<(), CliError> {
         id: a.id,
     })
     .map(print_lines)
+}
+
+/// `bench serve`: load generator for the service.
+fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
+    let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
+        server: a.server,
+        clients: a.clients,
+        states: a.states,
+        duration_s: a.duration,
+        window_ms: a.window_ms,
+        sweep: a.sweep,
+    })
+    .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    print!("{md}");
+    Ok(())
 }
 
 /// `bench all`: every benchmark into one folder with an index.

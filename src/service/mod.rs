@@ -5,6 +5,7 @@
 mod csv;
 mod error;
 mod eval;
+mod loadgen;
 mod metrics;
 pub mod pg;
 mod routes;
@@ -15,6 +16,7 @@ mod sweeps;
 
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use eval::{Coalescer, EvalCounters};
+pub use loadgen::{bench_serve, spawn_background, LoadOptions, LoadRow};
 pub use routes::{rfc3339, router, ApiDoc};
 pub use scheduler::{Job, Scheduler, SweepEvent};
 pub use sqlite::SqliteStore;
