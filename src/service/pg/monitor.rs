@@ -196,6 +196,16 @@ async fn look(
                     variants_per_s: rate,
                     eta_s: (rate > 0.0).then(|| total.saturating_sub(w.done) as f64 / rate),
                 };
+                scheduler
+                    .counters
+                    .variants_done
+                    .fetch_add(1, Ordering::Relaxed);
+                if !ok {
+                    scheduler
+                        .counters
+                        .variants_failed
+                        .fetch_add(1, Ordering::Relaxed);
+                }
                 let _ = job.events.send(SweepEvent::Variant {
                     id: v.get::<_, i64>(0) as u64,
                     ok,
