@@ -54,6 +54,9 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// PostgreSQL queue: variants/s with 1, 2, 4 worker processes against `run`, claim and
+    /// commit overhead per batch, and a claim storm (README "Workers and PostgreSQL").
+    Queue(BenchQueueArgs),
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
     /// ~20-30 s quick, ~2 min with --full on 2 cores.
@@ -228,6 +231,34 @@ struct WorkerArgs {
 }
 
 #[derive(Args)]
+struct BenchQueueArgs {
+    /// A scratch database (sweeps are added and deleted): postgres://user@host:port/db.
+    #[arg(long)]
+    database: String,
+    /// Worker process counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
+    workers: Vec<usize>,
+    /// Variants per claim of those workers.
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+    /// Grid points per axis of the rotor sweep (n x n variants).
+    #[arg(long, default_value_t = 16)]
+    grid: usize,
+    /// Batches of the claim-and-commit overhead row.
+    #[arg(long, default_value_t = 500)]
+    overhead_batches: usize,
+    /// Concurrent claimers in the storm.
+    #[arg(long, default_value_t = 64)]
+    storm_workers: usize,
+    /// Length of the storm, s.
+    #[arg(long, default_value_t = 10.0)]
+    storm_seconds: f64,
+    /// Scratch folder for the `run` reference.
+    #[arg(long, default_value = "out/bench-queue")]
+    out: std::path::PathBuf,
+}
+
+#[derive(Args)]
 struct BenchAllArgs {
     /// Output folder (index.md, loads/, backend/, rotor/).
     #[arg(long, default_value = "out/bench-all")]
@@ -330,6 +361,7 @@ fn main() -> ExitCode {
         Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
+            BenchCommand::Queue(a) => bench_queue_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
             BenchCommand::Backend(a) => run_bench_backend(
                 &a.backend, a.sizes, a.accuracy, a.threads, a.min_time, a.max_reps, a.json,
@@ -489,6 +521,28 @@ fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
         sweep: a.sweep,
     })
     .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    print!("{md}");
+    Ok(())
+}
+
+/// `bench queue`: figures of the PostgreSQL queue.
+fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
+    let exe = std::env::current_exe().map_err(|source| CliError::Io {
+        path: "current executable".into(),
+        source,
+    })?;
+    let md = bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
+        database: a.database,
+        exe,
+        workers: a.workers,
+        batch: a.batch.max(1),
+        grid: a.grid.max(1),
+        overhead_batches: a.overhead_batches.max(1),
+        storm_workers: a.storm_workers.max(1),
+        storm_s: a.storm_seconds.max(0.1),
+        scratch: a.out,
+    })
+    .map_err(|e| CliError::input("--database", e.to_string()))?;
     print!("{md}");
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! exactly once with the lease's completion, the `worker` process loop, and the
 //! service's store on the same tables (`serve --database`).
 
+mod bench;
 mod error;
 mod migrations;
 mod monitor;
@@ -12,6 +13,7 @@ mod store;
 mod submit;
 mod worker;
 
+pub use bench::{bench_queue, QueueBenchOptions};
 pub use error::PgError;
 pub use migrations::{migrate, Migration, MIGRATIONS};
 pub use monitor::{monitor, run_section, spawn_monitor};
