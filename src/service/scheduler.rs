@@ -291,7 +291,7 @@ impl Scheduler {
         let me_failed = Arc::new(AtomicU64::new(0));
         let (d, f) = (me_done.clone(), me_failed.clone());
         // The runner records progress after the commit returns; the event carries the
-        // counts including this variant.
+        // counts and rate including this variant.
         let mut sink = StoreSink::new(
             self.store.clone(),
             &row.id,
@@ -300,9 +300,7 @@ impl Scheduler {
                 if !ok {
                     f.fetch_add(1, Ordering::Relaxed);
                 }
-                let mut progress = counters.snapshot();
-                progress.done += 1;
-                progress.failed += u64::from(!ok);
+                let progress = counters.snapshot_after(ok);
                 let _ = events.send(SweepEvent::Variant { id, ok, progress });
             }),
         );

@@ -72,7 +72,17 @@ impl ProgressCounters {
 
     /// Current counts, rate and time left.
     pub fn snapshot(&self) -> ProgressSnapshot {
-        let done = self.done.load(Ordering::Relaxed);
+        self.snapshot_plus(0, 0)
+    }
+
+    /// The snapshot as it will read once one more variant (`ok` or not) is recorded: for a
+    /// report made between a variant's commit and its [`ProgressCounters::record`].
+    pub fn snapshot_after(&self, ok: bool) -> ProgressSnapshot {
+        self.snapshot_plus(1, u64::from(!ok))
+    }
+
+    fn snapshot_plus(&self, more_done: u64, more_failed: u64) -> ProgressSnapshot {
+        let done = self.done.load(Ordering::Relaxed) + more_done;
         let total = self.total.load(Ordering::Relaxed);
         let ran = done.saturating_sub(self.resumed.load(Ordering::Relaxed));
         let elapsed = self
@@ -88,7 +98,7 @@ impl ProgressCounters {
         };
         ProgressSnapshot {
             done,
-            failed: self.failed.load(Ordering::Relaxed),
+            failed: self.failed.load(Ordering::Relaxed) + more_failed,
             total,
             variants_per_s: rate,
             eta_s: (rate > 0.0).then(|| total.saturating_sub(done) as f64 / rate),
@@ -173,6 +183,8 @@ mod tests {
         c.begin(10, 3, 1);
         c.record(true);
         c.record(false);
+        let ahead = c.snapshot_after(false);
+        assert_eq!((ahead.done, ahead.failed), (6, 3), "{ahead:?}");
         let s = c.snapshot();
         assert_eq!((s.done, s.failed, s.total), (5, 2, 10), "{s:?}");
         assert!(
