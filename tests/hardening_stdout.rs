@@ -27,7 +27,8 @@ fn broken_pipe_exits_quietly() {
     let dir = scratch("hardening-stdout", "pipe");
     let input = write(&dir, "in.json", &eval_input(5000));
     let mut child = bin()
-        .args(["eval", input.to_str().unwrap()])
+        // `--backend cpu`: no GPU probe, so no `auto` notice on stderr.
+        .args(["eval", input.to_str().unwrap(), "--backend", "cpu"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
