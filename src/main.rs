@@ -209,7 +209,7 @@ struct ServeArgs {
     #[arg(long, default_value_t = 2.0)]
     eval_window_ms: f64,
     /// Backend of /api/eval: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "auto")]
     eval_backend: BackendKind,
 }
 
@@ -227,7 +227,7 @@ struct SubmitArgs {
     #[arg(long)]
     wait: bool,
     /// Backend for the film loads: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads.
     #[arg(long, default_value_t = 1e-6)]
@@ -245,7 +245,7 @@ struct CoefficientsArgs {
     #[arg(long, default_value = "json")]
     format: String,
     /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (the coefficients are differences of loads).
     #[arg(long, default_value_t = 1e-12)]
@@ -264,7 +264,7 @@ struct StabilityArgs {
     #[arg(long, default_value = "out")]
     out: std::path::PathBuf,
     /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads.
     #[arg(long, default_value_t = 1e-12)]

@@ -65,13 +65,13 @@ pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {
 }
 
 /// Run options from the query parameters, as stored JSON: `{"backend", "accuracy",
-/// "full_model"}` with `run`'s defaults (cpu, 1e-6, false).
+/// "full_model"}` with `run`'s defaults (auto, 1e-6, false).
 pub fn options_from_query(
     backend: Option<&str>,
     accuracy: Option<&str>,
     full_model: Option<&str>,
 ) -> Result<Value, ApiError> {
-    let backend = backend.unwrap_or("cpu");
+    let backend = backend.unwrap_or("auto");
     backend
         .parse::<BackendKind>()
         .map_err(|e| ApiError::invalid("?backend", e))?;
@@ -108,7 +108,7 @@ pub fn parse_options(options: &Value) -> Result<SimulatorChoice, ApiError> {
     let backend = options
         .get("backend")
         .and_then(Value::as_str)
-        .unwrap_or("cpu")
+        .unwrap_or("auto")
         .parse::<BackendKind>()
         .map_err(|e| ApiError::invalid("?backend", e))?;
     let rtol = options
