@@ -9,7 +9,7 @@ use bearing_sweep::bench::{
     bench_all, bench_loads, bench_loads_markdown, BenchAllOptions, BenchLoadsOptions,
 };
 use bearing_sweep::cli::{
-    bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
+    bench_backend, bench_rotor, bench_rotor_batch, eval_file, is_sweep_spec, merge_command,
     print_text, read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions,
     RunOptions, StdoutWriter, SweepRunOptions,
 };
@@ -241,9 +241,10 @@ fn print_lines(lines: Vec<String>) {
 
 /// `eval`: film loads of the states in a file, JSON on stdout.
 fn eval(a: EvalArgs) -> Result<(), CliError> {
-    let text = read_input(&a.file)?;
-    let (out, notices) = eval_json(
-        &text,
+    let mut out = StdoutWriter::new();
+    let notices = eval_file(
+        &a.file,
+        &mut out,
         EvalOptions {
             backend: a.backend,
             accuracy: a.accuracy,
@@ -252,7 +253,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
+    out.finish()
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.

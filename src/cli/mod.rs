@@ -12,7 +12,7 @@ pub use bench::bench_backend;
 pub use bench_rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
 };
-pub use eval::{eval_json, EvalOptions};
+pub use eval::{eval_file, eval_json, eval_stream, EvalOptions, EVAL_CHUNK};
 pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
