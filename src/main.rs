@@ -97,6 +97,10 @@ struct RunArgs {
     /// Turn every model reduction off (README "Model reductions"), exact ones included.
     #[arg(long)]
     full_model: bool,
+    /// Memory budget (e.g. 8G, 512M; default 2G): specs and scenes estimated above it
+    /// are refused before running (README "Limits").
+    #[arg(long)]
+    max_memory: Option<String>,
 }
 
 #[derive(Args)]
@@ -258,6 +262,11 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
 fn run(a: RunArgs) -> Result<(), CliError> {
+    if let Some(m) = &a.max_memory {
+        let bytes = bearing_sweep::sweep::budget::parse_size(m)
+            .map_err(|r| CliError::input("--max-memory", r))?;
+        bearing_sweep::sweep::budget::set_max_memory_bytes(bytes);
+    }
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
         return run_sweep_file(a, &text);

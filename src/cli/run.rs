@@ -54,6 +54,13 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
             format!("{} is not a positive number >= 1e-12", opts.accuracy),
         )
     })?;
+    // Every scene's samples are kept for result.json and the figures: the total must fit.
+    let total: f64 = scenes.iter().map(|s| s.sample_memory_bytes()).sum();
+    crate::sweep::budget::check(
+        &format!("keeping the samples of {} simulations", scenes.len()),
+        total,
+    )
+    .map_err(|r| CliError::input("integrator.t_end", r))?;
     let (backend, notice) = create_backend(opts.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
     if opts.full_model {
