@@ -144,12 +144,13 @@ impl FrictionMapSpec {
         let b = o
             .get("bearing")
             .ok_or_else(|| SweepError::spec("bearing", "missing"))?;
-        let bearing: BearingParams = serde_json::from_value(b.clone())
-            .map_err(|e| SweepError::spec("bearing", e.to_string()))?;
+        let bearing: BearingParams = crate::json::deserialize_at(b).map_err(|(at, reason)| {
+            SweepError::spec(crate::json::join_path("bearing", &at), reason)
+        })?;
         bearing.validate().map_err(|e| {
             SweepError::spec(
                 format!("bearing.{}", e.field),
-                format!("{} ({})", e.reason, e.value),
+                format!("{} (got {})", e.reason, crate::json::num(e.value)),
             )
         })?;
         let load = parse_numbers(
@@ -172,7 +173,10 @@ impl FrictionMapSpec {
             if w < 0.0 {
                 return Err(SweepError::spec(
                     format!("load[{k}]"),
-                    format!("a load is a magnitude, must not be negative ({w})"),
+                    format!(
+                        "a load is a magnitude, must not be negative (got {})",
+                        crate::json::num(w)
+                    ),
                 ));
             }
         }
