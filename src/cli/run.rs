@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::json;
+use std::io::Write;
 
 use super::CliError;
 use crate::backend::{create_backend, BackendKind, LoadEvaluator};
@@ -43,6 +43,18 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
         path: path.display().to_string(),
         source,
     })
+}
+
+/// The result document of a scene run.
+#[derive(serde::Serialize)]
+struct RunDoc<'a> {
+    backend: crate::backend::BackendInfo,
+    clearance_convention: Vec<&'static str>,
+    film_accuracy: f64,
+    model_reductions: crate::rotor::reductions::ReductionReport,
+    name: &'a str,
+    results: &'a [SimResult],
+    units: &'static str,
 }
 
 /// Runs the scene file at `path` (its text `text`).
@@ -98,21 +110,35 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
         path: dir.display().to_string(),
         source,
     })?;
-    let doc = json!({
-        "name": stem,
-        "backend": evaluator.info(),
-        "film_accuracy": accuracy.rtol(),
-        "clearance_convention": scenes.iter().flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name())).collect::<Vec<_>>(),
-        "units": "SI (s, m, m/s, rad/s, N, N·m, J)",
-        "model_reductions": evaluator_report(&eval_options, &evaluator.stats(), evaluator.info().name == "gpu", opts.full_model),
-        "results": results,
-    });
+    // Serialised straight from the results into the file: no JSON copy of every sample
+    // in memory (BENCHMARKS.md "Limits and memory"). Top-level keys in sorted order.
+    let doc = RunDoc {
+        backend: evaluator.info(),
+        clearance_convention: scenes
+            .iter()
+            .flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name()))
+            .collect(),
+        film_accuracy: accuracy.rtol(),
+        model_reductions: evaluator_report(
+            &eval_options,
+            &evaluator.stats(),
+            evaluator.info().name == "gpu",
+            opts.full_model,
+        ),
+        name: stem,
+        results: &results,
+        units: "SI (s, m, m/s, rad/s, N, N·m, J)",
+    };
     let mut files = Vec::new();
     let result_path = dir.join("result.json");
-    write(
-        &result_path,
-        &serde_json::to_string(&doc).map_err(|e| CliError::input("$", e.to_string()))?,
-    )?;
+    let io = |source| CliError::Io {
+        path: result_path.display().to_string(),
+        source,
+    };
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&result_path).map_err(io)?);
+    serde_json::to_writer(&mut w, &doc).map_err(|e| io(e.into()))?;
+    w.flush().map_err(io)?;
+    drop(w);
     files.push(result_path);
     for (name, svg) in figures(&results) {
         let p = dir.join(name);

@@ -12,10 +12,11 @@ pub const DEFAULT_MAX_MEMORY_BYTES: u64 = 2 << 30;
 /// 10^6 points (result document, plot points, SVG), BENCHMARKS.md "Limits and memory".
 pub const BYTES_PER_MAP_POINT: u64 = 1700;
 
-/// Measured memory per sampled number of a scene run (an `f64` in the series, its JSON
-/// value and text in result.json), bytes: 44 MB more for 30 000 more samples of 26
-/// numbers (paper example, t_end 0.5 -> 2 s), BENCHMARKS.md "Limits and memory".
-pub const BYTES_PER_SAMPLED_NUMBER: u64 = 57;
+/// Memory per sampled number kept by a scene run, bytes: an `f64` in its series plus the
+/// series' growth slack (result.json is written straight from the series). Measured
+/// 13.3: 51 MB more for 150 000 more samples of 26 numbers (paper example and its
+/// ideal-joint twin, t_end 0.5 -> 8 s), BENCHMARKS.md "Limits and memory".
+pub const BYTES_PER_SAMPLED_NUMBER: u64 = 16;
 
 /// Memory per number of a synthetic variant's signals (series, reduction copies), bytes.
 pub const BYTES_PER_SYNTHETIC_NUMBER: u64 = 24;
