@@ -79,12 +79,12 @@ impl Step<'_> {
 }
 
 /// Marker that separates our located errors from serde_json's own (syntax) errors.
-const LOCATED: &str = "\u{1}located\u{1}";
+pub(crate) const LOCATED_MARK: &str = "\u{1}located\u{1}";
 
 fn located<E: de::Error>(at: &Step<'_>, reason: &str) -> E {
     let p = at.path();
     E::custom(format!(
-        "{LOCATED}{}{LOCATED}{reason}",
+        "{LOCATED_MARK}{}{LOCATED_MARK}{reason}",
         if p.is_empty() { "$" } else { &p }
     ))
 }
@@ -161,8 +161,8 @@ impl<'de> Visitor<'de> for StrictValue<'_> {
 /// Splits an error from the strict parse into its path and reason.
 pub(crate) fn split_error(e: serde_json::Error) -> JsonError {
     let text = e.to_string();
-    if let Some(rest) = text.strip_prefix(LOCATED) {
-        if let Some((path, reason)) = rest.split_once(LOCATED) {
+    if let Some(rest) = text.strip_prefix(LOCATED_MARK) {
+        if let Some((path, reason)) = rest.split_once(LOCATED_MARK) {
             // serde_json appends " at line L column C": keep it, it helps in big files.
             return JsonError {
                 path: path.to_string(),
@@ -170,9 +170,14 @@ pub(crate) fn split_error(e: serde_json::Error) -> JsonError {
             };
         }
     }
+    let reason = shorten(&text, MAX_ECHO_CHARS * 4);
     JsonError {
         path: "$".into(),
-        reason: format!("not valid JSON: {}", shorten(&text, MAX_ECHO_CHARS * 4)),
+        reason: match e.classify() {
+            // Valid JSON of the wrong shape (e.g. an array where an object belongs).
+            serde_json::error::Category::Data => reason,
+            _ => format!("not valid JSON: {reason}"),
+        },
     }
 }
 
@@ -187,18 +192,27 @@ pub fn parse_json(text: &str) -> Result<Value, JsonError> {
     Ok(v)
 }
 
-/// Parses one value of a larger document at `prefix` (e.g. one element of `states` while
-/// streaming), refusing duplicate keys. For use inside a serde visitor.
-pub fn strict_value_seed() -> impl for<'de> DeserializeSeed<'de, Value = Value> + Copy {
-    #[derive(Clone, Copy)]
-    struct Root;
-    impl<'de> DeserializeSeed<'de> for Root {
-        type Value = Value;
-        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value, D::Error> {
-            StrictValue(Step::Root).deserialize(d)
+/// Parses one value of a larger document at `key` or `key[index]` (e.g. one element of
+/// `states` while streaming), refusing duplicate keys with their full path. For use
+/// inside a serde visitor.
+#[derive(Clone, Copy, Debug)]
+pub struct StrictSeed<'a> {
+    /// Top-level key the value sits under.
+    pub key: &'a str,
+    /// Index inside that key's array, if any.
+    pub index: Option<usize>,
+}
+
+impl<'de> DeserializeSeed<'de> for StrictSeed<'_> {
+    type Value = Value;
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value, D::Error> {
+        let root = Step::Root;
+        let key = Step::Key(&root, self.key);
+        match self.index {
+            Some(i) => StrictValue(Step::Index(&key, i)).deserialize(d),
+            None => StrictValue(key).deserialize(d),
         }
     }
-    Root
 }
 
 /// A `Value` deserializer that refuses a sequence where a struct is expected; otherwise

@@ -9,7 +9,7 @@ use bearing_sweep::bench::{
     bench_all, bench_loads, bench_loads_markdown, BenchAllOptions, BenchLoadsOptions,
 };
 use bearing_sweep::cli::{
-    bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
+    bench_backend, bench_rotor, bench_rotor_batch, eval_file, is_sweep_spec, merge_command,
     print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
     worker_command, BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter,
     SubmitOptions, SweepRunOptions, WorkerCommandOptions,
@@ -176,6 +176,10 @@ struct RunArgs {
     /// Turn every model reduction off (README "Model reductions"), exact ones included.
     #[arg(long)]
     full_model: bool,
+    /// Memory budget (e.g. 8G, 512M; default 2G): specs and scenes estimated above it
+    /// are refused before running (README "Limits").
+    #[arg(long)]
+    max_memory: Option<String>,
 }
 
 #[derive(Args)]
@@ -542,11 +546,10 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
         eprintln!("{n}");
     }
     if a.format == "ross-csv" {
-        print!("{}", ross_csv(&out));
+        print_text(&ross_csv(&out))
     } else {
-        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+        print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
     }
-    Ok(())
 }
 
 /// `stability`: modes, threshold and Campbell diagram of a scene.
@@ -568,15 +571,15 @@ fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
     for f in files {
         eprintln!("wrote {}", f.display());
     }
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
 }
 
 /// `eval`: film loads of the states in a file, JSON on stdout.
 fn eval(a: EvalArgs) -> Result<(), CliError> {
-    let text = read_input(&a.file)?;
-    let (out, notices) = eval_json(
-        &text,
+    let mut out = StdoutWriter::new();
+    let notices = eval_file(
+        &a.file,
+        &mut out,
         EvalOptions {
             backend: a.backend,
             accuracy: a.accuracy,
@@ -585,11 +588,16 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
+    out.finish()
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
 fn run(a: RunArgs) -> Result<(), CliError> {
+    if let Some(m) = &a.max_memory {
+        let bytes = bearing_sweep::sweep::budget::parse_size(m)
+            .map_err(|r| CliError::input("--max-memory", r))?;
+        bearing_sweep::sweep::budget::set_max_memory_bytes(bytes);
+    }
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
         return run_sweep_file(a, &text);

@@ -97,6 +97,12 @@ fn a_struct_written_as_an_array_is_refused() {
         &["states[0]: expected an object"],
     );
     expect_error(
+        "array-map-bearing",
+        "run",
+        r#"{"kind": "friction_map", "bearing": [0.02, 0.02, 0.0003, 0.0242], "load": [1], "speed": [10]}"#,
+        &["bearing: expected an object"],
+    );
+    expect_error(
         "array-synthetic-bearing",
         "run",
         r#"{"kind": "synthetic", "base": {"bearings": [[3e-4, 0.3]]}}"#,

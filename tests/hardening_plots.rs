@@ -75,7 +75,8 @@ fn friction_map_over_320_decades_writes_its_result_and_skips_the_figure() {
 fn extreme_ranges_draw_or_are_refused_in_bounded_time() {
     let max = f64::MAX;
     let tiny = 5e-324;
-    let cases: Vec<(&str, Vec<(f64, f64)>, Scale, Scale)> = vec![
+    type Case = (&'static str, Vec<(f64, f64)>, Scale, Scale);
+    let cases: Vec<Case> = vec![
         (
             "linear full f64",
             vec![(-max, -max), (max, max)],

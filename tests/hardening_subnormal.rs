@@ -11,7 +11,7 @@ use bearing_sweep::backend::{
 use bearing_sweep::bearing::{Accuracy, BearingParams, BearingState, Loads};
 
 /// Smallest positive subnormal f64 (2^-1074): the absolute rounding unit of tiny loads.
-const TINY_ULP: f64 = 4.9406564584124654e-324;
+const TINY_ULP: f64 = 5e-324;
 
 fn bearing() -> BearingParams {
     BearingParams::paper_table2()

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::json;
+use std::io::Write;
 
 use super::CliError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
@@ -45,6 +45,19 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
     })
 }
 
+/// The result document of a scene run.
+#[derive(serde::Serialize)]
+struct RunDoc<'a> {
+    backend: crate::backend::BackendInfo,
+    backend_choice: Option<crate::backend::BackendChoice>,
+    clearance_convention: Vec<&'static str>,
+    film_accuracy: f64,
+    model_reductions: crate::rotor::reductions::ReductionReport,
+    name: &'a str,
+    results: &'a [SimResult],
+    units: &'static str,
+}
+
 /// Runs the scene file at `path` (its text `text`).
 pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunReport, CliError> {
     let mut scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
@@ -54,6 +67,13 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
             format!("{} is not a positive number >= 1e-12", opts.accuracy),
         )
     })?;
+    // Every scene's samples are kept for result.json and the figures: the total must fit.
+    let total: f64 = scenes.iter().map(|s| s.sample_memory_bytes()).sum();
+    crate::sweep::budget::check(
+        &format!("keeping the samples of {} simulations", scenes.len()),
+        total,
+    )
+    .map_err(|r| CliError::input("integrator.t_end", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
     let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
@@ -92,22 +112,36 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
         path: dir.display().to_string(),
         source,
     })?;
-    let doc = json!({
-        "name": stem,
-        "backend": evaluator.info(),
-        "backend_choice": evaluator.choice(),
-        "film_accuracy": accuracy.rtol(),
-        "clearance_convention": scenes.iter().flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name())).collect::<Vec<_>>(),
-        "units": "SI (s, m, m/s, rad/s, N, N·m, J)",
-        "model_reductions": evaluator_report(&eval_options, &evaluator.stats(), evaluator.info().name == "gpu", opts.full_model),
-        "results": results,
-    });
+    // Serialised straight from the results into the file: no JSON copy of every sample
+    // in memory (BENCHMARKS.md "Limits and memory"). Top-level keys in sorted order.
+    let doc = RunDoc {
+        backend: evaluator.info(),
+        backend_choice: evaluator.choice(),
+        clearance_convention: scenes
+            .iter()
+            .flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name()))
+            .collect(),
+        film_accuracy: accuracy.rtol(),
+        model_reductions: evaluator_report(
+            &eval_options,
+            &evaluator.stats(),
+            evaluator.info().name == "gpu",
+            opts.full_model,
+        ),
+        name: stem,
+        results: &results,
+        units: "SI (s, m, m/s, rad/s, N, N·m, J)",
+    };
     let mut files = Vec::new();
     let result_path = dir.join("result.json");
-    write(
-        &result_path,
-        &serde_json::to_string(&doc).map_err(|e| CliError::input("$", e.to_string()))?,
-    )?;
+    let io = |source| CliError::Io {
+        path: result_path.display().to_string(),
+        source,
+    };
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&result_path).map_err(io)?);
+    serde_json::to_writer(&mut w, &doc).map_err(|e| io(e.into()))?;
+    w.flush().map_err(io)?;
+    drop(w);
     files.push(result_path);
     for (name, svg) in figures(&results) {
         let p = dir.join(name);

@@ -353,6 +353,15 @@ impl Scene {
                 "more than 1e7 samples: choose a longer interval",
             ));
         }
+        crate::sweep::budget::check(
+            &format!(
+                "keeping {} samples x {} bearings",
+                crate::json::num((g.t_end / g.sample_interval).floor() + 1.0),
+                self.bearings.len()
+            ),
+            self.sample_memory_bytes(),
+        )
+        .map_err(|r| err("integrator.t_end", r))?;
         if let Some(h) = g.fixed_step {
             positive("integrator.fixed_step", h)?;
         }
@@ -414,6 +423,17 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+impl Scene {
+    /// Estimated memory of this scene's kept samples, bytes: samples × numbers per sample
+    /// (t, x_g, y_g, spin, energy, work, ten per bearing) × measured bytes per number.
+    pub fn sample_memory_bytes(&self) -> f64 {
+        let g = &self.integrator;
+        let samples = (g.t_end / g.sample_interval).floor() + 1.0;
+        let numbers = 6.0 + 10.0 * self.bearings.len() as f64;
+        samples * numbers * crate::sweep::budget::BYTES_PER_SAMPLED_NUMBER as f64
     }
 }
 

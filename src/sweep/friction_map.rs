@@ -79,6 +79,12 @@ pub fn parse_numbers(v: &Value, at: &str) -> Result<Vec<f64>, SweepError> {
                     format!("count must be in 1..={MAX_VARIANTS}, got {n}"),
                 ));
             }
+            // Every value makes at least one point of the map: check before building them.
+            super::budget::check(
+                &format!("{n} values (one map point each at least)"),
+                n as f64 * super::budget::BYTES_PER_MAP_POINT as f64,
+            )
+            .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
             let values = if k == "logspace" {
                 for (i, x) in [(0, a), (1, b)] {
                     if x <= 0.0 {
@@ -138,12 +144,13 @@ impl FrictionMapSpec {
         let b = o
             .get("bearing")
             .ok_or_else(|| SweepError::spec("bearing", "missing"))?;
-        let bearing: BearingParams = serde_json::from_value(b.clone())
-            .map_err(|e| SweepError::spec("bearing", e.to_string()))?;
+        let bearing: BearingParams = crate::json::deserialize_at(b).map_err(|(at, reason)| {
+            SweepError::spec(crate::json::join_path("bearing", &at), reason)
+        })?;
         bearing.validate().map_err(|e| {
             SweepError::spec(
                 format!("bearing.{}", e.field),
-                format!("{} ({})", e.reason, e.value),
+                format!("{} (got {})", e.reason, crate::json::num(e.value)),
             )
         })?;
         let load = parse_numbers(
@@ -156,11 +163,20 @@ impl FrictionMapSpec {
                 .ok_or_else(|| SweepError::spec("speed", "missing (speeds in rad/s)"))?,
             "speed",
         )?;
+        let points = load.len() as f64 * speed.len() as f64;
+        super::budget::check(
+            &format!("a map of {} loads x {} speeds", load.len(), speed.len()),
+            points * super::budget::BYTES_PER_MAP_POINT as f64,
+        )
+        .map_err(|r| SweepError::spec("speed", r))?;
         for (k, &w) in load.iter().enumerate() {
             if w < 0.0 {
                 return Err(SweepError::spec(
                     format!("load[{k}]"),
-                    format!("a load is a magnitude, must not be negative ({w})"),
+                    format!(
+                        "a load is a magnitude, must not be negative (got {})",
+                        crate::json::num(w)
+                    ),
                 ));
             }
         }

@@ -6,6 +6,7 @@
 //! Everything here is generic over the simulation: the runner takes a
 //! [`runner::BatchSimulator`]; [`synthetic`] is an analytic stand-in with known answers.
 
+pub mod budget;
 pub mod expand;
 pub mod folder_sink;
 pub mod friction_map;

@@ -138,6 +138,21 @@ pub fn validate(scene: &Value) -> Result<(), (String, String)> {
             format!("must be at least 2, got {}", s.samples),
         ));
     }
+    // Numbers per sample: t, spin, x_g, y_g and ten per bearing.
+    let numbers = 4.0 + 10.0 * s.bearings.len() as f64;
+    super::budget::check(
+        &format!(
+            "{} samples x {} bearings in each of {} variants in flight",
+            s.samples,
+            s.bearings.len(),
+            super::budget::SYNTHETIC_IN_FLIGHT
+        ),
+        s.samples as f64
+            * numbers
+            * (super::budget::BYTES_PER_SYNTHETIC_NUMBER * super::budget::SYNTHETIC_IN_FLIGHT)
+                as f64,
+    )
+    .map_err(|r| ("samples".to_string(), r))?;
     for (k, b) in s.bearings.iter().enumerate() {
         pos(format!("bearings[{k}].clearance"), b.clearance)?;
         if !(0.0..1.0).contains(&b.eccentricity) {

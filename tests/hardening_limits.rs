@@ -1,0 +1,88 @@
+//! Issue 13 item 2: a spec's memory is estimated before anything runs; a friction map,
+//! synthetic sweep or scene over the budget (2 GiB by default, `run --max-memory`) is
+//! refused at once, naming the field that drives the estimate.
+
+use std::time::Instant;
+
+use serde_json::json;
+
+mod cli_support;
+use cli_support::*;
+
+fn run_spec(tag: &str, spec: &serde_json::Value, extra: &[&str]) -> (bool, String) {
+    let dir = scratch("hardening-limits", tag);
+    let p = write(&dir, "s.json", spec);
+    let out = dir.join("out");
+    let mut args = vec![
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    let start = Instant::now();
+    let r = run(&args);
+    // Refusals come before any work (the 24 GB map of the issue took minutes to die).
+    if !r.0 {
+        assert!(
+            start.elapsed().as_secs() < 30,
+            "{tag}: refusal took {:?}",
+            start.elapsed()
+        );
+    }
+    r
+}
+
+fn map(loads: u64, speeds: u64) -> serde_json::Value {
+    json!({"kind": "friction_map",
+           "bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242},
+           "load": {"logspace": [1, 1e4, loads]}, "speed": {"linspace": [10, 1000, speeds]}})
+}
+
+#[test]
+fn friction_map_product_is_checked() {
+    let (ok, err) = run_spec("map-product", &map(100_000, 100_000), &[]);
+    assert!(
+        !ok && err.contains("speed: a map of 100000 loads x 100000 speeds needs about"),
+        "{err}"
+    );
+    assert!(err.contains("--max-memory"), "{err}");
+    let (ok, err) = run_spec("map-axis", &map(100_000_000, 2), &[]);
+    assert!(!ok && err.contains("load.logspace[2]:"), "{err}");
+    // A modest map under a budget lowered below it: refused; raised again: runs.
+    let (ok, err) = run_spec("map-low", &map(100, 50), &["--max-memory", "1M"]);
+    assert!(
+        !ok && err.contains("over the memory budget of 1 MiB"),
+        "{err}"
+    );
+    let (ok, err) = run_spec("map-ok", &map(100, 50), &["--max-memory", "64M"]);
+    assert!(ok, "{err}");
+}
+
+#[test]
+fn synthetic_samples_are_capped() {
+    let spec = json!({"kind": "synthetic", "base": {"samples": 1_000_000_000u64}});
+    let (ok, err) = run_spec("synthetic", &spec, &[]);
+    assert!(!ok && err.contains("samples: 1000000000 samples"), "{err}");
+}
+
+#[test]
+fn a_scene_keeping_too_many_samples_is_refused() {
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("sweeps/paper-example.json").unwrap())
+            .unwrap();
+    scene["integrator"]["t_end"] = json!(1000.0);
+    let (ok, err) = run_spec("scene", &scene, &[]);
+    assert!(
+        !ok && err.contains("integrator.t_end:") && err.contains("GiB"),
+        "{err}"
+    );
+    // The same scene swept: each variant is checked by the scene validator.
+    scene.as_object_mut().unwrap().remove("compare_ideal");
+    let sweep = json!({"base": scene, "axes": [{"path": "rotor.mass", "values": [1.0, 2.0]}]});
+    let (ok, err) = run_spec("scene-sweep", &sweep, &[]);
+    assert!(!ok && err.contains("integrator.t_end:"), "{err}");
+    let (ok, err) = run_spec("bad-flag", &scene, &["--max-memory", "lots"]);
+    assert!(!ok && err.contains("--max-memory:"), "{err}");
+}
