@@ -213,7 +213,10 @@ fn sigkill_restart_resumes_without_recomputing_finished_variants() {
     );
     let result = get(&format!("{base}/api/sweeps/{id}/result"), None);
     let resumed = result.json()["run"]["variants_resumed"].as_u64().unwrap();
-    assert!(resumed >= before, "resumed {resumed} of the {before} done before the kill");
+    assert!(
+        resumed >= before,
+        "resumed {resumed} of the {before} done before the kill"
+    );
     let spec_file = dir.join("killed.json");
     std::fs::write(&spec_file, spec.to_string()).unwrap();
     let cli = run_cli(&spec_file, &dir.join("out"));

@@ -287,6 +287,16 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     assert_eq!(invalid, json!("true"), "the editor is marked invalid");
     assert_eq!(sweep_count(&base), before, "a bad spec was stored");
 
+    // Every control has a label (its own <label>, or aria-label), every button a name.
+    let unlabelled = b.exec(
+        "return [...document.querySelectorAll('input, select, textarea')]
+            .filter(e => e.type !== 'hidden' && !(e.labels && e.labels.length) && !e.getAttribute('aria-label'))
+            .map(e => e.id || e.outerHTML.slice(0, 60))
+            .concat([...document.querySelectorAll('button')].filter(e => !e.textContent.trim() && !e.getAttribute('aria-label')).map(e => e.outerHTML.slice(0, 60)))",
+        json!([]),
+    );
+    assert_eq!(unlabelled, json!([]), "controls without a label");
+
     // 3. Submit the small sweep; watch the live progress reach done.
     let spec = small_spec();
     type_spec(&b, &serde_json::to_string_pretty(&spec).unwrap());
@@ -712,6 +722,26 @@ fn page_with_a_token_says_401_plainly_then_works() {
         json!([]),
     );
     assert_eq!(kept, json!(token), "the token is kept in sessionStorage");
+    // With the token the whole round trip works, the live events included.
+    b.click("#example option[value='synthetic-whirl']");
+    b.click("#example-load");
+    b.wait("the synthetic example", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str().unwrap_or("").contains("synthetic").then_some(())
+    });
+    b.click("#submit");
+    b.wait("the synthetic sweep done", Duration::from_secs(120), || {
+        (b.text("#sweep-status") == "done").then_some(())
+    });
+    let live = b.exec(
+        "const d = document.querySelector('#detail').dataset; return d.lastEvent || ''",
+        json!([]),
+    );
+    assert_eq!(live, json!("status:done"), "events with the token");
+    b.wait("20 rows", short, || {
+        (b.count("#variants tbody tr") == 20).then_some(())
+    });
+    assert!(b.text("#auth-banner").is_empty(), "a 401 on the way");
     drop(b);
     drop(server);
     let _ = std::fs::remove_dir_all(&data);
