@@ -746,3 +746,73 @@ fn page_with_a_token_says_401_plainly_then_works() {
     drop(server);
     let _ = std::fs::remove_dir_all(&data);
 }
+
+/// Benchmark (not run by `cargo test`; figures in BENCHMARKS.md "Web page"): how long the
+/// page takes to fetch and draw a finished 2000-variant sweep (50 x 40 synthetic grid,
+/// orbits kept at 50 points).
+/// `cargo test --release --test web_ui -- --ignored --nocapture large_sweep`
+#[test]
+#[ignore]
+fn bench_page_with_a_large_sweep() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let data = scratch("bench");
+    let server = Server::start(&data, &[]);
+    let base = server.base.clone();
+    let mut spec: Value =
+        serde_json::from_str(include_str!("../sweeps/synthetic-whirl.json")).unwrap();
+    spec["name"] = json!("bench: 50 x 40 synthetic");
+    spec["axes"][0] = json!({"path": "bearings[*].whirl", "linspace": [0.0, 1e-5, 50]});
+    spec["axes"][1]["linspace"] = json!([0.35, 0.55, 40]);
+    spec["plots"] = json!([]);
+    let (s, created) = post_json(&format!("{base}/api/sweeps"), &spec.to_string());
+    assert_eq!(s, 201, "{created}");
+    let id = created["id"].as_str().unwrap().to_string();
+    let t = std::time::Instant::now();
+    loop {
+        let (_, info) = get_json(&format!("{base}/api/sweeps/{id}"));
+        if info["status"] == "done" {
+            break;
+        }
+        assert!(
+            t.elapsed() < Duration::from_secs(600),
+            "sweep not done: {info}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let (_, page) = get(
+        &format!("{base}/api/sweeps/{id}/variants?offset=0&limit=10000"),
+        None,
+    );
+    let b = Browser::start(&chromium, &chromedriver, data.join("profile"))
+        .unwrap_or_else(|e| panic!("browser: {e}"));
+    b.viewport(1280, 800, false);
+    for round in 0..3 {
+        b.goto(&format!("{base}/"));
+        let row = format!("#queue tbody tr[data-id='{id}'] button.link");
+        b.wait("the queue", Duration::from_secs(30), || {
+            (b.count(&row) == 1).then_some(())
+        });
+        let t0 = std::time::Instant::now();
+        b.click(&row);
+        b.wait("2000 rows", Duration::from_secs(120), || {
+            (b.count("#variants tbody tr") == 2000).then_some(())
+        });
+        let wall = t0.elapsed().as_secs_f64();
+        let d = b.exec(
+            "const d = document.querySelector('#detail').dataset; return [Number(d.loadMs), Number(d.renderMs)]",
+            json!([]),
+        );
+        eprintln!(
+            "round {round}: 2000 variants ({:.1} MB of records): fetch {} ms, draw {} ms (table, 4 maps, curves, orbit); click to table {:.2} s",
+            page.len() as f64 / 1e6,
+            d[0],
+            d[1],
+            wall
+        );
+    }
+    drop(b);
+    drop(server);
+    let _ = std::fs::remove_dir_all(&data);
+}
