@@ -158,6 +158,15 @@ pub fn serve_blocking(
     notice: &mut dyn FnMut(String),
 ) -> Result<(), ServeError> {
     check_config(&config)?;
+    // Request logs on stderr when RUST_LOG asks (e.g. RUST_LOG=tower_http=debug); silent
+    // otherwise. A second initialisation (tests) is ignored.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .try_init();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

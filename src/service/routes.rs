@@ -83,6 +83,11 @@ pub fn router(state: AppState) -> Router {
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(state.clone(), timing))
+        // gzip for clients that ask (CSV and results compress well; event streams are left
+        // alone by the default predicate), and a span per request for
+        // `RUST_LOG=tower_http=debug` (headers, hence tokens, are not recorded).
+        .layer(tower_http::compression::CompressionLayer::new())
+        .layer(tower_http::trace::TraceLayer::new_for_http())
         .with_state(state)
 }
 
