@@ -653,6 +653,12 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     );
     std::thread::sleep(Duration::from_millis(600));
     b.screenshot(&shots.join("desktop.png"), false);
+    b.exec(
+        "document.getElementById('variant-h').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    b.screenshot(&shots.join("desktop-orbit.png"), false);
     b.exec("window.scrollTo(0, 0)", json!([]));
     b.screenshot(&shots.join("desktop-full.png"), true);
     b.viewport(390, 844, true);
