@@ -179,6 +179,11 @@ fn page_assets_and_examples_are_served() {
     let (s, v) = post_json(&format!("{base}/api/validate?backend=abacus"), &good);
     assert_eq!((s, &v["error"]["path"]), (422, &json!("?backend")), "{v}");
     assert_eq!(sweep_count(base), 0, "validate stored a sweep");
+    // The page's API routes are in the OpenAPI document (and so in CI's schemathesis pass).
+    let (_, doc) = get_json(&format!("{base}/api/openapi.json"));
+    for p in ["/api/examples", "/api/examples/{name}", "/api/validate"] {
+        assert!(doc["paths"][p].is_object(), "openapi lacks {p}");
+    }
     // An example that is not there: 404 with the JSON error shape naming the field.
     let (s, err) = get_json(&format!("{base}/api/examples/nope"));
     assert_eq!(s, 404);
