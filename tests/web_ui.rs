@@ -179,6 +179,11 @@ fn page_assets_and_examples_are_served() {
     let (s, v) = post_json(&format!("{base}/api/validate?backend=abacus"), &good);
     assert_eq!((s, &v["error"]["path"]), (422, &json!("?backend")), "{v}");
     assert_eq!(sweep_count(base), 0, "validate stored a sweep");
+    // The page's API routes are in the OpenAPI document (and so in CI's schemathesis pass).
+    let (_, doc) = get_json(&format!("{base}/api/openapi.json"));
+    for p in ["/api/examples", "/api/examples/{name}", "/api/validate"] {
+        assert!(doc["paths"][p].is_object(), "openapi lacks {p}");
+    }
     // An example that is not there: 404 with the JSON error shape naming the field.
     let (s, err) = get_json(&format!("{base}/api/examples/nope"));
     assert_eq!(s, 404);
@@ -286,6 +291,16 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     );
     assert_eq!(invalid, json!("true"), "the editor is marked invalid");
     assert_eq!(sweep_count(&base), before, "a bad spec was stored");
+
+    // Every control has a label (its own <label>, or aria-label), every button a name.
+    let unlabelled = b.exec(
+        "return [...document.querySelectorAll('input, select, textarea')]
+            .filter(e => e.type !== 'hidden' && !(e.labels && e.labels.length) && !e.getAttribute('aria-label'))
+            .map(e => e.id || e.outerHTML.slice(0, 60))
+            .concat([...document.querySelectorAll('button')].filter(e => !e.textContent.trim() && !e.getAttribute('aria-label')).map(e => e.outerHTML.slice(0, 60)))",
+        json!([]),
+    );
+    assert_eq!(unlabelled, json!([]), "controls without a label");
 
     // 3. Submit the small sweep; watch the live progress reach done.
     let spec = small_spec();
@@ -643,6 +658,12 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     );
     std::thread::sleep(Duration::from_millis(600));
     b.screenshot(&shots.join("desktop.png"), false);
+    b.exec(
+        "document.getElementById('variant-h').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    b.screenshot(&shots.join("desktop-orbit.png"), false);
     b.exec("window.scrollTo(0, 0)", json!([]));
     b.screenshot(&shots.join("desktop-full.png"), true);
     b.viewport(390, 844, true);
@@ -712,6 +733,96 @@ fn page_with_a_token_says_401_plainly_then_works() {
         json!([]),
     );
     assert_eq!(kept, json!(token), "the token is kept in sessionStorage");
+    // With the token the whole round trip works, the live events included.
+    b.click("#example option[value='synthetic-whirl']");
+    b.click("#example-load");
+    b.wait("the synthetic example", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str().unwrap_or("").contains("synthetic").then_some(())
+    });
+    b.click("#submit");
+    b.wait("the synthetic sweep done", Duration::from_secs(120), || {
+        (b.text("#sweep-status") == "done").then_some(())
+    });
+    let live = b.exec(
+        "const d = document.querySelector('#detail').dataset; return d.lastEvent || ''",
+        json!([]),
+    );
+    assert_eq!(live, json!("status:done"), "events with the token");
+    b.wait("20 rows", short, || {
+        (b.count("#variants tbody tr") == 20).then_some(())
+    });
+    assert!(b.text("#auth-banner").is_empty(), "a 401 on the way");
+    drop(b);
+    drop(server);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// Benchmark (not run by `cargo test`; figures in BENCHMARKS.md "Web page"): how long the
+/// page takes to fetch and draw a finished 2000-variant sweep (50 x 40 synthetic grid,
+/// orbits kept at 50 points).
+/// `cargo test --release --test web_ui -- --ignored --nocapture large_sweep`
+#[test]
+#[ignore]
+fn bench_page_with_a_large_sweep() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let data = scratch("bench");
+    let server = Server::start(&data, &[]);
+    let base = server.base.clone();
+    let mut spec: Value =
+        serde_json::from_str(include_str!("../sweeps/synthetic-whirl.json")).unwrap();
+    spec["name"] = json!("bench: 50 x 40 synthetic");
+    spec["axes"][0] = json!({"path": "bearings[*].whirl", "linspace": [0.0, 1e-5, 50]});
+    spec["axes"][1]["linspace"] = json!([0.35, 0.55, 40]);
+    spec["plots"] = json!([]);
+    let (s, created) = post_json(&format!("{base}/api/sweeps"), &spec.to_string());
+    assert_eq!(s, 201, "{created}");
+    let id = created["id"].as_str().unwrap().to_string();
+    let t = std::time::Instant::now();
+    loop {
+        let (_, info) = get_json(&format!("{base}/api/sweeps/{id}"));
+        if info["status"] == "done" {
+            break;
+        }
+        assert!(
+            t.elapsed() < Duration::from_secs(600),
+            "sweep not done: {info}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let (_, page) = get(
+        &format!("{base}/api/sweeps/{id}/variants?offset=0&limit=10000"),
+        None,
+    );
+    let b = Browser::start(&chromium, &chromedriver, data.join("profile"))
+        .unwrap_or_else(|e| panic!("browser: {e}"));
+    b.viewport(1280, 800, false);
+    for round in 0..3 {
+        b.goto(&format!("{base}/"));
+        let row = format!("#queue tbody tr[data-id='{id}'] button.link");
+        b.wait("the queue", Duration::from_secs(30), || {
+            (b.count(&row) == 1).then_some(())
+        });
+        let t0 = std::time::Instant::now();
+        b.click(&row);
+        b.wait("2000 rows", Duration::from_secs(120), || {
+            (b.count("#variants tbody tr") == 2000).then_some(())
+        });
+        let wall = t0.elapsed().as_secs_f64();
+        let d = b.exec(
+            "const d = document.querySelector('#detail').dataset; return [Number(d.loadMs), Number(d.renderMs)]",
+            json!([]),
+        );
+        eprintln!(
+            "round {round}: 2000 variants ({:.1} MB of records): fetch {} ms, draw {} ms (table, 4 maps, curves, orbit); click to table {:.2} s",
+            page.len() as f64 / 1e6,
+            d[0],
+            d[1],
+            wall
+        );
+    }
     drop(b);
     drop(server);
     let _ = std::fs::remove_dir_all(&data);

@@ -188,7 +188,7 @@ async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
 }
 
 async fn openapi() -> Json<utoipa::openapi::OpenApi> {
-    Json(ApiDoc::openapi())
+    Json(ApiDoc::openapi().merge_from(super::web::WebApiDoc::openapi()))
 }
 
 /// Runs a blocking store call off the async threads.

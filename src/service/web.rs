@@ -13,7 +13,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::{json, Value};
 
-use super::{options_from_query, parse_sweep_doc, ApiError, AppState, ParsedSweep};
+use super::{options_from_query, parse_sweep_doc, ApiError, AppState, ErrorBody, ParsedSweep};
 
 const INDEX_HTML: &str = include_str!("web/index.html");
 const APP_JS: &str = include_str!("web/app.js");
@@ -92,10 +92,34 @@ pub fn api() -> Router<AppState> {
         .route("/validate", post(validate))
 }
 
+/// The OpenAPI description of the page's `/api` routes, merged into the service's
+/// document (`ApiDoc`) by its `/api/openapi.json` handler.
+#[derive(utoipa::OpenApi)]
+#[openapi(
+    paths(list_examples, get_example, validate),
+    components(schemas(ErrorBody))
+)]
+pub struct WebApiDoc;
+
 /// `POST /api/validate`: the checks of `POST /api/sweeps` (spec, every variant, run
 /// options of the query, the variant limit) without storing or running anything; the page's
 /// "Check spec". `200 {"valid": true, "kind", "name", "variants"}` or the same error as a
 /// submission would get.
+#[utoipa::path(post, path = "/api/validate",
+    params(
+        ("backend" = Option<String>, Query, description = "As for POST /api/sweeps"),
+        ("accuracy" = Option<f64>, Query, description = "As for POST /api/sweeps"),
+        ("full_model" = Option<bool>, Query, description = "As for POST /api/sweeps"),
+    ),
+    request_body(content = serde_json::Value, description = "A sweep spec, as for POST /api/sweeps", content_type = "application/json"),
+    responses(
+        (status = 200, description = "Valid: `{valid, kind, name, variants}`; nothing stored", body = serde_json::Value),
+        (status = 400, description = "Not JSON", body = ErrorBody),
+        (status = 401, description = "Token required", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "Invalid spec or option: the JSON path and why", body = ErrorBody),
+    ),
+    security((), ("bearer" = [])))]
 async fn validate(
     State(st): State<AppState>,
     uri: Uri,
@@ -166,6 +190,10 @@ fn asset(body: &'static str, content_type: &'static str) -> Response {
 }
 
 /// `[{"name", "role", "title", "description"}]` in a fixed order (sweeps first).
+#[utoipa::path(get, path = "/api/examples",
+    responses((status = 200, description = "The bundled examples of sweeps/: name, role (sweep, eval, scene), title, description", body = serde_json::Value),
+              (status = 401, description = "Token required", body = ErrorBody)),
+    security((), ("bearer" = [])))]
 async fn list_examples() -> Json<Value> {
     Json(Value::Array(example_list()))
 }
@@ -191,6 +219,12 @@ pub fn example_list() -> Vec<Value> {
 }
 
 /// The example file as it is in `sweeps/` (the editor shows its formatting).
+#[utoipa::path(get, path = "/api/examples/{name}",
+    params(("name" = String, Path, description = "Example name (file stem in sweeps/)")),
+    responses((status = 200, description = "The file as it is", body = serde_json::Value),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such example", body = ErrorBody)),
+    security((), ("bearer" = [])))]
 async fn get_example(Path(name): Path<String>) -> Response {
     match EXAMPLES.iter().find(|(n, _)| *n == name) {
         Some((_, text)) => (

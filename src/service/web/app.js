@@ -591,6 +591,7 @@ async function loadVariants(withResult) {
   const id = state.selected;
   if (!id) return;
   variantsLast = Date.now();
+  variantsStarted = performance.now();
   const s = state.sweeps.get(id);
   const all = [];
   const LIMIT = 1000;
@@ -619,9 +620,14 @@ async function loadVariants(withResult) {
   const sig = `${id}|${state.variants.length}|${state.variants.length ? state.variants[state.variants.length - 1].id : ""}|${Boolean(state.result)}`;
   if (sig === renderedSig) return;
   renderedSig = sig;
+  const t0 = performance.now();
   renderDetail();
+  // Costs of the last reload, for a look in the inspector (and BENCHMARKS.md "Web page").
+  const d = $("#detail").dataset;
+  d.loadMs = String(Math.round(t0 - variantsStarted));
+  d.renderMs = String(Math.round(performance.now() - t0));
 }
-let renderedSig = "";
+let renderedSig = "", variantsStarted = 0;
 function axesOf() {
   // Axis paths from the spec if known, else from the variants' params (in key order).
   const fromSpec = state.spec && Array.isArray(state.spec.axes) ? state.spec.axes.map((a) => a.path) : null;
