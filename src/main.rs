@@ -10,8 +10,12 @@ use bearing_sweep::bench::{
 };
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
-    read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions, RunOptions,
+    print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
+    BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
     SweepRunOptions,
+};
+use bearing_sweep::cli::{
+    coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
 };
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
@@ -40,6 +44,17 @@ enum Command {
     /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
     /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
     Finite(FiniteArgs),
+    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
+    Serve(ServeArgs),
+    /// Submit a sweep spec to a running service; prints its id.
+    Submit(SubmitArgs),
+    /// Linearised bearing coefficients: `{"bearing", "speed" (or "speeds"), "load"}` or
+    /// `{"bearing", "state"}` -> equilibrium and 4x4 stiffness and damping (with tilt) and
+    /// their error estimates; `--format ross-csv` for ROSS BearingElement rows.
+    Coefficients(CoefficientsArgs),
+    /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
+    /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
+    Stability(StabilityArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -61,6 +76,34 @@ enum BenchCommand {
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
     Rotor(BenchRotorArgs),
+    /// Load generator for the service: concurrent eval clients (states/s, p50/p99) beside
+    /// one `eval` call, and one sweep over HTTP against `run`.
+    Serve(BenchServeArgs),
+}
+
+#[derive(Args)]
+struct BenchServeArgs {
+    /// A running service; default: one started in this process on 127.0.0.1.
+    #[arg(long)]
+    server: Option<String>,
+    /// Concurrent clients, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,8,64,256")]
+    clients: Vec<usize>,
+    /// States per request, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,64")]
+    states: Vec<usize>,
+    /// Seconds per row.
+    #[arg(long, default_value_t = 10.0)]
+    duration: f64,
+    /// Coalescing window of the in-process server, ms.
+    #[arg(long, default_value_t = 2.0)]
+    window_ms: f64,
+    /// A sweep spec to time over HTTP against `run`.
+    #[arg(long)]
+    sweep: Option<std::path::PathBuf>,
+    /// Timings of the sweep each way (the fastest counts).
+    #[arg(long, default_value_t = 3)]
+    sweep_repeats: usize,
 }
 
 #[derive(Args)]
@@ -126,6 +169,95 @@ struct RunArgs {
     /// Turn every model reduction off (README "Model reductions"), exact ones included.
     #[arg(long)]
     full_model: bool,
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    /// Address and port to listen on (port 0: any free port, printed at start).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    bind: std::net::SocketAddr,
+    /// Folder of the job store (SQLite database).
+    #[arg(long, default_value = "bearing-sweep-data")]
+    data: std::path::PathBuf,
+    /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
+    #[arg(long)]
+    token: Option<String>,
+    /// Sweeps running at once.
+    #[arg(long, default_value_t = 1)]
+    max_running: usize,
+    /// Largest request body, bytes (413 beyond).
+    #[arg(long, default_value_t = 4 << 20)]
+    max_body_bytes: usize,
+    /// Most variants per sweep (422 beyond).
+    #[arg(long, default_value_t = 1_000_000)]
+    max_variants: u64,
+    /// Most sweeps queued or running (429 beyond).
+    #[arg(long, default_value_t = 64)]
+    max_queued: u64,
+    /// Coalescing window of /api/eval, ms.
+    #[arg(long, default_value_t = 2.0)]
+    eval_window_ms: f64,
+    /// Backend of /api/eval: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    eval_backend: BackendKind,
+}
+
+#[derive(Args)]
+struct SubmitArgs {
+    /// Sweep spec (JSON), `-` for standard input.
+    spec: String,
+    /// Service URL.
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    server: String,
+    /// Bearer token (else BEARING_SWEEP_TOKEN).
+    #[arg(long)]
+    token: Option<String>,
+    /// Wait for the end with a progress bar, then print where the result is.
+    #[arg(long)]
+    wait: bool,
+    /// Backend for the film loads: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+    /// Turn every model reduction off.
+    #[arg(long)]
+    full_model: bool,
+}
+
+#[derive(Args)]
+struct CoefficientsArgs {
+    /// Input JSON file, `-` for standard input.
+    file: String,
+    /// Output: `json` or `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy).
+    #[arg(long, default_value = "json")]
+    format: String,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads (the coefficients are differences of loads).
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
+struct StabilityArgs {
+    /// Scene file (as `run` reads it).
+    file: String,
+    /// Speeds of the Campbell diagram and threshold scan, rad/s, comma-separated
+    /// (default: 41 speeds from 0.1x to 10x the scene's spin).
+    #[arg(long, value_delimiter = ',')]
+    speeds: Vec<f64>,
+    /// Output root folder (stability.json, campbell.svg, damping.svg in OUT/<stem>/).
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
 }
 
 #[derive(Args)]
@@ -236,6 +368,10 @@ fn main() -> ExitCode {
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
         Command::Finite(a) => finite_cmd(a),
+        Command::Serve(a) => serve(a),
+        Command::Submit(a) => submit(a),
+        Command::Coefficients(a) => coefficients_cmd(a),
+        Command::Stability(a) => stability_cmd(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
@@ -244,12 +380,20 @@ fn main() -> ExitCode {
             ),
             BenchCommand::Rotor(a) if !a.batch.is_empty() => bench_rotor_batch_cmd(a),
             BenchCommand::Rotor(a) => bench_rotor_cmd(a),
+            BenchCommand::Serve(a) => bench_serve_cmd(a),
         },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout went away (`… | head`): nothing left to tell anyone.
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // Messages may quote user input; a backstop against echoing megabytes.
+            let message = bearing_sweep::json::shorten(
+                &e.to_string(),
+                bearing_sweep::json::MAX_MESSAGE_CHARS,
+            );
+            eprintln!("error: {message}");
             ExitCode::from(2)
         }
     }
@@ -310,6 +454,56 @@ fn print_lines(lines: Vec<String>) {
     }
 }
 
+/// `coefficients`: linearised K and C, JSON (or ROSS CSV) on stdout.
+fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
+    if a.format != "json" && a.format != "ross-csv" {
+        return Err(CliError::input(
+            "--format",
+            format!("`{}`: expected json or ross-csv", a.format),
+        ));
+    }
+    let text = read_input(&a.file)?;
+    let (out, notices) = coefficients_json_with(
+        &text,
+        CoefficientOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+        },
+    )?;
+    for n in notices {
+        eprintln!("{n}");
+    }
+    if a.format == "ross-csv" {
+        print!("{}", ross_csv(&out));
+    } else {
+        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    }
+    Ok(())
+}
+
+/// `stability`: modes, threshold and Campbell diagram of a scene.
+fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
+    let text = read_input(&a.file)?;
+    let (out, files, notices) = stability_scene_file(
+        &a.file,
+        &text,
+        &StabilityOptions {
+            backend: a.backend,
+            accuracy: a.accuracy,
+            speeds: a.speeds,
+            out: Some(a.out),
+        },
+    )?;
+    for n in notices {
+        eprintln!("{n}");
+    }
+    for f in files {
+        eprintln!("wrote {}", f.display());
+    }
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    Ok(())
+}
+
 /// `eval`: film loads of the states in a file, JSON on stdout.
 fn eval(a: EvalArgs) -> Result<(), CliError> {
     let text = read_input(&a.file)?;
@@ -323,8 +517,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
@@ -352,13 +545,14 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     for n in report.notices {
         eprintln!("{n}");
     }
+    let mut out = StdoutWriter::new();
     for l in report.lines {
-        println!("{l}");
+        out.line(&l)?;
     }
     for f in report.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 /// `run` of a sweep spec: resumable, shardable, streamed.
@@ -375,6 +569,65 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
 }
 
+/// `serve`: the sweep service until SIGTERM / Ctrl-C.
+fn serve(a: ServeArgs) -> Result<(), CliError> {
+    let config = bearing_sweep::service::ServiceConfig {
+        bind: a.bind,
+        data: a.data,
+        token: a.token,
+        max_running: a.max_running,
+        max_body_bytes: a.max_body_bytes,
+        max_variants: a.max_variants,
+        max_queued: a.max_queued,
+        eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
+        eval_backend: a.eval_backend,
+    };
+    serve_command(config, &mut |n| eprintln!("{n}"))
+}
+
+/// `submit`: a sweep spec to a running service.
+fn submit(a: SubmitArgs) -> Result<(), CliError> {
+    let text = read_input(&a.spec)?;
+    let backend = match a.backend {
+        BackendKind::Cpu => "cpu",
+        BackendKind::Gpu => "gpu",
+        BackendKind::Auto => "auto",
+    };
+    let mut query = format!("backend={backend}&accuracy={:e}", a.accuracy);
+    if a.full_model {
+        query.push_str("&full_model=true");
+    }
+    let lines = submit_command(
+        &text,
+        &SubmitOptions {
+            server: a.server,
+            token: a.token,
+            wait: a.wait,
+            query,
+        },
+    )?;
+    for l in lines {
+        println!("{l}");
+    }
+    Ok(())
+}
+
+/// `bench serve`: load generator for the service.
+fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
+    let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
+        server: a.server,
+        clients: a.clients,
+        states: a.states,
+        duration_s: a.duration,
+        window_ms: a.window_ms,
+        sweep: a.sweep,
+        sweep_repeats: a.sweep_repeats,
+    })
+    .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    print!("{md}");
+    Ok(())
+}
+
 /// `bench all`: every benchmark into one folder with an index.
 fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
     let opts = if a.full {
@@ -383,7 +636,7 @@ fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
         BenchAllOptions::quick(a.out)
     };
     let r = bench_all(&opts)?;
-    print!("{}", r.index);
+    print_text(&r.index)?;
     eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
     Ok(())
 }
@@ -398,17 +651,15 @@ fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
         gpu_batch: a.gpu_batch,
         min_time_s: a.min_time,
     })?;
-    print!("{}", bench_loads_markdown(&report));
-    Ok(())
+    print_text(&bench_loads_markdown(&report))
 }
 
 /// `bench rotor --batch`: lockstep batches against one-by-one runs.
 fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
-    println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
-    a.batch
-        .iter()
-        .try_for_each(|&n| bench_rotor_batch(n, a.t_end, a.threads).map(|row| print!("{row}")))
+    print_text("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")?;
+    a.batch.iter().try_for_each(|&n| {
+        bench_rotor_batch(n, a.t_end, a.threads).and_then(|row| print_text(&row))
+    })
 }
 
 /// `bench rotor`: work-precision of the integrators on the paper example.
@@ -420,12 +671,13 @@ fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
         out: a.out,
         viscosity: a.viscosity,
     })?;
-    println!("{}\n", r.reference);
-    print!("{}", r.table);
+    let mut out = StdoutWriter::new();
+    out.line(&format!("{}\n", r.reference))?;
+    out.text(&r.table)?;
     for f in r.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 fn run_bench_backend(
@@ -469,7 +721,7 @@ fn run_bench_backend(
         ..BenchOptions::default()
     };
     let (report, md) = bench_backend(&options)?;
-    println!("{md}");
+    print_text(&format!("{md}\n"))?;
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         std::fs::write(&path, text).map_err(|source| CliError::Io { path, source })?;

@@ -26,8 +26,8 @@ impl Default for EvalOptions {
 
 /// Runs `eval` on an input document; returns the output document and notices for stderr.
 pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String>), CliError> {
-    let doc: Value = serde_json::from_str(input)
-        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+    let doc: Value =
+        crate::json::parse_json(input).map_err(|e| CliError::input(e.path, e.reason))?;
     let obj = doc
         .as_object()
         .ok_or_else(|| CliError::input("$", "expected an object"))?;
@@ -47,7 +47,7 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
     bearing.validate().map_err(|e| {
         CliError::input(
             format!("bearing.{}", e.field),
-            format!("{} ({})", e.reason, e.value),
+            format!("{} (got {})", e.reason, crate::json::num(e.value)),
         )
     })?;
     let states = obj

@@ -3,16 +3,28 @@
 
 mod bench;
 mod bench_rotor;
+mod coefficients;
 mod eval;
+mod output;
 mod run;
+mod serve;
+mod stability;
+mod submit;
 mod sweep;
 
 pub use bench::bench_backend;
 pub use bench_rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
 };
+pub use coefficients::{
+    coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
+};
 pub use eval::{eval_json, EvalOptions};
+pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use serve::{serve_command, TOKEN_ENV};
+pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
+pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
@@ -40,14 +52,24 @@ pub enum CliError {
     /// A sweep failed (spec, variant, output, merge).
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
+    /// Writing to standard output failed (a closed pipe or a full disk).
+    #[error("writing to standard output: {0}")]
+    Stdout(std::io::Error),
 }
 
 impl CliError {
+    /// Standard output was closed by its reader (`… | head`): the command stops quietly.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, CliError::Stdout(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+
     /// An input error at `path`.
     pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
+        // Paths and reasons may quote user input: keep them short (a 100 MB string must
+        // not come back in the message).
         CliError::Input {
-            path: path.into(),
-            reason: reason.into(),
+            path: crate::json::shorten(&path.into(), crate::json::MAX_ECHO_CHARS * 2),
+            reason: crate::json::shorten(&reason.into(), crate::json::MAX_MESSAGE_CHARS),
         }
     }
 }

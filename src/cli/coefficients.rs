@@ -1,0 +1,316 @@
+//! `bearing-sweep coefficients`: the linearised 4×4 stiffness and damping of a bearing at
+//! its static equilibrium under a load (one speed or a list), or at a given journal state;
+//! also as ROSS `BearingElement` rows.
+
+use serde_json::{json, Map, Value};
+
+use super::{from_value, CliError};
+use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::bearing::{Accuracy, BearingParams, BearingState};
+use crate::stability::{
+    aligned_state, bearing_equilibria, coefficients_batch, BearingCoefficients, CoefficientJob,
+    DiffOptions, StabilityError, ORDER,
+};
+
+/// Options of `coefficients` beyond the input document.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoefficientOptions {
+    /// Backend to run on.
+    pub backend: BackendKind,
+    /// Relative accuracy of the film loads (the differences need the tightest: 1e-12).
+    pub accuracy: f64,
+}
+
+impl Default for CoefficientOptions {
+    fn default() -> Self {
+        CoefficientOptions {
+            backend: BackendKind::Cpu,
+            accuracy: 1e-12,
+        }
+    }
+}
+
+/// The service's entry point: `coefficients` on the CPU at accuracy 1e-12.
+pub fn coefficients_json(input: &str) -> Result<Value, CliError> {
+    coefficients_json_with(input, CoefficientOptions::default()).map(|(v, _)| v)
+}
+
+fn stability_error(e: StabilityError) -> CliError {
+    match e {
+        StabilityError::Input { path, reason } => CliError::input(path, reason),
+        other => CliError::input("$", other.to_string()),
+    }
+}
+
+fn finite_number(v: &Value, path: &str) -> Result<f64, CliError> {
+    let x = v
+        .as_f64()
+        .ok_or_else(|| CliError::input(path, format!("expected a number, got {v}")))?;
+    if !x.is_finite() {
+        return Err(CliError::input(path, "must be finite"));
+    }
+    Ok(x)
+}
+
+fn matrix(m: &[[f64; 4]; 4]) -> Value {
+    json!(m.iter().map(|r| r.to_vec()).collect::<Vec<_>>())
+}
+
+/// One operating point's output object.
+fn point_json(
+    params: &BearingParams,
+    speed: f64,
+    load: Option<[f64; 2]>,
+    eq: Option<&crate::stability::BearingEquilibrium>,
+    state: &BearingState,
+    c: &BearingCoefficients,
+) -> Value {
+    let d = params.clearance;
+    let (ei, ej) = state.eccentricity_ratios(d);
+    let mut equilibrium = Map::new();
+    let (xm, ym) = (0.5 * (state.xi + state.xj), 0.5 * (state.yi + state.yj));
+    equilibrium.insert("x".into(), json!(xm));
+    equilibrium.insert("y".into(), json!(ym));
+    equilibrium.insert("eccentricity_ratio".into(), json!(xm.hypot(ym) / d));
+    equilibrium.insert("eccentricity_ratio_max_end".into(), json!(ei.max(ej)));
+    if let Some(eq) = eq {
+        equilibrium.insert("attitude_angle_rad".into(), json!(eq.attitude_angle));
+        equilibrium.insert(
+            "attitude_angle_deg".into(),
+            json!(eq.attitude_angle.to_degrees()),
+        );
+        equilibrium.insert("load_residual".into(), json!(eq.residual));
+        equilibrium.insert("newton_iterations".into(), json!(eq.iterations));
+    }
+    equilibrium.insert("h_min".into(), json!(c.loads.h_min));
+    // The classical Sommerfeld number (μ N L D / P)(R/c)², N in rev/s, P the load.
+    let p = match load {
+        Some(l) => l[0].hypot(l[1]),
+        None => c.loads.wx.hypot(c.loads.wy),
+    };
+    let classical = (p > 0.0).then(|| {
+        params.viscosity * speed.abs() / std::f64::consts::TAU * params.length * 2.0 * params.radius
+            / p
+            * (params.radius / params.clearance).powi(2)
+    });
+    json!({
+        "speed": speed,
+        "load": load,
+        "state": state,
+        "equilibrium": equilibrium,
+        "loads": c.loads,
+        "mid_plane_loads": c.mid_plane_loads,
+        "sommerfeld": c.loads.sommerfeld,
+        "sommerfeld_classical": classical,
+        "friction_coefficient": c.loads.friction_coefficient,
+        "friction_torque": c.loads.mz,
+        "power_loss": c.loads.power_loss,
+        "order": ORDER,
+        "stiffness": matrix(&c.stiffness),
+        "damping": matrix(&c.damping),
+        "stiffness_error": matrix(&c.stiffness_error),
+        "damping_error": matrix(&c.damping_error),
+        "steps": c.steps,
+    })
+}
+
+/// One ROSS row per point: `[speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy]` (the force
+/// block of our K and C; SI).
+fn ross_row(speed: f64, c: &BearingCoefficients) -> Vec<f64> {
+    let (k, d) = (&c.stiffness, &c.damping);
+    vec![
+        speed, k[0][0], k[0][1], k[1][0], k[1][1], d[0][0], d[0][1], d[1][0], d[1][1],
+    ]
+}
+
+/// Column names of the ROSS rows.
+pub const ROSS_COLUMNS: [&str; 9] = [
+    "speed", "kxx", "kxy", "kyx", "kyy", "cxx", "cxy", "cyx", "cyy",
+];
+
+/// `coefficients` on an input document; returns the output and notices for stderr.
+pub fn coefficients_json_with(
+    input: &str,
+    options: CoefficientOptions,
+) -> Result<(Value, Vec<String>), CliError> {
+    let doc: Value = serde_json::from_str(input)
+        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+    let obj = doc
+        .as_object()
+        .ok_or_else(|| CliError::input("$", "expected an object"))?;
+    for key in obj.keys() {
+        if !["bearing", "speed", "speeds", "load", "state"].contains(&key.as_str()) {
+            return Err(CliError::input(
+                key.clone(),
+                "unknown field (expected `bearing` with `speed` or `speeds` and `load`, or `bearing` and `state`)",
+            ));
+        }
+    }
+    let params: BearingParams = from_value(
+        obj.get("bearing")
+            .ok_or_else(|| CliError::input("bearing", "missing"))?,
+        "bearing",
+    )?;
+    params.validate().map_err(|e| {
+        CliError::input(
+            format!("bearing.{}", e.field),
+            format!("{} ({})", e.reason, e.value),
+        )
+    })?;
+    let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
+        CliError::input(
+            "--accuracy",
+            format!("{} is not a positive number >= 1e-12", options.accuracy),
+        )
+    })?;
+    let (backend, notice) = create_backend(options.backend, accuracy)?;
+    let mut notices: Vec<String> = notice.into_iter().collect();
+    let mut ev = LoadEvaluator::new(backend);
+    let info = ev.info();
+    let head = json!({
+        "bearing": params,
+        "frame": "bearing frame (MODEL.md section 1): x, y across the bore, z along it, spin positive from +x toward +y; q = (x, y) of the journal centre at the mid-plane (m), tilt_x, tilt_y right-handed rotations of the journal axis about x and y (rad); loads = film force on the journal (N) and its moment about the mid-plane centre (N·m)",
+        "signs": "K = −∂W/∂q, C = −∂W/∂q̇ (W the film load on the journal): direct stiffness positive",
+        "method": "central differences at steps h, h/2, h/4 with two Richardson levels; *_error = change of the last level plus rounding",
+        "accuracy": accuracy.rtol(),
+        "backend": info,
+        "clearance_convention": params.clearance_convention.name(),
+        "units": "SI: N/m, N/rad, N·m/m, N·m/rad (stiffness); N·s/m, N·s/rad, N·m·s/m, N·m·s/rad (damping)",
+    });
+    let mut out = head.as_object().cloned().unwrap_or_default();
+    if let Some(st) = obj.get("state") {
+        for key in ["speed", "speeds", "load"] {
+            if obj.contains_key(key) {
+                return Err(CliError::input(
+                    key,
+                    "not with `state` (the state fixes position, velocity and spin)",
+                ));
+            }
+        }
+        let state: BearingState = from_value(st, "state")?;
+        let c = coefficients_batch(
+            &mut ev,
+            &[CoefficientJob { params, state }],
+            &DiffOptions::default(),
+        )
+        .remove(0)
+        .map_err(|e| CliError::input("state", e.to_string()))?;
+        let p = point_json(&params, state.omega, None, None, &state, &c);
+        out.extend(p.as_object().cloned().unwrap_or_default());
+        out.insert("ross".into(), json!([ross_row(state.omega, &c)]));
+        out.insert("ross_columns".into(), json!(ROSS_COLUMNS));
+        notices.extend(ev.take_notices());
+        return Ok((Value::Object(out), notices));
+    }
+    let load_v = obj.get("load").ok_or_else(|| {
+        CliError::input(
+            "load",
+            "missing (the static load on the journal [W_x, W_y], N)",
+        )
+    })?;
+    let arr = load_v
+        .as_array()
+        .filter(|a| a.len() == 2)
+        .ok_or_else(|| CliError::input("load", "expected [W_x, W_y] (N)"))?;
+    let load = [
+        finite_number(&arr[0], "load[0]")?,
+        finite_number(&arr[1], "load[1]")?,
+    ];
+    let (speeds, list) = match (obj.get("speed"), obj.get("speeds")) {
+        (Some(s), None) => (vec![finite_number(s, "speed")?], false),
+        (None, Some(Value::Array(a))) if !a.is_empty() => (
+            a.iter()
+                .enumerate()
+                .map(|(k, v)| finite_number(v, &format!("speeds[{k}]")))
+                .collect::<Result<Vec<_>, _>>()?,
+            true,
+        ),
+        (None, Some(_)) => {
+            return Err(CliError::input(
+                "speeds",
+                "expected a non-empty array of rad/s",
+            ))
+        }
+        (Some(_), Some(_)) => {
+            return Err(CliError::input(
+                "speeds",
+                "give `speed` or `speeds`, not both",
+            ))
+        }
+        (None, None) => return Err(CliError::input("speed", "missing (rad/s)")),
+    };
+    let cases: Vec<(BearingParams, f64, [f64; 2])> =
+        speeds.iter().map(|&w| (params, w, load)).collect();
+    let eqs = bearing_equilibria(&mut ev, &cases);
+    let mut states = Vec::new();
+    let mut good = Vec::new();
+    for (k, e) in eqs.into_iter().enumerate() {
+        let eq = e.map_err(|e| match e {
+            StabilityError::Input { .. } => stability_error(e),
+            other => CliError::input(
+                if list {
+                    format!("speeds[{k}]")
+                } else {
+                    "speed".into()
+                },
+                other.to_string(),
+            ),
+        })?;
+        states.push(aligned_state(eq.x, eq.y, speeds[k]));
+        good.push(eq);
+    }
+    let jobs: Vec<CoefficientJob> = states
+        .iter()
+        .map(|s| CoefficientJob { params, state: *s })
+        .collect();
+    let coeffs = coefficients_batch(&mut ev, &jobs, &DiffOptions::default());
+    let mut points = Vec::new();
+    let mut rows = Vec::new();
+    for (k, c) in coeffs.into_iter().enumerate() {
+        let c = c.map_err(|e| {
+            CliError::input(
+                if list {
+                    format!("speeds[{k}]")
+                } else {
+                    "speed".into()
+                },
+                e.to_string(),
+            )
+        })?;
+        rows.push(ross_row(speeds[k], &c));
+        points.push(point_json(
+            &params,
+            speeds[k],
+            Some(load),
+            Some(&good[k]),
+            &states[k],
+            &c,
+        ));
+    }
+    if list {
+        out.insert("points".into(), json!(points));
+    } else {
+        out.extend(points[0].as_object().cloned().unwrap_or_default());
+    }
+    out.insert("ross".into(), json!(rows));
+    out.insert("ross_columns".into(), json!(ROSS_COLUMNS));
+    notices.extend(ev.take_notices());
+    Ok((Value::Object(out), notices))
+}
+
+/// The ROSS rows of a `coefficients` output as CSV (header line, then one row per speed).
+pub fn ross_csv(out: &Value) -> String {
+    let mut s = ROSS_COLUMNS.join(",");
+    s.push('\n');
+    for row in out["ross"].as_array().into_iter().flatten() {
+        let cells: Vec<String> = row
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|v| format!("{:e}", v.as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        s.push_str(&cells.join(","));
+        s.push('\n');
+    }
+    s
+}

@@ -1,0 +1,300 @@
+//! Linearised bearing coefficients: the 4×4 stiffness `K = −∂W/∂q` and damping
+//! `C = −∂W/∂q̇` in `q = (x, y, tilt_x, tilt_y)` at the bearing mid-plane, from central
+//! differences of the film loads at three step sizes with Richardson extrapolation, every
+//! perturbed state of every bearing evaluated in one [`LoadEvaluator::evaluate`] call.
+//!
+//! Coordinates (bearing frame of MODEL.md section 1): `x, y` the journal centre at the
+//! mid-plane `z = B/2`, m; `tilt_x, tilt_y` right-handed rotations of the journal axis
+//! about the `x` and `y` axes, rad, so that the centre at axial distance `ζ = z − B/2`
+//! from the mid-plane is `(x + ζ tilt_y, y − ζ tilt_x)`. Loads: the film force on the
+//! journal `(W_x, W_y)`, N, and its moment about the mid-plane centre `(M_x, M_y)`, N·m.
+
+// Index loops mirror the matrix subscripts.
+#![allow(clippy::needless_range_loop)]
+
+use super::StabilityError;
+use crate::backend::{LoadEvaluator, LoadRequest};
+use crate::bearing::{BearingParams, BearingState, Loads};
+
+/// Names of the coordinates, in matrix order.
+pub const ORDER: [&str; 4] = ["x", "y", "tilt_x", "tilt_y"];
+
+/// How the derivatives are taken.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffOptions {
+    /// Largest position step over the radial clearance times the state's smoothness
+    /// scale `min(1 − ε_max, max(e_axis/δ, 1e-4))` (`e_axis` the journal axis' distance
+    /// from the bore axis inside the bearing). Default 1e-3.
+    pub relative_step: f64,
+    /// Three step sizes `h, h/2, h/4` with two Richardson levels and an error estimate
+    /// (true, default), or `h` alone (Newton iterations; no error estimate).
+    pub richardson: bool,
+}
+
+impl Default for DiffOptions {
+    fn default() -> Self {
+        DiffOptions {
+            relative_step: 1e-3,
+            richardson: true,
+        }
+    }
+}
+
+impl DiffOptions {
+    /// One central difference per coordinate: the Jacobian of a Newton iteration.
+    pub fn newton() -> Self {
+        DiffOptions {
+            relative_step: 1e-4,
+            richardson: false,
+        }
+    }
+}
+
+/// One bearing and the state to linearise about.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoefficientJob {
+    /// The bearing.
+    pub params: BearingParams,
+    /// The journal state (positions, velocities, relative spin).
+    pub state: BearingState,
+}
+
+/// Steps used for the differences (the largest of the three levels).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Steps {
+    /// Mid-plane displacement step, m.
+    pub position_m: f64,
+    /// Tilt step, rad (moves the end faces by `position_m`).
+    pub tilt_rad: f64,
+    /// Mid-plane velocity step, m/s.
+    pub velocity_m_s: f64,
+    /// Tilt-rate step, rad/s.
+    pub tilt_rate_rad_s: f64,
+}
+
+/// The linearised film of one bearing at one state. SI units.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BearingCoefficients {
+    /// `K[i][j] = −∂L_i/∂q_j`, `L = (W_x, W_y, M_x, M_y)`; N/m, N/rad, N·m/m, N·m/rad.
+    pub stiffness: [[f64; 4]; 4],
+    /// `C[i][j] = −∂L_i/∂q̇_j`; N·s/m, N·s/rad, N·m·s/m, N·m·s/rad.
+    pub damping: [[f64; 4]; 4],
+    /// Error estimate of each stiffness coefficient (same units; zero without Richardson).
+    pub stiffness_error: [[f64; 4]; 4],
+    /// Error estimate of each damping coefficient.
+    pub damping_error: [[f64; 4]; 4],
+    /// Loads at the state itself.
+    pub loads: Loads,
+    /// `(W_x, W_y, M_x, M_y)` about the mid-plane, N and N·m.
+    pub mid_plane_loads: [f64; 4],
+    /// Steps of the differences.
+    pub steps: Steps,
+}
+
+/// `state` moved by `dq` (mid-plane displacement and tilt) and `dv` (their rates).
+pub fn perturb(state: &BearingState, length_m: f64, dq: [f64; 4], dv: [f64; 4]) -> BearingState {
+    let h = 0.5 * length_m;
+    BearingState {
+        xi: state.xi + dq[0] - h * dq[3],
+        yi: state.yi + dq[1] + h * dq[2],
+        xj: state.xj + dq[0] + h * dq[3],
+        yj: state.yj + dq[1] - h * dq[2],
+        vxi: state.vxi + dv[0] - h * dv[3],
+        vyi: state.vyi + dv[1] + h * dv[2],
+        vxj: state.vxj + dv[0] + h * dv[3],
+        vyj: state.vyj + dv[1] - h * dv[2],
+        omega: state.omega,
+    }
+}
+
+/// The aligned state whose mid-plane centre is `(x, y)` at rest, spinning at `omega`.
+pub fn aligned_state(x: f64, y: f64, omega: f64) -> BearingState {
+    BearingState {
+        xi: x,
+        yi: y,
+        xj: x,
+        yj: y,
+        omega,
+        ..BearingState::default()
+    }
+}
+
+/// `(W_x, W_y, M_x, M_y)` with the moments taken about the mid-plane centre instead of
+/// the frame origin (`M_mid = M − (0, 0, B/2) × W`).
+pub fn mid_plane_loads(l: &Loads, length_m: f64) -> [f64; 4] {
+    let h = 0.5 * length_m;
+    [l.wx, l.wy, l.mx + h * l.wy, l.my - h * l.wx]
+}
+
+/// Distance of the journal axis (the segment between the end centres) from the bore
+/// axis, m.
+fn axis_distance(s: &BearingState) -> f64 {
+    let (dx, dy) = (s.xj - s.xi, s.yj - s.yi);
+    let d2 = dx * dx + dy * dy;
+    let t = if d2 > 0.0 {
+        (-(s.xi * dx + s.yi * dy) / d2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (s.xi + t * dx).hypot(s.yi + t * dy)
+}
+
+/// Smallest smoothness scale: below `1e-4 δ` from the bore axis the steps stop shrinking
+/// (the centred film is linear in the state to first order; its second-order part is
+/// `|t| t`-like, so the central difference there is first order in the step and the
+/// estimate reports it).
+const MIN_SCALE: f64 = 1e-4;
+
+fn steps_of(job: &CoefficientJob, relative_step: f64) -> Steps {
+    let d = job.params.clearance;
+    let s = &job.state;
+    let (ei, ej) = s.eccentricity_ratios(d);
+    let gap = 1.0 - ei.max(ej);
+    let scale = gap.min((axis_distance(s) / d).max(MIN_SCALE));
+    let h = relative_step * d * scale;
+    let half = 0.5 * job.params.length;
+    // A velocity v changes the rate vector by 2v, a displacement e by ω e: equal effects.
+    let rate = s.omega.abs().max(1.0);
+    Steps {
+        position_m: h,
+        tilt_rad: h / half,
+        velocity_m_s: 0.5 * h * rate,
+        tilt_rate_rad_s: 0.5 * h * rate / half,
+    }
+}
+
+/// Step-size levels: `h, h/2, h/4` (Richardson) or `h`.
+fn levels(richardson: bool) -> &'static [f64] {
+    if richardson {
+        &[1.0, 0.5, 0.25]
+    } else {
+        &[1.0]
+    }
+}
+
+/// Linearised coefficients of every job, all perturbed states in one evaluator call.
+/// Bearing `k` of the call is `jobs[k]`; a job whose state (or a perturbed one) has no
+/// film loads gets that bearing's error, the others are unaffected.
+pub fn coefficients_batch(
+    evaluator: &mut LoadEvaluator,
+    jobs: &[CoefficientJob],
+    options: &DiffOptions,
+) -> Vec<Result<BearingCoefficients, StabilityError>> {
+    let lv = levels(options.richardson);
+    let per_job = 1 + 8 * lv.len() * 2;
+    let params: Vec<BearingParams> = jobs.iter().map(|j| j.params).collect();
+    let mut requests = Vec::with_capacity(jobs.len() * per_job);
+    let mut steps = Vec::with_capacity(jobs.len());
+    for (k, job) in jobs.iter().enumerate() {
+        let st = steps_of(job, options.relative_step);
+        steps.push(st);
+        let b = k as u32;
+        requests.push(LoadRequest {
+            bearing: b,
+            state: job.state,
+        });
+        let len = job.params.length;
+        for c in 0..8 {
+            let unit = match c {
+                0 | 1 => st.position_m,
+                2 | 3 => st.tilt_rad,
+                4 | 5 => st.velocity_m_s,
+                _ => st.tilt_rate_rad_s,
+            };
+            for &f in lv {
+                for sign in [1.0, -1.0] {
+                    let mut dq = [0.0; 4];
+                    let mut dv = [0.0; 4];
+                    if c < 4 {
+                        dq[c] = sign * f * unit;
+                    } else {
+                        dv[c - 4] = sign * f * unit;
+                    }
+                    requests.push(LoadRequest {
+                        bearing: b,
+                        state: perturb(&job.state, len, dq, dv),
+                    });
+                }
+            }
+        }
+    }
+    let mut results = Vec::new();
+    evaluator.evaluate(&params, &requests, &mut results);
+    jobs.iter()
+        .enumerate()
+        .map(|(k, job)| {
+            let chunk = &results[k * per_job..(k + 1) * per_job];
+            let len = job.params.length;
+            let mut mids = Vec::with_capacity(per_job);
+            for (n, r) in chunk.iter().enumerate() {
+                match r {
+                    Ok(l) => mids.push(mid_plane_loads(l, len)),
+                    Err(fault) => {
+                        return Err(StabilityError::Film {
+                            bearing: k,
+                            context: if n == 0 {
+                                "at the state to linearise about".into()
+                            } else {
+                                "at a perturbed state of the finite differences".into()
+                            },
+                            fault: *fault,
+                        })
+                    }
+                }
+            }
+            let base = match &chunk[0] {
+                Ok(l) => *l,
+                Err(_) => unreachable!("checked above"),
+            };
+            let st = steps[k];
+            let mut out = BearingCoefficients {
+                stiffness: [[0.0; 4]; 4],
+                damping: [[0.0; 4]; 4],
+                stiffness_error: [[0.0; 4]; 4],
+                damping_error: [[0.0; 4]; 4],
+                loads: base,
+                mid_plane_loads: mids[0],
+                steps: st,
+            };
+            for c in 0..8 {
+                let unit = match c {
+                    0 | 1 => st.position_m,
+                    2 | 3 => st.tilt_rad,
+                    4 | 5 => st.velocity_m_s,
+                    _ => st.tilt_rate_rad_s,
+                };
+                for i in 0..4 {
+                    let mut d = [0.0; 3];
+                    let mut magnitude: f64 = 0.0;
+                    for (l, &f) in lv.iter().enumerate() {
+                        let at = 1 + (c * lv.len() + l) * 2;
+                        let (p, m) = (mids[at][i], mids[at + 1][i]);
+                        magnitude = magnitude.max(p.abs()).max(m.abs());
+                        d[l] = (p - m) / (2.0 * f * unit);
+                    }
+                    let (value, error) = if options.richardson {
+                        // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
+                        // estimate is the change of the last level (conservative: the
+                        // returned value is one level better), plus rounding of the
+                        // differences at the smallest step.
+                        let r1 = (4.0 * d[1] - d[0]) / 3.0;
+                        let r2 = (4.0 * d[2] - d[1]) / 3.0;
+                        let value = r2 + (r2 - r1) / 15.0;
+                        let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.25 * unit);
+                        (value, (r2 - r1).abs() + rounding)
+                    } else {
+                        (d[0], 0.0)
+                    };
+                    if c < 4 {
+                        out.stiffness[i][c] = -value;
+                        out.stiffness_error[i][c] = error;
+                    } else {
+                        out.damping[i][c - 4] = -value;
+                        out.damping_error[i][c - 4] = error;
+                    }
+                }
+            }
+            Ok(out)
+        })
+        .collect()
+}
