@@ -11,8 +11,8 @@ use bearing_sweep::bench::{
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
     print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
-    BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
-    SweepRunOptions,
+    worker_command, BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter,
+    SubmitOptions, SweepRunOptions, WorkerCommandOptions,
 };
 use bearing_sweep::cli::{
     coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
@@ -41,9 +41,6 @@ enum Command {
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
-    /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
-    /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
-    Finite(FiniteArgs),
     /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
     Serve(ServeArgs),
     /// Submit a sweep spec to a running service; prints its id.
@@ -55,6 +52,12 @@ enum Command {
     /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
     /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
     Stability(StabilityArgs),
+    /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
+    /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
+    Finite(FiniteArgs),
+    /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
+    /// until stopped (README "Workers and PostgreSQL").
+    Worker(WorkerArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -64,6 +67,9 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// PostgreSQL queue: variants/s with 1, 2, 4 worker processes against `run`, claim and
+    /// commit overhead per batch, and a claim storm (README "Workers and PostgreSQL").
+    Queue(BenchQueueArgs),
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
     /// ~20-30 s quick, ~2 min with --full on 2 cores.
@@ -110,8 +116,8 @@ struct BenchServeArgs {
 struct EvalArgs {
     /// Input JSON file, `-` for standard input.
     file: String,
-    /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend: cpu, gpu or auto (a hardware GPU for 64 states or more, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
     #[arg(long, default_value_t = 1e-6)]
@@ -151,8 +157,9 @@ struct RunArgs {
     /// Output root folder.
     #[arg(long, default_value = "out")]
     out: std::path::PathBuf,
-    /// Backend for the film loads: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend for the film loads: cpu, gpu or auto (a hardware GPU when a stage carries
+    /// 64 bearing states or more, e.g. a sweep, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
     #[arg(long, default_value_t = 1e-6)]
@@ -179,6 +186,10 @@ struct ServeArgs {
     /// Folder of the job store (SQLite database).
     #[arg(long, default_value = "bearing-sweep-data")]
     data: std::path::PathBuf,
+    /// Keep sweeps in PostgreSQL (postgres://user[:password]@host:port/database) and let
+    /// `worker` processes run them, instead of the SQLite store in --data.
+    #[arg(long)]
+    database: Option<String>,
     /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
     #[arg(long)]
     token: Option<String>,
@@ -267,6 +278,61 @@ struct MergeArgs {
     /// Shard result files.
     #[arg(required = true)]
     shards: Vec<String>,
+}
+
+#[derive(Args)]
+struct WorkerArgs {
+    /// The queue's database: postgres://user[:password]@host:port/database.
+    #[arg(long)]
+    database: String,
+    /// Backend for the film loads: cpu, gpu or auto (workers claim only sweeps that allow it).
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Variants per claimed lockstep batch (default 256 on the CPU, 4096 on a GPU).
+    #[arg(long)]
+    batch: Option<usize>,
+    /// Lease time to live without a heartbeat, s: a dead worker's batch runs elsewhere
+    /// after this long.
+    #[arg(long, default_value_t = 30.0)]
+    lease_ttl: f64,
+    /// Heartbeat period, s (default a third of --lease-ttl); cancel reaches the worker
+    /// within one period.
+    #[arg(long)]
+    heartbeat: Option<f64>,
+    /// Exit after this many seconds without work (default: run until SIGTERM/Ctrl-C).
+    #[arg(long)]
+    exit_when_idle: Option<f64>,
+    /// Worker id in leases and results (default host/pid/nonce).
+    #[arg(long)]
+    id: Option<String>,
+}
+
+#[derive(Args)]
+struct BenchQueueArgs {
+    /// A scratch database (sweeps are added and deleted): postgres://user@host:port/db.
+    #[arg(long)]
+    database: String,
+    /// Worker process counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
+    workers: Vec<usize>,
+    /// Variants per claim of those workers.
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+    /// Grid points per axis of the rotor sweep (n x n variants).
+    #[arg(long, default_value_t = 16)]
+    grid: usize,
+    /// Batches of the claim-and-commit overhead row.
+    #[arg(long, default_value_t = 500)]
+    overhead_batches: usize,
+    /// Concurrent claimers in the storm.
+    #[arg(long, default_value_t = 64)]
+    storm_workers: usize,
+    /// Length of the storm, s.
+    #[arg(long, default_value_t = 10.0)]
+    storm_seconds: f64,
+    /// Scratch folder for the `run` reference.
+    #[arg(long, default_value = "out/bench-queue")]
+    out: std::path::PathBuf,
 }
 
 #[derive(Args)]
@@ -367,13 +433,15 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval(a),
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
-        Command::Finite(a) => finite_cmd(a),
         Command::Serve(a) => serve(a),
         Command::Submit(a) => submit(a),
         Command::Coefficients(a) => coefficients_cmd(a),
         Command::Stability(a) => stability_cmd(a),
+        Command::Finite(a) => finite_cmd(a),
+        Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
+            BenchCommand::Queue(a) => bench_queue_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
             BenchCommand::Backend(a) => run_bench_backend(
                 &a.backend, a.sizes, a.accuracy, a.threads, a.min_time, a.max_reps, a.json,
@@ -581,6 +649,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         max_queued: a.max_queued,
         eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
         eval_backend: a.eval_backend,
+        database: a.database,
     };
     serve_command(config, &mut |n| eprintln!("{n}"))
 }
@@ -612,6 +681,20 @@ fn submit(a: SubmitArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// `worker`: pulls work from a PostgreSQL queue until stopped.
+fn worker(a: WorkerArgs) -> Result<(), CliError> {
+    worker_command(&WorkerCommandOptions {
+        database: a.database,
+        backend: a.backend,
+        batch: a.batch,
+        lease_ttl_s: a.lease_ttl,
+        heartbeat_s: a.heartbeat,
+        exit_when_idle_s: a.exit_when_idle,
+        id: a.id,
+    })
+    .map(print_lines)
+}
+
 /// `bench serve`: load generator for the service.
 fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
     let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
@@ -624,6 +707,29 @@ fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
         sweep_repeats: a.sweep_repeats,
     })
     .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    print!("{md}");
+    Ok(())
+}
+
+/// `bench queue`: figures of the PostgreSQL queue.
+fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
+    let exe = std::env::current_exe().map_err(|source| CliError::Io {
+        path: "current executable".into(),
+        source,
+    })?;
+    let md =
+        bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
+            database: a.database,
+            exe,
+            workers: a.workers,
+            batch: a.batch.max(1),
+            grid: a.grid.max(1),
+            overhead_batches: a.overhead_batches.max(1),
+            storm_workers: a.storm_workers.max(1),
+            storm_s: a.storm_seconds.max(0.1),
+            scratch: a.out,
+        })
+        .map_err(|e| CliError::input("--database", e.to_string()))?;
     print!("{md}");
     Ok(())
 }

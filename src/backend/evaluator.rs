@@ -223,6 +223,11 @@ impl LoadEvaluator {
         self.backend.info()
     }
 
+    /// Why the backend runs, when [`super::choose_backend`] created it.
+    pub fn choice(&self) -> Option<super::BackendChoice> {
+        self.backend.choice()
+    }
+
     /// The backend itself.
     pub fn backend(&self) -> &dyn FilmBackend {
         self.backend.as_ref()

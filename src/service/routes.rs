@@ -12,7 +12,7 @@ use axum::extract::{Path, Request, State};
 use axum::http::{header, HeaderMap, StatusCode, Uri};
 use axum::middleware::Next;
 use axum::response::sse::{Event, KeepAlive, Sse};
-use axum::response::{Html, IntoResponse, Response};
+use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Serialize;
@@ -34,9 +34,6 @@ const DEFAULT_PAGE: u64 = 100;
 const MAX_PAGE: u64 = 10_000;
 /// SSE keep-alive comment interval.
 const KEEP_ALIVE: Duration = Duration::from_secs(15);
-
-/// The placeholder page served at `/` until the web page replaces it.
-const INDEX_HTML: &str = include_str!("placeholder.html");
 
 /// The API description.
 #[derive(OpenApi)]
@@ -76,9 +73,10 @@ pub fn router(state: AppState) -> Router {
         .route("/sweeps/{id}/cancel", post(cancel_sweep))
         .route("/eval", post(eval))
         .route("/openapi.json", get(openapi))
+        .merge(super::web::api())
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth));
     Router::new()
-        .route("/", get(index))
+        .merge(super::web::pages())
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
         .nest("/api", api)
@@ -141,10 +139,6 @@ async fn auth(
         "Bearer".parse().expect("static header"),
     );
     r
-}
-
-async fn index() -> Html<&'static str> {
-    Html(INDEX_HTML)
 }
 
 /// Liveness: 200 once the server is ready.

@@ -171,9 +171,10 @@ impl Scheduler {
             while (self.running() as usize) < self.max_running {
                 let store = self.store.clone();
                 let next = tokio::task::spawn_blocking(move || {
-                    store
-                        .list_sweeps()
-                        .map(|l| l.into_iter().find(|s| s.status == SweepStatus::Queued))
+                    store.list_sweeps().map(|l| {
+                        l.into_iter()
+                            .find(|s| s.status == SweepStatus::Queued && !store.runs_elsewhere(s))
+                    })
                 })
                 .await;
                 let Ok(Ok(Some(row))) = next else { break };
