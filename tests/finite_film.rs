@@ -784,3 +784,58 @@ fn eval_reports_model_and_a_truthful_error_estimate() {
         );
     }
 }
+
+/// A sweep axis varies the film model (`bearings[*].model`): the CLI runs both variants of
+/// the paper rotor (0.02 s), both finish, the finite one reaches the larger eccentricity,
+/// and only the short one reports a mapped short-model error.
+#[test]
+fn a_sweep_axis_varies_the_film_model() {
+    let dir = std::env::temp_dir().join(format!("bearing-sweep-finite-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut base: serde_json::Value =
+        serde_json::from_str(include_str!("../sweeps/paper-example.json")).unwrap();
+    base.as_object_mut().unwrap().remove("compare_ideal");
+    base["integrator"]["t_end"] = serde_json::json!(0.02);
+    for b in base["bearings"].as_array_mut().unwrap() {
+        b["model"] = serde_json::json!("short");
+    }
+    let spec = serde_json::json!({
+        "kind": "rotor", "name": "film model axis", "base": base,
+        "axes": [{"path": "bearings[*].model", "values": ["short", "finite"]}]
+    });
+    let path = dir.join("model-axis.json");
+    std::fs::write(&path, spec.to_string()).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
+        .args(["run", "--quiet", "--out"])
+        .arg(&dir)
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("model-axis").join("result.json")).unwrap(),
+    )
+    .unwrap();
+    let v = r["variants"].as_array().unwrap();
+    assert_eq!(v.len(), 2);
+    let mut ecc = [0.0; 2];
+    for (k, model) in ["short", "finite"].iter().enumerate() {
+        let x = v
+            .iter()
+            .find(|x| x["params"]["bearings[*].model"] == *model)
+            .unwrap();
+        assert_eq!(x["status"], "ok", "{model}: {}", x["status"]);
+        ecc[k] = x["reductions"]["bearings"][0]["eccentricity_max"]["value"]
+            .as_f64()
+            .unwrap();
+        let fe = &x["sim"]["model_reductions"]["film_model_error"];
+        assert_eq!(fe["error"].is_number(), *model == "short", "{model}: {fe}");
+    }
+    assert!(ecc[1] > ecc[0], "finite film softer: {ecc:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

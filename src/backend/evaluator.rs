@@ -160,6 +160,8 @@ pub struct LoadEvaluator {
     /// eccentricity it was computed at.
     warm: std::collections::HashMap<(u32, u32), (Vec<f64>, f64)>,
     warm_start: bool,
+    /// Reasons the backend declined finite-film work, each reported once.
+    finite_fallbacks: std::collections::HashSet<String>,
 }
 
 impl LoadEvaluator {
@@ -196,6 +198,7 @@ impl LoadEvaluator {
             finite: Vec::new(),
             warm: std::collections::HashMap::new(),
             warm_start: true,
+            finite_fallbacks: std::collections::HashSet::new(),
         }
     }
 
@@ -445,10 +448,15 @@ impl LoadEvaluator {
                 self.backend
                     .integrate_finite(&jobs, &grid, &mut fields, &mut ints, &mut reports)
             {
-                self.notices.push(format!(
-                    "notice: {e}; batch of {} finite-film states recomputed on the CPU",
-                    jobs.len()
-                ));
+                // Once per distinct reason: a rotor run makes thousands of calls.
+                let why = e.to_string();
+                if self.finite_fallbacks.insert(why.clone()) {
+                    self.notices.push(format!(
+                        "notice: {why}; finite-film states recomputed on the CPU (this call: \
+                         {}; further calls for the same reason silently)",
+                        jobs.len()
+                    ));
+                }
                 self.stats.cpu_recomputed += jobs.len() as u64;
                 for f in fields.iter_mut() {
                     f.clear();

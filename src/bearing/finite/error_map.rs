@@ -23,7 +23,7 @@ pub struct ShortModelError {
 }
 
 /// The grid the stored map was computed on (`n_theta` 128, `n_z` 32; Richardson error of
-/// the finite loads below 0.3 % over the map, docs/finite-film.md).
+/// the finite loads ≤ 0.13 % up to ε = 0.9 and ≤ 0.6 % at ε = 0.95, docs/finite-film.md).
 pub fn error_map_settings() -> FiniteSettings {
     FiniteSettings {
         n_theta: 128,
