@@ -11,5 +11,6 @@ pub mod json;
 pub mod numerics;
 pub mod plot;
 pub mod rotor;
+pub mod service;
 pub mod stability;
 pub mod sweep;

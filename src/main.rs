@@ -10,7 +10,8 @@ use bearing_sweep::bench::{
 };
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
-    read_input, run_command, run_scene_file, BenchRotorOptions, CliError, EvalOptions, RunOptions,
+    print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
+    BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
     SweepRunOptions,
 };
 use bearing_sweep::cli::{
@@ -47,6 +48,10 @@ enum Command {
     /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
     /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
     Stability(StabilityArgs),
+    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
+    Serve(ServeArgs),
+    /// Submit a sweep spec to a running service; prints its id.
+    Submit(SubmitArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -141,6 +146,61 @@ struct StabilityArgs {
     /// Relative accuracy of the film loads.
     #[arg(long, default_value_t = 1e-12)]
     accuracy: f64,
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    /// Address and port to listen on (port 0: any free port, printed at start).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    bind: std::net::SocketAddr,
+    /// Folder of the job store (SQLite database).
+    #[arg(long, default_value = "bearing-sweep-data")]
+    data: std::path::PathBuf,
+    /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
+    #[arg(long)]
+    token: Option<String>,
+    /// Sweeps running at once.
+    #[arg(long, default_value_t = 1)]
+    max_running: usize,
+    /// Largest request body, bytes (413 beyond).
+    #[arg(long, default_value_t = 4 << 20)]
+    max_body_bytes: usize,
+    /// Most variants per sweep (422 beyond).
+    #[arg(long, default_value_t = 1_000_000)]
+    max_variants: u64,
+    /// Most sweeps queued or running (429 beyond).
+    #[arg(long, default_value_t = 64)]
+    max_queued: u64,
+    /// Coalescing window of /api/eval, ms.
+    #[arg(long, default_value_t = 2.0)]
+    eval_window_ms: f64,
+    /// Backend of /api/eval: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    eval_backend: BackendKind,
+}
+
+#[derive(Args)]
+struct SubmitArgs {
+    /// Sweep spec (JSON), `-` for standard input.
+    spec: String,
+    /// Service URL.
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    server: String,
+    /// Bearer token (else BEARING_SWEEP_TOKEN).
+    #[arg(long)]
+    token: Option<String>,
+    /// Wait for the end with a progress bar, then print where the result is.
+    #[arg(long)]
+    wait: bool,
+    /// Backend for the film loads: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-6)]
+    accuracy: f64,
+    /// Turn every model reduction off.
+    #[arg(long)]
+    full_model: bool,
 }
 
 #[derive(Args)]
@@ -252,6 +312,8 @@ fn main() -> ExitCode {
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
         Command::Coefficients(a) => coefficients_cmd(a),
         Command::Stability(a) => stability_cmd(a),
+        Command::Serve(a) => serve(a),
+        Command::Submit(a) => submit(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
@@ -264,6 +326,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout went away (`… | head`): nothing left to tell anyone.
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
@@ -298,11 +362,10 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
         eprintln!("{n}");
     }
     if a.format == "ross-csv" {
-        print!("{}", ross_csv(&out));
+        print_text(&ross_csv(&out))
     } else {
-        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+        print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
     }
-    Ok(())
 }
 
 /// `stability`: modes, threshold and Campbell diagram of a scene.
@@ -324,8 +387,7 @@ fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
     for f in files {
         eprintln!("wrote {}", f.display());
     }
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
 }
 
 /// `eval`: film loads of the states in a file, JSON on stdout.
@@ -341,8 +403,7 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
@@ -370,13 +431,14 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     for n in report.notices {
         eprintln!("{n}");
     }
+    let mut out = StdoutWriter::new();
     for l in report.lines {
-        println!("{l}");
+        out.line(&l)?;
     }
     for f in report.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 /// `run` of a sweep spec: resumable, shardable, streamed.
@@ -393,6 +455,49 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
 }
 
+/// `serve`: the sweep service until SIGTERM / Ctrl-C.
+fn serve(a: ServeArgs) -> Result<(), CliError> {
+    let config = bearing_sweep::service::ServiceConfig {
+        bind: a.bind,
+        data: a.data,
+        token: a.token,
+        max_running: a.max_running,
+        max_body_bytes: a.max_body_bytes,
+        max_variants: a.max_variants,
+        max_queued: a.max_queued,
+        eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
+        eval_backend: a.eval_backend,
+    };
+    serve_command(config, &mut |n| eprintln!("{n}"))
+}
+
+/// `submit`: a sweep spec to a running service.
+fn submit(a: SubmitArgs) -> Result<(), CliError> {
+    let text = read_input(&a.spec)?;
+    let backend = match a.backend {
+        BackendKind::Cpu => "cpu",
+        BackendKind::Gpu => "gpu",
+        BackendKind::Auto => "auto",
+    };
+    let mut query = format!("backend={backend}&accuracy={:e}", a.accuracy);
+    if a.full_model {
+        query.push_str("&full_model=true");
+    }
+    let lines = submit_command(
+        &text,
+        &SubmitOptions {
+            server: a.server,
+            token: a.token,
+            wait: a.wait,
+            query,
+        },
+    )?;
+    for l in lines {
+        println!("{l}");
+    }
+    Ok(())
+}
+
 /// `bench all`: every benchmark into one folder with an index.
 fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
     let opts = if a.full {
@@ -401,7 +506,7 @@ fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
         BenchAllOptions::quick(a.out)
     };
     let r = bench_all(&opts)?;
-    print!("{}", r.index);
+    print_text(&r.index)?;
     eprintln!("wrote {} files in {:.1} s", r.files.len(), r.wall_s);
     Ok(())
 }
@@ -416,17 +521,15 @@ fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
         gpu_batch: a.gpu_batch,
         min_time_s: a.min_time,
     })?;
-    print!("{}", bench_loads_markdown(&report));
-    Ok(())
+    print_text(&bench_loads_markdown(&report))
 }
 
 /// `bench rotor --batch`: lockstep batches against one-by-one runs.
 fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
-    println!("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |");
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
-    a.batch
-        .iter()
-        .try_for_each(|&n| bench_rotor_batch(n, a.t_end, a.threads).map(|row| print!("{row}")))
+    print_text("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")?;
+    a.batch.iter().try_for_each(|&n| {
+        bench_rotor_batch(n, a.t_end, a.threads).and_then(|row| print_text(&row))
+    })
 }
 
 /// `bench rotor`: work-precision of the integrators on the paper example.
@@ -438,12 +541,13 @@ fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
         out: a.out,
         viscosity: a.viscosity,
     })?;
-    println!("{}\n", r.reference);
-    print!("{}", r.table);
+    let mut out = StdoutWriter::new();
+    out.line(&format!("{}\n", r.reference))?;
+    out.text(&r.table)?;
     for f in r.files {
-        println!("wrote {}", f.display());
+        out.line(&format!("wrote {}", f.display()))?;
     }
-    Ok(())
+    out.finish()
 }
 
 fn run_bench_backend(
@@ -487,7 +591,7 @@ fn run_bench_backend(
         ..BenchOptions::default()
     };
     let (report, md) = bench_backend(&options)?;
-    println!("{md}");
+    print_text(&format!("{md}\n"))?;
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
         std::fs::write(&path, text).map_err(|source| CliError::Io { path, source })?;

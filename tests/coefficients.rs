@@ -54,6 +54,7 @@ fn bearing(radius: f64, length: f64, clearance: f64, viscosity: f64) -> BearingP
         clearance,
         viscosity,
         clearance_convention: ClearanceConvention::Paper,
+        ..BearingParams::paper_table2()
     }
 }
 

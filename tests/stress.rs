@@ -36,6 +36,7 @@ fn bearing(clearance: f64, viscosity: f64) -> BearingParams {
         clearance,
         viscosity,
         clearance_convention: ClearanceConvention::Paper,
+        ..BearingParams::paper_table2()
     }
 }
 

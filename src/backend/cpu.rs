@@ -5,6 +5,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::{BackendError, BackendInfo, FilmBackend, Precision};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings};
 
 /// States per parallel task: large enough to amortise scheduling (a state costs ~1 µs).
@@ -89,6 +90,24 @@ impl FilmBackend for CpuBackend {
                 Some(pool) => pool.install(&mut par),
                 None => par(),
             }
+        }
+        Ok(())
+    }
+
+    fn integrate_finite(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        let parallel = self.threads > 1;
+        let mut run =
+            || super::finite::cpu_integrate_finite(jobs, grid, fields, out, reports, parallel);
+        match &self.pool {
+            Some(pool) => pool.install(&mut run),
+            None => run(),
         }
         Ok(())
     }

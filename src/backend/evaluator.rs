@@ -1,10 +1,11 @@
 //! The batched front end every caller uses: validate and pack on the host, one backend
 //! call for all good states, CPU recomputation of anything non-finite, loads out.
 
-use super::{BackendInfo, CpuBackend, FilmBackend};
+use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{
-    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, Loads, PackedState,
-    StateFault,
+    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads,
+    PackedState, StateFault,
 };
 
 /// One state to evaluate and the bearing (index into the call's bearing list) it is in.
@@ -39,6 +40,28 @@ pub struct EvalStats {
     pub small_batch_cpu_calls: u64,
     /// States integrated in those calls.
     pub small_batch_cpu_states: u64,
+    /// States solved by the finite-length film (`"model": "finite"`, or `"auto"` where
+    /// the short model's mapped error exceeded the tolerance).
+    pub finite_states: u64,
+    /// Projected-SOR sweeps over all finite solves.
+    pub finite_sweeps: u64,
+    /// Finite solves started from the previous field of the same bearing slot.
+    pub finite_warm_starts: u64,
+    /// Finite solves that hit the sweep limit before the tolerance (loads still returned).
+    pub finite_unconverged: u64,
+}
+
+/// Largest number of f64 kept for warm starts (256 MB); beyond it fields are dropped and
+/// solves start cold.
+const WARM_BUDGET_F64: usize = 32 << 20;
+
+/// One finite-film state of a call: request index, rate scale, job, grid, warm-start key.
+struct FiniteSlot {
+    request: usize,
+    rate_scale: f64,
+    job: FiniteJob,
+    grid: FiniteGrid,
+    key: (u32, u32),
 }
 
 /// Exact reductions of the evaluator.
@@ -101,6 +124,9 @@ pub struct LoadEvaluator {
     bad: Vec<bool>,
     notices: Vec<String>,
     stats: EvalStats,
+    finite: Vec<FiniteSlot>,
+    warm: std::collections::HashMap<(u32, u32), Vec<f64>>,
+    warm_start: bool,
 }
 
 impl LoadEvaluator {
@@ -134,6 +160,20 @@ impl LoadEvaluator {
             bad: Vec::new(),
             notices: Vec::new(),
             stats: EvalStats::default(),
+            finite: Vec::new(),
+            warm: std::collections::HashMap::new(),
+            warm_start: true,
+        }
+    }
+
+    /// Finite-film warm start on or off (default on): a finite solve starts from the
+    /// field last computed for the same bearing index and the same occurrence of it in a
+    /// call, i.e. in a rotor batch the same variant's bearing at the previous stage or step.
+    /// The result agrees with a cold start to the solver tolerance.
+    pub fn set_warm_start(&mut self, on: bool) {
+        self.warm_start = on;
+        if !on {
+            self.warm.clear();
         }
     }
 
@@ -174,6 +214,8 @@ impl LoadEvaluator {
         self.packed.clear();
         self.slots.clear();
         self.seen.clear();
+        self.finite.clear();
+        let mut occurrence: std::collections::HashMap<u32, u32> = Default::default();
         self.stats.calls += 1;
         self.stats.states += requests.len() as u64;
         self.bearing_ok.clear();
@@ -194,6 +236,26 @@ impl LoadEvaluator {
                 }
             };
             match result {
+                Ok(p)
+                    if p.rate_scale > 0.0
+                        && effective_model(&bearings[req.bearing as usize], &req.state)
+                            == FilmModel::Finite =>
+                {
+                    out.push(Err(StateFault::BackendNonFinite));
+                    let b = &bearings[req.bearing as usize];
+                    let n = occurrence.entry(req.bearing).or_insert(0);
+                    self.finite.push(FiniteSlot {
+                        request: k,
+                        rate_scale: p.rate_scale,
+                        job: FiniteJob {
+                            state: p.state,
+                            aspect: b.length / b.radius,
+                        },
+                        grid: (&b.finite).into(),
+                        key: (req.bearing, *n),
+                    });
+                    *n += 1;
+                }
                 Ok(p) if p.rate_scale > 0.0 => {
                     // Placeholder, overwritten below once the integrals are in.
                     out.push(Err(StateFault::BackendNonFinite));
@@ -219,6 +281,9 @@ impl LoadEvaluator {
                 ),
                 Err(fault) => out.push(Err(fault)),
             }
+        }
+        if !self.finite.is_empty() {
+            self.evaluate_finite(bearings, requests, out);
         }
         if self.packed.is_empty() {
             return;
@@ -294,6 +359,108 @@ impl LoadEvaluator {
                 scale,
             )
             .finite_or_fault();
+        }
+    }
+
+    /// The finite-film states of the current call, one backend call per distinct grid.
+    fn evaluate_finite(
+        &mut self,
+        bearings: &[BearingParams],
+        requests: &[LoadRequest],
+        out: &mut [LoadResult],
+    ) {
+        let slots = std::mem::take(&mut self.finite);
+        let mut grids: Vec<FiniteGrid> = Vec::new();
+        for s in &slots {
+            if !grids.contains(&s.grid) {
+                grids.push(s.grid);
+            }
+        }
+        let mut ints = Vec::new();
+        let mut reports: Vec<SolveReport> = Vec::new();
+        for grid in grids {
+            let group: Vec<&FiniteSlot> = slots.iter().filter(|s| s.grid == grid).collect();
+            let jobs: Vec<FiniteJob> = group.iter().map(|s| s.job).collect();
+            let mut fields: Vec<Vec<f64>> = group
+                .iter()
+                .map(|s| {
+                    let f = if self.warm_start {
+                        self.warm.remove(&s.key).unwrap_or_default()
+                    } else {
+                        Vec::new()
+                    };
+                    if f.len() == grid.field_len() {
+                        self.stats.finite_warm_starts += 1;
+                    }
+                    f
+                })
+                .collect();
+            self.stats.finite_states += jobs.len() as u64;
+            self.stats.integrated += jobs.len() as u64;
+            if let Err(e) =
+                self.backend
+                    .integrate_finite(&jobs, &grid, &mut fields, &mut ints, &mut reports)
+            {
+                self.notices.push(format!(
+                    "notice: {e}; batch of {} finite-film states recomputed on the CPU",
+                    jobs.len()
+                ));
+                self.stats.cpu_recomputed += jobs.len() as u64;
+                for f in fields.iter_mut() {
+                    f.clear();
+                }
+                super::finite::cpu_integrate_finite(
+                    &jobs,
+                    &grid,
+                    &mut fields,
+                    &mut ints,
+                    &mut reports,
+                    true,
+                );
+            }
+            ints.resize(jobs.len(), [f64::NAN; 4]);
+            reports.resize(jobs.len(), SolveReport::default());
+            let mut recomputed = 0;
+            for (n, slot) in group.iter().enumerate() {
+                if !ints[n].iter().all(|x| x.is_finite()) {
+                    // A backend's non-finite result: the CPU solver from a cold start.
+                    let mut f = Vec::new();
+                    let (v, r) =
+                        crate::bearing::finite::FiniteSolver::new().solve(&slot.job, &grid, &mut f);
+                    ints[n] = v;
+                    reports[n] = r;
+                    fields[n] = f;
+                    recomputed += 1;
+                }
+                self.stats.finite_sweeps += reports[n].sweeps as u64;
+                self.stats.finite_unconverged += u64::from(!reports[n].converged);
+                let req = &requests[slot.request];
+                out[slot.request] = if ints[n].iter().all(|x| x.is_finite()) {
+                    finish_loads(
+                        &bearings[req.bearing as usize],
+                        &req.state,
+                        &ints[n],
+                        slot.rate_scale,
+                    )
+                    .finite_or_fault()
+                } else {
+                    Err(StateFault::BackendNonFinite)
+                };
+            }
+            if recomputed > 0 {
+                self.stats.cpu_recomputed += recomputed;
+                self.notices.push(format!(
+                    "notice: {recomputed} non-finite finite-film results recomputed on the CPU"
+                ));
+            }
+            if self.warm_start {
+                let kept: usize = self.warm.values().map(Vec::len).sum();
+                if kept + fields.len() * grid.field_len() <= WARM_BUDGET_F64 {
+                    for (slot, f) in group.iter().zip(fields) {
+                        self.warm.insert(slot.key, f);
+                    }
+                }
+            }
         }
     }
 }

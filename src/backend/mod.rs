@@ -4,14 +4,17 @@
 pub mod bench;
 mod cpu;
 mod evaluator;
+mod finite;
 mod gpu;
 
 pub use cpu::CpuBackend;
 pub use evaluator::{
     EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
 };
+pub use finite::effective_model;
 pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
 
+use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};
 
 /// Which backend a user asked for.
@@ -86,6 +89,22 @@ pub trait FilmBackend: Send {
         states: &[PackedState],
         out: &mut Vec<FilmIntegrals>,
     ) -> Result<(), BackendError>;
+
+    /// Finite-length film integrals of every job on `grid` (docs/finite-film.md), in
+    /// order. `fields[k]` is job k's warm start (a vector of another length: cold start)
+    /// and receives its converged field; `reports` one solve report per job. The default
+    /// is the CPU solver on rayon's global pool.
+    fn integrate_finite(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        finite::cpu_integrate_finite(jobs, grid, fields, out, reports, true);
+        Ok(())
+    }
 }
 
 /// Below this requested accuracy an f32 kernel cannot keep its promise (its rounding

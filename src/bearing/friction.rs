@@ -27,13 +27,23 @@ pub fn friction(params: &BearingParams, w_abs: f64, omega: f64) -> Friction {
         };
     }
     let mean_pressure = w_abs / (2.0 * params.radius * params.length);
-    let s = mean_pressure * phi * phi / (params.viscosity * omega.abs());
+    let denominator = params.viscosity * omega.abs();
+    let s = if denominator >= f64::MIN_POSITIVE {
+        mean_pressure * phi * phi / denominator
+    } else {
+        // μ |ω0| is subnormal or underflows to zero (ω0 ~ 1e-320 rad/s): divide one at a
+        // time so that S keeps its precision and 0 / 0 cannot arise.
+        mean_pressure * phi * phi / params.viscosity / omega.abs()
+    };
     let (coefficient, mz_abs) = if s < 1.0 {
         // Load-independent torque 6 r0² B μ |ω0| / φ: finite as W -> 0.
         let torque =
             6.0 * params.radius * params.radius * params.length * params.viscosity * omega.abs()
                 / phi;
-        (if s > 0.0 { Some(3.0 * phi / s) } else { None }, torque)
+        // A tiny load (|W| ~ 1e-318 N) gives a finite S whose 3 φ / S overflows: infinite,
+        // so `None` like |W| = 0.
+        let f = 3.0 * phi / s;
+        ((s > 0.0 && f.is_finite()).then_some(f), torque)
     } else {
         let f = 3.0 * phi / s.sqrt();
         (Some(f), f * params.radius * w_abs)
@@ -41,6 +51,8 @@ pub fn friction(params: &BearingParams, w_abs: f64, omega: f64) -> Friction {
     Friction {
         mz: -omega.signum() * mz_abs,
         coefficient,
-        sommerfeld: Some(s),
+        // A tiny spin (ω0 ~ 1e-310 rad/s) can overflow S: infinite, so `None` like ω0 = 0
+        // (and then f = 3 φ / √S = 0, M_z = 0: the ω0 -> 0 limit).
+        sommerfeld: s.is_finite().then_some(s),
     }
 }

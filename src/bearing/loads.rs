@@ -109,11 +109,16 @@ pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed
     } else {
         0.0
     };
+    // A subnormal rate scale (a spin of 1e-310 rad/s, positions of 1e-320 m) has no finite
+    // reciprocal: divide instead (|r| <= rate_scale, so every quotient is in [-1, 1]).
+    // Normal scales keep the reciprocal, so their packed states are bit-for-bit unchanged.
+    let rate = if inv.is_finite() {
+        rate.map(|r| r * inv)
+    } else {
+        rate.map(|r| r / rate_scale)
+    };
     Ok(Packed {
-        state: PackedState {
-            ecc,
-            rate: rate.map(|r| r * inv),
-        },
+        state: PackedState { ecc, rate },
         rate_scale,
     })
 }

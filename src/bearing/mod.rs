@@ -2,6 +2,7 @@
 //! the default load rule, friction, the brute-force baseline and reference values.
 
 mod baseline;
+pub mod finite;
 mod friction;
 mod loads;
 mod params;
@@ -10,6 +11,7 @@ mod rule;
 mod state;
 
 pub use baseline::baseline_loads;
+pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
 pub use params::{BearingParams, ClearanceConvention, ParamError};

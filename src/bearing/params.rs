@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::finite::{FilmModel, FiniteSettings};
+
 /// Which relative clearance the friction law of eqs. (10)-(11) uses (MODEL.md section 5).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -48,6 +50,12 @@ pub struct BearingParams {
     /// Relative clearance in the friction law; default `"paper"`.
     #[serde(default)]
     pub clearance_convention: ClearanceConvention,
+    /// Film model: `"short"` (default), `"finite"` or `"auto"` (docs/finite-film.md).
+    #[serde(default)]
+    pub model: FilmModel,
+    /// Grid, tolerance and `auto` threshold of the finite model; all fields default.
+    #[serde(default)]
+    pub finite: FiniteSettings,
 }
 
 /// A bearing parameter that cannot be used.
@@ -71,6 +79,8 @@ impl BearingParams {
             clearance: 0.0003,
             viscosity: 0.0242,
             clearance_convention: ClearanceConvention::Paper,
+            model: FilmModel::Short,
+            finite: FiniteSettings::default(),
         }
     }
 
@@ -97,6 +107,13 @@ impl BearingParams {
                     reason: "must be positive",
                 });
             }
+        }
+        if let Err(e) = self.finite.validate() {
+            return Err(ParamError {
+                field: e.field,
+                value: e.value,
+                reason: e.reason,
+            });
         }
         if self.clearance >= self.radius {
             return Err(ParamError {

@@ -82,6 +82,20 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
                     _ => Map::new(),
                 };
                 m.insert("status".into(), json!("ok"));
+                // Finite-film states: the model used and the Richardson error estimate.
+                if bearing.model != crate::bearing::FilmModel::Short {
+                    let used = crate::backend::effective_model(&bearing, &requests[k].state);
+                    m.insert("film_model".into(), json!(used.name()));
+                    if used == crate::bearing::FilmModel::Finite {
+                        let est = crate::bearing::finite::richardson_estimate(
+                            &bearing,
+                            &requests[k].state,
+                            &bearing.finite,
+                            l,
+                        );
+                        m.insert("finite_error_estimate".into(), json!(est));
+                    }
+                }
                 Value::Object(m)
             }
             Err(fault) => json!({
@@ -100,6 +114,7 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
         "nodes_per_panel": accuracy.settings().nodes,
         "backend": info,
         "clearance_convention": bearing.clearance_convention.name(),
+        "film_model": bearing.model.name(),
         "units": "SI (N, N·m, m, W)",
     });
     Ok((out, notices))

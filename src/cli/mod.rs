@@ -5,8 +5,11 @@ mod bench;
 mod bench_rotor;
 mod coefficients;
 mod eval;
+mod output;
 mod run;
+mod serve;
 mod stability;
+mod submit;
 mod sweep;
 
 pub use bench::bench_backend;
@@ -17,8 +20,11 @@ pub use coefficients::{
     coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
 };
 pub use eval::{eval_json, EvalOptions};
+pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use serve::{serve_command, TOKEN_ENV};
 pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
+pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 
 /// A command failure shown to the user (exit status 2).
@@ -46,9 +52,17 @@ pub enum CliError {
     /// A sweep failed (spec, variant, output, merge).
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
+    /// Writing to standard output failed (a closed pipe or a full disk).
+    #[error("writing to standard output: {0}")]
+    Stdout(std::io::Error),
 }
 
 impl CliError {
+    /// Standard output was closed by its reader (`… | head`): the command stops quietly.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, CliError::Stdout(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+
     /// An input error at `path`.
     pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
         CliError::Input {

@@ -2,19 +2,17 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use super::CliError;
-use crate::backend::{create_backend, BackendKind, EvaluatorOptions, LoadEvaluator};
+use crate::backend::BackendKind;
 use crate::bearing::Accuracy;
-use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
 use crate::sweep::merge::merge;
-use crate::sweep::rotor_sim::{validate_scene, RotorSimulator};
 use crate::sweep::runner::{run_sweep, write_result, BatchSize, RunOptions, Shard};
+use crate::sweep::simulator::{prepare_simulator, SetupError, SimulatorChoice};
 use crate::sweep::spec::{parse_spec, spec_kind};
-use crate::sweep::synthetic::{self, SyntheticSimulator};
-use crate::sweep::{SweepError, SweepKind};
+use crate::sweep::SweepError;
 
 /// Options of `run` for a sweep spec.
 #[derive(Clone, Debug)]
@@ -122,81 +120,29 @@ pub fn run_command(
         _ => {
             let spec_dir = spec_path.parent().filter(|_| spec_file != "-");
             let spec = parse_spec(&doc, spec_dir)?;
-            let run_opts = |settings: Value| RunOptions {
+            let choice = SimulatorChoice {
+                backend: opts.backend,
+                accuracy,
+                full_model: opts.full_model,
+            };
+            let mut prepared = prepare_simulator(&spec, &choice, notice).map_err(|e| match e {
+                SetupError::Sweep(e) => CliError::Sweep(e),
+                SetupError::Backend(e) => CliError::Backend(e),
+            })?;
+            let run_opts = RunOptions {
                 out: out.clone(),
                 shard: opts.shard,
                 batch: opts.batch,
                 progress: !opts.quiet,
-                settings,
+                settings: prepared.settings.clone(),
             };
-            let summary = match spec.kind {
-                SweepKind::Synthetic => run_sweep(
-                    &spec,
-                    &synthetic::validate,
-                    &mut SyntheticSimulator,
-                    &run_opts(json!({"simulator": "synthetic"})),
-                    notice,
-                )?,
-                SweepKind::Stability => {
-                    crate::sweep::Expansion::new(&spec).validate_all(&spec, &validate_scene)?;
-                    // The coefficients are differences of film loads: always the tightest
-                    // level (README "Coefficients and stability").
-                    let tight = Accuracy::new(1e-12).expect("a calibrated level");
-                    if accuracy.rtol() != tight.rtol() {
-                        notice(format!(
-                            "notice: stability sweeps evaluate the film at accuracy 1e-12 (not {:e})",
-                            accuracy.rtol()
-                        ));
-                    }
-                    let (backend, n) = create_backend(opts.backend, tight)?;
-                    if let Some(n) = n {
-                        notice(n);
-                    }
-                    let mut sim =
-                        crate::stability::StabilitySimulator::new(LoadEvaluator::new(backend));
-                    let settings = sim.settings(tight.rtol());
-                    run_sweep(
-                        &spec,
-                        &validate_scene,
-                        &mut sim,
-                        &run_opts(settings),
-                        notice,
-                    )?
-                }
-                SweepKind::Rotor => {
-                    // Check every variant before creating a backend (a GPU start is slow).
-                    crate::sweep::Expansion::new(&spec).validate_all(&spec, &validate_scene)?;
-                    let (backend, n) = create_backend(opts.backend, accuracy)?;
-                    if let Some(n) = n {
-                        notice(n);
-                    }
-                    // Evaluator-level reductions from the base scene (one evaluator serves
-                    // every variant).
-                    let base: ReductionSpec = spec
-                        .base
-                        .get("reductions")
-                        .and_then(|v| serde_json::from_value(v.clone()).ok())
-                        .unwrap_or_default();
-                    let eval_options = if opts.full_model {
-                        EvaluatorOptions::full()
-                    } else {
-                        evaluator_options([&base])
-                    };
-                    let mut sim = RotorSimulator::new(
-                        LoadEvaluator::with_options(backend, eval_options),
-                        accuracy,
-                    );
-                    sim.set_full_model(opts.full_model);
-                    let settings = sim.settings(accuracy.rtol());
-                    run_sweep(
-                        &spec,
-                        &validate_scene,
-                        &mut sim,
-                        &run_opts(settings),
-                        notice,
-                    )?
-                }
-            };
+            let summary = run_sweep(
+                &spec,
+                prepared.validator,
+                prepared.sim.as_mut(),
+                &run_opts,
+                notice,
+            )?;
             let mut lines = vec![format!(
                 "{} of {} variants in this run ({} resumed, {} run, {} not ok); wrote {} (stream {})",
                 summary.in_shard,

@@ -13,6 +13,7 @@ pub use scene::{
     load_scene, BearingSpec, ContactSpec, FilmSpec, InitialSpec, IntegratorSpec, ModelKind,
     RotorSpec, Scene, SceneError, SpinMode,
 };
+pub use simulate::simulate_batch_streaming_cancellable;
 pub use simulate::{
     settings_of, simulate_batch, simulate_batch_streaming, BearingSeries, FilmEvent, RotorFault,
     SimResult, SimStats, SimStatus, TimeSeries,

@@ -325,6 +325,20 @@ pub struct ReductionTally {
     pub near_aligned: u64,
     /// Largest tilt measure seen.
     pub tilt_max: f64,
+    /// States evaluated with the short-bearing film (`"model": "short"`, or `"auto"`
+    /// below its tolerance).
+    pub short_states: u64,
+    /// States evaluated with the finite-length film.
+    pub finite_states: u64,
+    /// Largest short-model load error from the model-error map over the short-model
+    /// states (docs/finite-film.md), relative, and the attitude error there (deg).
+    pub short_error_max: f64,
+    /// Attitude error of the short model at that state, degrees.
+    pub short_attitude_at_max: f64,
+    /// `(B/D, ε)` of that state.
+    pub short_error_at: (f64, f64),
+    /// Whether that state lay outside the stored map (edge value used).
+    pub short_error_extrapolated: bool,
 }
 
 impl ReductionTally {
@@ -336,6 +350,20 @@ impl ReductionTally {
         state: &mut BearingState,
     ) {
         self.states += 1;
+        if crate::backend::effective_model(params, state) == crate::bearing::FilmModel::Finite {
+            self.finite_states += 1;
+        } else {
+            self.short_states += 1;
+            let bd = params.length / (2.0 * params.radius);
+            let (ei, ej) = state.eccentricity_ratios(params.clearance);
+            let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
+            if e.load.abs() >= self.short_error_max {
+                self.short_error_max = e.load.abs();
+                self.short_attitude_at_max = e.attitude_deg;
+                self.short_error_at = (bd, ei.max(ej));
+                self.short_error_extrapolated = e.extrapolated;
+            }
+        }
         if spec.near_aligned.enabled {
             let t = tilt_measure(params, state);
             self.tilt_max = self.tilt_max.max(t);
@@ -394,6 +422,12 @@ pub struct ReductionReport {
     pub applied: Vec<ReductionEntry>,
     /// Declined reductions.
     pub declined: Vec<ReductionEntry>,
+    /// The film model's own error: how far the short-bearing film may be from the
+    /// finite-length Reynolds equation at the eccentricity this run reached (from the
+    /// model-error map, docs/finite-film.md). Not a reduction `--full-model` turns off:
+    /// the bearing's `"model"` chooses the film.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub film_model_error: Option<ReductionEntry>,
 }
 
 fn entry(name: &str, kind: &str, why: impl Into<String>) -> ReductionEntry {
@@ -504,7 +538,48 @@ pub fn variant_report(
         );
     }
     r.declined.push(e);
+    r.push_short_model(tally);
     r
+}
+
+impl ReductionReport {
+    /// The short-bearing film as a model reduction of the full Reynolds equation: the
+    /// error it exposes the run to, from the model-error map at each bearing's `B/D` and
+    /// the eccentricity the run reached (docs/finite-film.md "Model-error map").
+    fn push_short_model(&mut self, tally: &ReductionTally) {
+        if tally.short_states + tally.finite_states == 0 {
+            return;
+        }
+        let (bd, ecc) = tally.short_error_at;
+        let mut e = entry(
+            "short_bearing_model",
+            "bounded",
+            if tally.short_states > 0 {
+                format!(
+                    "short-bearing (Ocvirk) film instead of the finite-length Reynolds equation: \
+                     model-error map (aligned, steady) at B/D = {bd:.3} and the largest \
+                     eccentricity reached, ε = {ecc:.3}: load magnitude {:+.1} %, attitude \
+                     {:+.2}°{}; `\"model\": \"finite\"` or `\"auto\"` in the bearing removes it",
+                    100.0 * tally.short_error_max,
+                    tally.short_attitude_at_max,
+                    if tally.short_error_extrapolated {
+                        " (outside the map: its edge value)"
+                    } else {
+                        ""
+                    }
+                )
+            } else {
+                "every film state was evaluated with the finite-length Reynolds equation".into()
+            },
+        );
+        e.applied_to = Some(tally.short_states);
+        e.of = Some(tally.short_states + tally.finite_states);
+        e.unit = Some("film states evaluated with the short-bearing model".into());
+        if tally.short_states > 0 {
+            e.error = Some(tally.short_error_max);
+        }
+        self.film_model_error = Some(e);
+    }
 }
 
 /// The evaluator-level part: dedupe and small-batch CPU routing.

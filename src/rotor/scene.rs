@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::bearing::{BearingParams, ClearanceConvention};
+use crate::bearing::{BearingParams, ClearanceConvention, FilmModel, FiniteSettings};
 use crate::integrate::Method;
 
 /// Rigid-rotor mass properties. The body frame has its origin at the centre of mass `G`
@@ -44,6 +44,12 @@ pub struct BearingSpec {
     /// Relative clearance in the friction law: `"paper"` (default) or `"vogelpohl"`.
     #[serde(default)]
     pub clearance_convention: ClearanceConvention,
+    /// Film model: `"short"` (default), `"finite"` or `"auto"` (docs/finite-film.md).
+    #[serde(default)]
+    pub model: FilmModel,
+    /// Finite-film grid, tolerance and `auto` threshold; every field defaults.
+    #[serde(default)]
+    pub finite: FiniteSettings,
     /// Axial coordinate of the bearing's mid-plane along the shaft from `G`, m (paper:
     /// +0.2 and −0.1).
     pub axial_position: f64,
@@ -58,6 +64,8 @@ impl BearingSpec {
             clearance: self.clearance,
             viscosity: self.viscosity,
             clearance_convention: self.clearance_convention,
+            model: self.model,
+            finite: self.finite,
         }
     }
 }

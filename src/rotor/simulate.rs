@@ -3,6 +3,7 @@
 //! statuses with physical context, sampled time series and counters.
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::{Deserialize, Serialize};
 
@@ -240,6 +241,9 @@ struct RotorBatch<'a, 'p> {
     out: &'a mut [Option<SimResult>],
     keep_samples: bool,
     progress: &'a mut (dyn FnMut(usize, &SimResult) + 'p),
+    /// Once set, every evaluation faults at once so the batch ends within a few cheap
+    /// rounds (the caller discards those results).
+    cancel: Option<&'a AtomicBool>,
 }
 
 impl RotorBatch<'_, '_> {
@@ -308,6 +312,14 @@ impl BatchSystem for RotorBatch<'_, '_> {
         dys: &mut [f64],
         faults: &mut [Option<RotorFault>],
     ) {
+        if self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            dys.fill(0.0);
+            faults.fill(Some(RotorFault::Load {
+                bearing: 0,
+                reason: "cancelled".into(),
+            }));
+            return;
+        }
         self.film_pass(ids, ys);
         let mut cursor = 0;
         for (k, &id) in ids.iter().enumerate() {
@@ -606,7 +618,7 @@ pub fn simulate_batch(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, true)
+    simulate(scenes, evaluator, progress, true, None)
 }
 
 /// [`simulate_batch`] for large sweeps: each result's samples go to `progress` only and
@@ -617,7 +629,18 @@ pub fn simulate_batch_streaming(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, false)
+    simulate(scenes, evaluator, progress, false, None)
+}
+
+/// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
+/// running end at once with a `cancelled` load failure (to be discarded by the caller).
+pub fn simulate_batch_streaming_cancellable(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    progress: &mut dyn FnMut(usize, &SimResult),
+    cancel: &AtomicBool,
+) -> Vec<SimResult> {
+    simulate(scenes, evaluator, progress, false, Some(cancel))
 }
 
 fn simulate(
@@ -625,6 +648,7 @@ fn simulate(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
     keep_samples: bool,
+    cancel: Option<&AtomicBool>,
 ) -> Vec<SimResult> {
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
     let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
@@ -689,6 +713,7 @@ fn simulate(
             out: &mut out,
             keep_samples,
             progress: &mut *progress,
+            cancel,
         };
         batch.below = vec![false; n_bearings];
         run_batch(method, &mut batch, &y0, &settings);

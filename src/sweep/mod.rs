@@ -7,6 +7,7 @@
 //! [`runner::BatchSimulator`]; [`synthetic`] is an analytic stand-in with known answers.
 
 pub mod expand;
+pub mod folder_sink;
 pub mod friction_map;
 pub mod merge;
 pub mod plots;
@@ -14,6 +15,8 @@ pub mod progress;
 pub mod reduce;
 pub mod rotor_sim;
 pub mod runner;
+pub mod simulator;
+pub mod sink;
 pub mod spec;
 pub mod synthetic;
 

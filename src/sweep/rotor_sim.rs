@@ -1,4 +1,4 @@
-//! Rotor sweeps: the rotor integrator ([`crate::rotor::simulate_batch_streaming`], lockstep batches
+//! Rotor sweeps: the rotor integrator ([`crate::rotor::simulate_batch_streaming`], here its cancellable form, lockstep batches
 //! whose every stage is one film-load call) behind the runner's [`BatchSimulator`], and
 //! the scene validator that checks every variant before anything runs.
 
@@ -9,7 +9,10 @@ use super::runner::{BatchSimulator, Job, Outcome};
 use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
 use crate::bearing::Accuracy;
 use crate::rotor::reductions::{evaluator_report, ReductionSpec};
-use crate::rotor::{simulate_batch_streaming, Scene, SimResult};
+use std::sync::atomic::AtomicBool;
+
+use crate::rotor::simulate_batch_streaming_cancellable;
+use crate::rotor::{Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
 /// thread's lockstep sub-batch, few enough that the running variants' sampled series
@@ -193,6 +196,15 @@ impl BatchSimulator for RotorSimulator {
     }
 
     fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+        self.run_batch_cancellable(jobs, &AtomicBool::new(false), done)
+    }
+
+    fn run_batch_cancellable(
+        &mut self,
+        jobs: &[Job],
+        cancel: &AtomicBool,
+        done: &mut dyn FnMut(usize, Outcome),
+    ) {
         let mut scenes = Vec::with_capacity(jobs.len());
         let mut index = Vec::with_capacity(jobs.len());
         for (k, job) in jobs.iter().enumerate() {
@@ -209,9 +221,12 @@ impl BatchSimulator for RotorSimulator {
         }
         if self.workers.len() <= 1 || scenes.len() <= 1 {
             let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
-            let results = simulate_batch_streaming(&scenes, evaluator, &mut |i, r| {
-                done(index[i], outcome_of(r, &scenes[i]));
-            });
+            let results = simulate_batch_streaming_cancellable(
+                &scenes,
+                evaluator,
+                &mut |i, r| done(index[i], outcome_of(r, &scenes[i])),
+                cancel,
+            );
             // The runner has what it needs; free the batch's series at once.
             drop(results);
             return;
@@ -232,10 +247,15 @@ impl BatchSimulator for RotorSimulator {
                 }
                 let tx = tx.clone();
                 scope.spawn(move || {
-                    let results = simulate_batch_streaming(chunk, evaluator, &mut |i, r| {
+                    let results = simulate_batch_streaming_cancellable(
+                        chunk,
+                        evaluator,
                         // The receiver lives until every worker is done.
-                        let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
-                    });
+                        &mut |i, r| {
+                            let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
+                        },
+                        cancel,
+                    );
                     drop(results);
                 });
             }

@@ -1,34 +1,34 @@
-//! The sweep runner: expands the variants, keeps this shard's, skips those already in the
-//! output stream (resume), runs the rest in batches on a [`BatchSimulator`], streams each
-//! finished variant as one JSON line (written and flushed at once, so an interrupted run
-//! loses nothing finished), then writes the final JSON with the variants sorted by id.
-//! Merging shard outputs is in `super::merge`.
+//! The sweep runner: expands the variants, keeps this shard's, asks the
+//! [`VariantSink`] which are already done (resume), runs the rest in batches on a
+//! [`BatchSimulator`], commits each finished variant's JSON line to the sink before
+//! reporting it, then writes the final JSON with the variants in id order. `run` uses the
+//! result.jsonl folder ([`FolderSink`]); the service uses its store. Merging shard outputs
+//! is in `super::merge`.
 //!
-//! Files, for `--out R.json`: the stream `R.jsonl` (first line a header naming the spec
-//! hash, the settings and the shard; then one variant per line) and the result `R.json`,
-//! written to a temporary file and renamed. Everything in the result except its `run`
+//! Files, for `--out R.json`: the stream `R.jsonl` (see [`super::folder_sink`]) and the
+//! result `R.json`, written to a temporary file, fsynced and renamed. Everything in the result except its `run`
 //! section (timings, machine, resumes) is deterministic: the same spec and settings give
 //! the same bytes however the run was sharded, batched or interrupted.
 
 use std::cell::Cell;
-use std::collections::{BTreeMap, BTreeSet};
-use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
+use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use serde_json::{json, Map, Value};
 
 use super::expand::Expansion;
-use super::progress::Progress;
+pub use super::folder_sink::{stream_path, FolderSink, STREAM_FORMAT};
+use super::progress::{Progress, ProgressCounters};
 use super::reduce::{kept_series, reduce, units, Signals};
+use super::sink::VariantSink;
 use super::spec::SweepSpec;
 use super::SweepError;
 
 /// Format tag of a result file.
 pub const RESULT_FORMAT: &str = "bearing-sweep/sweep-result/1";
-/// Format tag of a stream header.
-pub const STREAM_FORMAT: &str = "bearing-sweep/sweep-stream/1";
 
 /// One variant handed to the simulator.
 #[derive(Clone, Debug, PartialEq)]
@@ -83,6 +83,18 @@ pub trait BatchSimulator {
     /// Simulates `jobs`, calling `done(index in jobs, outcome)` once per job as it
     /// finishes, in any order. A failing variant reports a status; it never stops the batch.
     fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome));
+    /// [`BatchSimulator::run_batch`] that stops early once `cancel` is set: every job is
+    /// still reported (the runner drops the outcomes that arrive after the flag is set).
+    /// Default: checks nothing (a batch runs to its end).
+    fn run_batch_cancellable(
+        &mut self,
+        jobs: &[Job],
+        cancel: &AtomicBool,
+        done: &mut dyn FnMut(usize, Outcome),
+    ) {
+        let _ = cancel;
+        self.run_batch(jobs, done)
+    }
     /// Notices for the user (e.g. a GPU fallback), drained.
     fn take_notices(&mut self) -> Vec<String> {
         Vec::new()
@@ -190,187 +202,119 @@ pub struct RunSummary {
     pub plots: Vec<Result<PathBuf, String>>,
 }
 
-/// The stream path for result path `out`: extension replaced by `jsonl`.
-pub fn stream_path(out: &Path) -> PathBuf {
-    out.with_extension("jsonl")
-}
-
-/// FNV-1a 64 of `bytes` (stable across platforms and releases, unlike `DefaultHasher`).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
-}
-
-/// Hash of the canonical spec (keys sorted), as 16 hex digits.
+/// Hash of the canonical spec (keys sorted): sha2-256, as 64 hex digits.
 pub fn spec_hash(spec: &SweepSpec) -> String {
+    use sha2::{Digest, Sha256};
     let text = serde_json::to_string(&spec.canonical).unwrap_or_default();
-    format!("{:016x}", fnv1a64(text.as_bytes()))
+    Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
-fn header(spec: &SweepSpec, opts: &RunOptions, total: u64) -> Value {
-    json!({"format": STREAM_FORMAT, "spec_hash": spec_hash(spec), "settings": opts.settings,
-           "shard": opts.shard.map(Shard::to_json), "count": total})
+/// The header that identifies a run to its sink (resume is refused on any difference).
+pub fn header(spec: &SweepSpec, settings: &Value, shard: Option<Shard>, total: u64) -> Value {
+    json!({"format": STREAM_FORMAT, "spec_hash": spec_hash(spec), "settings": settings,
+           "shard": shard.map(Shard::to_json), "count": total})
 }
 
-/// Where one finished variant's line sits in the stream.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct LineRef {
-    /// Byte offset of the line.
-    offset: u64,
-    /// Length without the newline.
-    len: usize,
-    /// Its status is `ok`.
-    ok: bool,
+/// How the runner runs, whatever the sink.
+#[derive(Clone, Debug)]
+pub struct RunnerOptions {
+    /// Only this shard.
+    pub shard: Option<Shard>,
+    /// Variants per batch.
+    pub batch: BatchSize,
+    /// Settings that change results (see [`RunOptions::settings`]).
+    pub settings: Value,
 }
 
-/// Reads an existing stream: checks its header against `expected`, returns where each
-/// finished variant's line is (first occurrence per id), and the byte length of its
-/// intact prefix (a torn last line, left by a kill in mid-write, is excluded and gets
-/// truncated). Memory: a few words per variant, whatever the lines hold.
-fn read_stream(path: &Path, expected: &Value) -> Result<(BTreeMap<u64, LineRef>, u64), SweepError> {
-    let file = File::open(path).map_err(|e| SweepError::io(path, e))?;
-    let mut reader = BufReader::new(file);
-    let mut line = Vec::new();
-    let mut good_len = 0u64;
-    let mut lines = BTreeMap::new();
-    let mut first = true;
-    let mut line_no = 0;
-    loop {
-        line.clear();
-        let n = reader
-            .read_until(b'\n', &mut line)
-            .map_err(|e| SweepError::io(path, e))?;
-        if n == 0 {
-            break;
-        }
-        line_no += 1;
-        let complete = line.last() == Some(&b'\n');
-        let parsed: Option<Value> = serde_json::from_slice(&line).ok();
-        let Some(v) = parsed.filter(|_| complete) else {
-            // Torn: only acceptable as the last line.
-            let mut rest = Vec::new();
-            let _ = std::io::Read::read_to_end(&mut reader, &mut rest);
-            if rest.iter().all(|b| b.is_ascii_whitespace()) {
-                break;
-            }
-            return Err(SweepError::Output(format!(
-                "{}: line {line_no} is not valid JSON and is not the last line; the stream is damaged (move it away to start over)",
-                path.display()
-            )));
-        };
-        if first {
-            first = false;
-            if v.get("format").and_then(Value::as_str) != Some(STREAM_FORMAT) {
-                return Err(SweepError::Output(format!(
-                    "{}: not a bearing-sweep stream (first line has no format `{STREAM_FORMAT}`)",
-                    path.display()
-                )));
-            }
-            if &v != expected {
-                return Err(SweepError::Output(format!(
-                    "{}: written by a different spec, settings or shard (its header {v}, this run {expected}); use another --out or delete it",
-                    path.display()
-                )));
-            }
-        } else {
-            let id = v.get("id").and_then(Value::as_u64).ok_or_else(|| {
-                SweepError::Output(format!(
-                    "{}: line {line_no} has no variant id",
-                    path.display()
-                ))
-            })?;
-            let ok = v.get("status").and_then(Value::as_str) == Some("ok");
-            lines.entry(id).or_insert(LineRef {
-                offset: good_len,
-                len: n - 1,
-                ok,
-            });
-        }
-        good_len += n as u64;
-    }
-    if first {
-        // Empty file (killed before the header was written).
-        good_len = 0;
-    }
-    Ok((lines, good_len))
+/// What [`run_variants`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VariantsReport {
+    /// Variants in the whole expansion.
+    pub total: u64,
+    /// Variants in this shard.
+    pub in_shard: u64,
+    /// Already in the sink (resumed).
+    pub skipped: u64,
+    /// Run and committed now.
+    pub ran: u64,
+    /// Committed variants whose status is not `ok`.
+    pub not_ok: u64,
+    /// Stopped by the cancel flag: the sink holds what finished; a later run resumes.
+    pub cancelled: bool,
+    /// The result's `run` section (simulator, counts, timings, peak RSS).
+    pub run: Value,
 }
 
-/// Runs the sweep (this shard of it), resuming from an existing stream.
-pub fn run_sweep(
+/// Runs the sweep's variants (this shard's) into `sink`: expands, validates every
+/// variant, resumes from what the sink already holds, runs the rest in batches and
+/// commits each finished variant before reporting it to `progress`. `cancel` is checked
+/// between batches and inside the simulator: the running variants stop, are not
+/// committed (a later run recomputes them) and the report says `cancelled`.
+#[allow(clippy::too_many_arguments)]
+pub fn run_variants(
     spec: &SweepSpec,
     validator: &super::expand::SceneValidator,
     sim: &mut dyn BatchSimulator,
-    opts: &RunOptions,
+    sink: &mut dyn VariantSink,
+    opts: &RunnerOptions,
+    progress: &Progress,
+    cancel: &AtomicBool,
     notice: &mut dyn FnMut(String),
-) -> Result<RunSummary, SweepError> {
+) -> Result<VariantsReport, SweepError> {
+    Expansion::new(spec).validate_all(spec, validator)?;
+    run_validated_variants(spec, sim, sink, opts, progress, cancel, notice)
+}
+
+/// [`run_variants`] for a spec whose variants were validated already.
+fn run_validated_variants(
+    spec: &SweepSpec,
+    sim: &mut dyn BatchSimulator,
+    sink: &mut dyn VariantSink,
+    opts: &RunnerOptions,
+    progress: &Progress,
+    cancel: &AtomicBool,
+    notice: &mut dyn FnMut(String),
+) -> Result<VariantsReport, SweepError> {
     let started = Instant::now();
     let exp = Expansion::new(spec);
     let total = exp.count();
-    exp.validate_all(spec, validator)?;
     let owns = |id: u64| opts.shard.is_none_or(|s| s.owns(id));
     let mine: Vec<u64> = (0..total).filter(|&id| owns(id)).collect();
-    let stream = stream_path(&opts.out);
-    if let Some(dir) = stream.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| SweepError::io(dir, e))?;
+    let mut committed = sink.open(&header(spec, &opts.settings, opts.shard, total))?;
+    if let Some(id) = committed.keys().find(|&&id| !owns(id) || id >= total) {
+        return Err(SweepError::Output(format!(
+            "the stored variants include {id}, which is not in this run"
+        )));
     }
-    let head = header(spec, opts, total);
-    let mut done: BTreeSet<u64> = BTreeSet::new();
-    let mut file = if stream.exists() {
-        let (lines, good_len) = read_stream(&stream, &head)?;
-        for id in lines.keys() {
-            if !owns(*id) || *id >= total {
-                return Err(SweepError::Output(format!(
-                    "{}: holds variant {id}, which is not in this run",
-                    stream.display()
-                )));
-            }
-        }
-        done.extend(lines.keys());
-        let mut f = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(&stream)
-            .map_err(|e| SweepError::io(&stream, e))?;
-        f.set_len(good_len)
-            .map_err(|e| SweepError::io(&stream, e))?;
-        f.seek(SeekFrom::End(0))
-            .map_err(|e| SweepError::io(&stream, e))?;
-        if good_len == 0 {
-            writeln!(f, "{head}").map_err(|e| SweepError::io(&stream, e))?;
-        }
-        if !done.is_empty() {
-            notice(format!(
-                "resuming: {} of {} variants already in {}",
-                done.len(),
-                mine.len(),
-                stream.display()
-            ));
-        }
-        f
-    } else {
-        let mut f = File::create(&stream).map_err(|e| SweepError::io(&stream, e))?;
-        writeln!(f, "{head}").map_err(|e| SweepError::io(&stream, e))?;
-        f
-    };
-    file.flush().map_err(|e| SweepError::io(&stream, e))?;
     let todo: Vec<u64> = mine
         .iter()
         .copied()
-        .filter(|id| !done.contains(id))
+        .filter(|id| !committed.contains_key(id))
         .collect();
     let skipped = (mine.len() - todo.len()) as u64;
+    if skipped > 0 {
+        notice(format!(
+            "resuming: {skipped} of {} variants already done",
+            mine.len()
+        ));
+    }
     let batch = match opts.batch {
         BatchSize::Auto => sim.auto_batch_size().max(1),
         BatchSize::Fixed(n) => n,
     };
-    let mut progress = Progress::new(opts.progress, mine.len() as u64, skipped);
-    let mut write_error: Option<SweepError> = None;
+    let resumed_failed = committed.values().filter(|ok| !**ok).count() as u64;
+    progress.begin(mine.len() as u64, skipped, resumed_failed);
+    let mut ran = 0u64;
+    let mut cancelled = false;
     let sim_started = Instant::now();
     for chunk in todo.chunks(batch) {
+        if cancel.load(Ordering::Relaxed) {
+            cancelled = true;
+            break;
+        }
         let variants: Vec<_> = chunk.iter().map(|&id| exp.variant(spec, id)).collect();
         let jobs: Vec<Job> = variants
             .iter()
@@ -380,62 +324,70 @@ pub fn run_sweep(
             })
             .collect();
         let reported: Vec<Cell<bool>> = vec![Cell::new(false); jobs.len()];
+        let mut commit_error: Option<SweepError> = None;
         {
             let mut on_done = |k: usize, outcome: Outcome| {
-                if k >= reported.len() || reported[k].get() || write_error.is_some() {
+                if k >= reported.len() || reported[k].get() || commit_error.is_some() {
                     return;
                 }
                 reported[k].set(true);
-                // One write call per line: a kill leaves at most one torn last line.
-                let mut line = variant_line(spec, &variants[k], outcome).to_string();
-                line.push('\n');
-                let result = file.write_all(line.as_bytes()).and_then(|_| file.flush());
-                if let Err(e) = result {
-                    write_error = Some(SweepError::io(&stream, e));
+                // A variant stopped by the cancel flag is not a result.
+                if cancel.load(Ordering::Relaxed) {
+                    return;
                 }
-                progress.inc();
+                let line = variant_line(spec, &variants[k], outcome);
+                let ok = line.get("status").and_then(Value::as_str) == Some("ok");
+                let id = variants[k].id;
+                // Commit before report.
+                match sink.commit(id, ok, &line.to_string()) {
+                    Ok(()) => {
+                        committed.insert(id, ok);
+                        ran += 1;
+                        progress.record(ok);
+                    }
+                    Err(e) => commit_error = Some(e),
+                }
             };
-            sim.run_batch(&jobs, &mut on_done);
+            sim.run_batch_cancellable(&jobs, cancel, &mut on_done);
             let missing: Vec<usize> = (0..jobs.len()).filter(|&k| !reported[k].get()).collect();
             for k in missing {
-                {
-                    on_done(
-                        k,
-                        Outcome::failed(
-                            "internal_error",
-                            "the simulator did not report this variant".into(),
-                        ),
-                    );
-                }
+                on_done(
+                    k,
+                    Outcome::failed(
+                        "internal_error",
+                        "the simulator did not report this variant".into(),
+                    ),
+                );
             }
         }
-        if let Some(e) = write_error.take() {
+        if let Some(e) = commit_error.take() {
             return Err(e);
         }
-        // Durable at batch ends (each line is already in the OS after its flush).
-        let _ = file.sync_data();
+        sink.checkpoint()?;
         for n in sim.take_notices() {
             notice(n);
         }
+        if cancel.load(Ordering::Relaxed) {
+            cancelled = true;
+            break;
+        }
     }
     progress.finish();
-    drop(file);
     let sim_s = sim_started.elapsed().as_secs_f64();
-    let (lines, _) = read_stream(&stream, &head)?;
-    let missing: Vec<u64> = mine
-        .iter()
-        .copied()
-        .filter(|id| !lines.contains_key(id))
-        .take(5)
-        .collect();
-    if !missing.is_empty() {
-        return Err(SweepError::Output(format!(
-            "{}: variants {missing:?} missing after the run",
-            stream.display()
-        )));
+    if !cancelled {
+        let missing: Vec<u64> = mine
+            .iter()
+            .copied()
+            .filter(|id| !committed.contains_key(id))
+            .take(5)
+            .collect();
+        if !missing.is_empty() {
+            return Err(SweepError::Output(format!(
+                "variants {missing:?} missing after the run"
+            )));
+        }
     }
-    let not_ok = lines.values().filter(|l| !l.ok).count() as u64;
-    let ran = todo.len() as u64;
+    let not_ok = committed.values().filter(|ok| !**ok).count() as u64;
     let run = json!({
         "simulator": sim.info(),
         "variants_run": ran,
@@ -445,48 +397,199 @@ pub fn run_sweep(
         "wall_s": started.elapsed().as_secs_f64(),
         "peak_rss_bytes": peak_rss_bytes(),
     });
-    let doc = result_doc(spec, &opts.settings, opts.shard, total, run);
-    // Stream the variants from the stream file into the result in id order, keeping the
-    // light part (params, reductions) only when plots need it.
-    let mut reader = File::open(&stream).map_err(|e| SweepError::io(&stream, e))?;
+    Ok(VariantsReport {
+        total,
+        in_shard: mine.len() as u64,
+        skipped,
+        ran,
+        not_ok,
+        cancelled,
+        run,
+    })
+}
+
+/// The result document of a run without its variants (`variants: []`), to be filled from
+/// the sink by [`write_result_doc`].
+pub fn result_skeleton(
+    spec: &SweepSpec,
+    settings: &Value,
+    shard: Option<Shard>,
+    total: u64,
+    run: Value,
+) -> Value {
+    result_doc(spec, settings, shard, total, run)
+}
+
+/// Writes `doc` (whose top-level `variants` is empty) to `w` with the sink's variant lines
+/// in id order, byte for byte as `run` writes result.json; `on_line` sees each line (e.g.
+/// to keep the light part for plots). Memory stays independent of the number of variants.
+pub fn write_result_doc(
+    w: &mut dyn Write,
+    doc: &Value,
+    sink: &mut dyn VariantSink,
+    on_line: &mut dyn FnMut(&str),
+) -> Result<(), SweepError> {
+    let mut io_error: Option<std::io::Error> = None;
+    let mut first = true;
+    let (head, tail) = split_doc(doc)?;
+    let io = |e: std::io::Error| SweepError::Output(format!("writing the result: {e}"));
+    w.write_all(head.as_bytes()).map_err(io)?;
+    sink.for_each_line(&mut |_, line| {
+        let r = w
+            .write_all(if first { b"\n    " } else { b",\n    " })
+            .and_then(|_| w.write_all(line.as_bytes()));
+        first = false;
+        on_line(line);
+        if let Err(e) = r {
+            io_error.get_or_insert(e);
+        }
+        Ok(())
+    })?;
+    if let Some(e) = io_error {
+        return Err(io(e));
+    }
+    w.write_all(if first { b"]" } else { b"\n  ]" })
+        .and_then(|_| w.write_all(tail.as_bytes()))
+        .and_then(|_| w.write_all(b"\n"))
+        .map_err(io)
+}
+
+/// The pretty-printed `doc` split around its empty `variants` array: the text up to and
+/// including `"variants": [`, and the text after `]`.
+fn split_doc(doc: &Value) -> Result<(String, String), SweepError> {
+    let text = serde_json::to_string_pretty(doc).unwrap_or_default();
+    // Top-level keys are indented by two spaces; nested ones by more.
+    let marker = "\n  \"variants\": []";
+    let at = text
+        .find(marker)
+        .ok_or_else(|| SweepError::Output("internal: no variants field".into()))?;
+    Ok((
+        format!("{}\n  \"variants\": [", &text[..at]),
+        text[at + marker.len()..].to_string(),
+    ))
+}
+
+/// Runs the sweep (this shard of it) into the folder of `opts.out`, resuming from an
+/// existing stream, then writes the result and the plots. The output folder is locked
+/// for the run.
+pub fn run_sweep(
+    spec: &SweepSpec,
+    validator: &super::expand::SceneValidator,
+    sim: &mut dyn BatchSimulator,
+    opts: &RunOptions,
+    notice: &mut dyn FnMut(String),
+) -> Result<RunSummary, SweepError> {
+    let progress = Progress::new(opts.progress, ProgressCounters::shared());
+    run_sweep_with(
+        spec,
+        validator,
+        sim,
+        opts,
+        &progress,
+        &AtomicBool::new(false),
+        notice,
+    )
+}
+
+/// [`run_sweep`] with a caller's progress counters and cancel flag. A cancelled run
+/// leaves the stream (resumable) and writes no result: the error says so.
+pub fn run_sweep_with(
+    spec: &SweepSpec,
+    validator: &super::expand::SceneValidator,
+    sim: &mut dyn BatchSimulator,
+    opts: &RunOptions,
+    progress: &Progress,
+    cancel: &AtomicBool,
+    notice: &mut dyn FnMut(String),
+) -> Result<RunSummary, SweepError> {
+    // A bad variant stops the run before the output folder is touched.
+    Expansion::new(spec).validate_all(spec, validator)?;
+    // Fail before any work on an output that cannot be written (a directory in the way,
+    // another run holding the folder).
+    let mut sink = FolderSink::new(&opts.out)?;
+    let runner_opts = RunnerOptions {
+        shard: opts.shard,
+        batch: opts.batch,
+        settings: opts.settings.clone(),
+    };
+    let report =
+        run_validated_variants(spec, sim, &mut sink, &runner_opts, progress, cancel, notice)?;
+    let stream = sink.stream().to_path_buf();
+    if report.cancelled {
+        return Err(SweepError::Output(format!(
+            "cancelled: {} variants are in {}; run again to resume",
+            report.skipped + report.ran,
+            stream.display()
+        )));
+    }
+    let doc = result_doc(spec, &opts.settings, opts.shard, report.total, report.run);
     let want_plots = opts.shard.is_none() && !spec.plots.is_empty();
     let mut light = Vec::new();
-    let mut buf = Vec::new();
-    let mut next = |r: &LineRef| -> Result<String, SweepError> {
-        buf.resize(r.len, 0);
-        reader
-            .seek(SeekFrom::Start(r.offset))
-            .and_then(|_| std::io::Read::read_exact(&mut reader, &mut buf))
-            .map_err(|e| SweepError::io(&stream, e))?;
-        let text = String::from_utf8_lossy(&buf).into_owned();
-        if want_plots {
-            if let Ok(mut v) = serde_json::from_str::<Value>(&text) {
-                if let Some(o) = v.as_object_mut() {
-                    o.remove("series");
+    write_file_atomically(&opts.out, &mut |w| {
+        write_result_doc(w, &doc, &mut sink, &mut |line| {
+            if want_plots {
+                if let Ok(mut v) = serde_json::from_str::<Value>(line) {
+                    if let Some(o) = v.as_object_mut() {
+                        o.remove("series");
+                    }
+                    light.push(v);
                 }
-                light.push(v);
             }
-        }
-        Ok(text)
-    };
-    let mut iter = lines.values().map(&mut next);
-    write_result_streamed(&opts.out, &doc, &mut iter)?;
-    drop(iter);
+        })
+    })?;
+    drop(sink);
     let plots = if want_plots {
         write_plots(spec, &light, &opts.out)
     } else {
         Vec::new()
     };
     Ok(RunSummary {
-        total,
-        in_shard: mine.len() as u64,
-        skipped,
-        ran,
-        not_ok,
+        total: report.total,
+        in_shard: report.in_shard,
+        skipped: report.skipped,
+        ran: report.ran,
+        not_ok: report.not_ok,
         result: opts.out.clone(),
         stream,
         plots,
     })
+}
+
+/// Writes `path` through a temporary file beside it: written by `fill`, fsynced, renamed
+/// over `path`, and the folder fsynced, so a crash or power cut leaves the old file or the
+/// whole new one, never half of one, and a finished result is not lost.
+pub fn write_file_atomically(
+    path: &Path,
+    fill: &mut dyn FnMut(&mut dyn Write) -> Result<(), SweepError>,
+) -> Result<(), SweepError> {
+    if path.is_dir() {
+        return Err(SweepError::Output(format!(
+            "{}: is a directory; move it away or write elsewhere",
+            path.display()
+        )));
+    }
+    let tmp = path.with_extension("json.tmp");
+    let file = File::create(&tmp).map_err(|e| SweepError::io(&tmp, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    fill(&mut w)?;
+    let file = w
+        .into_inner()
+        .map_err(|e| SweepError::io(&tmp, e.into_error()))?;
+    file.sync_all().map_err(|e| SweepError::io(&tmp, e))?;
+    drop(file);
+    std::fs::rename(&tmp, path).map_err(|e| SweepError::io(path, e))?;
+    sync_parent(path)
+}
+
+/// fsyncs the folder holding `path` (makes a rename in it durable).
+fn sync_parent(path: &Path) -> Result<(), SweepError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(|e| SweepError::io(dir, e))
 }
 
 /// Writes the spec's plots of a complete result's variants into its folder: `<name>.svg`.
@@ -566,49 +669,40 @@ fn result_doc(
 }
 
 /// Writes `doc` (whose top-level `variants` is empty) with the variant lines from
-/// `variants` (compact JSON, one per line, in order) through a temporary file and a
-/// rename. Memory stays independent of the number of variants.
+/// `variants` (compact JSON, one per line, in order) to `path` atomically (see
+/// [`write_file_atomically`]). Memory stays independent of the number of variants.
 pub(crate) fn write_result_streamed(
     path: &Path,
     doc: &Value,
     variants: &mut dyn Iterator<Item = Result<String, SweepError>>,
 ) -> Result<(), SweepError> {
-    let text = serde_json::to_string_pretty(doc).unwrap_or_default();
-    // Top-level keys are indented by two spaces; nested ones by more.
-    let marker = "\n  \"variants\": []";
-    let at = text
-        .find(marker)
-        .ok_or_else(|| SweepError::Output("internal: no variants field".into()))?;
-    let tmp = path.with_extension("json.tmp");
-    let file = File::create(&tmp).map_err(|e| SweepError::io(&tmp, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    let io = |e| SweepError::io(&tmp, e);
-    w.write_all(&text.as_bytes()[..at]).map_err(io)?;
-    w.write_all(b"\n  \"variants\": [").map_err(io)?;
-    let mut first = true;
-    for line in variants {
-        let line = line?;
-        w.write_all(if first { b"\n    " } else { b",\n    " })
+    let (head, tail) = split_doc(doc)?;
+    write_file_atomically(path, &mut |w| {
+        let io = |e| SweepError::io(path, e);
+        w.write_all(head.as_bytes()).map_err(io)?;
+        let mut first = true;
+        for line in &mut *variants {
+            let line = line?;
+            w.write_all(if first { b"\n    " } else { b",\n    " })
+                .map_err(io)?;
+            w.write_all(line.as_bytes()).map_err(io)?;
+            first = false;
+        }
+        w.write_all(if first { b"]" } else { b"\n  ]" })
             .map_err(io)?;
-        w.write_all(line.as_bytes()).map_err(io)?;
-        first = false;
-    }
-    w.write_all(if first { b"]" } else { b"\n  ]" })
-        .map_err(io)?;
-    w.write_all(&text.as_bytes()[at + marker.len()..])
-        .map_err(io)?;
-    w.write_all(b"\n").map_err(io)?;
-    w.flush().map_err(io)?;
-    drop(w);
-    std::fs::rename(&tmp, path).map_err(|e| SweepError::io(path, e))
+        w.write_all(tail.as_bytes()).map_err(io)?;
+        w.write_all(b"\n").map_err(io)
+    })
 }
 
-/// Writes `doc` to `path` through a temporary file and a rename (never half a result).
+/// Writes `doc` to `path` atomically and durably (see [`write_file_atomically`]).
 pub fn write_result(path: &Path, doc: &Value) -> Result<(), SweepError> {
-    let tmp = path.with_extension("json.tmp");
     let text = serde_json::to_string_pretty(doc).unwrap_or_default();
-    std::fs::write(&tmp, text + "\n").map_err(|e| SweepError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| SweepError::io(path, e))
+    write_file_atomically(path, &mut |w| {
+        w.write_all(text.as_bytes())
+            .and_then(|_| w.write_all(b"\n"))
+            .map_err(|e| SweepError::io(path, e))
+    })
 }
 
 /// Peak resident set size of this process (VmHWM), bytes; `None` off Linux.
@@ -646,10 +740,27 @@ mod tests {
     }
 
     #[test]
-    fn fnv_reference_values() {
-        // FNV-1a 64 test vectors (Fowler, Noll, Vo): "" and "a".
-        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
-        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+    fn spec_hash_is_sha256_of_the_canonical_spec() {
+        use sha2::{Digest, Sha256};
+        // FIPS 180-2 test vector, so the hex rendering is checked too: sha256("abc").
+        let hex = |b: &[u8]| -> String { b.iter().map(|b| format!("{b:02x}")).collect() };
+        assert_eq!(
+            hex(&Sha256::digest(b"abc")),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        let spec = |v: f64| {
+            crate::sweep::parse_spec(
+                &json!({"kind": "synthetic", "base": {"spin": 1.0},
+                        "axes": [{"path": "spin", "values": [1.0, v]}]}),
+                None,
+            )
+            .unwrap()
+        };
+        let a = spec(2.0);
+        let text = serde_json::to_string(&a.canonical).unwrap();
+        assert_eq!(spec_hash(&a), hex(&Sha256::digest(text.as_bytes())));
+        assert_eq!(spec_hash(&a).len(), 64);
+        assert_ne!(spec_hash(&a), spec_hash(&spec(2.0000000000000004)));
     }
 
     #[test]

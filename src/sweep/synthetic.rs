@@ -215,7 +215,23 @@ impl BatchSimulator for SyntheticSimulator {
     }
 
     fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+        self.run_batch_cancellable(jobs, &std::sync::atomic::AtomicBool::new(false), done)
+    }
+
+    fn run_batch_cancellable(
+        &mut self,
+        jobs: &[Job],
+        cancel: &std::sync::atomic::AtomicBool,
+        done: &mut dyn FnMut(usize, Outcome),
+    ) {
         for (k, job) in jobs.iter().enumerate() {
+            if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                done(
+                    k,
+                    Outcome::failed("cancelled", "the run was cancelled".into()),
+                );
+                continue;
+            }
             let scene: SynthScene = match serde_json::from_value(job.scene.clone()) {
                 Ok(s) => s,
                 Err(e) => {

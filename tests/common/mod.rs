@@ -159,6 +159,7 @@ pub fn geometries() -> Vec<(&'static str, BearingParams)> {
                 clearance: 5e-5,
                 viscosity: 0.01,
                 clearance_convention: ClearanceConvention::Paper,
+                ..BearingParams::paper_table2()
             },
         ),
         (
@@ -169,6 +170,7 @@ pub fn geometries() -> Vec<(&'static str, BearingParams)> {
                 clearance: 2e-4,
                 viscosity: 0.1,
                 clearance_convention: ClearanceConvention::Vogelpohl,
+                ..BearingParams::paper_table2()
             },
         ),
     ]

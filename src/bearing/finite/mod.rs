@@ -1,0 +1,17 @@
+//! Finite-length Reynolds film (issue 16): the full (θ, z) Reynolds equation with
+//! Swift–Stieber cavitation, solved by red-black projected SOR; settings, solver, loads,
+//! the short-bearing model-error map and the `auto` model choice. See docs/finite-film.md.
+
+mod error_map;
+mod settings;
+mod solver;
+
+pub use error_map::{
+    compute_short_model_error, error_map_settings, short_model_error, ShortModelError,
+    ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
+};
+pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
+pub use solver::{
+    finite_integrals, finite_loads, finite_solution, richardson_estimate, FiniteGrid, FiniteJob,
+    FiniteSolution, FiniteSolver, SolveReport,
+};

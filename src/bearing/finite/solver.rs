@@ -1,0 +1,388 @@
+//! The discretised Reynolds equation and its red-black projected SOR solver (CPU).
+//!
+//! Nondimensional form (`ζ = z/B`, `H = h/δ`, `p = μ ρ B²/δ² · P` with `ρ` the rate scale
+//! of [`crate::bearing::pack_state`], `λ = (B/r0)²`):
+//!
+//! ```text
+//! λ ∂θ(H³ ∂θP) + ∂ζ(H³ ∂ζP) = 6 (a(ζ) sin θ − b(ζ) cos θ),   P(θ, 0) = P(θ, 1) = 0,
+//! P ≥ 0,  −L P + rhs ≥ 0,  P (−L P + rhs) = 0          (Swift–Stieber, an LCP)
+//! ```
+//!
+//! with `(a, b)` the packed rate vector interpolated along `ζ` and `H = 1 − εx(ζ) cos θ −
+//! εy(ζ) sin θ`. Five-point finite volumes on a node grid periodic in θ (`n_theta`
+//! intervals) and with `n_z` intervals in ζ, `H³` evaluated exactly at the cell faces;
+//! second order. The loads are the rectangle (= trapezoid, periodic/zero-boundary) sums
+//! `FilmIntegrals = −⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ)`, the same
+//! normalisation as the short-bearing rule, so [`crate::bearing::finish_loads`] applies.
+
+use std::f64::consts::PI;
+
+use super::{FiniteSettings, Inlet};
+use crate::bearing::{
+    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, Loads, PackedState,
+    StateFault,
+};
+
+/// Grid dimensions and tolerance, copied from [`FiniteSettings`] (what the kernels need).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FiniteGrid {
+    /// Intervals around the circumference (even).
+    pub n_theta: usize,
+    /// Intervals along the length.
+    pub n_z: usize,
+    /// Relative iteration tolerance.
+    pub tolerance: f64,
+    /// Pressure held at ambient along the maximum-film line.
+    pub max_film_inlet: bool,
+}
+
+impl From<&FiniteSettings> for FiniteGrid {
+    fn from(s: &FiniteSettings) -> Self {
+        FiniteGrid {
+            n_theta: s.n_theta as usize,
+            n_z: s.n_z as usize,
+            tolerance: s.tolerance,
+            max_film_inlet: s.inlet == Inlet::MaxFilm,
+        }
+    }
+}
+
+impl FiniteGrid {
+    /// Length of a field vector: `n_theta × (n_z + 1)` nodes, row-major in ζ (rows 0 and
+    /// `n_z` are the end faces, always 0).
+    pub fn field_len(&self) -> usize {
+        self.n_theta * (self.n_z + 1)
+    }
+
+    /// Over-relaxation factor: optimal SOR for the constant-film operator, whose slowest
+    /// Jacobi mode is uniform in θ and `sin πζ` in ζ: `ρ_J = (cθ + cz cos πΔζ)/(cθ + cz)`,
+    /// `ω = 2/(1 + √(1 − ρ_J²))` with `cθ = λ/Δθ²`, `cz = 1/Δζ²`.
+    pub fn relaxation(&self, aspect: f64) -> f64 {
+        let dt = 2.0 * PI / self.n_theta as f64;
+        let dz = 1.0 / self.n_z as f64;
+        let ct = aspect * aspect / (dt * dt);
+        let cz = 1.0 / (dz * dz);
+        let rho = (ct + cz * (PI * dz).cos()) / (ct + cz);
+        2.0 / (1.0 + (1.0 - rho * rho).max(0.0).sqrt())
+    }
+
+    /// Sweep limit: far beyond what a converging solve needs (iterations grow like the
+    /// square root of the grid's stiffness times `ln(1/tol)`).
+    pub fn max_sweeps(&self) -> u32 {
+        (200 * (self.n_theta + self.n_z) as u32).max(20_000)
+    }
+}
+
+/// One state for the finite solver: the packed kinematics and the bearing's `B/r0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FiniteJob {
+    /// Packed state (as for the short rule).
+    pub state: PackedState,
+    /// Length over journal radius `B/r0` (the film's aspect; `λ = (B/r0)²`).
+    pub aspect: f64,
+}
+
+/// How a solve went.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SolveReport {
+    /// Red-black sweeps done.
+    pub sweeps: u32,
+    /// Estimated iteration error of the field over its maximum at the end.
+    pub iteration_error: f64,
+    /// Whether the estimate went below the tolerance before the sweep limit.
+    pub converged: bool,
+}
+
+/// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
+#[derive(Default)]
+pub struct FiniteSolver {
+    ae: Vec<f64>,
+    an: Vec<f64>,
+    inv_d: Vec<f64>,
+    rhs: Vec<f64>,
+    cos: Vec<f64>,
+    sin: Vec<f64>,
+}
+
+#[inline]
+fn film(ecc: &[f64; 4], zeta: f64, c: f64, s: f64) -> f64 {
+    let ex = ecc[0] + (ecc[2] - ecc[0]) * zeta;
+    let ey = ecc[1] + (ecc[3] - ecc[1]) * zeta;
+    1.0 - ex * c - ey * s
+}
+
+impl FiniteSolver {
+    /// A solver with empty scratch space.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn setup(&mut self, job: &FiniteJob, g: &FiniteGrid) {
+        let (nt, nz) = (g.n_theta, g.n_z);
+        let n = g.field_len();
+        let dt = 2.0 * PI / nt as f64;
+        let dz = 1.0 / nz as f64;
+        let ct = job.aspect * job.aspect / (dt * dt);
+        let cz = 1.0 / (dz * dz);
+        let e = &job.state.ecc;
+        let r = &job.state.rate;
+        self.cos.clear();
+        self.sin.clear();
+        // Node angles θ_i = iΔθ and face angles θ_{i+½}, interleaved: index 2i and 2i+1.
+        for k in 0..2 * nt {
+            let th = 0.5 * dt * k as f64;
+            self.cos.push(th.cos());
+            self.sin.push(th.sin());
+        }
+        for v in [&mut self.ae, &mut self.an, &mut self.inv_d, &mut self.rhs] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        for j in 0..=nz {
+            let zeta = j as f64 * dz;
+            let zh = (j as f64 + 0.5) * dz;
+            let a = r[0] + (r[2] - r[0]) * zeta;
+            let b = r[1] + (r[3] - r[1]) * zeta;
+            for i in 0..nt {
+                let k = j * nt + i;
+                let hf = film(e, zeta, self.cos[2 * i + 1], self.sin[2 * i + 1]);
+                self.ae[k] = ct * hf * hf * hf;
+                if j < nz {
+                    let hn = film(e, zh, self.cos[2 * i], self.sin[2 * i]);
+                    self.an[k] = cz * hn * hn * hn;
+                }
+                self.rhs[k] = 6.0 * (a * self.sin[2 * i] - b * self.cos[2 * i]);
+            }
+        }
+        for j in 1..nz {
+            for i in 0..nt {
+                let k = j * nt + i;
+                let im = if i == 0 { nt - 1 } else { i - 1 };
+                let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
+                self.inv_d[k] = 1.0 / d;
+            }
+            if g.max_film_inlet {
+                // The column nearest the maximum film, angle arg(−ε(ζ)): held at zero
+                // (a zero inverse diagonal makes the update return 0, see `solve`).
+                let zeta = j as f64 * dz;
+                let ex = e[0] + (e[2] - e[0]) * zeta;
+                let ey = e[1] + (e[3] - e[1]) * zeta;
+                if ex != 0.0 || ey != 0.0 {
+                    let th = (-ey).atan2(-ex).rem_euclid(2.0 * PI);
+                    let i = (th / dt).round() as usize % nt;
+                    self.inv_d[j * nt + i] = 0.0;
+                }
+            }
+        }
+    }
+
+    /// Solves one state. `field` is the initial guess when its length is the grid's
+    /// (warm start), else it is reset to zero; it holds the solution on return.
+    pub fn solve(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        field: &mut Vec<f64>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let (nt, nz) = (g.n_theta, g.n_z);
+        if field.len() != g.field_len() || field.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            field.clear();
+            field.resize(g.field_len(), 0.0);
+        }
+        self.setup(job, g);
+        let omega = g.relaxation(job.aspect);
+        let p = field.as_mut_slice();
+        let mut report = SolveReport::default();
+        // Update history for the measured contraction (five sweeps back).
+        let mut hist = [f64::INFINITY; 6];
+        let max_sweeps = g.max_sweeps();
+        while report.sweeps < max_sweeps {
+            let mut max_dp = 0.0_f64;
+            let mut max_p = 0.0_f64;
+            for colour in 0..2 {
+                for j in 1..nz {
+                    let row = j * nt;
+                    let start = (colour + j) % 2;
+                    let mut i = start;
+                    while i < nt {
+                        let k = row + i;
+                        let (ip, im) = (
+                            if i + 1 == nt { row } else { k + 1 },
+                            if i == 0 { row + nt - 1 } else { k - 1 },
+                        );
+                        let s = self.ae[k] * p[ip]
+                            + self.ae[im] * p[im]
+                            + self.an[k] * p[k + nt]
+                            + self.an[k - nt] * p[k - nt];
+                        let gs = (s - self.rhs[k]) * self.inv_d[k];
+                        let old = p[k];
+                        let new = (old + omega * (gs - old)).max(0.0);
+                        p[k] = new;
+                        max_dp = max_dp.max((new - old).abs());
+                        max_p = max_p.max(new);
+                        i += 2;
+                    }
+                }
+            }
+            report.sweeps += 1;
+            hist.rotate_left(1);
+            hist[5] = max_dp;
+            // Contraction per sweep: at least SOR's ω − 1, or what the last five showed.
+            let measured = if hist[0].is_finite() && hist[0] > 0.0 {
+                (hist[5] / hist[0]).powf(0.2)
+            } else {
+                0.0
+            };
+            let rho = measured.max(omega - 1.0).min(0.9999);
+            report.iteration_error = if max_p > 0.0 {
+                max_dp * rho / (1.0 - rho) / max_p
+            } else {
+                0.0
+            };
+            if max_dp == 0.0 || (report.sweeps >= 6 && report.iteration_error <= g.tolerance) {
+                report.converged = true;
+                break;
+            }
+        }
+        (integrals_of(p, g), report)
+    }
+}
+
+/// `−⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) dθ dζ` by the rectangle rule.
+pub(crate) fn integrals_of(p: &[f64], g: &FiniteGrid) -> FilmIntegrals {
+    let (nt, nz) = (g.n_theta, g.n_z);
+    let dt = 2.0 * PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
+    let trig: Vec<(f64, f64)> = (0..nt)
+        .map(|i| {
+            let th = i as f64 * dt;
+            (th.cos(), th.sin())
+        })
+        .collect();
+    for j in 1..nz {
+        let zeta = j as f64 * dz;
+        let (mut c, mut s) = (0.0, 0.0);
+        for (i, &(ci, si)) in trig.iter().enumerate() {
+            let v = p[j * nt + i];
+            c += v * ci;
+            s += v * si;
+        }
+        acc[0] += c;
+        acc[1] += s;
+        acc[2] += c * zeta;
+        acc[3] += s * zeta;
+    }
+    acc.map(|v| -v * dt * dz / 3.0)
+}
+
+/// Integrals of one job from a cold start on the calling thread.
+pub fn finite_integrals(
+    job: &FiniteJob,
+    settings: &FiniteSettings,
+) -> (FilmIntegrals, SolveReport) {
+    let mut field = Vec::new();
+    FiniteSolver::new().solve(job, &settings.into(), &mut field)
+}
+
+/// Loads of one state by the finite model (cold start, calling thread).
+pub fn finite_loads(
+    params: &BearingParams,
+    state: &BearingState,
+    settings: &FiniteSettings,
+) -> Result<Loads, StateFault> {
+    finite_solution(params, state, settings, false).map(|s| s.loads)
+}
+
+/// Loads with, optionally, the Richardson error estimate from the half grid.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FiniteSolution {
+    /// Loads on the requested grid.
+    pub loads: Loads,
+    /// The solve on the requested grid.
+    pub report: SolveReport,
+    /// Richardson estimate of the discretisation error of the load vector
+    /// `(W_x, W_y, M_x/B, M_y/B)`, relative to its norm: `|v_h − v_2h| / 3 / |v_h|`
+    /// (second order); `None` when not asked or the grid cannot be halved.
+    pub error_estimate: Option<f64>,
+    /// The Richardson-extrapolated load vector `(4 v_h − v_2h)/3` (N), when estimated.
+    pub extrapolated: Option<[f64; 4]>,
+}
+
+/// One state by the finite model, with the Richardson estimate when `estimate` is true.
+pub fn finite_solution(
+    params: &BearingParams,
+    state: &BearingState,
+    settings: &FiniteSettings,
+    estimate: bool,
+) -> Result<FiniteSolution, StateFault> {
+    let packed = pack_state(params, state)?;
+    let job = FiniteJob {
+        state: packed.state,
+        aspect: params.length / params.radius,
+    };
+    let mut solver = FiniteSolver::new();
+    let mut field = Vec::new();
+    let (ints, report) = if packed.rate_scale > 0.0 {
+        solver.solve(&job, &settings.into(), &mut field)
+    } else {
+        ([0.0; 4], SolveReport::default())
+    };
+    let loads = finish_loads(params, state, &ints, packed.rate_scale).finite_or_fault()?;
+    let (mut error_estimate, mut extrapolated) = (None, None);
+    if estimate && packed.rate_scale > 0.0 {
+        if let Some(coarse) = settings.coarse() {
+            let (ci, _) = solver.solve(&job, &(&coarse).into(), &mut Vec::new());
+            let cl = finish_loads(params, state, &ci, packed.rate_scale);
+            let (v, w) = (
+                loads.load_vector(params.length),
+                cl.load_vector(params.length),
+            );
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let diff = v
+                .iter()
+                .zip(&w)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            error_estimate = Some(if norm > 0.0 { diff / 3.0 / norm } else { 0.0 });
+            let mut x = [0.0; 4];
+            for k in 0..4 {
+                x[k] = (4.0 * v[k] - w[k]) / 3.0;
+            }
+            extrapolated = Some(x);
+        }
+    }
+    Ok(FiniteSolution {
+        loads,
+        report,
+        error_estimate,
+        extrapolated,
+    })
+}
+
+/// Richardson estimate for loads already computed on `settings`' grid (by any backend):
+/// solves the half grid on the CPU (an eighth of the work) and returns
+/// `|v_h − v_2h| / 3 / |v_h|` for the load vector `(W_x, W_y, M_x/B, M_y/B)`; `None` when
+/// the grid cannot be halved or the state carries no pressure.
+pub fn richardson_estimate(
+    params: &BearingParams,
+    state: &BearingState,
+    settings: &FiniteSettings,
+    fine: &Loads,
+) -> Option<f64> {
+    let coarse = settings.coarse()?;
+    let c = finite_solution(params, state, &coarse, false).ok()?.loads;
+    let (v, w) = (
+        fine.load_vector(params.length),
+        c.load_vector(params.length),
+    );
+    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let diff = v
+        .iter()
+        .zip(&w)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    (norm > 0.0).then(|| diff / 3.0 / norm)
+}

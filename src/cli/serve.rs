@@ -1,0 +1,21 @@
+//! `bearing-sweep serve`: a thin wrapper over [`crate::service::serve_blocking`].
+
+use super::CliError;
+use crate::service::{serve_blocking, ServeError, ServiceConfig};
+
+/// Environment variable holding the token when `--token` is not given.
+pub const TOKEN_ENV: &str = "BEARING_SWEEP_TOKEN";
+
+/// Runs the service until SIGTERM or Ctrl-C; notices go to `notice` (never the token).
+pub fn serve_command(
+    mut config: ServiceConfig,
+    notice: &mut dyn FnMut(String),
+) -> Result<(), CliError> {
+    if config.token.is_none() {
+        config.token = std::env::var(TOKEN_ENV).ok().filter(|t| !t.is_empty());
+    }
+    serve_blocking(config, notice).map_err(|e| match e {
+        ServeError::Config(m) => CliError::input("--bind", m),
+        other => CliError::input("serve", other.to_string()),
+    })
+}

@@ -1,0 +1,116 @@
+//! The service's one error type: every failure maps to an HTTP status and the body
+//! `{"error": {"path": "...", "message": "..."}}` (`path`: the JSON path of the bad field
+//! inside the request body, a query parameter as `?name`, or `$`).
+
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
+use super::store::StoreError;
+use crate::cli::CliError;
+use crate::sweep::SweepError;
+
+/// An API failure.
+#[derive(Debug, thiserror::Error)]
+#[error("{status}: {path}: {message}")]
+pub struct ApiError {
+    /// HTTP status.
+    pub status: StatusCode,
+    /// Where in the request (JSON path, `?param`, `$`).
+    pub path: String,
+    /// What is wrong, for a person.
+    pub message: String,
+}
+
+/// The error body.
+#[derive(Debug, Serialize, utoipa::ToSchema)]
+pub struct ErrorBody {
+    /// The error.
+    pub error: ErrorDetail,
+}
+
+/// Where and what.
+#[derive(Debug, Serialize, utoipa::ToSchema)]
+pub struct ErrorDetail {
+    /// JSON path of the bad field (`$` for the whole body, `?name` for a query parameter).
+    pub path: String,
+    /// Why.
+    pub message: String,
+}
+
+impl ApiError {
+    /// An error with `status` at `path`.
+    pub fn new(status: StatusCode, path: impl Into<String>, message: impl Into<String>) -> Self {
+        ApiError {
+            status,
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+
+    /// 422: a well-formed request whose content is invalid.
+    pub fn invalid(path: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::new(StatusCode::UNPROCESSABLE_ENTITY, path, message)
+    }
+
+    /// 400: a malformed request (not JSON, bad query syntax).
+    pub fn bad_request(path: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::new(StatusCode::BAD_REQUEST, path, message)
+    }
+
+    /// 404 for a missing thing.
+    pub fn not_found(what: impl Into<String>) -> Self {
+        Self::new(StatusCode::NOT_FOUND, "$", what)
+    }
+
+    /// 500: a fault of the server (store, thread), with its message.
+    pub fn internal(message: impl Into<String>) -> Self {
+        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "$", message)
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let body = ErrorBody {
+            error: ErrorDetail {
+                path: self.path,
+                message: self.message,
+            },
+        };
+        (self.status, axum::Json(body)).into_response()
+    }
+}
+
+impl From<StoreError> for ApiError {
+    fn from(e: StoreError) -> Self {
+        match e {
+            StoreError::NotFound(id) => ApiError::not_found(format!("no sweep `{id}`")),
+            other => ApiError::internal(other.to_string()),
+        }
+    }
+}
+
+impl From<SweepError> for ApiError {
+    fn from(e: SweepError) -> Self {
+        match e {
+            SweepError::Spec { path, reason } => ApiError::invalid(path, reason),
+            SweepError::Variant {
+                id,
+                assignment,
+                path,
+                reason,
+            } => ApiError::invalid(path, format!("variant {id} ({assignment}): {reason}")),
+            other => ApiError::invalid("$", other.to_string()),
+        }
+    }
+}
+
+impl From<CliError> for ApiError {
+    fn from(e: CliError) -> Self {
+        match e {
+            CliError::Input { path, reason } => ApiError::invalid(path, reason),
+            CliError::Sweep(s) => s.into(),
+            other => ApiError::internal(other.to_string()),
+        }
+    }
+}

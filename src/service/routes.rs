@@ -1,0 +1,862 @@
+//! The HTTP routes: thin handlers over the store, the scheduler and the eval coalescer.
+//! Every error is an [`ApiError`] (JSON body naming the path); the OpenAPI document is
+//! generated from the handler annotations below.
+
+use std::collections::HashMap;
+use std::convert::Infallible;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use axum::body::Body;
+use axum::extract::{Path, Request, State};
+use axum::http::{header, HeaderMap, StatusCode, Uri};
+use axum::middleware::Next;
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use serde::Serialize;
+use serde_json::{json, Value};
+use subtle::ConstantTimeEq;
+use utoipa::OpenApi;
+
+use super::error::{ApiError, ErrorBody};
+use super::scheduler::{now_unix_s, SweepEvent};
+use super::store::{NewSweep, SweepRow, SweepStatus, SweepUpdate};
+use super::sweeps::{options_from_query, parse_sweep_doc, validate_variants, ParsedSweep};
+use super::{csv, AppState};
+use crate::sweep::progress::ProgressSnapshot;
+use crate::sweep::runner::{result_skeleton, write_result_doc};
+
+/// Variant records per page when `limit` is not given.
+const DEFAULT_PAGE: u64 = 100;
+/// Largest page of variant records.
+const MAX_PAGE: u64 = 10_000;
+/// SSE keep-alive comment interval.
+const KEEP_ALIVE: Duration = Duration::from_secs(15);
+
+/// The placeholder page served at `/` until the web page replaces it.
+const INDEX_HTML: &str = include_str!("placeholder.html");
+
+/// The API description.
+#[derive(OpenApi)]
+#[openapi(
+    info(title = "bearing-sweep service", description = "Sweeps of rigid rotors in hydrodynamic journal bearings, and batched film-load evaluation."),
+    paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
+          list_plots, get_plot, sweep_events, cancel_sweep, eval, healthz),
+    components(schemas(ErrorBody, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList)),
+    modifiers(&BearerAuth)
+)]
+pub struct ApiDoc;
+
+struct BearerAuth;
+
+impl utoipa::Modify for BearerAuth {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+        if let Some(c) = openapi.components.as_mut() {
+            c.add_security_scheme(
+                "bearer",
+                SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
+            );
+        }
+    }
+}
+
+/// The router with every route, the auth layer on `/api` and the latency layer.
+pub fn router(state: AppState) -> Router {
+    let api = Router::new()
+        .route("/sweeps", post(submit_sweep).get(list_sweeps))
+        .route("/sweeps/{id}", get(get_sweep).delete(delete_sweep))
+        .route("/sweeps/{id}/result", get(sweep_result))
+        .route("/sweeps/{id}/variants", get(sweep_variants))
+        .route("/sweeps/{id}/plots", get(list_plots))
+        .route("/sweeps/{id}/plots/{name}", get(get_plot))
+        .route("/sweeps/{id}/events", get(sweep_events))
+        .route("/sweeps/{id}/cancel", post(cancel_sweep))
+        .route("/eval", post(eval))
+        .route("/openapi.json", get(openapi))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), auth));
+    Router::new()
+        .route("/", get(index))
+        .route("/healthz", get(healthz))
+        .route("/metrics", get(metrics))
+        .nest("/api", api)
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn_with_state(state.clone(), timing))
+        .with_state(state)
+}
+
+async fn not_found(uri: Uri) -> ApiError {
+    ApiError::not_found(format!("no route {}", uri.path()))
+}
+
+async fn method_not_allowed(uri: Uri) -> ApiError {
+    ApiError::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "$",
+        format!("method not allowed on {}", uri.path()),
+    )
+}
+
+/// Records every request's latency for `/metrics`.
+async fn timing(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    let t = Instant::now();
+    let r = next.run(req).await;
+    st.latency.observe(t.elapsed());
+    r
+}
+
+/// With a token configured, every `/api` route needs `Authorization: Bearer <token>`
+/// (compared in constant time over sha2 digests, so neither content nor length leaks).
+async fn auth(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    req: Request,
+    next: Next,
+) -> Response {
+    let Some(token) = &st.config.token else {
+        return next.run(req).await;
+    };
+    let given = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .unwrap_or("");
+    use sha2::{Digest, Sha256};
+    let a = Sha256::digest(token.as_bytes());
+    let b = Sha256::digest(given.as_bytes());
+    if bool::from(a.as_slice().ct_eq(b.as_slice())) && !given.is_empty() {
+        return next.run(req).await;
+    }
+    let mut r = ApiError::new(
+        StatusCode::UNAUTHORIZED,
+        "Authorization",
+        "missing or wrong bearer token (send `Authorization: Bearer <token>`)",
+    )
+    .into_response();
+    r.headers_mut().insert(
+        header::WWW_AUTHENTICATE,
+        "Bearer".parse().expect("static header"),
+    );
+    r
+}
+
+async fn index() -> Html<&'static str> {
+    Html(INDEX_HTML)
+}
+
+/// Liveness: 200 once the server is ready.
+#[utoipa::path(get, path = "/healthz", responses((status = 200, description = "Ready", body = serde_json::Value)))]
+async fn healthz() -> Json<Value> {
+    Json(json!({"status": "ok"}))
+}
+
+async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
+    let store = st.store.clone();
+    let queued = blocking(move || {
+        Ok(store
+            .list_sweeps()?
+            .iter()
+            .filter(|s| s.status == SweepStatus::Queued)
+            .count() as u64)
+    })
+    .await?;
+    let c = &st.scheduler.counters;
+    let e = &st.coalescer.counters;
+    let text = super::metrics::render(
+        &super::metrics::Scrape {
+            queued,
+            running: st.scheduler.running(),
+            variants_done: c.variants_done.load(Ordering::Relaxed),
+            variants_failed: c.variants_failed.load(Ordering::Relaxed),
+            eval_states_per_s: e.states_per_s(),
+            eval_states: e.states.load(Ordering::Relaxed),
+            eval_backend_calls: e.backend_calls.load(Ordering::Relaxed),
+            eval_requests: e.requests.load(Ordering::Relaxed),
+        },
+        &st.latency,
+    );
+    Ok((
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        text,
+    )
+        .into_response())
+}
+
+async fn openapi() -> Json<utoipa::openapi::OpenApi> {
+    Json(ApiDoc::openapi())
+}
+
+/// Runs a blocking store call off the async threads.
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| ApiError::internal(format!("internal: {e}")))?
+}
+
+/// Query parameters as a map; a malformed query is a 400 naming it.
+fn query(uri: &Uri) -> Result<HashMap<String, String>, ApiError> {
+    axum::extract::Query::<HashMap<String, String>>::try_from_uri(uri)
+        .map(|q| q.0)
+        .map_err(|e| ApiError::bad_request("?", format!("malformed query: {e}")))
+}
+
+/// The body, at most `limit` bytes (413 beyond).
+async fn read_body(body: Body, limit: usize) -> Result<axum::body::Bytes, ApiError> {
+    axum::body::to_bytes(body, limit).await.map_err(|_| {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "$",
+            format!(
+                "the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"
+            ),
+        )
+    })
+}
+
+fn sweep_id() -> String {
+    use sha2::{Digest, Sha256};
+    use std::sync::atomic::AtomicU64;
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let seed = format!(
+        "{:?}-{}-{}",
+        std::time::SystemTime::now(),
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    );
+    // 16 hex digits: opaque and unique enough for one server's sweeps.
+    Sha256::digest(seed.as_bytes())[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// `201` answer to a submission.
+#[derive(Serialize, utoipa::ToSchema)]
+pub struct Created {
+    /// Opaque id.
+    id: String,
+    /// Always `queued`.
+    status: SweepStatus,
+    /// Variants in the sweep.
+    variants: u64,
+}
+
+/// Submit a sweep: the body is a sweep spec exactly as `run` reads it.
+#[utoipa::path(post, path = "/api/sweeps",
+    params(
+        ("backend" = Option<String>, Query, description = "Film backend: cpu (default), gpu or auto (as `run --backend`)"),
+        ("accuracy" = Option<f64>, Query, description = "Film accuracy (as `run --accuracy`; default 1e-6)"),
+        ("full_model" = Option<bool>, Query, description = "Every model reduction off (as `run --full-model`)"),
+    ),
+    request_body(content = serde_json::Value, description = "A sweep spec (see sweeps/ and README \"Sweeps\")", content_type = "application/json"),
+    responses(
+        (status = 201, description = "Queued", body = Created),
+        (status = 400, description = "Not JSON", body = ErrorBody),
+        (status = 401, description = "Token required", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "Invalid spec or option: the JSON path and why", body = ErrorBody),
+        (status = 429, description = "Too many queued sweeps", body = ErrorBody),
+    ),
+    security((), ("bearer" = [])))]
+async fn submit_sweep(
+    State(st): State<AppState>,
+    uri: Uri,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let q = query(&uri)?;
+    let options = options_from_query(
+        q.get("backend").map(String::as_str),
+        q.get("accuracy").map(String::as_str),
+        q.get("full_model").map(String::as_str),
+    )?;
+    let bytes = read_body(body, st.config.max_body_bytes).await?;
+    let doc: Value = serde_json::from_slice(&bytes)
+        .map_err(|e| ApiError::bad_request("$", format!("not valid JSON: {e}")))?;
+    let max_variants = st.config.max_variants;
+    let max_queued = st.config.max_queued;
+    let store = st.store.clone();
+    let created = blocking(move || {
+        let parsed = parse_sweep_doc(&doc)?;
+        let total = parsed.count();
+        if total > max_variants {
+            return Err(ApiError::invalid(
+                "axes",
+                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
+            ));
+        }
+        if let ParsedSweep::Runner(spec) = &parsed {
+            validate_variants(spec)?;
+        }
+        let queued = store
+            .list_sweeps()?
+            .iter()
+            .filter(|s| !s.status.is_final())
+            .count() as u64;
+        if queued >= max_queued {
+            return Err(ApiError::new(
+                StatusCode::TOO_MANY_REQUESTS,
+                "$",
+                format!("{queued} sweeps are queued or running, the limit is {max_queued} (wait, or raise it with `serve --max-queued`)"),
+            ));
+        }
+        let row = store.insert_sweep(&NewSweep {
+            id: sweep_id(),
+            name: parsed.name(),
+            spec: doc,
+            options,
+            total,
+            created_unix_s: now_unix_s(),
+        })?;
+        Ok(row)
+    })
+    .await?;
+    st.scheduler.wake();
+    Ok((
+        StatusCode::CREATED,
+        Json(Created {
+            id: created.id,
+            status: SweepStatus::Queued,
+            variants: created.total,
+        }),
+    )
+        .into_response())
+}
+
+/// One line of the sweep list.
+#[derive(Serialize, utoipa::ToSchema)]
+pub struct SweepSummary {
+    /// Opaque id.
+    id: String,
+    /// The spec's name.
+    name: String,
+    /// Status.
+    status: SweepStatus,
+    /// Submission time (RFC 3339, UTC).
+    created: String,
+    /// Variants finished.
+    done: u64,
+    /// Variants in the sweep.
+    total: u64,
+    /// Finished variants whose status is not ok.
+    failed: u64,
+}
+
+/// The sweep list.
+#[derive(Serialize, utoipa::ToSchema)]
+pub struct SweepList {
+    /// Oldest first.
+    sweeps: Vec<SweepSummary>,
+}
+
+/// List every sweep.
+#[utoipa::path(get, path = "/api/sweeps",
+    responses((status = 200, description = "Every sweep, oldest first", body = SweepList),
+              (status = 401, description = "Token required", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn list_sweeps(State(st): State<AppState>) -> Result<Json<SweepList>, ApiError> {
+    let store = st.store.clone();
+    let rows = blocking(move || Ok(store.list_sweeps()?)).await?;
+    Ok(Json(SweepList {
+        sweeps: rows
+            .into_iter()
+            .map(|r| {
+                let p = progress_of(&st, &r);
+                SweepSummary {
+                    created: rfc3339(r.created_unix_s),
+                    id: r.id,
+                    name: r.name,
+                    status: r.status,
+                    done: p.done,
+                    total: p.total,
+                    failed: p.failed,
+                }
+            })
+            .collect(),
+    }))
+}
+
+/// A sweep's status.
+#[derive(Serialize, utoipa::ToSchema)]
+pub struct SweepInfo {
+    /// Opaque id.
+    id: String,
+    /// The spec's name.
+    name: String,
+    /// Status.
+    status: SweepStatus,
+    /// Why it failed, or a note.
+    #[schema(nullable)]
+    message: Option<String>,
+    /// Progress (live while running).
+    progress: ProgressSnapshot,
+    /// Variants computed and committed over the sweep's life (resumes included): equals
+    /// `progress.done` unless a finished variant was computed twice.
+    variants_computed: u64,
+    /// Submission time (RFC 3339, UTC).
+    created: String,
+    /// Start of the latest run (RFC 3339, UTC).
+    #[schema(nullable)]
+    started: Option<String>,
+    /// End (RFC 3339, UTC).
+    #[schema(nullable)]
+    finished: Option<String>,
+    /// Timings: `queued_s`, `wall_s` (from start to end), and the run's own figures.
+    #[schema(value_type = Object)]
+    timings: Value,
+    /// Run options (backend, accuracy, full_model).
+    #[schema(value_type = Object)]
+    options: Value,
+}
+
+fn progress_of(st: &AppState, r: &SweepRow) -> ProgressSnapshot {
+    if r.status == SweepStatus::Running {
+        if let Some(p) = st.scheduler.live_progress(&r.id) {
+            return p;
+        }
+    }
+    let rate = r
+        .run
+        .as_ref()
+        .and_then(|v| v["variants_per_s"].as_f64())
+        .unwrap_or(0.0);
+    ProgressSnapshot {
+        done: r.done,
+        failed: r.failed,
+        total: r.total,
+        variants_per_s: rate,
+        eta_s: None,
+    }
+}
+
+/// Seconds since the Unix epoch as RFC 3339 UTC with milliseconds.
+pub fn rfc3339(t: f64) -> String {
+    let ms = (t * 1000.0).round() as i64;
+    let (secs, milli) = (ms.div_euclid(1000), ms.rem_euclid(1000));
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{milli:03}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+async fn row_or_404(st: &AppState, id: &str) -> Result<SweepRow, ApiError> {
+    let store = st.store.clone();
+    let key = id.to_string();
+    blocking(move || {
+        store
+            .sweep(&key)?
+            .ok_or_else(|| ApiError::not_found(format!("no sweep `{key}`")))
+    })
+    .await
+}
+
+/// A sweep's status, progress and timings.
+#[utoipa::path(get, path = "/api/sweeps/{id}",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 200, description = "Status", body = SweepInfo),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn get_sweep(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<SweepInfo>, ApiError> {
+    let r = row_or_404(&st, &id).await?;
+    let progress = progress_of(&st, &r);
+    let mut timings = json!({
+        "queued_s": r.started_unix_s.map(|s| s - r.created_unix_s),
+        "wall_s": match (r.started_unix_s, r.finished_unix_s) {
+            (Some(a), Some(b)) => Some(b - a),
+            (Some(a), None) => Some(now_unix_s() - a),
+            _ => None,
+        },
+    });
+    if let Some(run) = &r.run {
+        for k in ["simulation_wall_s", "variants_per_s", "peak_rss_bytes"] {
+            timings[k] = run[k].clone();
+        }
+    }
+    Ok(Json(SweepInfo {
+        message: r.message.clone(),
+        progress,
+        variants_computed: r.computed,
+        created: rfc3339(r.created_unix_s),
+        started: r.started_unix_s.map(rfc3339),
+        finished: r.finished_unix_s.map(rfc3339),
+        timings,
+        options: r.options.clone(),
+        id: r.id,
+        name: r.name,
+        status: r.status,
+    }))
+}
+
+/// Delete a sweep and everything stored for it (a running one is cancelled first).
+#[utoipa::path(delete, path = "/api/sweeps/{id}",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 204, description = "Deleted"),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn delete_sweep(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    st.scheduler.forget(&id);
+    let store = st.store.clone();
+    let key = id.clone();
+    let gone = blocking(move || Ok(store.delete_sweep(&key)?)).await?;
+    if !gone {
+        return Err(ApiError::not_found(format!("no sweep `{id}`")));
+    }
+    Ok(StatusCode::NO_CONTENT)
+}
+
+/// Cancel a sweep: running variants stop within a second; finished ones stay readable.
+#[utoipa::path(post, path = "/api/sweeps/{id}/cancel",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 200, description = "Cancelling (or already final)", body = SweepSummary),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn cancel_sweep(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<SweepSummary>, ApiError> {
+    let r = row_or_404(&st, &id).await?;
+    st.scheduler.cancel(&id);
+    let mut status = r.status;
+    if r.status == SweepStatus::Queued {
+        // Not started: cancelled at once.
+        let store = st.store.clone();
+        let key = id.clone();
+        blocking(move || {
+            Ok(store.update_sweep(
+                &key,
+                &SweepUpdate {
+                    status: Some(SweepStatus::Cancelled),
+                    finished_unix_s: Some(now_unix_s()),
+                    ..Default::default()
+                },
+            )?)
+        })
+        .await?;
+        let _ = st
+            .scheduler
+            .job(&id)
+            .events
+            .send(SweepEvent::Status(SweepStatus::Cancelled));
+        status = SweepStatus::Cancelled;
+    }
+    let p = progress_of(&st, &r);
+    Ok(Json(SweepSummary {
+        created: rfc3339(r.created_unix_s),
+        id: r.id,
+        name: r.name,
+        status,
+        done: p.done,
+        total: p.total,
+        failed: p.failed,
+    }))
+}
+
+/// The result document, as `run` writes result.json (409 until done).
+#[utoipa::path(get, path = "/api/sweeps/{id}/result",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 200, description = "result.json of `run` (the `run` section describes this run)", body = serde_json::Value),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody),
+              (status = 409, description = "Not done yet", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn sweep_result(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    let r = row_or_404(&st, &id).await?;
+    if r.status != SweepStatus::Done {
+        return Err(ApiError::new(
+            StatusCode::CONFLICT,
+            "$",
+            format!(
+                "sweep `{id}` is {}; the result exists once it is done",
+                r.status.name()
+            ),
+        ));
+    }
+    let store = st.store.clone();
+    let bytes = blocking(move || {
+        if let Some(doc) = &r.result_doc {
+            let text = serde_json::to_string_pretty(doc).unwrap_or_default() + "\n";
+            return Ok(text.into_bytes());
+        }
+        let ParsedSweep::Runner(spec) = parse_sweep_doc(&r.spec)? else {
+            return Err(ApiError::internal(
+                "internal: a friction map without its document",
+            ));
+        };
+        let header = r.header.clone().unwrap_or(Value::Null);
+        let doc = result_skeleton(
+            &spec,
+            &header["settings"],
+            None,
+            r.total,
+            r.run.clone().unwrap_or(Value::Null),
+        );
+        let mut out = Vec::new();
+        let mut sink = super::store::StoreSink::new(store, &r.id, Box::new(|_, _| {}));
+        write_result_doc(&mut out, &doc, &mut sink, &mut |_| {})?;
+        Ok(out)
+    })
+    .await?;
+    Ok(([(header::CONTENT_TYPE, "application/json")], bytes).into_response())
+}
+
+/// Variant records (result.jsonl lines), readable while the sweep runs; `format=csv`
+/// gives one flat row per variant.
+#[utoipa::path(get, path = "/api/sweeps/{id}/variants",
+    params(("id" = String, Path, description = "Sweep id"),
+           ("offset" = Option<u64>, Query, description = "First record (in id order), default 0"),
+           ("limit" = Option<u64>, Query, description = "Records, default 100, at most 10000"),
+           ("format" = Option<String>, Query, description = "json (default) or csv")),
+    responses((status = 200, description = "`{offset, variants: [...]}` or CSV (text/csv)", body = serde_json::Value),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody),
+              (status = 422, description = "Bad query", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn sweep_variants(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    uri: Uri,
+) -> Result<Response, ApiError> {
+    let q = query(&uri)?;
+    let num = |name: &str, default: u64| -> Result<u64, ApiError> {
+        match q.get(name) {
+            None => Ok(default),
+            Some(v) => v.parse::<u64>().map_err(|_| {
+                ApiError::invalid(
+                    format!("?{name}"),
+                    format!("`{v}` is not a non-negative integer"),
+                )
+            }),
+        }
+    };
+    let offset = num("offset", 0)?;
+    let limit = num("limit", DEFAULT_PAGE)?;
+    if limit > MAX_PAGE {
+        return Err(ApiError::invalid("?limit", format!("at most {MAX_PAGE}")));
+    }
+    let csv_wanted = match q.get("format").map(String::as_str) {
+        None | Some("json") => false,
+        Some("csv") => true,
+        Some(other) => {
+            return Err(ApiError::invalid(
+                "?format",
+                format!("`{other}`: expected json or csv"),
+            ))
+        }
+    };
+    let r = row_or_404(&st, &id).await?;
+    let store = st.store.clone();
+    if csv_wanted {
+        // Every variant (offset/limit apply to JSON pages only): one flat row each.
+        let text = blocking(move || {
+            let mut lines = Vec::new();
+            let mut at = 0;
+            loop {
+                let page = store.variant_lines(&r.id, at, MAX_PAGE)?;
+                let n = page.len() as u64;
+                lines.extend(page.into_iter().map(|(_, l)| l));
+                if n < MAX_PAGE {
+                    break;
+                }
+                at += n;
+            }
+            Ok(csv::variants_csv(&lines))
+        })
+        .await?;
+        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], text).into_response());
+    }
+    let total = r.total;
+    let page = blocking(move || Ok(store.variant_lines(&r.id, offset, limit)?)).await?;
+    // Lines go out as stored (no re-encoding of their numbers).
+    let mut body = format!("{{\"offset\":{offset},\"total\":{total},\"variants\":[");
+    for (k, (_, line)) in page.iter().enumerate() {
+        if k > 0 {
+            body.push(',');
+        }
+        body.push_str(line);
+    }
+    body.push_str("]}");
+    Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
+}
+
+/// Names of a sweep's figures.
+#[derive(Serialize, utoipa::ToSchema)]
+pub struct PlotList {
+    /// Figure names (`/plots/{name}` gives the SVG).
+    plots: Vec<String>,
+}
+
+/// The figures `run` draws for the spec (available once done).
+#[utoipa::path(get, path = "/api/sweeps/{id}/plots",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 200, description = "Figure names", body = PlotList),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn list_plots(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<PlotList>, ApiError> {
+    let r = row_or_404(&st, &id).await?;
+    let store = st.store.clone();
+    let plots = blocking(move || Ok(store.plot_names(&r.id)?)).await?;
+    Ok(Json(PlotList { plots }))
+}
+
+/// One figure (SVG). Names come from the stored set only: nothing of the request reaches
+/// a file path.
+#[utoipa::path(get, path = "/api/sweeps/{id}/plots/{name}",
+    params(("id" = String, Path, description = "Sweep id"), ("name" = String, Path, description = "Figure name")),
+    responses((status = 200, description = "SVG", content_type = "image/svg+xml", body = String),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep or figure", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn get_plot(
+    State(st): State<AppState>,
+    Path((id, name)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    let store = st.store.clone();
+    let key = id.clone();
+    let wanted = name.trim_end_matches(".svg").to_string();
+    let svg = blocking(move || Ok(store.plot(&key, &wanted)?)).await?;
+    match svg {
+        Some(svg) => Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response()),
+        None => Err(ApiError::not_found(format!(
+            "sweep `{id}` has no figure `{name}`"
+        ))),
+    }
+}
+
+fn status_event(status: SweepStatus, p: &ProgressSnapshot) -> Event {
+    Event::default()
+        .event("status")
+        .data(json!({"status": status, "progress": p}).to_string())
+}
+
+/// Server-Sent Events: `status` first (and on every change), one `variant` per finished
+/// variant, and the stream ends after a final status (`done`, `failed`, `cancelled`).
+#[utoipa::path(get, path = "/api/sweeps/{id}/events",
+    params(("id" = String, Path, description = "Sweep id")),
+    responses((status = 200, description = "text/event-stream", content_type = "text/event-stream", body = String),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 404, description = "No such sweep", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn sweep_events(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    // Subscribe before reading the status, so no change falls between the two.
+    let job = st.scheduler.job(&id);
+    let rx = job.events.subscribe();
+    let r = row_or_404(&st, &id).await?;
+    let first = status_event(r.status, &progress_of(&st, &r));
+    let shutdown = st.shutdown.clone();
+    enum Phase {
+        Live(
+            tokio::sync::broadcast::Receiver<SweepEvent>,
+            tokio::sync::watch::Receiver<bool>,
+        ),
+        End,
+    }
+    let start = if r.status.is_final() {
+        Phase::End
+    } else {
+        Phase::Live(rx, shutdown)
+    };
+    let total = r.total;
+    let live = futures_util::stream::unfold(start, move |phase| async move {
+        let Phase::Live(mut rx, mut shutdown) = phase else {
+            return None;
+        };
+        loop {
+            tokio::select! {
+                ev = rx.recv() => match ev {
+                    Ok(SweepEvent::Variant { id, ok, progress }) => {
+                        let e = Event::default().event("variant").data(
+                            json!({"id": id, "status": if ok { "ok" } else { "not_ok" }, "progress": progress}).to_string());
+                        return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
+                    }
+                    Ok(SweepEvent::Status(s)) => {
+                        let p = ProgressSnapshot { total, ..Default::default() };
+                        let next = if s.is_final() { Phase::End } else { Phase::Live(rx, shutdown) };
+                        return Some((Ok(status_event(s, &p)), next));
+                    }
+                    Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
+                    Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
+                },
+                _ = shutdown.changed() => return None,
+            }
+        }
+    });
+    let stream = futures_util::StreamExt::chain(
+        futures_util::stream::once(async move { Ok::<_, Infallible>(first) }),
+        live,
+    );
+    Ok(Sse::new(stream)
+        .keep_alive(KeepAlive::new().interval(KEEP_ALIVE))
+        .into_response())
+}
+
+/// Film loads of bearing states: body and answer as `eval`'s input and output.
+/// Concurrent requests are coalesced into shared backend calls.
+#[utoipa::path(post, path = "/api/eval",
+    params(("accuracy" = Option<f64>, Query, description = "Relative accuracy (as `eval --accuracy`; default 1e-6)")),
+    request_body(content = serde_json::Value, description = "`{\"bearing\": {...}, \"states\": [...]}` as for `eval`", content_type = "application/json"),
+    responses((status = 200, description = "`eval`'s output", body = serde_json::Value),
+              (status = 400, description = "Not JSON", body = ErrorBody),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 413, description = "Body too large", body = ErrorBody),
+              (status = 422, description = "Invalid input: the JSON path and why", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn eval(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Response, ApiError> {
+    let q = query(&uri)?;
+    let accuracy = match q.get("accuracy") {
+        None => crate::bearing::Accuracy::default().rtol(),
+        Some(a) => a
+            .parse::<f64>()
+            .ok()
+            .filter(|v| crate::bearing::Accuracy::new(*v).is_some())
+            .ok_or_else(|| {
+                ApiError::invalid(
+                    "?accuracy",
+                    format!("`{a}` is not a positive number >= 1e-12"),
+                )
+            })?,
+    };
+    let bytes = read_body(body, st.config.max_body_bytes).await?;
+    let text = String::from_utf8(bytes.to_vec())
+        .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
+    let out = st.coalescer.eval(text, accuracy).await?;
+    Ok(Json(out).into_response())
+}

@@ -1,0 +1,411 @@
+//! The scheduler: runs queued sweeps in submission order, `max_running` at a time, each on
+//! a blocking thread through the same runner as `run` (with the store as its sink). A
+//! panic inside a job marks that sweep failed; the server keeps serving. Draining (on
+//! SIGTERM) cancels the running variants, leaves their sweeps queued (finished variants
+//! are already committed) and waits for the threads.
+
+use std::collections::HashMap;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use serde_json::{json, Value};
+use tokio::sync::{broadcast, Notify};
+
+use super::store::{Store, StoreSink, SweepRow, SweepStatus, SweepUpdate};
+use super::sweeps::{parse_options, parse_sweep_doc, ParsedSweep};
+use crate::sweep::friction_map::friction_map;
+use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
+use crate::sweep::runner::{run_variants, BatchSize, RunnerOptions};
+use crate::sweep::simulator::prepare_simulator;
+
+/// Events buffered per sweep for slow SSE readers (older ones are skipped).
+const EVENT_BUFFER: usize = 1024;
+/// Longest wait of the scheduler loop between looks at the queue (a missed wake-up costs
+/// at most this).
+const POLL: Duration = Duration::from_millis(500);
+
+/// A live event of one sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SweepEvent {
+    /// A variant was committed.
+    Variant {
+        /// Variant id.
+        id: u64,
+        /// Its status is `ok`.
+        ok: bool,
+        /// Progress after it.
+        progress: ProgressSnapshot,
+    },
+    /// The sweep's status changed (`done`, `failed`, `cancelled` end the stream).
+    Status(SweepStatus),
+}
+
+/// The in-memory side of a sweep: cancel flag, progress counters, event channel.
+pub struct Job {
+    /// Set by a cancel request or a drain.
+    pub cancel: Arc<AtomicBool>,
+    /// Set when the cancel is a drain (the sweep goes back to the queue, not cancelled).
+    pub draining: AtomicBool,
+    /// The runner's counters (one source of truth for status and events).
+    pub progress: Arc<ProgressCounters>,
+    /// Live events.
+    pub events: broadcast::Sender<SweepEvent>,
+}
+
+impl Job {
+    fn new() -> Arc<Self> {
+        Arc::new(Job {
+            cancel: Arc::new(AtomicBool::new(false)),
+            draining: AtomicBool::new(false),
+            progress: ProgressCounters::shared(),
+            events: broadcast::channel(EVENT_BUFFER).0,
+        })
+    }
+}
+
+/// Counters for `/metrics`.
+#[derive(Debug, Default)]
+pub struct SchedulerCounters {
+    /// Variants committed since start.
+    pub variants_done: AtomicU64,
+    /// ... of which not ok.
+    pub variants_failed: AtomicU64,
+    /// Sweeps running now.
+    pub running: AtomicU64,
+}
+
+/// The scheduler, shared by the routes.
+pub struct Scheduler {
+    store: Arc<dyn Store>,
+    max_running: usize,
+    jobs: Mutex<HashMap<String, Arc<Job>>>,
+    wake: Notify,
+    draining: AtomicBool,
+    threads: Mutex<Vec<tokio::task::JoinHandle<()>>>,
+    /// Metrics counters.
+    pub counters: SchedulerCounters,
+}
+
+/// Seconds since the Unix epoch.
+pub fn now_unix_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}
+
+impl Scheduler {
+    /// A scheduler over `store`; sweeps left `running` by a killed server go back to the
+    /// queue (their committed variants are kept and not computed again).
+    pub fn new(
+        store: Arc<dyn Store>,
+        max_running: usize,
+    ) -> Result<Arc<Self>, super::store::StoreError> {
+        for s in store.list_sweeps()? {
+            if s.status == SweepStatus::Running {
+                store.update_sweep(
+                    &s.id,
+                    &SweepUpdate {
+                        status: Some(SweepStatus::Queued),
+                        ..Default::default()
+                    },
+                )?;
+            }
+        }
+        Ok(Arc::new(Scheduler {
+            store,
+            max_running: max_running.max(1),
+            jobs: Mutex::new(HashMap::new()),
+            wake: Notify::new(),
+            draining: AtomicBool::new(false),
+            threads: Mutex::new(Vec::new()),
+            counters: SchedulerCounters::default(),
+        }))
+    }
+
+    /// The job of sweep `id` (created on first use).
+    pub fn job(&self, id: &str) -> Arc<Job> {
+        let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
+        jobs.entry(id.to_string()).or_insert_with(Job::new).clone()
+    }
+
+    /// Live progress of a running sweep (`None` when it is not running here).
+    pub fn live_progress(&self, id: &str) -> Option<ProgressSnapshot> {
+        let jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
+        jobs.get(id)
+            .filter(|j| j.progress.snapshot().total > 0)
+            .map(|j| j.progress.snapshot())
+    }
+
+    /// Something was queued: look at the queue now.
+    pub fn wake(&self) {
+        self.wake.notify_one();
+    }
+
+    /// Requests cancellation of sweep `id` (running variants stop within a second).
+    pub fn cancel(&self, id: &str) {
+        self.job(id).cancel.store(true, Ordering::Relaxed);
+    }
+
+    /// Forgets the in-memory side of a deleted sweep.
+    pub fn forget(&self, id: &str) {
+        let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(j) = jobs.remove(id) {
+            j.cancel.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Sweeps running now.
+    pub fn running(&self) -> u64 {
+        self.counters.running.load(Ordering::Relaxed)
+    }
+
+    /// The scheduling loop (until a drain).
+    pub async fn run(self: Arc<Self>) {
+        loop {
+            if self.draining.load(Ordering::Relaxed) {
+                return;
+            }
+            while (self.running() as usize) < self.max_running {
+                let store = self.store.clone();
+                let next = tokio::task::spawn_blocking(move || {
+                    store
+                        .list_sweeps()
+                        .map(|l| l.into_iter().find(|s| s.status == SweepStatus::Queued))
+                })
+                .await;
+                let Ok(Ok(Some(row))) = next else { break };
+                if self.draining.load(Ordering::Relaxed) {
+                    return;
+                }
+                self.start(row).await;
+            }
+            let _ = tokio::time::timeout(POLL, self.wake.notified()).await;
+        }
+    }
+
+    async fn start(self: &Arc<Self>, row: SweepRow) {
+        let store = self.store.clone();
+        let id = row.id.clone();
+        let marked = tokio::task::spawn_blocking(move || {
+            store.update_sweep(
+                &id,
+                &SweepUpdate {
+                    status: Some(SweepStatus::Running),
+                    started_unix_s: Some(now_unix_s()),
+                    ..Default::default()
+                },
+            )
+        })
+        .await;
+        if !matches!(marked, Ok(Ok(()))) {
+            return;
+        }
+        self.counters.running.fetch_add(1, Ordering::Relaxed);
+        let job = self.job(&row.id);
+        let _ = job.events.send(SweepEvent::Status(SweepStatus::Running));
+        let me = self.clone();
+        let handle = tokio::task::spawn_blocking(move || {
+            let id = row.id.clone();
+            let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| me.run_job(&row, &job)));
+            let update = match outcome {
+                Ok(u) => u,
+                Err(panic) => {
+                    let what = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown panic".into());
+                    SweepUpdate {
+                        status: Some(SweepStatus::Failed),
+                        message: Some(Some(format!("internal error (panic): {what}"))),
+                        finished_unix_s: Some(now_unix_s()),
+                        ..Default::default()
+                    }
+                }
+            };
+            let status = update.status;
+            let _ = me.store.update_sweep(&id, &update);
+            if let Some(s) = status {
+                let _ = job.events.send(SweepEvent::Status(s));
+            }
+            me.counters.running.fetch_sub(1, Ordering::Relaxed);
+            me.wake();
+        });
+        let mut threads = self.threads.lock().unwrap_or_else(|e| e.into_inner());
+        threads.retain(|h| !h.is_finished());
+        threads.push(handle);
+    }
+
+    /// Runs one sweep to its end on this (blocking) thread; returns the final update.
+    fn run_job(&self, row: &SweepRow, job: &Arc<Job>) -> SweepUpdate {
+        let failed = |message: String| SweepUpdate {
+            status: Some(SweepStatus::Failed),
+            message: Some(Some(message)),
+            finished_unix_s: Some(now_unix_s()),
+            ..Default::default()
+        };
+        let parsed = match parse_sweep_doc(&row.spec) {
+            Ok(p) => p,
+            Err(e) => return failed(e.to_string()),
+        };
+        let choice = match parse_options(&row.options) {
+            Ok(c) => c,
+            Err(e) => return failed(e.to_string()),
+        };
+        let spec = match parsed {
+            ParsedSweep::FrictionMap(fm) => {
+                let (doc, svg) = friction_map(&fm, choice.accuracy);
+                if let Ok(svg) = svg {
+                    if let Err(e) = self.store.put_plot(&row.id, "friction-map", &svg) {
+                        return failed(e.to_string());
+                    }
+                }
+                return SweepUpdate {
+                    status: Some(SweepStatus::Done),
+                    result_doc: Some(doc),
+                    finished_unix_s: Some(now_unix_s()),
+                    ..Default::default()
+                };
+            }
+            ParsedSweep::Runner(spec) => spec,
+        };
+        let mut notices = Vec::new();
+        let mut prepared = match prepare_simulator(&spec, &choice, &mut |n| notices.push(n)) {
+            Ok(p) => p,
+            Err(e) => return failed(e.to_string()),
+        };
+        let events = job.events.clone();
+        let counters = job.progress.clone();
+        let me_done = Arc::new(AtomicU64::new(0));
+        let me_failed = Arc::new(AtomicU64::new(0));
+        let (d, f) = (me_done.clone(), me_failed.clone());
+        // The runner records progress after the commit returns; the event carries the
+        // counts including this variant.
+        let mut sink = StoreSink::new(
+            self.store.clone(),
+            &row.id,
+            Box::new(move |id, ok| {
+                d.fetch_add(1, Ordering::Relaxed);
+                if !ok {
+                    f.fetch_add(1, Ordering::Relaxed);
+                }
+                let mut progress = counters.snapshot();
+                progress.done += 1;
+                progress.failed += u64::from(!ok);
+                let _ = events.send(SweepEvent::Variant { id, ok, progress });
+            }),
+        );
+        let opts = RunnerOptions {
+            shard: None,
+            batch: BatchSize::Auto,
+            settings: prepared.settings.clone(),
+        };
+        let progress = Progress::silent(job.progress.clone());
+        let report = run_variants(
+            &spec,
+            prepared.validator,
+            prepared.sim.as_mut(),
+            &mut sink,
+            &opts,
+            &progress,
+            &job.cancel,
+            &mut |n| notices.push(n),
+        );
+        self.counters
+            .variants_done
+            .fetch_add(me_done.load(Ordering::Relaxed), Ordering::Relaxed);
+        self.counters
+            .variants_failed
+            .fetch_add(me_failed.load(Ordering::Relaxed), Ordering::Relaxed);
+        let report = match report {
+            Ok(r) => r,
+            Err(e) => return failed(e.to_string()),
+        };
+        if report.cancelled {
+            if job.draining.load(Ordering::Relaxed) {
+                // Back to the queue: the next start resumes it.
+                return SweepUpdate {
+                    status: Some(SweepStatus::Queued),
+                    ..Default::default()
+                };
+            }
+            return SweepUpdate {
+                status: Some(SweepStatus::Cancelled),
+                finished_unix_s: Some(now_unix_s()),
+                ..Default::default()
+            };
+        }
+        // Figures from the light part of the variants (no series), as `run` draws them.
+        if !spec.plots.is_empty() {
+            let mut light: Vec<Value> = Vec::new();
+            let mut offset = 0;
+            loop {
+                let page = match self.store.variant_lines(&row.id, offset, 1000) {
+                    Ok(p) => p,
+                    Err(e) => return failed(e.to_string()),
+                };
+                for (_, line) in &page {
+                    if let Ok(mut v) = serde_json::from_str::<Value>(line) {
+                        if let Some(o) = v.as_object_mut() {
+                            o.remove("series");
+                        }
+                        light.push(v);
+                    }
+                }
+                if page.len() < 1000 {
+                    break;
+                }
+                offset += 1000;
+            }
+            for p in &spec.plots {
+                if let Ok(svg) = crate::sweep::plots::render(&light, p) {
+                    if let Err(e) = self.store.put_plot(&row.id, &p.name, &svg) {
+                        return failed(e.to_string());
+                    }
+                }
+            }
+        }
+        let mut run = report.run;
+        if !notices.is_empty() {
+            run["notices"] = json!(notices);
+        }
+        // The result document is rebuilt from the spec, the stored header and the lines on
+        // each /result; only its `run` section is stored.
+        SweepUpdate {
+            status: Some(SweepStatus::Done),
+            run: Some(run),
+            finished_unix_s: Some(now_unix_s()),
+            ..Default::default()
+        }
+    }
+
+    /// Stops taking sweeps, cancels the running ones back into the queue and waits for
+    /// their threads (finished variants are committed already).
+    pub async fn drain(&self) {
+        self.stop_taking();
+        let handles: Vec<_> = {
+            let mut t = self.threads.lock().unwrap_or_else(|e| e.into_inner());
+            t.drain(..).collect()
+        };
+        for h in handles {
+            let _ = h.await;
+        }
+    }
+
+    /// The first half of [`Scheduler::drain`]: no new sweep starts, running ones are
+    /// cancelled back into the queue (returns at once).
+    pub fn stop_taking(&self) {
+        self.draining.store(true, Ordering::Relaxed);
+        self.wake.notify_waiters();
+        {
+            let jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
+            for j in jobs.values() {
+                j.draining.store(true, Ordering::Relaxed);
+                j.cancel.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+}

@@ -1,0 +1,192 @@
+//! The web page at `/` (HTML, JS and CSS compiled into the binary: no build step, nothing
+//! fetched from elsewhere) and the bundled example specs of `sweeps/`
+//! (`GET /api/examples`, `GET /api/examples/{name}`), which the page offers in its editor.
+
+use axum::extract::Path;
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::{Json, Router};
+use serde_json::{json, Value};
+
+const INDEX_HTML: &str = include_str!("web/index.html");
+const APP_JS: &str = include_str!("web/app.js");
+const STYLE_CSS: &str = include_str!("web/style.css");
+
+/// The page's own files only: scripts, styles and images from this server, images also
+/// from `blob:` URLs (the server's SVG plots are fetched with the token, then shown).
+const CSP: &str = "default-src 'self'; img-src 'self' blob: data:; style-src 'self'; \
+                   script-src 'self'; connect-src 'self'; frame-ancestors 'none'";
+
+/// The example files of `sweeps/`, compiled in: `(name, file text)`, name = file stem.
+pub const EXAMPLES: &[(&str, &str)] = &[
+    (
+        "clearance-viscosity",
+        include_str!("../../sweeps/clearance-viscosity.json"),
+    ),
+    (
+        "synthetic-whirl",
+        include_str!("../../sweeps/synthetic-whirl.json"),
+    ),
+    ("stress", include_str!("../../sweeps/stress.json")),
+    ("friction-map", include_str!("../../sweeps/friction-map.json")),
+    ("eval-states", include_str!("../../sweeps/eval-states.json")),
+    ("paper-example", include_str!("../../sweeps/paper-example.json")),
+    ("oil-whirl", include_str!("../../sweeps/oil-whirl.json")),
+];
+
+/// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`
+/// or `kind`, as `run` decides), `"eval"` (`{"bearing", "states"}`, the `POST /api/eval`
+/// body) or `"scene"` (a scene file for `run`, not a sweep).
+pub fn example_role(doc: &Value) -> &'static str {
+    if doc.get("base").is_some() || doc.get("kind").is_some() {
+        "sweep"
+    } else if doc.get("states").is_some() && doc.get("bearing").is_some() {
+        "eval"
+    } else {
+        "scene"
+    }
+}
+
+/// The routes of the page and of the examples; merge into the service's router (before
+/// its authorisation layer, which then guards `/api/examples` like every `/api` route).
+pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
+    Router::new()
+        .route("/", get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }))
+        .route(
+            "/index.html",
+            get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }),
+        )
+        .route(
+            "/app.js",
+            get(|| async { asset(APP_JS, "text/javascript; charset=utf-8") }),
+        )
+        .route(
+            "/style.css",
+            get(|| async { asset(STYLE_CSS, "text/css; charset=utf-8") }),
+        )
+        .route("/api/examples", get(list_examples))
+        .route("/api/examples/{name}", get(get_example))
+}
+
+fn asset(body: &'static str, content_type: &'static str) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, HeaderValue::from_static(content_type)),
+            // Revalidate every time: a new binary serves a new page at once.
+            (header::CACHE_CONTROL, HeaderValue::from_static("no-cache")),
+            (
+                header::CONTENT_SECURITY_POLICY,
+                HeaderValue::from_static(CSP),
+            ),
+            (
+                header::X_CONTENT_TYPE_OPTIONS,
+                HeaderValue::from_static("nosniff"),
+            ),
+        ],
+        body,
+    )
+        .into_response()
+}
+
+/// `[{"name", "role", "title", "description"}]` in a fixed order (sweeps first).
+async fn list_examples() -> Json<Value> {
+    Json(Value::Array(example_list()))
+}
+
+/// The list `GET /api/examples` answers.
+pub fn example_list() -> Vec<Value> {
+    let mut out: Vec<Value> = EXAMPLES
+        .iter()
+        .map(|(name, text)| {
+            // The files are the repository's own examples, parsed by the tests; a file
+            // that did not parse would still be listed, as role "scene".
+            let doc: Value = serde_json::from_str(text).unwrap_or(Value::Null);
+            json!({
+                "name": name,
+                "role": example_role(&doc),
+                "title": doc.get("name").and_then(Value::as_str),
+                "description": doc.get("description").and_then(Value::as_str),
+            })
+        })
+        .collect();
+    out.sort_by_key(|e| e["role"] != "sweep");
+    out
+}
+
+/// The example file as it is in `sweeps/` (the editor shows its formatting).
+async fn get_example(Path(name): Path<String>) -> Response {
+    match EXAMPLES.iter().find(|(n, _)| *n == name) {
+        Some((_, text)) => (
+            [(
+                header::CONTENT_TYPE,
+                HeaderValue::from_static("application/json"),
+            )],
+            *text,
+        )
+            .into_response(),
+        None => {
+            let names: Vec<&str> = EXAMPLES.iter().map(|(n, _)| *n).collect();
+            (
+                StatusCode::NOT_FOUND,
+                Json(json!({"error": {
+                    "path": "name",
+                    "message": format!("no example named {name:?}; the examples are {}", names.join(", ")),
+                }})),
+            )
+                .into_response()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_example_parses_and_sweeps_come_first() {
+        let list = example_list();
+        assert_eq!(list.len(), EXAMPLES.len());
+        for (name, text) in EXAMPLES {
+            let doc: Value = serde_json::from_str(text)
+                .unwrap_or_else(|e| panic!("sweeps/{name}.json does not parse: {e}"));
+            assert!(doc.is_object(), "sweeps/{name}.json is not an object");
+        }
+        let roles: Vec<&str> = list.iter().map(|e| e["role"].as_str().unwrap()).collect();
+        let first_other = roles.iter().position(|r| *r != "sweep").unwrap_or(roles.len());
+        assert!(
+            roles[first_other..].iter().all(|r| *r != "sweep"),
+            "sweeps not first: {roles:?}"
+        );
+        let role = |n: &str| {
+            list.iter().find(|e| e["name"] == n).unwrap()["role"]
+                .as_str()
+                .unwrap()
+                .to_string()
+        };
+        assert_eq!(role("clearance-viscosity"), "sweep");
+        assert_eq!(role("friction-map"), "sweep");
+        assert_eq!(role("eval-states"), "eval");
+        assert_eq!(role("paper-example"), "scene");
+    }
+
+    #[test]
+    fn every_sweep_file_is_listed() {
+        // A new file in sweeps/ must be added to EXAMPLES (or the page would not offer it).
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().and_then(|e| e.to_str()) != Some("json") {
+                continue;
+            }
+            let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
+            let listed = EXAMPLES.iter().find(|(n, _)| *n == stem);
+            let (_, text) = listed.unwrap_or_else(|| panic!("sweeps/{stem}.json is not in web::EXAMPLES"));
+            assert_eq!(
+                *text,
+                std::fs::read_to_string(&path).unwrap(),
+                "sweeps/{stem}.json"
+            );
+        }
+    }
+}

@@ -1,0 +1,1151 @@
+// bearing-sweep web page: hand-written vanilla JS, no framework, nothing fetched from
+// elsewhere. Talks to the service's JSON API (README "Service"); every figure is drawn
+// here in SVG from the variant records (README "Sweeps", "Reductions").
+"use strict";
+
+// ---------------------------------------------------------------- small helpers
+const $ = (sel, root = document) => root.querySelector(sel);
+const SVGNS = "http://www.w3.org/2000/svg";
+function el(tag, attrs = {}, ...kids) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === undefined || v === null || v === false) continue;
+    if (k === "text") e.textContent = v;
+    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else e.setAttribute(k, v === true ? "" : v);
+  }
+  for (const kid of kids) if (kid !== null && kid !== undefined) e.append(kid);
+  return e;
+}
+function svg(tag, attrs = {}, text) {
+  const e = document.createElementNS(SVGNS, tag);
+  for (const [k, v] of Object.entries(attrs)) if (v !== undefined && v !== null) e.setAttribute(k, v);
+  if (text !== undefined) e.textContent = text;
+  return e;
+}
+const isNum = (x) => typeof x === "number" && Number.isFinite(x);
+
+// Numbers: 4 significant digits, plain notation in [1e-3, 1e5), else a x 10^n form.
+function fmt(x, sig = 4) {
+  if (x === null || x === undefined) return "—";
+  if (typeof x === "boolean") return x ? "yes" : "no";
+  if (typeof x !== "number") return String(x);
+  if (!Number.isFinite(x)) return String(x);
+  if (x === 0) return "0";
+  const a = Math.abs(x);
+  if (a >= 1e-3 && a < 1e5) {
+    let s = x.toPrecision(sig);
+    if (s.includes(".") && !s.includes("e")) s = s.replace(/0+$/, "").replace(/\.$/, "");
+    return s;
+  }
+  const [m, e] = x.toExponential(sig - 1).split("e");
+  return `${m.replace(/0+$/, "").replace(/\.$/, "")}e${Number(e)}`;
+}
+function fmtDuration(s) {
+  if (!isNum(s)) return "—";
+  if (s < 60) return `${s.toFixed(s < 10 ? 1 : 0)} s`;
+  if (s < 3600) return `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`;
+  return `${Math.floor(s / 3600)} h ${Math.round((s % 3600) / 60)} min`;
+}
+
+// Display units of known quantities: SI value * scale shown with the unit label.
+const UNITS = {
+  m_um: { unit: "µm", scale: 1e6 }, m_mm: { unit: "mm", scale: 1e3 }, pas: { unit: "Pa·s", scale: 1 },
+  kg: { unit: "kg", scale: 1 }, rads: { unit: "rad/s", scale: 1 }, rad: { unit: "rad", scale: 1 },
+  s: { unit: "s", scale: 1 }, ms: { unit: "ms", scale: 1 }, n: { unit: "N", scale: 1 }, w: { unit: "W", scale: 1 },
+  nm: { unit: "N·m", scale: 1 }, one: { unit: "", scale: 1 }, ms2: { unit: "m/s²", scale: 1 },
+  kgm2: { unit: "kg·m²", scale: 1 }, mps: { unit: "m/s", scale: 1 },
+};
+// The unit of a scene field from the last name in an axis path (README "Scenes and run").
+function unitOfPath(path) {
+  const names = path.replace(/\[[^\]]*\]/g, "").split(".");
+  const last = names[names.length - 1];
+  const table = {
+    clearance: "m_um", radius: "m_mm", length: "m_mm", axial_position: "m_mm", viscosity: "pas",
+    mass: "kg", inertia: "kgm2", static_unbalance: "m_mm", couple_unbalance: "rad", gravity: "ms2",
+    spin: names.includes("initial") || names.length === 1 ? "rads" : "one", angle: "rad", offset: "m_um",
+    velocity: "mps", tilt: "rad", t_end: "s", sample_interval: "s", fixed_step: "s", max_step: "s",
+    threshold: "m_um", stiffness: "one", damping: "one", duration: "s", g_radius: "m_um",
+    cost_ms: "ms", orbit: "m_um", whirl: "m_um", load: "n", eccentricity: "one", whirl_ratio: "one",
+    friction_coefficient: "one", rtol: "one", atol: "one",
+  };
+  return UNITS[table[last] || "one"];
+}
+const pathLabel = (p) => p.replace(/^bearings\[\*\]\./, "").replace(/^initial\./, "initial ");
+
+// A path into a JSON value: "a.b[2].c".
+function getPath(obj, path) {
+  let cur = obj;
+  for (const part of path.split(".")) {
+    const m = part.match(/^([^[]*)((?:\[\d+\])*)$/);
+    if (!m) return undefined;
+    if (m[1]) cur = cur == null ? undefined : cur[m[1]];
+    for (const idx of m[2].matchAll(/\[(\d+)\]/g)) cur = cur == null ? undefined : cur[Number(idx[1])];
+  }
+  return cur;
+}
+const maxOver = (arr, f) => {
+  let best = null;
+  for (const x of arr || []) { const v = f(x); if (isNum(v) && (best === null || v > best)) best = v; }
+  return best;
+};
+
+// Scalar columns of a variant (reductions, SI values) with their display units.
+const QUANTITIES = [
+  { key: "h_min", label: "h_min", title: "thinnest film over all bearings and the run", u: UNITS.m_um,
+    get: (v) => getPath(v, "reductions.h_min.value_m"), map: true },
+  { key: "eps_max", label: "ε_max", title: "largest end eccentricity ratio over bearings and the run", u: UNITS.one,
+    get: (v) => maxOver(getPath(v, "reductions.bearings"), (b) => getPath(b, "eccentricity_max.value")), map: true },
+  { key: "friction", label: "f (bearing 1)", title: "friction coefficient of bearing 1, window mean", u: UNITS.one,
+    get: (v) => getPath(v, "reductions.bearings[0].friction_coefficient.mean"), map: true, curve: true },
+  { key: "power", label: "power loss", title: "sum over bearings of the window mean of |Mz·spin|", u: UNITS.w,
+    get: (v) => getPath(v, "reductions.power_loss_w"), map: true },
+  { key: "force_peak", label: "peak force", title: "largest film force over bearings and the run", u: UNITS.n,
+    get: (v) => maxOver(getPath(v, "reductions.bearings"), (b) => getPath(b, "force_peak_n.value")) },
+  { key: "g_orbit", label: "G orbit radius", title: "orbit radius of the centre of mass over the window", u: UNITS.m_um,
+    get: (v) => getPath(v, "reductions.g_orbit.radius_m") },
+  { key: "whirl_ratio", label: "whirl ratio", title: "dominant whirl frequency / mean spin", u: UNITS.one,
+    get: (v) => getPath(v, "reductions.whirl_ratio") },
+  { key: "oil_whirl", label: "oil whirl", title: "some bearing shows sub-synchronous whirl", u: UNITS.one,
+    get: (v) => getPath(v, "reductions.oil_whirl") },
+];
+
+// ---------------------------------------------------------------- API access
+const TOKEN_KEY = "bearing-sweep-token";
+const token = () => sessionStorage.getItem(TOKEN_KEY) || "";
+function headers(extra = {}) {
+  const h = { ...extra };
+  if (token()) h.Authorization = `Bearer ${token()}`;
+  return h;
+}
+function showAuthBanner(on) {
+  const b = $("#auth-banner");
+  if (on) {
+    b.textContent = token()
+      ? "The server refused the token (401 Unauthorized). Check it in the API token field above."
+      : "This server needs an API token (401 Unauthorized). Enter it in the API token field above.";
+    b.hidden = false;
+  } else b.hidden = true;
+}
+// One API call: {ok, status, data (parsed JSON or null), text, error: {path, message} | null}.
+async function api(method, path, body, opts = {}) {
+  const init = { method, headers: headers(opts.headers || {}) };
+  if (body !== undefined) {
+    init.body = typeof body === "string" ? body : JSON.stringify(body);
+    init.headers["Content-Type"] = "application/json";
+  }
+  let res;
+  try {
+    res = await fetch(path, init);
+  } catch (e) {
+    return { ok: false, status: 0, data: null, text: "", error: { path: "", message: `no answer from the server (${e.message})` } };
+  }
+  const text = await res.text();
+  let data = null;
+  try { data = text ? JSON.parse(text) : null; } catch (_) { /* not JSON (CSV, SVG) */ }
+  if (res.status === 401) showAuthBanner(true);
+  else if (res.ok) showAuthBanner(false);
+  let error = null;
+  if (!res.ok) {
+    const e = data && data.error;
+    error = e && typeof e === "object" ? { path: e.path || "", message: e.message || text }
+      : { path: "", message: typeof e === "string" ? e : text || res.statusText };
+    if (res.status === 401) error.message = `401 Unauthorized: ${token() ? "the token was refused" : "this server needs a token"} (${error.message})`;
+  }
+  return { ok: res.ok, status: res.status, data, text, error };
+}
+function saveBlob(name, text, type) {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = el("a", { href: url, download: name });
+  document.body.append(a); a.click(); a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 5000);
+}
+
+// Server-Sent Events over fetch (EventSource cannot send the Authorization header).
+function openEvents(id, onEvent, onEnd) {
+  const ctrl = new AbortController();
+  (async () => {
+    let res;
+    try {
+      res = await fetch(`/api/sweeps/${encodeURIComponent(id)}/events`, {
+        headers: headers({ Accept: "text/event-stream" }), signal: ctrl.signal });
+    } catch (_) { onEnd(false); return; }
+    if (res.status === 401) showAuthBanner(true);
+    if (!res.ok || !res.body) { onEnd(false); return; }
+    const reader = res.body.getReader();
+    const dec = new TextDecoder();
+    let buf = "";
+    try {
+      for (;;) {
+        const { value, done } = await reader.read();
+        if (done) break;
+        buf = (buf + dec.decode(value, { stream: true })).replace(/\r\n?/g, "\n");
+        let cut;
+        while ((cut = buf.indexOf("\n\n")) >= 0) {
+          const block = buf.slice(0, cut);
+          buf = buf.slice(cut + 2);
+          let event = "message";
+          const data = [];
+          for (const line of block.split("\n")) {
+            if (!line || line.startsWith(":")) continue;
+            const i = line.indexOf(":");
+            const field = i < 0 ? line : line.slice(0, i);
+            const val = i < 0 ? "" : line.slice(i + 1).replace(/^ /, "");
+            if (field === "event") event = val;
+            else if (field === "data") data.push(val);
+          }
+          if (data.length) {
+            let parsed = data.join("\n");
+            try { parsed = JSON.parse(parsed); } catch (_) { /* plain text event */ }
+            onEvent(event, parsed);
+          }
+        }
+      }
+    } catch (_) { /* aborted or broken */ }
+    onEnd(true);
+  })();
+  return () => ctrl.abort();
+}
+
+// ---------------------------------------------------------------- state
+const TERMINAL = new Set(["done", "failed", "cancelled"]);
+const state = {
+  sweeps: new Map(),     // id -> normalised sweep
+  streams: new Map(),    // id -> close function of its SSE stream
+  selected: null,        // id of the sweep in the detail panel
+  variants: [],          // variant records of the selected sweep
+  result: null,          // result.json of the selected sweep once done
+  spec: null,            // the selected sweep's spec (for axis names and clearances)
+  sort: { key: "id", dir: 1 },
+  variantId: null,       // variant shown in the orbit panel
+  examples: [],
+};
+
+// A sweep object from the list or the status route, whatever nesting the server uses.
+function normSweep(s) {
+  const p = s.progress || {};
+  const pick = (k) => (p[k] !== undefined ? p[k] : s[k]);
+  return {
+    id: String(s.id), name: s.name || s.spec_name || "", status: s.status || "queued", created: s.created,
+    done: pick("done") ?? 0, failed: pick("failed") ?? 0, total: pick("total") ?? s.variants ?? null,
+    rate: pick("variants_per_s"), eta: pick("eta_s"), message: s.message || s.error || null, raw: s,
+  };
+}
+function mergeSweep(s) {
+  const prev = state.sweeps.get(s.id) || {};
+  const merged = { ...prev, ...Object.fromEntries(Object.entries(s).filter(([, v]) => v !== undefined && v !== null)) };
+  state.sweeps.set(s.id, merged);
+  return merged;
+}
+
+// ---------------------------------------------------------------- health and token
+async function checkHealth() {
+  const h = $("#health");
+  try {
+    const r = await fetch("/healthz");
+    h.textContent = r.ok ? "server ready" : `server: ${r.status}`;
+    h.className = `health ${r.ok ? "ok" : "bad"}`;
+  } catch (_) { h.textContent = "server unreachable"; h.className = "health bad"; }
+}
+function initToken() {
+  $("#token").value = token();
+  $("#token-form").addEventListener("submit", (ev) => {
+    ev.preventDefault();
+    const t = $("#token").value.trim();
+    if (t) sessionStorage.setItem(TOKEN_KEY, t); else sessionStorage.removeItem(TOKEN_KEY);
+    showAuthBanner(false);
+    refreshAll();
+  });
+  $("#token-clear").addEventListener("click", () => {
+    sessionStorage.removeItem(TOKEN_KEY); $("#token").value = ""; refreshAll();
+  });
+}
+
+// ---------------------------------------------------------------- examples and editor
+async function loadExamples() {
+  const r = await api("GET", "/api/examples");
+  const sel = $("#example");
+  sel.innerHTML = "";
+  if (!r.ok) { sel.append(el("option", { value: "", text: r.status === 401 ? "(needs the token)" : "(unavailable)" })); return; }
+  state.examples = Array.isArray(r.data) ? r.data : r.data.examples || [];
+  for (const ex of state.examples.filter((e) => e.role === "sweep"))
+    sel.append(el("option", { value: ex.name, text: `${ex.name}${ex.title ? " — " + ex.title : ""}` }));
+  const ev = state.examples.find((e) => e.role === "eval");
+  if (ev && !evalFilled) {
+    const r2 = await api("GET", `/api/examples/${encodeURIComponent(ev.name)}`);
+    if (r2.ok && r2.data) fillEval(r2.data);
+  }
+  showExampleDesc();
+}
+function showExampleDesc() {
+  const ex = state.examples.find((e) => e.name === $("#example").value);
+  $("#example-desc").textContent = ex ? ex.description || "" : "";
+}
+async function loadExample() {
+  const name = $("#example").value;
+  if (!name) return;
+  const r = await api("GET", `/api/examples/${encodeURIComponent(name)}`);
+  if (!r.ok) { showSpecError(r.error); return; }
+  setSpecText(r.text);
+}
+function setSpecText(text) {
+  const ta = $("#spec");
+  ta.value = text;
+  clearSpecError();
+}
+function clearSpecError() {
+  $("#spec-error").hidden = true;
+  $("#spec").removeAttribute("aria-invalid");
+}
+// Where a JSON path ("base.bearings[1].clearance") starts in the editor's text, by a small
+// tokenizer that records each value's offset under its path. Falls back to a shorter
+// prefix of the path when the exact one is absent (e.g. a missing field).
+function locatePath(text, path) {
+  const offsets = new Map();
+  let i = 0;
+  const ws = () => { while (i < text.length && /\s/.test(text[i])) i++; };
+  const str = () => { const s = i; i++; while (i < text.length && text[i] !== '"') i += text[i] === "\\" ? 2 : 1; i++; return JSON.parse(text.slice(s, i)); };
+  function value(p) {
+    ws();
+    offsets.set(p, i);
+    const c = text[i];
+    if (c === "{") {
+      i++; ws();
+      if (text[i] === "}") { i++; return; }
+      for (;;) {
+        ws(); const k = str(); ws(); i++; // ':'
+        value(p ? `${p}.${k}` : k); ws();
+        if (text[i] === ",") { i++; continue; }
+        i++; return;
+      }
+    } else if (c === "[") {
+      i++; ws();
+      if (text[i] === "]") { i++; return; }
+      for (let k = 0; ; k++) {
+        value(`${p}[${k}]`); ws();
+        if (text[i] === ",") { i++; continue; }
+        i++; return;
+      }
+    } else if (c === '"') str();
+    else { while (i < text.length && !/[\s,}\]]/.test(text[i])) i++; }
+  }
+  try { value(""); } catch (_) { return null; }
+  let p = (path || "").replace(/^\$\.?/, "");
+  // A scene path of a sweep's variant ("bearings[1].length") lives under "base".
+  if (!offsets.has(p) && offsets.has(`base.${p}`)) p = `base.${p}`;
+  for (;;) {
+    if (offsets.has(p)) return { offset: offsets.get(p), path: p };
+    const cut = Math.max(p.lastIndexOf("."), p.lastIndexOf("["));
+    if (cut <= 0) return p ? { offset: offsets.get("") ?? 0, path: "" } : null;
+    p = p.slice(0, cut);
+  }
+}
+function lineOf(text, offset) { return text.slice(0, offset).split("\n").length; }
+function showSpecError(err) {
+  const box = $("#spec-error");
+  box.innerHTML = "";
+  const ta = $("#spec");
+  const text = ta.value;
+  let where = "";
+  const loc = err.path ? locatePath(text, err.path) : null;
+  if (loc) {
+    where = ` (line ${lineOf(text, loc.offset)})`;
+    ta.setSelectionRange(loc.offset, loc.offset);
+  }
+  if (err.path) box.append(el("span", { class: "path", text: err.path }), document.createTextNode(": "));
+  box.append(document.createTextNode(err.message + where));
+  box.hidden = false;
+  ta.setAttribute("aria-invalid", "true");
+}
+// The editor's JSON, or null after showing where it does not parse.
+function specJson() {
+  const text = $("#spec").value;
+  try {
+    return JSON.parse(text);
+  } catch (e) {
+    const m = String(e.message).match(/position (\d+)/);
+    const where = m ? ` (line ${lineOf(text, Number(m[1]))})` : "";
+    showSpecError({ path: "", message: `not valid JSON: ${e.message}${where}` });
+    return null;
+  }
+}
+function submitQuery() {
+  const q = new URLSearchParams();
+  if ($("#opt-backend").value) q.set("backend", $("#opt-backend").value);
+  if ($("#opt-accuracy").value) q.set("accuracy", $("#opt-accuracy").value);
+  if ($("#opt-full-model").checked) q.set("full_model", "true");
+  const s = q.toString();
+  return s ? `?${s}` : "";
+}
+async function checkSpec() {
+  clearSpecError();
+  if (specJson() === null) return;
+  const st = $("#submit-status");
+  st.textContent = "checking…";
+  const r = await api("POST", `/api/sweeps/validate${submitQuery()}`, $("#spec").value);
+  if (r.ok) {
+    const n = r.data && (r.data.variants ?? r.data.count);
+    st.textContent = `spec is valid${isNum(n) ? `: ${n} variants` : ""}`;
+  } else if (r.status === 404 || r.status === 405) {
+    st.textContent = "this server has no check route; Submit checks the spec before anything runs";
+  } else { st.textContent = ""; showSpecError(r.error); }
+}
+async function submitSpec() {
+  clearSpecError();
+  if (specJson() === null) return;
+  const st = $("#submit-status");
+  const btn = $("#submit");
+  btn.disabled = true;
+  st.textContent = "submitting…";
+  const r = await api("POST", `/api/sweeps${submitQuery()}`, $("#spec").value);
+  btn.disabled = false;
+  if (!r.ok) {
+    st.textContent = `not submitted (${r.status})`;
+    showSpecError(r.error);
+    return;
+  }
+  const s = mergeSweep(normSweep({ ...r.data, total: r.data.variants, name: (specJsonQuiet() || {}).name }));
+  st.textContent = `submitted: ${s.id} (${s.total ?? "?"} variants)`;
+  renderQueue();
+  watch(s.id);
+  selectSweep(s.id);
+  refreshQueue();
+}
+function specJsonQuiet() { try { return JSON.parse($("#spec").value); } catch (_) { return null; } }
+
+// ---------------------------------------------------------------- queue and progress
+async function refreshQueue() {
+  const r = await api("GET", "/api/sweeps");
+  if (!r.ok) return;
+  const list = Array.isArray(r.data) ? r.data : r.data.sweeps || r.data.items || [];
+  const seen = new Set();
+  for (const raw of list) { const s = mergeSweep(normSweep(raw)); seen.add(s.id); if (!TERMINAL.has(s.status)) watch(s.id); }
+  for (const id of [...state.sweeps.keys()]) if (!seen.has(id)) state.sweeps.delete(id);
+  renderQueue();
+  if (state.selected && state.sweeps.has(state.selected)) renderProgress();
+}
+function statusClass(s) {
+  return ["ok", "done", "running", "queued", "failed", "cancelled", "film_breakdown", "through_wall"].includes(s) ? `st-${s}` : "st-other";
+}
+function renderQueue() {
+  const tb = $("#queue tbody");
+  tb.innerHTML = "";
+  const rows = [...state.sweeps.values()].sort((a, b) => String(b.created ?? "").localeCompare(String(a.created ?? "")) || (b.id > a.id ? 1 : -1));
+  $("#queue-empty").hidden = rows.length > 0;
+  for (const s of rows) {
+    const frac = s.total ? s.done / s.total : 0;
+    const tr = el("tr", { "data-id": s.id, class: s.id === state.selected ? "sel" : null },
+      el("td", {}, el("button", { class: "link", type: "button", text: s.name || s.id, title: `open sweep ${s.id}`, onclick: () => selectSweep(s.id) })),
+      el("td", { class: statusClass(s.status), text: s.status }),
+      el("td", {}, el("progress", { max: 1, value: frac, "aria-label": `${s.name || s.id} progress` }), ` ${s.done}/${s.total ?? "?"}`),
+      el("td", { class: "num", text: String(s.failed) }),
+      el("td", { class: "num", text: isNum(s.rate) ? `${fmt(s.rate, 3)} /s` : "—" }),
+      el("td", { class: "num", text: TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta) }),
+      el("td", {},
+        TERMINAL.has(s.status) ? null : el("button", { type: "button", text: "Cancel", "aria-label": `cancel ${s.name || s.id}`, onclick: () => cancelSweep(s.id) }),
+        TERMINAL.has(s.status) ? el("button", { type: "button", text: "Delete", "aria-label": `delete ${s.name || s.id}`, onclick: () => deleteSweep(s.id) }) : null));
+    tb.append(tr);
+  }
+}
+// Live progress: an SSE stream per unfinished sweep (at most 4 open; the browser allows
+// ~6 connections per server), each event refreshes that sweep's status.
+const MAX_STREAMS = 4;
+function watch(id) {
+  if (state.streams.has(id)) return;
+  if (state.streams.size >= MAX_STREAMS && id !== state.selected) return;
+  const throttled = throttle(() => refreshSweep(id), 300);
+  // Events (README "Service"): `status` {status, progress} first and on every change,
+  // `variant` {id (the variant's), status ok|not_ok, progress} per finished variant.
+  const close = openEvents(id, (event, data) => {
+    if (data && typeof data === "object") {
+      const p = data.progress || {};
+      const upd = { id };
+      if (event === "status" && data.status) upd.status = data.status;
+      // A final status event carries no counts: those come from the status route.
+      if (p.total && !(event === "status" && TERMINAL.has(data.status))) {
+        Object.assign(upd, { done: p.done, failed: p.failed, total: p.total, rate: p.variants_per_s, eta: p.eta_s });
+      }
+      const s = mergeSweep(upd);
+      if (state.selected === id) { renderProgress(); if (event === "variant") loadVariantsThrottled(false); }
+      renderQueue();
+      if (TERMINAL.has(s.status)) { refreshSweep(id); return; }
+    }
+    throttled();
+  }, () => {
+    state.streams.delete(id);
+    const s = state.sweeps.get(id);
+    refreshSweep(id).then(() => {
+      const s2 = state.sweeps.get(id);
+      if (s2 && !TERMINAL.has(s2.status)) setTimeout(() => watch(id), 1000);
+    });
+    void s;
+  });
+  state.streams.set(id, close);
+}
+function throttle(fn, ms) {
+  let last = 0, timer = null;
+  return () => {
+    const now = Date.now();
+    if (now - last >= ms) { last = now; fn(); }
+    else if (!timer) timer = setTimeout(() => { timer = null; last = Date.now(); fn(); }, ms - (now - last));
+  };
+}
+async function refreshSweep(id) {
+  const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}`);
+  if (r.status === 404) { state.sweeps.delete(id); renderQueue(); return; }
+  if (!r.ok) return;
+  const before = state.sweeps.get(id);
+  const s = mergeSweep(normSweep(r.data));
+  renderQueue();
+  if (state.selected === id) {
+    renderProgress();
+    const finished = TERMINAL.has(s.status) && !(before && TERMINAL.has(before.status) && state.result);
+    loadVariantsThrottled(finished);
+  }
+}
+async function cancelSweep(id) {
+  const r = await api("POST", `/api/sweeps/${encodeURIComponent(id)}/cancel`);
+  if (!r.ok) alert(`cancel failed: ${r.error.message}`);
+  refreshSweep(id);
+}
+async function deleteSweep(id) {
+  if (!confirm("Delete this sweep and its results?")) return;
+  const r = await api("DELETE", `/api/sweeps/${encodeURIComponent(id)}`);
+  if (!r.ok && r.status !== 404) { alert(`delete failed: ${r.error.message}`); return; }
+  state.sweeps.delete(id);
+  if (state.selected === id) { state.selected = null; $("#detail").hidden = true; }
+  renderQueue();
+}
+
+// ---------------------------------------------------------------- detail panel
+async function selectSweep(id) {
+  if (state.selected !== id) {
+    state.selected = id;
+    state.variants = []; state.result = null; state.spec = null; state.variantId = null;
+    $("#variant-id").textContent = "(click a map cell or a table row)";
+    $("#variant-params").textContent = "";
+    $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
+    $("#server-plots").innerHTML = "";
+  }
+  $("#detail").hidden = false;
+  renderQueue();
+  renderProgress();
+  watch(id);
+  await refreshSweep(id);
+  await loadVariants(true);
+  $("#detail-h").scrollIntoView({ block: "start", behavior: "smooth" });
+}
+function renderProgress() {
+  const s = state.sweeps.get(state.selected);
+  if (!s) return;
+  $("#detail-name").textContent = s.name ? `${s.name} (${s.id})` : s.id;
+  const st = $("#sweep-status");
+  st.textContent = s.status;
+  st.className = statusClass(s.status);
+  const p = $("#sweep-progress");
+  p.value = s.total ? s.done / s.total : 0;
+  $("#sweep-counts").textContent = `${s.done} / ${s.total ?? "?"} done, ${s.failed} failed`;
+  $("#sweep-rate").textContent = isNum(s.rate) ? `${fmt(s.rate, 3)} variants/s` : "";
+  $("#sweep-eta").textContent = !TERMINAL.has(s.status) && isNum(s.eta) ? `ETA ${fmtDuration(s.eta)}` : "";
+  $("#detail-cancel").hidden = TERMINAL.has(s.status);
+  const msg = $("#sweep-message");
+  msg.hidden = !s.message;
+  msg.textContent = s.message || "";
+}
+let variantsTimer = null, variantsLast = 0;
+function loadVariantsThrottled(force) {
+  const wait = force ? 0 : Math.max(0, 1500 - (Date.now() - variantsLast));
+  if (variantsTimer && !force) return;
+  clearTimeout(variantsTimer);
+  variantsTimer = setTimeout(() => { variantsTimer = null; loadVariants(force); }, wait);
+}
+// All variant records (pages of 1000), readable while the sweep runs; then result.json.
+async function loadVariants(withResult) {
+  const id = state.selected;
+  if (!id) return;
+  variantsLast = Date.now();
+  const s = state.sweeps.get(id);
+  const all = [];
+  const LIMIT = 1000;
+  for (let offset = 0; offset < 200000; offset += LIMIT) {
+    const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/variants?offset=${offset}&limit=${LIMIT}`);
+    if (!r.ok || state.selected !== id) break;
+    const page = Array.isArray(r.data) ? r.data : r.data.variants || r.data.items || [];
+    all.push(...page.filter((v) => v && v.id !== undefined && v.reductions !== undefined || (v && v.status && v.id !== undefined)));
+    if (page.length < LIMIT) break;
+  }
+  if (state.selected !== id) return;
+  all.sort((a, b) => a.id - b.id);
+  state.variants = all;
+  if (withResult && s && s.status === "done" && !state.result) {
+    const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/result`);
+    if (r.ok && state.selected === id) {
+      state.result = r.data;
+      state.spec = r.data.spec || state.spec;
+      if (!state.variants.length && Array.isArray(r.data.variants)) state.variants = r.data.variants;
+    }
+    loadServerPlots(id);
+  }
+  if (!state.spec && s && s.raw && s.raw.spec) state.spec = s.raw.spec;
+  renderDetail();
+}
+function axesOf() {
+  // Axis paths from the spec if known, else from the variants' params (in key order).
+  const fromSpec = state.spec && Array.isArray(state.spec.axes) ? state.spec.axes.map((a) => a.path) : null;
+  if (fromSpec && fromSpec.length) return fromSpec;
+  const keys = [];
+  for (const v of state.variants.slice(0, 50)) for (const k of Object.keys(v.params || {})) if (!keys.includes(k)) keys.push(k);
+  return keys;
+}
+function renderDetail() {
+  const isMap = state.result && Array.isArray(state.result.curves);
+  $("#fig4-fig").hidden = !isMap;
+  if (isMap) drawFig4(state.result);
+  renderTable();
+  renderMaps();
+  renderCurves();
+  if (state.variantId === null && state.variants.length) showVariant(state.variants[0].id, false);
+  else if (state.variantId !== null) showVariant(state.variantId, false);
+}
+
+// ---- variant table
+function tableColumns() {
+  const cols = [{ key: "id", label: "id", num: true, get: (v) => v.id, u: UNITS.one }];
+  for (const p of axesOf()) {
+    const u = unitOfPath(p);
+    cols.push({ key: `p:${p}`, label: pathLabel(p), title: p, u, num: true, get: (v) => (v.params || {})[p] });
+  }
+  cols.push({ key: "status", label: "status", get: (v) => v.status, u: UNITS.one });
+  for (const q of QUANTITIES) {
+    if (state.variants.some((v) => q.get(v) !== undefined && q.get(v) !== null)) cols.push({ ...q, num: q.key !== "oil_whirl" });
+  }
+  return cols;
+}
+function cellText(col, x) {
+  if (typeof x === "number") return fmt(x * col.u.scale);
+  if (x === null || x === undefined) return "—";
+  if (typeof x === "boolean") return x ? "yes" : "no";
+  return typeof x === "object" ? JSON.stringify(x) : String(x);
+}
+function renderTable() {
+  const cols = tableColumns();
+  const thead = $("#variants thead");
+  thead.innerHTML = "";
+  const hr = el("tr");
+  for (const c of cols) {
+    const sorted = state.sort.key === c.key;
+    const th = el("th", { scope: "col", class: c.num ? "num" : null, "data-key": c.key, title: c.title || null,
+      "aria-sort": sorted ? (state.sort.dir > 0 ? "ascending" : "descending") : "none" });
+    const b = el("button", { type: "button", onclick: () => { state.sort = { key: c.key, dir: sorted ? -state.sort.dir : 1 }; renderTable(); } },
+      c.label, c.u.unit ? el("span", { class: "unit", text: ` (${c.u.unit})` }) : null);
+    th.append(b);
+    hr.append(th);
+  }
+  thead.append(hr);
+  // status filter choices
+  const fsel = $("#status-filter");
+  const cur = fsel.value;
+  const statuses = [...new Set(state.variants.map((v) => v.status))].sort();
+  fsel.innerHTML = "";
+  fsel.append(el("option", { value: "", text: `all (${state.variants.length})` }));
+  for (const st of statuses) fsel.append(el("option", { value: st, text: `${st} (${state.variants.filter((v) => v.status === st).length})` }));
+  fsel.value = statuses.includes(cur) ? cur : "";
+  const col = cols.find((c) => c.key === state.sort.key) || cols[0];
+  const rows = state.variants.filter((v) => !fsel.value || v.status === fsel.value);
+  rows.sort((a, b) => {
+    const x = col.get(a), y = col.get(b);
+    if (x === y) return a.id - b.id;
+    if (x === null || x === undefined) return 1;
+    if (y === null || y === undefined) return -1;
+    return (x < y ? -1 : 1) * state.sort.dir;
+  });
+  const tb = $("#variants tbody");
+  tb.innerHTML = "";
+  const MAX_ROWS = 2000; // the DOM stays responsive; downloads have all rows
+  for (const v of rows.slice(0, MAX_ROWS)) {
+    const tr = el("tr", { "data-id": v.id, tabindex: 0, class: v.id === state.variantId ? "sel" : null,
+      onclick: () => showVariant(v.id, true), onkeydown: (e) => { if (e.key === "Enter") showVariant(v.id, true); } });
+    for (const c of cols) {
+      const x = c.get(v);
+      const td = el("td", { class: c.key === "status" ? statusClass(x) : c.num ? "num" : null, "data-key": c.key,
+        "data-value": typeof x === "number" ? String(x) : null, text: cellText(c, x) });
+      if (c.key === "status" && v.message) td.title = v.message;
+      tr.append(td);
+    }
+    tb.append(tr);
+  }
+  const s = state.sweeps.get(state.selected);
+  $("#table-count").textContent = `${rows.length} of ${state.variants.length} variants shown${rows.length > MAX_ROWS ? ` (first ${MAX_ROWS} rows; the downloads have all)` : ""}${s && s.total ? `; sweep has ${s.total}` : ""}`;
+}
+
+// ---- colour and axes helpers
+const VIRIDIS = ["#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779", "#6ece58", "#b5de2b", "#fde725"];
+function colour(t) {
+  t = Math.min(1, Math.max(0, t));
+  const x = t * (VIRIDIS.length - 1), i = Math.min(VIRIDIS.length - 2, Math.floor(x)), f = x - i;
+  const c = (h) => [1, 3, 5].map((k) => parseInt(h.slice(k, k + 2), 16));
+  const a = c(VIRIDIS[i]), b = c(VIRIDIS[i + 1]);
+  return `rgb(${a.map((v, k) => Math.round(v + (b[k] - v) * f)).join(",")})`;
+}
+function niceTicks(lo, hi, n = 5) {
+  if (!(hi > lo)) return [lo];
+  const step0 = (hi - lo) / n, mag = 10 ** Math.floor(Math.log10(step0));
+  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= step0) || 10 * mag;
+  const out = [];
+  for (let t = Math.ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) out.push(Math.abs(t) < step * 1e-9 ? 0 : t);
+  return out;
+}
+function logTicks(lo, hi) {
+  const out = [];
+  for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
+    for (const m of [1, 2, 5]) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
+  }
+  return out.length >= 2 ? out : niceTicks(lo, hi);
+}
+const tip = () => $("#tip");
+function showTip(evt, text) {
+  const t = tip();
+  t.textContent = text;
+  t.hidden = false;
+  let x = 14, y = 14;
+  if (evt && evt.clientX !== undefined) { x += evt.clientX; y += evt.clientY; }
+  else if (evt && evt.target && evt.target.getBoundingClientRect) { const r = evt.target.getBoundingClientRect(); x += r.right; y += r.top; }
+  t.style.left = `${Math.min(x, window.innerWidth - 260)}px`;
+  t.style.top = `${Math.min(y, window.innerHeight - 60)}px`;
+}
+const hideTip = () => { tip().hidden = true; };
+
+// ---- clearance x viscosity maps (any two numeric axes), heatmaps in SVG
+function numericAxes() {
+  return axesOf().filter((p) => state.variants.some((v) => isNum((v.params || {})[p])));
+}
+function axisValues(p) {
+  return [...new Set(state.variants.map((v) => (v.params || {})[p]).filter(isNum))].sort((a, b) => a - b);
+}
+function fillSelect(sel, items, keep) {
+  const cur = sel.value;
+  sel.innerHTML = "";
+  for (const [value, text] of items) sel.append(el("option", { value, text }));
+  if (keep && items.some(([v]) => v === cur)) sel.value = cur;
+}
+function renderMaps() {
+  const axes = numericAxes();
+  const xs = $("#map-x"), ys = $("#map-y");
+  const holder = $("#maps");
+  holder.innerHTML = "";
+  const isRotorLike = state.variants.length && axes.length >= 1;
+  $("#maps-controls").hidden = !isRotorLike;
+  $("#curves-controls").hidden = !isRotorLike;
+  $("#curves-fig").hidden = !isRotorLike;
+  if (!isRotorLike) { $("#maps-note").textContent = state.variants.length ? "No numeric axes to map." : "No finished variants yet."; return; }
+  fillSelect(xs, axes.map((p) => [p, pathLabel(p)]), true);
+  fillSelect(ys, [["", "(none)"], ...axes.map((p) => [p, pathLabel(p)])], true);
+  if (!xs.value) xs.value = axes.find((p) => /clearance/.test(p)) || axes[0];
+  if (ys.value === "" && !ys.dataset.touched) ys.value = axes.find((p) => p !== xs.value && /viscosity/.test(p)) || axes.find((p) => p !== xs.value) || "";
+  if (ys.value === xs.value) ys.value = axes.find((p) => p !== xs.value) || "";
+  // Other axes are held at a chosen value.
+  const fixed = $("#map-fixed");
+  const others = axesOf().filter((p) => p !== xs.value && p !== ys.value);
+  const prev = Object.fromEntries([...fixed.querySelectorAll("select")].map((s) => [s.dataset.path, s.value]));
+  fixed.innerHTML = "";
+  for (const p of others) {
+    const vals = [...new Set(state.variants.map((v) => JSON.stringify((v.params || {})[p])))].sort();
+    const id = `fix-${p.replace(/[^a-z0-9]/gi, "_")}`;
+    const sel = el("select", { id, "data-path": p, onchange: () => { renderMaps(); renderCurves(); } });
+    for (const j of vals) sel.append(el("option", { value: j, text: cellText({ u: unitOfPath(p) }, JSON.parse(j)) }));
+    if (prev[p] && vals.includes(prev[p])) sel.value = prev[p];
+    fixed.append(el("label", { for: id, text: `${pathLabel(p)} =` }), sel);
+  }
+  const quantities = QUANTITIES.filter((q) => q.map && state.variants.some((v) => isNum(q.get(v))));
+  $("#maps-note").textContent = `Hover or focus a cell to read it; click (or Enter) opens that variant's orbit. Colour scale logarithmic where the values span more than a factor 20.`;
+  for (const q of quantities) {
+    const fig = el("figure");
+    const s = svg("svg", { role: "img", "aria-label": `${q.label} map`, id: `map-${q.key}` });
+    fig.append(s, el("figcaption", { text: `${q.label}${q.u.unit ? ` (${q.u.unit})` : ""}: ${q.title}` }));
+    holder.append(fig);
+    drawHeatmap(s, q, xs.value, ys.value);
+  }
+}
+function matchesFixed(v) {
+  for (const sel of $("#map-fixed").querySelectorAll("select")) {
+    if (JSON.stringify((v.params || {})[sel.dataset.path]) !== sel.value) return false;
+  }
+  return true;
+}
+function drawHeatmap(s, q, px, py) {
+  const xv = axisValues(px), yv = py ? axisValues(py) : [null];
+  const cell = new Map();
+  for (const v of state.variants) {
+    if (!matchesFixed(v)) continue;
+    const p = v.params || {};
+    cell.set(`${p[px]}|${py ? p[py] : null}`, v);
+  }
+  const vals = [...cell.values()].map((v) => q.get(v)).filter(isNum);
+  const lo = Math.min(...vals), hi = Math.max(...vals);
+  const logScale = lo > 0 && hi / lo > 20;
+  const norm = (x) => (hi === lo ? 0.5 : logScale ? Math.log(x / lo) / Math.log(hi / lo) : (x - lo) / (hi - lo));
+  const W = 520, H = 330, ml = 78, mr = 86, mt = 26, mb = 52;
+  const cw = (W - ml - mr) / xv.length, ch = (H - mt - mb) / yv.length;
+  s.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  s.append(svg("text", { x: ml, y: 16, class: "title" }, `${q.label}${q.u.unit ? ` (${q.u.unit})` : ""}`));
+  const ux = unitOfPath(px), uy = py ? unitOfPath(py) : UNITS.one;
+  xv.forEach((x, i) => {
+    yv.forEach((y, j) => {
+      const v = cell.get(`${x}|${y}`);
+      const val = v ? q.get(v) : null;
+      const r = svg("rect", { x: ml + i * cw, y: mt + (yv.length - 1 - j) * ch, width: cw, height: ch,
+        class: `cell${isNum(val) ? "" : " missing"}${v && v.id === state.variantId ? " sel" : ""}`,
+        fill: isNum(val) ? colour(norm(val)) : "#eee", "data-id": v ? v.id : null, "data-value": isNum(val) ? String(val) : null });
+      const label = `${pathLabel(px)} ${fmt(x * ux.scale)}${ux.unit ? " " + ux.unit : ""}${py ? `, ${pathLabel(py)} ${fmt(y * uy.scale)}${uy.unit ? " " + uy.unit : ""}` : ""}: ${q.label} ${v ? cellText(q, val) : "not run yet"}${q.u.unit && isNum(val) ? " " + q.u.unit : ""}${v ? ` (variant ${v.id}, ${v.status})` : ""}`;
+      r.append(svg("title", {}, label));
+      if (v) {
+        r.setAttribute("tabindex", "0");
+        r.setAttribute("role", "button");
+        r.setAttribute("aria-label", label);
+        r.addEventListener("click", () => showVariant(v.id, true));
+        r.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); showVariant(v.id, true); } });
+        r.addEventListener("focus", (e) => showTip(e, label));
+        r.addEventListener("blur", hideTip);
+      }
+      r.addEventListener("mousemove", (e) => showTip(e, label));
+      r.addEventListener("mouseleave", hideTip);
+      s.append(r);
+      // The value in the cell where it fits (dark text on the light end of the scale).
+      if (isNum(val) && cw >= 44 && ch >= 16)
+        s.append(svg("text", { x: ml + (i + 0.5) * cw, y: mt + (yv.length - 1 - j + 0.5) * ch + 4, "text-anchor": "middle",
+          class: norm(val) > 0.6 ? "cv dark" : "cv light" }, fmt(val * q.u.scale, 3)));
+    });
+  });
+  // axis labels: every value when few, else every k-th
+  const stepX = Math.ceil(xv.length / 8), stepY = Math.ceil(yv.length / 10);
+  xv.forEach((x, i) => { if (i % stepX === 0) s.append(svg("text", { x: ml + (i + 0.5) * cw, y: H - mb + 14, "text-anchor": "middle" }, fmt(x * ux.scale, 3))); });
+  if (py) yv.forEach((y, j) => { if (j % stepY === 0) s.append(svg("text", { x: ml - 4, y: mt + (yv.length - 1 - j + 0.5) * ch + 4, "text-anchor": "end" }, fmt(y * uy.scale, 3))); });
+  s.append(svg("text", { x: ml + (W - ml - mr) / 2, y: H - 12, "text-anchor": "middle" }, `${pathLabel(px)}${ux.unit ? ` (${ux.unit})` : ""}`));
+  if (py) s.append(svg("text", { x: 14, y: mt + (H - mt - mb) / 2, "text-anchor": "middle", transform: `rotate(-90 14 ${mt + (H - mt - mb) / 2})` }, `${pathLabel(py)}${uy.unit ? ` (${uy.unit})` : ""}`));
+  // colour bar
+  const bx = W - mr + 14, bh = H - mt - mb, N = 40;
+  for (let k = 0; k < N; k++) s.append(svg("rect", { x: bx, y: mt + bh - ((k + 1) * bh) / N, width: 14, height: bh / N + 0.5, fill: colour((k + 0.5) / N) }));
+  if (vals.length) {
+    let ticks = logScale ? logTicks(lo, hi) : niceTicks(lo, hi, 4);
+    if (ticks.filter((t) => t >= lo && t <= hi).length < 3) ticks = [lo, hi]; // a narrow range: label its ends
+    for (const t of ticks) {
+      const yy = mt + bh - norm(t) * bh;
+      if (yy < mt - 1 || yy > mt + bh + 1) continue;
+      s.append(svg("line", { x1: bx + 14, x2: bx + 18, y1: yy, y2: yy, stroke: "#444" }));
+      s.append(svg("text", { x: bx + 20, y: yy + 4 }, fmt(t * q.u.scale, 3)));
+    }
+  }
+}
+
+// ---- line charts (curves, Fig. 4, orbits, time histories)
+const PALETTE = ["#1f5fbf", "#d1495b", "#2a9d8f", "#e9a03b", "#6a4c93", "#4d908e", "#bc4b51", "#577590", "#8ab17d", "#f08a4b"];
+// series: [{name, xs, ys}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}
+function lineChart(s, series, opts) {
+  s.innerHTML = "";
+  const W = 520, H = opts.equal ? 460 : 330, ml = 70, mr = 14, mt = 26, mb = 46;
+  s.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0));
+  s.append(svg("text", { x: ml, y: 16, class: "title" }, opts.title || ""));
+  if (!pts.length) { s.append(svg("text", { x: W / 2, y: H / 2, "text-anchor": "middle" }, "no data")); return; }
+  let [x0, x1] = [Math.min(...pts.map((p) => p[0])), Math.max(...pts.map((p) => p[0]))];
+  let [y0, y1] = [Math.min(...pts.map((p) => p[1])), Math.max(...pts.map((p) => p[1]))];
+  if (opts.circle) { x0 = Math.min(x0, -opts.circle); x1 = Math.max(x1, opts.circle); y0 = Math.min(y0, -opts.circle); y1 = Math.max(y1, opts.circle); }
+  const pad = (a, b, log) => {
+    if (log) return a === b ? [a / 2, b * 2] : [a, b];
+    if (a === b) return [a - (Math.abs(a) || 1) * 0.1, b + (Math.abs(b) || 1) * 0.1];
+    const d = (b - a) * 0.04; return [a - d, b + d];
+  };
+  [x0, x1] = pad(x0, x1, opts.xLog); [y0, y1] = pad(y0, y1, opts.yLog);
+  const pw = W - ml - mr, ph = H - mt - mb;
+  if (opts.equal) { // same scale on both axes: widen the shorter span
+    const sx = (x1 - x0) / pw, sy = (y1 - y0) / ph, k = Math.max(sx, sy);
+    const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
+    x0 = cx - (k * pw) / 2; x1 = cx + (k * pw) / 2; y0 = cy - (k * ph) / 2; y1 = cy + (k * ph) / 2;
+  }
+  const tx = (x) => ml + (opts.xLog ? Math.log(x / x0) / Math.log(x1 / x0) : (x - x0) / (x1 - x0)) * pw;
+  const ty = (y) => mt + ph - (opts.yLog ? Math.log(y / y0) / Math.log(y1 / y0) : (y - y0) / (y1 - y0)) * ph;
+  const grid = svg("g", { class: "grid" }), axis = svg("g", { class: "axis" });
+  for (const t of opts.xLog ? logTicks(x0, x1) : niceTicks(x0, x1, 6)) {
+    grid.append(svg("line", { x1: tx(t), x2: tx(t), y1: mt, y2: mt + ph }));
+    axis.append(svg("text", { x: tx(t), y: mt + ph + 14, "text-anchor": "middle" }, fmt(t, 3)));
+  }
+  for (const t of opts.yLog ? logTicks(y0, y1) : niceTicks(y0, y1, 5)) {
+    grid.append(svg("line", { x1: ml, x2: ml + pw, y1: ty(t), y2: ty(t) }));
+    axis.append(svg("text", { x: ml - 4, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
+  }
+  axis.append(svg("path", { d: `M${ml},${mt}V${mt + ph}H${ml + pw}`, fill: "none" }));
+  s.append(grid, axis);
+  s.append(svg("text", { x: ml + pw / 2, y: H - 8, "text-anchor": "middle" }, opts.xLabel || ""));
+  s.append(svg("text", { x: 14, y: mt + ph / 2, "text-anchor": "middle", transform: `rotate(-90 14 ${mt + ph / 2})` }, opts.yLabel || ""));
+  if (opts.circle) s.append(svg("circle", { cx: tx(0), cy: ty(0), r: Math.abs(tx(opts.circle) - tx(0)), fill: "none", stroke: "#999", "stroke-dasharray": "4 3" }));
+  const drawn = [];
+  series.forEach((ser, k) => {
+    const c = ser.color || PALETTE[k % PALETTE.length];
+    let d = "";
+    let pen = false;
+    ser.xs.forEach((x, i) => {
+      const y = ser.ys[i];
+      if (!isNum(x) || !isNum(y) || (opts.xLog && x <= 0) || (opts.yLog && y <= 0)) { pen = false; return; }
+      d += `${pen ? "L" : "M"}${tx(x).toFixed(1)},${ty(y).toFixed(1)}`;
+      pen = true;
+      drawn.push({ x, y, name: ser.name, px: tx(x), py: ty(y) });
+    });
+    s.append(svg("path", { d, fill: "none", stroke: c, "stroke-width": 1.6, class: "series", "data-name": ser.name }));
+    if (ser.xs.length <= 40) ser.xs.forEach((x, i) => { const y = ser.ys[i]; if (isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0)) s.append(svg("circle", { cx: tx(x), cy: ty(y), r: 2.2, fill: c })); });
+  });
+  // legend
+  if (series.length > 1 || (series[0] && series[0].name)) {
+    series.slice(0, 10).forEach((ser, k) => {
+      const y = mt + 8 + k * 14;
+      s.append(svg("line", { x1: ml + pw - 120, x2: ml + pw - 104, y1: y, y2: y, stroke: ser.color || PALETTE[k % PALETTE.length], "stroke-width": 2 }));
+      s.append(svg("text", { x: ml + pw - 100, y: y + 4 }, ser.name || ""));
+    });
+  }
+  // hover: the nearest drawn point
+  const hover = svg("circle", { r: 4, fill: "none", stroke: "#000", visibility: "hidden" });
+  s.append(hover);
+  s.onmousemove = (e) => {
+    const r = s.getBoundingClientRect();
+    const mx = ((e.clientX - r.left) / r.width) * W, my = ((e.clientY - r.top) / r.height) * H;
+    let best = null, bd = Infinity;
+    for (const p of drawn) { const d = (p.px - mx) ** 2 + (p.py - my) ** 2; if (d < bd) { bd = d; best = p; } }
+    if (!best || bd > 900) { hover.setAttribute("visibility", "hidden"); hideTip(); return; }
+    hover.setAttribute("cx", best.px); hover.setAttribute("cy", best.py); hover.setAttribute("visibility", "visible");
+    showTip(e, `${best.name ? best.name + ": " : ""}${opts.xName || "x"} ${fmt(best.x)}, ${opts.yName || "y"} ${fmt(best.y)}`);
+  };
+  s.onmouseleave = () => { hover.setAttribute("visibility", "hidden"); hideTip(); };
+}
+function renderCurves() {
+  const sel = $("#curve-q");
+  const quantities = QUANTITIES.filter((q) => q.map && state.variants.some((v) => isNum(q.get(v))));
+  fillSelect(sel, quantities.map((q) => [q.key, q.label]), true);
+  if (!sel.value && quantities.find((q) => q.key === "friction")) sel.value = "friction";
+  const q = QUANTITIES.find((x) => x.key === sel.value);
+  const px = $("#map-x").value, py = $("#map-y").value;
+  if (!q || !px) return;
+  const ux = unitOfPath(px), uy = py ? unitOfPath(py) : null;
+  const groups = new Map();
+  for (const v of state.variants) {
+    if (!matchesFixed(v)) continue;
+    const key = py ? v.params[py] : "";
+    if (!groups.has(key)) groups.set(key, []);
+    groups.get(key).push(v);
+  }
+  const series = [...groups.entries()].sort((a, b) => a[0] - b[0]).map(([key, vs]) => {
+    vs.sort((a, b) => a.params[px] - b.params[px]);
+    return { name: py ? `${pathLabel(py)} ${fmt(key * uy.scale, 3)}${uy.unit ? " " + uy.unit : ""}` : "",
+      xs: vs.map((v) => v.params[px] * ux.scale), ys: vs.map((v) => { const y = q.get(v); return isNum(y) ? y * q.u.scale : null; }) };
+  });
+  const allPos = (arr) => arr.every((x) => !isNum(x) || x > 0);
+  lineChart($("#curves"), series, { title: `${q.label} against ${pathLabel(px)}`, xLabel: `${pathLabel(px)}${ux.unit ? ` (${ux.unit})` : ""}`,
+    yLabel: `${q.label}${q.u.unit ? ` (${q.u.unit})` : ""}`, xLog: allPos(series.flatMap((s) => s.xs)), yLog: allPos(series.flatMap((s) => s.ys)),
+    xName: pathLabel(px), yName: q.label });
+  $("#curves-cap").textContent = `${q.title}; log axes where all values are positive.`;
+}
+function drawFig4(result) {
+  const series = result.curves.map((c) => ({
+    name: `ω ${fmt(c.speed_rad_s ?? c.speed ?? c.omega, 3)} rad/s`,
+    xs: c.points.map((p) => p.load_n), ys: c.points.map((p) => p.friction_coefficient) }));
+  lineChart($("#fig4"), series, { title: "Friction coefficient (Fig. 4)", xLabel: "load (N)", yLabel: "friction coefficient f", xLog: true, yLog: true, xName: "load", yName: "f" });
+}
+async function loadServerPlots(id) {
+  const holder = $("#server-plots");
+  holder.innerHTML = "";
+  const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots`);
+  if (!r.ok || state.selected !== id) return;
+  const names = (Array.isArray(r.data) ? r.data : r.data.plots || []).map((p) => (typeof p === "string" ? p : p.name)).filter(Boolean);
+  if (!names.length) return;
+  holder.append(el("p", { class: "note", text: "Plots the spec asks for, as `run` writes them:" }));
+  for (const name of names) {
+    const rr = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots/${encodeURIComponent(name)}`);
+    if (!rr.ok || state.selected !== id) continue;
+    const url = URL.createObjectURL(new Blob([rr.text], { type: "image/svg+xml" }));
+    holder.append(el("figure", { class: "server-plot" }, el("img", { src: url, alt: `server plot ${name}` }), el("figcaption", { text: name })));
+  }
+}
+
+// ---- one variant: orbit and time histories
+function clearanceOf(v, k) {
+  const p = v.params || {};
+  for (const key of [`bearings[${k}].clearance`, "bearings[*].clearance"]) if (isNum(p[key])) return p[key];
+  const base = state.spec && state.spec.base;
+  return base && base.bearings && base.bearings[k] ? base.bearings[k].clearance : null;
+}
+function showVariant(id, user) {
+  const v = state.variants.find((x) => x.id === Number(id));
+  if (!v) { $("#variant-note").textContent = `variant ${id} is not finished (or not in this sweep)`; return; }
+  state.variantId = v.id;
+  for (const tr of document.querySelectorAll("#variants tbody tr")) tr.classList.toggle("sel", Number(tr.dataset.id) === v.id);
+  for (const r of document.querySelectorAll("#maps rect.cell")) r.classList.toggle("sel", Number(r.dataset.id) === v.id);
+  $("#variant-id").textContent = `${v.id} (${v.status})`;
+  $("#variant-pick").value = v.id;
+  $("#variant-params").textContent = Object.entries(v.params || {}).map(([k, x]) => `${k} = ${JSON.stringify(x)}`).join("\n") + (v.message ? `\n${v.message}` : "");
+  const s = v.series;
+  const bsel = $("#orbit-bearing"), hsel = $("#hist-series");
+  if (!s) {
+    $("#variant-note").textContent = 'This sweep kept no time series. Add "keep": ["orbit"] (or "film", "friction", "forces", "spin") to the spec\'s reductions to see orbits and histories.';
+    $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
+    bsel.innerHTML = ""; hsel.innerHTML = "";
+    $("#orbit-cap").textContent = ""; $("#history-cap").textContent = "";
+  } else {
+    $("#variant-note").textContent = "";
+    const nb = (s.bearings || []).length;
+    const orbitItems = [];
+    for (let k = 0; k < nb; k++) if (s.bearings[k].xi) orbitItems.push([`b${k}`, `bearing ${k + 1} journal (face z = 0)`]);
+    if (s.x_g) orbitItems.push(["g", "centre of mass G"]);
+    fillSelect(bsel, orbitItems, true);
+    const hist = [];
+    for (const [key, arr] of Object.entries(s)) if (key !== "t" && key !== "bearings" && Array.isArray(arr)) hist.push([key, key]);
+    for (let k = 0; k < nb; k++) for (const [key, arr] of Object.entries(s.bearings[k])) if (Array.isArray(arr)) hist.push([`bearings[${k}].${key}`, `bearing ${k + 1} ${key}`]);
+    fillSelect(hsel, hist, true);
+    drawOrbit(v); drawHistory(v);
+  }
+  if (user) $("#variant-h").scrollIntoView({ block: "start", behavior: "smooth" });
+}
+function drawOrbit(v) {
+  const s = v.series, which = $("#orbit-bearing").value;
+  if (!which) { $("#orbit").innerHTML = ""; return; }
+  let xs, ys, circle = null, name;
+  if (which === "g") { xs = s.x_g; ys = s.y_g; name = "G"; }
+  else {
+    const k = Number(which.slice(1));
+    xs = s.bearings[k].xi; ys = s.bearings[k].yi; name = `bearing ${k + 1}`;
+    const c = clearanceOf(v, k);
+    if (isNum(c)) circle = c * 1e6;
+  }
+  const um = (a) => (a || []).map((x) => (isNum(x) ? x * 1e6 : null));
+  lineChart($("#orbit"), [{ name: "", xs: um(xs), ys: um(ys) }], { title: `Orbit of ${name}, variant ${v.id}`, xLabel: "x (µm)", yLabel: "y (µm)", equal: true, circle, xName: "x µm", yName: "y µm" });
+  $("#orbit-cap").textContent = `${name} in the bearing frame over the kept span${circle ? "; dashed: the clearance circle" : ""}.`;
+}
+function seriesUnit(key) {
+  if (/(^|\.)(x_g|y_g|xi|yi|xj|yj|h_min)$/.test(key)) return UNITS.m_um;
+  if (/(^|\.)(wx|wy)$/.test(key)) return UNITS.n;
+  if (/(^|\.)mz$/.test(key)) return UNITS.nm;
+  if (/(^|\.)spin$/.test(key)) return UNITS.rads;
+  return UNITS.one;
+}
+function drawHistory(v) {
+  const key = $("#hist-series").value;
+  if (!key) { $("#history").innerHTML = ""; return; }
+  const ys = getPath(v.series, key) || [];
+  const u = seriesUnit(key);
+  lineChart($("#history"), [{ name: "", xs: v.series.t || ys.map((_, i) => i), ys: ys.map((y) => (isNum(y) ? y * u.scale : null)) }],
+    { title: `${key}, variant ${v.id}`, xLabel: v.series.t ? "t (s)" : "sample", yLabel: `${key}${u.unit ? ` (${u.unit})` : ""}`, xName: "t", yName: key });
+  $("#history-cap").textContent = `Time history of ${key} (decimated to the spec's reductions.points).`;
+}
+
+// ---------------------------------------------------------------- downloads
+async function download(kind) {
+  const id = state.selected;
+  if (!id) return;
+  const s = state.sweeps.get(id);
+  const stem = (s && s.name ? s.name : id).replace(/[^a-z0-9._-]+/gi, "-").slice(0, 60);
+  if (kind === "csv") {
+    const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/variants?format=csv`);
+    if (r.ok) saveBlob(`${stem}.csv`, r.text, "text/csv"); else alert(r.error.message);
+  } else if (kind === "jsonl") {
+    saveBlob(`${stem}-variants.json`, JSON.stringify(state.variants), "application/json");
+  } else {
+    const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/result`);
+    if (r.ok) saveBlob(`${stem}-result.json`, r.text, "application/json");
+    else alert(r.status === 409 ? "result.json exists once the sweep is done" : r.error.message);
+  }
+}
+
+// ---------------------------------------------------------------- eval panel
+const EVAL_BEARING = [["radius", "m"], ["length", "m"], ["clearance", "m"], ["viscosity", "Pa·s"]];
+const EVAL_STATE = [["xi", "m"], ["yi", "m"], ["xj", "m"], ["yj", "m"], ["vxi", "m/s"], ["vyi", "m/s"], ["vxj", "m/s"], ["vyj", "m/s"], ["omega", "rad/s"]];
+let evalFilled = false;
+function evalInput(prefix, name, unit) {
+  const id = `eval-${prefix}-${name}`;
+  const input = el("input", { id, type: "text", inputmode: "decimal", "data-path": prefix === "b" ? `bearing.${name}` : `states[0].${name}`, "aria-describedby": `${id}-err` });
+  return el("label", { for: id }, `${name} (${unit})`, input, el("span", { id: `${id}-err`, class: "fielderr" }));
+}
+function initEval() {
+  const b = $("#eval-bearing"), s = $("#eval-state");
+  for (const [n, u] of EVAL_BEARING) b.append(evalInput("b", n, u));
+  const conv = el("select", { id: "eval-b-clearance_convention", "data-path": "bearing.clearance_convention" },
+    el("option", { value: "paper", text: "paper (δ/2r0)" }), el("option", { value: "vogelpohl", text: "vogelpohl (δ/r0)" }));
+  b.append(el("label", { for: "eval-b-clearance_convention" }, "clearance convention", conv));
+  for (const [n, u] of EVAL_STATE) s.append(evalInput("s", n, u));
+  fillEval({ bearing: { radius: 0.02, length: 0.02, clearance: 0.0003, viscosity: 0.0242 },
+    states: [{ xi: 1.5e-4, yi: 0, xj: 1.5e-4, yj: 0, vxi: 0, vyi: 0, vxj: 0, vyj: 0, omega: 100 }] });
+  evalFilled = false;
+  $("#eval-form").addEventListener("submit", (e) => { e.preventDefault(); runEval(); });
+}
+function fillEval(input) {
+  evalFilled = true;
+  for (const [n] of EVAL_BEARING) if (input.bearing && input.bearing[n] !== undefined) $(`#eval-b-${n}`).value = input.bearing[n];
+  if (input.bearing && input.bearing.clearance_convention) $("#eval-b-clearance_convention").value = input.bearing.clearance_convention;
+  const st = (input.states || [])[0] || {};
+  for (const [n] of EVAL_STATE) if (st[n] !== undefined) $(`#eval-s-${n}`).value = st[n];
+}
+const numOrText = (t) => { const x = Number(t.trim()); return t.trim() !== "" && Number.isFinite(x) ? x : t; };
+async function runEval() {
+  for (const i of document.querySelectorAll("#eval-form [data-path]")) i.removeAttribute("aria-invalid");
+  for (const e of document.querySelectorAll("#eval-form .fielderr")) e.textContent = "";
+  $("#eval-error").hidden = true;
+  const bearing = {}, st = {};
+  for (const [n] of EVAL_BEARING) bearing[n] = numOrText($(`#eval-b-${n}`).value);
+  bearing.clearance_convention = $("#eval-b-clearance_convention").value;
+  for (const [n] of EVAL_STATE) st[n] = numOrText($(`#eval-s-${n}`).value);
+  $("#eval-status").textContent = "evaluating…";
+  const r = await api("POST", "/api/eval", { bearing, states: [st] });
+  $("#eval-status").textContent = r.ok ? "" : `error ${r.status}`;
+  const tb = $("#eval-out tbody");
+  tb.innerHTML = "";
+  if (!r.ok) { showFieldError(r.error); return; }
+  const load = (r.data.loads || [])[0] || {};
+  if (load.status && load.status !== "ok") showFieldError({ path: "states[0]", message: `${load.status}: ${load.error || ""}` });
+  const rows = [["status", load.status, ""], ["wx", load.wx, "N"], ["wy", load.wy, "N"], ["mx", load.mx, "N·m"], ["my", load.my, "N·m"],
+    ["mz", load.mz, "N·m"], ["friction_coefficient", load.friction_coefficient, ""], ["sommerfeld", load.sommerfeld, ""],
+    ["h_min", load.h_min, "m"], ["power_loss", load.power_loss, "W"]];
+  for (const [k, x, u] of rows)
+    tb.append(el("tr", { "data-key": k }, el("th", { scope: "row", text: k }),
+      el("td", { class: "num", "data-value": isNum(x) ? String(x) : null, text: isNum(x) ? fmt(x) : x === undefined ? "—" : String(x ?? "—") }),
+      el("td", { text: u })));
+  const info = [r.data.backend && `backend ${typeof r.data.backend === "object" ? r.data.backend.name || JSON.stringify(r.data.backend) : r.data.backend}`,
+    r.data.accuracy && `accuracy ${r.data.accuracy}`].filter(Boolean).join(", ");
+  tb.append(el("tr", {}, el("th", { scope: "row", text: "run" }), el("td", { colspan: 2, text: info })));
+}
+function showFieldError(err) {
+  const box = $("#eval-error");
+  box.innerHTML = "";
+  if (err.path) box.append(el("span", { class: "path", text: err.path }), document.createTextNode(": "));
+  box.append(document.createTextNode(err.message));
+  box.hidden = false;
+  const input = [...document.querySelectorAll("#eval-form [data-path]")].find((i) => err.path && (err.path === i.dataset.path || err.path.startsWith(i.dataset.path + " ")));
+  if (input) {
+    input.setAttribute("aria-invalid", "true");
+    const note = document.getElementById(`${input.id}-err`);
+    if (note) note.textContent = err.message;
+    input.focus();
+  }
+}
+
+// ---------------------------------------------------------------- start
+function refreshAll() { checkHealth(); loadExamples(); refreshQueue(); }
+document.addEventListener("DOMContentLoaded", () => {
+  initToken();
+  initEval();
+  $("#example").addEventListener("change", showExampleDesc);
+  $("#example-load").addEventListener("click", loadExample);
+  $("#upload").addEventListener("change", async (e) => { const f = e.target.files[0]; if (f) setSpecText(await f.text()); });
+  $("#check").addEventListener("click", checkSpec);
+  $("#submit").addEventListener("click", submitSpec);
+  $("#detail-cancel").addEventListener("click", () => state.selected && cancelSweep(state.selected));
+  $("#dl-csv").addEventListener("click", () => download("csv"));
+  $("#dl-jsonl").addEventListener("click", () => download("jsonl"));
+  $("#dl-result").addEventListener("click", () => download("result"));
+  $("#status-filter").addEventListener("change", renderTable);
+  $("#map-x").addEventListener("change", () => { renderMaps(); renderCurves(); });
+  $("#map-y").addEventListener("change", () => { $("#map-y").dataset.touched = "1"; renderMaps(); renderCurves(); });
+  $("#curve-q").addEventListener("change", renderCurves);
+  $("#variant-open").addEventListener("click", () => showVariant($("#variant-pick").value, true));
+  $("#variant-pick").addEventListener("keydown", (e) => { if (e.key === "Enter") showVariant($("#variant-pick").value, true); });
+  $("#orbit-bearing").addEventListener("change", () => { const v = state.variants.find((x) => x.id === state.variantId); if (v) drawOrbit(v); });
+  $("#hist-series").addEventListener("change", () => { const v = state.variants.find((x) => x.id === state.variantId); if (v) drawHistory(v); });
+  refreshAll();
+  setInterval(refreshQueue, 3000); // the list (other clients' sweeps); live progress comes by SSE
+  setInterval(checkHealth, 15000);
+});

@@ -1,0 +1,115 @@
+//! The simulator for a parsed sweep spec, as `run` and the service both build it: the
+//! synthetic stand-in, or the rotor integrator on the chosen film backend with the spec's
+//! model reductions, plus the settings recorded in the result and checked on resume.
+
+use serde_json::{json, Value};
+
+use super::expand::SceneValidator;
+use super::rotor_sim::{validate_scene, RotorSimulator};
+use super::runner::BatchSimulator;
+use super::synthetic::{self, SyntheticSimulator};
+use super::{SweepError, SweepKind, SweepSpec};
+use crate::backend::{create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator};
+use crate::bearing::Accuracy;
+use crate::rotor::reductions::{evaluator_options, ReductionSpec};
+
+/// The choices of `run` (and the service's query) that shape the simulator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimulatorChoice {
+    /// Film-load backend (`--backend`; default `cpu`).
+    pub backend: BackendKind,
+    /// Film accuracy (`--accuracy`; default 1e-6 relative).
+    pub accuracy: Accuracy,
+    /// Every model reduction off (`--full-model`; default off).
+    pub full_model: bool,
+}
+
+/// Why no simulator could be built.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// A variant's scene is invalid (checked before a backend starts).
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
+    /// The film backend could not be created.
+    #[error(transparent)]
+    Backend(#[from] BackendError),
+}
+
+/// A simulator ready for the runner.
+pub struct PreparedSimulator {
+    /// The simulator.
+    pub sim: Box<dyn BatchSimulator>,
+    /// Its scene validator (every variant is checked with it).
+    pub validator: &'static SceneValidator,
+    /// Settings that change results (recorded in the result and the stream header).
+    pub settings: Value,
+}
+
+/// Builds the simulator for `spec` (a rotor spec's variants are all validated first: a
+/// GPU start is slow). Backend notices (e.g. a fallback to the CPU) go to `notice`.
+pub fn prepare_simulator(
+    spec: &SweepSpec,
+    choice: &SimulatorChoice,
+    notice: &mut dyn FnMut(String),
+) -> Result<PreparedSimulator, SetupError> {
+    match spec.kind {
+        SweepKind::Synthetic => Ok(PreparedSimulator {
+            sim: Box::new(SyntheticSimulator),
+            validator: &synthetic::validate,
+            settings: json!({"simulator": "synthetic"}),
+        }),
+        SweepKind::Stability => {
+            super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
+            // The coefficients are differences of film loads: always the tightest level
+            // (README "Coefficients and stability").
+            let tight = Accuracy::new(1e-12).expect("a calibrated level");
+            if choice.accuracy.rtol() != tight.rtol() {
+                notice(format!(
+                    "notice: stability sweeps evaluate the film at accuracy 1e-12 (not {:e})",
+                    choice.accuracy.rtol()
+                ));
+            }
+            let (backend, n) = create_backend(choice.backend, tight)?;
+            if let Some(n) = n {
+                notice(n);
+            }
+            let sim = crate::stability::StabilitySimulator::new(LoadEvaluator::new(backend));
+            let settings = sim.settings(tight.rtol());
+            Ok(PreparedSimulator {
+                sim: Box::new(sim),
+                validator: &validate_scene,
+                settings,
+            })
+        }
+        SweepKind::Rotor => {
+            super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
+            let (backend, n) = create_backend(choice.backend, choice.accuracy)?;
+            if let Some(n) = n {
+                notice(n);
+            }
+            // Evaluator-level reductions from the base scene (one evaluator serves every
+            // variant).
+            let base: ReductionSpec = spec
+                .base
+                .get("reductions")
+                .and_then(|v| serde_json::from_value(v.clone()).ok())
+                .unwrap_or_default();
+            let eval_options = if choice.full_model {
+                EvaluatorOptions::full()
+            } else {
+                evaluator_options([&base])
+            };
+            let mut sim = RotorSimulator::new(
+                LoadEvaluator::with_options(backend, eval_options),
+                choice.accuracy,
+            );
+            sim.set_full_model(choice.full_model);
+            let settings = sim.settings(choice.accuracy.rtol());
+            Ok(PreparedSimulator {
+                sim: Box::new(sim),
+                validator: &validate_scene,
+                settings,
+            })
+        }
+    }
+}

@@ -1,0 +1,523 @@
+//! The web page of `serve` in a real browser: Debian's chromium driven through
+//! chromedriver (W3C WebDriver over HTTP, `tests/web_support`). The test starts `serve` on
+//! an ephemeral port, submits a small sweep through the page, waits for `done` through the
+//! live progress, checks the variant table against `result.json`, opens a figure, submits
+//! a bad spec and checks the inline error, uses the eval panel, and saves screenshots at
+//! desktop (1280x800) and phone (390x844) widths under docs/screenshots/.
+//!
+//! Without chromium and chromedriver the browser tests skip with a notice, unless
+//! `BEARING_SWEEP_REQUIRE_BROWSER=1` (set by `.ci/run`, which installs both). The asset
+//! test needs no browser.
+
+mod web_support;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use serde_json::{json, Value};
+use web_support::{agent, browser_required, find_program, read_json, Browser, Server};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("bearing-sweep-web-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// chromium and chromedriver, or None after a notice (a panic when they are required).
+fn browser_tools() -> Option<(PathBuf, PathBuf)> {
+    let chromium = find_program(
+        "BEARING_SWEEP_CHROMIUM",
+        &["chromium", "chromium-browser", "google-chrome"],
+    );
+    let driver = find_program("BEARING_SWEEP_CHROMEDRIVER", &["chromedriver"]);
+    match (chromium, driver) {
+        (Some(c), Some(d)) => Some((c, d)),
+        (c, d) => {
+            let msg = format!(
+                "chromium ({}) and chromedriver ({}) are needed: apt-get install -y chromium chromium-driver",
+                c.map_or("missing".into(), |p| p.display().to_string()),
+                d.map_or("missing".into(), |p| p.display().to_string())
+            );
+            if browser_required() {
+                panic!("BEARING_SWEEP_REQUIRE_BROWSER=1 but {msg}");
+            }
+            eprintln!("SKIPPED (no browser): {msg}");
+            None
+        }
+    }
+}
+
+fn get(url: &str, token: Option<&str>) -> (u16, String) {
+    let mut req = agent().get(url);
+    if let Some(t) = token {
+        req = req.header("Authorization", &format!("Bearer {t}"));
+    }
+    let mut r = req.call().unwrap_or_else(|e| panic!("GET {url}: {e}"));
+    let status = r.status().as_u16();
+    let ctype = r
+        .headers()
+        .get("content-type")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_string();
+    let body = r
+        .body_mut()
+        .with_config()
+        .limit(256 << 20)
+        .read_to_string()
+        .unwrap();
+    (status, format!("{ctype}\n{body}"))
+}
+
+fn get_json(url: &str) -> (u16, Value) {
+    let mut r = agent()
+        .get(url)
+        .call()
+        .unwrap_or_else(|e| panic!("GET {url}: {e}"));
+    let status = r.status().as_u16();
+    (status, read_json(&mut r).unwrap_or(Value::Null))
+}
+
+fn post_json(url: &str, body: &str) -> (u16, Value) {
+    let mut r = agent()
+        .post(url)
+        .header("Content-Type", "application/json")
+        .send(body)
+        .unwrap_or_else(|e| panic!("POST {url}: {e}"));
+    let status = r.status().as_u16();
+    (status, read_json(&mut r).unwrap_or(Value::Null))
+}
+
+/// The number of sweeps the server lists (the list may be bare or under "sweeps").
+fn sweep_count(base: &str) -> usize {
+    let (status, v) = get_json(&format!("{base}/api/sweeps"));
+    assert_eq!(status, 200, "GET /api/sweeps: {v}");
+    v.as_array()
+        .or_else(|| v["sweeps"].as_array())
+        .map_or(0, Vec::len)
+}
+
+/// `rel(actual, expected) <= tol`, printing both and the tolerance otherwise.
+fn assert_close(what: &str, actual: f64, expected: f64, tol: f64) {
+    let rel = (actual - expected).abs() / expected.abs().max(f64::MIN_POSITIVE);
+    assert!(
+        rel <= tol,
+        "{what}: actual {actual:e}, expected {expected:e}, relative difference {rel:e} > tolerance {tol:e}"
+    );
+}
+
+#[test]
+fn page_assets_and_examples_are_served() {
+    let data = scratch("assets");
+    let server = Server::start(&data, &[]);
+    let base = &server.base;
+    let (s, page) = get(&format!("{base}/"), None);
+    assert_eq!(s, 200);
+    assert!(
+        page.starts_with("text/html"),
+        "GET / content type: {page:.80}"
+    );
+    assert!(page.contains(r#"<script src="/app.js""#) && page.contains("/style.css"));
+    for (path, ctype, file) in [
+        ("/app.js", "text/javascript", "src/service/web/app.js"),
+        ("/style.css", "text/css", "src/service/web/style.css"),
+    ] {
+        let (s, body) = get(&format!("{base}{path}"), None);
+        assert_eq!(s, 200, "GET {path}");
+        let (got_type, got) = body.split_once('\n').unwrap();
+        assert!(
+            got_type.starts_with(ctype),
+            "GET {path}: type {got_type}, expected {ctype}"
+        );
+        let want =
+            std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
+        assert_eq!(got, want, "GET {path} is not the compiled-in {file}");
+    }
+    // Examples: every sweeps/ file listed, each served byte for byte.
+    let (s, list) = get_json(&format!("{base}/api/examples"));
+    assert_eq!(s, 200, "{list}");
+    let list = list.as_array().expect("an array of examples").clone();
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+    let files = std::fs::read_dir(&dir).unwrap().count();
+    assert_eq!(
+        list.len(),
+        files,
+        "examples listed vs files in sweeps/: {list:?}"
+    );
+    for e in &list {
+        let name = e["name"].as_str().unwrap();
+        let (s, body) = get(&format!("{base}/api/examples/{name}"), None);
+        assert_eq!(s, 200, "example {name}");
+        let want = std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap();
+        assert_eq!(body.split_once('\n').unwrap().1, want, "example {name}");
+    }
+    let sweep = list
+        .iter()
+        .find(|e| e["name"] == "clearance-viscosity")
+        .unwrap();
+    assert_eq!(sweep["role"], "sweep");
+    // An example that is not there: 404 with the JSON error shape naming the field.
+    let (s, err) = get_json(&format!("{base}/api/examples/nope"));
+    assert_eq!(s, 404);
+    assert_eq!(err["error"]["path"], "name", "{err}");
+    assert!(err["error"]["message"]
+        .as_str()
+        .unwrap()
+        .contains("clearance-viscosity"));
+}
+
+/// A small rotor sweep: the paper rotor for 0.1 s over 3 clearances x 2 viscosities.
+fn small_spec() -> Value {
+    let text = include_str!("../sweeps/clearance-viscosity.json");
+    let mut spec: Value = serde_json::from_str(text).unwrap();
+    spec["name"] = json!("web test: clearance x viscosity");
+    spec["base"]["integrator"]["t_end"] = json!(0.1);
+    spec["axes"][0]["logspace"] = json!([0.0001, 0.0006, 3]);
+    spec["axes"][1]["logspace"] = json!([0.005, 0.1, 2]);
+    spec["reductions"]["window"] = json!({"fraction": 0.5});
+    spec
+}
+
+/// Sets the editor's text by typing it (as a person pasting would: keys, then input events).
+fn type_spec(b: &Browser, text: &str) {
+    b.clear("#spec");
+    b.type_into("#spec", text);
+    let got = b.exec("return document.querySelector('#spec').value", json!([]));
+    assert_eq!(
+        got.as_str().unwrap(),
+        text,
+        "the editor holds what was typed"
+    );
+}
+
+#[test]
+fn page_submits_watches_and_reads_a_sweep_in_chromium() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let data = scratch("ui");
+    let server = Server::start(&data, &[]);
+    let base = server.base.clone();
+    let b = Browser::start(&chromium, &chromedriver, data.join("profile"))
+        .unwrap_or_else(|e| panic!("browser: {e}"));
+    b.viewport(1280, 800, false);
+    b.goto(&format!("{base}/"));
+    let long = Duration::from_secs(180);
+    let short = Duration::from_secs(30);
+
+    // 1. Pick an example and load it into the editor.
+    b.wait("the example list", short, || {
+        (b.count("#example option[value='clearance-viscosity']") == 1).then_some(())
+    });
+    b.click("#example option[value='clearance-viscosity']");
+    b.click("#example-load");
+    b.wait("the example in the editor", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str()
+            .unwrap_or("")
+            .contains("Paper rotor")
+            .then_some(())
+    });
+
+    // 2. A bad spec: the server's error at its field, inline, and nothing stored or run.
+    let before = sweep_count(&base);
+    let mut bad = small_spec();
+    // (not the clearance: the sweep's axis sets every bearing's clearance)
+    bad["base"]["bearings"][1]["length"] = json!(-0.02);
+    let bad_text = serde_json::to_string(&bad).unwrap();
+    let (status, server_err) = post_json(&format!("{base}/api/sweeps"), &bad_text);
+    assert_eq!(status, 422, "the API refuses the bad spec: {server_err}");
+    let path = server_err["error"]["path"].as_str().unwrap().to_string();
+    let message = server_err["error"]["message"].as_str().unwrap().to_string();
+    assert!(
+        path.contains("bearings[1].length"),
+        "error path names the field: {server_err}"
+    );
+    type_spec(&b, &bad_text);
+    b.click("#submit");
+    let shown = b.wait("the inline error", short, || {
+        let t = b.text("#spec-error");
+        (!t.is_empty()).then_some(t)
+    });
+    assert!(
+        shown.contains(&path) && shown.contains(&message),
+        "inline error {shown:?} lacks the server's path {path:?} or message {message:?}"
+    );
+    let invalid = b.exec(
+        "return document.querySelector('#spec').getAttribute('aria-invalid')",
+        json!([]),
+    );
+    assert_eq!(invalid, json!("true"), "the editor is marked invalid");
+    assert_eq!(sweep_count(&base), before, "a bad spec was stored");
+
+    // 3. Submit the small sweep; watch the live progress reach done.
+    let spec = small_spec();
+    type_spec(&b, &serde_json::to_string_pretty(&spec).unwrap());
+    b.click("#submit");
+    b.wait("the error box to clear", short, || {
+        b.text("#spec-error").is_empty().then_some(())
+    });
+    let id = b.wait("the new sweep in the queue", short, || {
+        let v = b.exec(
+            "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
+            json!([]),
+        );
+        v.as_str().map(str::to_string)
+    });
+    let mut seen_counts = Vec::new();
+    b.wait("status done through the live progress", long, || {
+        let counts = b.text("#sweep-counts");
+        if seen_counts.last() != Some(&counts) {
+            seen_counts.push(counts);
+        }
+        let status = b.text("#sweep-status");
+        assert!(
+            !["failed", "cancelled"].contains(&status.as_str()),
+            "sweep ended {status}: {}",
+            b.text("#sweep-message")
+        );
+        (status == "done").then_some(())
+    });
+    let n = 6;
+    b.wait("the final counts", short, || {
+        b.text("#sweep-counts")
+            .starts_with(&format!("{n} / {n} done"))
+            .then_some(())
+    });
+    eprintln!("progress texts seen: {seen_counts:?}");
+
+    // 4. The table against result.json: row count and numbers.
+    let (status, result) = get_json(&format!("{base}/api/sweeps/{id}/result"));
+    assert_eq!(status, 200, "result: {result}");
+    let variants = result["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), n);
+    b.wait("one table row per variant", short, || {
+        (b.count("#variants tbody tr") == n).then_some(())
+    });
+    for v in variants {
+        let vid = v["id"].as_u64().unwrap();
+        let expected = v["reductions"]["h_min"]["value_m"].as_f64().unwrap();
+        let sel = format!("#variants tbody tr[data-id='{vid}'] td[data-key='h_min']");
+        let cell = b.exec(
+            "const c = document.querySelector(arguments[0]); return c ? [c.dataset.value, c.textContent] : null",
+            json!([sel]),
+        );
+        let exact: f64 = cell[0].as_str().unwrap().parse().unwrap();
+        assert_eq!(
+            exact.to_bits(),
+            expected.to_bits(),
+            "variant {vid}: h_min in the table {exact:e} vs result.json {expected:e}"
+        );
+        // Shown in µm with 4 significant digits: within half a unit of the 4th digit.
+        let shown: f64 = cell[1].as_str().unwrap().parse().unwrap();
+        assert_close(
+            &format!("variant {vid}: h_min shown (µm)"),
+            shown,
+            expected * 1e6,
+            5e-4,
+        );
+    }
+    let header = b.text("#variants thead th[data-key='h_min']");
+    assert!(
+        header.contains("µm"),
+        "the h_min column names its unit: {header:?}"
+    );
+    // Sorting by h_min (button in the header) orders the rows by it.
+    b.click("#variants thead th[data-key='h_min'] button");
+    let order = b.exec(
+        "return [...document.querySelectorAll('#variants tbody td[data-key=h_min]')].map(c => Number(c.dataset.value))",
+        json!([]),
+    );
+    let order: Vec<f64> = order
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        order.windows(2).all(|w| w[0] <= w[1]),
+        "not ascending: {order:?}"
+    );
+
+    // 5. A figure: the h_min map cell of variant 3 holds its value; clicking opens its orbit.
+    let cell = "#map-h_min rect.cell[data-id='3']";
+    b.wait("the h_min map", short, || {
+        (b.count(cell) == 1).then_some(())
+    });
+    let map_value = b.exec(
+        "return Number(document.querySelector(arguments[0]).dataset.value)",
+        json!([cell]),
+    );
+    let v3 = variants.iter().find(|v| v["id"] == 3).unwrap();
+    assert_eq!(
+        map_value.as_f64().unwrap(),
+        v3["reductions"]["h_min"]["value_m"].as_f64().unwrap(),
+        "map cell of variant 3"
+    );
+    b.click(cell);
+    b.wait("variant 3 in the orbit panel", short, || {
+        b.text("#variant-id").starts_with("3 ").then_some(())
+    });
+    let points = b.exec(
+        "const p = document.querySelector('#orbit path.series'); return p ? (p.getAttribute('d').match(/[ML]/g) || []).length : 0",
+        json!([]),
+    );
+    let kept = v3["series"]["bearings"][0]["xi"]
+        .as_array()
+        .map_or(0, Vec::len);
+    assert!(kept > 10, "the spec keeps the orbit: {kept} points");
+    assert_eq!(
+        points.as_u64().unwrap() as usize,
+        kept,
+        "orbit path points vs kept samples"
+    );
+    // Hover reads a value (after the page's smooth scroll to the orbit has settled).
+    let hover_cell = "#map-h_min rect.cell[data-id='0']";
+    let mut tip = String::new();
+    for _ in 0..5 {
+        std::thread::sleep(Duration::from_millis(800));
+        b.exec(
+            "document.querySelector(arguments[0]).scrollIntoView({block: 'center'})",
+            json!([hover_cell]),
+        );
+        std::thread::sleep(Duration::from_millis(200));
+        let target = b.find(hover_cell).unwrap();
+        b.cmd(
+            "POST",
+            "/actions",
+            Some(json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+                "actions": [{"type": "pointerMove", "duration": 0, "origin": {"element-6066-11e4-a52e-4f735466cecf": target}, "x": 3, "y": 3}]}]})),
+        )
+        .expect("hover");
+        tip = b.text("#tip");
+        if !tip.is_empty() {
+            break;
+        }
+    }
+    assert!(tip.contains("variant 0"), "hover text {tip:?}");
+
+    // 6. The eval panel: its loads against the same request straight to the API.
+    b.click("#eval-run");
+    let wx = b.wait("the eval answer", short, || {
+        let v = b.exec(
+            "const c = document.querySelector('#eval-out tr[data-key=wx] td'); return c && c.dataset.value ? Number(c.dataset.value) : null",
+            json!([]),
+        );
+        v.as_f64()
+    });
+    let input = b.exec(
+        "const g = (id) => Number(document.getElementById(id).value);
+         return {bearing: {radius: g('eval-b-radius'), length: g('eval-b-length'), clearance: g('eval-b-clearance'),
+                 viscosity: g('eval-b-viscosity'), clearance_convention: document.getElementById('eval-b-clearance_convention').value},
+                 states: [Object.fromEntries(['xi','yi','xj','yj','vxi','vyi','vxj','vyj','omega'].map(k => [k, g('eval-s-' + k)]))]}",
+        json!([]),
+    );
+    let (status, direct) = post_json(&format!("{base}/api/eval"), &input.to_string());
+    assert_eq!(status, 200, "{direct}");
+    assert_close(
+        "eval wx page vs API",
+        wx,
+        direct["loads"][0]["wx"].as_f64().unwrap(),
+        1e-12,
+    );
+    // A bad bearing field: the error at that input.
+    b.clear("#eval-b-clearance");
+    b.type_into("#eval-b-clearance", "-0.0003");
+    b.click("#eval-run");
+    let err = b.wait("the eval error", short, || {
+        let t = b.text("#eval-error");
+        (!t.is_empty()).then_some(t)
+    });
+    assert!(err.contains("bearing.clearance"), "eval error {err:?}");
+    let marked = b.exec(
+        "return document.getElementById('eval-b-clearance').getAttribute('aria-invalid')",
+        json!([]),
+    );
+    assert_eq!(marked, json!("true"));
+    b.clear("#eval-b-clearance");
+    b.type_into("#eval-b-clearance", "0.0003");
+    b.click("#eval-run");
+
+    // 7. Screenshots, and no sideways scrolling at phone width.
+    let shots = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
+    b.click("#map-h_min rect.cell[data-id='3']");
+    b.exec(
+        "document.getElementById('detail-h').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(600));
+    b.screenshot(&shots.join("desktop.png"), false);
+    b.exec("window.scrollTo(0, 0)", json!([]));
+    b.screenshot(&shots.join("desktop-full.png"), true);
+    b.viewport(390, 844, true);
+    std::thread::sleep(Duration::from_millis(600));
+    // Wider content would make the phone zoom the whole page out (or scroll sideways).
+    let widths = b.exec(
+        "const w = document.documentElement.scrollWidth;
+         const wide = [...document.querySelectorAll('body *')].filter(e => e.getBoundingClientRect().right > 391 && !e.closest('.tablewrap'))
+            .slice(0, 5).map(e => e.tagName + '#' + e.id + '.' + e.className + ' ' + Math.round(e.getBoundingClientRect().right));
+         return [w, wide]",
+        json!([]),
+    );
+    let sw = widths[0].as_u64().unwrap();
+    assert!(
+        sw <= 390,
+        "page wider than the 390 px phone: {sw} CSS px; widest: {}",
+        widths[1]
+    );
+    b.exec(
+        "document.getElementById('figures-h').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(400));
+    b.screenshot(&shots.join("phone.png"), false);
+    b.exec("window.scrollTo(0, 0)", json!([]));
+    b.screenshot(&shots.join("phone-full.png"), true);
+    drop(b);
+    drop(server);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn page_with_a_token_says_401_plainly_then_works() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let data = scratch("token");
+    let token = "web-test-token-3f9a";
+    let server = Server::start(&data, &["--token", token]);
+    let base = server.base.clone();
+    let (s, _) = get(&format!("{base}/api/examples"), None);
+    assert_eq!(s, 401, "examples without the token");
+    let (s, _) = get(&format!("{base}/api/examples"), Some(token));
+    assert_eq!(s, 200, "examples with the token");
+    let b = Browser::start(&chromium, &chromedriver, data.join("profile"))
+        .unwrap_or_else(|e| panic!("browser: {e}"));
+    b.goto(&format!("{base}/"));
+    let short = Duration::from_secs(30);
+    let banner = b.wait("the 401 banner", short, || {
+        let t = b.text("#auth-banner");
+        (!t.is_empty()).then_some(t)
+    });
+    assert!(
+        banner.contains("401") && banner.contains("token"),
+        "banner {banner:?}"
+    );
+    b.type_into("#token", token);
+    b.click("#token-form button[type=submit]");
+    b.wait("the examples after the token", short, || {
+        (b.count("#example option[value='clearance-viscosity']") == 1).then_some(())
+    });
+    b.wait("the banner to go", short, || {
+        b.text("#auth-banner").is_empty().then_some(())
+    });
+    let kept = b.exec(
+        "return sessionStorage.getItem('bearing-sweep-token')",
+        json!([]),
+    );
+    assert_eq!(kept, json!(token), "the token is kept in sessionStorage");
+    drop(b);
+    drop(server);
+    let _ = std::fs::remove_dir_all(&data);
+}
