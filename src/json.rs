@@ -1,20 +1,384 @@
 //! JSON input helpers shared by every command: deserialisation errors located at their
 //! JSON path (`bearings[1].clearance`, `film.thresh`), so messages name the field.
+//!
+//! Every JSON input (spec, scene, eval) is read with [`parse_json`], which refuses
+//! duplicate keys (serde_json alone keeps the last one silently), and deserialised with
+//! [`deserialize_at`], which refuses a struct written as an array (serde's derive alone
+//! accepts `[0.02, 0.02, 3e-4, 0.0242]` for a bearing). Messages quote user input through
+//! [`quote`] and numbers through [`num`], so they stay short.
 
-use serde::de::DeserializeOwned;
-use serde_json::Value;
+use std::fmt;
+
+use serde::de::{
+    self, DeserializeOwned, DeserializeSeed, IntoDeserializer, MapAccess, SeqAccess, Visitor,
+};
+use serde::Deserializer;
+use serde_json::{Map, Value};
+
+/// Most characters of user input echoed in a message (keys, strings, paths).
+pub const MAX_ECHO_CHARS: usize = 80;
+
+/// Most characters of a whole error message (a backstop for messages built elsewhere).
+pub const MAX_MESSAGE_CHARS: usize = 2000;
+
+/// `text` cut to `max` characters, with the number of characters left out.
+pub fn shorten(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        None => text.to_string(),
+        Some((cut, _)) => {
+            let rest = text[cut..].chars().count();
+            format!("{}… ({rest} more characters)", &text[..cut])
+        }
+    }
+}
+
+/// User input echoed in a message: cut to [`MAX_ECHO_CHARS`].
+pub fn quote(text: &str) -> String {
+    shorten(text, MAX_ECHO_CHARS)
+}
+
+/// A number for a message: plain where short (`0.5`, `120`), scientific otherwise
+/// (`1e308` instead of 309 digits), `infinity`/`NaN` spelled out.
+pub fn num(x: f64) -> String {
+    if x.is_nan() {
+        "NaN".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "infinity" } else { "-infinity" }.into()
+    } else if x == 0.0 || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A JSON document that cannot be used: the path inside it and the reason.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct JsonError {
+    /// JSON path (`$` for the document itself).
+    pub path: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+/// One step of the path being parsed, kept on the stack (no allocation per value).
+#[derive(Clone, Copy)]
+enum Step<'a> {
+    Root,
+    Key(&'a Step<'a>, &'a str),
+    Index(&'a Step<'a>, usize),
+}
+
+impl Step<'_> {
+    fn path(&self) -> String {
+        match self {
+            Step::Root => String::new(),
+            Step::Key(parent, k) => join_path(&parent.path(), &quote(k)),
+            Step::Index(parent, i) => format!("{}[{i}]", parent.path()),
+        }
+    }
+}
+
+/// Marker that separates our located errors from serde_json's own (syntax) errors.
+const LOCATED: &str = "\u{1}located\u{1}";
+
+fn located<E: de::Error>(at: &Step<'_>, reason: &str) -> E {
+    let p = at.path();
+    E::custom(format!(
+        "{LOCATED}{}{LOCATED}{reason}",
+        if p.is_empty() { "$" } else { &p }
+    ))
+}
+
+/// Builds a `Value`, refusing duplicate keys.
+struct StrictValue<'a>(Step<'a>);
+
+impl<'de> DeserializeSeed<'de> for StrictValue<'_> {
+    type Value = Value;
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> Visitor<'de> for StrictValue<'_> {
+    type Value = Value;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("any JSON value")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
+        Ok(Value::Bool(v))
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Value, E> {
+        serde_json::Number::from_f64(v)
+            .map(Value::Number)
+            .ok_or_else(|| located(&self.0, "number out of range"))
+    }
+    fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+        Ok(Value::String(v.to_string()))
+    }
+    fn visit_string<E>(self, v: String) -> Result<Value, E> {
+        Ok(Value::String(v))
+    }
+    fn visit_unit<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_none<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+        let mut out = Vec::new();
+        loop {
+            let step = Step::Index(&self.0, out.len());
+            match seq.next_element_seed(StrictValue(step))? {
+                Some(v) => out.push(v),
+                None => return Ok(Value::Array(out)),
+            }
+        }
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
+        let mut out = Map::new();
+        while let Some(key) = map.next_key::<String>()? {
+            let step = Step::Key(&self.0, &key);
+            if out.contains_key(&key) {
+                return Err(located(
+                    &step,
+                    "duplicate key (JSON objects must not repeat a key; which one was meant?)",
+                ));
+            }
+            let v = map.next_value_seed(StrictValue(step))?;
+            out.insert(key, v);
+        }
+        Ok(Value::Object(out))
+    }
+}
+
+/// Splits an error from the strict parse into its path and reason.
+pub(crate) fn split_error(e: serde_json::Error) -> JsonError {
+    let text = e.to_string();
+    if let Some(rest) = text.strip_prefix(LOCATED) {
+        if let Some((path, reason)) = rest.split_once(LOCATED) {
+            // serde_json appends " at line L column C": keep it, it helps in big files.
+            return JsonError {
+                path: path.to_string(),
+                reason: reason.to_string(),
+            };
+        }
+    }
+    JsonError {
+        path: "$".into(),
+        reason: format!("not valid JSON: {}", shorten(&text, MAX_ECHO_CHARS * 4)),
+    }
+}
+
+/// Parses JSON text into a `Value`, refusing duplicate keys (naming the key's path) and
+/// anything after the document.
+pub fn parse_json(text: &str) -> Result<Value, JsonError> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let v = StrictValue(Step::Root)
+        .deserialize(&mut de)
+        .map_err(split_error)?;
+    de.end().map_err(split_error)?;
+    Ok(v)
+}
+
+/// Parses one value of a larger document at `prefix` (e.g. one element of `states` while
+/// streaming), refusing duplicate keys. For use inside a serde visitor.
+pub fn strict_value_seed() -> impl for<'de> DeserializeSeed<'de, Value = Value> + Copy {
+    #[derive(Clone, Copy)]
+    struct Root;
+    impl<'de> DeserializeSeed<'de> for Root {
+        type Value = Value;
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value, D::Error> {
+            StrictValue(Step::Root).deserialize(d)
+        }
+    }
+    Root
+}
+
+/// A `Value` deserializer that refuses a sequence where a struct is expected; otherwise
+/// exactly `serde_json::Value`'s behaviour.
+struct Strict<'a>(&'a Value);
+
+type VErr = serde_json::Error;
+
+macro_rules! forward {
+    ($($m:ident),*) => {$(
+        fn $m<V: Visitor<'de>>(self, v: V) -> Result<V::Value, VErr> {
+            self.0.$m(v)
+        }
+    )*};
+}
+
+impl<'de, 'a> Deserializer<'de> for Strict<'a>
+where
+    'a: 'de,
+{
+    type Error = VErr;
+
+    fn deserialize_any<V: Visitor<'de>>(self, v: V) -> Result<V::Value, VErr> {
+        match self.0 {
+            Value::Array(a) => v.visit_seq(StrictSeq(a.iter())),
+            Value::Object(m) => v.visit_map(StrictMap {
+                iter: m.iter(),
+                value: None,
+            }),
+            other => other.deserialize_any(v),
+        }
+    }
+
+    fn deserialize_struct<V: Visitor<'de>>(
+        self,
+        _name: &'static str,
+        _fields: &'static [&'static str],
+        v: V,
+    ) -> Result<V::Value, VErr> {
+        match self.0 {
+            Value::Object(_) => self.deserialize_any(v),
+            Value::Array(_) => Err(de::Error::custom(
+                "expected an object with named fields, got an array (write {\"field\": value, ...})",
+            )),
+            other => other.deserialize_any(v),
+        }
+    }
+
+    fn deserialize_map<V: Visitor<'de>>(self, v: V) -> Result<V::Value, VErr> {
+        self.deserialize_any(v)
+    }
+    fn deserialize_seq<V: Visitor<'de>>(self, v: V) -> Result<V::Value, VErr> {
+        self.deserialize_any(v)
+    }
+    fn deserialize_tuple<V: Visitor<'de>>(self, _len: usize, v: V) -> Result<V::Value, VErr> {
+        self.deserialize_any(v)
+    }
+    fn deserialize_tuple_struct<V: Visitor<'de>>(
+        self,
+        _name: &'static str,
+        _len: usize,
+        v: V,
+    ) -> Result<V::Value, VErr> {
+        self.deserialize_any(v)
+    }
+    fn deserialize_option<V: Visitor<'de>>(self, v: V) -> Result<V::Value, VErr> {
+        match self.0 {
+            Value::Null => v.visit_none(),
+            _ => v.visit_some(self),
+        }
+    }
+    fn deserialize_newtype_struct<V: Visitor<'de>>(
+        self,
+        _name: &'static str,
+        v: V,
+    ) -> Result<V::Value, VErr> {
+        v.visit_newtype_struct(self)
+    }
+    fn deserialize_enum<V: Visitor<'de>>(
+        self,
+        name: &'static str,
+        variants: &'static [&'static str],
+        v: V,
+    ) -> Result<V::Value, VErr> {
+        match self.0 {
+            Value::String(s) => v.visit_enum(s.as_str().into_deserializer()),
+            other => other.deserialize_enum(name, variants, v),
+        }
+    }
+    forward!(
+        deserialize_bool,
+        deserialize_i8,
+        deserialize_i16,
+        deserialize_i32,
+        deserialize_i64,
+        deserialize_u8,
+        deserialize_u16,
+        deserialize_u32,
+        deserialize_u64,
+        deserialize_f32,
+        deserialize_f64,
+        deserialize_char,
+        deserialize_str,
+        deserialize_string,
+        deserialize_bytes,
+        deserialize_byte_buf,
+        deserialize_unit,
+        deserialize_identifier,
+        deserialize_ignored_any
+    );
+    fn deserialize_unit_struct<V: Visitor<'de>>(
+        self,
+        name: &'static str,
+        v: V,
+    ) -> Result<V::Value, VErr> {
+        self.0.deserialize_unit_struct(name, v)
+    }
+}
+
+struct StrictSeq<'a>(std::slice::Iter<'a, Value>);
+
+impl<'de, 'a: 'de> SeqAccess<'de> for StrictSeq<'a> {
+    type Error = VErr;
+    fn next_element_seed<T: DeserializeSeed<'de>>(
+        &mut self,
+        seed: T,
+    ) -> Result<Option<T::Value>, VErr> {
+        self.0
+            .next()
+            .map(|v| seed.deserialize(Strict(v)))
+            .transpose()
+    }
+    fn size_hint(&self) -> Option<usize> {
+        Some(self.0.len())
+    }
+}
+
+struct StrictMap<'a> {
+    iter: serde_json::map::Iter<'a>,
+    value: Option<&'a Value>,
+}
+
+impl<'de, 'a: 'de> MapAccess<'de> for StrictMap<'a> {
+    type Error = VErr;
+    fn next_key_seed<K: DeserializeSeed<'de>>(
+        &mut self,
+        seed: K,
+    ) -> Result<Option<K::Value>, VErr> {
+        match self.iter.next() {
+            Some((k, v)) => {
+                self.value = Some(v);
+                seed.deserialize(k.as_str().into_deserializer()).map(Some)
+            }
+            None => Ok(None),
+        }
+    }
+    fn next_value_seed<S: DeserializeSeed<'de>>(&mut self, seed: S) -> Result<S::Value, VErr> {
+        let v = self
+            .value
+            .take()
+            .ok_or_else(|| <VErr as de::Error>::custom("value without a key"))?;
+        seed.deserialize(Strict(v))
+    }
+}
 
 /// Deserialises `value` as `T`; on failure returns the JSON path of the offending field
-/// (`"$"` for the document itself) and serde's reason.
+/// (`"$"` for the document itself) and serde's reason (user input in it cut short).
+/// A struct given as an array is refused.
 pub fn deserialize_at<T: DeserializeOwned>(value: &Value) -> Result<T, (String, String)> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
+    serde_path_to_error::deserialize(Strict(value)).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." || path.is_empty() {
             "$".to_string()
         } else {
-            path
+            shorten(&path, MAX_ECHO_CHARS * 2)
         };
-        (path, e.into_inner().to_string())
+        (
+            path,
+            shorten(&e.into_inner().to_string(), MAX_ECHO_CHARS * 3),
+        )
     })
 }
 
@@ -62,5 +426,41 @@ mod tests {
         );
         assert_eq!(join_path("scenes[2]", "$"), "scenes[2]");
         assert_eq!(join_path("$", "a[1]"), "a[1]");
+    }
+
+    #[test]
+    fn duplicate_keys_are_refused_with_their_path() {
+        let e = parse_json(r#"{"a": [1, {"b": 1, "c": {"d": 2, "d": 3}}]}"#).unwrap_err();
+        assert_eq!(e.path, "a[1].c.d", "{e:?}");
+        assert!(e.reason.contains("duplicate key"), "{e:?}");
+        let e = parse_json(r#"{"k": 1, "k": 1}"#).unwrap_err();
+        assert_eq!(e.path, "k");
+        let e = parse_json(r#"{"k": 1} x"#).unwrap_err();
+        assert_eq!(e.path, "$");
+        assert!(e.reason.contains("not valid JSON"), "{e:?}");
+        let v = parse_json(r#"{"a": [1, 2.5, -3, null, true, "s", {}]}"#).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"a": [1, 2.5, -3, null, true, "s", {}]})
+        );
+    }
+
+    #[test]
+    fn a_struct_written_as_an_array_is_refused() {
+        let v = serde_json::json!({"bearings": [[0.02, 0.02, 3e-4, 0.0242]]});
+        let (path, reason) = deserialize_at::<Doc>(&v).unwrap_err();
+        assert_eq!(path, "bearings[0]", "{reason}");
+        assert!(reason.contains("got an array"), "{reason}");
+    }
+
+    #[test]
+    fn echoed_input_and_numbers_stay_short() {
+        let long = "x".repeat(10_000);
+        assert!(quote(&long).len() < 200);
+        assert!(quote(&long).contains("9920 more characters"));
+        assert_eq!(num(1e308), "1e308");
+        assert_eq!(num(0.5), "0.5");
+        assert_eq!(num(f64::INFINITY), "infinity");
+        assert_eq!(num(-2.5e-9), "-2.5e-9");
     }
 }

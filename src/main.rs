@@ -11,8 +11,8 @@ use bearing_sweep::bench::{
 use bearing_sweep::cli::{
     bench_backend, bench_rotor, bench_rotor_batch, eval_json, is_sweep_spec, merge_command,
     print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
-    BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter, SubmitOptions,
-    SweepRunOptions,
+    worker_command, BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter,
+    SubmitOptions, SweepRunOptions, WorkerCommandOptions,
 };
 use bearing_sweep::cli::{
     coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
@@ -41,6 +41,10 @@ enum Command {
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
+    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
+    Serve(ServeArgs),
+    /// Submit a sweep spec to a running service; prints its id.
+    Submit(SubmitArgs),
     /// Linearised bearing coefficients: `{"bearing", "speed" (or "speeds"), "load"}` or
     /// `{"bearing", "state"}` -> equilibrium and 4x4 stiffness and damping (with tilt) and
     /// their error estimates; `--format ross-csv` for ROSS BearingElement rows.
@@ -48,10 +52,12 @@ enum Command {
     /// Linear stability of a scene: modes at its speed, threshold speed, Campbell diagram
     /// and damping over `--speeds` (JSON on stdout; files in OUT/<scene stem>/).
     Stability(StabilityArgs),
-    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
-    Serve(ServeArgs),
-    /// Submit a sweep spec to a running service; prints its id.
-    Submit(SubmitArgs),
+    /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
+    /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
+    Finite(FiniteArgs),
+    /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
+    /// until stopped (README "Workers and PostgreSQL").
+    Worker(WorkerArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
         #[command(subcommand)]
@@ -61,6 +67,9 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// PostgreSQL queue: variants/s with 1, 2, 4 worker processes against `run`, claim and
+    /// commit overhead per batch, and a claim storm (README "Workers and PostgreSQL").
+    Queue(BenchQueueArgs),
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
     /// ~20-30 s quick, ~2 min with --full on 2 cores.
@@ -73,18 +82,72 @@ enum BenchCommand {
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
     Rotor(BenchRotorArgs),
+    /// Load generator for the service: concurrent eval clients (states/s, p50/p99) beside
+    /// one `eval` call, and one sweep over HTTP against `run`.
+    Serve(BenchServeArgs),
+}
+
+#[derive(Args)]
+struct BenchServeArgs {
+    /// A running service; default: one started in this process on 127.0.0.1.
+    #[arg(long)]
+    server: Option<String>,
+    /// Concurrent clients, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,8,64,256")]
+    clients: Vec<usize>,
+    /// States per request, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,64")]
+    states: Vec<usize>,
+    /// Seconds per row.
+    #[arg(long, default_value_t = 10.0)]
+    duration: f64,
+    /// Coalescing window of the in-process server, ms.
+    #[arg(long, default_value_t = 2.0)]
+    window_ms: f64,
+    /// A sweep spec to time over HTTP against `run`.
+    #[arg(long)]
+    sweep: Option<std::path::PathBuf>,
+    /// Timings of the sweep each way (the fastest counts).
+    #[arg(long, default_value_t = 3)]
+    sweep_repeats: usize,
 }
 
 #[derive(Args)]
 struct EvalArgs {
     /// Input JSON file, `-` for standard input.
     file: String,
-    /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend: cpu, gpu or auto (a hardware GPU for 64 states or more, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
     #[arg(long, default_value_t = 1e-6)]
     accuracy: f64,
+}
+
+#[derive(Args)]
+struct FiniteArgs {
+    /// Write `finite-error-map.svg` and `finite-error-map.md` into this folder.
+    #[arg(long)]
+    map: Option<std::path::PathBuf>,
+    /// Map cells per unit of B/D and of ε for the figure (the table uses the stored map's
+    /// nodes).
+    #[arg(long, default_value_t = 20)]
+    map_resolution: usize,
+    /// Run the finite-film benchmark (CPU; add --gpu for the WGSL kernel).
+    #[arg(long)]
+    bench: bool,
+    /// Include the GPU kernel in the benchmark.
+    #[arg(long)]
+    gpu: bool,
+    /// States per benchmark call.
+    #[arg(long, default_value_t = 64)]
+    states: usize,
+    /// Timed calls per grid.
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Simulated time of the rotor-scene cost benchmark, s (the paper's run is 0.5 s).
+    #[arg(long, default_value_t = 0.1)]
+    rotor_t_end: f64,
 }
 
 #[derive(Args)]
@@ -94,8 +157,9 @@ struct RunArgs {
     /// Output root folder.
     #[arg(long, default_value = "out")]
     out: std::path::PathBuf,
-    /// Backend for the film loads: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
+    /// Backend for the film loads: cpu, gpu or auto (a hardware GPU when a stage carries
+    /// 64 bearing states or more, e.g. a sweep, else the CPU).
+    #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
     #[arg(long, default_value_t = 1e-6)]
@@ -115,40 +179,6 @@ struct RunArgs {
 }
 
 #[derive(Args)]
-struct CoefficientsArgs {
-    /// Input JSON file, `-` for standard input.
-    file: String,
-    /// Output: `json` or `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy).
-    #[arg(long, default_value = "json")]
-    format: String,
-    /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
-    backend: BackendKind,
-    /// Relative accuracy of the film loads (the coefficients are differences of loads).
-    #[arg(long, default_value_t = 1e-12)]
-    accuracy: f64,
-}
-
-#[derive(Args)]
-struct StabilityArgs {
-    /// Scene file (as `run` reads it).
-    file: String,
-    /// Speeds of the Campbell diagram and threshold scan, rad/s, comma-separated
-    /// (default: 41 speeds from 0.1x to 10x the scene's spin).
-    #[arg(long, value_delimiter = ',')]
-    speeds: Vec<f64>,
-    /// Output root folder (stability.json, campbell.svg, damping.svg in OUT/<stem>/).
-    #[arg(long, default_value = "out")]
-    out: std::path::PathBuf,
-    /// Backend: cpu, gpu or auto.
-    #[arg(long, default_value = "cpu")]
-    backend: BackendKind,
-    /// Relative accuracy of the film loads.
-    #[arg(long, default_value_t = 1e-12)]
-    accuracy: f64,
-}
-
-#[derive(Args)]
 struct ServeArgs {
     /// Address and port to listen on (port 0: any free port, printed at start).
     #[arg(long, default_value = "127.0.0.1:8080")]
@@ -156,6 +186,10 @@ struct ServeArgs {
     /// Folder of the job store (SQLite database).
     #[arg(long, default_value = "bearing-sweep-data")]
     data: std::path::PathBuf,
+    /// Keep sweeps in PostgreSQL (postgres://user[:password]@host:port/database) and let
+    /// `worker` processes run them, instead of the SQLite store in --data.
+    #[arg(long)]
+    database: Option<String>,
     /// Bearer token required on /api (else BEARING_SWEEP_TOKEN; required off loopback).
     #[arg(long)]
     token: Option<String>,
@@ -204,12 +238,101 @@ struct SubmitArgs {
 }
 
 #[derive(Args)]
+struct CoefficientsArgs {
+    /// Input JSON file, `-` for standard input.
+    file: String,
+    /// Output: `json` or `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy).
+    #[arg(long, default_value = "json")]
+    format: String,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads (the coefficients are differences of loads).
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
+struct StabilityArgs {
+    /// Scene file (as `run` reads it).
+    file: String,
+    /// Speeds of the Campbell diagram and threshold scan, rad/s, comma-separated
+    /// (default: 41 speeds from 0.1x to 10x the scene's spin).
+    #[arg(long, value_delimiter = ',')]
+    speeds: Vec<f64>,
+    /// Output root folder (stability.json, campbell.svg, damping.svg in OUT/<stem>/).
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Backend: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Relative accuracy of the film loads.
+    #[arg(long, default_value_t = 1e-12)]
+    accuracy: f64,
+}
+
+#[derive(Args)]
 struct MergeArgs {
     /// Merged result file.
     out: String,
     /// Shard result files.
     #[arg(required = true)]
     shards: Vec<String>,
+}
+
+#[derive(Args)]
+struct WorkerArgs {
+    /// The queue's database: postgres://user[:password]@host:port/database.
+    #[arg(long)]
+    database: String,
+    /// Backend for the film loads: cpu, gpu or auto (workers claim only sweeps that allow it).
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Variants per claimed lockstep batch (default 256 on the CPU, 4096 on a GPU).
+    #[arg(long)]
+    batch: Option<usize>,
+    /// Lease time to live without a heartbeat, s: a dead worker's batch runs elsewhere
+    /// after this long.
+    #[arg(long, default_value_t = 30.0)]
+    lease_ttl: f64,
+    /// Heartbeat period, s (default a third of --lease-ttl); cancel reaches the worker
+    /// within one period.
+    #[arg(long)]
+    heartbeat: Option<f64>,
+    /// Exit after this many seconds without work (default: run until SIGTERM/Ctrl-C).
+    #[arg(long)]
+    exit_when_idle: Option<f64>,
+    /// Worker id in leases and results (default host/pid/nonce).
+    #[arg(long)]
+    id: Option<String>,
+}
+
+#[derive(Args)]
+struct BenchQueueArgs {
+    /// A scratch database (sweeps are added and deleted): postgres://user@host:port/db.
+    #[arg(long)]
+    database: String,
+    /// Worker process counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
+    workers: Vec<usize>,
+    /// Variants per claim of those workers.
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+    /// Grid points per axis of the rotor sweep (n x n variants).
+    #[arg(long, default_value_t = 16)]
+    grid: usize,
+    /// Batches of the claim-and-commit overhead row.
+    #[arg(long, default_value_t = 500)]
+    overhead_batches: usize,
+    /// Concurrent claimers in the storm.
+    #[arg(long, default_value_t = 64)]
+    storm_workers: usize,
+    /// Length of the storm, s.
+    #[arg(long, default_value_t = 10.0)]
+    storm_seconds: f64,
+    /// Scratch folder for the `run` reference.
+    #[arg(long, default_value = "out/bench-queue")]
+    out: std::path::PathBuf,
 }
 
 #[derive(Args)]
@@ -310,18 +433,22 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval(a),
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
-        Command::Coefficients(a) => coefficients_cmd(a),
-        Command::Stability(a) => stability_cmd(a),
         Command::Serve(a) => serve(a),
         Command::Submit(a) => submit(a),
+        Command::Coefficients(a) => coefficients_cmd(a),
+        Command::Stability(a) => stability_cmd(a),
+        Command::Finite(a) => finite_cmd(a),
+        Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
+            BenchCommand::Queue(a) => bench_queue_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
             BenchCommand::Backend(a) => run_bench_backend(
                 &a.backend, a.sizes, a.accuracy, a.threads, a.min_time, a.max_reps, a.json,
             ),
             BenchCommand::Rotor(a) if !a.batch.is_empty() => bench_rotor_batch_cmd(a),
             BenchCommand::Rotor(a) => bench_rotor_cmd(a),
+            BenchCommand::Serve(a) => bench_serve_cmd(a),
         },
     };
     match result {
@@ -329,10 +456,63 @@ fn main() -> ExitCode {
         // The reader of stdout went away (`… | head`): nothing left to tell anyone.
         Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // Messages may quote user input; a backstop against echoing megabytes.
+            let message = bearing_sweep::json::shorten(
+                &e.to_string(),
+                bearing_sweep::json::MAX_MESSAGE_CHARS,
+            );
+            eprintln!("error: {message}");
             ExitCode::from(2)
         }
     }
+}
+
+/// `finite`: the model-error map and the finite-film benchmark.
+fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
+    use bearing_sweep::bearing::finite as fin;
+    if let Some(dir) = &a.map {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::input("--map", format!("{}: {e}", dir.display())))?;
+        let settings = fin::error_map_settings();
+        let n = a.map_resolution.max(2);
+        let aspects: Vec<f64> = (0..=(9 * n / 10))
+            .map(|k| 0.1 + k as f64 / n as f64)
+            .filter(|&v| v <= 1.0 + 1e-9)
+            .collect();
+        let eccs: Vec<f64> = (0..=(95 * n / 100)).map(|k| k as f64 / n as f64).collect();
+        let fine = fin::compute_error_map(&aspects, &eccs, &settings);
+        let svg = fin::error_map_svg(&fine).map_err(|e| CliError::input("--map", e))?;
+        let table = fin::compute_error_map(&fin::ERROR_MAP_ASPECTS, &fin::ERROR_MAP_ECC, &settings);
+        let md = fin::error_map_markdown(&table);
+        for (name, text) in [
+            ("finite-error-map.svg", svg),
+            ("finite-error-map.md", md.clone()),
+        ] {
+            let path = dir.join(name);
+            std::fs::write(&path, text)
+                .map_err(|e| CliError::input("--map", format!("{}: {e}", path.display())))?;
+            eprintln!("wrote {}", path.display());
+        }
+        println!("{md}");
+    }
+    if a.bench {
+        println!(
+            "{}",
+            bearing_sweep::backend::finite_bench::bench_finite(
+                a.states.max(1),
+                a.reps.max(1),
+                a.gpu
+            )
+        );
+        println!(
+            "{}",
+            bearing_sweep::backend::finite_bench::bench_finite_rotor(a.rotor_t_end)
+        );
+    }
+    if a.map.is_none() && !a.bench {
+        return Err(CliError::input("finite", "give --map DIR and/or --bench"));
+    }
+    Ok(())
 }
 
 /// Notices and report lines go to stderr.
@@ -362,10 +542,11 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
         eprintln!("{n}");
     }
     if a.format == "ross-csv" {
-        print_text(&ross_csv(&out))
+        print!("{}", ross_csv(&out));
     } else {
-        print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
+        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
     }
+    Ok(())
 }
 
 /// `stability`: modes, threshold and Campbell diagram of a scene.
@@ -387,7 +568,8 @@ fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
     for f in files {
         eprintln!("wrote {}", f.display());
     }
-    print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
+    Ok(())
 }
 
 /// `eval`: film loads of the states in a file, JSON on stdout.
@@ -467,6 +649,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         max_queued: a.max_queued,
         eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
         eval_backend: a.eval_backend,
+        database: a.database,
     };
     serve_command(config, &mut |n| eprintln!("{n}"))
 }
@@ -495,6 +678,59 @@ fn submit(a: SubmitArgs) -> Result<(), CliError> {
     for l in lines {
         println!("{l}");
     }
+    Ok(())
+}
+
+/// `worker`: pulls work from a PostgreSQL queue until stopped.
+fn worker(a: WorkerArgs) -> Result<(), CliError> {
+    worker_command(&WorkerCommandOptions {
+        database: a.database,
+        backend: a.backend,
+        batch: a.batch,
+        lease_ttl_s: a.lease_ttl,
+        heartbeat_s: a.heartbeat,
+        exit_when_idle_s: a.exit_when_idle,
+        id: a.id,
+    })
+    .map(print_lines)
+}
+
+/// `bench serve`: load generator for the service.
+fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
+    let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
+        server: a.server,
+        clients: a.clients,
+        states: a.states,
+        duration_s: a.duration,
+        window_ms: a.window_ms,
+        sweep: a.sweep,
+        sweep_repeats: a.sweep_repeats,
+    })
+    .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    print!("{md}");
+    Ok(())
+}
+
+/// `bench queue`: figures of the PostgreSQL queue.
+fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
+    let exe = std::env::current_exe().map_err(|source| CliError::Io {
+        path: "current executable".into(),
+        source,
+    })?;
+    let md =
+        bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
+            database: a.database,
+            exe,
+            workers: a.workers,
+            batch: a.batch.max(1),
+            grid: a.grid.max(1),
+            overhead_batches: a.overhead_batches.max(1),
+            storm_workers: a.storm_workers.max(1),
+            storm_s: a.storm_seconds.max(0.1),
+            scratch: a.out,
+        })
+        .map_err(|e| CliError::input("--database", e.to_string()))?;
+    print!("{md}");
     Ok(())
 }
 

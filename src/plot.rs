@@ -78,6 +78,31 @@ pub fn line_plot_svg_equal_aspect(
 /// and label areas removed), for equal-aspect ranges.
 const PLOT_AREA_PX: (f64, f64) = (700.0, 440.0);
 
+/// Most decades a log axis may span: plotters' tick generation divides the range into
+/// decades, and a ratio beyond f64::MAX (~308 decades) makes it loop without end.
+const MAX_LOG_DECADES: f64 = 300.0;
+
+/// Whether plotters can draw an axis over `[lo, hi]` in a bounded time: finite bounds,
+/// a finite positive width, and for a log axis a positive start and at most
+/// [`MAX_LOG_DECADES`]. Otherwise the figure is skipped with this reason (plotters'
+/// tick loops do not terminate on infinite or NaN ranges).
+fn drawable(lo: f64, hi: f64, scale: Scale) -> Result<(), String> {
+    let shown = || format!("[{}, {}]", tick_label(lo), tick_label(hi));
+    if !(lo.is_finite() && hi.is_finite() && hi > lo && (hi - lo).is_finite()) {
+        return Err(format!("range {} cannot be drawn", shown()));
+    }
+    if scale == Scale::Log {
+        let decades = (hi / lo).log10();
+        if !(lo > 0.0 && decades.is_finite() && decades <= MAX_LOG_DECADES) {
+            return Err(format!(
+                "range {} spans more than {MAX_LOG_DECADES} decades; cannot be drawn",
+                shown()
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn plot_svg(
     title: &str,
     x_label: &str,
@@ -105,8 +130,9 @@ fn plot_svg(
             let hi = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             match scale {
                 Scale::Linear => {
+                    // 0.05 hi − 0.05 lo: no overflow for a span wider than f64::MAX.
                     let pad = if hi > lo {
-                        0.05 * (hi - lo)
+                        0.05 * hi - 0.05 * lo
                     } else {
                         lo.abs().max(1e-12) * 0.1
                     };
@@ -127,6 +153,8 @@ fn plot_svg(
             y0 = cy - 0.5 * per_px * PLOT_AREA_PX.1;
             y1 = cy + 0.5 * per_px * PLOT_AREA_PX.1;
         }
+        drawable(x0, x1, x_scale).map_err(|e| format!("x axis: {e}"))?;
+        drawable(y0, y1, y_scale).map_err(|e| format!("y axis: {e}"))?;
         macro_rules! draw {
             ($chart:expr) => {{
                 let mut chart = $chart.map_err(|e| e.to_string())?;

@@ -62,7 +62,7 @@ fn backend_kinds_and_environment() {
     let info = gpu.info();
     assert_eq!(info.name, "gpu");
     eprintln!("gpu backend: {} ({:?})", info.device, info.precision);
-    // `auto` takes a hardware GPU; a software rasteriser (lavapipe) only when named.
+    // `auto` takes a hardware GPU, never a software rasteriser (lavapipe).
     let software = info.device.contains("Vulkan Cpu");
     let (auto, notice) = create_backend(BackendKind::Auto, acc).expect("auto");
     if software {
@@ -91,7 +91,12 @@ fn backend_kinds_and_environment() {
     let (named, _) = create_backend(BackendKind::Gpu, acc).expect("adapter found by name");
     assert!(named.info().device.starts_with(&first_word));
     let (named_auto, _) = create_backend(BackendKind::Auto, acc).expect("auto");
-    assert_eq!(named_auto.info().name, "gpu", "auto takes a named adapter");
+    assert_eq!(
+        named_auto.info().name,
+        if software { "cpu" } else { "gpu" },
+        "auto takes a named hardware adapter, never a software one ({})",
+        info.device
+    );
     set("WGPU_ADAPTER_NAME", None);
 
     // Forcing f32: reported, with a notice that it is looser than 1e-6.

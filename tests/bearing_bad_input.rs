@@ -445,7 +445,10 @@ fn cli_eval_stdin_and_bad_state_by_index() {
     assert_eq!(loads[0]["status"], "ok");
     assert_eq!(loads[1]["status"], "through_wall");
     let msg = loads[1]["error"].as_str().unwrap();
-    assert!(msg.starts_with("states[1]") && msg.contains("J"), "{msg}");
+    assert!(
+        msg.starts_with("states[1]") && msg.contains("end j (z = B)"),
+        "{msg}"
+    );
     assert_eq!(loads[2]["status"], "overflow");
     assert!(loads[2]["error"].as_str().unwrap().starts_with("states[2]"));
 }

@@ -358,3 +358,429 @@ fn raimondi_boyd_full_bearing() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Backends and interfaces.
+
+use bearing_sweep::backend::{
+    CpuBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest, Precision,
+};
+
+/// States over the film's range: aligned, tilted, whirling, squeezing, near the wall.
+fn mixed_states(p: &BearingParams, n: usize) -> Vec<BearingState> {
+    let d = p.clearance;
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * 0.7;
+            let e = 0.05 + 0.9 * ((k * 37 % 101) as f64 / 100.0);
+            let tilt = if k % 3 == 0 { 0.0 } else { 0.3 };
+            BearingState {
+                xi: e * d * t.cos(),
+                yi: e * d * t.sin(),
+                xj: e * d * (1.0 - tilt) * (t + 0.2).cos(),
+                yj: e * d * (1.0 - tilt) * (t + 0.2).sin(),
+                vxi: if k % 4 == 1 { 0.2 * d } else { 0.0 },
+                vyi: if k % 4 == 2 { -0.3 * d } else { 0.0 },
+                vxj: 0.0,
+                vyj: if k % 5 == 0 { 0.1 * d } else { 0.0 },
+                omega: if k % 7 == 3 { 0.0 } else { 1.0 },
+            }
+        })
+        .collect()
+}
+
+fn gpu_required() -> bool {
+    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+fn gpu_f64() -> Option<GpuBackend> {
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    match GpuBackend::new(Accuracy::default(), options) {
+        Ok(b) => Some(b),
+        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
+        Err(e) => {
+            eprintln!("notice: skipping the finite-film GPU cases: {e}");
+            None
+        }
+    }
+}
+
+fn eval_all(ev: &mut LoadEvaluator, p: &BearingParams, states: &[BearingState]) -> Vec<Loads> {
+    let req: Vec<LoadRequest> = states
+        .iter()
+        .map(|&state| LoadRequest { bearing: 0, state })
+        .collect();
+    let mut out = Vec::new();
+    ev.evaluate(&[*p], &req, &mut out);
+    out.into_iter()
+        .enumerate()
+        .map(|(k, r)| r.unwrap_or_else(|e| panic!("state {k}: {e}")))
+        .collect()
+}
+
+fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    let n = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+    // A state without pressure (no spin, no squeeze): both zero.
+    if n > 0.0 {
+        d / n
+    } else {
+        d
+    }
+}
+
+/// The evaluator's finite path (CPU backend, threads over states) equals the single-state
+/// solver bit for bit (same sweeps, same order), for both inlets.
+#[test]
+fn evaluator_cpu_path_equals_the_direct_solver() {
+    for inlet in [Inlet::None, Inlet::MaxFilm] {
+        let g = FiniteSettings {
+            inlet,
+            ..grid(32, 8)
+        };
+        let p = bearing(0.5, FilmModel::Finite, g);
+        let states = mixed_states(&p, 40);
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        ev.set_warm_start(false);
+        let got = eval_all(&mut ev, &p, &states);
+        for (k, (s, l)) in states.iter().zip(&got).enumerate() {
+            let want = finite_loads(&p, s, &g).unwrap();
+            assert_eq!(
+                l.load_vector(p.length),
+                want.load_vector(p.length),
+                "{inlet:?} state {k}: evaluator vs direct solver"
+            );
+        }
+        let loaded = states
+            .iter()
+            .filter(|s| {
+                bearing_sweep::bearing::pack_state(&p, s)
+                    .unwrap()
+                    .rate_scale
+                    > 0.0
+            })
+            .count();
+        assert_eq!(ev.stats().finite_states, loaded as u64);
+    }
+}
+
+/// Warm start: re-evaluating slightly moved states (1e-4 relative, a time step's worth)
+/// from the previous fields gives the cold result to the solver tolerance (checked at
+/// 1e-6 relative with tolerance 1e-9) in fewer sweeps (SOR converges linearly, so a start
+/// 1e-4 off saves about log(1e-4)/log(1e-9) of the sweeps).
+#[test]
+fn warm_start_agrees_with_cold_start_in_fewer_sweeps() {
+    let g = FiniteSettings {
+        tolerance: 1e-9,
+        ..grid(64, 16)
+    };
+    let p = bearing(0.5, FilmModel::Finite, g);
+    let states = mixed_states(&p, 24);
+    let moved: Vec<BearingState> = states
+        .iter()
+        .map(|s| BearingState {
+            xi: s.xi * (1.0 + 1e-4),
+            yj: s.yj * (1.0 - 1e-4) + 1e-6 * p.clearance,
+            ..*s
+        })
+        .collect();
+    let mut warm = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    eval_all(&mut warm, &p, &states);
+    let before = warm.stats();
+    let w = eval_all(&mut warm, &p, &moved);
+    let after = warm.stats();
+    let mut cold = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    cold.set_warm_start(false);
+    eval_all(&mut cold, &p, &states);
+    let c0 = cold.stats();
+    let c = eval_all(&mut cold, &p, &moved);
+    let c1 = cold.stats();
+    for (k, (a, b)) in w.iter().zip(&c).enumerate() {
+        let e = rel(&a.load_vector(p.length), &b.load_vector(p.length));
+        check("warm vs cold", k, e, 0.0, 1e-6);
+    }
+    let warm_sweeps = after.finite_sweeps - before.finite_sweeps;
+    let cold_sweeps = c1.finite_sweeps - c0.finite_sweeps;
+    println!("sweeps for 24 moved states: warm {warm_sweeps}, cold {cold_sweeps}");
+    let solved = after.finite_states - before.finite_states;
+    assert_eq!(after.finite_warm_starts - before.finite_warm_starts, solved);
+    assert!(
+        (warm_sweeps as f64) < 0.7 * cold_sweeps as f64,
+        "warm start must save sweeps: warm {warm_sweeps}, cold {cold_sweeps}"
+    );
+}
+
+/// CPU and the WGSL kernel agree to the solver tolerance (tolerance 1e-10: load vectors
+/// within 1e-8 relative), cold and warm, both inlets; lavapipe here.
+#[test]
+fn cpu_and_gpu_agree() {
+    let Some(gpu) = gpu_f64() else { return };
+    let mut gpu_ev = LoadEvaluator::new(Box::new(gpu));
+    for inlet in [Inlet::None, Inlet::MaxFilm] {
+        let g = FiniteSettings {
+            inlet,
+            tolerance: 1e-10,
+            ..grid(64, 16)
+        };
+        let p = bearing(0.5, FilmModel::Finite, g);
+        let states = mixed_states(&p, 48);
+        let mut cpu_ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        for pass in 0..2 {
+            let c = eval_all(&mut cpu_ev, &p, &states);
+            let gl = eval_all(&mut gpu_ev, &p, &states);
+            for (k, (a, b)) in gl.iter().zip(&c).enumerate() {
+                let e = rel(&a.load_vector(p.length), &b.load_vector(p.length));
+                check(
+                    &format!("GPU vs CPU ({inlet:?}, pass {pass})"),
+                    k,
+                    e,
+                    0.0,
+                    1e-8,
+                );
+            }
+        }
+        assert!(gpu_ev.take_notices().is_empty(), "no CPU fallback expected");
+    }
+    let st = gpu_ev.stats();
+    assert!(
+        st.finite_warm_starts > 0 && st.cpu_recomputed == 0,
+        "{st:?}"
+    );
+}
+
+/// A grid too large for the kernel's workgroup memory is recomputed on the CPU with a
+/// notice, not lost.
+#[test]
+fn gpu_grid_beyond_workgroup_memory_falls_back_to_cpu() {
+    let Some(gpu) = gpu_f64() else { return };
+    let g = grid(128, 32);
+    let p = bearing(0.5, FilmModel::Finite, g);
+    let states = mixed_states(&p, 3);
+    let mut ev = LoadEvaluator::new(Box::new(gpu));
+    let got = eval_all(&mut ev, &p, &states);
+    let notices = ev.take_notices();
+    assert!(
+        notices.iter().any(|n| n.contains("workgroup memory")),
+        "{notices:?}"
+    );
+    for (k, (s, l)) in states.iter().zip(&got).enumerate() {
+        let want = finite_loads(&p, s, &g).unwrap();
+        let e = rel(&l.load_vector(p.length), &want.load_vector(p.length));
+        check("fallback vs direct", k, e, 0.0, 1e-12);
+    }
+}
+
+/// The stored model-error map is what the code computes: entries recomputed on the map's
+/// grid match to the stored rounding (5 decimals in load, 3 in attitude degrees); an
+/// interpolated point between nodes is within 10 % (load) of a direct computation.
+#[test]
+fn stored_error_map_matches_recomputation() {
+    let g = error_map_settings();
+    for (n, &(bi, ei)) in [(0usize, 6usize), (4, 6), (9, 10), (2, 0), (6, 3)]
+        .iter()
+        .enumerate()
+    {
+        let (bd, ecc) = (ERROR_MAP_ASPECTS[bi], ERROR_MAP_ECC[ei]);
+        let direct = compute_short_model_error(bd, ecc, &g);
+        let stored = short_model_error(bd, ecc);
+        check("map load", n, stored.load, direct.load, 1e-5);
+        check(
+            "map attitude, deg",
+            n,
+            stored.attitude_deg,
+            direct.attitude_deg,
+            1e-3,
+        );
+        assert!(!stored.extrapolated);
+    }
+    let (bd, ecc) = (0.45, 0.65);
+    let direct = compute_short_model_error(bd, ecc, &g);
+    let interp = short_model_error(bd, ecc);
+    check(
+        "map interpolation (relative)",
+        0,
+        interp.load / direct.load,
+        1.0,
+        0.10,
+    );
+    // Outside: below B/D = 0.1 the (B/D)² law, beyond the edges flagged.
+    let small = short_model_error(0.05, 0.6);
+    check(
+        "map (B/D)² below 0.1",
+        0,
+        small.load,
+        short_model_error(0.1, 0.6).load / 4.0,
+        1e-12,
+    );
+    assert!(short_model_error(1.5, 0.5).extrapolated && short_model_error(0.5, 0.97).extrapolated);
+}
+
+/// `"model": "auto"` evaluates a state with the short model where the map's error at its
+/// eccentricity is under `finite.auto_tolerance`, else with the finite one, and the loads
+/// are exactly those of the chosen model.
+#[test]
+fn auto_model_switches_on_the_mapped_error() {
+    let g = FiniteSettings {
+        auto_tolerance: 0.05,
+        ..grid(64, 16)
+    };
+    let p = bearing(0.1, FilmModel::Auto, g);
+    // B/D = 0.1: 1.4 % at ε = 0.6 (short), 14 % at ε = 0.95 (finite).
+    let states = [aligned(&p, 0.6), aligned(&p, 0.95)];
+    let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let got = eval_all(&mut ev, &p, &states);
+    assert_eq!(ev.stats().finite_states, 1);
+    let rule = FilmRule::new(Accuracy::default().settings());
+    let want_short = film_loads(&p, &states[0], &rule).unwrap();
+    assert_eq!(
+        got[0].load_vector(p.length),
+        want_short.load_vector(p.length)
+    );
+    let want_finite = finite_loads(&p, &states[1], &g).unwrap();
+    assert_eq!(
+        got[1].load_vector(p.length),
+        want_finite.load_vector(p.length)
+    );
+}
+
+/// The bearing object takes `model` and `finite` wherever a bearing is given; bad values
+/// are rejected naming the field.
+#[test]
+fn bearing_json_takes_model_and_rejects_bad_settings() {
+    let p: BearingParams = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
+        "model": "finite", "finite": {"n_theta": 48, "n_z": 12, "inlet": "max_film"}
+    }))
+    .unwrap();
+    assert_eq!(p.model, FilmModel::Finite);
+    assert_eq!(
+        (p.finite.n_theta, p.finite.n_z, p.finite.inlet),
+        (48, 12, Inlet::MaxFilm)
+    );
+    assert_eq!(p.finite.tolerance, FiniteSettings::default().tolerance);
+    let default: BearingParams = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242
+    }))
+    .unwrap();
+    assert_eq!(default.model, FilmModel::Short);
+    for (finite, field) in [
+        (
+            serde_json::json!({"n_theta": 51, "n_z": 8}),
+            "finite.n_theta",
+        ),
+        (serde_json::json!({"n_theta": 64, "n_z": 1}), "finite.n_z"),
+        (serde_json::json!({"tolerance": 0.0}), "finite.tolerance"),
+        (
+            serde_json::json!({"auto_tolerance": -1.0}),
+            "finite.auto_tolerance",
+        ),
+    ] {
+        let p = BearingParams {
+            finite: serde_json::from_value(finite.clone()).unwrap(),
+            ..BearingParams::paper_table2()
+        };
+        let e = p.validate().expect_err("must be rejected");
+        assert_eq!(e.field, field, "{finite}: {e}");
+    }
+    let bad: Result<BearingParams, _> = serde_json::from_value(serde_json::json!({
+        "radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242, "model": "long"
+    }));
+    assert!(bad.unwrap_err().to_string().contains("unknown variant"));
+}
+
+/// A rotor scene runs with either model (the paper rotor, 0.05 s): both finish, the
+/// finite film carries the rotor at a larger eccentricity (the short model overestimates
+/// the load at B/D = 0.5 by ~30 %), and the run reports the short model's mapped error.
+#[test]
+fn rotor_scene_runs_with_either_model() {
+    use bearing_sweep::rotor::{load_scene, simulate_batch, SimStatus};
+    let base: serde_json::Value =
+        serde_json::from_str(include_str!("../sweeps/paper-example.json")).unwrap();
+    let mut results = Vec::new();
+    for model in ["short", "finite"] {
+        let mut s = base.clone();
+        s["compare_ideal"] = serde_json::json!(false);
+        s["integrator"]["t_end"] = serde_json::json!(0.05);
+        for b in s["bearings"].as_array_mut().unwrap() {
+            b["model"] = serde_json::json!(model);
+        }
+        let scenes = load_scene(&s.to_string()).unwrap();
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        let r = simulate_batch(&scenes, &mut ev, &mut |_, _| {}).remove(0);
+        assert!(
+            matches!(r.status, SimStatus::Finished),
+            "{model}: {:?}",
+            r.status
+        );
+        let fe = r
+            .model_reductions
+            .film_model_error
+            .clone()
+            .expect("film model report");
+        if model == "short" {
+            assert_eq!(fe.applied_to, fe.of);
+            assert!(fe.error.unwrap() > 0.05, "{fe:?}");
+            assert_eq!(ev.stats().finite_states, 0);
+        } else {
+            assert_eq!(fe.applied_to, Some(0));
+            assert!(ev.stats().finite_states > 0);
+        }
+        results.push(r);
+    }
+    let ecc_max = |r: &bearing_sweep::rotor::SimResult| {
+        r.samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.eccentricity_max.iter().copied())
+            .fold(0.0, f64::max)
+    };
+    let (es, ef) = (ecc_max(&results[0]), ecc_max(&results[1]));
+    println!("ε_max short {es:.4}, finite {ef:.4}");
+    assert!(ef > es, "finite film is softer: ε_max {ef} vs {es}");
+}
+
+/// `eval` with a finite bearing reports the model and a Richardson error estimate per
+/// state, and the estimate tracks the true discretisation error of the default grid
+/// (against 256×64 extrapolated): within a factor 3 either way.
+#[test]
+fn eval_reports_model_and_a_truthful_error_estimate() {
+    use bearing_sweep::cli::{eval_json, EvalOptions};
+    let input = serde_json::json!({
+        "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
+                    "model": "finite"},
+        "states": [
+            {"xi": 1.8e-4, "yi": 0.0, "xj": 1.8e-4, "yj": 0.0, "vxi": 0.0, "vyi": 0.0,
+             "vxj": 0.0, "vyj": 0.0, "omega": 100.0},
+            {"xi": 1.5e-4, "yi": 6e-5, "xj": 6e-5, "yj": -1.2e-4, "vxi": 3e-3, "vyi": 6e-3,
+             "vxj": -3e-3, "vyj": 9e-3, "omega": 100.0}
+        ]
+    });
+    let (out, _) = eval_json(&input.to_string(), EvalOptions::default()).unwrap();
+    assert_eq!(out["film_model"], "finite");
+    let p: BearingParams = serde_json::from_value(input["bearing"].clone()).unwrap();
+    for k in 0..2 {
+        let l = &out["loads"][k];
+        assert_eq!(l["film_model"], "finite");
+        let est = l["finite_error_estimate"].as_f64().unwrap();
+        let s: BearingState = serde_json::from_value(input["states"][k].clone()).unwrap();
+        let reference = extrapolated(&p, &s, grid(256, 64));
+        let got = [
+            l["wx"].as_f64().unwrap(),
+            l["wy"].as_f64().unwrap(),
+            l["mx"].as_f64().unwrap() / p.length,
+            l["my"].as_f64().unwrap() / p.length,
+        ];
+        let actual = rel(&got, &reference);
+        println!("state {k}: estimate {est:.3e}, actual {actual:.3e}");
+        check(
+            "estimate / actual (log10)",
+            k,
+            (est / actual).log10(),
+            0.0,
+            3f64.log10(),
+        );
+    }
+}

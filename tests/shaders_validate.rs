@@ -60,3 +60,30 @@ fn f64_kernel_needs_the_f64_capability() {
             .is_err()
     );
 }
+
+/// The finite-film kernel (issue 16) validates with f64 and keeps its workgroup memory
+/// (field + reduction buffer) within the 16 KiB WebGPU guarantees; its `MAX_NODES` is the
+/// host's `FINITE_MAX_NODES`.
+#[test]
+fn finite_film_kernel_validates_and_fits_workgroup_memory() {
+    use bearing_sweep::backend::{FINITE_MAX_NODES, FINITE_WGSL};
+    validate("finite.wgsl", FINITE_WGSL, Capabilities::FLOAT64);
+    let module = naga::front::wgsl::parse_str(FINITE_WGSL).expect("parses");
+    let mut bytes = 0u32;
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    for (_, g) in module.global_variables.iter() {
+        if g.space == naga::AddressSpace::WorkGroup {
+            bytes += layouter[g.ty].size;
+        }
+    }
+    assert!(
+        bytes > 0 && bytes <= 16384,
+        "finite.wgsl workgroup memory {bytes} B, expected within (0, 16384]"
+    );
+    let declared = FINITE_WGSL
+        .lines()
+        .find_map(|l| l.strip_prefix("const MAX_NODES: u32 = "))
+        .and_then(|r| r.trim_end_matches("u;").parse::<usize>().ok());
+    assert_eq!(declared, Some(FINITE_MAX_NODES), "shader MAX_NODES vs host");
+}

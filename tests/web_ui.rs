@@ -157,6 +157,28 @@ fn page_assets_and_examples_are_served() {
         .find(|e| e["name"] == "clearance-viscosity")
         .unwrap();
     assert_eq!(sweep["role"], "sweep");
+    // The check behind "Check spec": the submission's verdict, nothing stored.
+    let good = serde_json::to_string(&small_spec()).unwrap();
+    let (s, v) = post_json(&format!("{base}/api/validate"), &good);
+    assert_eq!(
+        (s, &v["variants"], &v["kind"]),
+        (200, &json!(6), &json!("rotor")),
+        "{v}"
+    );
+    let mut bad = small_spec();
+    bad["base"]["bearings"][1]["length"] = json!(-0.02);
+    let bad = serde_json::to_string(&bad).unwrap();
+    let (s1, checked) = post_json(&format!("{base}/api/validate"), &bad);
+    let (s2, submitted) = post_json(&format!("{base}/api/sweeps"), &bad);
+    assert_eq!(
+        (s1, &checked),
+        (s2, &submitted),
+        "validate vs submit of a bad spec"
+    );
+    assert_eq!(s1, 422);
+    let (s, v) = post_json(&format!("{base}/api/validate?backend=abacus"), &good);
+    assert_eq!((s, &v["error"]["path"]), (422, &json!("?backend")), "{v}");
+    assert_eq!(sweep_count(base), 0, "validate stored a sweep");
     // An example that is not there: 404 with the JSON error shape naming the field.
     let (s, err) = get_json(&format!("{base}/api/examples/nope"));
     assert_eq!(s, 404);
@@ -235,15 +257,29 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         "error path names the field: {server_err}"
     );
     type_spec(&b, &bad_text);
-    b.click("#submit");
-    let shown = b.wait("the inline error", short, || {
-        let t = b.text("#spec-error");
-        (!t.is_empty()).then_some(t)
-    });
-    assert!(
-        shown.contains(&path) && shown.contains(&message),
-        "inline error {shown:?} lacks the server's path {path:?} or message {message:?}"
-    );
+    // "Check spec" (nothing stored) and "Submit" both show it at the field.
+    for button in ["#check", "#submit"] {
+        b.exec("document.querySelector('#spec-error').hidden = true; document.querySelector('#spec-error').textContent = ''", json!([]));
+        b.click(button);
+        let shown = b.wait("the inline error", short, || {
+            let t = b.text("#spec-error");
+            (!t.is_empty()).then_some(t)
+        });
+        assert!(
+            shown.contains(&path) && shown.contains(&message),
+            "{button}: inline error {shown:?} lacks the server's path {path:?} or message {message:?}"
+        );
+        // The editor's cursor is put at the bad field (line of "length": -0.02).
+        let caret = b.exec(
+            "const t = document.querySelector('#spec'); return t.value.slice(t.selectionStart, t.selectionStart + 5)",
+            json!([]),
+        );
+        assert_eq!(
+            caret,
+            json!("-0.02"),
+            "{button}: the cursor is not at the bad value"
+        );
+    }
     let invalid = b.exec(
         "return document.querySelector('#spec').getAttribute('aria-invalid')",
         json!([]),
@@ -254,6 +290,13 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     // 3. Submit the small sweep; watch the live progress reach done.
     let spec = small_spec();
     type_spec(&b, &serde_json::to_string_pretty(&spec).unwrap());
+    b.click("#check");
+    b.wait("the check's verdict", short, || {
+        b.text("#submit-status")
+            .contains("6 variants")
+            .then_some(())
+    });
+    assert_eq!(sweep_count(&base), before, "a checked spec was stored");
     b.click("#submit");
     b.wait("the error box to clear", short, || {
         b.text("#spec-error").is_empty().then_some(())
@@ -286,6 +329,13 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
             .then_some(())
     });
     eprintln!("progress texts seen: {seen_counts:?}");
+    // `done` came through the event stream (not only through the list's polling).
+    let live = b.exec(
+        "const d = document.querySelector('#detail').dataset; return [Number(d.events || 0), d.lastEvent || '']",
+        json!([]),
+    );
+    assert_eq!(live[1], json!("status:done"), "last live event: {live}");
+    assert!(live[0].as_u64().unwrap() >= 2, "live events: {live}");
 
     // 4. The table against result.json: row count and numbers.
     let (status, result) = get_json(&format!("{base}/api/sweeps/{id}/result"));
@@ -318,6 +368,51 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
             5e-4,
         );
     }
+    // The spec's own figures, as `run` draws them, each shown once.
+    let (_, plots) = get_json(&format!("{base}/api/sweeps/{id}/plots"));
+    let plots = plots["plots"].as_array().map_or(0, Vec::len);
+    assert_eq!(plots, 2, "the spec asks for two plots");
+    b.wait("the server's figures", short, || {
+        (b.count("#server-plots figure img") == plots).then_some(())
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(
+        b.count("#server-plots figure img"),
+        plots,
+        "figures shown twice"
+    );
+    // The CSV download is the API's CSV.
+    let downloads = data.join("downloads");
+    std::fs::create_dir_all(&downloads).unwrap();
+    b.cmd(
+        "POST",
+        "/goog/cdp/execute",
+        Some(json!({"cmd": "Browser.setDownloadBehavior",
+                    "params": {"behavior": "allow", "downloadPath": downloads.to_string_lossy()}})),
+    )
+    .expect("allow downloads");
+    b.click("#dl-csv");
+    let csv = b.wait("the CSV download", short, || {
+        let f = std::fs::read_dir(&downloads)
+            .ok()?
+            .flatten()
+            .find(|e| e.path().extension().is_some_and(|x| x == "csv"))?;
+        std::fs::read_to_string(f.path())
+            .ok()
+            .filter(|t| !t.is_empty())
+    });
+    let (s_csv, api_csv) = get(&format!("{base}/api/sweeps/{id}/variants?format=csv"), None);
+    assert_eq!(s_csv, 200);
+    assert_eq!(
+        csv,
+        api_csv.split_once('\n').unwrap().1,
+        "downloaded CSV vs the API's"
+    );
+    assert_eq!(
+        csv.lines().count(),
+        n + 1,
+        "CSV: a header and one row per variant"
+    );
     let header = b.text("#variants thead th[data-key='h_min']");
     assert!(
         header.contains("µm"),
@@ -396,6 +491,16 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         }
     }
     assert!(tip.contains("variant 0"), "hover text {tip:?}");
+    // By keyboard: a focused map cell opens its variant with Enter.
+    let cell1 = "#map-h_min rect.cell[data-id='1']";
+    b.exec(
+        "document.querySelector(arguments[0]).focus()",
+        json!([cell1]),
+    );
+    b.type_into(cell1, "\u{E007}");
+    b.wait("variant 1 opened by keyboard", short, || {
+        b.text("#variant-id").starts_with("1 ").then_some(())
+    });
 
     // 6. The eval panel: its loads against the same request straight to the API.
     b.click("#eval-run");
@@ -439,7 +544,97 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.type_into("#eval-b-clearance", "0.0003");
     b.click("#eval-run");
 
-    // 7. Screenshots, and no sideways scrolling at phone width.
+    // 7. Cancel a running sweep from the page: it stops, its finished variants stay readable.
+    let mut long_spec = spec.clone();
+    long_spec["name"] = json!("web test: cancelled");
+    long_spec["base"]["integrator"]["t_end"] = json!(3.0);
+    type_spec(&b, &serde_json::to_string(&long_spec).unwrap());
+    b.click("#submit");
+    let long_id = b.wait("the second sweep selected", short, || {
+        let v = b.exec(
+            "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
+            json!([]),
+        );
+        v.as_str().filter(|s| *s != id).map(str::to_string)
+    });
+    b.wait("the second sweep running", long, || {
+        (b.text("#sweep-status") == "running").then_some(())
+    });
+    b.click("#detail-cancel");
+    b.wait("status cancelled", short, || {
+        (b.text("#sweep-status") == "cancelled").then_some(())
+    });
+    let (_, info) = get_json(&format!("{base}/api/sweeps/{long_id}"));
+    assert_eq!(info["status"], "cancelled", "{info}");
+    let done = info["progress"]["done"].as_u64().unwrap() as usize;
+    assert!(
+        done < n,
+        "cancelled after {done} of {n}: too late to show a cancel"
+    );
+    b.wait(
+        "the finished variants of the cancelled sweep",
+        short,
+        || (b.count("#variants tbody tr") == done).then_some(()),
+    );
+    // A friction map (Fig. 4) straight from the example picker: one curve per speed.
+    b.click("#example option[value='friction-map']");
+    b.click("#example-load");
+    b.wait("the friction-map example", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str()
+            .unwrap_or("")
+            .contains("friction_map")
+            .then_some(())
+    });
+    b.click("#submit");
+    b.wait("the friction map done", long, || {
+        (b.text("#detail-name").starts_with("Fig. 4") && b.text("#sweep-status") == "done")
+            .then_some(())
+    });
+    let fm_id = b.exec(
+        "const r = document.querySelector('#queue tbody tr.sel'); return r ? r.dataset.id : null",
+        json!([]),
+    );
+    let (_, fm) = get_json(&format!(
+        "{base}/api/sweeps/{}/result",
+        fm_id.as_str().unwrap()
+    ));
+    let curves = fm["curves"]
+        .as_array()
+        .expect("a friction map result has curves");
+    let drawn = b.wait("Fig. 4 drawn", short, || {
+        let v = b.exec(
+            "return [...document.querySelectorAll('#fig4 path.series')].map(p => (p.getAttribute('d').match(/[ML]/g) || []).length)",
+            json!([]),
+        );
+        let v: Vec<usize> = v.as_array()?.iter().map(|x| x.as_u64().unwrap() as usize).collect();
+        (!v.is_empty()).then_some(v)
+    });
+    let expected: Vec<usize> = curves
+        .iter()
+        .map(|c| c["points"].as_array().unwrap().len())
+        .collect();
+    assert_eq!(
+        drawn, expected,
+        "Fig. 4: points per speed curve drawn vs result.json"
+    );
+    b.exec(
+        "document.getElementById('detail-h').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(400));
+    b.screenshot(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots/desktop-fig4.png"),
+        false,
+    );
+
+    // Back to the finished sweep for the screenshots.
+    b.click(&format!("#queue tbody tr[data-id='{id}'] button.link"));
+    b.wait("the first sweep again", short, || {
+        (b.count("#variants tbody tr") == n).then_some(())
+    });
+
+    // 8. Screenshots, and no sideways scrolling at phone width.
     let shots = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
     b.click("#map-h_min rect.cell[data-id='3']");
     b.exec(

@@ -333,9 +333,10 @@ fn a_numerical_blow_up_depends_on_the_step_and_has_no_physical_frequency() {
     );
 }
 
-/// Writes the figures of docs/whirl.md when `BEARING_SWEEP_WHIRL_FIGURES` names a folder
-/// (nothing otherwise): the orbit radius over the whole run (growth, then the limit
-/// cycle) for several methods, the journal orbit, and the numerical blow-ups.
+/// Writes the figures of docs/whirl.md (committed in reports/figures/whirl/) when
+/// `BEARING_SWEEP_WHIRL_FIGURES` names a folder (nothing otherwise): the orbit radius over
+/// the whole run (growth, then the limit cycle) for several methods, the journal orbit,
+/// and the numerical blow-ups.
 #[test]
 fn figures() {
     let Ok(dir) = std::env::var("BEARING_SWEEP_WHIRL_FIGURES") else {

@@ -55,6 +55,37 @@ pub struct EvalStats {
 /// solves start cold.
 const WARM_BUDGET_F64: usize = 32 << 20;
 
+/// Angle of the journal's mid-plane eccentricity, rad (0 for a centred journal).
+fn mid_angle(job: &FiniteJob) -> f64 {
+    let e = &job.state.ecc;
+    (e[1] + e[3]).atan2(e[0] + e[2])
+}
+
+/// Turns a warm-start field by `d` rad in θ (periodic linear interpolation per row): the
+/// film pattern follows the line of centres, which in a rotor orbit turns by `ω Δt` per
+/// step, about a tenth of a grid cell at the paper's 100 rad/s; turned, the previous field
+/// is a much closer start (BENCHMARKS.md "Finite-length film").
+fn rotate_field(f: &mut [f64], grid: &FiniteGrid, d: f64) {
+    let nt = grid.n_theta;
+    let shift = d / (2.0 * std::f64::consts::PI / nt as f64);
+    if !shift.is_finite() || shift.abs() < 1e-3 {
+        return;
+    }
+    let k0 = shift.floor();
+    let w = shift - k0;
+    let k0 = (k0 as i64).rem_euclid(nt as i64) as usize;
+    let mut row = vec![0.0; nt];
+    for r in f.chunks_mut(nt) {
+        row.copy_from_slice(r);
+        for (i, v) in r.iter_mut().enumerate() {
+            // New value at θ_i is the old one at θ_i − d.
+            let a = (i + nt - k0) % nt;
+            let b = (a + nt - 1) % nt;
+            *v = (1.0 - w) * row[a] + w * row[b];
+        }
+    }
+}
+
 /// One finite-film state of a call: request index, rate scale, job, grid, warm-start key.
 struct FiniteSlot {
     request: usize,
@@ -125,7 +156,9 @@ pub struct LoadEvaluator {
     notices: Vec<String>,
     stats: EvalStats,
     finite: Vec<FiniteSlot>,
-    warm: std::collections::HashMap<(u32, u32), Vec<f64>>,
+    /// Last field per warm-start key, with the angle of the journal's mid-plane
+    /// eccentricity it was computed at.
+    warm: std::collections::HashMap<(u32, u32), (Vec<f64>, f64)>,
     warm_start: bool,
 }
 
@@ -185,6 +218,11 @@ impl LoadEvaluator {
     /// The backend's description.
     pub fn info(&self) -> BackendInfo {
         self.backend.info()
+    }
+
+    /// Why the backend runs, when [`super::choose_backend`] created it.
+    pub fn choice(&self) -> Option<super::BackendChoice> {
+        self.backend.choice()
     }
 
     /// The backend itself.
@@ -385,7 +423,13 @@ impl LoadEvaluator {
                 .iter()
                 .map(|s| {
                     let f = if self.warm_start {
-                        self.warm.remove(&s.key).unwrap_or_default()
+                        match self.warm.remove(&s.key) {
+                            Some((mut f, angle)) if f.len() == grid.field_len() => {
+                                rotate_field(&mut f, &grid, mid_angle(&s.job) - angle);
+                                f
+                            }
+                            _ => Vec::new(),
+                        }
                     } else {
                         Vec::new()
                     };
@@ -454,10 +498,10 @@ impl LoadEvaluator {
                 ));
             }
             if self.warm_start {
-                let kept: usize = self.warm.values().map(Vec::len).sum();
+                let kept: usize = self.warm.values().map(|(f, _)| f.len()).sum();
                 if kept + fields.len() * grid.field_len() <= WARM_BUDGET_F64 {
                     for (slot, f) in group.iter().zip(fields) {
-                        self.warm.insert(slot.key, f);
+                        self.warm.insert(slot.key, (f, mid_angle(&slot.job)));
                     }
                 }
             }

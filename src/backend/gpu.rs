@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
 use super::{BackendError, BackendInfo, CpuBackend, FilmBackend, Precision};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings};
 
 /// The kernel's WGSL source as shipped (f64).
@@ -169,6 +170,8 @@ pub struct GpuBackend {
     last: GpuTiming,
     notice: Option<String>,
     software: bool,
+    /// The finite-film kernel, compiled on first use (f64 devices only).
+    finite: Option<super::finite_gpu::FinitePipeline>,
 }
 
 /// The uniform block of the shader (`Params`).
@@ -468,6 +471,7 @@ impl GpuBackend {
             last: GpuTiming::default(),
             notice: None,
             software: info.device_type == wgpu::DeviceType::Cpu,
+            finite: None,
         };
         backend.self_check()?;
         Ok(backend)
@@ -846,5 +850,35 @@ impl FilmBackend for GpuBackend {
         }
         self.last.total_s = start.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    fn integrate_finite(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.check_fault()?;
+        if self.precision != Precision::F64 {
+            return Err(BackendError::Device(
+                "the finite-film kernel needs SHADER_F64; this GPU kernel runs in f32".into(),
+            ));
+        }
+        if self.finite.is_none() {
+            self.finite = Some(super::finite_gpu::FinitePipeline::new(&self.device)?);
+        }
+        let pipeline = self.finite.as_ref().expect("built above");
+        pipeline.run(
+            &self.device,
+            &self.queue,
+            self.timeout,
+            jobs,
+            grid,
+            fields,
+            out,
+            reports,
+        )
     }
 }

@@ -5,6 +5,8 @@ pub mod bench;
 mod cpu;
 mod evaluator;
 mod finite;
+pub mod finite_bench;
+mod finite_gpu;
 mod gpu;
 
 pub use cpu::CpuBackend;
@@ -12,6 +14,7 @@ pub use evaluator::{
     EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
 };
 pub use finite::effective_model;
+pub use finite_gpu::{FINITE_MAX_NODES, FINITE_WGSL};
 pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
 
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
@@ -25,7 +28,8 @@ pub enum BackendKind {
     Cpu,
     /// The WGSL kernel through wgpu; an error when no adapter exists.
     Gpu,
-    /// The GPU when an adapter exists, else the CPU with a one-line notice.
+    /// A hardware GPU for large enough batches, else the CPU, with a one-line notice
+    /// ([`choose_backend`]).
     #[default]
     Auto,
 }
@@ -105,60 +109,170 @@ pub trait FilmBackend: Send {
         finite::cpu_integrate_finite(jobs, grid, fields, out, reports, true);
         Ok(())
     }
+
+    /// Why this backend runs, when [`choose_backend`] created it.
+    fn choice(&self) -> Option<BackendChoice> {
+        None
+    }
 }
 
 /// Below this requested accuracy an f32 kernel cannot keep its promise (its rounding
 /// error reaches ~1e-5 near the wall); `gpu` and `auto` then say so.
 const F32_ACCURACY_FLOOR: f64 = 1e-5;
 
-/// Creates the backend of `kind` at `accuracy`. Returns the backend and, for `auto`
-/// falling back to the CPU (or a GPU limited to f32), the one-line notice to show the user.
-/// The GPU adapter follows `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`, its precision
-/// `BEARING_SWEEP_GPU_PRECISION` (see [`GpuOptions::from_env`]). `auto` passes over a
-/// software adapter (lavapipe: the same CPU, no faster than the CPU backend) unless
-/// `WGPU_ADAPTER_NAME` names it.
+/// Why a backend runs: what was asked for, what runs, and the reason (recorded in
+/// result.json and printed as one line on stderr when `auto` chose).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BackendChoice {
+    /// The `--backend` value.
+    pub requested: BackendKind,
+    /// The backend that runs: `"cpu"` or `"gpu"`.
+    pub backend: String,
+    /// Why (for `cpu` and `gpu`: "requested").
+    pub reason: String,
+}
+
+impl BackendChoice {
+    /// The one stderr line of an `auto` choice.
+    pub fn line(&self) -> String {
+        let target = if self.backend == "gpu" { "GPU" } else { "CPU" };
+        format!(
+            "notice: backend auto: {}; using the {target} backend",
+            self.reason
+        )
+    }
+}
+
+/// Creates the backend of `kind` at `accuracy`. Returns the backend and, for `auto`,
+/// the one-line notice of its choice (plus a second line when the GPU kernel's f32 cannot
+/// reach `accuracy`). Without a batch size `auto` assumes a large batch (sweeps); see
+/// [`choose_backend`].
 pub fn create_backend(
     kind: BackendKind,
     accuracy: Accuracy,
 ) -> Result<(Box<dyn FilmBackend>, Option<String>), BackendError> {
-    if kind == BackendKind::Cpu {
-        return Ok((Box::new(CpuBackend::new(accuracy, None)), None));
-    }
-    let cpu_instead = |why: String| -> (Box<dyn FilmBackend>, Option<String>) {
-        (
-            Box::new(CpuBackend::new(accuracy, None)),
-            Some(format!("notice: {why}; using the CPU backend")),
-        )
+    let (backend, notices) = choose_backend(kind, accuracy, None)?;
+    Ok((backend, (!notices.is_empty()).then(|| notices.join("\n"))))
+}
+
+/// Creates the backend of `kind` at `accuracy` for calls of about `states_per_call`
+/// bearing states (`None`: large, as in a sweep). Returns the backend, whose
+/// [`FilmBackend::choice`] says why it runs, and the notices for stderr (for `auto`
+/// first its one-line choice).
+///
+/// `auto` takes a hardware GPU adapter when the calls carry at least
+/// [`DEFAULT_CPU_BELOW`] states (below that the evaluator would route every call to the
+/// CPU anyway) and the CPU otherwise: when the calls are small, when no adapter exists,
+/// or when the adapter is a software rasteriser (lavapipe: the same CPU, no faster than
+/// the CPU backend), even one named by `WGPU_ADAPTER_NAME`. `gpu` takes any adapter,
+/// software included. The GPU adapter follows `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`, its
+/// precision `BEARING_SWEEP_GPU_PRECISION` (see [`GpuOptions::from_env`]).
+pub fn choose_backend(
+    kind: BackendKind,
+    accuracy: Accuracy,
+    states_per_call: Option<usize>,
+) -> Result<(Box<dyn FilmBackend>, Vec<String>), BackendError> {
+    let cpu = |reason: String| -> (Box<dyn FilmBackend>, Vec<String>) {
+        let choice = BackendChoice {
+            requested: kind,
+            backend: "cpu".into(),
+            reason,
+        };
+        let notices = if kind == BackendKind::Auto {
+            vec![choice.line()]
+        } else {
+            Vec::new()
+        };
+        let backend = Box::new(CpuBackend::new(accuracy, None));
+        (Box::new(Chosen { backend, choice }), notices)
     };
-    let gpu = GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o));
-    match gpu {
-        Ok(g)
-            if kind == BackendKind::Auto
-                && g.is_software()
-                && std::env::var_os("WGPU_ADAPTER_NAME").is_none() =>
-        {
-            Ok(cpu_instead(format!(
-                "the only GPU adapter is the software rasteriser `{}` (use --backend gpu to \
-                 run on it)",
-                g.info().device
+    match (kind, states_per_call) {
+        (BackendKind::Cpu, _) => return Ok(cpu("requested".into())),
+        (BackendKind::Auto, Some(n)) if n < DEFAULT_CPU_BELOW => {
+            return Ok(cpu(format!(
+                "{n} bearing states per call, below the GPU crossover of {DEFAULT_CPU_BELOW}"
             )))
         }
-        Ok(mut g) => {
-            let mut notice = g.take_notice();
-            if g.precision() == Precision::F32 && accuracy.rtol() < F32_ACCURACY_FLOOR {
-                let n = format!(
-                    "notice: the GPU kernel runs in f32 (agreement with f64 ~1e-5), looser than \
-                     the requested accuracy {:e}",
-                    accuracy.rtol()
-                );
-                notice = Some(match notice {
-                    Some(prev) => format!("{prev}\n{n}"),
-                    None => n,
-                });
-            }
-            Ok((Box::new(g), notice))
+        _ => {}
+    }
+    let mut g = match GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o)) {
+        Ok(g) => g,
+        Err(BackendError::NoAdapter(why)) if kind == BackendKind::Auto => {
+            return Ok(cpu(format!("no GPU adapter ({why})")))
         }
-        Err(e) if kind == BackendKind::Auto => Ok(cpu_instead(e.to_string())),
-        Err(e) => Err(e),
+        Err(e) if kind == BackendKind::Auto => return Ok(cpu(e.to_string())),
+        Err(e) => return Err(e),
+    };
+    let device = g.info().device;
+    if kind == BackendKind::Auto && g.is_software() {
+        return Ok(cpu(format!(
+            "the GPU adapter `{device}` is a software rasteriser (use --backend gpu to run on it)"
+        )));
+    }
+    let reason = match (kind, states_per_call) {
+        (BackendKind::Gpu, _) => "requested".to_string(),
+        (_, Some(n)) => format!("hardware adapter `{device}`, {n} bearing states per call"),
+        (_, None) => format!("hardware adapter `{device}`"),
+    };
+    let choice = BackendChoice {
+        requested: kind,
+        backend: "gpu".into(),
+        reason,
+    };
+    let mut notices = Vec::new();
+    if kind == BackendKind::Auto {
+        notices.push(choice.line());
+    }
+    notices.extend(g.take_notice());
+    if g.precision() == Precision::F32 && accuracy.rtol() < F32_ACCURACY_FLOOR {
+        notices.push(format!(
+            "notice: the GPU kernel runs in f32 (agreement with f64 ~1e-5), looser than the \
+             requested accuracy {:e}",
+            accuracy.rtol()
+        ));
+    }
+    Ok((
+        Box::new(Chosen {
+            backend: Box::new(g),
+            choice,
+        }),
+        notices,
+    ))
+}
+
+/// A backend with the reason it was chosen; everything else is the inner backend's
+/// (every trait method must be forwarded here, or the wrapper would hide an override).
+struct Chosen {
+    backend: Box<dyn FilmBackend>,
+    choice: BackendChoice,
+}
+
+impl FilmBackend for Chosen {
+    fn info(&self) -> BackendInfo {
+        self.backend.info()
+    }
+    fn settings(&self) -> RuleSettings {
+        self.backend.settings()
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        self.backend.integrate(states, out)
+    }
+    fn integrate_finite(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.backend
+            .integrate_finite(jobs, grid, fields, out, reports)
+    }
+    fn choice(&self) -> Option<BackendChoice> {
+        Some(self.choice.clone())
     }
 }

@@ -48,7 +48,11 @@ pub enum StateFault {
         field: &'static str,
     },
     /// The journal touches or passes through the bore wall at an end face: `ε >= 1`.
-    #[error("eccentricity ratio {ratio} >= 1 at end {end:?}: journal through the wall")]
+    #[error(
+        "eccentricity ratio {} >= 1 at end {}: journal through the wall",
+        if .ratio.is_finite() { crate::json::num(*.ratio) } else { "too large to represent".into() },
+        .end.name()
+    )]
     ThroughWall {
         /// Which end face.
         end: End,
@@ -73,6 +77,16 @@ pub enum StateFault {
         /// Why.
         reason: &'static str,
     },
+}
+
+impl End {
+    /// `i` (`z = 0`) or `j` (`z = B`), as in the state's field names.
+    pub fn name(self) -> &'static str {
+        match self {
+            End::I => "i (z = 0)",
+            End::J => "j (z = B)",
+        }
+    }
 }
 
 impl StateFault {

@@ -3,7 +3,7 @@
 use serde_json::{json, Map, Value};
 
 use super::{from_value, CliError};
-use crate::backend::{create_backend, BackendKind, LoadEvaluator, LoadRequest};
+use crate::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest};
 use crate::bearing::{Accuracy, BearingParams, BearingState};
 
 /// Options of `eval` beyond the input document.
@@ -18,7 +18,7 @@ pub struct EvalOptions {
 impl Default for EvalOptions {
     fn default() -> Self {
         EvalOptions {
-            backend: BackendKind::Cpu,
+            backend: BackendKind::Auto,
             accuracy: Accuracy::default().rtol(),
         }
     }
@@ -26,8 +26,8 @@ impl Default for EvalOptions {
 
 /// Runs `eval` on an input document; returns the output document and notices for stderr.
 pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String>), CliError> {
-    let doc: Value = serde_json::from_str(input)
-        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+    let doc: Value =
+        crate::json::parse_json(input).map_err(|e| CliError::input(e.path, e.reason))?;
     let obj = doc
         .as_object()
         .ok_or_else(|| CliError::input("$", "expected an object"))?;
@@ -47,7 +47,7 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
     bearing.validate().map_err(|e| {
         CliError::input(
             format!("bearing.{}", e.field),
-            format!("{} ({})", e.reason, e.value),
+            format!("{} (got {})", e.reason, crate::json::num(e.value)),
         )
     })?;
     let states = obj
@@ -66,8 +66,7 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
             format!("{} is not a positive number >= 1e-12", options.accuracy),
         )
     })?;
-    let (backend, notice) = create_backend(options.backend, accuracy)?;
-    let mut notices: Vec<String> = notice.into_iter().collect();
+    let (backend, mut notices) = choose_backend(options.backend, accuracy, Some(requests.len()))?;
     let mut evaluator = LoadEvaluator::new(backend);
     let mut results = Vec::new();
     evaluator.evaluate(&[bearing], &requests, &mut results);
@@ -113,6 +112,7 @@ pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String
         "accuracy": accuracy.rtol(),
         "nodes_per_panel": accuracy.settings().nodes,
         "backend": info,
+        "backend_choice": evaluator.choice(),
         "clearance_convention": bearing.clearance_convention.name(),
         "film_model": bearing.model.name(),
         "units": "SI (N, N·m, m, W)",

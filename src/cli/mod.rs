@@ -11,6 +11,7 @@ mod serve;
 mod stability;
 mod submit;
 mod sweep;
+mod worker;
 
 pub use bench::bench_backend;
 pub use bench_rotor::{
@@ -26,6 +27,7 @@ pub use serve::{serve_command, TOKEN_ENV};
 pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
+pub use worker::{worker_command, WorkerCommandOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]
@@ -65,9 +67,11 @@ impl CliError {
 
     /// An input error at `path`.
     pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
+        // Paths and reasons may quote user input: keep them short (a 100 MB string must
+        // not come back in the message).
         CliError::Input {
-            path: path.into(),
-            reason: reason.into(),
+            path: crate::json::shorten(&path.into(), crate::json::MAX_ECHO_CHARS * 2),
+            reason: crate::json::shorten(&reason.into(), crate::json::MAX_MESSAGE_CHARS),
         }
     }
 }

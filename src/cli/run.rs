@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use super::CliError;
-use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
 use crate::bearing::Accuracy;
 use crate::plot::{line_plot_svg, line_plot_svg_equal_aspect, Scale, Series};
 use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
@@ -54,8 +54,9 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
             format!("{} is not a positive number >= 1e-12", opts.accuracy),
         )
     })?;
-    let (backend, notice) = create_backend(opts.backend, accuracy)?;
-    let mut notices: Vec<String> = notice.into_iter().collect();
+    // Every integration stage carries one state per bearing of every scene.
+    let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
+    let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
     if opts.full_model {
         for s in &mut scenes {
             s.reductions = ReductionSpec::full();
@@ -94,6 +95,7 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
     let doc = json!({
         "name": stem,
         "backend": evaluator.info(),
+        "backend_choice": evaluator.choice(),
         "film_accuracy": accuracy.rtol(),
         "clearance_convention": scenes.iter().flat_map(|s| s.bearings.iter().map(|b| b.clearance_convention.name())).collect::<Vec<_>>(),
         "units": "SI (s, m, m/s, rad/s, N, N·m, J)",

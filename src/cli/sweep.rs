@@ -69,8 +69,8 @@ pub fn run_command(
     opts: &SweepRunOptions,
     notice: &mut dyn FnMut(String),
 ) -> Result<Vec<String>, CliError> {
-    let doc: Value = serde_json::from_str(text)
-        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+    let doc: Value =
+        crate::json::parse_json(text).map_err(|e| CliError::input(e.path, e.reason))?;
     let spec_path = Path::new(spec_file);
     let out = result_path(&opts.out, spec_file, opts.shard);
     let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {

@@ -1,93 +1,32 @@
-//! Dense LU with partial pivoting on a row-major square matrix, in place (no allocation
-//! after construction): the Newton matrices of the implicit method.
+//! The implicit method's Newton matrices factorised by nalgebra's LU with partial pivoting,
+//! plus the singularity test the step logic needs.
 
-/// An `n x n` LU factorisation `P A = L U` stored in place.
-#[derive(Clone, Debug)]
+use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
+
+/// An `n x n` factorisation `P A = L U` kept for repeated solves.
+#[derive(Clone, Debug, Default)]
 pub(crate) struct Lu {
-    n: usize,
-    a: Vec<f64>,
-    piv: Vec<usize>,
-    /// The last factorisation met a zero pivot.
+    lu: Option<LU<f64, Dyn, Dyn>>,
+    /// The last factorisation met a zero pivot or a non-finite entry.
     pub singular: bool,
 }
 
 impl Lu {
-    pub(crate) fn new(n: usize) -> Self {
-        Lu {
-            n,
-            a: vec![0.0; n * n],
-            piv: vec![0; n],
-            singular: false,
-        }
+    /// Factorises `a` (replacing the previous factorisation).
+    pub(crate) fn factor(&mut self, a: DMatrix<f64>) {
+        // A non-finite entry (a Jacobian probe gone bad) makes the factors meaningless
+        // even where no pivot is exactly zero.
+        let finite = a.iter().all(|v| v.is_finite());
+        let lu = LU::new(a);
+        self.singular = !finite || !lu.is_invertible();
+        self.lu = Some(lu);
     }
 
-    /// The matrix to fill (row-major) before [`Lu::factor`].
-    pub(crate) fn matrix_mut(&mut self) -> &mut [f64] {
-        &mut self.a
-    }
-
-    /// Factorises the matrix in place.
-    pub(crate) fn factor(&mut self) {
-        let n = self.n;
-        let a = &mut self.a;
-        self.singular = false;
-        for col in 0..n {
-            let mut p = col;
-            let mut best = a[col * n + col].abs();
-            for r in col + 1..n {
-                let v = a[r * n + col].abs();
-                if v > best {
-                    best = v;
-                    p = r;
-                }
-            }
-            self.piv[col] = p;
-            if best == 0.0 || !best.is_finite() {
-                self.singular = true;
-                continue;
-            }
-            if p != col {
-                for c in 0..n {
-                    a.swap(col * n + c, p * n + c);
-                }
-            }
-            let inv = 1.0 / a[col * n + col];
-            for r in col + 1..n {
-                let f = a[r * n + col] * inv;
-                a[r * n + col] = f;
-                if f != 0.0 {
-                    for c in col + 1..n {
-                        a[r * n + c] -= f * a[col * n + c];
-                    }
-                }
-            }
-        }
-    }
-
-    /// Solves `A x = b` in place (`b` becomes `x`).
+    /// Solves `A x = b` in place (`b` becomes `x`) with the last factorisation.
     pub(crate) fn solve(&self, b: &mut [f64]) {
-        let n = self.n;
-        let a = &self.a;
-        for col in 0..n {
-            let p = self.piv[col];
-            if p != col {
-                b.swap(col, p);
-            }
-        }
-        for r in 0..n {
-            let mut acc = b[r];
-            for c in 0..r {
-                acc -= a[r * n + c] * b[c];
-            }
-            b[r] = acc;
-        }
-        for r in (0..n).rev() {
-            let mut acc = b[r];
-            for c in r + 1..n {
-                acc -= a[r * n + c] * b[c];
-            }
-            b[r] = acc / a[r * n + r];
-        }
+        let lu = self.lu.as_ref().expect("Lu::solve after Lu::factor");
+        let n = b.len();
+        lu.solve_mut(&mut DVectorViewMut::from_slice(b, n));
     }
 }
 
@@ -97,16 +36,32 @@ mod tests {
 
     #[test]
     fn solves_a_pivoting_system() {
-        let mut lu = Lu::new(3);
-        lu.matrix_mut()
-            .copy_from_slice(&[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0]);
-        lu.factor();
+        let mut lu = Lu::default();
+        lu.factor(DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0],
+        ));
         assert!(!lu.singular);
         // A x = b for x = (1, 2, 3).
         let mut b = [7.0, 3.0, 6.0];
         lu.solve(&mut b);
         for (k, (got, want)) in b.iter().zip([1.0, 2.0, 3.0]).enumerate() {
-            assert!((got - want).abs() < 1e-14, "x[{k}] = {got}, want {want}");
+            assert!(
+                (got - want).abs() < 1e-14,
+                "x[{k}] = {got}, want {want}, tolerance 1e-14"
+            );
         }
+    }
+
+    #[test]
+    fn flags_singular_and_non_finite_matrices() {
+        let mut lu = Lu::default();
+        lu.factor(DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 4.0]));
+        assert!(lu.singular, "rank-1 matrix not flagged");
+        lu.factor(DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, 0.0, 1.0]));
+        assert!(lu.singular, "NaN entry not flagged");
+        lu.factor(DMatrix::identity(2, 2));
+        assert!(!lu.singular, "identity flagged singular");
     }
 }

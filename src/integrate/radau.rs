@@ -11,6 +11,8 @@
 
 use std::time::Instant;
 
+use nalgebra::{DMatrix, Matrix3};
+
 use super::common::{
     admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
@@ -65,24 +67,10 @@ fn mu_real() -> f64 {
 
 /// Inverse of `V[i][j] = c_i^(j+1)`: maps stage values `z_i` to the coefficients of the
 /// collocation polynomial `z(theta) = a1 theta + a2 theta^2 + a3 theta^3`.
-fn collocation_inverse() -> [[f64; 3]; 3] {
-    let mut lu = Lu::new(3);
-    for i in 0..3 {
-        for j in 0..3 {
-            lu.matrix_mut()[i * 3 + j] = C[i].powi(j as i32 + 1);
-        }
-    }
-    lu.factor();
-    let mut inv = [[0.0; 3]; 3];
-    for j in 0..3 {
-        let mut e = [0.0; 3];
-        e[j] = 1.0;
-        lu.solve(&mut e);
-        for i in 0..3 {
-            inv[i][j] = e[i];
-        }
-    }
-    inv
+fn collocation_inverse() -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| C[i].powi(j as i32 + 1))
+        .try_inverse()
+        .expect("distinct nodes make the Vandermonde matrix invertible")
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -123,15 +111,15 @@ pub(crate) fn run<S: BatchSystem>(
     let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
     let mut y = y0.to_vec();
     let mut f0 = vec![0.0; n * d];
-    let mut jac = vec![0.0; n * d * d];
+    let mut jac: Vec<DMatrix<f64>> = vec![DMatrix::zeros(d, d); n];
     let mut z = vec![0.0; n * d3];
     let mut dense = vec![0.0; n * d3];
     let mut scale = vec![1.0; n * d];
     for id in 0..n {
         sys.scales(id, &mut scale[id * d..(id + 1) * d]);
     }
-    let mut lu_m: Vec<Lu> = (0..n).map(|_| Lu::new(d3)).collect();
-    let mut lu_e: Vec<Lu> = (0..n).map(|_| Lu::new(d)).collect();
+    let mut lu_m: Vec<Lu> = vec![Lu::default(); n];
+    let mut lu_e: Vec<Lu> = vec![Lu::default(); n];
     let mut vars: Vec<Var> = (0..n)
         .map(|_| Var {
             need_f0: true,
@@ -226,7 +214,7 @@ pub(crate) fn run<S: BatchSystem>(
                 }
                 let del = buf.ys[e * d + col] - y[id * d + col];
                 for p in 0..d {
-                    jac[id * d * d + p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                    jac[id][(p, col)] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
                 }
             }
             if retry.is_empty() {
@@ -258,7 +246,7 @@ pub(crate) fn run<S: BatchSystem>(
                 }
                 let del = buf.ys[e * d + col] - y[id * d + col];
                 for p in 0..d {
-                    jac[id * d * d + p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                    jac[id][(p, col)] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
                 }
             }
         }
@@ -283,31 +271,9 @@ pub(crate) fn run<S: BatchSystem>(
             hs[id] = h;
             let v = &mut vars[id];
             if v.need_lu || h != v.h_lu {
-                let jb = &jac[id * d * d..(id + 1) * d * d];
-                let m = lu_m[id].matrix_mut();
-                for i in 0..3 {
-                    for j in 0..3 {
-                        let ha = h * A[i][j];
-                        for p in 0..d {
-                            let row = (i * d + p) * d3 + j * d;
-                            for q in 0..d {
-                                m[row + q] = -ha * jb[p * d + q];
-                            }
-                            if i == j {
-                                m[row + p] += 1.0;
-                            }
-                        }
-                    }
-                }
-                lu_m[id].factor();
-                let e = lu_e[id].matrix_mut();
-                for p in 0..d {
-                    for q in 0..d {
-                        e[p * d + q] = -jb[p * d + q];
-                    }
-                    e[p * d + p] += mu / h;
-                }
-                lu_e[id].factor();
+                let ha = Matrix3::from_fn(|i, j| h * A[i][j]);
+                lu_m[id].factor(DMatrix::identity(d3, d3) - ha.kronecker(&jac[id]));
+                lu_e[id].factor(DMatrix::from_diagonal_element(d, d, mu / h) - &jac[id]);
                 tracks[id].stats.factorizations += 1;
                 v.need_lu = false;
                 v.h_lu = h;
@@ -492,7 +458,7 @@ pub(crate) fn run<S: BatchSystem>(
                 let al = &mut dense[id * d3..(id + 1) * d3];
                 for p in 0..d {
                     for r in 0..3 {
-                        al[r * d + p] = (0..3).map(|i| vinv[r][i] * zb[i * d + p]).sum();
+                        al[r * d + p] = (0..3).map(|i| vinv[(r, i)] * zb[i * d + p]).sum();
                     }
                 }
                 {

@@ -8,8 +8,7 @@
 //! done on the rotor by all applied loads, J (a quadrature: `f` does not depend on it).
 //! Axial motion is constrained (`z_G = 0`); the axial force is the constraint's.
 
-// Index loops mirror the matrix subscripts.
-#![allow(clippy::needless_range_loop)]
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
 use super::scene::{ModelKind, Scene, SpinMode};
 use crate::bearing::{friction, BearingParams, BearingState};
@@ -24,117 +23,27 @@ pub(crate) const Q: usize = 4;
 pub(crate) const W: usize = 8;
 pub(crate) const WORK: usize = 11;
 
-pub(crate) type V3 = [f64; 3];
-pub(crate) type M3 = [[f64; 3]; 3];
+// In-plane quantities (`G`, `v_G`, end-centre velocities, film forces) stay `[f64; 2]`:
+// they are the film's interface (`BearingState`, `contact_force`), plain components.
+pub(crate) type V3 = Vector3<f64>;
+pub(crate) type M3 = Matrix3<f64>;
 
-pub(crate) fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-pub(crate) fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn mv(m: &M3, v: V3) -> V3 {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
-}
-
-/// `mᵀ v`.
-pub(crate) fn mtv(m: &M3, v: V3) -> V3 {
-    [
-        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
-        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
-        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
-    ]
-}
-
-fn mm(a: &M3, b: &M3) -> M3 {
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            r[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    r
-}
-
-fn transpose(a: &M3) -> M3 {
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            r[i][j] = a[j][i];
-        }
-    }
-    r
-}
-
-fn inverse(a: &M3) -> M3 {
-    let c = |i: usize, j: usize| {
-        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
-        let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
-        a[i1][j1] * a[i2][j2] - a[i1][j2] * a[i2][j1]
-    };
-    let det = a[0][0] * c(0, 0) + a[0][1] * c(0, 1) + a[0][2] * c(0, 2);
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            r[i][j] = c(j, i) / det;
-        }
-    }
-    r
-}
-
-fn rot_x(a: f64) -> M3 {
-    let (s, c) = a.sin_cos();
-    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
-}
-
-fn rot_y(a: f64) -> M3 {
-    let (s, c) = a.sin_cos();
-    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
-}
-
-/// Rotation matrix of a quaternion `(w, x, y, z)`, normalised first.
+/// Rotation matrix (body to global) of the state's quaternion `(w, x, y, z)`, normalised
+/// first.
 pub(crate) fn quat_matrix(q: &[f64]) -> M3 {
-    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-    let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
+        .to_rotation_matrix()
+        .into_inner()
 }
 
-fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-    [
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
-    ]
-}
-
-fn quat_axis(axis: usize, angle: f64) -> [f64; 4] {
-    let (s, c) = (0.5 * angle).sin_cos();
-    let mut q = [c, 0.0, 0.0, 0.0];
-    q[1 + axis] = s;
-    q
+/// Rotation by `angle` rad about body axis `axis` (x, y, z).
+fn axis_rotation(axis: usize, angle: f64) -> UnitQuaternion<f64> {
+    let axis = match axis {
+        0 => Vector3::x_axis(),
+        1 => Vector3::y_axis(),
+        _ => Vector3::z_axis(),
+    };
+    UnitQuaternion::from_axis_angle(&axis, angle)
 }
 
 /// One bearing as the rotor sees it.
@@ -189,21 +98,21 @@ impl RotorModel {
     /// Compiles a (validated) scene.
     pub fn new(scene: &Scene) -> Self {
         let r = &scene.rotor;
-        let rc = mm(&rot_x(r.couple_unbalance[0]), &rot_y(r.couple_unbalance[1]));
-        let diag = [
-            [r.inertia[0], 0.0, 0.0],
-            [0.0, r.inertia[1], 0.0],
-            [0.0, 0.0, r.inertia[2]],
-        ];
-        let inertia = mm(&mm(&rc, &diag), &transpose(&rc));
+        let rc = (Rotation3::from_axis_angle(&Vector3::x_axis(), r.couple_unbalance[0])
+            * Rotation3::from_axis_angle(&Vector3::y_axis(), r.couple_unbalance[1]))
+        .into_inner();
+        let principal = Vector3::from(r.inertia);
+        let inertia = rc * Matrix3::from_diagonal(&principal) * rc.transpose();
+        // The inverse of R D Rᵀ in closed form (positive moments: scene validation).
+        let inertia_inv = rc * Matrix3::from_diagonal(&principal.map(f64::recip)) * rc.transpose();
         let u = r.static_unbalance;
         let bearings: Vec<BearingGeom> = scene
             .bearings
             .iter()
             .map(|b| BearingGeom {
                 params: b.params(),
-                p_i: [-u[0], -u[1], b.axial_position - 0.5 * b.length],
-                p_j: [-u[0], -u[1], b.axial_position + 0.5 * b.length],
+                p_i: Vector3::new(-u[0], -u[1], b.axial_position - 0.5 * b.length),
+                p_j: Vector3::new(-u[0], -u[1], b.axial_position + 0.5 * b.length),
                 axial: b.axial_position,
             })
             .collect();
@@ -227,7 +136,7 @@ impl RotorModel {
             kind: scene.model,
             mass: r.mass,
             inertia,
-            inertia_inv: inverse(&inertia),
+            inertia_inv,
             unbalance: u,
             gravity: [scene.gravity[0], scene.gravity[1]],
             held: scene.spin == SpinMode::Held,
@@ -238,7 +147,7 @@ impl RotorModel {
                 .contact
                 .as_ref()
                 .map(|c| (c.stiffness, c.damping)),
-            j_axis: inertia[2][2] + r.mass * (u[0] * u[0] + u[1] * u[1]),
+            j_axis: inertia[(2, 2)] + r.mass * (u[0] * u[0] + u[1] * u[1]),
             scales,
         }
     }
@@ -246,22 +155,20 @@ impl RotorModel {
     /// The initial state of `scene` (a rigid rotation about the shaft axis).
     pub fn initial_state(&self, scene: &Scene) -> [f64; DIM] {
         let i = &scene.initial;
-        let q = quat_mul(
-            quat_mul(quat_axis(0, i.tilt[0]), quat_axis(1, i.tilt[1])),
-            quat_axis(2, i.angle),
-        );
-        let r0 = quat_matrix(&q);
-        let ug = mv(&r0, [self.unbalance[0], self.unbalance[1], 0.0]);
-        let wg = [0.0, 0.0, i.spin];
-        let wb = mtv(&r0, wg);
-        let vu = cross(wg, ug);
+        let q =
+            axis_rotation(0, i.tilt[0]) * axis_rotation(1, i.tilt[1]) * axis_rotation(2, i.angle);
+        let r0 = q.to_rotation_matrix().into_inner();
+        let ug = r0 * self.unbalance_body();
+        let wg = Vector3::new(0.0, 0.0, i.spin);
+        let wb = r0.tr_mul(&wg);
+        let vu = wg.cross(&ug);
         let mut y = [0.0; DIM];
         y[0] = i.offset[0] + ug[0];
         y[1] = i.offset[1] + ug[1];
         y[2] = i.velocity[0] + vu[0];
         y[3] = i.velocity[1] + vu[1];
-        y[Q..Q + 4].copy_from_slice(&q);
-        y[W..W + 3].copy_from_slice(&wb);
+        y[Q..Q + 4].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+        y[W..W + 3].copy_from_slice(wb.as_slice());
         y
     }
 
@@ -280,9 +187,9 @@ impl RotorModel {
 
     pub(crate) fn kin(&self, y: &[f64]) -> Kin {
         let r = quat_matrix(&y[Q..Q + 4]);
-        let w_body = [y[W], y[W + 1], y[W + 2]];
+        let w_body = Vector3::new(y[W], y[W + 1], y[W + 2]);
         Kin {
-            w_global: mv(&r, w_body),
+            w_global: r * w_body,
             r,
             w_body,
             g: [y[X], y[X + 1]],
@@ -291,10 +198,10 @@ impl RotorModel {
     }
 
     pub(crate) fn end_kin(&self, k: &Kin, b: &BearingGeom) -> EndKin {
-        let r_i = mv(&k.r, b.p_i);
-        let r_j = mv(&k.r, b.p_j);
-        let wi = cross(k.w_global, r_i);
-        let wj = cross(k.w_global, r_j);
+        let r_i = k.r * b.p_i;
+        let r_j = k.r * b.p_j;
+        let wi = k.w_global.cross(&r_i);
+        let wj = k.w_global.cross(&r_j);
         EndKin {
             r_i,
             r_j,
@@ -320,9 +227,8 @@ impl RotorModel {
 
     /// Kinetic energy of state `y`, J.
     pub fn kinetic_energy(&self, y: &[f64]) -> f64 {
-        let w = [y[W], y[W + 1], y[W + 2]];
-        0.5 * self.mass * (y[VX] * y[VX] + y[VX + 1] * y[VX + 1])
-            + 0.5 * dot(w, mv(&self.inertia, w))
+        let w = Vector3::new(y[W], y[W + 1], y[W + 2]);
+        0.5 * self.mass * (y[VX] * y[VX] + y[VX + 1] * y[VX + 1]) + 0.5 * w.dot(&(self.inertia * w))
     }
 
     /// Rigid-body derivative from the total in-plane force `f` (N, without gravity) and
@@ -343,22 +249,19 @@ impl RotorModel {
         dy[VX + 1] = f[1] / m + self.gravity[1];
         quat_rate(&y[Q..Q + 4], k.w_body, &mut dy[Q..Q + 4]);
         let w = k.w_body;
-        let tau_b = mtv(&k.r, tau);
-        let gyro = cross(w, mv(&self.inertia, w));
-        let rhs = [tau_b[0] - gyro[0], tau_b[1] - gyro[1], tau_b[2] - gyro[2]];
-        let mut wd = mv(&self.inertia_inv, rhs);
+        let tau_b = k.r.tr_mul(&tau);
+        let gyro = w.cross(&(self.inertia * w));
+        let mut wd = self.inertia_inv * (tau_b - gyro);
         let mut p = power + m * (self.gravity[0] * y[VX] + self.gravity[1] * y[VX + 1]);
         if self.held {
             // Drive torque lambda about global z: (R wdot)_z = a . wdot = 0, a = Rᵀ e_z.
-            let a = k.r[2];
-            let ia = mv(&self.inertia_inv, a);
-            let lambda = -dot(a, wd) / dot(a, ia);
-            for c in 0..3 {
-                wd[c] += lambda * ia[c];
-            }
+            let a: V3 = k.r.row(2).transpose();
+            let ia = self.inertia_inv * a;
+            let lambda = -a.dot(&wd) / a.dot(&ia);
+            wd += lambda * ia;
             p += lambda * k.w_global[2];
         }
-        dy[W..W + 3].copy_from_slice(&wd);
+        dy[W..W + 3].copy_from_slice(wd.as_slice());
         dy[WORK] = p;
     }
 
@@ -377,14 +280,14 @@ impl RotorModel {
     pub(crate) fn ideal_derivative(&self, y: &[f64], dy: &mut [f64], loads: &mut Vec<[f64; 4]>) {
         let r = quat_matrix(&y[Q..Q + 4]);
         let w = y[W + 2];
-        let u = mv(&r, [self.unbalance[0], self.unbalance[1], 0.0]);
+        let u = r * self.unbalance_body();
         let m = self.mass;
         let n = self.bearings.len() as f64;
         let (sa, saa) = self.bearings.iter().fold((0.0, 0.0), |(s, ss), b| {
             (s + b.axial, ss + b.axial * b.axial)
         });
         let det = n * saa - sa * sa;
-        let ig = mm(&mm(&r, &self.inertia), &transpose(&r));
+        let ig = r * self.inertia * r.transpose();
         let grav_torque = m * (u[0] * self.gravity[1] - u[1] * self.gravity[0]);
         let mut wdot = 0.0;
         let mut mz_total = 0.0;
@@ -392,9 +295,9 @@ impl RotorModel {
             loads.clear();
             let a = [-wdot * u[1] - w * w * u[0], wdot * u[0] - w * w * u[1]];
             let t = [m * (a[0] - self.gravity[0]), m * (a[1] - self.gravity[1])];
-            let iw = mv(&ig, [0.0, 0.0, w]);
-            let gy = cross([0.0, 0.0, w], iw);
-            let iwd = mv(&ig, [0.0, 0.0, wdot]);
+            let spin = Vector3::new(0.0, 0.0, w);
+            let gy = spin.cross(&(ig * spin));
+            let iwd = ig * Vector3::new(0.0, 0.0, wdot);
             let dh = [iwd[0] + gy[0], iwd[1] + gy[1]];
             // R_kx = ax + bx a_k with sum R_kx = T_x, sum a_k R_kx = dH_y;
             // R_ky = ay + by a_k with sum R_ky = T_y, sum a_k R_ky = -dH_x.
@@ -424,7 +327,7 @@ impl RotorModel {
                 (mz_total + grav_torque) / self.j_axis
             };
         }
-        let wb = [0.0, 0.0, w];
+        let wb = Vector3::new(0.0, 0.0, w);
         dy[X] = y[VX];
         dy[X + 1] = y[VX + 1];
         dy[VX] = -wdot * u[1] - w * w * u[0];
@@ -443,17 +346,19 @@ impl RotorModel {
         };
     }
 
+    /// The static unbalance as a body-frame vector (`G` from the shaft axis), m.
+    fn unbalance_body(&self) -> V3 {
+        Vector3::new(self.unbalance[0], self.unbalance[1], 0.0)
+    }
+
     /// `G`'s position in state `y`: the state's `(x, y)` for the bearing model, `R u` for
     /// ideal joints (exactly on the circle of radius `|u|`).
     pub fn g_position(&self, y: &[f64]) -> [f64; 2] {
         match self.kind {
             ModelKind::Bearing => [y[X], y[X + 1]],
             ModelKind::Ideal => {
-                let u = mv(
-                    &quat_matrix(&y[Q..Q + 4]),
-                    [self.unbalance[0], self.unbalance[1], 0.0],
-                );
-                [u[0], u[1]]
+                let u = quat_matrix(&y[Q..Q + 4]) * self.unbalance_body();
+                [u.x, u.y]
             }
         }
     }
@@ -479,11 +384,8 @@ pub(crate) fn contact_force(
     [-f * n[0], -f * n[1]]
 }
 
-/// `q̇ = ½ q ⊗ (0, ω_body)`.
+/// `q̇ = ½ q ⊗ (0, ω_body)`, written as `(w, x, y, z)`.
 pub(crate) fn quat_rate(q: &[f64], w: V3, out: &mut [f64]) {
-    let (q0, x, y, z) = (q[0], q[1], q[2], q[3]);
-    out[0] = -0.5 * (x * w[0] + y * w[1] + z * w[2]);
-    out[1] = 0.5 * (q0 * w[0] + y * w[2] - z * w[1]);
-    out[2] = 0.5 * (q0 * w[1] + z * w[0] - x * w[2]);
-    out[3] = 0.5 * (q0 * w[2] + x * w[1] - y * w[0]);
+    let rate = Quaternion::new(q[0], q[1], q[2], q[3]) * Quaternion::from_imag(w) * 0.5;
+    out.copy_from_slice(&[rate.w, rate.i, rate.j, rate.k]);
 }

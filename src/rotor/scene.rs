@@ -421,8 +421,7 @@ impl Scene {
 /// `compare_ideal: true` yields two: itself (model `bearing`) and `<name>-ideal`.
 /// Errors name the JSON path (`scenes[2].bearings[1].clearance: must be positive`).
 pub fn load_scene(json: &str) -> Result<Vec<Scene>, SceneError> {
-    let doc: serde_json::Value =
-        serde_json::from_str(json).map_err(|e| err("$", format!("not valid JSON: {e}")))?;
+    let doc = crate::json::parse_json(json).map_err(|e| err(e.path, e.reason))?;
     let (items, prefix): (Vec<&serde_json::Value>, bool) = match doc.get("scenes") {
         Some(serde_json::Value::Array(list)) if doc.as_object().is_some_and(|o| o.len() == 1) => {
             (list.iter().collect(), true)

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{contact_force, cross, EndKin, RotorModel, DIM, JAC_DIM, WORK};
+use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
 use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
 use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
@@ -331,7 +331,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
             } else {
                 let kin = m.kin(y);
                 let mut f = [0.0; 2];
-                let mut tau = [0.0; 3];
+                let mut tau = V3::zeros();
                 let mut power = 0.0;
                 let mut fault = None;
                 for (b, geom) in m.bearings.iter().enumerate() {
@@ -369,12 +369,10 @@ impl BatchSystem for RotorBatch<'_, '_> {
                     f[0] += fi[0] + fj[0];
                     f[1] += fi[1] + fj[1];
                     // Exact torque about G: end-point forces at the journal end centres.
-                    let ti = cross(e.r_i, [fi[0], fi[1], 0.0]);
-                    let tj = cross(e.r_j, [fj[0], fj[1], 0.0]);
-                    for c in 0..3 {
-                        tau[c] += ti[c] + tj[c];
-                    }
-                    tau[2] += l.mz;
+                    let ti = e.r_i.cross(&V3::new(fi[0], fi[1], 0.0));
+                    let tj = e.r_j.cross(&V3::new(fj[0], fj[1], 0.0));
+                    tau += ti + tj;
+                    tau.z += l.mz;
                     power += fi[0] * e.v_i[0]
                         + fi[1] * e.v_i[1]
                         + fj[0] * e.v_j[0]

@@ -173,7 +173,7 @@ mod tests {
             "id,bearings[*].clearance [m],status,message,reductions.bearings[0].power_loss_w [W],reductions.h_min.t_s [s],reductions.h_min.value_m [m]",
             "header"
         );
-        assert_eq!(rows[1], "0,0.0001,ok,,2.0,0.1,1.5e-5", "row 0");
+        assert_eq!(rows[1], "0,0.0001,ok,,2.0,0.1,0.000015", "row 0");
         assert_eq!(
             rows[2], "1,0.0002,film_breakdown,\"bearing 0, at t = 0.1 s\",,,",
             "row 1"

@@ -5,15 +5,19 @@
 mod csv;
 mod error;
 mod eval;
+mod loadgen;
 mod metrics;
+pub mod pg;
 mod routes;
 mod scheduler;
 mod sqlite;
 mod store;
 mod sweeps;
+pub mod web;
 
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use eval::{Coalescer, EvalCounters};
+pub use loadgen::{bench_serve, spawn_background, LoadOptions, LoadRow};
 pub use routes::{rfc3339, router, ApiDoc};
 pub use scheduler::{Job, Scheduler, SweepEvent};
 pub use sqlite::SqliteStore;
@@ -48,6 +52,9 @@ pub struct ServiceConfig {
     pub eval_window: Duration,
     /// Backend of `/api/eval` (default cpu).
     pub eval_backend: BackendKind,
+    /// `postgres://…`: keep sweeps in PostgreSQL and leave them to `worker` processes
+    /// (README "Workers and PostgreSQL"); default none: the embedded SQLite store.
+    pub database: Option<String>,
 }
 
 impl Default for ServiceConfig {
@@ -62,6 +69,7 @@ impl Default for ServiceConfig {
             max_queued: 64,
             eval_window: Duration::from_millis(2),
             eval_backend: BackendKind::Cpu,
+            database: None,
         }
     }
 }
@@ -163,10 +171,22 @@ pub fn serve_blocking(
             source,
         })?;
     runtime.block_on(async move {
-        let store: Arc<dyn Store> = Arc::new(SqliteStore::open(&config.data)?);
+        let database = config.database.clone();
+        let store: Arc<dyn Store> = match &database {
+            Some(url) => Arc::new(pg::PgStore::open(url)?),
+            None => Arc::new(SqliteStore::open(&config.data)?),
+        };
         let data = config.data.clone();
         let bind = config.bind;
         let running = start(config, store)?;
+        if let Some(url) = &database {
+            pg::spawn_monitor(
+                url,
+                running.state.scheduler.clone(),
+                running.shutdown.subscribe(),
+            )
+            .map_err(|e| ServeError::Config(e.to_string()))?;
+        }
         let listener = tokio::net::TcpListener::bind(bind)
             .await
             .map_err(|source| ServeError::Io {

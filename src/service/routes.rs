@@ -12,7 +12,7 @@ use axum::extract::{Path, Request, State};
 use axum::http::{header, HeaderMap, StatusCode, Uri};
 use axum::middleware::Next;
 use axum::response::sse::{Event, KeepAlive, Sse};
-use axum::response::{Html, IntoResponse, Response};
+use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Serialize;
@@ -35,16 +35,13 @@ const MAX_PAGE: u64 = 10_000;
 /// SSE keep-alive comment interval.
 const KEEP_ALIVE: Duration = Duration::from_secs(15);
 
-/// The placeholder page served at `/` until the web page replaces it.
-const INDEX_HTML: &str = include_str!("placeholder.html");
-
 /// The API description.
 #[derive(OpenApi)]
 #[openapi(
     info(title = "bearing-sweep service", description = "Sweeps of rigid rotors in hydrodynamic journal bearings, and batched film-load evaluation."),
     paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
           list_plots, get_plot, sweep_events, cancel_sweep, eval, healthz),
-    components(schemas(ErrorBody, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList)),
+    components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList)),
     modifiers(&BearerAuth)
 )]
 pub struct ApiDoc;
@@ -76,9 +73,10 @@ pub fn router(state: AppState) -> Router {
         .route("/sweeps/{id}/cancel", post(cancel_sweep))
         .route("/eval", post(eval))
         .route("/openapi.json", get(openapi))
+        .merge(super::web::api())
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth));
     Router::new()
-        .route("/", get(index))
+        .merge(super::web::pages())
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
         .nest("/api", api)
@@ -141,10 +139,6 @@ async fn auth(
         "Bearer".parse().expect("static header"),
     );
     r
-}
-
-async fn index() -> Html<&'static str> {
-    Html(INDEX_HTML)
 }
 
 /// Liveness: 200 once the server is ready.
@@ -238,6 +232,30 @@ fn sweep_id() -> String {
         .collect()
 }
 
+/// Film backend of a sweep (query `backend`).
+#[derive(utoipa::ToSchema)]
+#[schema(rename_all = "lowercase")]
+#[allow(dead_code)] // a schema only: the query is parsed by `options_from_query`
+pub enum BackendParam {
+    /// The CPU kernel (`run`'s default).
+    Cpu,
+    /// The WGSL kernel.
+    Gpu,
+    /// A GPU when one exists, else the CPU.
+    Auto,
+}
+
+/// Answer format of the variant records (query `format`).
+#[derive(utoipa::ToSchema)]
+#[schema(rename_all = "lowercase")]
+#[allow(dead_code)] // a schema only
+pub enum FormatParam {
+    /// JSON page.
+    Json,
+    /// CSV, one flat row per variant.
+    Csv,
+}
+
 /// `201` answer to a submission.
 #[derive(Serialize, utoipa::ToSchema)]
 pub struct Created {
@@ -252,8 +270,8 @@ pub struct Created {
 /// Submit a sweep: the body is a sweep spec exactly as `run` reads it.
 #[utoipa::path(post, path = "/api/sweeps",
     params(
-        ("backend" = Option<String>, Query, description = "Film backend: cpu (default), gpu or auto (as `run --backend`)"),
-        ("accuracy" = Option<f64>, Query, description = "Film accuracy (as `run --accuracy`; default 1e-6)"),
+        ("backend" = Option<BackendParam>, Query, description = "Film backend: cpu (default), gpu or auto (as `run --backend`)"),
+        ("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Film accuracy (as `run --accuracy`; default 1e-6)"),
         ("full_model" = Option<bool>, Query, description = "Every model reduction off (as `run --full-model`)"),
     ),
     request_body(content = serde_json::Value, description = "A sweep spec (see sweeps/ and README \"Sweeps\")", content_type = "application/json"),
@@ -636,8 +654,8 @@ async fn sweep_result(
 #[utoipa::path(get, path = "/api/sweeps/{id}/variants",
     params(("id" = String, Path, description = "Sweep id"),
            ("offset" = Option<u64>, Query, description = "First record (in id order), default 0"),
-           ("limit" = Option<u64>, Query, description = "Records, default 100, at most 10000"),
-           ("format" = Option<String>, Query, description = "json (default) or csv")),
+           ("limit" = Option<u64>, Query, maximum = 10000, description = "Records, default 100, at most 10000"),
+           ("format" = Option<FormatParam>, Query, description = "json (default) or csv")),
     responses((status = 200, description = "`{offset, variants: [...]}` or CSV (text/csv)", body = serde_json::Value),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 404, description = "No such sweep", body = ErrorBody),
@@ -764,8 +782,9 @@ fn status_event(status: SweepStatus, p: &ProgressSnapshot) -> Event {
         .data(json!({"status": status, "progress": p}).to_string())
 }
 
-/// Server-Sent Events: `status` first (and on every change), one `variant` per finished
-/// variant, and the stream ends after a final status (`done`, `failed`, `cancelled`).
+/// Server-Sent Events: `status` first (and on every change: `{"status", "progress"}`), one
+/// `variant` per committed variant (`{"id", "ok", "progress"}`), and the stream ends after a
+/// final status (`done`, `failed`, `cancelled`).
 #[utoipa::path(get, path = "/api/sweeps/{id}/events",
     params(("id" = String, Path, description = "Sweep id")),
     responses((status = 200, description = "text/event-stream", content_type = "text/event-stream", body = String),
@@ -776,6 +795,8 @@ async fn sweep_events(
     State(st): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
+    // Only known sweeps get an event channel.
+    row_or_404(&st, &id).await?;
     // Subscribe before reading the status, so no change falls between the two.
     let job = st.scheduler.job(&id);
     let rx = job.events.subscribe();
@@ -794,28 +815,33 @@ async fn sweep_events(
     } else {
         Phase::Live(rx, shutdown)
     };
-    let total = r.total;
-    let live = futures_util::stream::unfold(start, move |phase| async move {
-        let Phase::Live(mut rx, mut shutdown) = phase else {
-            return None;
-        };
-        loop {
-            tokio::select! {
-                ev = rx.recv() => match ev {
-                    Ok(SweepEvent::Variant { id, ok, progress }) => {
-                        let e = Event::default().event("variant").data(
-                            json!({"id": id, "status": if ok { "ok" } else { "not_ok" }, "progress": progress}).to_string());
-                        return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
-                    }
-                    Ok(SweepEvent::Status(s)) => {
-                        let p = ProgressSnapshot { total, ..Default::default() };
-                        let next = if s.is_final() { Phase::End } else { Phase::Live(rx, shutdown) };
-                        return Some((Ok(status_event(s, &p)), next));
-                    }
-                    Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
-                    Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
-                },
-                _ = shutdown.changed() => return None,
+    let live = futures_util::stream::unfold(start, move |phase| {
+        let (st, sweep) = (st.clone(), id.clone());
+        async move {
+            let Phase::Live(mut rx, mut shutdown) = phase else {
+                return None;
+            };
+            loop {
+                tokio::select! {
+                    ev = rx.recv() => match ev {
+                        Ok(SweepEvent::Variant { id, ok, progress }) => {
+                            let e = Event::default().event("variant").data(
+                                json!({"id": id, "ok": ok, "progress": progress}).to_string());
+                            return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
+                        }
+                        Ok(SweepEvent::Status(s)) => {
+                            let p = match row_or_404(&st, &sweep).await {
+                                Ok(r) => progress_of(&st, &r),
+                                Err(_) => ProgressSnapshot::default(),
+                            };
+                            let next = if s.is_final() { Phase::End } else { Phase::Live(rx, shutdown) };
+                            return Some((Ok(status_event(s, &p)), next));
+                        }
+                        Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => continue,
+                        Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
+                    },
+                    _ = shutdown.changed() => return None,
+                }
             }
         }
     });
@@ -831,7 +857,7 @@ async fn sweep_events(
 /// Film loads of bearing states: body and answer as `eval`'s input and output.
 /// Concurrent requests are coalesced into shared backend calls.
 #[utoipa::path(post, path = "/api/eval",
-    params(("accuracy" = Option<f64>, Query, description = "Relative accuracy (as `eval --accuracy`; default 1e-6)")),
+    params(("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Relative accuracy (as `eval --accuracy`; default 1e-6)")),
     request_body(content = serde_json::Value, description = "`{\"bearing\": {...}, \"states\": [...]}` as for `eval`", content_type = "application/json"),
     responses((status = 200, description = "`eval`'s output", body = serde_json::Value),
               (status = 400, description = "Not JSON", body = ErrorBody),

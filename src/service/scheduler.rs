@@ -171,9 +171,10 @@ impl Scheduler {
             while (self.running() as usize) < self.max_running {
                 let store = self.store.clone();
                 let next = tokio::task::spawn_blocking(move || {
-                    store
-                        .list_sweeps()
-                        .map(|l| l.into_iter().find(|s| s.status == SweepStatus::Queued))
+                    store.list_sweeps().map(|l| {
+                        l.into_iter()
+                            .find(|s| s.status == SweepStatus::Queued && !store.runs_elsewhere(s))
+                    })
                 })
                 .await;
                 let Ok(Ok(Some(row))) = next else { break };
@@ -230,6 +231,13 @@ impl Scheduler {
             let _ = me.store.update_sweep(&id, &update);
             if let Some(s) = status {
                 let _ = job.events.send(SweepEvent::Status(s));
+                if s.is_final() {
+                    // Nothing more will happen to it: readers see the stored status.
+                    me.jobs
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .remove(&id);
+                }
             }
             me.counters.running.fetch_sub(1, Ordering::Relaxed);
             me.wake();
@@ -407,5 +415,97 @@ impl Scheduler {
                 j.cancel.store(true, Ordering::Relaxed);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::store::{NewSweep, StoreError};
+    use crate::service::SqliteStore;
+    use crate::sweep::sink::Committed;
+
+    /// The SQLite store, except that opening the variants of sweep `boom` panics.
+    struct PanicStore(SqliteStore);
+
+    impl Store for PanicStore {
+        fn insert_sweep(&self, n: &NewSweep) -> Result<SweepRow, StoreError> {
+            self.0.insert_sweep(n)
+        }
+        fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError> {
+            self.0.list_sweeps()
+        }
+        fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+            self.0.sweep(id)
+        }
+        fn update_sweep(&self, id: &str, c: &SweepUpdate) -> Result<(), StoreError> {
+            self.0.update_sweep(id, c)
+        }
+        fn delete_sweep(&self, id: &str) -> Result<bool, StoreError> {
+            self.0.delete_sweep(id)
+        }
+        fn open_stream(&self, id: &str, h: &Value) -> Result<Committed, StoreError> {
+            assert_ne!(id, "boom", "injected panic");
+            self.0.open_stream(id, h)
+        }
+        fn commit_variant(&self, id: &str, v: u64, ok: bool, l: &str) -> Result<(), StoreError> {
+            self.0.commit_variant(id, v, ok, l)
+        }
+        fn variant_lines(
+            &self,
+            id: &str,
+            o: u64,
+            l: u64,
+        ) -> Result<Vec<(u64, String)>, StoreError> {
+            self.0.variant_lines(id, o, l)
+        }
+        fn put_plot(&self, id: &str, n: &str, s: &str) -> Result<(), StoreError> {
+            self.0.put_plot(id, n, s)
+        }
+        fn plot(&self, id: &str, n: &str) -> Result<Option<String>, StoreError> {
+            self.0.plot(id, n)
+        }
+        fn plot_names(&self, id: &str) -> Result<Vec<String>, StoreError> {
+            self.0.plot_names(id)
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_panicking_job_is_marked_failed_and_the_next_one_runs() {
+        let dir = std::env::temp_dir().join(format!("bearing-sweep-sched-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let store: Arc<dyn Store> = Arc::new(PanicStore(SqliteStore::open(&dir).unwrap()));
+        let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
+                          "axes": [{"path": "spin", "values": [50.0, 60.0, 70.0]}]});
+        for id in ["boom", "fine"] {
+            store
+                .insert_sweep(&NewSweep {
+                    id: id.into(),
+                    name: id.into(),
+                    spec: spec.clone(),
+                    options: json!({}),
+                    total: 3,
+                    created_unix_s: now_unix_s(),
+                })
+                .unwrap();
+        }
+        let sched = Scheduler::new(store.clone(), 1).unwrap();
+        tokio::spawn(sched.clone().run());
+        let start = std::time::Instant::now();
+        let status = |id: &str| store.sweep(id).unwrap().unwrap();
+        while !status("fine").status.is_final() {
+            assert!(start.elapsed() < Duration::from_secs(60), "no progress");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        let boom = status("boom");
+        assert_eq!(boom.status, SweepStatus::Failed, "{boom:?}");
+        let msg = boom.message.unwrap_or_default();
+        assert!(
+            msg.contains("panic") && msg.contains("injected panic"),
+            "{msg}"
+        );
+        let fine = status("fine");
+        assert_eq!((fine.status, fine.done), (SweepStatus::Done, 3), "{fine:?}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -268,7 +268,7 @@ impl Store for SqliteStore {
         ok: bool,
         line: &str,
     ) -> Result<(), StoreError> {
-        self.with(|c| {
+        let found = self.with(|c| {
             let tx = c.transaction()?;
             let new = tx.execute(
                 "INSERT OR IGNORE INTO variants (sweep, variant, ok, line) VALUES (?1, ?2, ?3, ?4)",
@@ -276,12 +276,20 @@ impl Store for SqliteStore {
             )?;
             // `computed` counts every commit, `done` only new lines: they differ exactly
             // when a finished variant was computed again.
-            tx.execute(
+            let found = tx.execute(
                 "UPDATE sweeps SET computed = computed + 1, done = done + ?2, failed = failed + ?3 WHERE id = ?1",
                 params![id, new as i64, (new > 0 && !ok) as i64],
             )?;
-            tx.commit()
-        })
+            // A sweep deleted meanwhile keeps no orphan lines (the transaction is dropped).
+            if found > 0 {
+                tx.commit()?;
+            }
+            Ok(found > 0)
+        })?;
+        if !found {
+            return Err(StoreError::NotFound(id.to_string()));
+        }
+        Ok(())
     }
 
     fn variant_lines(

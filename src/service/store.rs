@@ -193,6 +193,12 @@ pub trait Store: Send + Sync + 'static {
     fn plot(&self, id: &str, name: &str) -> Result<Option<String>, StoreError>;
     /// Names of the stored figures.
     fn plot_names(&self, id: &str) -> Result<Vec<String>, StoreError>;
+    /// Whether other processes run this sweep (PostgreSQL: `worker` processes claim its
+    /// batches), so the scheduler leaves it alone. Default: no.
+    fn runs_elsewhere(&self, row: &SweepRow) -> bool {
+        let _ = row;
+        false
+    }
 }
 
 /// Lines fetched per store call when reading a whole sweep back.

@@ -1,13 +1,19 @@
 //! The web page at `/` (HTML, JS and CSS compiled into the binary: no build step, nothing
-//! fetched from elsewhere) and the bundled example specs of `sweeps/`
-//! (`GET /api/examples`, `GET /api/examples/{name}`), which the page offers in its editor.
+//! fetched from elsewhere), the bundled example specs of `sweeps/` (`GET /api/examples`,
+//! `GET /api/examples/{name}`), which the page offers in its editor, and the dry-run check
+//! of a spec behind its "Check spec" button (`POST /api/validate`).
 
-use axum::extract::Path;
-use axum::http::{header, HeaderValue, StatusCode};
+use std::collections::HashMap;
+
+use axum::body::Body;
+use axum::extract::{Path, State};
+use axum::http::{header, HeaderValue, StatusCode, Uri};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::{json, Value};
+
+use super::{options_from_query, parse_sweep_doc, ApiError, AppState, ParsedSweep};
 
 const INDEX_HTML: &str = include_str!("web/index.html");
 const APP_JS: &str = include_str!("web/app.js");
@@ -29,9 +35,15 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../sweeps/synthetic-whirl.json"),
     ),
     ("stress", include_str!("../../sweeps/stress.json")),
-    ("friction-map", include_str!("../../sweeps/friction-map.json")),
+    (
+        "friction-map",
+        include_str!("../../sweeps/friction-map.json"),
+    ),
     ("eval-states", include_str!("../../sweeps/eval-states.json")),
-    ("paper-example", include_str!("../../sweeps/paper-example.json")),
+    (
+        "paper-example",
+        include_str!("../../sweeps/paper-example.json"),
+    ),
     ("oil-whirl", include_str!("../../sweeps/oil-whirl.json")),
 ];
 
@@ -48,11 +60,14 @@ pub fn example_role(doc: &Value) -> &'static str {
     }
 }
 
-/// The routes of the page and of the examples; merge into the service's router (before
-/// its authorisation layer, which then guards `/api/examples` like every `/api` route).
-pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
+/// The page's routes (`/`, `/index.html`, `/app.js`, `/style.css`): merge into the
+/// service's root router; they are open, like `/healthz` (the page holds no data).
+pub fn pages<S: Clone + Send + Sync + 'static>() -> Router<S> {
     Router::new()
-        .route("/", get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }))
+        .route(
+            "/",
+            get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }),
+        )
         .route(
             "/index.html",
             get(|| async { asset(INDEX_HTML, "text/html; charset=utf-8") }),
@@ -65,8 +80,69 @@ pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
             "/style.css",
             get(|| async { asset(STYLE_CSS, "text/css; charset=utf-8") }),
         )
-        .route("/api/examples", get(list_examples))
-        .route("/api/examples/{name}", get(get_example))
+}
+
+/// The page's routes relative to `/api` (`/examples`, `/examples/{name}`, `/validate`):
+/// merge into the service's `/api` router, whose token check then guards them like every
+/// `/api` route.
+pub fn api() -> Router<AppState> {
+    Router::new()
+        .route("/examples", get(list_examples))
+        .route("/examples/{name}", get(get_example))
+        .route("/validate", post(validate))
+}
+
+/// `POST /api/validate`: the checks of `POST /api/sweeps` (spec, every variant, run
+/// options of the query, the variant limit) without storing or running anything; the page's
+/// "Check spec". `200 {"valid": true, "kind", "name", "variants"}` or the same error as a
+/// submission would get.
+async fn validate(
+    State(st): State<AppState>,
+    uri: Uri,
+    body: Body,
+) -> Result<Json<Value>, ApiError> {
+    let q = axum::extract::Query::<HashMap<String, String>>::try_from_uri(&uri)
+        .map_err(|e| ApiError::bad_request("?", format!("malformed query: {e}")))?
+        .0;
+    options_from_query(
+        q.get("backend").map(String::as_str),
+        q.get("accuracy").map(String::as_str),
+        q.get("full_model").map(String::as_str),
+    )?;
+    let limit = st.config.max_body_bytes;
+    let bytes = axum::body::to_bytes(body, limit).await.map_err(|_| {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "$",
+            format!(
+                "the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"
+            ),
+        )
+    })?;
+    let doc: Value = serde_json::from_slice(&bytes)
+        .map_err(|e| ApiError::bad_request("$", format!("not valid JSON: {e}")))?;
+    let max_variants = st.config.max_variants;
+    // Expanding and checking every variant is CPU work: off the async threads.
+    tokio::task::spawn_blocking(move || {
+        let parsed = parse_sweep_doc(&doc)?;
+        let total = parsed.count();
+        if total > max_variants {
+            return Err(ApiError::invalid(
+                "axes",
+                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
+            ));
+        }
+        let kind = match &parsed {
+            ParsedSweep::Runner(spec) => {
+                super::sweeps::validate_variants(spec)?;
+                spec.kind.name()
+            }
+            ParsedSweep::FrictionMap(_) => "friction_map",
+        };
+        Ok(Json(json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total})))
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("internal: {e}")))?
 }
 
 fn asset(body: &'static str, content_type: &'static str) -> Response {
@@ -153,7 +229,10 @@ mod tests {
             assert!(doc.is_object(), "sweeps/{name}.json is not an object");
         }
         let roles: Vec<&str> = list.iter().map(|e| e["role"].as_str().unwrap()).collect();
-        let first_other = roles.iter().position(|r| *r != "sweep").unwrap_or(roles.len());
+        let first_other = roles
+            .iter()
+            .position(|r| *r != "sweep")
+            .unwrap_or(roles.len());
         assert!(
             roles[first_other..].iter().all(|r| *r != "sweep"),
             "sweeps not first: {roles:?}"
@@ -181,7 +260,8 @@ mod tests {
             }
             let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
             let listed = EXAMPLES.iter().find(|(n, _)| *n == stem);
-            let (_, text) = listed.unwrap_or_else(|| panic!("sweeps/{stem}.json is not in web::EXAMPLES"));
+            let (_, text) =
+                listed.unwrap_or_else(|| panic!("sweeps/{stem}.json is not in web::EXAMPLES"));
             assert_eq!(
                 *text,
                 std::fs::read_to_string(&path).unwrap(),

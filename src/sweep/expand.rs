@@ -244,28 +244,75 @@ impl Expansion {
         Variant { id, values, scene }
     }
 
-    /// Checks every variant's scene with `validator` (the scene validator: `Err((json
-    /// path, reason))`), before any computation. Reports the first failing variant.
+    /// Checks the spec's variants with `validator` (the scene validator: `Err((json
+    /// path, reason))`), before any computation, at a cost in proportion to the spec, not
+    /// to the grid. Up to [`VALIDATE_EVERY_VARIANT_BELOW`] variants every one is checked.
+    /// Above that (grid and zip modes) every value of every factor is checked once, with
+    /// the other factors at their first value, a range axis (linspace, logspace) at
+    /// [`RANGE_CHECKS`] evenly spread values including both ends; then
+    /// [`SAMPLED_VARIANTS`] variants spread evenly over the ids (Latin hypercube: these
+    /// only, and the first and last). A variant that fails later anyway (a constraint
+    /// coupling two axes inside the grid) fails alone at run time with status
+    /// `invalid_scene`; the sweep goes on. Reports the first failing variant checked.
     pub fn validate_all(
         &self,
         spec: &SweepSpec,
         validator: &SceneValidator,
     ) -> Result<(), SweepError> {
-        for id in 0..self.count() {
-            let v = self.variant(spec, id);
-            if let Err((mut path, reason)) = validator(&v.scene) {
+        let count = self.count();
+        if count <= VALIDATE_EVERY_VARIANT_BELOW {
+            return (0..count).try_for_each(|id| self.validate_one(spec, id, validator));
+        }
+        if let Plan::Grid { factors, lens } = &self.plan {
+            for (f, axes) in factors.iter().enumerate() {
+                let ranges_only = axes
+                    .iter()
+                    .all(|&a| !matches!(spec.axes[a].values, super::AxisValues::List(_)));
+                for k in spread(lens[f], ranges_only) {
+                    // Mixed-radix id with every other factor at index 0.
+                    let stride: u64 = lens[f + 1..].iter().product();
+                    self.validate_one(spec, k * stride, validator)?;
+                }
+            }
+        }
+        if let Plan::Zip { len } = &self.plan {
+            let ranges_only = spec
+                .axes
+                .iter()
+                .all(|a| !matches!(a.values, super::AxisValues::List(_)));
+            for k in spread(*len, ranges_only) {
+                self.validate_one(spec, k, validator)?;
+            }
+        }
+        let step = (count / SAMPLED_VARIANTS).max(1);
+        (0..count)
+            .step_by(step as usize)
+            .chain([count - 1])
+            .try_for_each(|id| self.validate_one(spec, id, validator))
+    }
+
+    /// Validates variant `id`, as a located error.
+    fn validate_one(
+        &self,
+        spec: &SweepSpec,
+        id: u64,
+        validator: &SceneValidator,
+    ) -> Result<(), SweepError> {
+        let v = self.variant(spec, id);
+        match validator(&v.scene) {
+            Ok(()) => Ok(()),
+            Err((mut path, reason)) => {
                 if path == "$" {
                     path = self.locate(spec, &v, validator).unwrap_or(path);
                 }
-                return Err(SweepError::Variant {
+                Err(SweepError::Variant {
                     id,
                     assignment: v.assignment(spec),
                     path,
                     reason,
-                });
+                })
             }
         }
-        Ok(())
     }
 
     /// For an error the validator could not place (e.g. serde's "invalid type"): when the
@@ -282,6 +329,30 @@ impl Expansion {
                 .and_then(|t| t.first().map(|(p, _)| p.clone()))
         })
     }
+}
+
+/// Sweeps up to this many variants have every variant validated before running.
+pub const VALIDATE_EVERY_VARIANT_BELOW: u64 = 10_000;
+
+/// Values of a range axis (linspace, logspace) checked in a large sweep: both ends and
+/// evenly spread values between (validators check ranges such as "positive" or "below
+/// 1", which a monotone axis meets everywhere once it meets them at its ends).
+pub const RANGE_CHECKS: u64 = 65;
+
+/// Variants spread evenly over the ids checked in a large sweep after the per-factor pass.
+pub const SAMPLED_VARIANTS: u64 = 1000;
+
+/// Indices of a factor of `len` values to check: all of them for a list (their number
+/// is in the spec), else [`RANGE_CHECKS`] evenly spread ones with both ends.
+fn spread(len: u64, ranges_only: bool) -> Vec<u64> {
+    if !ranges_only || len <= RANGE_CHECKS {
+        return (0..len).collect();
+    }
+    let mut out: Vec<u64> = (0..RANGE_CHECKS)
+        .map(|i| i * (len - 1) / (RANGE_CHECKS - 1))
+        .collect();
+    out.dedup();
+    out
 }
 
 /// A validator that accepts every scene (for scene kinds validated elsewhere).

@@ -84,7 +84,7 @@ pub fn parse_numbers(v: &Value, at: &str) -> Result<Vec<f64>, SweepError> {
                     if x <= 0.0 {
                         return Err(SweepError::spec(
                             format!("{p}[{i}]"),
-                            format!("logspace bounds must be positive, got {x}"),
+                            format!("logspace bounds must be positive, got {}", crate::json::num(x)),
                         ));
                     }
                 }
@@ -170,7 +170,10 @@ impl FrictionMapSpec {
             Some(_) => {
                 return Err(SweepError::spec(
                     "model",
-                    format!("expected \"sommerfeld\" or \"film\", got {}", o["model"]),
+                    format!(
+                        "expected \"sommerfeld\" or \"film\", got {}",
+                        crate::json::quote(&o["model"].to_string())
+                    ),
                 ))
             }
         };

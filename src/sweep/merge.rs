@@ -66,8 +66,9 @@ pub fn merge(
             }
             if f["shard"].get("count").and_then(Value::as_u64) != count {
                 return Err(SweepError::Output(format!(
-                    "{}: shard count {count:?} differs from {}",
+                    "{}: shard count {} differs from {}",
                     path.display(),
+                    count.map_or("missing".to_string(), |c| c.to_string()),
                     shards[0].display()
                 )));
             }
@@ -106,9 +107,13 @@ pub fn merge(
     let missing: Vec<u64> = (0..total).filter(|id| !variants.contains_key(id)).collect();
     if !missing.is_empty() {
         return Err(SweepError::Output(format!(
-            "{} of {total} variants missing (first: {:?}); give every shard's result",
+            "{} of {total} variants missing (first: {}); give every shard's result",
             missing.len(),
-            &missing[..missing.len().min(10)]
+            missing[..missing.len().min(10)]
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
         )));
     }
     let mut doc = f.clone();
@@ -116,6 +121,11 @@ pub fn merge(
     o.insert("shard".into(), Value::Null);
     o.insert("variants".into(), json!([]));
     o.insert("run".into(), json!({"merged_from": runs}));
+    // The output's folder may not exist yet (`merge out/new/merged.json ...`). The result
+    // goes through the runner's write helper (temporary file and rename).
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| SweepError::io(dir, e))?;
+    }
     let mut iter = variants.values().map(|v| Ok(v.to_string()));
     write_result_streamed(out, &doc, &mut iter)?;
     let light: Vec<Value> = variants

@@ -67,6 +67,34 @@ fn string(
     }
 }
 
+/// Checks a plot's `y` against the shape of a variant's reductions (any bearing index
+/// stands for bearing 0 there: the count is the scene's): it must name a number.
+fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
+    let schema = super::reduce::Reductions::schema();
+    let as_first: Vec<PathSeg> = y_path
+        .iter()
+        .map(|s| match s {
+            PathSeg::Index(_) => PathSeg::Index(0),
+            other => other.clone(),
+        })
+        .collect();
+    let leaf = resolve(&schema, &as_first).map_err(|r| {
+        format!(
+            "not a reduction of a variant: {}",
+            r.replace("the base scene", "`reductions`")
+                .replace(" (write the field into `base` to sweep it;", " (")
+        )
+    })?;
+    match leaf.first() {
+        Some((_, v)) if v.is_number() => Ok(()),
+        Some((_, v)) => Err(format!(
+            "names {}, not a number (e.g. `h_min.value_m`, `bearings[0].whirl.subsync_amplitude_m`)",
+            type_name(v)
+        )),
+        None => Err("names nothing".into()),
+    }
+}
+
 /// Parses the spec's `plots` list against its axes.
 pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, SweepError> {
     let Some(v) = v else { return Ok(Vec::new()) };
@@ -103,7 +131,7 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
         if out.iter().any(|q| q.name == name) {
             return Err(SweepError::spec(
                 join(&at, "name"),
-                format!("`{name}` is used twice"),
+                format!("`{}` is used twice", crate::json::quote(&name)),
             ));
         }
         let axis_names: Vec<&str> = axes.iter().map(|a| a.path.as_str()).collect();
@@ -114,8 +142,9 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
                 Err(SweepError::spec(
                     join(&at, key),
                     format!(
-                        "`{path}` is not an axis of this sweep (axes: {})",
-                        axis_names.join(", ")
+                        "`{}` is not an axis of this sweep (axes: {})",
+                        crate::json::quote(path),
+                        crate::json::shorten(&axis_names.join(", "), 400)
                     ),
                 ))
             }
@@ -134,6 +163,7 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
                 "`[*]` is not allowed here: name one bearing, e.g. bearings[0]",
             ));
         }
+        check_y(&y_path).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
         out.push(PlotSpec {
             name,
             x,

@@ -180,7 +180,10 @@ impl Default for ReductionOptions {
 fn positive(v: &Value, path: &str) -> Result<f64, SweepError> {
     let x = get_f64(v, path)?;
     if x <= 0.0 {
-        return Err(SweepError::spec(path, format!("must be positive, got {x}")));
+        return Err(SweepError::spec(
+            path,
+            format!("must be positive, got {}", crate::json::num(x)),
+        ));
     }
     Ok(x)
 }
@@ -211,7 +214,10 @@ impl ReductionOptions {
                 "seconds" => Window::Seconds(x),
                 _ => {
                     if x > 1.0 {
-                        return Err(SweepError::spec(q, format!("must be at most 1, got {x}")));
+                        return Err(SweepError::spec(
+                            q,
+                            format!("must be at most 1, got {}", crate::json::num(x)),
+                        ));
                     }
                     Window::Fraction(x)
                 }
@@ -254,7 +260,10 @@ impl ReductionOptions {
                 _ => {
                     return Err(SweepError::spec(
                         join(at, "span"),
-                        format!("expected \"run\" or \"window\", got {s}"),
+                        format!(
+                            "expected \"run\" or \"window\", got {}",
+                            crate::json::quote(&s.to_string())
+                        ),
                     ))
                 }
             };
@@ -302,7 +311,7 @@ impl ReductionOptions {
                 if x < 0.0 {
                     return Err(SweepError::spec(
                         q,
-                        format!("must not be negative, got {x}"),
+                        format!("must not be negative, got {}", crate::json::num(x)),
                     ));
                 }
                 o.whirl.min_amplitude_ratio = x;
@@ -442,6 +451,65 @@ pub struct Reductions {
     pub oil_whirl: bool,
     /// Per bearing.
     pub bearings: Vec<BearingReduction>,
+}
+
+impl Reductions {
+    /// Every field present (zeros), one bearing: the shape a variant's `reductions`
+    /// can take, to check paths into it (a plot's `y`) before running.
+    pub fn schema() -> Value {
+        let stats = Some(Stats {
+            mean: 0.0,
+            min: 0.0,
+            max: 0.0,
+        });
+        let extreme = Some(Extreme {
+            value: 0.0,
+            t_s: 0.0,
+        });
+        let orbit = Some(Orbit {
+            centre_x_m: 0.0,
+            centre_y_m: 0.0,
+            radius_m: 0.0,
+            half_pp_x_m: 0.0,
+            half_pp_y_m: 0.0,
+        });
+        let r = Reductions {
+            window: Some(WindowInfo {
+                t_start_s: 0.0,
+                t_end_s: 0.0,
+                revolutions: 0.0,
+                samples: 0,
+                truncated: false,
+            }),
+            h_min: Some(FilmMin {
+                value_m: 0.0,
+                bearing: 0,
+                t_s: 0.0,
+            }),
+            power_loss_w: Some(0.0),
+            g_orbit: orbit,
+            whirl_ratio: Some(0.0),
+            oil_whirl: false,
+            bearings: vec![BearingReduction {
+                friction_coefficient: stats,
+                friction_torque_nm: stats,
+                power_loss_w: Some(0.0),
+                force_n: stats,
+                force_peak_n: extreme,
+                h_min_m: extreme,
+                eccentricity_max: extreme,
+                orbit,
+                whirl: Some(Whirl {
+                    ratio: 0.0,
+                    amplitude_m: 0.0,
+                    subsync_ratio: 0.0,
+                    subsync_amplitude_m: 0.0,
+                    oil_whirl: false,
+                }),
+            }],
+        };
+        serde_json::to_value(r).unwrap_or(Value::Null)
+    }
 }
 
 /// Index of the first sample of the window, and whether the run was too short.

@@ -192,6 +192,11 @@ impl BatchSimulator for RotorSimulator {
             self.full_model,
         ))
         .unwrap_or(Value::Null);
+        // Why this backend runs (not a setting: `auto` and an explicit request resolving
+        // to the same backend give the same numbers; the resolved backend is in settings).
+        if let Some(c) = self.evaluator.choice() {
+            v["backend_choice"] = json!(c);
+        }
         v
     }
 

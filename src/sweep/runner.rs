@@ -612,7 +612,7 @@ pub fn write_plots(
 }
 
 /// One variant's stream line.
-fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, mut o: Outcome) -> Value {
+pub(crate) fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, mut o: Outcome) -> Value {
     let mut m = Map::new();
     m.insert("id".into(), json!(v.id));
     m.insert("params".into(), v.params(spec));

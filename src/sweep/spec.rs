@@ -125,12 +125,17 @@ fn frac(k: usize, n: usize) -> f64 {
     }
 }
 
-/// `a + (b - a) u`, exact at both ends.
+/// `a + (b - a) u`, exact at both ends; never overflows for finite `a`, `b` (a span
+/// wider than `f64::MAX`, e.g. `[-1e308, 1e308]`, is interpolated as `a (1 − u) + b u`).
 fn lerp(a: f64, b: f64, u: f64) -> f64 {
     if u == 1.0 {
-        b
+        return b;
+    }
+    let span = b - a;
+    if span.is_finite() {
+        a + span * u
     } else {
-        a + (b - a) * u
+        a * (1.0 - u) + b * u
     }
 }
 
@@ -143,7 +148,8 @@ fn log_lerp(a: f64, b: f64, u: f64) -> f64 {
         b
     } else {
         let (la, lb) = (a.log10(), b.log10());
-        10f64.powf(la + (lb - la) * u)
+        // Clamped to the bounds: near f64::MAX the rounding of powf may step past them.
+        10f64.powf(la + (lb - la) * u).clamp(a.min(b), a.max(b))
     }
 }
 
@@ -226,7 +232,7 @@ pub fn deny_unknown(
     for key in obj.keys() {
         if !allowed.contains(&key.as_str()) {
             return Err(SweepError::spec(
-                join(prefix, key),
+                join(prefix, &crate::json::quote(key)),
                 format!("unknown field (expected one of: {})", allowed.join(", ")),
             ));
         }
@@ -276,7 +282,10 @@ pub fn get_u64(v: &Value, path: &str) -> Result<u64, SweepError> {
         Some(x) if x >= 0.0 && x.fract() == 0.0 && x <= u64::MAX as f64 => Ok(x as u64),
         Some(x) => Err(SweepError::spec(
             path,
-            format!("expected a non-negative integer, got {x}"),
+            format!(
+                "expected a non-negative integer, got {}",
+                crate::json::num(x)
+            ),
         )),
         None => Err(SweepError::spec(
             path,
@@ -301,7 +310,8 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
             return Err(SweepError::spec(
                 "kind",
                 format!(
-                    "unknown kind `{other}` (expected rotor, synthetic, stability or friction_map)"
+                    "unknown kind `{}` (expected rotor, synthetic, stability or friction_map)",
+                    crate::json::quote(other)
                 ),
             ))
         }
@@ -340,10 +350,10 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
             let text = std::fs::read_to_string(&path).map_err(|e| {
                 SweepError::spec("base", format!("cannot read `{}`: {e}", path.display()))
             })?;
-            let v: Value = serde_json::from_str(&text).map_err(|e| {
+            let v: Value = crate::json::parse_json(&text).map_err(|e| {
                 SweepError::spec(
                     "base",
-                    format!("`{}` is not valid JSON: {e}", path.display()),
+                    format!("`{}`: {}: {}", path.display(), e.path, e.reason),
                 )
             })?;
             if !v.is_object() {
@@ -379,14 +389,7 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
             ))
         }
     };
-    for (k, a) in axes.iter().enumerate() {
-        if let Some(j) = axes[..k].iter().position(|b| b.path == a.path) {
-            return Err(SweepError::spec(
-                format!("axes[{k}].path"),
-                format!("`{}` is already swept by axes[{j}]", a.path),
-            ));
-        }
-    }
+    check_overlaps(&axes, &base)?;
     let mode = parse_mode(obj.get("mode"))?;
     check_mode(&mode, &axes)?;
     let reductions = ReductionOptions::parse(obj.get("reductions"), "reductions")?;
@@ -420,6 +423,54 @@ pub fn spec_kind(doc: &Value) -> Option<&str> {
         None => Some("rotor"),
         Some(k) => k.as_str(),
     }
+}
+
+/// Whether concrete path `a` is `b` or lies inside it (or the other way round):
+/// `bearings[0].clearance` overlaps `bearings[0]` and itself, not `bearings[0].clearance2`.
+fn paths_overlap(a: &str, b: &str) -> bool {
+    let (short, long) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    long.starts_with(short)
+        && matches!(
+            long.as_bytes().get(short.len()),
+            None | Some(b'.') | Some(b'[')
+        )
+}
+
+/// Refuses two axes that set the same parameter (`bearings[*].clearance` and
+/// `bearings[0].clearance`, or `rotor` and `rotor.mass`): the later would silently
+/// overwrite the earlier. Compared on the concrete paths each axis sets in the base.
+fn check_overlaps(axes: &[Axis], base: &Value) -> Result<(), SweepError> {
+    let targets: Vec<Vec<String>> = axes
+        .iter()
+        .map(|a| {
+            resolve(base, &a.segments)
+                .map(|t| t.into_iter().map(|(p, _)| p).collect())
+                .unwrap_or_default()
+        })
+        .collect();
+    for (k, tk) in targets.iter().enumerate() {
+        for (j, tj) in targets[..k].iter().enumerate() {
+            if let Some((p, q)) = tk
+                .iter()
+                .find_map(|p| tj.iter().find(|q| paths_overlap(p, q)).map(|q| (p, q)))
+            {
+                let quote = crate::json::quote;
+                let what = if p == q {
+                    format!("`{}` is", quote(p))
+                } else {
+                    format!("`{}` overlaps `{}`,", quote(p), quote(q))
+                };
+                return Err(SweepError::spec(
+                    format!("axes[{k}].path"),
+                    format!(
+                        "{what} already swept by axes[{j}] (`{}`): two axes would set one parameter; keep one",
+                        quote(&axes[j].path),
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn parse_mode(v: Option<&Value>) -> Result<Mode, SweepError> {
@@ -468,7 +519,7 @@ fn parse_mode(v: Option<&Value>) -> Result<Mode, SweepError> {
             format!(
                 "expected \"grid\", \"zip\" or {{\"latin_hypercube\": {{\"samples\": N, \"seed\": S}}}}, got {}",
                 match v {
-                    Value::String(s) => format!("\"{s}\""),
+                    Value::String(s) => format!("\"{}\"", crate::json::quote(s)),
                     other => type_name(other).to_string(),
                 }
             ),
@@ -594,7 +645,10 @@ fn parse_axis(v: &Value, at: &str, base: &Value) -> Result<Axis, SweepError> {
                 if x <= 0.0 {
                     return Err(SweepError::spec(
                         format!("{field}[{k}]"),
-                        format!("logspace bounds must be positive, got {x}"),
+                        format!(
+                            "logspace bounds must be positive, got {}",
+                            crate::json::num(x)
+                        ),
                     ));
                 }
             }
@@ -644,8 +698,12 @@ fn parse_axis(v: &Value, at: &str, base: &Value) -> Result<Axis, SweepError> {
 
 /// Parses `key(.key|[n]|[*])*`.
 pub fn parse_path(path: &str) -> Result<Vec<PathSeg>, String> {
-    let bad =
-        |pos: usize, why: &str| format!("cannot parse path `{path}` at character {pos}: {why}");
+    let bad = |pos: usize, why: &str| {
+        format!(
+            "cannot parse path `{}` at character {pos}: {why}",
+            crate::json::quote(path)
+        )
+    };
     let bytes = path.as_bytes();
     let mut segs = Vec::new();
     let mut i = 0;
@@ -717,7 +775,7 @@ fn resolve_into<'a>(
     let shown = if at.is_empty() {
         "the base scene".to_string()
     } else {
-        format!("`{at}`")
+        format!("`{}`", crate::json::quote(&at))
     };
     match seg {
         PathSeg::Key(k) => {
@@ -726,8 +784,9 @@ fn resolve_into<'a>(
                 .ok_or_else(|| format!("{shown} is {}, not an object", type_name(v)))?;
             let child = o.get(k).ok_or_else(|| {
                 format!(
-                    "{shown} has no field `{k}` (write the field into `base` to sweep it; it has: {})",
-                    o.keys().cloned().collect::<Vec<_>>().join(", ")
+                    "{shown} has no field `{}` (write the field into `base` to sweep it; it has: {})",
+                    crate::json::quote(k),
+                    crate::json::shorten(&o.keys().cloned().collect::<Vec<_>>().join(", "), 400)
                 )
             })?;
             resolve_into(child, rest, join(&at, k), out)

@@ -119,13 +119,15 @@ pub struct SynthScene {
 
 /// Validates a synthetic scene: `Err((json path, reason))`.
 pub fn validate(scene: &Value) -> Result<(), (String, String)> {
-    let s: SynthScene =
-        serde_json::from_value(scene.clone()).map_err(|e| ("$".to_string(), e.to_string()))?;
+    let s: SynthScene = crate::json::deserialize_at(scene)?;
     let pos = |path: String, x: f64| {
         if x.is_finite() && x > 0.0 {
             Ok(())
         } else {
-            Err((path, format!("must be positive and finite, got {x}")))
+            Err((
+                path,
+                format!("must be positive and finite, got {}", crate::json::num(x)),
+            ))
         }
     };
     pos("spin".into(), s.spin.abs())?;
@@ -141,7 +143,10 @@ pub fn validate(scene: &Value) -> Result<(), (String, String)> {
         if !(0.0..1.0).contains(&b.eccentricity) {
             return Err((
                 format!("bearings[{k}].eccentricity"),
-                format!("must be in [0, 1), got {}", b.eccentricity),
+                format!(
+                    "must be in [0, 1), got {}",
+                    crate::json::num(b.eccentricity)
+                ),
             ));
         }
     }

@@ -300,32 +300,50 @@ impl Browser {
 
     /// Clicks the first match (scrolled into view by the driver, as a person would).
     pub fn click(&self, css: &str) {
-        let id = self
-            .find(css)
-            .unwrap_or_else(|e| panic!("click {css}: {e}"));
-        self.cmd("POST", &format!("/element/{id}/click"), Some(json!({})))
-            .unwrap_or_else(|e| panic!("click {css}: {e}"));
+        self.on_element(css, "click", |id| {
+            self.cmd("POST", &format!("/element/{id}/click"), Some(json!({})))
+        });
+    }
+
+    /// Runs a command on the first match of `css`. The page re-renders parts of itself as
+    /// events arrive: a reference that went stale between finding and using is found
+    /// again, a few times.
+    pub fn on_element(
+        &self,
+        css: &str,
+        what: &str,
+        f: impl Fn(&str) -> Result<Value, String>,
+    ) -> Value {
+        let mut last = String::new();
+        for _ in 0..5 {
+            let id = self
+                .find(css)
+                .unwrap_or_else(|e| panic!("{what} {css}: {e}"));
+            match f(&id) {
+                Ok(v) => return v,
+                Err(e) if e.contains("stale element") => last = e,
+                Err(e) => panic!("{what} {css}: {e}"),
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        panic!("{what} {css}: {last}");
     }
 
     /// Types text into the first match (keys, as a person would).
     pub fn type_into(&self, css: &str, text: &str) {
-        let id = self
-            .find(css)
-            .unwrap_or_else(|e| panic!("type into {css}: {e}"));
-        self.cmd(
-            "POST",
-            &format!("/element/{id}/value"),
-            Some(json!({"text": text})),
-        )
-        .unwrap_or_else(|e| panic!("type into {css}: {e}"));
+        self.on_element(css, "type into", |id| {
+            self.cmd(
+                "POST",
+                &format!("/element/{id}/value"),
+                Some(json!({"text": text})),
+            )
+        });
     }
 
     pub fn clear(&self, css: &str) {
-        let id = self
-            .find(css)
-            .unwrap_or_else(|e| panic!("clear {css}: {e}"));
-        self.cmd("POST", &format!("/element/{id}/clear"), Some(json!({})))
-            .unwrap_or_else(|e| panic!("clear {css}: {e}"));
+        self.on_element(css, "clear", |id| {
+            self.cmd("POST", &format!("/element/{id}/clear"), Some(json!({})))
+        });
     }
 
     /// The rendered text of the first match ("" when there is none).

@@ -3,6 +3,7 @@
 //! the short-bearing model-error map and the `auto` model choice. See docs/finite-film.md.
 
 mod error_map;
+mod map;
 mod settings;
 mod solver;
 
@@ -10,6 +11,7 @@ pub use error_map::{
     compute_short_model_error, error_map_settings, short_model_error, ShortModelError,
     ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
 };
+pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
     finite_integrals, finite_loads, finite_solution, richardson_estimate, FiniteGrid, FiniteJob,

@@ -121,7 +121,7 @@ impl FiniteSettings {
                 reason,
             })
         };
-        if self.n_theta < 8 || self.n_theta > MAX_N_THETA || self.n_theta % 2 != 0 {
+        if self.n_theta < 8 || self.n_theta > MAX_N_THETA || !self.n_theta.is_multiple_of(2) {
             return err(
                 "finite.n_theta",
                 self.n_theta as f64,
@@ -152,10 +152,11 @@ impl FiniteSettings {
     /// Richardson error estimate); `None` when it would be below the minimum.
     pub fn coarse(&self) -> Option<FiniteSettings> {
         let c = FiniteSettings {
-            n_theta: self.n_theta / 2 + (self.n_theta / 2) % 2,
+            n_theta: self.n_theta / 2,
             n_z: self.n_z / 2,
             ..*self
         };
-        (c.n_theta >= 8 && c.n_z >= 2 && self.n_theta % 4 == 0 && self.n_z % 2 == 0).then_some(c)
+        let halvable = self.n_theta.is_multiple_of(4) && self.n_z.is_multiple_of(2);
+        (halvable && c.n_theta >= 8 && c.n_z >= 2).then_some(c)
     }
 }

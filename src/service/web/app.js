@@ -33,11 +33,7 @@ function fmt(x, sig = 4) {
   if (!Number.isFinite(x)) return String(x);
   if (x === 0) return "0";
   const a = Math.abs(x);
-  if (a >= 1e-3 && a < 1e5) {
-    let s = x.toPrecision(sig);
-    if (s.includes(".") && !s.includes("e")) s = s.replace(/0+$/, "").replace(/\.$/, "");
-    return s;
-  }
+  if (a >= 1e-3 && a < 1e5) return String(Number(x.toPrecision(sig))); // 1000, not 1.00e+3
   const [m, e] = x.toExponential(sig - 1).split("e");
   return `${m.replace(/0+$/, "").replace(/\.$/, "")}e${Number(e)}`;
 }
@@ -382,12 +378,10 @@ async function checkSpec() {
   if (specJson() === null) return;
   const st = $("#submit-status");
   st.textContent = "checking…";
-  const r = await api("POST", `/api/sweeps/validate${submitQuery()}`, $("#spec").value);
+  const r = await api("POST", `/api/validate${submitQuery()}`, $("#spec").value);
   if (r.ok) {
-    const n = r.data && (r.data.variants ?? r.data.count);
-    st.textContent = `spec is valid${isNum(n) ? `: ${n} variants` : ""}`;
-  } else if (r.status === 404 || r.status === 405) {
-    st.textContent = "this server has no check route; Submit checks the spec before anything runs";
+    const n = r.data && r.data.variants;
+    st.textContent = `spec is valid: ${r.data.kind || "sweep"}${isNum(n) ? `, ${n} variants` : ""} (nothing stored or run)`;
   } else { st.textContent = ""; showSpecError(r.error); }
 }
 async function submitSpec() {
@@ -427,25 +421,44 @@ async function refreshQueue() {
 function statusClass(s) {
   return ["ok", "done", "running", "queued", "failed", "cancelled", "film_breakdown", "through_wall"].includes(s) ? `st-${s}` : "st-other";
 }
+// Rows are updated in place (keyed by id), so focus and hover survive the refreshes.
 function renderQueue() {
   const tb = $("#queue tbody");
-  tb.innerHTML = "";
   const rows = [...state.sweeps.values()].sort((a, b) => String(b.created ?? "").localeCompare(String(a.created ?? "")) || (b.id > a.id ? 1 : -1));
   $("#queue-empty").hidden = rows.length > 0;
-  for (const s of rows) {
-    const frac = s.total ? s.done / s.total : 0;
-    const tr = el("tr", { "data-id": s.id, class: s.id === state.selected ? "sel" : null },
-      el("td", {}, el("button", { class: "link", type: "button", text: s.name || s.id, title: `open sweep ${s.id}`, onclick: () => selectSweep(s.id) })),
-      el("td", { class: statusClass(s.status), text: s.status }),
-      el("td", {}, el("progress", { max: 1, value: frac, "aria-label": `${s.name || s.id} progress` }), ` ${s.done}/${s.total ?? "?"}`),
-      el("td", { class: "num", text: String(s.failed) }),
-      el("td", { class: "num", text: isNum(s.rate) ? `${fmt(s.rate, 3)} /s` : "—" }),
-      el("td", { class: "num", text: TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta) }),
-      el("td", {},
-        TERMINAL.has(s.status) ? null : el("button", { type: "button", text: "Cancel", "aria-label": `cancel ${s.name || s.id}`, onclick: () => cancelSweep(s.id) }),
-        TERMINAL.has(s.status) ? el("button", { type: "button", text: "Delete", "aria-label": `delete ${s.name || s.id}`, onclick: () => deleteSweep(s.id) }) : null));
-    tb.append(tr);
-  }
+  const existing = new Map([...tb.children].map((tr) => [tr.dataset.id, tr]));
+  for (const [id, tr] of existing) if (!state.sweeps.has(id)) tr.remove();
+  rows.forEach((s, k) => {
+    let tr = existing.get(s.id);
+    if (!tr) {
+      tr = el("tr", { "data-id": s.id },
+        el("td", {}, el("button", { class: "link", type: "button", onclick: () => selectSweep(s.id) })),
+        el("td"), el("td", {}, el("progress", { max: 1, value: 0 }), el("span")), el("td", { class: "num" }),
+        el("td", { class: "num" }), el("td", { class: "num" }), el("td"));
+    }
+    const label = s.name || s.id;
+    const c = tr.children;
+    tr.classList.toggle("sel", s.id === state.selected);
+    const open = c[0].firstChild;
+    if (open.textContent !== label) { open.textContent = label; open.title = `open sweep ${s.id}`; }
+    if (c[1].textContent !== s.status) { c[1].textContent = s.status; c[1].className = statusClass(s.status); }
+    const bar = c[2].firstChild;
+    bar.value = s.total ? s.done / s.total : 0;
+    bar.setAttribute("aria-label", `${label} progress`);
+    c[2].lastChild.textContent = ` ${s.done}/${s.total ?? "?"}`;
+    c[3].textContent = String(s.failed);
+    c[4].textContent = isNum(s.rate) && s.rate > 0 ? `${fmt(s.rate, 3)} /s` : "—";
+    c[5].textContent = TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta);
+    const term = TERMINAL.has(s.status) ? "1" : "0";
+    if (tr.dataset.term !== term) {
+      tr.dataset.term = term;
+      c[6].innerHTML = "";
+      c[6].append(term === "1"
+        ? el("button", { type: "button", text: "Delete", "aria-label": `delete ${label}`, onclick: () => deleteSweep(s.id) })
+        : el("button", { type: "button", text: "Cancel", "aria-label": `cancel ${label}`, onclick: () => cancelSweep(s.id) }));
+    }
+    if (tb.children[k] !== tr) tb.insertBefore(tr, tb.children[k] || null);
+  });
 }
 // Live progress: an SSE stream per unfinished sweep (at most 4 open; the browser allows
 // ~6 connections per server), each event refreshes that sweep's status.
@@ -457,6 +470,11 @@ function watch(id) {
   // Events (README "Service"): `status` {status, progress} first and on every change,
   // `variant` {id (the variant's), status ok|not_ok, progress} per finished variant.
   const close = openEvents(id, (event, data) => {
+    if (state.selected === id) { // what arrived live, for a look in the inspector (and the browser test)
+      const d = $("#detail").dataset;
+      d.events = String(Number(d.events || 0) + 1);
+      d.lastEvent = `${event}:${data && data.status}`;
+    }
     if (data && typeof data === "object") {
       const p = data.progress || {};
       const upd = { id };
@@ -521,11 +539,13 @@ async function deleteSweep(id) {
 async function selectSweep(id) {
   if (state.selected !== id) {
     state.selected = id;
+    delete $("#detail").dataset.events; delete $("#detail").dataset.lastEvent;
     state.variants = []; state.result = null; state.spec = null; state.variantId = null;
     $("#variant-id").textContent = "(click a map cell or a table row)";
     $("#variant-params").textContent = "";
     $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
     $("#server-plots").innerHTML = "";
+    plotsFor = null;
   }
   $("#detail").hidden = false;
   renderQueue();
@@ -545,6 +565,11 @@ function renderProgress() {
   const p = $("#sweep-progress");
   p.value = s.total ? s.done / s.total : 0;
   $("#sweep-counts").textContent = `${s.done} / ${s.total ?? "?"} done, ${s.failed} failed`;
+  const curves = state.result && state.result.curves;
+  if (Array.isArray(curves) && curves.length) { // a friction map: one document, no variant records
+    p.value = 1;
+    $("#sweep-counts").textContent = `friction map: ${curves.length} speeds × ${curves[0].points.length} loads`;
+  }
   $("#sweep-rate").textContent = isNum(s.rate) ? `${fmt(s.rate, 3)} variants/s` : "";
   $("#sweep-eta").textContent = !TERMINAL.has(s.status) && isNum(s.eta) ? `ETA ${fmtDuration(s.eta)}` : "";
   $("#detail-cancel").hidden = TERMINAL.has(s.status);
@@ -552,9 +577,11 @@ function renderProgress() {
   msg.hidden = !s.message;
   msg.textContent = s.message || "";
 }
-let variantsTimer = null, variantsLast = 0;
+// Reloads while a sweep runs: at most every 1.5 s, and at most 20 % of the time when the
+// records are large (a reload that takes 1 s waits 5 s before the next).
+let variantsTimer = null, variantsLast = 0, variantsCost = 0;
 function loadVariantsThrottled(force) {
-  const wait = force ? 0 : Math.max(0, 1500 - (Date.now() - variantsLast));
+  const wait = force ? 0 : Math.max(0, Math.max(1500, 5 * variantsCost) - (Date.now() - variantsLast));
   if (variantsTimer && !force) return;
   clearTimeout(variantsTimer);
   variantsTimer = setTimeout(() => { variantsTimer = null; loadVariants(force); }, wait);
@@ -575,6 +602,7 @@ async function loadVariants(withResult) {
     if (page.length < LIMIT) break;
   }
   if (state.selected !== id) return;
+  variantsCost = Date.now() - variantsLast;
   all.sort((a, b) => a.id - b.id);
   state.variants = all;
   if (withResult && s && s.status === "done" && !state.result) {
@@ -587,8 +615,13 @@ async function loadVariants(withResult) {
     loadServerPlots(id);
   }
   if (!state.spec && s && s.raw && s.raw.spec) state.spec = s.raw.spec;
+  // Redraw only when something changed (a redraw loses hover and keyboard focus).
+  const sig = `${id}|${state.variants.length}|${state.variants.length ? state.variants[state.variants.length - 1].id : ""}|${Boolean(state.result)}`;
+  if (sig === renderedSig) return;
+  renderedSig = sig;
   renderDetail();
 }
+let renderedSig = "";
 function axesOf() {
   // Axis paths from the spec if known, else from the variants' params (in key order).
   const fromSpec = state.spec && Array.isArray(state.spec.axes) ? state.spec.axes.map((a) => a.path) : null;
@@ -598,9 +631,14 @@ function axesOf() {
   return keys;
 }
 function renderDetail() {
-  const isMap = state.result && Array.isArray(state.result.curves);
+  // A friction_map sweep has no variant records: its result is Fig. 4's curves.
+  const isMap = Boolean(state.result && Array.isArray(state.result.curves));
   $("#fig4-fig").hidden = !isMap;
-  if (isMap) drawFig4(state.result);
+  for (const sel of ["#variant-h", "#variant-h + .row", "#variant-note", "#detail .grid2:not(#maps)", "#variant-params", "#table-h", "#table-h + .row", "#detail .tablewrap"])
+    for (const e of document.querySelectorAll(sel)) e.hidden = isMap;
+  if (isMap) {
+    renderProgress();
+    drawFig4(state.result); $("#maps-controls").hidden = true; $("#curves-controls").hidden = true; $("#curves-fig").hidden = true; $("#maps").innerHTML = ""; $("#maps-note").textContent = ""; return; }
   renderTable();
   renderMaps();
   renderCurves();
@@ -630,6 +668,7 @@ function cellText(col, x) {
 function renderTable() {
   const cols = tableColumns();
   const thead = $("#variants thead");
+  const focusKey = document.activeElement && document.activeElement.closest && document.activeElement.closest("#variants thead th") ? document.activeElement.closest("th").dataset.key : null;
   thead.innerHTML = "";
   const hr = el("tr");
   for (const c of cols) {
@@ -642,6 +681,7 @@ function renderTable() {
     hr.append(th);
   }
   thead.append(hr);
+  if (focusKey) { const f = thead.querySelector(`th[data-key="${CSS.escape(focusKey)}"] button`); if (f) f.focus(); }
   // status filter choices
   const fsel = $("#status-filter");
   const cur = fsel.value;
@@ -660,6 +700,9 @@ function renderTable() {
     return (x < y ? -1 : 1) * state.sort.dir;
   });
   const tb = $("#variants tbody");
+  // Rebuilt on every reload while the sweep runs: keep the keyboard focus where it was.
+  const act = document.activeElement;
+  const focusRow = act && act.closest && act.closest("#variants tbody tr") ? act.closest("tr").dataset.id : null;
   tb.innerHTML = "";
   const MAX_ROWS = 2000; // the DOM stays responsive; downloads have all rows
   for (const v of rows.slice(0, MAX_ROWS)) {
@@ -674,6 +717,7 @@ function renderTable() {
     }
     tb.append(tr);
   }
+  if (focusRow !== null) { const r = tb.querySelector(`tr[data-id="${focusRow}"]`); if (r) r.focus(); }
   const s = state.sweeps.get(state.selected);
   $("#table-count").textContent = `${rows.length} of ${state.variants.length} variants shown${rows.length > MAX_ROWS ? ` (first ${MAX_ROWS} rows; the downloads have all)` : ""}${s && s.total ? `; sweep has ${s.total}` : ""}`;
 }
@@ -697,8 +741,10 @@ function niceTicks(lo, hi, n = 5) {
 }
 function logTicks(lo, hi) {
   const out = [];
+  const decades = Math.log10(hi / lo);
+  const mults = decades > 2.5 ? [1] : decades > 1.2 ? [1, 3] : [1, 2, 5]; // labels that fit
   for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
-    for (const m of [1, 2, 5]) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
+    for (const m of mults) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
   }
   return out.length >= 2 ? out : niceTicks(lo, hi);
 }
@@ -714,6 +760,13 @@ function showTip(evt, text) {
   t.style.top = `${Math.min(y, window.innerHeight - 60)}px`;
 }
 const hideTip = () => { tip().hidden = true; };
+
+// Drawing width in SVG units: the figure's CSS width on narrow screens (so 11 px text
+// stays 11 px on a phone), 520 otherwise (scaled up on wide ones).
+function figWidth(s) {
+  const w = (s.parentElement && s.parentElement.clientWidth) || 520;
+  return Math.round(Math.min(520, Math.max(330, w)));
+}
 
 // ---- clearance x viscosity maps (any two numeric axes), heatmaps in SVG
 function numericAxes() {
@@ -756,6 +809,8 @@ function renderMaps() {
     if (prev[p] && vals.includes(prev[p])) sel.value = prev[p];
     fixed.append(el("label", { for: id, text: `${pathLabel(p)} =` }), sel);
   }
+  const act = document.activeElement;
+  const focusCell = act && act.closest && act.closest("#maps rect.cell") ? [act.closest("svg").id, act.dataset.id] : null;
   const quantities = QUANTITIES.filter((q) => q.map && state.variants.some((v) => isNum(q.get(v))));
   $("#maps-note").textContent = `Hover or focus a cell to read it; click (or Enter) opens that variant's orbit. Colour scale logarithmic where the values span more than a factor 20.`;
   for (const q of quantities) {
@@ -765,6 +820,7 @@ function renderMaps() {
     holder.append(fig);
     drawHeatmap(s, q, xs.value, ys.value);
   }
+  if (focusCell) { const c = document.querySelector(`#${focusCell[0]} rect.cell[data-id="${focusCell[1]}"]`); if (c) c.focus(); }
 }
 function matchesFixed(v) {
   for (const sel of $("#map-fixed").querySelectorAll("select")) {
@@ -784,7 +840,7 @@ function drawHeatmap(s, q, px, py) {
   const lo = Math.min(...vals), hi = Math.max(...vals);
   const logScale = lo > 0 && hi / lo > 20;
   const norm = (x) => (hi === lo ? 0.5 : logScale ? Math.log(x / lo) / Math.log(hi / lo) : (x - lo) / (hi - lo));
-  const W = 520, H = 330, ml = 78, mr = 86, mt = 26, mb = 52;
+  const W = figWidth(s), H = 330, ml = 78, mr = 86, mt = 26, mb = 52;
   const cw = (W - ml - mr) / xv.length, ch = (H - mt - mb) / yv.length;
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   s.append(svg("text", { x: ml, y: 16, class: "title" }, `${q.label}${q.u.unit ? ` (${q.u.unit})` : ""}`));
@@ -842,7 +898,7 @@ const PALETTE = ["#1f5fbf", "#d1495b", "#2a9d8f", "#e9a03b", "#6a4c93", "#4d908e
 // series: [{name, xs, ys}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}
 function lineChart(s, series, opts) {
   s.innerHTML = "";
-  const W = 520, H = opts.equal ? 460 : 330, ml = 70, mr = 14, mt = 26, mb = 46;
+  const W = figWidth(s), H = opts.equal ? 460 : 330, ml = 70, mr = 28, mt = 26, mb = 46; // mr: room for the last x label
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0));
   s.append(svg("text", { x: ml, y: 16, class: "title" }, opts.title || ""));
@@ -948,17 +1004,20 @@ function drawFig4(result) {
     xs: c.points.map((p) => p.load_n), ys: c.points.map((p) => p.friction_coefficient) }));
   lineChart($("#fig4"), series, { title: "Friction coefficient (Fig. 4)", xLabel: "load (N)", yLabel: "friction coefficient f", xLog: true, yLog: true, xName: "load", yName: "f" });
 }
+let plotsFor = null;
 async function loadServerPlots(id) {
+  if (plotsFor === id) return; // once per selected sweep (several reloads may ask at once)
+  plotsFor = id;
   const holder = $("#server-plots");
   holder.innerHTML = "";
   const r = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots`);
-  if (!r.ok || state.selected !== id) return;
+  if (!r.ok || state.selected !== id) { if (plotsFor === id) plotsFor = null; return; }
   const names = (Array.isArray(r.data) ? r.data : r.data.plots || []).map((p) => (typeof p === "string" ? p : p.name)).filter(Boolean);
   if (!names.length) return;
   holder.append(el("p", { class: "note", text: "Plots the spec asks for, as `run` writes them:" }));
   for (const name of names) {
     const rr = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots/${encodeURIComponent(name)}`);
-    if (!rr.ok || state.selected !== id) continue;
+    if (!rr.ok || state.selected !== id || plotsFor !== id) continue;
     const url = URL.createObjectURL(new Blob([rr.text], { type: "image/svg+xml" }));
     holder.append(el("figure", { class: "server-plot" }, el("img", { src: url, alt: `server plot ${name}` }), el("figcaption", { text: name })));
   }
@@ -1148,4 +1207,12 @@ document.addEventListener("DOMContentLoaded", () => {
   refreshAll();
   setInterval(refreshQueue, 3000); // the list (other clients' sweeps); live progress comes by SSE
   setInterval(checkHealth, 15000);
+  // Figures are drawn for their width: redraw when it changes (phone turned, window resized).
+  let resizeTimer = null, lastWidth = window.innerWidth;
+  window.addEventListener("resize", () => {
+    clearTimeout(resizeTimer);
+    resizeTimer = setTimeout(() => {
+      if (window.innerWidth !== lastWidth && state.selected) { lastWidth = window.innerWidth; renderDetail(); }
+    }, 200);
+  });
 });

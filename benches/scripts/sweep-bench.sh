@@ -3,7 +3,7 @@
 # rtol = atol = 1e-6, samples every 5e-4 s, film accuracy 1e-6) at N variants: a Latin
 # hypercube over clearance [2e-4, 4e-4] m x viscosity [0.015, 0.04] Pa·s. Prints
 # N, batch size, wall seconds, variants per second and peak RSS (VmHWM) per run.
-#   [BATCH_SIZES="auto 1024"] bash bench/sweep-bench.sh [BIN] [N...]
+#   [BATCH_SIZES="auto 1024"] bash benches/scripts/sweep-bench.sh [BIN] [N...]
 set -euo pipefail
 BIN=${1:-target/release/bearing-sweep}
 shift || true

@@ -2,7 +2,7 @@
 # Error of the sweep benchmark's settings (dopri5 rtol = atol = 1e-6) against 1e-11 over
 # the benchmark's parameter box (3 clearances x 3 viscosities, corners and centre):
 # max |G - G_ref| over the 1001 samples, |h_min - h_min_ref|, relative friction error.
-#   bash bench/sweep-error.sh [BIN]
+#   bash benches/scripts/sweep-error.sh [BIN]
 set -euo pipefail
 BIN=${1:-target/release/bearing-sweep}
 TMP=$(mktemp -d)

@@ -1,0 +1,244 @@
+//! Finite-film benchmark (BENCHMARKS.md "Finite-length film"): states/s at several grids
+//! on the CPU backend and the WGSL kernel, the error against a converged grid, counted
+//! flops, and the rotor-scene cost with the finite film against the short one.
+
+use std::time::Instant;
+
+use super::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
+use crate::bearing::finite::{finite_solution, FiniteSettings};
+use crate::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
+
+/// Flops per node and sweep of the CPU kernel (coefficients precomputed per solve):
+/// 4 mul + 3 add (neighbour sum), sub + mul (Gauss–Seidel value), sub + mul + add
+/// (relaxation), max (projection), sub + abs + 2 max (convergence bookkeeping) = 17.
+pub const CPU_FLOPS_PER_NODE_SWEEP: f64 = 17.0;
+/// The WGSL kernel recomputes the coefficients every sweep: 17 as above, plus 3 film
+/// interpolations (8 each), 4 `H³` (4 each), 4 coefficient scalings, the right-hand side
+/// (8), the diagonal sum and division (4) = 17 + 24 + 16 + 4 + 8 + 4 = 73.
+pub const GPU_FLOPS_PER_NODE_SWEEP: f64 = 73.0;
+
+/// The benchmark's bearing states: the paper's bearing (B/D = 0.5), eccentricities
+/// 0.1..0.9, half of them tilted, a third whirling or squeezing.
+pub fn bench_states(n: usize) -> (BearingParams, Vec<BearingState>) {
+    let p = BearingParams::paper_table2();
+    let d = p.clearance;
+    let states = (0..n)
+        .map(|k| {
+            let t = k as f64 * 2.399; // golden angle: directions spread evenly
+            let e = 0.1 + 0.8 * ((k * 61 % 97) as f64 / 96.0);
+            let tilt = if k % 2 == 0 { 0.0 } else { 0.25 };
+            BearingState {
+                xi: e * d * t.cos(),
+                yi: e * d * t.sin(),
+                xj: e * d * (1.0 - tilt) * t.cos(),
+                yj: e * d * (1.0 - tilt) * t.sin(),
+                vxi: if k % 3 == 1 { 0.02 * d * 100.0 } else { 0.0 },
+                vyi: if k % 3 == 2 { -0.03 * d * 100.0 } else { 0.0 },
+                vxj: 0.0,
+                vyj: 0.0,
+                omega: 100.0,
+            }
+        })
+        .collect();
+    (p, states)
+}
+
+fn norm_err(a: [f64; 4], b: [f64; 4]) -> f64 {
+    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// One grid's row: states/s (cold start), mean sweeps, median error vs the reference.
+struct Row {
+    grid: (u32, u32),
+    states_per_s: f64,
+    sweeps: f64,
+    error_median: f64,
+    error_max: f64,
+}
+
+fn run_grid(
+    ev: &mut LoadEvaluator,
+    p: &BearingParams,
+    states: &[BearingState],
+    reference: &[[f64; 4]],
+    grid: (u32, u32),
+    reps: usize,
+) -> Row {
+    let bp = BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            n_theta: grid.0,
+            n_z: grid.1,
+            ..FiniteSettings::default()
+        },
+        ..*p
+    };
+    ev.set_warm_start(false);
+    let req: Vec<LoadRequest> = states
+        .iter()
+        .map(|&state| LoadRequest { bearing: 0, state })
+        .collect();
+    let mut out = Vec::new();
+    ev.evaluate(&[bp], &req, &mut out); // warm-up (pipeline build, allocation)
+    let before = ev.stats();
+    let t = Instant::now();
+    for _ in 0..reps {
+        ev.evaluate(&[bp], &req, &mut out);
+    }
+    let secs = t.elapsed().as_secs_f64();
+    let after = ev.stats();
+    let mut errs: Vec<f64> = out
+        .iter()
+        .zip(reference)
+        .map(|(r, want)| match r {
+            Ok(l) => norm_err(l.load_vector(p.length), *want),
+            Err(_) => f64::NAN,
+        })
+        .collect();
+    errs.sort_by(|a, b| a.total_cmp(b));
+    Row {
+        grid,
+        states_per_s: (reps * states.len()) as f64 / secs,
+        sweeps: (after.finite_sweeps - before.finite_sweeps) as f64
+            / (after.finite_states - before.finite_states).max(1) as f64,
+        error_median: errs[errs.len() / 2],
+        error_max: errs[errs.len() - 1],
+    }
+}
+
+/// Runs the benchmark; `n` states per call, each grid timed over `reps` calls. Returns
+/// the markdown report.
+pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
+    let (p, states) = bench_states(n);
+    // Converged reference: 256×64 Richardson-extrapolated from 128×32.
+    let reference: Vec<[f64; 4]> = states
+        .iter()
+        .map(|s| {
+            let g = FiniteSettings {
+                n_theta: 256,
+                n_z: 64,
+                tolerance: 1e-10,
+                ..FiniteSettings::default()
+            };
+            finite_solution(&p, s, &g, true)
+                .ok()
+                .and_then(|f| f.extrapolated)
+                .unwrap_or([f64::NAN; 4])
+        })
+        .collect();
+    let grids = [(32, 8), (64, 16), (128, 32)];
+    let mut md = format!(
+        "Finite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
+         third whirling/squeezing), cold start, tolerance 1e-8; error: load vector \
+         (W_x, W_y, M_x/B, M_y/B) against 256×64 Richardson-extrapolated.\n\n\
+         | backend | grid | states/s | sweeps/state | median error | max error | GFLOP/s (counted) |\n\
+         |---|---|---|---|---|---|---|\n"
+    );
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let threads = cpu.info().device;
+    for g in grids {
+        let r = run_grid(&mut cpu, &p, &states, &reference, g, reps);
+        let nodes = (g.0 * (g.1 - 1)) as f64;
+        let gf = r.states_per_s * r.sweeps * nodes * CPU_FLOPS_PER_NODE_SWEEP * 1e-9;
+        md += &format!(
+            "| cpu ({threads}) | {}×{} | {:.0} | {:.0} | {:.2e} | {:.2e} | {gf:.2} |\n",
+            r.grid.0, r.grid.1, r.states_per_s, r.sweeps, r.error_median, r.error_max
+        );
+    }
+    if gpu {
+        let opts = GpuOptions {
+            precision: Some(super::Precision::F64),
+            ..GpuOptions::default()
+        };
+        match GpuBackend::new(Accuracy::default(), opts) {
+            Ok(g) => {
+                let name = g.info().device;
+                let mut ev = LoadEvaluator::new(Box::new(g));
+                for gr in grids {
+                    if (gr.0 * (gr.1 - 1)) as usize > super::FINITE_MAX_NODES {
+                        md += &format!(
+                            "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | | |\n",
+                            gr.0, gr.1
+                        );
+                        continue;
+                    }
+                    let r = run_grid(&mut ev, &p, &states, &reference, gr, reps);
+                    let nodes = (gr.0 * (gr.1 - 1)) as f64;
+                    let gf = r.states_per_s * r.sweeps * nodes * GPU_FLOPS_PER_NODE_SWEEP * 1e-9;
+                    md += &format!(
+                        "| gpu ({name}) | {}×{} | {:.0} | {:.0} | {:.2e} | {:.2e} | {gf:.2} |\n",
+                        r.grid.0, r.grid.1, r.states_per_s, r.sweeps, r.error_median, r.error_max
+                    );
+                }
+                let notices = ev.take_notices();
+                if !notices.is_empty() {
+                    md += &format!("\nGPU notices: {notices:?}\n");
+                }
+            }
+            Err(e) => md += &format!("\nGPU skipped: {e}\n"),
+        }
+    }
+    md
+}
+
+/// Rotor-scene cost: the paper's example (MODEL.md section 8, free spin, dopri5 at
+/// rtol 1e-6) over `t_end` seconds with the short film, the finite film with warm start,
+/// and the finite film from cold starts; CPU backend. Markdown rows.
+pub fn bench_finite_rotor(t_end: f64) -> String {
+    use crate::rotor::{load_scene, simulate_batch};
+    let mut base: serde_json::Value =
+        serde_json::from_str(include_str!("../../sweeps/paper-example.json"))
+            .expect("the paper example parses");
+    base["compare_ideal"] = serde_json::json!(false);
+    base["integrator"]["t_end"] = serde_json::json!(t_end);
+    let mut md = format!(
+        "Paper rotor, {t_end} s, dopri5 rtol 1e-6, CPU backend (2 threads):\n\n\
+         | film | wall s | load evaluations | sweeps/evaluation | warm starts | ε_max | min h_min µm |\n\
+         |---|---|---|---|---|---|---|\n"
+    );
+    for (label, model, warm) in [
+        ("short", "short", true),
+        ("finite 64×16, warm start", "finite", true),
+        ("finite 64×16, cold start", "finite", false),
+    ] {
+        let mut s = base.clone();
+        for b in s["bearings"].as_array_mut().expect("bearings") {
+            b["model"] = serde_json::json!(model);
+        }
+        let scenes = match load_scene(&s.to_string()) {
+            Ok(x) => x,
+            Err(e) => return format!("scene error: {e}"),
+        };
+        let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+        ev.set_warm_start(warm);
+        let t = Instant::now();
+        let r = simulate_batch(&scenes, &mut ev, &mut |_, _| {}).remove(0);
+        let wall = t.elapsed().as_secs_f64();
+        let st = ev.stats();
+        let ecc = r
+            .samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.eccentricity_max.iter().copied())
+            .fold(0.0, f64::max);
+        let hmin = r
+            .samples
+            .bearings
+            .iter()
+            .flat_map(|b| b.h_min.iter().copied())
+            .fold(f64::INFINITY, f64::min);
+        let sweeps = if st.finite_states > 0 {
+            format!("{:.1}", st.finite_sweeps as f64 / st.finite_states as f64)
+        } else {
+            "—".into()
+        };
+        md += &format!(
+            "| {label} | {wall:.2} | {} | {sweeps} | {} | {ecc:.4} | {:.2} |\n",
+            st.states,
+            st.finite_warm_starts,
+            hmin * 1e6
+        );
+    }
+    md
+}

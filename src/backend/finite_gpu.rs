@@ -1,0 +1,292 @@
+//! Host side of `shaders/finite.wgsl`: the finite-length film on the GPU backend's device,
+//! one workgroup per state, f64 only (the kernel is an iterative solver whose tolerance
+//! reaches 1e-8 and below; f32 would stop at ~1e-6).
+
+use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use wgpu::util::DeviceExt;
+
+use super::BackendError;
+use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
+use crate::bearing::FilmIntegrals;
+
+/// The finite-film kernel's WGSL source.
+pub const FINITE_WGSL: &str = include_str!("../../shaders/finite.wgsl");
+
+/// Largest interior field `n_theta × (n_z − 1)` the kernel holds in workgroup memory
+/// (`MAX_NODES` in the shader).
+pub const FINITE_MAX_NODES: usize = 1664;
+
+/// Workgroups per dispatch row (WebGPU's guaranteed per-dimension limit).
+const ROW: u32 = 65_535;
+/// States per dispatch: bounds the field buffer (4096 × 1664 × 8 B ≈ 55 MB at most).
+const CHUNK: usize = 4096;
+/// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE` in the shader).
+const JOB_STRIDE: usize = 12;
+const OUT_STRIDE: usize = 8;
+/// Column value meaning "no inlet on this row" (`NO_INLET`).
+const NO_INLET: u32 = u32::MAX;
+
+/// The uniform block (`Params`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    count: u32,
+    n_theta: u32,
+    n_z: u32,
+    max_sweeps: u32,
+    tolerance: f64,
+}
+
+/// The compiled finite-film pipeline on one device.
+pub(crate) struct FinitePipeline {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl FinitePipeline {
+    /// Compiles the kernel; a validation error is returned, not raised.
+    pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("finite.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(FINITE_WGSL.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("finite film kernel"),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "the finite-film kernel does not build: {e}"
+            )));
+        }
+        Ok(FinitePipeline { pipeline })
+    }
+
+    /// Solves `jobs` on `grid`; `fields[k]` of the grid's length is job k's warm start.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        let interior = grid.n_theta * (grid.n_z.max(1) - 1);
+        if interior > FINITE_MAX_NODES {
+            return Err(BackendError::Device(format!(
+                "finite grid {}×{} has {interior} interior nodes, more than the GPU kernel's \
+                 workgroup memory holds ({FINITE_MAX_NODES})",
+                grid.n_theta, grid.n_z
+            )));
+        }
+        out.clear();
+        reports.clear();
+        let trig: Vec<f64> = (0..2 * grid.n_theta)
+            .flat_map(|k| {
+                let th = 0.5 * (2.0 * PI / grid.n_theta as f64) * k as f64;
+                [th.cos(), th.sin()]
+            })
+            .collect();
+        let trig_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite trig"),
+            contents: bytemuck::cast_slice(&trig),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let full = grid.field_len();
+        let dt = 2.0 * PI / grid.n_theta as f64;
+        for (c, chunk) in jobs.chunks(CHUNK).enumerate() {
+            let fchunk = &mut fields[c * CHUNK..c * CHUNK + chunk.len()];
+            let n = chunk.len();
+            let mut job_data = Vec::with_capacity(n * JOB_STRIDE);
+            let mut field_data = vec![0.0_f64; n * full];
+            let mut inlets = vec![NO_INLET; n * (grid.n_z + 1)];
+            for (k, (job, f)) in chunk.iter().zip(fchunk.iter()).enumerate() {
+                let warm = f.len() == full && f.iter().all(|v| v.is_finite() && *v >= 0.0);
+                if warm {
+                    field_data[k * full..(k + 1) * full].copy_from_slice(f);
+                }
+                job_data.extend_from_slice(&job.state.ecc);
+                job_data.extend_from_slice(&job.state.rate);
+                job_data.push(job.aspect * job.aspect / (dt * dt));
+                job_data.push(grid.relaxation(job.aspect));
+                job_data.push(if warm { 1.0 } else { 0.0 });
+                job_data.push(0.0);
+                if grid.max_film_inlet {
+                    let e = &job.state.ecc;
+                    for j in 0..=grid.n_z {
+                        let zeta = j as f64 / grid.n_z as f64;
+                        let ex = e[0] + (e[2] - e[0]) * zeta;
+                        let ey = e[1] + (e[3] - e[1]) * zeta;
+                        if ex != 0.0 || ey != 0.0 {
+                            let th = (-ey).atan2(-ex).rem_euclid(2.0 * PI);
+                            inlets[k * (grid.n_z + 1) + j] =
+                                ((th / dt).round() as usize % grid.n_theta) as u32;
+                        }
+                    }
+                }
+            }
+            let params = Params {
+                count: n as u32,
+                n_theta: grid.n_theta as u32,
+                n_z: grid.n_z as u32,
+                max_sweeps: grid.max_sweeps(),
+                tolerance: grid.tolerance,
+            };
+            let storage = |label, data: &[u8], extra: wgpu::BufferUsages| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: data,
+                    usage: wgpu::BufferUsages::STORAGE | extra,
+                })
+            };
+            let scope_oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let scope_val = device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("finite params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let jobs_buf = storage(
+                "finite jobs",
+                bytemuck::cast_slice(&job_data),
+                wgpu::BufferUsages::empty(),
+            );
+            let fields_buf = storage(
+                "finite fields",
+                bytemuck::cast_slice(&field_data),
+                wgpu::BufferUsages::COPY_SRC,
+            );
+            let results_len = (n * OUT_STRIDE * 8) as u64;
+            let results_buf = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("finite results"),
+                size: results_len,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let inlets_buf = storage(
+                "finite inlets",
+                bytemuck::cast_slice(&inlets),
+                wgpu::BufferUsages::empty(),
+            );
+            let fields_len = (n * full * 8) as u64;
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("finite readback"),
+                size: fields_len + results_len,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let layout = self.pipeline.get_bind_group_layout(0);
+            let entries: Vec<wgpu::BindGroupEntry> = [
+                &params_buf,
+                &trig_buf,
+                &jobs_buf,
+                &fields_buf,
+                &results_buf,
+                &inlets_buf,
+            ]
+            .iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("finite bindings"),
+                layout: &layout,
+                entries: &entries,
+            });
+            let mut enc =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("finite film kernel"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                let groups = n as u32;
+                pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
+            }
+            enc.copy_buffer_to_buffer(&fields_buf, 0, &readback, 0, fields_len);
+            enc.copy_buffer_to_buffer(&results_buf, 0, &readback, fields_len, results_len);
+            let sub = queue.submit(Some(enc.finish()));
+            let val = pollster::block_on(scope_val.pop());
+            let oom = pollster::block_on(scope_oom.pop());
+            if let Some(e) = oom.or(val) {
+                return Err(BackendError::Device(format!(
+                    "dispatching {n} finite-film states: {e}"
+                )));
+            }
+            let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> =
+                Arc::new(Mutex::new(None));
+            let d = done.clone();
+            readback.map_async(wgpu::MapMode::Read, .., move |r| {
+                if let Ok(mut g) = d.lock() {
+                    *g = Some(r);
+                }
+            });
+            device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(sub),
+                    timeout: Some(timeout),
+                })
+                .map_err(|e| {
+                    BackendError::Device(format!(
+                        "waiting for the finite-film kernel (timeout {timeout:?}): {e}"
+                    ))
+                })?;
+            let mut state = done.lock().ok().and_then(|g| g.clone());
+            if state.is_none() {
+                let _ = device.poll(wgpu::PollType::Poll);
+                state = done.lock().ok().and_then(|g| g.clone());
+            }
+            match state {
+                Some(Ok(())) => {}
+                Some(Err(e)) => {
+                    return Err(BackendError::Device(format!(
+                        "reading the finite-film results back: {e}"
+                    )))
+                }
+                None => {
+                    return Err(BackendError::Device(
+                        "finite-film results never became readable".into(),
+                    ))
+                }
+            }
+            {
+                let view = readback.get_mapped_range(..).map_err(|e| {
+                    BackendError::Device(format!("mapping the finite-film results: {e}"))
+                })?;
+                let vals: &[f64] = bytemuck::cast_slice(&view);
+                for (k, f) in fchunk.iter_mut().enumerate() {
+                    f.clear();
+                    f.extend_from_slice(&vals[k * full..(k + 1) * full]);
+                }
+                let res = &vals[n * full..];
+                for k in 0..n {
+                    let r = &res[k * OUT_STRIDE..(k + 1) * OUT_STRIDE];
+                    out.push([r[0], r[1], r[2], r[3]]);
+                    reports.push(SolveReport {
+                        sweeps: r[4] as u32,
+                        iteration_error: r[5],
+                        converged: r[6] > 0.5,
+                    });
+                }
+            }
+            readback.unmap();
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,81 @@
+//! The result document of a sweep stored in PostgreSQL: the same JSON `run` writes to
+//! result.json for the same spec and settings (everything but the `run` section, which
+//! describes the workers and leases instead of one process).
+
+use serde_json::Value;
+
+use super::error::PgError;
+use super::monitor::run_section;
+use super::queue::PgQueue;
+use crate::sweep::runner::result_skeleton;
+use crate::sweep::spec::parse_spec;
+
+/// Variants read per query while assembling a result.
+const PAGE: u64 = 1000;
+
+/// The complete result of sweep `id` (status `done`), variants in id order.
+pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError> {
+    let row = queue
+        .sweep(id)
+        .await?
+        .ok_or_else(|| PgError::NotFound(id.to_string()))?;
+    if row.status != "done" {
+        return Err(PgError::Sweep {
+            id: id.to_string(),
+            reason: format!(
+                "the result is complete only when the sweep is done; it is {} ({} of {} variants)",
+                row.status, row.done, row.total
+            ),
+        });
+    }
+    let job = queue.job(id).await?;
+    let spec = parse_spec(&job.spec, None).map_err(|e| PgError::Sweep {
+        id: id.to_string(),
+        reason: format!("the stored spec does not parse: {e}"),
+    })?;
+    let run = match &row_run(queue, id).await? {
+        Some(r) => r.clone(),
+        None => run_section(queue, id).await?,
+    };
+    let settings = row.settings.clone().unwrap_or(Value::Null);
+    let mut doc = result_skeleton(&spec, &settings, None, row.total, run);
+    let mut variants = Vec::with_capacity(row.total as usize);
+    let mut next = 0u64;
+    loop {
+        let page = queue.variants(id, next, PAGE).await?;
+        let Some(last) = page.last().map(|r| r.id) else {
+            break;
+        };
+        for r in page {
+            let v: Value = serde_json::from_str(&r.line).map_err(|e| PgError::Sweep {
+                id: id.to_string(),
+                reason: format!("variant {}: stored line is not JSON: {e}", r.id),
+            })?;
+            variants.push(v);
+        }
+        next = last + 1;
+    }
+    if variants.len() as u64 != row.total {
+        return Err(PgError::Sweep {
+            id: id.to_string(),
+            reason: format!(
+                "{} variant results stored for {} variants",
+                variants.len(),
+                row.total
+            ),
+        });
+    }
+    doc["variants"] = Value::Array(variants);
+    Ok(doc)
+}
+
+/// The stored `run` section (written when the server saw the sweep done).
+async fn row_run(queue: &PgQueue, id: &str) -> Result<Option<Value>, PgError> {
+    let c = queue.connection("reading the run section").await?;
+    let r = c
+        .query_opt("SELECT run FROM sweeps WHERE id = $1", &[&id])
+        .await
+        .map_err(|e| queue.db_error("reading the run section", e))?;
+    Ok(r.and_then(|r| r.get::<_, Option<String>>(0))
+        .and_then(|t| serde_json::from_str(&t).ok()))
+}

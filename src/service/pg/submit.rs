@@ -1,0 +1,64 @@
+//! Enqueueing a sweep spec (as `run` reads it) on the PostgreSQL queue: parsed and every
+//! variant validated before anything is stored.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde_json::Value;
+
+use super::error::PgError;
+use super::queue::{NewSweep, PgQueue, SweepOptions};
+use crate::sweep::spec::parse_spec;
+use crate::sweep::Expansion;
+
+static SUBMITTED: AtomicU64 = AtomicU64::new(0);
+
+/// A fresh opaque sweep id (16 hex digits from the time, the process and a counter).
+pub fn new_sweep_id() -> String {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let n = SUBMITTED.fetch_add(1, Ordering::Relaxed);
+    let seed = format!("{nanos}/{}/{n}", std::process::id());
+    use sha2::{Digest, Sha256};
+    Sha256::digest(seed.as_bytes())[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Validates spec `doc` (every variant) and enqueues it in work batches of
+/// `batch_variants`; returns (id, variants). A bad spec is a [`PgError::Spec`] naming the
+/// JSON path.
+pub async fn submit_spec(
+    queue: &PgQueue,
+    doc: &Value,
+    options: SweepOptions,
+    batch_variants: i32,
+) -> Result<(String, u64), PgError> {
+    let spec = parse_spec(doc, None).map_err(PgError::Spec)?;
+    let exp = Expansion::new(&spec);
+    crate::service::sweeps::validate_variants(&spec).map_err(PgError::Spec)?;
+    if !matches!(options.backend.as_str(), "cpu" | "gpu" | "auto") {
+        return Err(PgError::Url(format!(
+            "backend `{}` (expected cpu, gpu or auto)",
+            options.backend
+        )));
+    }
+    let id = new_sweep_id();
+    let total = exp.count();
+    queue
+        .submit(&NewSweep {
+            id: id.clone(),
+            name: spec.name.clone().unwrap_or_default(),
+            kind: spec.kind.name().to_string(),
+            spec: spec.canonical.clone(),
+            options,
+            total,
+            batch_variants,
+            posted: None,
+            local: false,
+            created_unix_s: None,
+        })
+        .await?;
+    Ok((id, total))
+}
