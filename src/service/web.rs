@@ -45,6 +45,14 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../sweeps/paper-example.json"),
     ),
     ("oil-whirl", include_str!("../../sweeps/oil-whirl.json")),
+    (
+        "stability-map",
+        include_str!("../../sweeps/stability-map.json"),
+    ),
+    (
+        "stability-map-timed",
+        include_str!("../../sweeps/stability-map-timed.json"),
+    ),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`
