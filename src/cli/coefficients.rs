@@ -5,7 +5,7 @@
 use serde_json::{json, Map, Value};
 
 use super::{from_value, CliError};
-use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::backend::{create_backend, BackendKind};
 use crate::bearing::{Accuracy, BearingParams, BearingState};
 use crate::stability::{
     aligned_state, bearing_equilibria, coefficients_batch, BearingCoefficients, CoefficientJob,
@@ -165,7 +165,8 @@ pub fn coefficients_json_with(
     })?;
     let (backend, notice) = create_backend(options.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
-    let mut ev = LoadEvaluator::new(backend);
+    let (mut ev, swap) = crate::stability::difference_evaluator(backend, accuracy);
+    notices.extend(swap);
     let info = ev.info();
     let head = json!({
         "bearing": params,

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::CliError;
-use crate::backend::{create_backend, BackendKind, LoadEvaluator};
+use crate::backend::{create_backend, BackendKind};
 use crate::bearing::Accuracy;
 use crate::rotor::{load_scene, ModelKind};
 use crate::stability::{
@@ -85,7 +85,8 @@ pub fn stability_scene_file(
     })?;
     let (backend, notice) = create_backend(opts.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
-    let mut ev = LoadEvaluator::new(backend);
+    let (mut ev, swap) = crate::stability::difference_evaluator(backend, accuracy);
+    notices.extend(swap);
     let stem = Path::new(path)
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

@@ -458,19 +458,17 @@ pub fn linearise_batch(
         }
     }
     let mut coeffs = coefficients_batch(evaluator, &jobs, &DiffOptions::default()).into_iter();
+    let mut first_job = 0;
     for &k in &done {
         let (r, w) = points[k];
+        let point_jobs = &jobs[first_job..first_job + r.bearings.len()];
+        first_job += r.bearings.len();
         let fr = r.frame_rate(w);
         let mut kk = Matrix4::zeros();
         let mut dd = Matrix4::zeros();
         let mut bearings = Vec::new();
         let mut failed = None;
-        for (b, ((p, a), job)) in r
-            .bearings
-            .iter()
-            .zip(jobs.iter().skip(bearings_before(&done, points, k)))
-            .enumerate()
-        {
+        for (b, ((p, a), job)) in r.bearings.iter().zip(point_jobs).enumerate() {
             match coeffs.next().expect("one result per job") {
                 Ok(c) => {
                     let t = transfer(*a);
@@ -533,12 +531,4 @@ pub fn linearise_batch(
     out.into_iter()
         .map(|r| r.expect("every point ends"))
         .collect()
-}
-
-/// Index of point `k`'s first bearing job in the final call.
-fn bearings_before(done: &[usize], points: &[(&RotorDescription, f64)], k: usize) -> usize {
-    done.iter()
-        .take_while(|&&d| d != k)
-        .map(|&d| points[d].0.bearings.len())
-        .sum()
 }

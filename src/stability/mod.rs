@@ -29,3 +29,25 @@ pub use linear::{
 pub use modes::{max_growth, modes, Mode, Shape};
 pub use plots::{campbell_svg, damping_svg};
 pub use sweep_sim::{StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
+
+/// An evaluator for finite differences: an f32 backend (rounding ~1e-7 relative, so
+/// differences over steps of ~1e-4 of the clearance would keep ~3 digits) is replaced by
+/// the CPU backend at the same accuracy, with a notice saying so.
+pub fn difference_evaluator(
+    backend: Box<dyn crate::backend::FilmBackend>,
+    accuracy: crate::bearing::Accuracy,
+) -> (crate::backend::LoadEvaluator, Option<String>) {
+    if backend.info().precision == crate::backend::Precision::F32 {
+        (
+            crate::backend::LoadEvaluator::new(Box::new(crate::backend::CpuBackend::new(
+                accuracy, None,
+            ))),
+            Some(
+                "notice: the GPU kernel runs in f32, too coarse for finite differences; using the CPU backend"
+                    .into(),
+            ),
+        )
+    } else {
+        (crate::backend::LoadEvaluator::new(backend), None)
+    }
+}

@@ -73,7 +73,11 @@ pub fn prepare_simulator(
             if let Some(n) = n {
                 notice(n);
             }
-            let sim = crate::stability::StabilitySimulator::new(LoadEvaluator::new(backend));
+            let (ev, swap) = crate::stability::difference_evaluator(backend, tight);
+            if let Some(n) = swap {
+                notice(n);
+            }
+            let sim = crate::stability::StabilitySimulator::new(ev);
             let settings = sim.settings(tight.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
