@@ -337,3 +337,47 @@ fn submit_prints_the_id_and_with_wait_where_the_result_is() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("axse"), "{err}");
 }
+
+/// `POST /api/coefficients` answers what `coefficients` prints for the same input (the
+/// Friswell Example 5.5.1 bearing), and a bad field is a 422 naming its JSON path.
+#[test]
+fn coefficients_over_http_equal_the_cli() {
+    let dir = scratch("coefficients");
+    let server = Server::start(&dir.join("data"), &[]);
+    let base = server.url.clone();
+    let input = serde_json::json!({
+        "bearing": {"radius": 0.05, "length": 0.03, "clearance": 1e-4, "viscosity": 0.1},
+        "speed": 157.1,
+        "load": [0.0, -525.0]
+    });
+    let file = dir.join("coefficients.json");
+    std::fs::write(&file, input.to_string()).unwrap();
+    let o = bin()
+        .args(["coefficients", "--backend", "cpu"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cli: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let a = post(
+        &format!("{base}/api/coefficients"),
+        input.to_string().as_bytes(),
+        None,
+    );
+    assert_eq!(a.status, 200, "{}", a.text);
+    let http = a.json();
+    for key in ["equilibrium", "order", "stiffness", "damping"] {
+        assert!(cli.get(key).is_some(), "the CLI output lacks {key}");
+        assert_eq!(http[key], cli[key], "{key}: HTTP vs CLI");
+    }
+    let mut bad = input.clone();
+    bad["bearing"]["clearance"] = serde_json::json!(-1e-4);
+    let a = post(
+        &format!("{base}/api/coefficients"),
+        bad.to_string().as_bytes(),
+        None,
+    );
+    assert_eq!(a.status, 422, "{}", a.text);
+    let path = a.json()["error"]["path"].as_str().unwrap_or("").to_string();
+    assert!(path.contains("bearing.clearance"), "error path: {}", a.text);
+}

@@ -91,7 +91,7 @@ pub fn run_command(
                 ));
             }
             let spec = FrictionMapSpec::parse(&doc)?;
-            let (result, svg) = friction_map(&spec, accuracy);
+            let (result, plot) = friction_map(&spec, accuracy);
             let dir = out.parent().unwrap_or(Path::new("."));
             mkdir(dir)?;
             write_result(&out, &result)?;
@@ -106,7 +106,8 @@ pub fn run_command(
                 },
                 out.display()
             )];
-            match svg {
+            // The figure is drawn after the result is on disk (issue 13 item 1).
+            match plot.render() {
                 Ok(svg) => {
                     let svg_path = dir.join("friction-map.svg");
                     std::fs::write(&svg_path, svg)

@@ -40,7 +40,7 @@ const KEEP_ALIVE: Duration = Duration::from_secs(15);
 #[openapi(
     info(title = "bearing-sweep service", description = "Sweeps of rigid rotors in hydrodynamic journal bearings, and batched film-load evaluation."),
     paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
-          list_plots, get_plot, sweep_events, cancel_sweep, eval, healthz),
+          list_plots, get_plot, sweep_events, cancel_sweep, eval, coefficients, healthz),
     components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList)),
     modifiers(&BearerAuth)
 )]
@@ -72,6 +72,7 @@ pub fn router(state: AppState) -> Router {
         .route("/sweeps/{id}/events", get(sweep_events))
         .route("/sweeps/{id}/cancel", post(cancel_sweep))
         .route("/eval", post(eval))
+        .route("/coefficients", post(coefficients))
         .route("/openapi.json", get(openapi))
         .merge(super::web::api())
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth));
@@ -889,5 +890,25 @@ async fn eval(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Respon
     let text = String::from_utf8(bytes.to_vec())
         .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
     let out = st.coalescer.eval(text, accuracy).await?;
+    Ok(Json(out).into_response())
+}
+
+/// Linearised bearing coefficients: body and answer as `coefficients`' input and JSON
+/// output (README "Coefficients and stability"), computed on a blocking thread.
+#[utoipa::path(post, path = "/api/coefficients",
+    request_body(content = serde_json::Value, description = "`{\"bearing\", \"speed\" (or \"speeds\"), \"load\"}` or `{\"bearing\", \"state\"}` as for `coefficients`", content_type = "application/json"),
+    responses((status = 200, description = "`coefficients`' JSON output", body = serde_json::Value),
+              (status = 400, description = "Not JSON", body = ErrorBody),
+              (status = 401, description = "Token required", body = ErrorBody),
+              (status = 413, description = "Body too large", body = ErrorBody),
+              (status = 422, description = "Invalid input: the JSON path and why", body = ErrorBody)),
+    security((), ("bearer" = [])))]
+async fn coefficients(State(st): State<AppState>, body: Body) -> Result<Response, ApiError> {
+    let bytes = read_body(body, st.config.max_body_bytes).await?;
+    let text = String::from_utf8(bytes.to_vec())
+        .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
+    let out = tokio::task::spawn_blocking(move || crate::cli::coefficients_json(&text))
+        .await
+        .map_err(|e| ApiError::internal(format!("coefficients task: {e}")))??;
     Ok(Json(out).into_response())
 }

@@ -265,8 +265,8 @@ impl Scheduler {
         };
         let spec = match parsed {
             ParsedSweep::FrictionMap(fm) => {
-                let (doc, svg) = friction_map(&fm, choice.accuracy);
-                if let Ok(svg) = svg {
+                let (doc, plot) = friction_map(&fm, choice.accuracy);
+                if let Ok(svg) = plot.render() {
                     if let Err(e) = self.store.put_plot(&row.id, "friction-map", &svg) {
                         return failed(e.to_string());
                     }

@@ -262,7 +262,41 @@ fn num(x: Option<f64>) -> Value {
 }
 
 /// Computes the map: the result document (JSON) and its SVG plot.
-pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Result<String, String>) {
+/// The friction map's figure, drawn on demand: callers write the result first, so a figure
+/// that cannot be drawn never holds the numbers back (issue 13 item 1).
+pub struct FrictionMapPlot {
+    title: String,
+    labels: Vec<String>,
+    series: Vec<Vec<(f64, f64)>>,
+}
+
+impl FrictionMapPlot {
+    /// The SVG (f against the load on log axes, one line per speed), or why it cannot be
+    /// drawn (e.g. a range plotters cannot draw in bounded time).
+    pub fn render(&self) -> Result<String, String> {
+        let plot_series: Vec<Series<'_>> = self
+            .series
+            .iter()
+            .zip(&self.labels)
+            .map(|(points, label)| Series {
+                label,
+                points: points.clone(),
+            })
+            .collect();
+        line_plot_svg(
+            &self.title,
+            "load |W| (N)",
+            "friction coefficient f",
+            &plot_series,
+            Scale::Log,
+            Scale::Log,
+        )
+    }
+}
+
+/// Evaluates the map: the result document and its figure (drawn by
+/// [`FrictionMapPlot::render`]).
+pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, FrictionMapPlot) {
     let p = &spec.bearing;
     let rule = FilmRule::new(accuracy.settings());
     let mut curves = Vec::new();
@@ -272,7 +306,7 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Resul
         .iter()
         .map(|w| format!("ω = {w} rad/s"))
         .collect();
-    for (k, &omega) in spec.speed.iter().enumerate() {
+    for &omega in &spec.speed {
         let mut points = Vec::new();
         let mut plot_pts = Vec::new();
         for &load in &spec.load {
@@ -323,15 +357,8 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Resul
             points.push(Value::Object(m));
         }
         curves.push(json!({"speed_rad_s": omega, "points": points}));
-        series.push((k, plot_pts));
+        series.push(plot_pts);
     }
-    let plot_series: Vec<Series<'_>> = series
-        .into_iter()
-        .map(|(k, points)| Series {
-            label: &labels[k],
-            points,
-        })
-        .collect();
     let title = format!(
         "Friction coefficient, r0 = {} m, B = {} m, δ = {} m, μ = {} Pa·s ({})",
         p.radius,
@@ -342,14 +369,6 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Resul
             MapModel::Sommerfeld => "eqs. 10-11",
             MapModel::Film => "film equilibrium",
         }
-    );
-    let svg = line_plot_svg(
-        &title,
-        "load |W| (N)",
-        "friction coefficient f",
-        &plot_series,
-        Scale::Log,
-        Scale::Log,
     );
     let doc = json!({
         "format": FORMAT,
@@ -364,7 +383,12 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Resul
                   "friction_coefficient, sommerfeld, eccentricity": "dimensionless"},
         "curves": curves,
     });
-    (doc, svg)
+    let plot = FrictionMapPlot {
+        title,
+        labels,
+        series,
+    };
+    (doc, plot)
 }
 
 #[cfg(test)]
@@ -380,7 +404,8 @@ mod tests {
 
     #[test]
     fn sommerfeld_map_matches_eqs_10_11() {
-        let (doc, svg) = friction_map(&spec("sommerfeld"), Accuracy::default());
+        let (doc, plot) = friction_map(&spec("sommerfeld"), Accuracy::default());
+        let svg = plot.render();
         // Table 2 bearing: φ = δ/2r0 = 0.0075; S = (W / 8e-4) φ² / (μ ω) = 2.9055 W / ω.
         let phi = 0.0075;
         for c in doc["curves"].as_array().unwrap() {
