@@ -531,18 +531,19 @@ fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
         path: "current executable".into(),
         source,
     })?;
-    let md = bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
-        database: a.database,
-        exe,
-        workers: a.workers,
-        batch: a.batch.max(1),
-        grid: a.grid.max(1),
-        overhead_batches: a.overhead_batches.max(1),
-        storm_workers: a.storm_workers.max(1),
-        storm_s: a.storm_seconds.max(0.1),
-        scratch: a.out,
-    })
-    .map_err(|e| CliError::input("--database", e.to_string()))?;
+    let md =
+        bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
+            database: a.database,
+            exe,
+            workers: a.workers,
+            batch: a.batch.max(1),
+            grid: a.grid.max(1),
+            overhead_batches: a.overhead_batches.max(1),
+            storm_workers: a.storm_workers.max(1),
+            storm_s: a.storm_seconds.max(0.1),
+            scratch: a.out,
+        })
+        .map_err(|e| CliError::input("--database", e.to_string()))?;
     print!("{md}");
     Ok(())
 }

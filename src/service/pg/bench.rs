@@ -81,6 +81,8 @@ fn run_reference(exe: &Path, dir: &Path, spec: &Value) -> Result<(Value, f64), P
     std::fs::write(&file, spec.to_string())
         .map_err(|e| bench_error(format!("{}: {e}", file.display())))?;
     let out = dir.join("out");
+    // A fresh run (an earlier result of another grid would be refused, not resumed).
+    let _ = std::fs::remove_dir_all(&out);
     let st = Command::new(exe)
         .arg("run")
         .arg(&file)
@@ -164,7 +166,10 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
             .await?
             .ok_or_else(|| PgError::NotFound(id.clone()))?;
         if row.status != "done" {
-            return Err(bench_error(format!("{n} workers left the sweep {}", row.status)));
+            return Err(bench_error(format!(
+                "{n} workers left the sweep {}",
+                row.status
+            )));
         }
         let wall = row.finished_unix_s.unwrap_or(0.0) - row.started_unix_s.unwrap_or(0.0);
         let doc = result_document(&q, &id).await?;
@@ -233,7 +238,11 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
         "\nClaim and commit, one worker, {} batches of {per} variants (1 KB lines), ms per batch:\n\n| step | p50 | p99 | mean |\n| --- | --- | --- | --- |\n",
         total_ms.len()
     ));
-    for (name, v) in [("claim", &claims), ("commit (results + lease)", &commits), ("both", &total_ms)] {
+    for (name, v) in [
+        ("claim", &claims),
+        ("commit (results + lease)", &commits),
+        ("both", &total_ms),
+    ] {
         md.push_str(&format!(
             "| {name} | {:.2} | {:.2} | {:.2} |\n",
             percentile(v, 0.5),
@@ -267,8 +276,11 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
                             line: "{}".into(),
                         })
                         .collect();
-                    if q.complete(&lease, &settings, &rows).await.is_ok() {
-                        count.fetch_add(1, Ordering::Relaxed);
+                    match q.complete(&lease, &settings, &rows).await {
+                        Ok(super::queue::Completion::Committed { .. }) => {
+                            count.fetch_add(1, Ordering::Relaxed);
+                        }
+                        other => eprintln!("storm: lease {} of {me}: {other:?}", lease.id),
                     }
                 }
             })
