@@ -81,6 +81,8 @@ fn run_reference(exe: &Path, dir: &Path, spec: &Value) -> Result<(Value, f64), P
     std::fs::write(&file, spec.to_string())
         .map_err(|e| bench_error(format!("{}: {e}", file.display())))?;
     let out = dir.join("out");
+    // A fresh run (an earlier result of another grid would be refused, not resumed).
+    let _ = std::fs::remove_dir_all(&out);
     let st = Command::new(exe)
         .arg("run")
         .arg(&file)
@@ -274,8 +276,11 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
                             line: "{}".into(),
                         })
                         .collect();
-                    if q.complete(&lease, &settings, &rows).await.is_ok() {
-                        count.fetch_add(1, Ordering::Relaxed);
+                    match q.complete(&lease, &settings, &rows).await {
+                        Ok(super::queue::Completion::Committed { .. }) => {
+                            count.fetch_add(1, Ordering::Relaxed);
+                        }
+                        other => eprintln!("storm: lease {} of {me}: {other:?}", lease.id),
                     }
                 }
             })

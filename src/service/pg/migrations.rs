@@ -29,6 +29,11 @@ pub const MIGRATIONS: &[Migration] = &[
         name: "service",
         sql: include_str!("migrations/0002_service.sql"),
     },
+    Migration {
+        version: 3,
+        name: "lease counts",
+        sql: include_str!("migrations/0003_lease_counts.sql"),
+    },
 ];
 
 /// Advisory lock key of the migrations ("bsweepmg" as eight ASCII bytes).

@@ -141,6 +141,10 @@ async fn look(
         let no_run: bool = r.get(3);
         let running_s: Option<f64> = r.get(4);
         let max_seq: i64 = r.get(5);
+        if status == "running" && queue.finalize(&id).await? {
+            // Its last worker stopped between its commit and this step.
+            status = "done".into();
+        }
         let job = scheduler.job(&id);
         let w = watched.entry(id.clone()).or_insert_with(|| Watched {
             // A sweep seen while queued is followed from its first variant; one found

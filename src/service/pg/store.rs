@@ -48,8 +48,15 @@ fn backend(e: PgError) -> StoreError {
     }
 }
 
-const ROW_COLUMNS: &str = "id, seq, name, status, spec, posted_spec, options, total, done, failed,
-    computed, error, run, result_doc, header, settings,
+/// Progress: the server's own count (variants it committed) plus its leases' counts.
+const ROW_COLUMNS: &str = "id, seq, name, status, spec, posted_spec, options, total,
+    (s.done + COALESCE((SELECT sum(l.stored) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS done,
+    (s.failed + COALESCE((SELECT sum(l.not_ok) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS failed,
+    (s.computed + COALESCE((SELECT sum(l.stored) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS computed,
+    error, run, result_doc, header, settings,
     extract(epoch FROM created_at)::float8 AS created_s,
     extract(epoch FROM started_at)::float8 AS started_s,
     extract(epoch FROM finished_at)::float8 AS finished_s";
@@ -153,7 +160,7 @@ impl PgStore {
             async move {
                 const CTX: &str = "reading a sweep";
                 let c = q.connection(CTX).await?;
-                let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps WHERE id = $1");
+                let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps s WHERE s.id = $1");
                 let r = c
                     .query_opt(&sql, &[&id])
                     .await
@@ -215,7 +222,7 @@ impl Store for PgStore {
         self.call(|q| async move {
             const CTX: &str = "listing sweeps";
             let c = q.connection(CTX).await?;
-            let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps ORDER BY seq");
+            let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps s ORDER BY seq");
             let rows = c.query(&sql, &[]).await.map_err(|e| q.db_error(CTX, e))?;
             Ok(rows.iter().map(to_row).collect())
         })
