@@ -457,6 +457,10 @@ async fn process_lease(
             }
         }
     };
+    if why.is_some() {
+        // Whatever it still holds goes back to the queue now.
+        let _ = queue.release(lease).await;
+    }
     match why {
         Some(LeaseState::Lost) => {
             summary.lost += 1;
