@@ -144,7 +144,7 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
             backend: "cpu".into(),
             ..SweepOptions::default()
         };
-        let batch_rows = i32::try_from(o.batch.min(32).max(1)).unwrap_or(32);
+        let batch_rows = i32::try_from(o.batch.clamp(1, 32)).unwrap_or(32);
         let (id, total) = submit_spec(&q, &spec, opts, batch_rows).await?;
         let mut children = Vec::new();
         for k in 0..n {

@@ -34,6 +34,11 @@ pub const MIGRATIONS: &[Migration] = &[
         name: "lease counts",
         sql: include_str!("migrations/0003_lease_counts.sql"),
     },
+    Migration {
+        version: 4,
+        name: "batch expiry",
+        sql: include_str!("migrations/0004_batch_expiry.sql"),
+    },
 ];
 
 /// Advisory lock key of the migrations ("bsweepmg" as eight ASCII bytes).

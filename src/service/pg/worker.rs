@@ -186,9 +186,8 @@ struct ComputeRequest {
 /// The compute thread: owns the simulators (most recent sweeps), answers each request.
 fn compute_thread(backend: BackendKind, rx: std::sync::mpsc::Receiver<ComputeRequest>) {
     let mut cache: HashMap<String, (u64, Prepared)> = HashMap::new();
-    let mut tick = 0u64;
-    for req in rx {
-        tick += 1;
+    for (tick, req) in rx.into_iter().enumerate() {
+        let tick = tick as u64 + 1;
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             if !cache.contains_key(&req.job.id) {
                 let spec = parse_spec(&req.job.spec, None)
@@ -457,6 +456,10 @@ async fn process_lease(
             }
         }
     };
+    if why.is_some() {
+        // Whatever it still holds goes back to the queue now.
+        let _ = queue.release(lease).await;
+    }
     match why {
         Some(LeaseState::Lost) => {
             summary.lost += 1;
