@@ -213,7 +213,7 @@ fn exercise(doc: &Value) {
                 let e = Expansion::new(&spec);
                 let validator: &bearing_sweep::sweep::expand::SceneValidator = match spec.kind {
                     SweepKind::Synthetic => &synthetic::validate,
-                    SweepKind::Rotor => &validate_scene,
+                    SweepKind::Rotor | SweepKind::Stability => &validate_scene,
                 };
                 if let Err(err) = e.validate_all(&spec, validator) {
                     check_sweep_error("validate", &err);
