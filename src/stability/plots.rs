@@ -15,6 +15,43 @@ fn ranked(a: &SpeedAnalysis) -> Vec<&super::Mode> {
     m
 }
 
+/// Labels of the mode curves: as many as the most oscillating modes at any speed.
+fn mode_labels(runs: &[SpeedAnalysis]) -> Vec<String> {
+    let n = runs.iter().map(|a| ranked(a).len()).max().unwrap_or(0);
+    (0..n)
+        .map(|k| format!("mode {} (by frequency)", k + 1))
+        .collect()
+}
+
+/// One curve per ranked mode: `value` of the k-th mode against speed.
+fn mode_curves<'a>(
+    runs: &[SpeedAnalysis],
+    labels: &'a [String],
+    value: impl Fn(&super::Mode) -> f64,
+) -> Vec<Series<'a>> {
+    let ranks: Vec<Vec<&super::Mode>> = runs.iter().map(ranked).collect();
+    labels
+        .iter()
+        .enumerate()
+        .map(|(k, label)| Series {
+            label,
+            points: runs
+                .iter()
+                .zip(&ranks)
+                .filter_map(|(a, r)| r.get(k).map(|m| (a.speed_rad_s, value(m))))
+                .collect(),
+        })
+        .collect()
+}
+
+/// Smallest and largest speed of the runs, rad/s.
+fn speed_range(runs: &[SpeedAnalysis]) -> (f64, f64) {
+    runs.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), a| {
+            (l.min(a.speed_rad_s), h.max(a.speed_rad_s))
+        })
+}
+
 /// Whirl frequency of every oscillating mode against speed, with the `1×` and `0.5×`
 /// lines; the threshold (if any) as a vertical line.
 pub fn campbell_svg(
@@ -22,24 +59,9 @@ pub fn campbell_svg(
     runs: &[SpeedAnalysis],
     threshold: Option<f64>,
 ) -> Result<String, String> {
-    let n = runs.iter().map(|a| ranked(a).len()).max().unwrap_or(0);
-    let labels: Vec<String> = (0..n)
-        .map(|k| format!("mode {} (by frequency)", k + 1))
-        .collect();
-    let mut series: Vec<Series<'_>> = (0..n)
-        .map(|k| Series {
-            label: &labels[k],
-            points: runs
-                .iter()
-                .filter_map(|a| ranked(a).get(k).map(|m| (a.speed_rad_s, m.frequency_rad_s)))
-                .collect(),
-        })
-        .collect();
-    let (lo, hi) = runs
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), a| {
-            (l.min(a.speed_rad_s), h.max(a.speed_rad_s))
-        });
+    let labels = mode_labels(runs);
+    let mut series = mode_curves(runs, &labels, |m| m.frequency_rad_s);
+    let (lo, hi) = speed_range(runs);
     series.push(Series {
         label: "1x (synchronous)",
         points: vec![(lo, lo), (hi, hi)],
@@ -72,24 +94,9 @@ pub fn campbell_svg(
 
 /// Damping ratio of every oscillating mode against speed (negative: unstable).
 pub fn damping_svg(title: &str, runs: &[SpeedAnalysis]) -> Result<String, String> {
-    let n = runs.iter().map(|a| ranked(a).len()).max().unwrap_or(0);
-    let labels: Vec<String> = (0..n)
-        .map(|k| format!("mode {} (by frequency)", k + 1))
-        .collect();
-    let mut series: Vec<Series<'_>> = (0..n)
-        .map(|k| Series {
-            label: &labels[k],
-            points: runs
-                .iter()
-                .filter_map(|a| ranked(a).get(k).map(|m| (a.speed_rad_s, m.damping_ratio)))
-                .collect(),
-        })
-        .collect();
-    let (lo, hi) = runs
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), a| {
-            (l.min(a.speed_rad_s), h.max(a.speed_rad_s))
-        });
+    let labels = mode_labels(runs);
+    let mut series = mode_curves(runs, &labels, |m| m.damping_ratio);
+    let (lo, hi) = speed_range(runs);
     series.push(Series {
         label: "stability limit (0)",
         points: vec![(lo, 0.0), (hi, 0.0)],
