@@ -11,8 +11,7 @@ use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::cli::{eval_json, EvalOptions};
 use bearing_sweep::rotor::load_scene;
 use bearing_sweep::sweep::friction_map::{friction_map, FrictionMapSpec};
-use bearing_sweep::sweep::rotor_sim::validate_scene;
-use bearing_sweep::sweep::{parse_spec, synthetic, Expansion, SweepError, SweepKind};
+use bearing_sweep::sweep::{parse_spec, Expansion, SweepError};
 use proptest::prelude::*;
 use serde_json::{json, Value};
 
@@ -211,10 +210,7 @@ fn exercise(doc: &Value) {
         match parse_spec(doc, Some(Path::new("sweeps"))) {
             Ok(spec) => {
                 let e = Expansion::new(&spec);
-                let validator: &bearing_sweep::sweep::expand::SceneValidator = match spec.kind {
-                    SweepKind::Synthetic => &synthetic::validate,
-                    SweepKind::Rotor | SweepKind::Stability => &validate_scene,
-                };
+                let validator = bearing_sweep::sweep::simulator::scene_validator(spec.kind);
                 if let Err(err) = e.validate_all(&spec, validator) {
                     check_sweep_error("validate", &err);
                 }

@@ -55,12 +55,7 @@ pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
 /// Checks every variant of a runner sweep (so a bad variant gets 422 before anything is
 /// stored).
 pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {
-    let validator: &crate::sweep::expand::SceneValidator = match spec.kind {
-        crate::sweep::SweepKind::Rotor | crate::sweep::SweepKind::Stability => {
-            &crate::sweep::rotor_sim::validate_scene
-        }
-        crate::sweep::SweepKind::Synthetic => &crate::sweep::synthetic::validate,
-    };
+    let validator = crate::sweep::simulator::scene_validator(spec.kind);
     Expansion::new(spec).validate_all(spec, validator)
 }
 

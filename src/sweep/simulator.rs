@@ -45,6 +45,15 @@ pub struct PreparedSimulator {
     pub settings: Value,
 }
 
+/// The scene validator of a sweep kind: every variant of a spec is checked with it (one
+/// place, so `run`, the service and the workers agree on what a valid variant is).
+pub fn scene_validator(kind: SweepKind) -> &'static SceneValidator {
+    match kind {
+        SweepKind::Synthetic => &synthetic::validate,
+        SweepKind::Rotor | SweepKind::Stability => &validate_scene,
+    }
+}
+
 /// Builds the simulator for `spec` (a rotor spec's variants are all validated first: a
 /// GPU start is slow). Backend notices (e.g. a fallback to the CPU) go to `notice`.
 pub fn prepare_simulator(
@@ -55,11 +64,11 @@ pub fn prepare_simulator(
     match spec.kind {
         SweepKind::Synthetic => Ok(PreparedSimulator {
             sim: Box::new(SyntheticSimulator),
-            validator: &synthetic::validate,
+            validator: scene_validator(spec.kind),
             settings: json!({"simulator": "synthetic"}),
         }),
         SweepKind::Stability => {
-            super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
+            super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
             // The coefficients are differences of film loads: always the tightest level
             // (README "Coefficients and stability").
             let tight = Accuracy::new(1e-12).expect("a calibrated level");
@@ -81,12 +90,12 @@ pub fn prepare_simulator(
             let settings = sim.settings(tight.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
-                validator: &validate_scene,
+                validator: scene_validator(spec.kind),
                 settings,
             })
         }
         SweepKind::Rotor => {
-            super::Expansion::new(spec).validate_all(spec, &validate_scene)?;
+            super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
             let (backend, n) = create_backend(choice.backend, choice.accuracy)?;
             if let Some(n) = n {
                 notice(n);
@@ -111,7 +120,7 @@ pub fn prepare_simulator(
             let settings = sim.settings(choice.accuracy.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
-                validator: &validate_scene,
+                validator: scene_validator(spec.kind),
                 settings,
             })
         }
