@@ -23,6 +23,9 @@ use bearing_sweep::integrate::Method;
 use bearing_sweep::plot::{line_plot_svg, line_plot_svg_equal_aspect, Scale, Series};
 use bearing_sweep::rotor::{load_scene, simulate_batch, Scene, SimResult, SimStatus};
 
+mod whirl_fit;
+use whirl_fit::{growth_and_ratio, slope};
+
 const WHIRL: &str = include_str!("../sweeps/oil-whirl.json");
 
 /// The scene over the linear growth phase only (the file runs on to the limit cycle).
@@ -36,44 +39,6 @@ fn run(scenes: &[Scene]) -> Vec<SimResult> {
     let (b, _) = create_backend(BackendKind::Cpu, Accuracy::new(1e-9).unwrap()).unwrap();
     let mut ev = LoadEvaluator::new(b);
     simulate_batch(scenes, &mut ev, &mut |_, _| {})
-}
-
-/// Least-squares slope of `y` against `x`.
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = x.iter().map(|a| (a - mx) * (a - mx)).sum();
-    sxy / sxx
-}
-
-/// Whirl of bearing 1's journal centre over the samples with `t >= t_from` and radius
-/// below `r_max` (m): (growth rate σ of the radius, 1/s, from a fit of ln r against t;
-/// whirl frequency ratio, from a fit of the unwrapped angle against t, over the spin).
-fn growth_and_ratio(r: &SimResult, t_from: f64, r_max: f64, spin: f64) -> (f64, f64, usize) {
-    let s = &r.samples;
-    let b = &s.bearings[0];
-    let (mut t, mut lr, mut ang) = (Vec::new(), Vec::new(), Vec::new());
-    let mut prev: Option<f64> = None;
-    let mut unwrapped = 0.0;
-    for k in 0..s.t.len() {
-        let a = b.yi[k].atan2(b.xi[k]);
-        if let Some(p) = prev {
-            let mut d = a - p;
-            d -= std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
-            unwrapped += d;
-        } else {
-            unwrapped = a;
-        }
-        prev = Some(a);
-        let rad = b.xi[k].hypot(b.yi[k]);
-        if s.t[k] >= t_from && rad <= r_max {
-            t.push(s.t[k]);
-            lr.push(rad.ln());
-            ang.push(unwrapped);
-        }
-    }
-    (slope(&t, &lr), slope(&t, &ang) / spin, t.len())
 }
 
 /// Linear phase: from 0.05 s (the damped mode has died out, e^{-c t / m} ~ 1e-20) until
@@ -143,7 +108,7 @@ fn whirl_frequency_and_growth_rate_do_not_depend_on_tolerance_or_step() {
     let mut fits = Vec::new();
     for (r, label) in rs.iter().zip(&labels) {
         assert_eq!(r.status, SimStatus::Finished, "{label}");
-        let (sigma, ratio, n) = growth_and_ratio(r, T_FROM, R_MAX_OF_CLEARANCE * d, spin);
+        let (sigma, ratio, n) = growth_and_ratio(r, T_FROM, 0.0, R_MAX_OF_CLEARANCE * d, spin);
         eprintln!(
             "{label}: growth rate {sigma:.6} 1/s, whirl ratio {ratio:.6} ({n} samples, {} steps, {} load evaluations)",
             r.stats.steps, r.stats.load_evaluations
@@ -224,7 +189,7 @@ fn a_numerical_blow_up_depends_on_the_step_and_has_no_physical_frequency() {
     let d = base.bearings[0].clearance;
     // The physical whirl (reference for the frequency), and its conical part: bounded.
     let physical = run(std::slice::from_ref(&base)).remove(0);
-    let (_, w_phys, _) = growth_and_ratio(&physical, T_FROM, R_MAX_OF_CLEARANCE * d, spin);
+    let (_, w_phys, _) = growth_and_ratio(&physical, T_FROM, 0.0, R_MAX_OF_CLEARANCE * d, spin);
     let (p0, p1) = (&physical.samples.bearings[0], &physical.samples.bearings[1]);
     let tilt_max = (0..physical.samples.t.len())
         .map(|k| (p0.xi[k] - p1.xi[k]).hypot(p0.yi[k] - p1.yi[k]))
@@ -277,7 +242,7 @@ fn a_numerical_blow_up_depends_on_the_step_and_has_no_physical_frequency() {
         let t: Vec<f64> = idx.iter().map(|&k| r.samples.t[k]).collect();
         let lr: Vec<f64> = idx.iter().map(|&k| tilt(k).ln()).collect();
         let sigma = slope(&t, &lr);
-        let (_, ratio, _) = growth_and_ratio(r, 0.0, 0.9 * d, spin);
+        let (_, ratio, _) = growth_and_ratio(r, 0.0, 0.0, 0.9 * d, spin);
         eprintln!(
             "rk4 h = {h:e} s: {} at t = {t_end:.4} s; blow-up growth rate {sigma:.0} 1/s ({} samples), apparent whirl ratio {ratio:.3}",
             r.status,
