@@ -114,6 +114,7 @@ async fn look(
     queue: &PgQueue,
     scheduler: &Scheduler,
     watched: &mut HashMap<String, Watched>,
+    uptime_s: f64,
 ) -> Result<(), PgError> {
     const CTX: &str = "following worker-run sweeps";
     let ids: Vec<String> = watched.keys().cloned().collect();
@@ -147,9 +148,14 @@ async fn look(
         }
         let job = scheduler.job(&id);
         let w = watched.entry(id.clone()).or_insert_with(|| Watched {
-            // A sweep seen while queued is followed from its first variant; one found
-            // running (server restarted) from now on.
-            last_seq: if status == "queued" { 0 } else { max_seq },
+            // A sweep seen while queued, or started since this server started (workers
+            // may claim it between two looks), is followed from its first variant; one
+            // that was running before the server started, from now on.
+            last_seq: if status == "queued" || running_s.is_some_and(|s| s <= uptime_s) {
+                0
+            } else {
+                max_seq
+            },
             done: 0,
             failed: 0,
             status: None,
@@ -245,8 +251,10 @@ async fn look(
 pub async fn monitor(queue: PgQueue, scheduler: Arc<Scheduler>, mut stop: watch::Receiver<bool>) {
     let mut watched: HashMap<String, Watched> = HashMap::new();
     let mut failing = false;
+    let started = std::time::Instant::now();
     while !*stop.borrow() {
-        match look(&queue, &scheduler, &mut watched).await {
+        let uptime_s = started.elapsed().as_secs_f64();
+        match look(&queue, &scheduler, &mut watched, uptime_s).await {
             Ok(()) => failing = false,
             Err(e) => {
                 if !failing {
