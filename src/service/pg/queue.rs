@@ -404,6 +404,30 @@ impl PgQueue {
                 )
                 .await
                 .map_err(self.db(CTX))?;
+            // Re-check the rows just locked in a new statement (a new snapshot under READ
+            // COMMITTED). A batch that another worker leased and committed while this
+            // SELECT ran is re-evaluated by PostgreSQL on its new row version, but the
+            // `NOT EXISTS` subquery still reads the statement's old snapshot, where that
+            // worker's lease row does not exist yet: the batch looks claimable and would
+            // be claimed twice (seen in CI: 67 claims for 63 batches). The rows are locked
+            // by this transaction now, so what this check sees cannot change before commit.
+            let nos: Vec<i32> = picked.iter().map(|r| r.get(0)).collect();
+            let picked = if picked.is_empty() {
+                picked
+            } else {
+                tx.query(
+                    "SELECT b.batch_no, b.first_id, b.end_id
+                     FROM work_batches b
+                     WHERE b.sweep_id = $1 AND b.batch_no = ANY($2) AND b.state <> 'done'
+                       AND (b.state = 'queued' OR NOT EXISTS (
+                           SELECT 1 FROM leases l
+                           WHERE l.id = b.lease_id AND l.expires_at >= now()))
+                     ORDER BY b.batch_no",
+                    &[&sweep_id, &nos],
+                )
+                .await
+                .map_err(self.db(CTX))?
+            };
             if picked.is_empty() {
                 // Others hold them all (or took them since): try the next sweep.
                 tx.rollback().await.map_err(self.db(CTX))?;
@@ -628,15 +652,24 @@ impl PgQueue {
         .await
         .map_err(self.db(CTX))?;
         tx.commit().await.map_err(self.db(CTX))?;
-        let sweep_done = self.finalize(&lease.sweep_id).await.unwrap_or(false);
+        // On the connection already held: asking the pool for a second one would wait out
+        // its 10 s timeout in a pool of one connection (and then fail, leaving the sweep
+        // running with every batch done). A failure here is not the completion's: its
+        // results are committed, and the next completion or the monitor finalizes.
+        let sweep_done = self.finalize_on(&c, &lease.sweep_id).await.unwrap_or(false);
         Ok(Completion::Committed { sweep_done })
     }
 
     /// Marks a running sweep done once none of its batches is open. Every completion runs
     /// it after its commit, so the last one to commit sees every batch done.
     pub async fn finalize(&self, id: &str) -> Result<bool, PgError> {
+        let c = self.client("finishing a sweep").await?;
+        self.finalize_on(&c, id).await
+    }
+
+    /// [`Self::finalize`] on a connection the caller holds.
+    async fn finalize_on(&self, c: &tokio_postgres::Client, id: &str) -> Result<bool, PgError> {
         const CTX: &str = "finishing a sweep";
-        let c = self.client(CTX).await?;
         let n = c
             .execute(
                 "UPDATE sweeps SET status = 'done', finished_at = now()
