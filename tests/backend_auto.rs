@@ -184,3 +184,50 @@ fn a_sweep_records_the_choice_in_run_simulator_and_the_backend_in_settings() {
     assert_eq!(choice["backend"], r["settings"]["backend"], "{r:#}");
     assert_eq!(auto_lines(&stderr).len(), 1, "{stderr}");
 }
+
+/// A short-film rotor sweep under `auto` takes the CPU from 2 host threads, before any
+/// adapter is asked (measured on an H100 host: the GPU's single-threaded lockstep is as
+/// slow as the CPU on 2 threads, BENCHMARKS.md "GPU backend"); on one thread, or with a
+/// finite film, the adapter is asked as before.
+#[test]
+fn auto_runs_short_film_sweeps_on_the_cpu_from_two_threads() {
+    let dir = scratch("backend-auto", "short-sweep");
+    let mut base = short_scene();
+    base.as_object_mut().unwrap().remove("compare_ideal");
+    let mut finite = base.clone();
+    for b in finite["bearings"].as_array_mut().unwrap() {
+        b["model"] = json!("finite");
+    }
+    for (name, base, threads, short_reason) in [
+        ("short-2", &base, "2", true),
+        ("short-1", &base, "1", false),
+        ("finite-2", &finite, "2", false),
+    ] {
+        let spec = write(
+            &dir,
+            &format!("{name}.json"),
+            &json!({"kind": "rotor", "name": name, "base": base,
+                    "axes": [{"path": "initial.spin", "values": [80.0, 120.0]}]}),
+        );
+        let out_dir = dir.join(format!("out-{name}"));
+        let out = bin()
+            .args(["run", spec.to_str().unwrap(), "--quiet", "--out"])
+            .arg(&out_dir)
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {stderr}");
+        let r = read(&out_dir.join(name).join("result.json"));
+        let choice = &r["run"]["simulator"]["backend_choice"];
+        let reason = choice["reason"].as_str().unwrap_or_default();
+        assert_eq!(
+            reason.contains("short-film rotor sweep"),
+            short_reason,
+            "{name}: reason `{reason}`"
+        );
+        if short_reason {
+            assert_eq!(choice["backend"], json!("cpu"), "{name}: {choice}");
+        }
+    }
+}

@@ -1,12 +1,25 @@
 //! The batched front end every caller uses: validate and pack on the host, one backend
 //! call for all good states, CPU recomputation of anything non-finite, loads out.
 
+use rayon::prelude::*;
+
 use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{
-    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads,
+    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads, Packed,
     PackedState, StateFault,
 };
+
+/// Calls of at least this many states pack and finish their states on rayon's pool
+/// (results are the same: each state is packed and finished alone). Below it, the
+/// fork-join costs more than it saves; the rotor sweeps' per-thread CPU evaluators
+/// carry a few hundred states per call and stay serial. On the H100 host (16 cores) the
+/// serial host path cost ~0.5 µs per state, 25 times the GPU kernel's 0.02 µs at 10^6
+/// states (BENCHMARKS.md "GPU backend", H100).
+pub const PARALLEL_HOST_STATES: usize = 4096;
+
+/// A request packed for the kernel, with whether it needs the finite-length film.
+type Prepared = Result<(Packed, bool), StateFault>;
 
 /// One state to evaluate and the bearing (index into the call's bearing list) it is in.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,6 +163,7 @@ pub struct LoadEvaluator {
     /// Per film state (in request order): its request, rate scale and packed index.
     slots: Vec<(usize, f64, usize)>,
     bearing_ok: Vec<Result<(), StateFault>>,
+    prepared: Vec<Prepared>,
     seen: std::collections::HashMap<[u64; 8], usize>,
     integrals: Vec<FilmIntegrals>,
     bad: Vec<bool>,
@@ -190,6 +204,7 @@ impl LoadEvaluator {
             packed: Vec::new(),
             slots: Vec::new(),
             bearing_ok: Vec::new(),
+            prepared: Vec::new(),
             seen: std::collections::HashMap::new(),
             integrals: Vec::new(),
             bad: Vec::new(),
@@ -266,22 +281,32 @@ impl LoadEvaluator {
                 reason: e.reason,
             })
         }));
-        for (k, req) in requests.iter().enumerate() {
-            let result = match self.bearing_ok.get(req.bearing as usize) {
-                None => Err(StateFault::InvalidBearing {
+        let bearing_ok = &self.bearing_ok;
+        let prepare = |req: &LoadRequest| -> Prepared {
+            let ok = bearing_ok.get(req.bearing as usize).copied().unwrap_or(Err(
+                StateFault::InvalidBearing {
                     field: "bearing",
                     reason: "index out of range",
-                }),
-                Some(ok) => {
-                    ok.and_then(|_| pack_state(&bearings[req.bearing as usize], &req.state))
-                }
-            };
-            match result {
-                Ok(p)
-                    if p.rate_scale > 0.0
-                        && effective_model(&bearings[req.bearing as usize], &req.state)
-                            == FilmModel::Finite =>
-                {
+                },
+            ));
+            ok?;
+            let b = &bearings[req.bearing as usize];
+            let p = pack_state(b, &req.state)?;
+            let finite = p.rate_scale > 0.0 && effective_model(b, &req.state) == FilmModel::Finite;
+            Ok((p, finite))
+        };
+        self.prepared.clear();
+        if requests.len() >= PARALLEL_HOST_STATES {
+            requests
+                .par_iter()
+                .map(prepare)
+                .collect_into_vec(&mut self.prepared);
+        } else {
+            self.prepared.extend(requests.iter().map(prepare));
+        }
+        for (k, req) in requests.iter().enumerate() {
+            match self.prepared[k] {
+                Ok((p, true)) => {
                     out.push(Err(StateFault::BackendNonFinite));
                     let b = &bearings[req.bearing as usize];
                     let n = occurrence.entry(req.bearing).or_insert(0);
@@ -297,7 +322,7 @@ impl LoadEvaluator {
                     });
                     *n += 1;
                 }
-                Ok(p) if p.rate_scale > 0.0 => {
+                Ok((p, _)) if p.rate_scale > 0.0 => {
                     // Placeholder, overwritten below once the integrals are in.
                     out.push(Err(StateFault::BackendNonFinite));
                     let n = if self.options.dedupe {
@@ -316,7 +341,7 @@ impl LoadEvaluator {
                     self.slots.push((k, p.rate_scale, n));
                 }
                 // A film without pressure: its final loads.
-                Ok(_) => out.push(
+                Ok((_, _)) => out.push(
                     finish_loads(&bearings[req.bearing as usize], &req.state, &[0.0; 4], 0.0)
                         .finite_or_fault(),
                 ),
@@ -387,19 +412,29 @@ impl LoadEvaluator {
                 ));
             }
         }
-        for &(k, scale, n) in &self.slots {
-            if self.bad[n] {
-                out[k] = Err(StateFault::BackendNonFinite);
-                continue;
+        let (bad, integrals) = (&self.bad, &self.integrals);
+        let finish = |&(k, scale, n): &(usize, f64, usize)| -> LoadResult {
+            if bad[n] {
+                return Err(StateFault::BackendNonFinite);
             }
             let req = &requests[k];
-            out[k] = finish_loads(
+            finish_loads(
                 &bearings[req.bearing as usize],
                 &req.state,
-                &self.integrals[n],
+                &integrals[n],
                 scale,
             )
-            .finite_or_fault();
+            .finite_or_fault()
+        };
+        if self.slots.len() >= PARALLEL_HOST_STATES {
+            let done: Vec<LoadResult> = self.slots.par_iter().map(finish).collect();
+            for (&(k, _, _), r) in self.slots.iter().zip(done) {
+                out[k] = r;
+            }
+        } else {
+            for slot in &self.slots {
+                out[slot.0] = finish(slot);
+            }
         }
     }
 
@@ -514,5 +549,55 @@ impl LoadEvaluator {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A call large enough to pack and finish on rayon's pool gives, state for state,
+    /// the loads of the serial path (calls below [`PARALLEL_HOST_STATES`]), faults and
+    /// duplicates included.
+    #[test]
+    fn the_parallel_host_path_matches_the_serial_one() {
+        let n = PARALLEL_HOST_STATES + 977;
+        let (bearing, mut requests) = crate::backend::bench::bench_states(n, 0.95, 7);
+        // Faults and duplicates among them: a journal through the wall, a NaN, an
+        // unknown bearing index, and a repeat of state 0.
+        requests[5].state.xi = 2.0 * bearing.clearance;
+        requests[17].state.vxi = f64::NAN;
+        requests[29].bearing = 3;
+        requests[41] = requests[0];
+        let bearings = [bearing];
+        let mut big = LoadEvaluator::new(Box::new(CpuBackend::new(
+            crate::bearing::Accuracy::new(1e-6).unwrap(),
+            Some(2),
+        )));
+        let mut small = LoadEvaluator::new(Box::new(CpuBackend::new(
+            crate::bearing::Accuracy::new(1e-6).unwrap(),
+            Some(1),
+        )));
+        let mut all = Vec::new();
+        big.evaluate(&bearings, &requests, &mut all);
+        assert_eq!(all.len(), n);
+        let mut one = Vec::new();
+        for (k, chunk) in requests.chunks(PARALLEL_HOST_STATES / 2).enumerate() {
+            small.evaluate(&bearings, chunk, &mut one);
+            for (i, (got, want)) in all[k * PARALLEL_HOST_STATES / 2..]
+                .iter()
+                .zip(&one)
+                .enumerate()
+            {
+                let idx = k * PARALLEL_HOST_STATES / 2 + i;
+                match (got, want) {
+                    (Ok(a), Ok(b)) => assert_eq!(a, b, "state {idx}: parallel vs serial"),
+                    (Err(a), Err(b)) => assert_eq!(a, b, "state {idx}: faults differ"),
+                    _ => panic!("state {idx}: parallel {got:?}, serial {want:?}"),
+                }
+            }
+        }
+        assert!(all[5].is_err() && all[17].is_err() && all[29].is_err());
+        assert_eq!(all[41], all[0]);
     }
 }

@@ -143,6 +143,27 @@ impl BackendChoice {
     }
 }
 
+/// The CPU backend at `accuracy` as the choice for a `kind` request, with `reason`, and
+/// for `auto` the one-line notice of the choice.
+pub fn chosen_cpu(
+    kind: BackendKind,
+    accuracy: Accuracy,
+    reason: String,
+) -> (Box<dyn FilmBackend>, Vec<String>) {
+    let choice = BackendChoice {
+        requested: kind,
+        backend: "cpu".into(),
+        reason,
+    };
+    let notices = if kind == BackendKind::Auto {
+        vec![choice.line()]
+    } else {
+        Vec::new()
+    };
+    let backend = Box::new(CpuBackend::new(accuracy, None));
+    (Box::new(Chosen { backend, choice }), notices)
+}
+
 /// Creates the backend of `kind` at `accuracy`. Returns the backend and, for `auto`,
 /// the one-line notice of its choice (plus a second line when the GPU kernel's f32 cannot
 /// reach `accuracy`). Without a batch size `auto` assumes a large batch (sweeps); see
@@ -172,20 +193,7 @@ pub fn choose_backend(
     accuracy: Accuracy,
     states_per_call: Option<usize>,
 ) -> Result<(Box<dyn FilmBackend>, Vec<String>), BackendError> {
-    let cpu = |reason: String| -> (Box<dyn FilmBackend>, Vec<String>) {
-        let choice = BackendChoice {
-            requested: kind,
-            backend: "cpu".into(),
-            reason,
-        };
-        let notices = if kind == BackendKind::Auto {
-            vec![choice.line()]
-        } else {
-            Vec::new()
-        };
-        let backend = Box::new(CpuBackend::new(accuracy, None));
-        (Box::new(Chosen { backend, choice }), notices)
-    };
+    let cpu = |reason: String| chosen_cpu(kind, accuracy, reason);
     match (kind, states_per_call) {
         (BackendKind::Cpu, _) => return Ok(cpu("requested".into())),
         (BackendKind::Auto, Some(n)) if n < DEFAULT_CPU_BELOW => {

@@ -9,7 +9,9 @@ use super::rotor_sim::{validate_scene, RotorSimulator};
 use super::runner::BatchSimulator;
 use super::synthetic::{self, SyntheticSimulator};
 use super::{SweepError, SweepKind, SweepSpec};
-use crate::backend::{create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator};
+use crate::backend::{
+    chosen_cpu, create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator,
+};
 use crate::bearing::Accuracy;
 use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 
@@ -96,7 +98,25 @@ pub fn prepare_simulator(
         }
         SweepKind::Rotor => {
             super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
-            let (backend, n) = create_backend(choice.backend, choice.accuracy)?;
+            let threads = rayon::current_num_threads();
+            let (backend, n) = if choice.backend == BackendKind::Auto
+                && threads >= SHORT_FILM_SWEEP_CPU_THREADS
+                && short_film_only(spec)
+            {
+                let (b, notices) = chosen_cpu(
+                    BackendKind::Auto,
+                    choice.accuracy,
+                    format!(
+                        "a short-film rotor sweep runs its integrators on one thread beside \
+                         a GPU but on all {threads} here beside the CPU backend (the CPU is \
+                         as fast from {SHORT_FILM_SWEEP_CPU_THREADS} threads, BENCHMARKS.md \
+                         \"GPU backend\")"
+                    ),
+                );
+                (b, (!notices.is_empty()).then(|| notices.join("\n")))
+            } else {
+                create_backend(choice.backend, choice.accuracy)?
+            };
             if let Some(n) = n {
                 notice(n);
             }
@@ -125,4 +145,36 @@ pub fn prepare_simulator(
             })
         }
     }
+}
+
+/// Host threads from which `auto` runs a short-film rotor sweep on the CPU even where a
+/// hardware GPU exists. With a GPU the lockstep integrators of a batch run on one host
+/// thread and every stage waits for a dispatch; with the CPU backend the batch is split
+/// over all threads. Measured on an H100 host (4096 variants of the paper rotor, 0.1 s):
+/// GPU 34.5 s, CPU on 2 threads 34.9 s, 4 threads 21.2 s, 16 threads 11.3 s
+/// (BENCHMARKS.md "GPU backend"). Finite-film sweeps, whose loads dominate, keep the GPU
+/// (5.6 s against 10.6 s on 16 threads).
+pub const SHORT_FILM_SWEEP_CPU_THREADS: usize = 2;
+
+/// Whether every variant of a rotor sweep uses the short film: no bearing of the base
+/// scene names another model and no axis sets a bearing's `model` (or a whole bearing).
+fn short_film_only(spec: &SweepSpec) -> bool {
+    let base_short = spec
+        .base
+        .get("bearings")
+        .and_then(Value::as_array)
+        .is_none_or(|bs| {
+            bs.iter().all(|b| {
+                b.get("model")
+                    .and_then(Value::as_str)
+                    .is_none_or(|m| m == "short")
+            })
+        });
+    base_short
+        && spec.axes.iter().all(|a| {
+            // An axis that sets a bearing's model, or a whole bearing or bearing list.
+            let p = a.path.as_str();
+            !(p.starts_with("bearings")
+                && (p.ends_with("model") || p.ends_with(']') || p == "bearings"))
+        })
 }
