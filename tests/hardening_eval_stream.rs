@@ -132,3 +132,50 @@ fn empty_and_bad_documents() {
         assert!(e.starts_with(expected), "{text}: got `{e}`, expected `{expected}...`");
     }
 }
+
+/// The service's evaluator pool: one backend serves many requests (a GPU backend costs a
+/// device and a pipeline), and a reused evaluator answers each request exactly as a new
+/// one would, finite-film warm starts included (the fields of the previous request are
+/// forgotten), in either order of the requests.
+#[test]
+fn a_pooled_evaluator_answers_as_a_new_one() {
+    use bearing_sweep::cli::{eval_json_pooled, EvaluatorPool};
+    let finite = BEARING.replace(
+        '}',
+        r#", "model": "finite", "finite": {"n_theta": 32, "n_z": 8}}"#,
+    );
+    let short_doc = doc(&(0..40).map(state).collect::<Vec<_>>(), true);
+    let finite_doc = |from: usize| {
+        let s: Vec<String> = (from..from + 6).map(state).collect();
+        format!(r#"{{"bearing": {finite}, "states": [{}]}}"#, s.join(","))
+    };
+    let docs = [
+        finite_doc(0),
+        finite_doc(100),
+        short_doc.clone(),
+        finite_doc(0),
+    ];
+    let pool = EvaluatorPool::default();
+    for round in 0..2 {
+        let order: Vec<&String> = if round == 0 {
+            docs.iter().collect()
+        } else {
+            docs.iter().rev().collect()
+        };
+        for d in order {
+            let (pooled, _) = eval_json_pooled(d, EvalOptions::default(), Some(&pool)).unwrap();
+            let (fresh, _) = eval_json(d, EvalOptions::default()).unwrap();
+            assert_eq!(
+                pooled, fresh,
+                "round {round}: pooled answer differs from a new evaluator's"
+            );
+        }
+    }
+    // One evaluator per key (backend request, size class, accuracy): all these calls are
+    // CPU calls of fewer than 64 states at the default accuracy.
+    assert_eq!(
+        pool.created(),
+        1,
+        "evaluators created for 8 sequential calls"
+    );
+}

@@ -228,6 +228,12 @@ impl LoadEvaluator {
         }
     }
 
+    /// Forgets the finite-film fields kept for warm starts, so the next call answers as
+    /// a new evaluator would (an evaluator reused across unrelated requests).
+    pub fn forget_fields(&mut self) {
+        self.warm.clear();
+    }
+
     /// The reductions in force.
     pub fn options(&self) -> EvaluatorOptions {
         self.options

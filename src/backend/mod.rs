@@ -21,7 +21,9 @@ use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};
 
 /// Which backend a user asked for.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum BackendKind {
     /// The CPU kernel on all cores (the reference).

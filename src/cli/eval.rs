@@ -11,7 +11,9 @@ use serde::de::{DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::{json, Map, Value};
 
 use super::CliError;
-use crate::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest, LoadResult};
+use crate::backend::{
+    choose_backend, BackendKind, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
+};
 use crate::bearing::{Accuracy, BearingParams, BearingState};
 use crate::json::{deserialize_at, join_path, StrictSeed};
 
@@ -39,13 +41,66 @@ impl Default for EvalOptions {
 }
 
 /// Runs `eval` on a whole input document; returns the output document and notices for
-/// stderr (the service's entry point; the command line streams with [`eval_stream`]).
+/// stderr (the command line streams with [`eval_stream`]).
 pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String>), CliError> {
+    eval_json_pooled(input, options, None)
+}
+
+/// [`eval_json`] taking its evaluator from `pool` and giving it back (the service's entry
+/// point): a GPU backend costs a device and a compiled pipeline, so a long-running process
+/// creates one per backend choice and accuracy, not one per request. A reused evaluator
+/// answers as a new one would (its warm-start fields are forgotten).
+pub fn eval_json_pooled(
+    input: &str,
+    options: EvalOptions,
+    pool: Option<&EvaluatorPool>,
+) -> Result<(Value, Vec<String>), CliError> {
     let mut bytes = Vec::new();
-    let notices = eval_stream(input.as_bytes(), &mut bytes, options)?;
+    let notices = eval_stream_in(input.as_bytes(), &mut bytes, options, pool)?;
     let out = serde_json::from_slice(&bytes)
         .map_err(|e| CliError::input("$", format!("internal: output not JSON: {e}")))?;
     Ok((out, notices))
+}
+
+/// Idle evaluators of a long-running process, by backend request, call size class and
+/// accuracy. At most [`EvaluatorPool::PER_KEY`] are kept per key.
+#[derive(Default)]
+pub struct EvaluatorPool {
+    idle: std::sync::Mutex<std::collections::HashMap<PoolKey, Vec<LoadEvaluator>>>,
+    created: std::sync::atomic::AtomicU64,
+}
+
+/// (requested backend, below the CPU/GPU crossover, accuracy bits): what decides the
+/// backend [`choose_backend`] creates.
+type PoolKey = (BackendKind, bool, u64);
+
+impl EvaluatorPool {
+    /// Idle evaluators kept per key: as many as concurrent evaluation rounds are usual.
+    pub const PER_KEY: usize = 4;
+
+    /// Evaluators created so far (each a backend: a GPU device and pipeline on a GPU).
+    pub fn created(&self) -> u64 {
+        self.created.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn take(&self, key: &PoolKey) -> Option<LoadEvaluator> {
+        self.idle.lock().ok()?.get_mut(key)?.pop()
+    }
+
+    fn put(&self, key: PoolKey, mut ev: LoadEvaluator) {
+        // An evaluator that fell back (a failed device) is not kept: the next request
+        // gets a new backend.
+        if !ev.take_notices().is_empty() {
+            return;
+        }
+        ev.forget_fields();
+        if let Ok(mut idle) = self.idle.lock() {
+            let list = idle.entry(key).or_default();
+            if list.len() < Self::PER_KEY {
+                list.push(ev);
+            }
+        }
+    }
 }
 
 /// Streams `eval`: reads the input document from `input`, writes the output document
@@ -55,6 +110,15 @@ pub fn eval_stream<R: std::io::Read, W: Write>(
     input: R,
     out: &mut W,
     options: EvalOptions,
+) -> Result<Vec<String>, CliError> {
+    eval_stream_in(input, out, options, None)
+}
+
+fn eval_stream_in<R: std::io::Read, W: Write>(
+    input: R,
+    out: &mut W,
+    options: EvalOptions,
+    pool: Option<&EvaluatorPool>,
 ) -> Result<Vec<String>, CliError> {
     let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
         CliError::input(
@@ -69,6 +133,8 @@ pub fn eval_stream<R: std::io::Read, W: Write>(
         out,
         backend: options.backend,
         evaluator: None,
+        pool,
+        pool_key: None,
         accuracy,
         bearing: None,
         pending: Vec::new(),
@@ -94,8 +160,11 @@ pub fn eval_stream<R: std::io::Read, W: Write>(
         return Err(CliError::input("bearing", "missing"));
     }
     run.finish()?;
-    let mut notices = run.notices;
-    if let Some(e) = run.evaluator.as_mut() {
+    let mut notices = std::mem::take(&mut run.notices);
+    if let (Some(pool), Some(key), Some(ev)) = (pool, run.pool_key, run.evaluator.take()) {
+        // Its notices (fallbacks) stay with it: `put` drops an evaluator that has any.
+        pool.put(key, ev);
+    } else if let Some(e) = run.evaluator.as_mut() {
         notices.extend(e.take_notices());
     }
     Ok(notices)
@@ -125,6 +194,10 @@ struct Run<'w, W: Write> {
     backend: BackendKind,
     /// Created with the header, once the first chunk's size is known.
     evaluator: Option<LoadEvaluator>,
+    /// Where the evaluator comes from and goes back to, if anywhere.
+    pool: Option<&'w EvaluatorPool>,
+    /// The pool key of the evaluator in use.
+    pool_key: Option<PoolKey>,
     accuracy: Accuracy,
     bearing: Option<BearingParams>,
     /// States parsed and not yet evaluated (at most a chunk once the bearing is known).
@@ -159,10 +232,25 @@ impl<W: Write> Run<'_, W> {
         };
         // The first chunk is the whole input when it is under a chunk: `auto` picks the CPU
         // for calls below the GPU crossover.
-        let (backend, notices) =
-            choose_backend(self.backend, self.accuracy, Some(self.pending.len()))?;
-        self.notices.extend(notices);
-        let evaluator = self.evaluator.insert(LoadEvaluator::new(backend));
+        let key = (
+            self.backend,
+            self.pending.len() < DEFAULT_CPU_BELOW,
+            self.accuracy.rtol().to_bits(),
+        );
+        let evaluator = match self.pool.and_then(|p| p.take(&key)) {
+            Some(ev) => ev,
+            None => {
+                let (backend, notices) =
+                    choose_backend(self.backend, self.accuracy, Some(self.pending.len()))?;
+                self.notices.extend(notices);
+                if let Some(p) = self.pool {
+                    p.created.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+                LoadEvaluator::new(backend)
+            }
+        };
+        self.pool_key = Some(key);
+        let evaluator = self.evaluator.insert(evaluator);
         let doc = json!({
             "loads": [],
             "rule": "closed-form loaded arcs, graded Gauss-Legendre panels in z",

@@ -20,7 +20,9 @@ pub use bench_rotor::{
 pub use coefficients::{
     coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
 };
-pub use eval::{eval_file, eval_json, eval_stream, EvalOptions, EVAL_CHUNK};
+pub use eval::{
+    eval_file, eval_json, eval_json_pooled, eval_stream, EvalOptions, EvaluatorPool, EVAL_CHUNK,
+};
 pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
 pub use serve::{serve_command, TOKEN_ENV};

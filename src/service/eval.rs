@@ -15,7 +15,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use super::error::ApiError;
 use crate::backend::BackendKind;
-use crate::cli::{eval_json, EvalOptions};
+use crate::cli::{eval_json_pooled, EvalOptions, EvaluatorPool};
 
 /// Queued requests before new ones wait (back-pressure on the HTTP handlers).
 const QUEUE: usize = 4096;
@@ -90,6 +90,8 @@ pub struct Coalescer {
     tx: mpsc::Sender<Pending>,
     /// Counters (backend calls, requests, states).
     pub counters: Arc<EvalCounters>,
+    /// The evaluators (backends) reused across calls.
+    pub pool: Arc<EvaluatorPool>,
 }
 
 impl Coalescer {
@@ -98,8 +100,9 @@ impl Coalescer {
     pub fn start(window: Duration, backend: BackendKind) -> Self {
         let (tx, rx) = mpsc::channel(QUEUE);
         let counters = Arc::new(EvalCounters::default());
-        tokio::spawn(run(rx, window, backend, counters.clone()));
-        Coalescer { tx, counters }
+        let pool = Arc::new(EvaluatorPool::default());
+        tokio::spawn(run(rx, window, backend, counters.clone(), pool.clone()));
+        Coalescer { tx, counters, pool }
     }
 
     /// Evaluates one request body (the `eval` input) with `accuracy`; the answer is
@@ -130,6 +133,7 @@ async fn run(
     window: Duration,
     backend: BackendKind,
     counters: Arc<EvalCounters>,
+    pool: Arc<EvaluatorPool>,
 ) {
     while let Some(first) = rx.recv().await {
         let mut round = vec![first];
@@ -137,9 +141,13 @@ async fn run(
         while let Ok(Some(p)) = tokio::time::timeout_at(deadline, rx.recv()).await {
             round.push(p);
         }
-        let counters = counters.clone();
+        let ctx = Ctx {
+            backend,
+            counters: counters.clone(),
+            pool: pool.clone(),
+        };
         // The backend call is blocking; the next round gathers meanwhile.
-        tokio::task::spawn_blocking(move || answer_round(round, backend, &counters));
+        tokio::task::spawn_blocking(move || answer_round(round, &ctx));
     }
 }
 
@@ -153,7 +161,14 @@ fn group_key(p: &Pending) -> Option<String> {
     Some(format!("{}|{:e}", o.get("bearing")?, p.accuracy))
 }
 
-fn answer_round(round: Vec<Pending>, backend: BackendKind, counters: &EvalCounters) {
+/// What a round's blocking task needs.
+struct Ctx {
+    backend: BackendKind,
+    counters: Arc<EvalCounters>,
+    pool: Arc<EvaluatorPool>,
+}
+
+fn answer_round(round: Vec<Pending>, ctx: &Ctx) {
     let mut groups: BTreeMap<String, Vec<Pending>> = BTreeMap::new();
     let mut alone = Vec::new();
     for p in round {
@@ -163,41 +178,39 @@ fn answer_round(round: Vec<Pending>, backend: BackendKind, counters: &EvalCounte
         }
     }
     for p in alone {
-        answer_alone(p, backend, counters);
+        answer_alone(p, ctx);
     }
     for (_, group) in groups {
         if group.len() == 1 {
-            group
-                .into_iter()
-                .for_each(|p| answer_alone(p, backend, counters));
+            group.into_iter().for_each(|p| answer_alone(p, ctx));
             continue;
         }
-        answer_group(group, backend, counters);
+        answer_group(group, ctx);
     }
 }
 
-fn call(
-    text: &str,
-    accuracy: f64,
-    backend: BackendKind,
-    counters: &EvalCounters,
-) -> Result<Value, ApiError> {
-    counters.backend_calls.fetch_add(1, Ordering::Relaxed);
-    eval_json(text, EvalOptions { backend, accuracy })
+fn call(text: &str, accuracy: f64, ctx: &Ctx) -> Result<Value, ApiError> {
+    ctx.counters.backend_calls.fetch_add(1, Ordering::Relaxed);
+    let options = EvalOptions {
+        backend: ctx.backend,
+        accuracy,
+    };
+    eval_json_pooled(text, options, Some(&ctx.pool))
         .map(|(v, _notices)| v)
         .map_err(ApiError::from)
 }
 
-fn answer_alone(p: Pending, backend: BackendKind, counters: &EvalCounters) {
-    let out = call(&p.text, p.accuracy, backend, counters);
+fn answer_alone(p: Pending, ctx: &Ctx) {
+    let out = call(&p.text, p.accuracy, ctx);
     if let Ok(v) = &out {
-        counters.add_states(v["loads"].as_array().map_or(0, Vec::len) as u64);
+        ctx.counters
+            .add_states(v["loads"].as_array().map_or(0, Vec::len) as u64);
     }
     let _ = p.reply.send(out);
 }
 
 /// One call for a group with one bearing: states concatenated, loads split back.
-fn answer_group(group: Vec<Pending>, backend: BackendKind, counters: &EvalCounters) {
+fn answer_group(group: Vec<Pending>, ctx: &Ctx) {
     let counts: Vec<usize> = group
         .iter()
         .map(|p| p.doc["states"].as_array().map_or(0, Vec::len))
@@ -210,13 +223,11 @@ fn answer_group(group: Vec<Pending>, backend: BackendKind, counters: &EvalCounte
     merged.insert("bearing".into(), group[0].doc["bearing"].clone());
     merged.insert("states".into(), Value::Array(states));
     let text = Value::Object(merged).to_string();
-    let out = match call(&text, group[0].accuracy, backend, counters) {
+    let out = match call(&text, group[0].accuracy, ctx) {
         Ok(v) => v,
         Err(_) => {
             // Someone's input is bad: answer each alone so errors name their own paths.
-            group
-                .into_iter()
-                .for_each(|p| answer_alone(p, backend, counters));
+            group.into_iter().for_each(|p| answer_alone(p, ctx));
             return;
         }
     };
@@ -229,7 +240,7 @@ fn answer_group(group: Vec<Pending>, backend: BackendKind, counters: &EvalCounte
         }
         return;
     }
-    counters.add_states(loads.len() as u64);
+    ctx.counters.add_states(loads.len() as u64);
     let mut start = 0;
     for (p, n) in group.into_iter().zip(counts) {
         let mine: Vec<Value> = loads[start..start + n]
