@@ -3,7 +3,8 @@
 //! an ephemeral port, submits a small sweep through the page, waits for `done` through the
 //! live progress, checks the variant table against `result.json`, opens a figure, submits
 //! a bad spec and checks the inline error, uses the eval panel, and saves screenshots at
-//! desktop (1280x800) and phone (390x844) widths under docs/screenshots/.
+//! desktop (1280x800) and phone (390x844) widths under target/screenshots/ (or the folder
+//! `BEARING_SWEEP_SCREENSHOTS` names: `reports/screenshots` refreshes the committed copies).
 //!
 //! Without chromium and chromedriver the browser tests skip with a notice, unless
 //! `BEARING_SWEEP_REQUIRE_BROWSER=1` (set by `.ci/run`, which installs both). The asset
@@ -638,10 +639,7 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
         json!([]),
     );
     std::thread::sleep(Duration::from_millis(400));
-    b.screenshot(
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots/desktop-fig4.png"),
-        false,
-    );
+    b.screenshot(&screenshot_dir().join("desktop-fig4.png"), false);
 
     // Back to the finished sweep for the screenshots.
     b.click(&format!("#queue tbody tr[data-id='{id}'] button.link"));
@@ -650,7 +648,7 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     });
 
     // 8. Screenshots, and no sideways scrolling at phone width.
-    let shots = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/screenshots");
+    let shots = screenshot_dir();
     b.click("#map-h_min rect.cell[data-id='3']");
     b.exec(
         "document.getElementById('detail-h').scrollIntoView()",
@@ -826,4 +824,14 @@ fn bench_page_with_a_large_sweep() {
     drop(b);
     drop(server);
     let _ = std::fs::remove_dir_all(&data);
+}
+
+/// Where the screenshots go: `$BEARING_SWEEP_SCREENSHOTS`, else `target/screenshots` (a
+/// test run leaves the committed copies in reports/screenshots/ alone).
+fn screenshot_dir() -> PathBuf {
+    let dir = std::env::var_os("BEARING_SWEEP_SCREENSHOTS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/screenshots"));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }

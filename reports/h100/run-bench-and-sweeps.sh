@@ -11,7 +11,7 @@ d=json.load(open('sweeps/clearance-viscosity.json'))
 d['axes'][0]['logspace'][2]=64; d['axes'][1]['logspace'][2]=64
 d['base']['integrator']['t_end']=0.1
 json.dump(d,open('/tmp/cv4096.json','w'))
-f=json.load(open('docs/finite-film-sweep.json'))
+f=json.load(open('sweeps/finite-film.json'))
 f['name']='finite 32x32'
 f['axes']=[{'path':'bearings[*].clearance','logspace':[0.0002,0.0006,32]},{'path':'bearings[*].viscosity','logspace':[0.01,0.05,32]}]
 for b in f['base']['bearings']: b['model']='finite'

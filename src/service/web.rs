@@ -53,6 +53,7 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "stability-map-timed",
         include_str!("../../sweeps/stability-map-timed.json"),
     ),
+    ("finite-film", include_str!("../../sweeps/finite-film.json")),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`
