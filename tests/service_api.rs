@@ -19,6 +19,7 @@ fn api_suite_on_the_sqlite_store() {
     suite::sweep_events_result_and_csv(&base, &dir);
     suite::cancel_stops_within_a_second(&base);
     suite::eval_requests_are_coalesced(&base);
+    suite::friction_map_reads_done(&base);
     // The OpenAPI document names every route.
     let doc = get(&format!("{base}/api/openapi.json"), None).json();
     for p in [

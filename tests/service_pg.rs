@@ -73,6 +73,7 @@ fn api_suite_on_the_postgres_store() {
     suite::sweep_events_result_and_csv(&base, &dir);
     suite::cancel_stops_within_a_second(&base);
     suite::eval_requests_are_coalesced(&base);
+    suite::friction_map_reads_done(&base);
     // Nothing went to the SQLite store.
     assert!(
         !dir.join("data").join("sweeps.db").exists(),

@@ -265,6 +265,7 @@ impl Scheduler {
         };
         let spec = match parsed {
             ParsedSweep::FrictionMap(fm) => {
+                let points = (fm.load.len() * fm.speed.len()) as u64;
                 let (doc, plot) = friction_map(&fm, choice.accuracy);
                 if let Ok(svg) = plot.render() {
                     if let Err(e) = self.store.put_plot(&row.id, "friction-map", &svg) {
@@ -275,6 +276,7 @@ impl Scheduler {
                     status: Some(SweepStatus::Done),
                     result_doc: Some(doc),
                     finished_unix_s: Some(now_unix_s()),
+                    done: Some(points),
                     ..Default::default()
                 };
             }

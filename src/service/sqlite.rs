@@ -205,6 +205,12 @@ impl Store for SqliteStore {
                     params![id, t],
                 )?;
             }
+            if let Some(d) = change.done {
+                tx.execute(
+                    "UPDATE sweeps SET done = ?2, computed = ?2 WHERE id = ?1",
+                    params![id, d as i64],
+                )?;
+            }
             tx.commit()?;
             Ok(n)
         })?;

@@ -151,6 +151,9 @@ pub struct SweepUpdate {
     pub started_unix_s: Option<f64>,
     /// End time, s since the Unix epoch.
     pub finished_unix_s: Option<f64>,
+    /// Finished variants, set at once (a friction map computes every point in one step
+    /// and stores no variant lines; its progress then reads `total / total`).
+    pub done: Option<u64>,
 }
 
 /// Where the service keeps sweeps. Every method is blocking (call it from a blocking

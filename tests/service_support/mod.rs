@@ -474,6 +474,44 @@ pub mod suite {
         assert_eq!(r.status, 409, "{}", r.text);
     }
 
+    /// A friction map (no variants, every point in one step) ends `done` with its progress
+    /// at `total / total` in the status and the list (it read 0 / total), and its result is
+    /// the map of `run`.
+    pub fn friction_map_reads_done(base: &str) {
+        let spec = serde_json::json!({"kind": "friction_map", "name": "suite map",
+            "bearing": {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242},
+            "load": {"logspace": [1, 1000, 7]}, "speed": [10, 100, 1000]});
+        let id = submit(base, &spec, "");
+        let v = wait_for(base, &id, Duration::from_secs(60), |v| {
+            v["status"] != "queued" && v["status"] != "running"
+        });
+        assert_eq!(v["status"], "done", "{v}");
+        assert_eq!(
+            (&v["progress"]["done"], &v["progress"]["total"]),
+            (&serde_json::json!(21), &serde_json::json!(21)),
+            "friction map progress (done, total): {v}"
+        );
+        let list = get(&format!("{base}/api/sweeps"), None).json();
+        let row = list["sweeps"]
+            .as_array()
+            .and_then(|l| l.iter().find(|r| r["id"] == serde_json::json!(id)))
+            .cloned()
+            .unwrap_or_else(|| panic!("{id} not listed: {list}"));
+        assert_eq!(row["done"], serde_json::json!(21), "{row}");
+        let r = get(&format!("{base}/api/sweeps/{id}/result"), None);
+        assert_eq!(r.status, 200, "{}", r.text);
+        let doc = r.json();
+        let points: usize = doc["curves"]
+            .as_array()
+            .map(|c| {
+                c.iter()
+                    .map(|c| c["points"].as_array().map_or(0, Vec::len))
+                    .sum()
+            })
+            .unwrap_or(0);
+        assert_eq!(points, 21, "points in the stored map: {doc}");
+    }
+
     /// 64 concurrent one-state eval requests reach the backend in far fewer calls, and each
     /// caller gets exactly the loads of its own state.
     pub fn eval_requests_are_coalesced(base: &str) {

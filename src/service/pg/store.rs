@@ -240,6 +240,7 @@ impl Store for PgStore {
         let run = change.run.as_ref().map(Value::to_string);
         let doc = change.result_doc.as_ref().map(Value::to_string);
         let (started, finished) = (change.started_unix_s, change.finished_unix_s);
+        let done = change.done.map(|d| d as i64);
         self.call(move |q| {
             let (id, status, message, run, doc) = (
                 id.clone(),
@@ -265,7 +266,8 @@ impl Store for PgStore {
                         run = COALESCE($5, run),
                         result_doc = COALESCE($6, result_doc),
                         started_at = COALESCE(to_timestamp($7::float8), started_at),
-                        finished_at = COALESCE(to_timestamp($8::float8), finished_at)
+                        finished_at = COALESCE(to_timestamp($8::float8), finished_at),
+                        done = COALESCE($9::bigint, done)
                      WHERE id = $1",
                     &[
                         &id,
@@ -276,6 +278,7 @@ impl Store for PgStore {
                         &doc,
                         &started,
                         &finished,
+                        &done,
                     ],
                 )
                 .await
