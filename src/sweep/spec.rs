@@ -1,5 +1,8 @@
-//! The sweep spec: parsing and validation on `serde_json::Value`, every error naming the
-//! JSON path inside the spec and the reason, all before any computation.
+//! The sweep spec: typed by serde derive ([`SweepSpecDoc`], unknown fields refused) from the
+//! `serde_json::Value` that `crate::json::parse_json` read (duplicate keys refused), then
+//! checked by small functions over the typed document; every error names the JSON path
+//! inside the spec and the reason, all before any computation. The same types give the
+//! service's OpenAPI schema ([`SpecDocument`]).
 //!
 //! ```json
 //! {"kind": "rotor", "name": "clearance x viscosity",
@@ -1413,6 +1416,48 @@ mod tests {
                 "axes",
                 "exceed the limit",
             ),
+            // Wordings built from serde's errors (issue 14).
+            (json!(3), "$", "expected an object, got a number"),
+            (
+                json!({"base": base(), "name": null}),
+                "name",
+                "expected a string, got null",
+            ),
+            (
+                json!({"base": base(), "mode": {}}),
+                "mode.latin_hypercube",
+                "missing",
+            ),
+            (
+                json!({"base": base(), "mode": [1]}),
+                "mode",
+                "or {\"latin_hypercube\": {\"samples\": N, \"seed\": S}}, got an array",
+            ),
+            (
+                json!({"base": base(), "axes": [["speed", [1]]]}),
+                "axes[0]",
+                "expected an object",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "linspace": [1, 2, 3, 4]}]}),
+                "axes[0].linspace",
+                "expected [first, last, count]",
+            ),
+            (
+                json!({"base": base(), "axes": [{"values": [1]}]}),
+                "axes[0].path",
+                "missing",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "values": [1], "zip": 2}]}),
+                "axes[0].zip",
+                "expected a group name (string), got a number",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "values": [1]}], "mode": {"latin_hypercube": {"samples": 2.5}}}),
+                "mode.latin_hypercube.samples",
+                "expected a non-negative integer, got 2.5",
+            ),
         ];
         for (k, (doc, path, reason)) in cases.into_iter().enumerate() {
             let (p, r) = err(doc);
@@ -1421,6 +1466,28 @@ mod tests {
                 "case {k}: got `{p}: {r}`, expected path `{path}` and a reason containing `{reason}`"
             );
         }
+    }
+
+    #[test]
+    fn unknown_keys_are_cut_short_and_the_allowed_ones_listed() {
+        let huge = "k".repeat(10_000);
+        let mut doc = json!({"base": base()});
+        doc[huge.as_str()] = json!(1);
+        let (p, r) = err(doc);
+        assert!(
+            p.len() < 200 && p.contains("more characters"),
+            "path not cut: {} bytes",
+            p.len()
+        );
+        assert_eq!(
+            r,
+            "unknown field (expected one of: kind, name, description, base, axes, mode, reductions, plots)"
+        );
+        let (p, r) = err(json!({"base": base(), "kind": huge}));
+        assert!(
+            p == "kind" && r.len() < 300 && r.contains("unknown kind"),
+            "{p}: {r}"
+        );
     }
 
     #[test]
