@@ -275,7 +275,9 @@ hand_schema!(
 /// The evaluation window as written: exactly one of the three.
 #[derive(Clone, Copy, Debug, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
-#[schema(min_properties = 1, max_properties = 1)]
+// At most one key in the schema (utoipa 5.5 renders `min_properties` as `maxProperties`, so
+// the lower bound, also 1, is left to `ReductionOptions::from_doc`).
+#[schema(max_properties = 1)]
 pub struct WindowDoc {
     /// The last `N` revolutions, > 0.
     #[serde(default, deserialize_with = "present")]
