@@ -413,7 +413,11 @@ impl ReductionOptions {
                 if hi <= lo {
                     return Err(SweepError::spec(
                         q,
-                        format!("needs low < high, got [{lo}, {hi}]"),
+                        format!(
+                            "needs low < high, got [{}, {}]",
+                            crate::json::num(lo),
+                            crate::json::num(hi)
+                        ),
                     ));
                 }
                 o.whirl.band = (lo, hi);
@@ -438,7 +442,8 @@ impl ReductionOptions {
                     join(&p, "band"),
                     format!(
                         "upper end {} exceeds max_ratio {}",
-                        o.whirl.band.1, o.whirl.max_ratio
+                        crate::json::num(o.whirl.band.1),
+                        crate::json::num(o.whirl.max_ratio)
                     ),
                 ));
             }
@@ -1485,6 +1490,22 @@ mod tests {
                 serde_json::json!({"whirl": {"band": [0.3, 3.0]}}),
                 "r.whirl.band",
                 "max_ratio",
+            ),
+            // Short numbers, not 301 digits.
+            (
+                serde_json::json!({"whirl": {"band": [1e300, 1e299], "max_ratio": 1e301}}),
+                "r.whirl.band",
+                "got [1e300, 1e299]",
+            ),
+            (
+                serde_json::json!({"whirl": {"max_ratio": "big"}}),
+                "r.whirl.max_ratio",
+                "expected a number, got a string",
+            ),
+            (
+                serde_json::json!({"window": {"seconds": 1, "fraction": 0.5}}),
+                "r.window",
+                "expected one of",
             ),
         ];
         for (k, (v, path, reason)) in cases.iter().enumerate() {
