@@ -442,7 +442,11 @@ pub mod schema {
             .prefix_items([
                 typed(Type::Number, "first value"),
                 typed(Type::Number, "last value"),
-                count("number of values, at least 1"),
+                ObjectBuilder::new()
+                    .schema_type(SchemaType::Type(Type::Integer))
+                    .minimum(Some(1))
+                    .description(Some("number of values, at least 1"))
+                    .into(),
             ])
             .items(ArrayItems::False)
             .min_items(Some(3))
@@ -643,7 +647,7 @@ pub struct AxisDoc {
     pub path: String,
     /// Explicit values (any JSON: numbers, strings, whole objects), at least one.
     #[serde(default, deserialize_with = "present")]
-    #[schema(value_type = Vec<serde_json::Value>)]
+    #[schema(value_type = Vec<serde_json::Value>, min_items = 1)]
     pub values: Option<Vec<Value>>,
     /// `[first, last, count]` evenly spaced, both ends included.
     #[serde(default, deserialize_with = "present")]
