@@ -396,6 +396,15 @@ pub fn deserialize_at<T: DeserializeOwned>(value: &Value) -> Result<T, (String, 
     })
 }
 
+/// Deserialises `value` as `T` exactly as [`deserialize_at`] does (a struct given as an
+/// array is refused), keeping serde_path_to_error's structured error: the path segments and
+/// serde's own error, for callers that word their messages themselves (the sweep spec).
+pub fn deserialize_located<T: DeserializeOwned>(
+    value: &Value,
+) -> Result<T, serde_path_to_error::Error<serde_json::Error>> {
+    serde_path_to_error::deserialize(Strict(value))
+}
+
 /// `prefix` joined with a path from [`deserialize_at`] (`"$"` means the prefix itself).
 pub fn join_path(prefix: &str, path: &str) -> String {
     match (prefix, path) {

@@ -382,3 +382,137 @@ fn coefficients_over_http_equal_the_cli() {
     let path = a.json()["error"]["path"].as_str().unwrap_or("").to_string();
     assert!(path.contains("bearing.clearance"), "error path: {}", a.text);
 }
+
+/// Every `$ref` in `v` (recursively).
+fn refs(v: &Value, out: &mut Vec<String>) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m {
+                match (k.as_str(), x) {
+                    ("$ref", Value::String(r)) => out.push(r.clone()),
+                    _ => refs(x, out),
+                }
+            }
+        }
+        Value::Array(a) => a.iter().for_each(|x| refs(x, out)),
+        _ => {}
+    }
+}
+
+/// Issue 14: the request body of POST /api/sweeps and /api/validate is the spec's own
+/// types (serde derive + utoipa), not free-form JSON: the components hold them, every
+/// reference resolves, unknown fields are refused in the schema as by the parser, and
+/// every example of sweeps/ uses only fields the schema names.
+#[test]
+fn openapi_spec_body_comes_from_the_spec_types() {
+    let dir = scratch("openapi-spec");
+    let server = Server::start(&dir.join("data"), &[]);
+    let doc = get(&format!("{}/api/openapi.json", server.url), None).json();
+    let schemas = &doc["components"]["schemas"];
+    for name in [
+        "SpecDocument",
+        "SweepSpecDoc",
+        "AxisDoc",
+        "ModeDoc",
+        "LatinHypercubeDoc",
+        "ReductionsDoc",
+        "WindowDoc",
+        "WhirlDoc",
+        "PlotDoc",
+        "FrictionMapDoc",
+        "SpecRange",
+        "SpecNumbers",
+    ] {
+        assert!(schemas[name].is_object(), "components.schemas lacks {name}");
+    }
+    for route in ["/api/sweeps", "/api/validate"] {
+        assert_eq!(
+            doc["paths"][route]["post"]["requestBody"]["content"]["application/json"]["schema"]
+                ["$ref"],
+            "#/components/schemas/SpecDocument",
+            "{route}"
+        );
+    }
+    let mut all = Vec::new();
+    refs(&doc, &mut all);
+    for r in &all {
+        let name = r.strip_prefix("#/components/schemas/").unwrap_or(r);
+        assert!(schemas[name].is_object(), "unresolved reference {r}");
+    }
+    let fields = |schema: &str| -> Vec<String> {
+        let s = &schemas[schema];
+        assert_eq!(s["additionalProperties"], false, "{schema}: {s}");
+        s["properties"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect()
+    };
+    let mut top = fields("SweepSpecDoc");
+    top.sort();
+    assert_eq!(
+        top,
+        [
+            "axes",
+            "base",
+            "description",
+            "kind",
+            "mode",
+            "name",
+            "plots",
+            "reductions"
+        ]
+    );
+    assert_eq!(
+        schemas["SweepSpecDoc"]["required"],
+        serde_json::json!(["base"])
+    );
+    let axis = fields("AxisDoc");
+    let plot = fields("PlotDoc");
+    let reductions = fields("ReductionsDoc");
+    let map = fields("FrictionMapDoc");
+    let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+    let mut seen = 0;
+    for e in std::fs::read_dir(&examples).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_none_or(|x| x != "json") {
+            continue;
+        }
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        let (own, known) = if v["kind"] == "friction_map" {
+            (v.as_object().unwrap(), &map)
+        } else if v.get("base").is_some() {
+            (v.as_object().unwrap(), &top)
+        } else {
+            continue; // a scene file used as a base
+        };
+        seen += 1;
+        for k in own.keys() {
+            assert!(
+                known.contains(k),
+                "{}: `{k}` not in the schema",
+                p.display()
+            );
+        }
+        for a in v["axes"].as_array().into_iter().flatten() {
+            for k in a.as_object().unwrap().keys() {
+                assert!(axis.contains(k), "{}: axis field `{k}`", p.display());
+            }
+        }
+        for pl in v["plots"].as_array().into_iter().flatten() {
+            for k in pl.as_object().unwrap().keys() {
+                assert!(plot.contains(k), "{}: plot field `{k}`", p.display());
+            }
+        }
+        for k in v["reductions"]
+            .as_object()
+            .into_iter()
+            .flatten()
+            .map(|(k, _)| k)
+        {
+            assert!(reductions.contains(k), "{}: reductions `{k}`", p.display());
+        }
+    }
+    assert!(seen >= 5, "{seen} sweep examples");
+}

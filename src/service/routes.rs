@@ -41,7 +41,8 @@ const KEEP_ALIVE: Duration = Duration::from_secs(15);
     info(title = "bearing-sweep service", description = "Sweeps of rigid rotors in hydrodynamic journal bearings, and batched film-load evaluation."),
     paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
           list_plots, get_plot, sweep_events, cancel_sweep, eval, coefficients, healthz),
-    components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList)),
+    components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList,
+        crate::sweep::spec::SpecDocument, crate::sweep::spec::SweepSpecDoc, crate::sweep::friction_map::FrictionMapDoc)),
     modifiers(&BearerAuth)
 )]
 pub struct ApiDoc;
@@ -280,7 +281,7 @@ pub struct Created {
         ("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Film accuracy (as `run --accuracy`; default 1e-6)"),
         ("full_model" = Option<bool>, Query, description = "Every model reduction off (as `run --full-model`)"),
     ),
-    request_body(content = serde_json::Value, description = "A sweep spec (see sweeps/ and README \"Sweeps\")", content_type = "application/json"),
+    request_body(content = crate::sweep::spec::SpecDocument, description = "A sweep spec (see sweeps/ and README \"Sweeps\")", content_type = "application/json"),
     responses(
         (status = 201, description = "Queued", body = Created),
         (status = 400, description = "Not JSON", body = ErrorBody),

@@ -120,7 +120,7 @@ pub struct WebApiDoc;
         ("accuracy" = Option<f64>, Query, description = "As for POST /api/sweeps"),
         ("full_model" = Option<bool>, Query, description = "As for POST /api/sweeps"),
     ),
-    request_body(content = serde_json::Value, description = "A sweep spec, as for POST /api/sweeps", content_type = "application/json"),
+    request_body(content = crate::sweep::spec::SpecDocument, description = "A sweep spec, as for POST /api/sweeps", content_type = "application/json"),
     responses(
         (status = 200, description = "Valid: `{valid, kind, name, variants}`; nothing stored", body = serde_json::Value),
         (status = 400, description = "Not JSON", body = ErrorBody),

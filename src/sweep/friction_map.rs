@@ -14,9 +14,14 @@
 //!  "model": "sommerfeld"}
 //! ```
 
+use serde::de::{self, MapAccess, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer};
 use serde_json::{json, Map, Value};
+use utoipa::ToSchema;
 
-use super::spec::{deny_unknown, get_f64, get_u64, join, type_name, MAX_VARIANTS};
+use super::spec::{
+    from_value, hand_schema, join, one_of_names, present, schema, Num, Range3, MAX_VARIANTS,
+};
 use super::SweepError;
 use crate::bearing::{film_loads, friction, Accuracy, BearingParams, BearingState, FilmRule};
 use crate::plot::{line_plot_svg, Scale, Series};
@@ -50,99 +55,231 @@ pub struct FrictionMapSpec {
     pub canonical: Value,
 }
 
-/// Numbers from `[..]`, `{"linspace": [a, b, n]}` or `{"logspace": [a, b, n]}`.
-pub fn parse_numbers(v: &Value, at: &str) -> Result<Vec<f64>, SweepError> {
-    match v {
-        Value::Array(a) => {
+/// Numbers as written: `[..]`, `{"linspace": [a, b, n]}` or `{"logspace": [a, b, n]}`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NumbersDoc {
+    /// An explicit list.
+    List(Vec<f64>),
+    /// `{"linspace": [a, b, n]}`.
+    Linspace(Range3),
+    /// `{"logspace": [a, b, n]}`.
+    Logspace(Range3),
+    /// An object naming neither or both (refused by [`numbers_from_doc`]).
+    Other,
+}
+
+/// What numbers must look like, for messages.
+const NUMBER_FORMS: &str =
+    "a list of numbers, {\"linspace\": [a, b, n]} or {\"logspace\": [a, b, n]}";
+
+impl<'de> Deserialize<'de> for NumbersDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct RangeObj {
+            #[serde(default, deserialize_with = "present")]
+            linspace: Option<Range3>,
+            #[serde(default, deserialize_with = "present")]
+            logspace: Option<Range3>,
+        }
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = NumbersDoc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(NUMBER_FORMS)
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<NumbersDoc, A::Error> {
+                let mut out = Vec::new();
+                while let Some(x) = seq.next_element::<Num>()? {
+                    out.push(x.0);
+                }
+                Ok(NumbersDoc::List(out))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<NumbersDoc, A::Error> {
+                // Through a derived struct: unknown keys are refused with their path.
+                let o = RangeObj::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(match (o.linspace, o.logspace) {
+                    (Some(r), None) => NumbersDoc::Linspace(r),
+                    (None, Some(r)) => NumbersDoc::Logspace(r),
+                    _ => NumbersDoc::Other,
+                })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+hand_schema!(NumbersDoc, "SpecNumbers", {
+    use utoipa::openapi::schema::{ArrayBuilder, ObjectBuilder, SchemaType, Type};
+    let range = |key: &str| -> utoipa::openapi::schema::Schema {
+        ObjectBuilder::new()
+            .schema_type(SchemaType::Type(Type::Object))
+            .property(key, schema::range3("[first, last, count]"))
+            .required(key)
+            .additional_properties(Some(
+                utoipa::openapi::schema::AdditionalProperties::FreeForm(false),
+            ))
+            .into()
+    };
+    schema::any_of(
+        [
+            ArrayBuilder::new()
+                .items(ObjectBuilder::new().schema_type(SchemaType::Type(Type::Number)))
+                .min_items(Some(1))
+                .into(),
+            range("linspace"),
+            range("logspace"),
+        ],
+        "A list of numbers, or count values evenly (linspace) or geometrically (logspace) spaced",
+    )
+});
+
+/// The only `kind` of a friction map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrictionMapKind;
+
+impl<'de> Deserialize<'de> for FrictionMapKind {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        one_of_names(
+            &Value::deserialize(d)?,
+            &[("friction_map", FrictionMapKind)],
+        )
+        .map_err(de::Error::custom)
+    }
+}
+
+hand_schema!(
+    FrictionMapKind,
+    "FrictionMapKind",
+    schema::one_of_names(&["friction_map"], "A friction map (no dynamics)")
+);
+
+/// The friction model of a map.
+impl<'de> Deserialize<'de> for MapModel {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        one_of_names(
+            &Value::deserialize(d)?,
+            &[
+                ("sommerfeld", MapModel::Sommerfeld),
+                ("film", MapModel::Film),
+            ],
+        )
+        .map_err(de::Error::custom)
+    }
+}
+
+hand_schema!(
+    MapModel,
+    "FrictionMapModel",
+    schema::one_of_names(
+        &["sommerfeld", "film"],
+        "sommerfeld: eqs. 10-11 with |W| = load (default); film: static film equilibrium first"
+    )
+);
+
+/// A friction-map spec as written (README "Friction maps").
+#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionMapDoc {
+    /// `"friction_map"`.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = FrictionMapKind, required = true)]
+    pub kind: Option<FrictionMapKind>,
+    /// Name for the result and the plot.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub description: Option<String>,
+    /// The bearing (`radius`, `length`, `clearance`, `viscosity`, SI units; as in a scene).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Object, required = true)]
+    pub bearing: Option<Value>,
+    /// Loads, N.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = NumbersDoc, required = true)]
+    pub load: Option<NumbersDoc>,
+    /// Relative spins, rad/s.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = NumbersDoc, required = true)]
+    pub speed: Option<NumbersDoc>,
+    /// Friction model (default sommerfeld).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = MapModel)]
+    pub model: Option<MapModel>,
+}
+
+/// The numbers of a typed [`NumbersDoc`] at `at`: a list of at least one, or 1 to
+/// [`MAX_VARIANTS`] spaced values (logspace bounds positive) within the memory budget.
+pub fn numbers_from_doc(d: &NumbersDoc, at: &str) -> Result<Vec<f64>, SweepError> {
+    let (k, r) = match d {
+        NumbersDoc::List(a) => {
             if a.is_empty() {
                 return Err(SweepError::spec(at, "must hold at least one value"));
             }
-            a.iter()
-                .enumerate()
-                .map(|(k, x)| get_f64(x, &format!("{at}[{k}]")))
-                .collect()
+            return Ok(a.clone());
         }
-        Value::Object(o) if o.len() == 1 => {
-            deny_unknown(o, at, &["linspace", "logspace"])?;
-            let (k, r) = o.iter().next().expect("one entry");
-            let p = join(at, k);
-            let arr = r
-                .as_array()
-                .filter(|a| a.len() == 3)
-                .ok_or_else(|| SweepError::spec(&p, "expected [first, last, count]"))?;
-            let a = get_f64(&arr[0], &format!("{p}[0]"))?;
-            let b = get_f64(&arr[1], &format!("{p}[1]"))?;
-            let n = get_u64(&arr[2], &format!("{p}[2]"))?;
-            if n == 0 || n > MAX_VARIANTS {
+        NumbersDoc::Linspace(r) => ("linspace", r),
+        NumbersDoc::Logspace(r) => ("logspace", r),
+        NumbersDoc::Other => {
+            return Err(SweepError::spec(
+                at,
+                format!("expected {NUMBER_FORMS}, got an object"),
+            ))
+        }
+    };
+    let p = join(at, k);
+    let (a, b, n) = (r.first, r.last, r.count);
+    if n == 0 || n > MAX_VARIANTS {
+        return Err(SweepError::spec(
+            format!("{p}[2]"),
+            format!("count must be in 1..={MAX_VARIANTS}, got {n}"),
+        ));
+    }
+    // Every value makes at least one point of the map: check before building them.
+    super::budget::check(
+        &format!("{n} values (one map point each at least)"),
+        n as f64 * super::budget::BYTES_PER_MAP_POINT as f64,
+    )
+    .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
+    let values = if k == "logspace" {
+        for (i, x) in [(0, a), (1, b)] {
+            if x <= 0.0 {
                 return Err(SweepError::spec(
-                    format!("{p}[2]"),
-                    format!("count must be in 1..={MAX_VARIANTS}, got {n}"),
+                    format!("{p}[{i}]"),
+                    format!(
+                        "logspace bounds must be positive, got {}",
+                        crate::json::num(x)
+                    ),
                 ));
             }
-            // Every value makes at least one point of the map: check before building them.
-            super::budget::check(
-                &format!("{n} values (one map point each at least)"),
-                n as f64 * super::budget::BYTES_PER_MAP_POINT as f64,
-            )
-            .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
-            let values = if k == "logspace" {
-                for (i, x) in [(0, a), (1, b)] {
-                    if x <= 0.0 {
-                        return Err(SweepError::spec(
-                            format!("{p}[{i}]"),
-                            format!("logspace bounds must be positive, got {}", crate::json::num(x)),
-                        ));
-                    }
-                }
-                super::AxisValues::Logspace { a, b, n: n as usize }
-            } else {
-                super::AxisValues::Linspace { a, b, n: n as usize }
-            };
-            Ok((0..n as usize)
-                .map(|i| values.value(i).as_f64().unwrap_or(f64::NAN))
-                .collect())
         }
-        other => Err(SweepError::spec(
-            at,
-            format!(
-                "expected a list of numbers, {{\"linspace\": [a, b, n]}} or {{\"logspace\": [a, b, n]}}, got {}",
-                type_name(other)
-            ),
-        )),
-    }
+        super::AxisValues::Logspace {
+            a,
+            b,
+            n: n as usize,
+        }
+    } else {
+        super::AxisValues::Linspace {
+            a,
+            b,
+            n: n as usize,
+        }
+    };
+    Ok((0..n as usize)
+        .map(|i| values.value(i).as_f64().unwrap_or(f64::NAN))
+        .collect())
 }
 
 impl FrictionMapSpec {
     /// Parses and checks a `kind: "friction_map"` document.
     pub fn parse(doc: &Value) -> Result<Self, SweepError> {
-        let o = doc
-            .as_object()
-            .ok_or_else(|| SweepError::spec("$", "expected an object"))?;
-        deny_unknown(
-            o,
-            "",
-            &[
-                "kind",
-                "name",
-                "description",
-                "bearing",
-                "load",
-                "speed",
-                "model",
-            ],
-        )?;
-        let name = match o.get("name") {
-            None => None,
-            Some(Value::String(s)) => Some(s.clone()),
-            Some(v) => {
-                return Err(SweepError::spec(
-                    "name",
-                    format!("expected a string, got {}", type_name(v)),
-                ))
-            }
-        };
-        let b = o
-            .get("bearing")
+        let d: FrictionMapDoc = from_value(doc, "")?;
+        let b = d
+            .bearing
+            .as_ref()
             .ok_or_else(|| SweepError::spec("bearing", "missing"))?;
         let bearing: BearingParams = crate::json::deserialize_at(b).map_err(|(at, reason)| {
             SweepError::spec(crate::json::join_path("bearing", &at), reason)
@@ -153,13 +290,15 @@ impl FrictionMapSpec {
                 format!("{} (got {})", e.reason, crate::json::num(e.value)),
             )
         })?;
-        let load = parse_numbers(
-            o.get("load")
+        let load = numbers_from_doc(
+            d.load
+                .as_ref()
                 .ok_or_else(|| SweepError::spec("load", "missing (loads in N)"))?,
             "load",
         )?;
-        let speed = parse_numbers(
-            o.get("speed")
+        let speed = numbers_from_doc(
+            d.speed
+                .as_ref()
                 .ok_or_else(|| SweepError::spec("speed", "missing (speeds in rad/s)"))?,
             "speed",
         )?;
@@ -180,19 +319,7 @@ impl FrictionMapSpec {
                 ));
             }
         }
-        let model = match o.get("model").map(|m| m.as_str()) {
-            None | Some(Some("sommerfeld")) => MapModel::Sommerfeld,
-            Some(Some("film")) => MapModel::Film,
-            Some(_) => {
-                return Err(SweepError::spec(
-                    "model",
-                    format!(
-                        "expected \"sommerfeld\" or \"film\", got {}",
-                        crate::json::quote(&o["model"].to_string())
-                    ),
-                ))
-            }
-        };
+        let model = d.model.unwrap_or(MapModel::Sommerfeld);
         if model == MapModel::Film {
             if let Some(k) = speed.iter().position(|&w| w == 0.0) {
                 return Err(SweepError::spec(
@@ -202,7 +329,7 @@ impl FrictionMapSpec {
             }
         }
         Ok(FrictionMapSpec {
-            name,
+            name: d.name,
             bearing,
             load,
             speed,

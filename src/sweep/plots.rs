@@ -13,9 +13,13 @@
 
 use std::collections::BTreeMap;
 
+use serde::{de, Deserialize, Deserializer};
 use serde_json::Value;
+use utoipa::ToSchema;
 
-use super::spec::{deny_unknown, join, parse_path, resolve, type_name, Axis, PathSeg};
+use super::spec::{
+    hand_schema, join, one_of_names, parse_path, present, resolve, schema, type_name, Axis, PathSeg,
+};
 use super::SweepError;
 use crate::plot::{line_plot_svg, Scale, Series};
 
@@ -44,27 +48,61 @@ pub struct PlotSpec {
     pub y_label: Option<String>,
 }
 
-fn scale(v: Option<&Value>, at: &str) -> Result<Scale, SweepError> {
-    match v.map(|s| s.as_str()) {
-        None | Some(Some("linear")) => Ok(Scale::Linear),
-        Some(Some("log")) => Ok(Scale::Log),
-        Some(_) => Err(SweepError::spec(at, "expected \"linear\" or \"log\"")),
+/// A plot's axis scale as written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScaleDoc(pub Scale);
+
+impl<'de> Deserialize<'de> for ScaleDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        one_of_names(
+            &Value::deserialize(d)?,
+            &[("linear", Scale::Linear), ("log", Scale::Log)],
+        )
+        .map(ScaleDoc)
+        .map_err(de::Error::custom)
     }
 }
 
-fn string(
-    o: &serde_json::Map<String, Value>,
-    key: &str,
-    at: &str,
-) -> Result<Option<String>, SweepError> {
-    match o.get(key) {
-        None => Ok(None),
-        Some(Value::String(s)) => Ok(Some(s.clone())),
-        Some(v) => Err(SweepError::spec(
-            join(at, key),
-            format!("expected a string, got {}", type_name(v)),
-        )),
-    }
+hand_schema!(
+    ScaleDoc,
+    "PlotScale",
+    schema::one_of_names(&["linear", "log"], "Axis scale (default linear)")
+);
+
+/// One plot as written in the spec's `plots`.
+#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlotDoc {
+    /// File-name part: letters, digits, `-`, `_`; unique.
+    pub name: String,
+    /// Axis path on the horizontal axis (an axis of the spec).
+    pub x: String,
+    /// Axis path whose values make the curves (default: one curve).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub series: Option<String>,
+    /// Path into a variant's `reductions`, naming a number (e.g. `h_min.value_m`).
+    pub y: String,
+    /// Horizontal scale.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = ScaleDoc)]
+    pub x_scale: Option<ScaleDoc>,
+    /// Vertical scale.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = ScaleDoc)]
+    pub y_scale: Option<ScaleDoc>,
+    /// Title (default `y over x`).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub title: Option<String>,
+    /// Horizontal label (default the axis path).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub x_label: Option<String>,
+    /// Vertical label (default `y`).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub y_label: Option<String>,
 }
 
 /// Checks a plot's `y` against the shape of a variant's reductions (any bearing index
@@ -95,29 +133,14 @@ fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
     }
 }
 
-/// Parses the spec's `plots` list against its axes.
-pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, SweepError> {
-    let Some(v) = v else { return Ok(Vec::new()) };
-    let list = v.as_array().ok_or_else(|| {
-        SweepError::spec("plots", format!("expected an array, got {}", type_name(v)))
-    })?;
+/// Checks the spec's typed `plots` against its axes: names usable in a file name and
+/// unique, `x` and `series` axes of the sweep, `y` a number of a variant's reductions.
+pub fn plots_from_doc(list: &[PlotDoc], axes: &[Axis]) -> Result<Vec<PlotSpec>, SweepError> {
     let mut out: Vec<PlotSpec> = Vec::new();
+    let axis_names: Vec<&str> = axes.iter().map(|a| a.path.as_str()).collect();
     for (k, p) in list.iter().enumerate() {
         let at = format!("plots[{k}]");
-        let o = p.as_object().ok_or_else(|| {
-            SweepError::spec(&at, format!("expected an object, got {}", type_name(p)))
-        })?;
-        deny_unknown(
-            o,
-            &at,
-            &[
-                "name", "x", "series", "y", "x_scale", "y_scale", "title", "x_label", "y_label",
-            ],
-        )?;
-        let need = |key: &str| -> Result<String, SweepError> {
-            string(o, key, &at)?.ok_or_else(|| SweepError::spec(join(&at, key), "missing"))
-        };
-        let name = need("name")?;
+        let name = p.name.clone();
         if name.is_empty()
             || !name
                 .chars()
@@ -134,7 +157,6 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
                 format!("`{}` is used twice", crate::json::quote(&name)),
             ));
         }
-        let axis_names: Vec<&str> = axes.iter().map(|a| a.path.as_str()).collect();
         let check_axis = |key: &str, path: &str| -> Result<(), SweepError> {
             if axis_names.contains(&path) {
                 Ok(())
@@ -149,14 +171,11 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
                 ))
             }
         };
-        let x = need("x")?;
-        check_axis("x", &x)?;
-        let series = string(o, "series", &at)?;
-        if let Some(s) = &series {
+        check_axis("x", &p.x)?;
+        if let Some(s) = &p.series {
             check_axis("series", s)?;
         }
-        let y = need("y")?;
-        let y_path = parse_path(&y).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
+        let y_path = parse_path(&p.y).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
         if y_path.contains(&PathSeg::All) {
             return Err(SweepError::spec(
                 join(&at, "y"),
@@ -164,17 +183,18 @@ pub fn parse_plots(v: Option<&Value>, axes: &[Axis]) -> Result<Vec<PlotSpec>, Sw
             ));
         }
         check_y(&y_path).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
+        let scale = |s: Option<ScaleDoc>| s.map_or(Scale::Linear, |s| s.0);
         out.push(PlotSpec {
             name,
-            x,
-            series,
-            y,
+            x: p.x.clone(),
+            series: p.series.clone(),
+            y: p.y.clone(),
             y_path,
-            x_scale: scale(o.get("x_scale"), &join(&at, "x_scale"))?,
-            y_scale: scale(o.get("y_scale"), &join(&at, "y_scale"))?,
-            title: string(o, "title", &at)?,
-            x_label: string(o, "x_label", &at)?,
-            y_label: string(o, "y_label", &at)?,
+            x_scale: scale(p.x_scale),
+            y_scale: scale(p.y_scale),
+            title: p.title.clone(),
+            x_label: p.x_label.clone(),
+            y_label: p.y_label.clone(),
         });
     }
     Ok(out)

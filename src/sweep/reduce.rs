@@ -36,7 +36,13 @@ use std::collections::BTreeSet;
 use serde::Serialize;
 use serde_json::{json, Map, Value};
 
-use super::spec::{deny_unknown, get_f64, get_u64, join, type_name};
+use serde::de::{self, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer};
+use utoipa::ToSchema;
+
+use super::spec::{
+    from_value, hand_schema, join, one_of_names, present, schema, type_name, Count, Num,
+};
 use super::SweepError;
 
 /// Time series of one bearing, sampled at the variant's `t`. SI units.
@@ -177,8 +183,166 @@ impl Default for ReductionOptions {
     }
 }
 
-fn positive(v: &Value, path: &str) -> Result<f64, SweepError> {
-    let x = get_f64(v, path)?;
+impl<'de> Deserialize<'de> for SeriesGroup {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        SeriesGroup::ALL
+            .iter()
+            .find(|(n, _)| Some(*n) == v.as_str())
+            .map(|(_, g)| *g)
+            .ok_or_else(|| {
+                let shown = match &v {
+                    Value::String(s) => format!("\"{}\"", crate::json::quote(s)),
+                    other => type_name(other).to_string(),
+                };
+                de::Error::custom(format!(
+                    "unknown series group {shown} (expected orbit, film, friction, forces or spin)"
+                ))
+            })
+    }
+}
+
+hand_schema!(
+    SeriesGroup,
+    "SeriesGroup",
+    schema::one_of_names(
+        &["orbit", "film", "friction", "forces", "spin"],
+        "A group of time series a variant keeps"
+    )
+);
+
+impl Span {
+    const NAMES: [(&'static str, Span); 2] = [("run", Span::Run), ("window", Span::Window)];
+}
+
+impl<'de> Deserialize<'de> for Span {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        one_of_names(&Value::deserialize(d)?, &Span::NAMES).map_err(de::Error::custom)
+    }
+}
+
+hand_schema!(
+    Span,
+    "SeriesSpan",
+    schema::one_of_names(
+        &["run", "window"],
+        "Samples the kept series cover: the whole run (default) or the evaluation window"
+    )
+);
+
+/// `[low, high]` of the whirl band.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BandDoc(pub f64, pub f64);
+
+impl<'de> Deserialize<'de> for BandDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = BandDoc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("[low, high]")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<BandDoc, A::Error> {
+                let short = || de::Error::custom("expected [low, high]");
+                let lo = seq.next_element::<Num>()?.ok_or_else(short)?.0;
+                let hi = seq.next_element::<Num>()?.ok_or_else(short)?.0;
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(short());
+                }
+                Ok(BandDoc(lo, hi))
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
+hand_schema!(
+    BandDoc,
+    "WhirlBand",
+    utoipa::openapi::ArrayBuilder::new()
+        .prefix_items([
+            schema::typed(utoipa::openapi::Type::Number, "low whirl ratio, > 0"),
+            schema::typed(utoipa::openapi::Type::Number, "high whirl ratio, > low"),
+        ])
+        .items(utoipa::openapi::schema::ArrayItems::False)
+        .min_items(Some(2))
+        .description(Some(
+            "[low, high]: the sub-synchronous band of whirl ratios"
+        ))
+        .into()
+);
+
+/// The evaluation window as written: exactly one of the three.
+#[derive(Clone, Copy, Debug, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+// At most one key in the schema (utoipa 5.5 renders `min_properties` as `maxProperties`, so
+// the lower bound, also 1, is left to `ReductionOptions::from_doc`).
+#[schema(max_properties = 1)]
+pub struct WindowDoc {
+    /// The last `N` revolutions, > 0.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub revolutions: Option<Num>,
+    /// The last fraction of the run, in (0, 1].
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub fraction: Option<Num>,
+    /// The last seconds, > 0.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub seconds: Option<Num>,
+}
+
+/// Whirl detection settings as written.
+#[derive(Clone, Copy, Debug, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WhirlDoc {
+    /// Sub-synchronous band `[low, high]`, default `[0.3, 0.6]`.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = BandDoc)]
+    pub band: Option<BandDoc>,
+    /// Largest `|ratio|` searched (> 0, default 2.5).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub max_ratio: Option<Num>,
+    /// Band peak / dominant amplitude for oil whirl (> 0, default 0.2).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub relative_threshold: Option<Num>,
+    /// Band peak / radial clearance for oil whirl (>= 0, default 0.01).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Num)]
+    pub min_amplitude_ratio: Option<Num>,
+}
+
+/// The spec's `reductions` as written (README "Sweeps" documents the fields).
+#[derive(Clone, Debug, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReductionsDoc {
+    /// Evaluation window (default the last half of the run).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = WindowDoc)]
+    pub window: Option<WindowDoc>,
+    /// Series groups kept per variant (default none).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Vec<SeriesGroup>)]
+    pub keep: Option<Vec<SeriesGroup>>,
+    /// Most samples per kept series, >= 2 (default 200).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Count)]
+    pub points: Option<Count>,
+    /// Samples the kept series cover (default run).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Span)]
+    pub span: Option<Span>,
+    /// Whirl detection.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = WhirlDoc)]
+    pub whirl: Option<WhirlDoc>,
+}
+
+/// `x` at `path` when positive.
+fn positive(x: f64, path: &str) -> Result<f64, SweepError> {
     if x <= 0.0 {
         return Err(SweepError::spec(
             path,
@@ -189,139 +353,97 @@ fn positive(v: &Value, path: &str) -> Result<f64, SweepError> {
 }
 
 impl ReductionOptions {
-    /// Parses the spec's `reductions` object (absent: defaults).
+    /// Parses the spec's `reductions` object at `at` (absent: defaults).
     pub fn parse(v: Option<&Value>, at: &str) -> Result<Self, SweepError> {
+        match v {
+            None => Ok(ReductionOptions::default()),
+            Some(v) => ReductionOptions::from_doc(&from_value(v, at)?, at),
+        }
+    }
+
+    /// Checks the typed `reductions` at `at`: a window of exactly one kind with a positive
+    /// length (a fraction at most 1), at least 2 points, a whirl band `0 < low < high <=
+    /// max_ratio`, positive thresholds.
+    pub fn from_doc(d: &ReductionsDoc, at: &str) -> Result<Self, SweepError> {
         let mut o = ReductionOptions::default();
-        let Some(v) = v else { return Ok(o) };
-        let m = v.as_object().ok_or_else(|| {
-            SweepError::spec(at, format!("expected an object, got {}", type_name(v)))
-        })?;
-        deny_unknown(m, at, &["window", "keep", "points", "span", "whirl"])?;
-        if let Some(w) = m.get("window") {
+        if let Some(w) = &d.window {
             let p = join(at, "window");
-            let wm = w.as_object().filter(|wm| wm.len() == 1).ok_or_else(|| {
-                SweepError::spec(
-                    &p,
-                    "expected one of {\"revolutions\": N}, {\"fraction\": F}, {\"seconds\": T}",
-                )
-            })?;
-            deny_unknown(wm, &p, &["revolutions", "fraction", "seconds"])?;
-            let (k, x) = wm.iter().next().expect("one entry");
-            let q = join(&p, k);
-            let x = positive(x, &q)?;
-            o.window = match k.as_str() {
-                "revolutions" => Window::Revolutions(x),
-                "seconds" => Window::Seconds(x),
-                _ => {
-                    if x > 1.0 {
-                        return Err(SweepError::spec(
-                            q,
-                            format!("must be at most 1, got {}", crate::json::num(x)),
-                        ));
+            o.window =
+                match (w.revolutions, w.fraction, w.seconds) {
+                    (Some(x), None, None) => {
+                        Window::Revolutions(positive(x.0, &join(&p, "revolutions"))?)
                     }
-                    Window::Fraction(x)
-                }
-            };
+                    (None, None, Some(x)) => Window::Seconds(positive(x.0, &join(&p, "seconds"))?),
+                    (None, Some(x), None) => {
+                        let q = join(&p, "fraction");
+                        let x = positive(x.0, &q)?;
+                        if x > 1.0 {
+                            return Err(SweepError::spec(
+                                q,
+                                format!("must be at most 1, got {}", crate::json::num(x)),
+                            ));
+                        }
+                        Window::Fraction(x)
+                    }
+                    _ => return Err(SweepError::spec(
+                        &p,
+                        "expected one of {\"revolutions\": N}, {\"fraction\": F}, {\"seconds\": T}",
+                    )),
+                };
         }
-        if let Some(k) = m.get("keep") {
-            let p = join(at, "keep");
-            let list = k.as_array().ok_or_else(|| {
-                SweepError::spec(&p, format!("expected an array, got {}", type_name(k)))
-            })?;
-            for (i, item) in list.iter().enumerate() {
-                let name = item.as_str().unwrap_or("");
-                let g = SeriesGroup::ALL
-                    .iter()
-                    .find(|(n, _)| *n == name)
-                    .map(|(_, g)| *g)
-                    .ok_or_else(|| {
-                        SweepError::spec(
-                            format!("{p}[{i}]"),
-                            format!(
-                                "unknown series group {item} (expected orbit, film, friction, forces or spin)"
-                            ),
-                        )
-                    })?;
-                o.keep.insert(g);
+        if let Some(keep) = &d.keep {
+            o.keep = keep.iter().copied().collect();
+        }
+        if let Some(n) = d.points {
+            if n.0 < 2 {
+                return Err(SweepError::spec(join(at, "points"), "must be at least 2"));
             }
+            // Bounded so a typo cannot ask for a huge buffer per series.
+            o.points = n.0.min(1 << 24) as usize;
         }
-        if let Some(n) = m.get("points") {
-            let p = join(at, "points");
-            let n = get_u64(n, &p)?;
-            if n < 2 {
-                return Err(SweepError::spec(p, "must be at least 2"));
-            }
-            o.points = n.min(1 << 24) as usize;
+        if let Some(s) = d.span {
+            o.span = s;
         }
-        if let Some(s) = m.get("span") {
-            o.span = match s.as_str() {
-                Some("run") => Span::Run,
-                Some("window") => Span::Window,
-                _ => {
-                    return Err(SweepError::spec(
-                        join(at, "span"),
-                        format!(
-                            "expected \"run\" or \"window\", got {}",
-                            crate::json::quote(&s.to_string())
-                        ),
-                    ))
-                }
-            };
-        }
-        if let Some(w) = m.get("whirl") {
+        if let Some(w) = &d.whirl {
             let p = join(at, "whirl");
-            let wm = w.as_object().ok_or_else(|| {
-                SweepError::spec(&p, format!("expected an object, got {}", type_name(w)))
-            })?;
-            deny_unknown(
-                wm,
-                &p,
-                &[
-                    "band",
-                    "max_ratio",
-                    "relative_threshold",
-                    "min_amplitude_ratio",
-                ],
-            )?;
-            if let Some(b) = wm.get("band") {
+            if let Some(BandDoc(lo, hi)) = w.band {
                 let q = join(&p, "band");
-                let arr = b
-                    .as_array()
-                    .filter(|a| a.len() == 2)
-                    .ok_or_else(|| SweepError::spec(&q, "expected [low, high]"))?;
-                let lo = positive(&arr[0], &format!("{q}[0]"))?;
-                let hi = positive(&arr[1], &format!("{q}[1]"))?;
+                let lo = positive(lo, &format!("{q}[0]"))?;
+                let hi = positive(hi, &format!("{q}[1]"))?;
                 if hi <= lo {
                     return Err(SweepError::spec(
                         q,
-                        format!("needs low < high, got [{lo}, {hi}]"),
+                        format!(
+                            "needs low < high, got [{}, {}]",
+                            crate::json::num(lo),
+                            crate::json::num(hi)
+                        ),
                     ));
                 }
                 o.whirl.band = (lo, hi);
             }
-            if let Some(x) = wm.get("max_ratio") {
-                o.whirl.max_ratio = positive(x, &join(&p, "max_ratio"))?;
+            if let Some(x) = w.max_ratio {
+                o.whirl.max_ratio = positive(x.0, &join(&p, "max_ratio"))?;
             }
-            if let Some(x) = wm.get("relative_threshold") {
-                o.whirl.relative_threshold = positive(x, &join(&p, "relative_threshold"))?;
+            if let Some(x) = w.relative_threshold {
+                o.whirl.relative_threshold = positive(x.0, &join(&p, "relative_threshold"))?;
             }
-            if let Some(x) = wm.get("min_amplitude_ratio") {
-                let q = join(&p, "min_amplitude_ratio");
-                let x = get_f64(x, &q)?;
-                if x < 0.0 {
+            if let Some(x) = w.min_amplitude_ratio {
+                if x.0 < 0.0 {
                     return Err(SweepError::spec(
-                        q,
-                        format!("must not be negative, got {}", crate::json::num(x)),
+                        join(&p, "min_amplitude_ratio"),
+                        format!("must not be negative, got {}", crate::json::num(x.0)),
                     ));
                 }
-                o.whirl.min_amplitude_ratio = x;
+                o.whirl.min_amplitude_ratio = x.0;
             }
             if o.whirl.band.1 > o.whirl.max_ratio {
                 return Err(SweepError::spec(
                     join(&p, "band"),
                     format!(
                         "upper end {} exceeds max_ratio {}",
-                        o.whirl.band.1, o.whirl.max_ratio
+                        crate::json::num(o.whirl.band.1),
+                        crate::json::num(o.whirl.max_ratio)
                     ),
                 ));
             }
@@ -1368,6 +1490,22 @@ mod tests {
                 serde_json::json!({"whirl": {"band": [0.3, 3.0]}}),
                 "r.whirl.band",
                 "max_ratio",
+            ),
+            // Short numbers, not 301 digits.
+            (
+                serde_json::json!({"whirl": {"band": [1e300, 1e299], "max_ratio": 1e301}}),
+                "r.whirl.band",
+                "got [1e300, 1e299]",
+            ),
+            (
+                serde_json::json!({"whirl": {"max_ratio": "big"}}),
+                "r.whirl.max_ratio",
+                "expected a number, got a string",
+            ),
+            (
+                serde_json::json!({"window": {"seconds": 1, "fraction": 0.5}}),
+                "r.window",
+                "expected one of",
             ),
         ];
         for (k, (v, path, reason)) in cases.iter().enumerate() {

@@ -1,5 +1,8 @@
-//! The sweep spec: parsing and validation on `serde_json::Value`, every error naming the
-//! JSON path inside the spec and the reason, all before any computation.
+//! The sweep spec: typed by serde derive ([`SweepSpecDoc`], unknown fields refused) from the
+//! `serde_json::Value` that `crate::json::parse_json` read (duplicate keys refused), then
+//! checked by small functions over the typed document; every error names the JSON path
+//! inside the spec and the reason, all before any computation. The same types give the
+//! service's OpenAPI schema ([`SpecDocument`]).
 //!
 //! ```json
 //! {"kind": "rotor", "name": "clearance x viscosity",
@@ -16,7 +19,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use serde::de::{self, DeserializeOwned, MapAccess, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer};
 use serde_json::{Map, Value};
+use utoipa::{PartialSchema, ToSchema};
 
 use super::reduce::ReductionOptions;
 use super::SweepError;
@@ -211,35 +217,6 @@ pub struct SweepSpec {
     pub canonical: Value,
 }
 
-/// Top-level fields of a scene sweep spec.
-const SPEC_FIELDS: &[&str] = &[
-    "kind",
-    "name",
-    "description",
-    "base",
-    "axes",
-    "mode",
-    "reductions",
-    "plots",
-];
-
-/// Rejects any key of `obj` not in `allowed`, naming its path.
-pub fn deny_unknown(
-    obj: &Map<String, Value>,
-    prefix: &str,
-    allowed: &[&str],
-) -> Result<(), SweepError> {
-    for key in obj.keys() {
-        if !allowed.contains(&key.as_str()) {
-            return Err(SweepError::spec(
-                join(prefix, &crate::json::quote(key)),
-                format!("unknown field (expected one of: {})", allowed.join(", ")),
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// `prefix.key`, or `key` at the top level.
 pub fn join(prefix: &str, key: &str) -> String {
     if prefix.is_empty() {
@@ -261,36 +238,566 @@ pub fn type_name(v: &Value) -> &'static str {
     }
 }
 
-/// A finite number at `path`.
-pub fn get_f64(v: &Value, path: &str) -> Result<f64, SweepError> {
-    let x = v.as_f64().ok_or_else(|| {
-        SweepError::spec(path, format!("expected a number, got {}", type_name(v)))
-    })?;
-    if !x.is_finite() {
-        return Err(SweepError::spec(path, "must be finite"));
-    }
-    Ok(x)
+// ---------------------------------------------------------------------------------------
+// The spec document as typed by serde derive: unknown fields are refused by
+// `deny_unknown_fields`, the JSON path of any error is tracked by serde_path_to_error, and
+// the same types give the service's OpenAPI schema (utoipa). Leaves with a project rule
+// (numbers, counts, `[first, last, count]`, named choices) have small hand-written
+// `Deserialize` impls with the project's messages; checks serde cannot express (ranges,
+// exactly one of, axis paths against the base, mode lengths) are functions over the typed
+// document below.
+
+/// Deserialises `v` as the document type `T`; an error names its JSON path under `at`
+/// (`""` for the document itself) in the project's format (`axes[1].logspace[0]`).
+pub fn from_value<T: DeserializeOwned>(v: &Value, at: &str) -> Result<T, SweepError> {
+    crate::json::deserialize_located(v).map_err(|e| serde_error(&e, v, at))
 }
 
-/// A non-negative integer at `path`.
-pub fn get_u64(v: &Value, path: &str) -> Result<u64, SweepError> {
-    if let Some(n) = v.as_u64() {
-        return Ok(n);
+/// A serde_path_to_error error as a [`SweepError::Spec`]: the path in the project's
+/// format, serde's message reworded in the project's terms (`expected an array, got an
+/// object`, `unknown field (expected one of: ...)`, `missing`), user input cut short.
+fn serde_error(
+    e: &serde_path_to_error::Error<serde_json::Error>,
+    root: &Value,
+    at: &str,
+) -> SweepError {
+    use serde_path_to_error::Segment;
+    let mut path = at.to_string();
+    let mut here = Some(root);
+    let mut last_key: Option<&str> = None;
+    for seg in e.path().iter() {
+        last_key = None;
+        match seg {
+            Segment::Seq { index } => {
+                path = format!("{path}[{index}]");
+                here = here.and_then(|h| h.get(*index));
+            }
+            Segment::Map { key } => {
+                path = join(&path, &crate::json::quote(key));
+                here = here.and_then(|h| h.get(key.as_str()));
+                last_key = Some(key);
+            }
+            Segment::Enum { variant } => {
+                path = join(&path, &crate::json::quote(variant));
+                here = here.and_then(|h| h.get(variant.as_str()));
+            }
+            Segment::Unknown => {
+                path = join(&path, "?");
+                here = None;
+            }
+        }
     }
-    // Accept integral floats such as `5.0` or `1e3`.
-    match v.as_f64() {
-        Some(x) if x >= 0.0 && x.fract() == 0.0 && x <= u64::MAX as f64 => Ok(x as u64),
-        Some(x) => Err(SweepError::spec(
-            path,
-            format!(
-                "expected a non-negative integer, got {}",
-                crate::json::num(x)
+    let msg = e.inner().to_string();
+    let mut reason = crate::json::shorten(&msg, crate::json::MAX_ECHO_CHARS * 4);
+    if let Some(field) = msg
+        .strip_prefix("missing field `")
+        .and_then(|r| r.strip_suffix('`'))
+    {
+        path = join(&path, field);
+        reason = "missing".into();
+    } else if let Some(allowed) =
+        last_key.and_then(|k| msg.strip_prefix(&format!("unknown field `{k}`, ")))
+    {
+        // serde: "expected one of `a`, `b`" / "expected `a` or `b`" / "there are no fields".
+        let names: Vec<&str> = allowed.split('`').skip(1).step_by(2).collect();
+        reason = if names.is_empty() {
+            "unknown field (no fields are allowed here)".into()
+        } else {
+            format!("unknown field (expected one of: {})", names.join(", "))
+        };
+    } else if let Some((_, expected)) = msg
+        .strip_prefix("invalid type: ")
+        .and_then(|r| r.rsplit_once(", expected "))
+    {
+        let got = here.map_or("something else", type_name);
+        reason = format!("expected {}, got {got}", expected_in_words(expected));
+    } else if let Some((_, expected)) = msg
+        .strip_prefix("invalid length ")
+        .and_then(|r| r.split_once(", expected "))
+    {
+        reason = format!("expected {}", expected_in_words(expected));
+    }
+    SweepError::spec(if path.is_empty() { "$".into() } else { path }, reason)
+}
+
+/// serde's `expected ...` phrase for the types used here, in the project's words.
+fn expected_in_words(expected: &str) -> &str {
+    match expected {
+        "a sequence" | "sequence" => "an array",
+        "a map" | "map" => "an object",
+        "f64" | "f32" => "a number",
+        "u64" | "u32" | "usize" => "a non-negative integer",
+        e if e.starts_with("struct ") => "an object",
+        e => e,
+    }
+}
+
+/// For optional fields: absent means `None` (with `#[serde(default)]`), but `null` is
+/// refused like any other wrong type (`expected a string, got null`), as before.
+pub fn present<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    T::deserialize(d).map(Some)
+}
+
+/// A JSON number (finite: `crate::json::parse_json` refuses the rest).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f64);
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        let x = v.as_f64().ok_or_else(|| {
+            de::Error::custom(format!("expected a number, got {}", type_name(&v)))
+        })?;
+        if !x.is_finite() {
+            return Err(de::Error::custom("must be finite"));
+        }
+        Ok(Num(x))
+    }
+}
+
+/// A non-negative integer; integral floats such as `5.0` or `1e3` are accepted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Count(pub u64);
+
+impl<'de> Deserialize<'de> for Count {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        if let Some(n) = v.as_u64() {
+            return Ok(Count(n));
+        }
+        let got = match v.as_f64() {
+            Some(x) if x >= 0.0 && x.fract() == 0.0 && x <= u64::MAX as f64 => {
+                return Ok(Count(x as u64))
+            }
+            Some(x) => crate::json::num(x),
+            None => type_name(&v).to_string(),
+        };
+        Err(de::Error::custom(format!(
+            "expected a non-negative integer, got {got}"
+        )))
+    }
+}
+
+/// `[first, last, count]` of a `linspace` or `logspace`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range3 {
+    /// First value.
+    pub first: f64,
+    /// Last value.
+    pub last: f64,
+    /// Number of values (checked by the caller: >= 1).
+    pub count: u64,
+}
+
+impl<'de> Deserialize<'de> for Range3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Range3;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("[first, last, count]")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Range3, A::Error> {
+                let short = || de::Error::custom("expected [first, last, count]");
+                let first = seq.next_element::<Num>()?.ok_or_else(short)?.0;
+                let last = seq.next_element::<Num>()?.ok_or_else(short)?.0;
+                let count = seq.next_element::<Count>()?.ok_or_else(short)?.0;
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(short());
+                }
+                Ok(Range3 { first, last, count })
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
+/// Schema pieces written by hand, for the leaves whose `Deserialize` is hand-written.
+pub mod schema {
+    use utoipa::openapi::schema::{ArrayItems, Schema, SchemaType, Type};
+    use utoipa::openapi::{ArrayBuilder, ObjectBuilder, OneOfBuilder, RefOr};
+
+    /// `{"type": ty}` with a description.
+    pub fn typed(ty: Type, description: &str) -> Schema {
+        ObjectBuilder::new()
+            .schema_type(SchemaType::Type(ty))
+            .description(Some(description))
+            .into()
+    }
+
+    /// A string, one of `names`.
+    pub fn one_of_names(names: &[&str], description: &str) -> Schema {
+        ObjectBuilder::new()
+            .schema_type(SchemaType::Type(Type::String))
+            .enum_values(Some(names.iter().copied()))
+            .description(Some(description))
+            .into()
+    }
+
+    /// `[first, last, count]`.
+    pub fn range3(description: &str) -> Schema {
+        ArrayBuilder::new()
+            .prefix_items([
+                typed(Type::Number, "first value"),
+                typed(Type::Number, "last value"),
+                ObjectBuilder::new()
+                    .schema_type(SchemaType::Type(Type::Integer))
+                    .minimum(Some(1))
+                    .description(Some("number of values, at least 1"))
+                    .into(),
+            ])
+            .items(ArrayItems::False)
+            .min_items(Some(3))
+            .description(Some(description))
+            .into()
+    }
+
+    /// A non-negative integer.
+    pub fn count(description: &str) -> Schema {
+        ObjectBuilder::new()
+            .schema_type(SchemaType::Type(Type::Integer))
+            .minimum(Some(0))
+            .description(Some(description))
+            .into()
+    }
+
+    /// Any of `items`.
+    pub fn any_of(items: impl IntoIterator<Item = Schema>, description: &str) -> Schema {
+        let mut b = OneOfBuilder::new().description(Some(description));
+        for s in items {
+            b = b.item(s);
+        }
+        b.into()
+    }
+
+    /// `schema` as the `RefOr` utoipa's traits return.
+    pub fn inline(schema: Schema) -> RefOr<Schema> {
+        RefOr::T(schema)
+    }
+}
+
+/// Implements `utoipa::ToSchema` for a type whose schema is written by hand (`$schema`: a
+/// `utoipa::openapi::schema::Schema` expression).
+macro_rules! hand_schema {
+    ($ty:ty, $name:literal, $schema:expr) => {
+        impl utoipa::PartialSchema for $ty {
+            fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+                $crate::sweep::spec::schema::inline($schema)
+            }
+        }
+        impl utoipa::ToSchema for $ty {
+            fn name() -> std::borrow::Cow<'static, str> {
+                std::borrow::Cow::Borrowed($name)
+            }
+        }
+    };
+}
+pub(crate) use hand_schema;
+
+hand_schema!(
+    Num,
+    "SpecNumber",
+    schema::typed(utoipa::openapi::Type::Number, "A finite number")
+);
+hand_schema!(
+    Count,
+    "SpecCount",
+    schema::count("A non-negative integer (integral floats such as 1e3 are accepted)")
+);
+hand_schema!(
+    Range3,
+    "SpecRange",
+    schema::range3("[first, last, count]: count values from first to last, both included")
+);
+
+/// One of `names` (a string), for the hand-written `Deserialize` of named choices; the
+/// error lists them: `expected "run" or "window", got "all"`.
+pub fn one_of_names<T: Copy>(v: &Value, names: &[(&str, T)]) -> Result<T, String> {
+    if let Some(t) = v
+        .as_str()
+        .and_then(|s| names.iter().find(|(n, _)| *n == s).map(|(_, t)| *t))
+    {
+        return Ok(t);
+    }
+    let quoted: Vec<String> = names.iter().map(|(n, _)| format!("\"{n}\"")).collect();
+    let list = match quoted.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => quoted.join(""),
+    };
+    let got = match v {
+        Value::String(s) => format!("\"{}\"", crate::json::quote(s)),
+        other => type_name(other).to_string(),
+    };
+    Err(format!("expected {list}, got {got}"))
+}
+
+impl SweepKind {
+    const NAMES: [(&'static str, SweepKind); 3] = [
+        ("rotor", SweepKind::Rotor),
+        ("synthetic", SweepKind::Synthetic),
+        ("stability", SweepKind::Stability),
+    ];
+}
+
+impl<'de> Deserialize<'de> for SweepKind {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        match v.as_str() {
+            Some(s) => SweepKind::NAMES
+                .iter()
+                .find(|(n, _)| *n == s)
+                .map(|(_, k)| *k)
+                .ok_or_else(|| {
+                    de::Error::custom(format!(
+                        "unknown kind `{}` (expected rotor, synthetic, stability or friction_map)",
+                        crate::json::quote(s)
+                    ))
+                }),
+            None => Err(de::Error::custom(format!(
+                "expected a string, got {}",
+                type_name(&v)
+            ))),
+        }
+    }
+}
+
+hand_schema!(
+    SweepKind,
+    "SweepKind",
+    schema::one_of_names(
+        &["rotor", "synthetic", "stability"],
+        "What the variants are: rotor (default), synthetic, stability (friction maps are the FrictionMapDoc)"
+    )
+);
+
+/// The base scene: an object, or the name of a JSON file holding it (relative to the spec's
+/// folder; not accepted by the service).
+#[derive(Clone, Debug, PartialEq)]
+pub enum BaseDoc {
+    /// A file name.
+    File(String),
+    /// The scene itself (checked per variant by the kind's scene validator).
+    Scene(Map<String, Value>),
+}
+
+impl<'de> Deserialize<'de> for BaseDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match Value::deserialize(d)? {
+            Value::String(s) => Ok(BaseDoc::File(s)),
+            Value::Object(m) => Ok(BaseDoc::Scene(m)),
+            v => Err(de::Error::custom(format!(
+                "expected the scene object or a file name, got {}",
+                type_name(&v)
+            ))),
+        }
+    }
+}
+
+hand_schema!(
+    BaseDoc,
+    "SpecBase",
+    schema::any_of(
+        [
+            schema::typed(
+                utoipa::openapi::Type::Object,
+                "The scene (README \"Scene files\"); axes set its values"
             ),
-        )),
-        None => Err(SweepError::spec(
-            path,
-            format!("expected a non-negative integer, got {}", type_name(v)),
-        )),
+            schema::typed(
+                utoipa::openapi::Type::String,
+                "A scene file next to the spec (the run command only: the service wants the object)"
+            ),
+        ],
+        "The base scene of every variant"
+    )
+);
+
+/// A zip group name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GroupName(pub String);
+
+impl<'de> Deserialize<'de> for GroupName {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match Value::deserialize(d)? {
+            Value::String(s) => Ok(GroupName(s)),
+            v => Err(de::Error::custom(format!(
+                "expected a group name (string), got {}",
+                type_name(&v)
+            ))),
+        }
+    }
+}
+
+hand_schema!(
+    GroupName,
+    "SpecZipGroup",
+    schema::typed(
+        utoipa::openapi::Type::String,
+        "Zip group: axes naming the same group move together"
+    )
+);
+
+/// One axis as written: a path into the base and exactly one of `values`, `linspace`,
+/// `logspace`.
+#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AxisDoc {
+    /// Path into the base scene, e.g. `bearings[*].clearance` (`[*]`: every element).
+    pub path: String,
+    /// Explicit values (any JSON: numbers, strings, whole objects), at least one.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Vec<serde_json::Value>, min_items = 1)]
+    pub values: Option<Vec<Value>>,
+    /// `[first, last, count]` evenly spaced, both ends included.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Range3)]
+    pub linspace: Option<Range3>,
+    /// `[first, last, count]` geometrically spaced (positive values, not exponents).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Range3)]
+    pub logspace: Option<Range3>,
+    /// Zip group (grid and Latin hypercube modes).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = GroupName)]
+    pub zip: Option<GroupName>,
+}
+
+/// `{"samples": N, "seed": S}` of a Latin hypercube.
+#[derive(Clone, Copy, Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LatinHypercubeDoc {
+    /// Number of variants, 1 to 10^8.
+    #[schema(value_type = Count)]
+    pub samples: Count,
+    /// PRNG seed (default 0).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Count)]
+    pub seed: Option<Count>,
+}
+
+/// How the axes combine: `"grid"` (default), `"zip"` or `{"latin_hypercube": {...}}`.
+#[derive(Clone, Copy, Debug, ToSchema)]
+#[schema(rename_all = "snake_case")]
+pub enum ModeDoc {
+    /// Full Cartesian product.
+    Grid,
+    /// Axes in lockstep.
+    Zip,
+    /// Seeded Latin hypercube.
+    LatinHypercube(LatinHypercubeDoc),
+}
+
+/// What a mode must look like, for messages.
+const MODE_FORMS: &str =
+    "\"grid\", \"zip\" or {\"latin_hypercube\": {\"samples\": N, \"seed\": S}}";
+
+impl<'de> Deserialize<'de> for ModeDoc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Lhs {
+            latin_hypercube: LatinHypercubeDoc,
+        }
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ModeDoc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(MODE_FORMS)
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<ModeDoc, E> {
+                match s {
+                    "grid" => Ok(ModeDoc::Grid),
+                    "zip" => Ok(ModeDoc::Zip),
+                    _ => Err(E::custom(format!(
+                        "expected {MODE_FORMS}, got \"{}\"",
+                        crate::json::quote(s)
+                    ))),
+                }
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ModeDoc, A::Error> {
+                // The object form through a derived struct: its keys stay in the path.
+                let o = Lhs::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(ModeDoc::LatinHypercube(o.latin_hypercube))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A scene sweep spec as written (kinds rotor, synthetic, stability); the README's "Sweeps"
+/// section documents every field.
+#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpecDoc {
+    /// What the variants are (default rotor).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = SweepKind)]
+    pub kind: Option<SweepKind>,
+    /// Name for reports and plots.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = String)]
+    pub description: Option<String>,
+    /// The base scene (required).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = BaseDoc, required = true)]
+    pub base: Option<BaseDoc>,
+    /// The axes, the first varying slowest in a grid.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Vec<AxisDoc>)]
+    pub axes: Option<Vec<AxisDoc>>,
+    /// How the axes combine (default grid).
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = ModeDoc)]
+    pub mode: Option<ModeDoc>,
+    /// What each variant computes and keeps.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = super::reduce::ReductionsDoc)]
+    pub reductions: Option<super::reduce::ReductionsDoc>,
+    /// SVG plots written with a complete result.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Vec<super::plots::PlotDoc>)]
+    pub plots: Option<Vec<super::plots::PlotDoc>>,
+}
+
+/// The body of `POST /api/sweeps` and `POST /api/validate`: a scene sweep spec or a
+/// friction map (`kind: "friction_map"`). A schema only.
+pub struct SpecDocument;
+
+impl utoipa::PartialSchema for SpecDocument {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::{OneOfBuilder, Ref};
+        OneOfBuilder::new()
+            .item(Ref::from_schema_name(SweepSpecDoc::name()))
+            .item(Ref::from_schema_name(
+                super::friction_map::FrictionMapDoc::name(),
+            ))
+            .description(Some(
+                "A sweep spec exactly as `run` reads it (README \"Sweeps\"; sweeps/ has examples), with the base scene inline",
+            ))
+            .into()
+    }
+}
+
+impl ToSchema for SpecDocument {
+    fn name() -> std::borrow::Cow<'static, str> {
+        std::borrow::Cow::Borrowed("SpecDocument")
+    }
+    fn schemas(
+        out: &mut Vec<(
+            String,
+            utoipa::openapi::RefOr<utoipa::openapi::schema::Schema>,
+        )>,
+    ) {
+        use super::friction_map::FrictionMapDoc;
+        out.push((SweepSpecDoc::name().into(), SweepSpecDoc::schema()));
+        SweepSpecDoc::schemas(out);
+        out.push((FrictionMapDoc::name().into(), FrictionMapDoc::schema()));
+        FrictionMapDoc::schemas(out);
     }
 }
 
@@ -298,54 +805,14 @@ pub fn get_u64(v: &Value, path: &str) -> Result<u64, SweepError> {
 /// Detects the kind only; `kind: "friction_map"` documents are parsed by
 /// [`super::friction_map`] (see [`spec_kind`]).
 pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, SweepError> {
-    let obj = doc.as_object().ok_or_else(|| {
-        SweepError::spec("$", format!("expected an object, got {}", type_name(doc)))
-    })?;
-    deny_unknown(obj, "", SPEC_FIELDS)?;
-    let kind = match obj.get("kind").map(|k| (k, k.as_str())) {
-        None | Some((_, Some("rotor"))) => SweepKind::Rotor,
-        Some((_, Some("synthetic"))) => SweepKind::Synthetic,
-        Some((_, Some("stability"))) => SweepKind::Stability,
-        Some((_, Some(other))) => {
-            return Err(SweepError::spec(
-                "kind",
-                format!(
-                    "unknown kind `{}` (expected rotor, synthetic, stability or friction_map)",
-                    crate::json::quote(other)
-                ),
-            ))
-        }
-        Some((k, None)) => {
-            return Err(SweepError::spec(
-                "kind",
-                format!("expected a string, got {}", type_name(k)),
-            ))
-        }
-    };
-    let name = match obj.get("name") {
-        None => None,
-        Some(Value::String(s)) => Some(s.clone()),
-        Some(v) => {
-            return Err(SweepError::spec(
-                "name",
-                format!("expected a string, got {}", type_name(v)),
-            ))
-        }
-    };
-    if let Some(v) = obj.get("description") {
-        if !v.is_string() {
-            return Err(SweepError::spec(
-                "description",
-                format!("expected a string, got {}", type_name(v)),
-            ));
-        }
-    }
-    let base = match obj.get("base") {
+    let d: SweepSpecDoc = from_value(doc, "")?;
+    let kind = d.kind.unwrap_or(SweepKind::Rotor);
+    let base = match d.base {
         None => return Err(SweepError::spec("base", "missing (the base scene)")),
-        Some(Value::String(file)) => {
+        Some(BaseDoc::File(file)) => {
             let path = match spec_dir {
-                Some(dir) => dir.join(file),
-                None => Path::new(file).to_path_buf(),
+                Some(dir) => dir.join(&file),
+                None => Path::new(&file).to_path_buf(),
             };
             let text = std::fs::read_to_string(&path).map_err(|e| {
                 SweepError::spec("base", format!("cannot read `{}`: {e}", path.display()))
@@ -364,42 +831,30 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
             }
             v
         }
-        Some(v @ Value::Object(_)) => v.clone(),
-        Some(v) => {
-            return Err(SweepError::spec(
-                "base",
-                format!(
-                    "expected the scene object or a file name, got {}",
-                    type_name(v)
-                ),
-            ))
-        }
+        Some(BaseDoc::Scene(m)) => Value::Object(m),
     };
-    let axes = match obj.get("axes") {
-        None => Vec::new(),
-        Some(Value::Array(list)) => list
-            .iter()
-            .enumerate()
-            .map(|(k, a)| parse_axis(a, &format!("axes[{k}]"), &base))
-            .collect::<Result<Vec<_>, _>>()?,
-        Some(v) => {
-            return Err(SweepError::spec(
-                "axes",
-                format!("expected an array, got {}", type_name(v)),
-            ))
-        }
-    };
+    let axes = d
+        .axes
+        .unwrap_or_default()
+        .into_iter()
+        .enumerate()
+        .map(|(k, a)| axis_from_doc(a, &format!("axes[{k}]"), &base))
+        .collect::<Result<Vec<_>, _>>()?;
     check_overlaps(&axes, &base)?;
-    let mode = parse_mode(obj.get("mode"))?;
+    let mode = mode_from_doc(d.mode)?;
     check_mode(&mode, &axes)?;
-    let reductions = ReductionOptions::parse(obj.get("reductions"), "reductions")?;
-    let plots = super::plots::parse_plots(obj.get("plots"), &axes)?;
-    let mut canonical = obj.clone();
+    let reductions = match &d.reductions {
+        None => ReductionOptions::default(),
+        Some(r) => ReductionOptions::from_doc(r, "reductions")?,
+    };
+    let plots = super::plots::plots_from_doc(d.plots.as_deref().unwrap_or_default(), &axes)?;
+    // Echoed and hashed as given (a resume compares it), with the base and the kind inlined.
+    let mut canonical = doc.as_object().cloned().unwrap_or_default();
     canonical.insert("base".into(), base.clone());
     canonical.insert("kind".into(), Value::String(kind.name().into()));
     let spec = SweepSpec {
         kind,
-        name,
+        name: d.name,
         base,
         axes,
         mode,
@@ -473,29 +928,14 @@ fn check_overlaps(axes: &[Axis], base: &Value) -> Result<(), SweepError> {
     Ok(())
 }
 
-fn parse_mode(v: Option<&Value>) -> Result<Mode, SweepError> {
-    match v {
-        None => Ok(Mode::Grid),
-        Some(Value::String(s)) if s == "grid" => Ok(Mode::Grid),
-        Some(Value::String(s)) if s == "zip" => Ok(Mode::Zip),
-        Some(Value::Object(m)) => {
-            deny_unknown(m, "mode", &["latin_hypercube"])?;
-            let lhs = m
-                .get("latin_hypercube")
-                .ok_or_else(|| SweepError::spec("mode", "expected {\"latin_hypercube\": {...}}"))?;
-            let o = lhs.as_object().ok_or_else(|| {
-                SweepError::spec(
-                    "mode.latin_hypercube",
-                    format!("expected an object, got {}", type_name(lhs)),
-                )
-            })?;
-            deny_unknown(o, "mode.latin_hypercube", &["samples", "seed"])?;
-            let samples = get_u64(
-                o.get("samples").ok_or_else(|| {
-                    SweepError::spec("mode.latin_hypercube.samples", "missing")
-                })?,
-                "mode.latin_hypercube.samples",
-            )?;
+/// The mode of the typed document, checked: a Latin hypercube needs 1 to
+/// [`MAX_VARIANTS`] samples.
+fn mode_from_doc(m: Option<ModeDoc>) -> Result<Mode, SweepError> {
+    Ok(match m {
+        None | Some(ModeDoc::Grid) => Mode::Grid,
+        Some(ModeDoc::Zip) => Mode::Zip,
+        Some(ModeDoc::LatinHypercube(l)) => {
+            let samples = l.samples.0;
             if samples == 0 {
                 return Err(SweepError::spec(
                     "mode.latin_hypercube.samples",
@@ -508,23 +948,12 @@ fn parse_mode(v: Option<&Value>) -> Result<Mode, SweepError> {
                     format!("{samples} exceeds the limit of {MAX_VARIANTS}"),
                 ));
             }
-            let seed = match o.get("seed") {
-                None => 0,
-                Some(s) => get_u64(s, "mode.latin_hypercube.seed")?,
-            };
-            Ok(Mode::LatinHypercube { samples, seed })
+            Mode::LatinHypercube {
+                samples,
+                seed: l.seed.map_or(0, |s| s.0),
+            }
         }
-        Some(v) => Err(SweepError::spec(
-            "mode",
-            format!(
-                "expected \"grid\", \"zip\" or {{\"latin_hypercube\": {{\"samples\": N, \"seed\": S}}}}, got {}",
-                match v {
-                    Value::String(s) => format!("\"{}\"", crate::json::quote(s)),
-                    other => type_name(other).to_string(),
-                }
-            ),
-        )),
-    }
+    })
 }
 
 fn check_mode(mode: &Mode, axes: &[Axis]) -> Result<(), SweepError> {
@@ -573,75 +1002,35 @@ fn check_mode(mode: &Mode, axes: &[Axis]) -> Result<(), SweepError> {
     Ok(())
 }
 
-fn parse_axis(v: &Value, at: &str, base: &Value) -> Result<Axis, SweepError> {
-    let o = v
-        .as_object()
-        .ok_or_else(|| SweepError::spec(at, format!("expected an object, got {}", type_name(v))))?;
-    deny_unknown(o, at, &["path", "values", "linspace", "logspace", "zip"])?;
-    let path = match o.get("path") {
-        Some(Value::String(s)) => s.clone(),
-        Some(p) => {
-            return Err(SweepError::spec(
-                join(at, "path"),
-                format!("expected a string, got {}", type_name(p)),
-            ))
+/// One axis of the typed document, checked at `at` (`axes[k]`): a parsable path that
+/// addresses existing values of the base, exactly one kind of values, counts in
+/// 1..=[`MAX_VARIANTS`], positive logspace bounds, numbers under a range axis.
+fn axis_from_doc(a: AxisDoc, at: &str, base: &Value) -> Result<Axis, SweepError> {
+    let segments = parse_path(&a.path).map_err(|r| SweepError::spec(join(at, "path"), r))?;
+    let present: Vec<&str> = [
+        ("values", a.values.is_some()),
+        ("linspace", a.linspace.is_some()),
+        ("logspace", a.logspace.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(k, there)| there.then_some(k))
+    .collect();
+    let field = join(at, present.first().copied().unwrap_or("values"));
+    let values = match (a.values, a.linspace, a.logspace) {
+        (Some(list), None, None) => {
+            if list.is_empty() {
+                return Err(SweepError::spec(&field, "must hold at least one value"));
+            }
+            AxisValues::List(list)
         }
-        None => return Err(SweepError::spec(join(at, "path"), "missing")),
-    };
-    let segments = parse_path(&path).map_err(|r| SweepError::spec(join(at, "path"), r))?;
-    let present: Vec<&str> = ["values", "linspace", "logspace"]
-        .into_iter()
-        .filter(|k| o.contains_key(*k))
-        .collect();
-    if present.len() != 1 {
-        return Err(SweepError::spec(
-            at,
-            format!(
-                "needs exactly one of `values`, `linspace`, `logspace` (found {})",
-                if present.is_empty() {
-                    "none".to_string()
-                } else {
-                    present.join(" and ")
-                }
-            ),
-        ));
-    }
-    let which = present[0];
-    let field = join(at, which);
-    let spec_v = &o[which];
-    let values = if which == "values" {
-        let list = spec_v.as_array().ok_or_else(|| {
-            SweepError::spec(
-                &field,
-                format!("expected an array, got {}", type_name(spec_v)),
-            )
-        })?;
-        if list.is_empty() {
-            return Err(SweepError::spec(&field, "must hold at least one value"));
-        }
-        AxisValues::List(list.clone())
-    } else {
-        let arr = spec_v
-            .as_array()
-            .filter(|a| a.len() == 3)
-            .ok_or_else(|| SweepError::spec(&field, "expected [first, last, count]"))?;
-        let a = get_f64(&arr[0], &format!("{field}[0]"))?;
-        let b = get_f64(&arr[1], &format!("{field}[1]"))?;
-        let n = get_u64(&arr[2], &format!("{field}[2]"))?;
-        if n == 0 {
-            return Err(SweepError::spec(
-                format!("{field}[2]"),
-                "count must be at least 1",
-            ));
-        }
-        if n > MAX_VARIANTS {
-            return Err(SweepError::spec(
-                format!("{field}[2]"),
-                format!("count {n} exceeds the limit of {MAX_VARIANTS}"),
-            ));
-        }
-        if which == "logspace" {
-            for (k, x) in [(0, a), (1, b)] {
+        (None, Some(r), None) => AxisValues::Linspace {
+            a: r.first,
+            b: r.last,
+            n: range_count(&r, &field)?,
+        },
+        (None, None, Some(r)) => {
+            let n = range_count(&r, &field)?;
+            for (k, x) in [(0, r.first), (1, r.last)] {
                 if x <= 0.0 {
                     return Err(SweepError::spec(
                         format!("{field}[{k}]"),
@@ -653,25 +1042,22 @@ fn parse_axis(v: &Value, at: &str, base: &Value) -> Result<Axis, SweepError> {
                 }
             }
             AxisValues::Logspace {
-                a,
-                b,
-                n: n as usize,
-            }
-        } else {
-            AxisValues::Linspace {
-                a,
-                b,
-                n: n as usize,
+                a: r.first,
+                b: r.last,
+                n,
             }
         }
-    };
-    let zip = match o.get("zip") {
-        None => None,
-        Some(Value::String(s)) => Some(s.clone()),
-        Some(z) => {
+        _ => {
             return Err(SweepError::spec(
-                join(at, "zip"),
-                format!("expected a group name (string), got {}", type_name(z)),
+                at,
+                format!(
+                    "needs exactly one of `values`, `linspace`, `logspace` (found {})",
+                    if present.is_empty() {
+                        "none".to_string()
+                    } else {
+                        present.join(" and ")
+                    }
+                ),
             ))
         }
     };
@@ -689,11 +1075,29 @@ fn parse_axis(v: &Value, at: &str, base: &Value) -> Result<Axis, SweepError> {
         }
     }
     Ok(Axis {
-        path,
+        path: a.path,
         segments,
         values,
-        zip,
+        zip: a.zip.map(|g| g.0),
     })
+}
+
+/// The count of a `[first, last, count]` at `field`: 1 to [`MAX_VARIANTS`].
+fn range_count(r: &Range3, field: &str) -> Result<usize, SweepError> {
+    let n = r.count;
+    if n == 0 {
+        return Err(SweepError::spec(
+            format!("{field}[2]"),
+            "count must be at least 1",
+        ));
+    }
+    if n > MAX_VARIANTS {
+        return Err(SweepError::spec(
+            format!("{field}[2]"),
+            format!("count {n} exceeds the limit of {MAX_VARIANTS}"),
+        ));
+    }
+    Ok(n as usize)
 }
 
 /// Parses `key(.key|[n]|[*])*`.
@@ -1016,6 +1420,48 @@ mod tests {
                 "axes",
                 "exceed the limit",
             ),
+            // Wordings built from serde's errors (issue 14).
+            (json!(3), "$", "expected an object, got a number"),
+            (
+                json!({"base": base(), "name": null}),
+                "name",
+                "expected a string, got null",
+            ),
+            (
+                json!({"base": base(), "mode": {}}),
+                "mode.latin_hypercube",
+                "missing",
+            ),
+            (
+                json!({"base": base(), "mode": [1]}),
+                "mode",
+                "or {\"latin_hypercube\": {\"samples\": N, \"seed\": S}}, got an array",
+            ),
+            (
+                json!({"base": base(), "axes": [["speed", [1]]]}),
+                "axes[0]",
+                "expected an object",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "linspace": [1, 2, 3, 4]}]}),
+                "axes[0].linspace",
+                "expected [first, last, count]",
+            ),
+            (
+                json!({"base": base(), "axes": [{"values": [1]}]}),
+                "axes[0].path",
+                "missing",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "values": [1], "zip": 2}]}),
+                "axes[0].zip",
+                "expected a group name (string), got a number",
+            ),
+            (
+                json!({"base": base(), "axes": [{"path": "speed", "values": [1]}], "mode": {"latin_hypercube": {"samples": 2.5}}}),
+                "mode.latin_hypercube.samples",
+                "expected a non-negative integer, got 2.5",
+            ),
         ];
         for (k, (doc, path, reason)) in cases.into_iter().enumerate() {
             let (p, r) = err(doc);
@@ -1024,6 +1470,28 @@ mod tests {
                 "case {k}: got `{p}: {r}`, expected path `{path}` and a reason containing `{reason}`"
             );
         }
+    }
+
+    #[test]
+    fn unknown_keys_are_cut_short_and_the_allowed_ones_listed() {
+        let huge = "k".repeat(10_000);
+        let mut doc = json!({"base": base()});
+        doc[huge.as_str()] = json!(1);
+        let (p, r) = err(doc);
+        assert!(
+            p.len() < 200 && p.contains("more characters"),
+            "path not cut: {} bytes",
+            p.len()
+        );
+        assert_eq!(
+            r,
+            "unknown field (expected one of: kind, name, description, base, axes, mode, reductions, plots)"
+        );
+        let (p, r) = err(json!({"base": base(), "kind": huge}));
+        assert!(
+            p == "kind" && r.len() < 300 && r.contains("unknown kind"),
+            "{p}: {r}"
+        );
     }
 
     #[test]
