@@ -394,6 +394,11 @@ pub struct Whirl {
     pub subsync_amplitude_m: f64,
     /// Sub-synchronous whirl detected (see the module doc).
     pub oil_whirl: bool,
+    /// Largest `|ratio|` searched, present only when below `max_ratio`: the kept sample
+    /// rate (decimated samples, README "Limits") would alias higher ratios, so they were
+    /// not searched rather than reported wrong.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub searched_up_to_ratio: Option<f64>,
 }
 
 /// The window actually used.
@@ -505,6 +510,7 @@ impl Reductions {
                     subsync_ratio: 0.0,
                     subsync_amplitude_m: 0.0,
                     oil_whirl: false,
+                    searched_up_to_ratio: Some(2.5),
                 }),
             }],
         };
@@ -831,6 +837,7 @@ pub fn whirl(
         subsync_ratio: fin(sub_r)?,
         subsync_amplitude_m: fin(sub_a)?,
         oil_whirl: oil,
+        searched_up_to_ratio: (r_max < opts.max_ratio).then_some(r_max),
     })
 }
 
