@@ -1114,6 +1114,24 @@ mod tests {
     }
 
     #[test]
+    fn coarse_samples_limit_the_whirl_search_and_say_so() {
+        let omega = 100.0;
+        // 40 revolutions at 3 samples per revolution (decimated samples): the kept rate
+        // resolves |ratio| < 0.9 * 3 / 2 = 1.35 only.
+        let t = uniform(40.0 * TAU / omega, 121);
+        let (x, y) = tone(&t, &[(4e-6, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        let limit = w.searched_up_to_ratio.expect("limit reported");
+        close("searched limit", limit, 1.35, 1e-9);
+        close("synchronous ratio still found", w.ratio, 1.0, 1e-6);
+        // Fine samples search the whole max_ratio and report no limit.
+        let t = uniform(40.0 * TAU / omega, 4001);
+        let (x, y) = tone(&t, &[(4e-6, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        assert_eq!(w.searched_up_to_ratio, None);
+    }
+
+    #[test]
     fn whirl_of_a_pure_tone_is_exact() {
         let omega = 100.0;
         // 20 revolutions, uniform samples: the tone completes 0.47·20 = 9.4 cycles, not
