@@ -245,7 +245,7 @@ impl TimeSeries {
     /// the last one is now off the stride (an odd position).
     fn thin(&mut self) -> bool {
         let n = self.len();
-        let odd_last = n % 2 == 0 && n > 0;
+        let odd_last = n.is_multiple_of(2) && n > 0;
         fn even<T>(v: &mut Vec<T>) {
             let n = v.len();
             let mut k = 0usize;
@@ -288,7 +288,7 @@ impl Decimator {
         if self.provisional {
             s.pop();
         }
-        self.provisional = self.seen % s.sample_stride != 0;
+        self.provisional = !self.seen.is_multiple_of(s.sample_stride);
         self.seen += 1;
     }
 
