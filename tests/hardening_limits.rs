@@ -69,20 +69,25 @@ fn synthetic_samples_are_capped() {
 
 #[test]
 fn a_scene_keeping_too_many_samples_is_refused() {
+    // Samples are decimated to a cap (README "Limits"), so a long t_end alone is no
+    // longer refused; what cannot fit even at the 4096-sample floor is, naming the field.
     let mut scene: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string("sweeps/paper-example.json").unwrap())
             .unwrap();
     scene["integrator"]["t_end"] = json!(1000.0);
-    let (ok, err) = run_spec("scene", &scene, &[]);
+    // Two simulations x 4096 samples x 26 numbers x 16 B = 3.4 MB > 2 MiB (each alone,
+    // 1.7 MB, fits).
+    let (ok, err) = run_spec("scene", &scene, &["--max-memory", "2M"]);
     assert!(
-        !ok && err.contains("integrator.t_end:") && err.contains("GiB"),
+        !ok && err.contains("scenes:") && err.contains("4096 samples") && err.contains("MiB"),
         "{err}"
     );
-    // The same scene swept: each variant is checked by the scene validator.
+    // The same scene swept: each variant is checked by the scene validator (one
+    // simulation, 1.7 MB > 1 MiB).
     scene.as_object_mut().unwrap().remove("compare_ideal");
     let sweep = json!({"base": scene, "axes": [{"path": "rotor.mass", "values": [1.0, 2.0]}]});
-    let (ok, err) = run_spec("scene-sweep", &sweep, &[]);
-    assert!(!ok && err.contains("integrator.t_end:"), "{err}");
+    let (ok, err) = run_spec("scene-sweep", &sweep, &["--max-memory", "1M"]);
+    assert!(!ok && err.contains("bearings:"), "{err}");
     let (ok, err) = run_spec("bad-flag", &scene, &["--max-memory", "lots"]);
     assert!(!ok && err.contains("--max-memory:"), "{err}");
 }

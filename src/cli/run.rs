@@ -67,13 +67,22 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
             format!("{} is not a positive number >= 1e-12", opts.accuracy),
         )
     })?;
-    // Every scene's samples are kept for result.json and the figures: the total must fit.
-    let total: f64 = scenes.iter().map(|s| s.sample_memory_bytes()).sum();
+    // Every scene's samples are kept for result.json and the figures, decimated to the
+    // cap that the budget leaves each (README "Limits"): only what cannot fit even at the
+    // floor cap is refused.
+    let total: f64 = scenes
+        .iter()
+        .map(|s| s.sample_memory_bytes(crate::sweep::budget::MIN_SAMPLE_CAP))
+        .sum();
     crate::sweep::budget::check(
-        &format!("keeping the samples of {} simulations", scenes.len()),
+        &format!(
+            "keeping at least {} samples of each of {} simulations",
+            crate::sweep::budget::MIN_SAMPLE_CAP,
+            scenes.len()
+        ),
         total,
     )
-    .map_err(|r| CliError::input("integrator.t_end", r))?;
+    .map_err(|r| CliError::input("scenes", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
     let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;

@@ -353,15 +353,17 @@ impl Scene {
                 "more than 1e7 samples: choose a longer interval",
             ));
         }
+        // Samples are decimated to fit the budget (README "Limits"): only a scene whose
+        // samples cannot fit even at the floor cap is refused.
         crate::sweep::budget::check(
             &format!(
                 "keeping {} samples x {} bearings",
-                crate::json::num((g.t_end / g.sample_interval).floor() + 1.0),
+                crate::sweep::budget::MIN_SAMPLE_CAP,
                 self.bearings.len()
             ),
-            self.sample_memory_bytes(),
+            self.sample_memory_bytes(crate::sweep::budget::MIN_SAMPLE_CAP),
         )
-        .map_err(|r| err("integrator.t_end", r))?;
+        .map_err(|r| err("bearings", r))?;
         if let Some(h) = g.fixed_step {
             positive("integrator.fixed_step", h)?;
         }
@@ -427,12 +429,13 @@ impl Scene {
 }
 
 impl Scene {
-    /// Estimated memory of this scene's kept samples, bytes: samples × numbers per sample
-    /// (t, x_g, y_g, spin, energy, work, ten per bearing) × measured bytes per number.
-    pub fn sample_memory_bytes(&self) -> f64 {
+    /// Estimated memory of this scene's kept samples with at most `cap` kept, bytes:
+    /// kept samples × numbers per sample (t, x_g, y_g, spin, energy, work, ten per
+    /// bearing) × measured bytes per number.
+    pub fn sample_memory_bytes(&self, cap: usize) -> f64 {
         let g = &self.integrator;
-        let samples = (g.t_end / g.sample_interval).floor() + 1.0;
-        let numbers = 6.0 + 10.0 * self.bearings.len() as f64;
+        let samples = ((g.t_end / g.sample_interval).floor() + 1.0).min(cap as f64);
+        let numbers = super::simulate::numbers_per_sample(self) as f64;
         samples * numbers * crate::sweep::budget::BYTES_PER_SAMPLED_NUMBER as f64
     }
 }

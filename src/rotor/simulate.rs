@@ -155,11 +155,18 @@ pub struct BearingSeries {
     pub friction_coefficient: Vec<Option<f64>>,
 }
 
-/// Uniform samples of one simulation.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Uniform samples of one simulation, decimated to a bounded count (README "Limits"):
+/// a store holding `cap` samples drops every other one and doubles its stride, so the
+/// kept samples are every `sample_stride`-th sample time, plus always the last one (the
+/// end of the run or the failure) so windows end at the true end.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TimeSeries {
-    /// Sample times `k * sample_interval`, s.
+    /// Sample times `k * sample_stride * sample_interval` (and the last sample time), s.
     pub t: Vec<f64>,
+    /// Kept every this many sample times (1: every sample kept). Film events and
+    /// breakdown checks see every sample time whatever the stride.
+    #[serde(default = "one")]
+    pub sample_stride: u64,
     /// Centre of mass `G`, global x, m (Fig. 8).
     pub x_g: Vec<f64>,
     /// `G`, global y, m (Fig. 9).
@@ -172,6 +179,129 @@ pub struct TimeSeries {
     pub work: Vec<f64>,
     /// Per bearing, in scene order.
     pub bearings: Vec<BearingSeries>,
+}
+
+fn one() -> u64 {
+    1
+}
+
+impl Default for TimeSeries {
+    fn default() -> Self {
+        TimeSeries {
+            t: Vec::new(),
+            sample_stride: 1,
+            x_g: Vec::new(),
+            y_g: Vec::new(),
+            spin: Vec::new(),
+            kinetic_energy: Vec::new(),
+            work: Vec::new(),
+            bearings: Vec::new(),
+        }
+    }
+}
+
+impl TimeSeries {
+    /// Kept samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// No samples kept.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Applies `f` to every `f64` column and `g` to every optional one.
+    fn columns(&mut self, f: impl Fn(&mut Vec<f64>), g: impl Fn(&mut Vec<Option<f64>>)) {
+        for v in [
+            &mut self.t,
+            &mut self.x_g,
+            &mut self.y_g,
+            &mut self.spin,
+            &mut self.kinetic_energy,
+            &mut self.work,
+        ] {
+            f(v);
+        }
+        for b in &mut self.bearings {
+            for v in [
+                &mut b.xi,
+                &mut b.yi,
+                &mut b.xj,
+                &mut b.yj,
+                &mut b.h_min,
+                &mut b.eccentricity_max,
+                &mut b.wx,
+                &mut b.wy,
+                &mut b.mz,
+            ] {
+                f(v);
+            }
+            g(&mut b.friction_coefficient);
+        }
+    }
+
+    /// Keeps samples 0, 2, 4, ... and the last one, and doubles the stride. Says whether
+    /// the last one is now off the stride (an odd position).
+    fn thin(&mut self) -> bool {
+        let n = self.len();
+        let odd_last = n.is_multiple_of(2) && n > 0;
+        fn even<T>(v: &mut Vec<T>) {
+            let n = v.len();
+            let mut k = 0usize;
+            v.retain(|_| {
+                k += 1;
+                k % 2 == 1 || k == n
+            });
+        }
+        self.columns(even, even);
+        self.sample_stride *= 2;
+        odd_last
+    }
+
+    /// Drops the last sample.
+    fn pop(&mut self) {
+        self.columns(
+            |v| {
+                v.pop();
+            },
+            |v| {
+                v.pop();
+            },
+        );
+    }
+}
+
+/// The decimating store's state of one simulation (see [`TimeSeries`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Decimator {
+    /// Sample times seen so far.
+    seen: u64,
+    /// The last kept sample is off the stride (kept only as the latest), to be replaced.
+    provisional: bool,
+}
+
+impl Decimator {
+    /// Before sample time number `seen` is pushed to `s`: drops a provisional last
+    /// sample and says whether the new one will be provisional.
+    fn before_push(&mut self, s: &mut TimeSeries) {
+        if self.provisional {
+            s.pop();
+        }
+        self.provisional = !self.seen.is_multiple_of(s.sample_stride);
+        self.seen += 1;
+    }
+
+    /// After the push: a full store (`cap` samples on the stride) is thinned to `cap / 2`
+    /// on the doubled stride plus the latest sample (provisional), so at most `cap`
+    /// samples are ever kept.
+    fn after_push(&mut self, s: &mut TimeSeries, cap: usize) {
+        // Only when the samples on the stride fill it: a provisional one on top of
+        // `cap - 1` is replaced by the next, not a reason to decimate.
+        if !self.provisional && s.len() >= cap {
+            self.provisional = s.thin();
+        }
+    }
 }
 
 /// Counters of one simulation.
@@ -229,6 +359,9 @@ struct RotorBatch<'a, 'p> {
     ends: Vec<EndKin>,
     ideal_loads: Vec<[f64; 4]>,
     series: Vec<TimeSeries>,
+    decimators: Vec<Decimator>,
+    /// Most samples kept per simulation (even, at least 2).
+    cap: usize,
     sample_evals: Vec<u64>,
     events: Vec<Vec<FilmEvent>>,
     below: Vec<bool>,
@@ -409,6 +542,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
             let m = &self.models[id];
             let y = &ys[k * DIM..(k + 1) * DIM];
             let s = &mut self.series[id];
+            self.decimators[id].before_push(s);
             let g = m.g_position(y);
             let kin = m.kin(y);
             s.t.push(ts[k]);
@@ -441,6 +575,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
                     bs.friction_coefficient
                         .push(l[3].is_finite().then_some(l[3]));
                 }
+                self.decimators[id].after_push(s, self.cap);
                 continue;
             }
             self.sample_evals[id] += m.bearings.len() as u64;
@@ -485,6 +620,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
                     }
                 }
             }
+            self.decimators[id].after_push(&mut self.series[id], self.cap);
         }
     }
 
@@ -616,7 +752,31 @@ pub fn simulate_batch(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, true, None)
+    let cap = sample_cap(scenes);
+    simulate(scenes, evaluator, progress, true, None, cap)
+}
+
+/// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing).
+pub fn numbers_per_sample(scene: &Scene) -> usize {
+    6 + 10 * scene.bearings.len()
+}
+
+/// The per-simulation sample cap when all of `scenes` are in flight at once, from the
+/// memory budget ([`crate::sweep::budget::sample_cap`]).
+pub fn sample_cap(scenes: &[Scene]) -> usize {
+    let numbers = scenes.iter().map(numbers_per_sample).max().unwrap_or(6);
+    crate::sweep::budget::sample_cap(scenes.len(), numbers)
+}
+
+/// [`simulate_batch`] keeping at most `cap` samples per simulation (rounded up to an
+/// even number, at least 2): the decimating store of [`TimeSeries`].
+pub fn simulate_batch_capped(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    progress: &mut dyn FnMut(usize, &SimResult),
+    cap: usize,
+) -> Vec<SimResult> {
+    simulate(scenes, evaluator, progress, true, None, cap)
 }
 
 /// [`simulate_batch`] for large sweeps: each result's samples go to `progress` only and
@@ -627,18 +787,22 @@ pub fn simulate_batch_streaming(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, false, None)
+    let cap = sample_cap(scenes);
+    simulate(scenes, evaluator, progress, false, None, cap)
 }
 
 /// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
 /// running end at once with a `cancelled` load failure (to be discarded by the caller).
+/// At most `cap` samples are kept per simulation (the caller knows how many variants are
+/// in flight across threads: [`crate::sweep::budget::sample_cap`]).
 pub fn simulate_batch_streaming_cancellable(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
     cancel: &AtomicBool,
+    cap: usize,
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, false, Some(cancel))
+    simulate(scenes, evaluator, progress, false, Some(cancel), cap)
 }
 
 fn simulate(
@@ -647,7 +811,10 @@ fn simulate(
     progress: &mut dyn FnMut(usize, &SimResult),
     keep_samples: bool,
     cancel: Option<&AtomicBool>,
+    cap: usize,
 ) -> Vec<SimResult> {
+    // Even, so a thinned store's last sample stays on the doubled stride; 2 at least.
+    let cap = (cap.max(2) + 1) & !1;
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
     let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
     for (i, s) in scenes.iter().enumerate() {
@@ -696,6 +863,8 @@ fn simulate(
             ends: Vec::new(),
             ideal_loads: Vec::new(),
             series: vec![TimeSeries::default(); n],
+            decimators: vec![Decimator::default(); n],
+            cap,
             sample_evals: vec![0; n],
             events: vec![Vec::new(); n],
             below: Vec::new(),
@@ -719,4 +888,50 @@ fn simulate(
     out.into_iter()
         .map(|r| r.expect("every scene ends with a result"))
         .collect()
+}
+
+#[cfg(test)]
+mod decimation_tests {
+    use super::*;
+
+    /// Pushes `n` samples `t = k dt`, `x_g = k` through a store of `cap`.
+    fn store(n: u64, cap: usize) -> TimeSeries {
+        let mut s = TimeSeries::default();
+        let mut d = Decimator::default();
+        for k in 0..n {
+            d.before_push(&mut s);
+            s.t.push(k as f64 * 0.5);
+            s.x_g.push(k as f64);
+            d.after_push(&mut s, cap);
+            assert!(s.len() <= cap, "n {n}: {} kept over cap {cap}", s.len());
+        }
+        s
+    }
+
+    #[test]
+    fn store_is_bounded_uniform_and_keeps_the_last_sample() {
+        for cap in [2usize, 4, 8, 64] {
+            for n in 1..600u64 {
+                let s = store(n, cap);
+                let stride = s.sample_stride;
+                assert!(stride.is_power_of_two(), "n {n} cap {cap} stride {stride}");
+                assert_eq!(s.t.len(), s.x_g.len());
+                // First and last sample times always kept.
+                assert_eq!(s.x_g[0], 0.0);
+                assert_eq!(*s.x_g.last().unwrap(), (n - 1) as f64, "n {n} cap {cap}");
+                // Every sample but the last on the stride, uniform in time.
+                for (p, &x) in s.x_g[..s.len() - 1].iter().enumerate() {
+                    assert_eq!(x, (p as u64 * stride) as f64, "n {n} cap {cap}");
+                    assert_eq!(s.t[p], x * 0.5);
+                }
+                // No needless decimation: a stride > 1 only once the store fills, and
+                // then at least half the cap is kept.
+                if (n as usize) < cap {
+                    assert_eq!((stride, s.len()), (1, n as usize));
+                } else {
+                    assert!(s.len() >= cap / 2, "n {n} cap {cap}: {}", s.len());
+                }
+            }
+        }
+    }
 }

@@ -1,6 +1,13 @@
 //! The memory budget: a spec's memory is estimated before anything runs and a spec over
 //! the budget is refused, naming the field that drives the estimate (README "Limits").
 //! The budget is process-wide; `run --max-memory` raises it.
+//!
+//! Rotor samples do not grow with `t_end`: each simulation keeps at most
+//! [`sample_cap`] samples (the budget over the simulations in flight × numbers per
+//! sample × [`BYTES_PER_SAMPLED_NUMBER`], a power of two, at least [`MIN_SAMPLE_CAP`]);
+//! a full store drops every other sample and doubles its stride (`sample_stride` in the
+//! result). More memory means a larger cap and less decimation. Only a spec that cannot
+//! fit even at [`MIN_SAMPLE_CAP`] samples per simulation is refused.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -17,6 +24,34 @@ pub const BYTES_PER_MAP_POINT: u64 = 1700;
 /// 13.3: 51 MB more for 150 000 more samples of 26 numbers (paper example and its
 /// ideal-joint twin, t_end 0.5 -> 8 s), BENCHMARKS.md "Limits and memory".
 pub const BYTES_PER_SAMPLED_NUMBER: u64 = 16;
+
+/// Fewest samples a rotor simulation keeps before decimating, whatever the budget: 4096
+/// samples still resolve a whirl window of hundreds of revolutions at a few samples per
+/// revolution, and cost 1.7 MB per simulation with two bearings (26 numbers × 16 bytes).
+pub const MIN_SAMPLE_CAP: usize = 4096;
+
+/// Most samples each of `simulations` rotor simulations in flight at once keeps, with
+/// `numbers_per_sample` numbers per sample: the budget / (simulations × numbers ×
+/// [`BYTES_PER_SAMPLED_NUMBER`]), rounded down to a power of two, at least
+/// [`MIN_SAMPLE_CAP`].
+pub fn sample_cap(simulations: usize, numbers_per_sample: usize) -> usize {
+    let per_sample = simulations.max(1) as f64
+        * numbers_per_sample.max(1) as f64
+        * BYTES_PER_SAMPLED_NUMBER as f64;
+    // Capped at 2^40 samples so the power of two below fits any usize arithmetic.
+    let fit = (max_memory_bytes() as f64 / per_sample).clamp(1.0, (1u64 << 40) as f64) as u64;
+    let pow2 = 1u64 << (63 - fit.leading_zeros());
+    (pow2 as usize).max(MIN_SAMPLE_CAP)
+}
+
+/// Memory of `simulations` rotor simulations each holding at most [`MIN_SAMPLE_CAP`]
+/// samples (or `samples`, if fewer) of `numbers_per_sample` numbers, bytes: what must fit.
+pub fn floor_sample_bytes(simulations: usize, numbers_per_sample: usize, samples: f64) -> f64 {
+    simulations as f64
+        * samples.min(MIN_SAMPLE_CAP as f64)
+        * numbers_per_sample as f64
+        * BYTES_PER_SAMPLED_NUMBER as f64
+}
 
 /// Memory per number of a synthetic variant's signals (series, reduction copies), bytes.
 pub const BYTES_PER_SYNTHETIC_NUMBER: u64 = 24;
@@ -114,5 +149,16 @@ mod tests {
         assert!(check("x", 1.0).is_ok());
         let e = check("a map of 1e12 points", 1e15).unwrap_err();
         assert!(e.contains("--max-memory") && e.contains("GiB"), "{e}");
+    }
+
+    #[test]
+    fn sample_cap_is_a_power_of_two_from_the_budget() {
+        // Default 2 GiB over 1 simulation of 26 numbers x 16 B: 5.16e6 -> 2^22.
+        assert_eq!(sample_cap(1, 26), 1 << 22);
+        // 256 in flight: 20 165 -> 2^14.
+        assert_eq!(sample_cap(256, 26), 1 << 14);
+        // Huge batches stop at the floor.
+        assert_eq!(sample_cap(1 << 20, 26), MIN_SAMPLE_CAP);
+        assert_eq!(floor_sample_bytes(2, 26, 1e9), 2.0 * 4096.0 * 26.0 * 16.0);
     }
 }

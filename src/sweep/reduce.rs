@@ -516,6 +516,11 @@ pub struct Whirl {
     pub subsync_amplitude_m: f64,
     /// Sub-synchronous whirl detected (see the module doc).
     pub oil_whirl: bool,
+    /// Largest `|ratio|` searched, present only when below `max_ratio`: the kept sample
+    /// rate (decimated samples, README "Limits") would alias higher ratios, so they were
+    /// not searched rather than reported wrong.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub searched_up_to_ratio: Option<f64>,
 }
 
 /// The window actually used.
@@ -627,6 +632,7 @@ impl Reductions {
                     subsync_ratio: 0.0,
                     subsync_amplitude_m: 0.0,
                     oil_whirl: false,
+                    searched_up_to_ratio: Some(2.5),
                 }),
             }],
         };
@@ -953,6 +959,7 @@ pub fn whirl(
         subsync_ratio: fin(sub_r)?,
         subsync_amplitude_m: fin(sub_a)?,
         oil_whirl: oil,
+        searched_up_to_ratio: (r_max < opts.max_ratio).then_some(r_max),
     })
 }
 
@@ -1226,6 +1233,24 @@ mod tests {
                 })
             })
             .unzip()
+    }
+
+    #[test]
+    fn coarse_samples_limit_the_whirl_search_and_say_so() {
+        let omega = 100.0;
+        // 40 revolutions at 3 samples per revolution (decimated samples): the kept rate
+        // resolves |ratio| < 0.9 * 3 / 2 = 1.35 only.
+        let t = uniform(40.0 * TAU / omega, 121);
+        let (x, y) = tone(&t, &[(4e-6, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        let limit = w.searched_up_to_ratio.expect("limit reported");
+        close("searched limit", limit, 1.35, 1e-9);
+        close("synchronous ratio still found", w.ratio, 1.0, 1e-6);
+        // Fine samples search the whole max_ratio and report no limit.
+        let t = uniform(40.0 * TAU / omega, 4001);
+        let (x, y) = tone(&t, &[(4e-6, 1.0)], omega);
+        let w = whirl(&t, &x, &y, omega, 3e-4, &WhirlOptions::default()).unwrap();
+        assert_eq!(w.searched_up_to_ratio, None);
     }
 
     #[test]

@@ -16,8 +16,8 @@ use crate::rotor::{Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
 /// thread's lockstep sub-batch, few enough that the running variants' sampled series
-/// (about 1 MB per variant at the default 1e-4 s samples over 0.5 s) stay in memory
-/// comfortably.
+/// (at most [`crate::sweep::budget::sample_cap`] samples each, decimated beyond) leave
+/// each a cap of thousands of samples (2^14 under the default 2 GiB budget).
 pub const AUTO_BATCH_CPU: usize = 256;
 /// ... on a GPU: thousands of states per dispatch amortise its launch cost.
 pub const AUTO_BATCH_GPU: usize = 4096;
@@ -77,22 +77,30 @@ pub fn signals_of(r: &SimResult, scene: &Scene) -> Signals {
 /// The outcome the runner streams for one simulation.
 pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
     let status = status_name(r);
+    let mut extra = json!({
+        "method": r.method.name(),
+        "model": r.model,
+        "steps": r.stats.steps,
+        "rejected": r.stats.rejected,
+        "rhs_evaluations": r.stats.rhs_evaluations,
+        "load_evaluations": r.stats.load_evaluations,
+        // Film breakdowns a contact model carried the run through (film.contact).
+        "model_reductions": r.model_reductions,
+        "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
+    });
+    // Only when decimated (README "Limits"), so undecimated records are unchanged: the
+    // reductions saw every `sample_stride`-th sample.
+    if r.samples.sample_stride > 1 {
+        extra["sample_stride"] = json!(r.samples.sample_stride);
+        extra["kept_sample_interval_s"] =
+            json!(r.samples.sample_stride as f64 * scene.integrator.sample_interval);
+    }
     Outcome {
         message: (status != "ok").then(|| r.status.to_string()),
         status,
         signals: Some(signals_of(r, scene)),
         // Deterministic counters only (wall times go to the run section, not here).
-        extra: Some(json!({
-            "method": r.method.name(),
-            "model": r.model,
-            "steps": r.stats.steps,
-            "rejected": r.stats.rejected,
-            "rhs_evaluations": r.stats.rhs_evaluations,
-            "load_evaluations": r.stats.load_evaluations,
-            // Film breakdowns a contact model carried the run through (film.contact).
-            "model_reductions": r.model_reductions,
-            "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
-        })),
+        extra: Some(extra),
     }
 }
 
@@ -224,6 +232,8 @@ impl BatchSimulator for RotorSimulator {
                 Err(e) => done(k, Outcome::failed("invalid_scene", e.to_string())),
             }
         }
+        // The whole batch is in flight at once (across threads): it shares the budget.
+        let cap = crate::rotor::sample_cap(&scenes);
         if self.workers.len() <= 1 || scenes.len() <= 1 {
             let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
             let results = simulate_batch_streaming_cancellable(
@@ -231,6 +241,7 @@ impl BatchSimulator for RotorSimulator {
                 evaluator,
                 &mut |i, r| done(index[i], outcome_of(r, &scenes[i])),
                 cancel,
+                cap,
             );
             // The runner has what it needs; free the batch's series at once.
             drop(results);
@@ -260,6 +271,7 @@ impl BatchSimulator for RotorSimulator {
                             let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
                         },
                         cancel,
+                        cap,
                     );
                     drop(results);
                 });
