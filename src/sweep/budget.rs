@@ -44,15 +44,6 @@ pub fn sample_cap(simulations: usize, numbers_per_sample: usize) -> usize {
     (pow2 as usize).max(MIN_SAMPLE_CAP)
 }
 
-/// Memory of `simulations` rotor simulations each holding at most [`MIN_SAMPLE_CAP`]
-/// samples (or `samples`, if fewer) of `numbers_per_sample` numbers, bytes: what must fit.
-pub fn floor_sample_bytes(simulations: usize, numbers_per_sample: usize, samples: f64) -> f64 {
-    simulations as f64
-        * samples.min(MIN_SAMPLE_CAP as f64)
-        * numbers_per_sample as f64
-        * BYTES_PER_SAMPLED_NUMBER as f64
-}
-
 /// Memory per number of a synthetic variant's signals (series, reduction copies), bytes.
 pub const BYTES_PER_SYNTHETIC_NUMBER: u64 = 24;
 
@@ -159,6 +150,5 @@ mod tests {
         assert_eq!(sample_cap(256, 26), 1 << 14);
         // Huge batches stop at the floor.
         assert_eq!(sample_cap(1 << 20, 26), MIN_SAMPLE_CAP);
-        assert_eq!(floor_sample_bytes(2, 26, 1e9), 2.0 * 4096.0 * 26.0 * 16.0);
     }
 }
