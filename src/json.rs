@@ -418,13 +418,24 @@ pub fn join_path(prefix: &str, path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bearing::BearingParams;
+
+    /// A bearing-like leaf (this module sits below `bearing`, so it does not use
+    /// `BearingParams` itself).
+    #[derive(Debug, serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    #[allow(dead_code)]
+    struct Bearing {
+        radius: f64,
+        length: f64,
+        clearance: f64,
+        viscosity: f64,
+    }
 
     #[derive(Debug, serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     #[allow(dead_code)]
     struct Doc {
-        bearings: Vec<BearingParams>,
+        bearings: Vec<Bearing>,
     }
 
     #[test]

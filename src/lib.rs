@@ -5,12 +5,14 @@
 pub mod backend;
 pub mod bearing;
 pub mod bench;
+pub mod budget;
 pub mod cli;
 pub mod integrate;
 pub mod json;
 pub mod numerics;
 pub mod plot;
 pub mod rotor;
+#[cfg(feature = "service")]
 pub mod service;
 pub mod stability;
 pub mod sweep;

@@ -2,21 +2,26 @@
 
 use std::process::ExitCode;
 
-use bearing_sweep::backend::bench::{BenchOptions, BenchTarget};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bearing::Accuracy;
+use bearing_sweep::bench::backend::{BenchOptions, BenchTarget};
 use bearing_sweep::bench::{
-    bench_all, bench_loads, bench_loads_markdown, BenchAllOptions, BenchLoadsOptions,
-};
-use bearing_sweep::cli::{
-    bench_backend, bench_rotor, bench_rotor_batch, eval_file, is_sweep_spec, merge_command,
-    print_text, read_input, run_command, run_scene_file, serve_command, submit_command,
-    worker_command, BenchRotorOptions, CliError, EvalOptions, RunOptions, StdoutWriter,
-    SubmitOptions, SweepRunOptions, WorkerCommandOptions,
+    bench_all, bench_backend, bench_loads, bench_loads_markdown, bench_rotor, bench_rotor_batch,
+    BenchAllOptions, BenchLoadsOptions, BenchRotorOptions,
 };
 use bearing_sweep::cli::{
     coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
 };
+use bearing_sweep::cli::{
+    eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
+    CliError, EvalOptions, RunOptions, StdoutWriter, SweepRunOptions,
+};
+#[cfg(feature = "service")]
+use bearing_sweep::cli::{submit_command, SubmitOptions};
+#[cfg(feature = "postgres")]
+use bearing_sweep::service::pg::{worker_command, WorkerCommandOptions};
+#[cfg(feature = "service")]
+use bearing_sweep::service::serve_command;
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 use clap::{Args, Parser, Subcommand};
 
@@ -41,8 +46,10 @@ enum Command {
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
+    #[cfg(feature = "service")]
     /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
     Serve(ServeArgs),
+    #[cfg(feature = "service")]
     /// Submit a sweep spec to a running service; prints its id.
     Submit(SubmitArgs),
     /// Linearised bearing coefficients: `{"bearing", "speed" (or "speeds"), "load"}` or
@@ -55,6 +62,7 @@ enum Command {
     /// Finite-length film (docs/finite-film.md): the short-vs-finite model-error map
     /// (`--map DIR`: SVG + Markdown table) and its benchmark (`--bench`, Markdown on stdout).
     Finite(FiniteArgs),
+    #[cfg(feature = "postgres")]
     /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
     /// until stopped (README "Workers and PostgreSQL").
     Worker(WorkerArgs),
@@ -67,6 +75,7 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    #[cfg(feature = "postgres")]
     /// PostgreSQL queue: variants/s with 1, 2, 4 worker processes against `run`, claim and
     /// commit overhead per batch, and a claim storm (README "Workers and PostgreSQL").
     Queue(BenchQueueArgs),
@@ -82,11 +91,13 @@ enum BenchCommand {
     /// Work-precision of the integrators on the paper example (BENCHMARKS.md): prints a
     /// markdown table, writes log-log SVG diagrams to --out.
     Rotor(BenchRotorArgs),
+    #[cfg(feature = "service")]
     /// Load generator for the service: concurrent eval clients (states/s, p50/p99) beside
     /// one `eval` call, and one sweep over HTTP against `run`.
     Serve(BenchServeArgs),
 }
 
+#[cfg(feature = "service")]
 #[derive(Args)]
 struct BenchServeArgs {
     /// A running service; default: one started in this process on 127.0.0.1.
@@ -182,6 +193,7 @@ struct RunArgs {
     max_memory: Option<String>,
 }
 
+#[cfg(feature = "service")]
 #[derive(Args)]
 struct ServeArgs {
     /// Address and port to listen on (port 0: any free port, printed at start).
@@ -217,6 +229,7 @@ struct ServeArgs {
     eval_backend: BackendKind,
 }
 
+#[cfg(feature = "service")]
 #[derive(Args)]
 struct SubmitArgs {
     /// Sweep spec (JSON), `-` for standard input.
@@ -284,6 +297,7 @@ struct MergeArgs {
     shards: Vec<String>,
 }
 
+#[cfg(feature = "postgres")]
 #[derive(Args)]
 struct WorkerArgs {
     /// The queue's database: postgres://user[:password]@host:port/database.
@@ -311,6 +325,7 @@ struct WorkerArgs {
     id: Option<String>,
 }
 
+#[cfg(feature = "postgres")]
 #[derive(Args)]
 struct BenchQueueArgs {
     /// A scratch database (sweeps are added and deleted): postgres://user@host:port/db.
@@ -437,14 +452,18 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval(a),
         Command::Run(a) => run(a),
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
+        #[cfg(feature = "service")]
         Command::Serve(a) => serve(a),
+        #[cfg(feature = "service")]
         Command::Submit(a) => submit(a),
         Command::Coefficients(a) => coefficients_cmd(a),
         Command::Stability(a) => stability_cmd(a),
         Command::Finite(a) => finite_cmd(a),
+        #[cfg(feature = "postgres")]
         Command::Worker(a) => worker(a),
         Command::Bench { what } => match what {
             BenchCommand::All(a) => bench_all_cmd(a),
+            #[cfg(feature = "postgres")]
             BenchCommand::Queue(a) => bench_queue_cmd(a),
             BenchCommand::Loads(a) => bench_loads_cmd(a),
             BenchCommand::Backend(a) => run_bench_backend(
@@ -452,6 +471,7 @@ fn main() -> ExitCode {
             ),
             BenchCommand::Rotor(a) if !a.batch.is_empty() => bench_rotor_batch_cmd(a),
             BenchCommand::Rotor(a) => bench_rotor_cmd(a),
+            #[cfg(feature = "service")]
             BenchCommand::Serve(a) => bench_serve_cmd(a),
         },
     };
@@ -502,15 +522,11 @@ fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
     if a.bench {
         println!(
             "{}",
-            bearing_sweep::backend::finite_bench::bench_finite(
-                a.states.max(1),
-                a.reps.max(1),
-                a.gpu
-            )
+            bearing_sweep::bench::finite::bench_finite(a.states.max(1), a.reps.max(1), a.gpu)
         );
         println!(
             "{}",
-            bearing_sweep::backend::finite_bench::bench_finite_rotor(a.rotor_t_end)
+            bearing_sweep::bench::finite::bench_finite_rotor(a.rotor_t_end)
         );
     }
     if a.map.is_none() && !a.bench {
@@ -594,9 +610,9 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
 fn run(a: RunArgs) -> Result<(), CliError> {
     if let Some(m) = &a.max_memory {
-        let bytes = bearing_sweep::sweep::budget::parse_size(m)
-            .map_err(|r| CliError::input("--max-memory", r))?;
-        bearing_sweep::sweep::budget::set_max_memory_bytes(bytes);
+        let bytes =
+            bearing_sweep::budget::parse_size(m).map_err(|r| CliError::input("--max-memory", r))?;
+        bearing_sweep::budget::set_max_memory_bytes(bytes);
     }
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
@@ -645,6 +661,7 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
 }
 
+#[cfg(feature = "service")]
 /// `serve`: the sweep service until SIGTERM / Ctrl-C.
 fn serve(a: ServeArgs) -> Result<(), CliError> {
     let config = bearing_sweep::service::ServiceConfig {
@@ -662,6 +679,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
     serve_command(config, &mut |n| eprintln!("{n}"))
 }
 
+#[cfg(feature = "service")]
 /// `submit`: a sweep spec to a running service.
 fn submit(a: SubmitArgs) -> Result<(), CliError> {
     let text = read_input(&a.spec)?;
@@ -689,6 +707,7 @@ fn submit(a: SubmitArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+#[cfg(feature = "postgres")]
 /// `worker`: pulls work from a PostgreSQL queue until stopped.
 fn worker(a: WorkerArgs) -> Result<(), CliError> {
     worker_command(&WorkerCommandOptions {
@@ -703,6 +722,7 @@ fn worker(a: WorkerArgs) -> Result<(), CliError> {
     .map(print_lines)
 }
 
+#[cfg(feature = "service")]
 /// `bench serve`: load generator for the service.
 fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
     let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
@@ -719,6 +739,7 @@ fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+#[cfg(feature = "postgres")]
 /// `bench queue`: figures of the PostgreSQL queue.
 fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
     let exe = std::env::current_exe().map_err(|source| CliError::Io {

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use bearing_sweep::backend::bench::BenchOptions;
+use bearing_sweep::bench::backend::BenchOptions;
+use bearing_sweep::bench::BenchRotorOptions;
 use bearing_sweep::bench::{bench_all, bench_loads, BenchAllOptions, BenchLoadsOptions};
-use bearing_sweep::cli::BenchRotorOptions;
 
 fn gpu_required() -> bool {
     std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")

@@ -488,7 +488,8 @@ mod cli_support;
 
 #[test]
 fn stability_cli_and_sweep_agree_with_the_library() {
-    use bearing_sweep::stability::{geometric_grid, thresholds, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
+    use bearing_sweep::stability::{geometric_grid, thresholds};
+    use bearing_sweep::sweep::stability_sim::{SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
     let dir = cli_support::scratch("stability", "cli");
     // `stability SCENE`: the modes and threshold of the library, and the figures.
     let scene_path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/oil-whirl.json");

@@ -568,7 +568,7 @@ mod tests {
     #[test]
     fn the_parallel_host_path_matches_the_serial_one() {
         let n = PARALLEL_HOST_STATES + 977;
-        let (bearing, mut requests) = crate::backend::bench::bench_states(n, 0.95, 7);
+        let (bearing, mut requests) = crate::backend::bench_states(n, 0.95, 7);
         // Faults and duplicates among them: a journal through the wall, a NaN, an
         // unknown bearing index, and a repeat of state 0.
         requests[5].state.xi = 2.0 * bearing.clearance;

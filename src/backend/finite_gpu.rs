@@ -12,12 +12,7 @@ use super::BackendError;
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::FilmIntegrals;
 
-/// The finite-film kernel's WGSL source.
-pub const FINITE_WGSL: &str = include_str!("../../shaders/finite.wgsl");
-
-/// Largest interior field `n_theta × (n_z − 1)` the kernel holds in workgroup memory
-/// (`MAX_NODES` in the shader).
-pub const FINITE_MAX_NODES: usize = 1664;
+use super::gpu_kernel::{FINITE_MAX_NODES, FINITE_WGSL};
 
 /// Workgroups per dispatch row (WebGPU's guaranteed per-dimension limit).
 const ROW: u32 = 65_535;

@@ -1,21 +1,30 @@
 //! Batched film-load evaluation: one interface over the CPU and GPU kernels, and the
 //! evaluator that validates, packs, dispatches, falls back and finishes loads.
 
-pub mod bench;
 mod cpu;
 mod evaluator;
 mod finite;
-pub mod finite_bench;
+#[cfg(feature = "gpu")]
 mod finite_gpu;
+#[cfg(feature = "gpu")]
 mod gpu;
+#[cfg(not(feature = "gpu"))]
+#[path = "gpu_absent.rs"]
+mod gpu;
+mod gpu_kernel;
+mod states;
 
 pub use cpu::CpuBackend;
 pub use evaluator::{
     EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
 };
 pub use finite::effective_model;
-pub use finite_gpu::{FINITE_MAX_NODES, FINITE_WGSL};
-pub use gpu::{kernel_source, relative_difference, GpuBackend, GpuOptions, GpuTiming, KERNEL_WGSL};
+pub use gpu::GpuBackend;
+pub use gpu_kernel::{
+    kernel_source, relative_difference, GpuOptions, GpuTiming, FINITE_MAX_NODES, FINITE_WGSL,
+    KERNEL_WGSL,
+};
+pub use states::bench_states;
 
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};

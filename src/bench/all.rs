@@ -9,11 +9,12 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::backend::{BenchOptions, BenchReport, BenchTarget};
 use super::loads::{bench_loads, bench_loads_markdown, BenchLoadsOptions, BenchLoadsReport};
-use crate::backend::bench::{BenchOptions, BenchReport, BenchTarget};
+use super::{bench_backend, bench_rotor, bench_rotor_batch, BenchRotorOptions};
 use crate::backend::{BackendError, GpuOptions};
 use crate::bearing::Accuracy;
-use crate::cli::{bench_backend, bench_rotor, bench_rotor_batch, BenchRotorOptions, CliError};
+use crate::cli::CliError;
 use crate::plot::{line_plot_svg, Scale, Series};
 
 /// Viscosity of the stiff rotor variant, Pa·s (83 times the paper's 0.0242; BENCHMARKS.md

@@ -1,22 +1,15 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
-mod bench;
-mod bench_rotor;
 mod coefficients;
 mod eval;
 mod output;
 mod run;
-mod serve;
 mod stability;
+#[cfg(feature = "service")]
 mod submit;
 mod sweep;
-mod worker;
 
-pub use bench::bench_backend;
-pub use bench_rotor::{
-    bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, BenchRow,
-};
 pub use coefficients::{
     coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
 };
@@ -25,11 +18,10 @@ pub use eval::{
 };
 pub use output::{print_lines, print_text, StdoutWriter};
 pub use run::{figures, run_scene_file, RunOptions, RunReport};
-pub use serve::{serve_command, TOKEN_ENV};
 pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
-pub use submit::{submit_command, SubmitOptions};
+#[cfg(feature = "service")]
+pub use submit::{submit_command, SubmitOptions, TOKEN_ENV};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
-pub use worker::{worker_command, WorkerCommandOptions};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]

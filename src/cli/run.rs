@@ -72,12 +72,12 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
     // floor cap is refused.
     let total: f64 = scenes
         .iter()
-        .map(|s| s.sample_memory_bytes(crate::sweep::budget::MIN_SAMPLE_CAP))
+        .map(|s| s.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP))
         .sum();
-    crate::sweep::budget::check(
+    crate::budget::check(
         &format!(
             "keeping at least {} samples of each of {} simulations",
-            crate::sweep::budget::MIN_SAMPLE_CAP,
+            crate::budget::MIN_SAMPLE_CAP,
             scenes.len()
         ),
         total,

@@ -9,6 +9,10 @@ use serde_json::Value;
 
 use super::CliError;
 
+/// Environment variable holding the service's token when `--token` is not given (read by
+/// `serve` and `submit`).
+pub const TOKEN_ENV: &str = "BEARING_SWEEP_TOKEN";
+
 /// Interval between status polls with `--wait`.
 const POLL: Duration = Duration::from_millis(500);
 /// Longest time one HTTP exchange may take.
@@ -68,7 +72,7 @@ pub fn submit_command(text: &str, opts: &SubmitOptions) -> Result<Vec<String>, C
     let token = opts
         .token
         .clone()
-        .or_else(|| std::env::var(super::serve::TOKEN_ENV).ok())
+        .or_else(|| std::env::var(TOKEN_ENV).ok())
         .filter(|t| !t.is_empty());
     let agent = agent();
     let with_auth = |r: ureq::RequestBuilder<ureq::typestate::WithBody>| match &token {

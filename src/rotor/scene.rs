@@ -355,13 +355,13 @@ impl Scene {
         }
         // Samples are decimated to fit the budget (README "Limits"): only a scene whose
         // samples cannot fit even at the floor cap is refused.
-        crate::sweep::budget::check(
+        crate::budget::check(
             &format!(
                 "keeping {} samples x {} bearings",
-                crate::sweep::budget::MIN_SAMPLE_CAP,
+                crate::budget::MIN_SAMPLE_CAP,
                 self.bearings.len()
             ),
-            self.sample_memory_bytes(crate::sweep::budget::MIN_SAMPLE_CAP),
+            self.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP),
         )
         .map_err(|r| err("bearings", r))?;
         if let Some(h) = g.fixed_step {
@@ -436,7 +436,7 @@ impl Scene {
         let g = &self.integrator;
         let samples = ((g.t_end / g.sample_interval).floor() + 1.0).min(cap as f64);
         let numbers = super::simulate::numbers_per_sample(self) as f64;
-        samples * numbers * crate::sweep::budget::BYTES_PER_SAMPLED_NUMBER as f64
+        samples * numbers * crate::budget::BYTES_PER_SAMPLED_NUMBER as f64
     }
 }
 

@@ -762,10 +762,10 @@ pub fn numbers_per_sample(scene: &Scene) -> usize {
 }
 
 /// The per-simulation sample cap when all of `scenes` are in flight at once, from the
-/// memory budget ([`crate::sweep::budget::sample_cap`]).
+/// memory budget ([`crate::budget::sample_cap`]).
 pub fn sample_cap(scenes: &[Scene]) -> usize {
     let numbers = scenes.iter().map(numbers_per_sample).max().unwrap_or(6);
-    crate::sweep::budget::sample_cap(scenes.len(), numbers)
+    crate::budget::sample_cap(scenes.len(), numbers)
 }
 
 /// [`simulate_batch`] keeping at most `cap` samples per simulation (rounded up to an
@@ -794,7 +794,7 @@ pub fn simulate_batch_streaming(
 /// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
 /// running end at once with a `cancelled` load failure (to be discarded by the caller).
 /// At most `cap` samples are kept per simulation (the caller knows how many variants are
-/// in flight across threads: [`crate::sweep::budget::sample_cap`]).
+/// in flight across threads: [`crate::budget::sample_cap`]).
 pub fn simulate_batch_streaming_cancellable(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,

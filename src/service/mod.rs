@@ -2,11 +2,13 @@
 //! scheduler running sweeps through the same runner as `run`, and coalesced film-load
 //! evaluation.
 
+mod command;
 mod csv;
 mod error;
 mod eval;
 mod loadgen;
 mod metrics;
+#[cfg(feature = "postgres")]
 pub mod pg;
 mod routes;
 mod scheduler;
@@ -15,6 +17,7 @@ mod store;
 mod sweeps;
 pub mod web;
 
+pub use command::serve_command;
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use eval::{Coalescer, EvalCounters};
 pub use loadgen::{bench_serve, spawn_background, LoadOptions, LoadRow};
@@ -182,12 +185,20 @@ pub fn serve_blocking(
     runtime.block_on(async move {
         let database = config.database.clone();
         let store: Arc<dyn Store> = match &database {
+            #[cfg(feature = "postgres")]
             Some(url) => Arc::new(pg::PgStore::open(url)?),
+            #[cfg(not(feature = "postgres"))]
+            Some(_) => {
+                return Err(ServeError::Config(
+                    "--database: this binary was built without the `postgres` feature".into(),
+                ))
+            }
             None => Arc::new(SqliteStore::open(&config.data)?),
         };
         let data = config.data.clone();
         let bind = config.bind;
         let running = start(config, store)?;
+        #[cfg(feature = "postgres")]
         if let Some(url) = &database {
             pg::spawn_monitor(
                 url,

@@ -1,6 +1,7 @@
 //! Linearised bearing coefficients (4×4 `K` and `C` with tilt) and rotor stability:
 //! static equilibria, eigenvalues as whirl modes, threshold speeds, Campbell diagrams and
-//! the sweeps' `stability` analysis, all on the batched film loads.
+//! the threshold scan, all on the batched film loads (the sweeps' `stability` kind is
+//! `sweep::stability_sim`).
 
 mod analysis;
 mod coefficients;
@@ -9,7 +10,6 @@ mod error;
 mod linear;
 mod modes;
 mod plots;
-mod sweep_sim;
 
 pub use analysis::{
     analyse_points, geometric_grid, thresholds, SpeedAnalysis, Threshold, THRESHOLD_RTOL,
@@ -28,7 +28,6 @@ pub use linear::{
 };
 pub use modes::{max_growth, modes, Mode, Shape};
 pub use plots::{campbell_svg, damping_svg};
-pub use sweep_sim::{StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
 
 /// An evaluator for finite differences: an f32 backend (rounding ~1e-7 relative, so
 /// differences over steps of ~1e-4 of the clearance would keep ~3 digits) is replaced by

@@ -239,9 +239,9 @@ pub fn numbers_from_doc(d: &NumbersDoc, at: &str) -> Result<Vec<f64>, SweepError
         ));
     }
     // Every value makes at least one point of the map: check before building them.
-    super::budget::check(
+    crate::budget::check(
         &format!("{n} values (one map point each at least)"),
-        n as f64 * super::budget::BYTES_PER_MAP_POINT as f64,
+        n as f64 * crate::budget::BYTES_PER_MAP_POINT as f64,
     )
     .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
     let values = if k == "logspace" {
@@ -303,9 +303,9 @@ impl FrictionMapSpec {
             "speed",
         )?;
         let points = load.len() as f64 * speed.len() as f64;
-        super::budget::check(
+        crate::budget::check(
             &format!("a map of {} loads x {} speeds", load.len(), speed.len()),
-            points * super::budget::BYTES_PER_MAP_POINT as f64,
+            points * crate::budget::BYTES_PER_MAP_POINT as f64,
         )
         .map_err(|r| SweepError::spec("speed", r))?;
         for (k, &w) in load.iter().enumerate() {

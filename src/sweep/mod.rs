@@ -6,7 +6,6 @@
 //! Everything here is generic over the simulation: the runner takes a
 //! [`runner::BatchSimulator`]; [`synthetic`] is an analytic stand-in with known answers.
 
-pub mod budget;
 pub mod expand;
 pub mod folder_sink;
 pub mod friction_map;
@@ -19,6 +18,7 @@ pub mod runner;
 pub mod simulator;
 pub mod sink;
 pub mod spec;
+pub mod stability_sim;
 pub mod synthetic;
 
 pub use expand::Expansion;

@@ -16,7 +16,7 @@ use crate::rotor::{Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
 /// thread's lockstep sub-batch, few enough that the running variants' sampled series
-/// (at most [`crate::sweep::budget::sample_cap`] samples each, decimated beyond) leave
+/// (at most [`crate::budget::sample_cap`] samples each, decimated beyond) leave
 /// each a cap of thousands of samples (2^14 under the default 2 GiB budget).
 pub const AUTO_BATCH_CPU: usize = 256;
 /// ... on a GPU: thousands of states per dispatch amortise its launch cost.

@@ -88,7 +88,7 @@ pub fn prepare_simulator(
             if let Some(n) = swap {
                 notice(n);
             }
-            let sim = crate::stability::StabilitySimulator::new(ev);
+            let sim = crate::sweep::stability_sim::StabilitySimulator::new(ev);
             let settings = sim.settings(tight.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),

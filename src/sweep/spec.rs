@@ -38,7 +38,7 @@ pub enum SweepKind {
     /// Analytic stand-in signals with known reductions (tests, trying the machinery).
     Synthetic,
     /// Rotor scenes analysed by linear stability (threshold speed, least log-dec; no time
-    /// integration; `crate::stability::StabilitySimulator`).
+    /// integration; `crate::sweep::stability_sim::StabilitySimulator`).
     Stability,
 }
 

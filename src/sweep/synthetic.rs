@@ -140,16 +140,16 @@ pub fn validate(scene: &Value) -> Result<(), (String, String)> {
     }
     // Numbers per sample: t, spin, x_g, y_g and ten per bearing.
     let numbers = 4.0 + 10.0 * s.bearings.len() as f64;
-    super::budget::check(
+    crate::budget::check(
         &format!(
             "{} samples x {} bearings in each of {} variants in flight",
             s.samples,
             s.bearings.len(),
-            super::budget::SYNTHETIC_IN_FLIGHT
+            crate::budget::SYNTHETIC_IN_FLIGHT
         ),
         s.samples as f64
             * numbers
-            * (super::budget::BYTES_PER_SYNTHETIC_NUMBER * super::budget::SYNTHETIC_IN_FLIGHT)
+            * (crate::budget::BYTES_PER_SYNTHETIC_NUMBER * crate::budget::SYNTHETIC_IN_FLIGHT)
                 as f64,
     )
     .map_err(|r| ("samples".to_string(), r))?;

@@ -4,6 +4,7 @@
 //! service's store on the same tables (`serve --database`).
 
 mod bench;
+mod command;
 mod error;
 mod migrations;
 mod monitor;
@@ -14,6 +15,7 @@ mod submit;
 mod worker;
 
 pub use bench::{bench_queue, QueueBenchOptions};
+pub use command::{worker_command, WorkerCommandOptions};
 pub use error::PgError;
 pub use migrations::{migrate, Migration, MIGRATIONS};
 pub use monitor::{monitor, run_section, spawn_monitor};

@@ -4,9 +4,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::CliError;
+use super::{run_worker, PgQueue, WorkerOptions};
 use crate::backend::BackendKind;
-use crate::service::pg::{run_worker, PgQueue, WorkerOptions};
+use crate::cli::CliError;
 
 /// Options of `worker`.
 #[derive(Clone, Debug)]

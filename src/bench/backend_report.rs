@@ -1,10 +1,10 @@
-//! `bearing-sweep bench backend`: runs [`crate::backend::bench::run_bench`] and formats
+//! `bearing-sweep bench backend`: runs [`super::backend::run_bench`] and formats
 //! its report as Markdown (for BENCHMARKS.md) and JSON.
 
 use std::fmt::Write;
 
-use super::CliError;
-use crate::backend::bench::{run_bench, BenchOptions, BenchReport};
+use super::backend::{run_bench, BenchOptions, BenchReport};
+use crate::cli::CliError;
 
 /// Runs the backend benchmark; returns the report and its Markdown rendering.
 pub fn bench_backend(options: &BenchOptions) -> Result<(BenchReport, String), CliError> {

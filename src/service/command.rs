@@ -1,10 +1,7 @@
-//! `bearing-sweep serve`: a thin wrapper over [`crate::service::serve_blocking`].
+//! `bearing-sweep serve`: a thin wrapper over [`super::serve_blocking`].
 
-use super::CliError;
-use crate::service::{serve_blocking, ServeError, ServiceConfig};
-
-/// Environment variable holding the token when `--token` is not given.
-pub const TOKEN_ENV: &str = "BEARING_SWEEP_TOKEN";
+use super::{serve_blocking, ServeError, ServiceConfig};
+use crate::cli::{CliError, TOKEN_ENV};
 
 /// Runs the service until SIGTERM or Ctrl-C; notices go to `notice` (never the token).
 pub fn serve_command(

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::CliError;
 use crate::backend::{CpuBackend, LoadEvaluator};
 use crate::bearing::Accuracy;
+use crate::cli::CliError;
 use crate::integrate::Method;
 use crate::plot::{line_plot_svg, Scale, Series};
 use crate::rotor::{load_scene, simulate_batch, Scene, SimResult};
@@ -30,7 +30,7 @@ pub struct BenchRotorOptions {
 
 /// One measured configuration.
 #[derive(Clone, Debug, serde::Serialize)]
-pub struct BenchRow {
+pub struct RotorBenchRow {
     /// Method name.
     pub method: &'static str,
     /// `rtol = atol` (adaptive) or the fixed step in s (rk4).
@@ -55,7 +55,7 @@ pub struct BenchRow {
 #[derive(Debug)]
 pub struct BenchRotorReport {
     /// Rows, per method in order of tolerance.
-    pub rows: Vec<BenchRow>,
+    pub rows: Vec<RotorBenchRow>,
     /// The reference run's counters and its distance to a second reference (Radau5).
     pub reference: String,
     /// Markdown table.
@@ -157,7 +157,7 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
         }
         let r = result.expect("at least one repeat");
         let (err, end_err) = distance(&r, &ref_run);
-        rows.push(BenchRow {
+        rows.push(RotorBenchRow {
             method: method.name(),
             setting,
             error_m: err,
@@ -193,7 +193,7 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
         source,
     })?;
     let mut files = Vec::new();
-    let finished: Vec<&BenchRow> = rows
+    let finished: Vec<&RotorBenchRow> = rows
         .iter()
         .filter(|r| r.status == "finished" && r.error_m > 0.0)
         .collect();
@@ -201,12 +201,12 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
         (
             "work-precision-time.svg",
             "wall time [s]",
-            (|r: &BenchRow| r.wall_s) as fn(&BenchRow) -> f64,
+            (|r: &RotorBenchRow| r.wall_s) as fn(&RotorBenchRow) -> f64,
         ),
         (
             "work-precision-loads.svg",
             "film-load evaluations",
-            (|r: &BenchRow| r.load_evaluations as f64) as fn(&BenchRow) -> f64,
+            (|r: &RotorBenchRow| r.load_evaluations as f64) as fn(&RotorBenchRow) -> f64,
         ),
     ] {
         let series: Vec<Series<'_>> = ["dopri5", "radau5", "rk4"]

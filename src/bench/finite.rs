@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use super::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
+use crate::backend::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
 use crate::bearing::finite::{finite_solution, FiniteSettings};
 use crate::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
 
@@ -148,7 +148,7 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
     }
     if gpu {
         let opts = GpuOptions {
-            precision: Some(super::Precision::F64),
+            precision: Some(crate::backend::Precision::F64),
             ..GpuOptions::default()
         };
         match GpuBackend::new(Accuracy::default(), opts) {
@@ -156,7 +156,7 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
                 let name = g.info().device;
                 let mut ev = LoadEvaluator::new(Box::new(g));
                 for gr in grids {
-                    if (gr.0 * (gr.1 - 1)) as usize > super::FINITE_MAX_NODES {
+                    if (gr.0 * (gr.1 - 1)) as usize > crate::backend::FINITE_MAX_NODES {
                         md += &format!(
                             "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | | |\n",
                             gr.0, gr.1

@@ -5,14 +5,13 @@
 
 use serde_json::{json, Value};
 
-use super::analysis::{analyse_points, geometric_grid, thresholds};
-use super::linear::RotorDescription;
+use super::runner::{BatchSimulator, Job, Outcome};
 use crate::backend::{BackendInfo, LoadEvaluator};
 use crate::rotor::Scene;
-use crate::sweep::runner::{BatchSimulator, Job, Outcome};
+use crate::stability::{analyse_points, geometric_grid, thresholds, RotorDescription};
 
 /// Speeds of each variant's threshold scan: geometric from `SCAN_LOW ×` to `SCAN_HIGH ×`
-/// the scene's spin, then regula falsi to [`super::THRESHOLD_RTOL`].
+/// the scene's spin, then regula falsi to [`crate::stability::THRESHOLD_RTOL`].
 pub const SCAN_POINTS: usize = 16;
 /// Lowest scanned speed over the scene's spin.
 pub const SCAN_LOW: f64 = 0.1;
@@ -43,12 +42,12 @@ impl StabilitySimulator {
         json!({"simulator": "stability", "backend": self.info.name, "precision": self.info.precision,
                "film_accuracy": accuracy_rtol,
                "scan": {"points": SCAN_POINTS, "low_over_spin": SCAN_LOW, "high_over_spin": SCAN_HIGH,
-                        "bracket_rtol": super::THRESHOLD_RTOL}})
+                        "bracket_rtol": crate::stability::THRESHOLD_RTOL}})
     }
 }
 
 /// The least log-dec among the oscillating modes and that mode.
-fn least_log_dec(modes: &[super::Mode]) -> Option<&super::Mode> {
+fn least_log_dec(modes: &[crate::stability::Mode]) -> Option<&crate::stability::Mode> {
     modes.iter().filter(|m| m.log_dec.is_some()).min_by(|a, b| {
         a.log_dec
             .unwrap_or(0.0)
