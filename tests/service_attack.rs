@@ -194,13 +194,28 @@ fn a_second_server_on_one_store_is_refused() {
     let dir = scratch("attack-lock");
     let data = dir.join("data");
     let first = Server::start(&data, &[]);
-    let o = bin()
+    let mut second = bin()
         .args(["serve", "--bind", "127.0.0.1:0", "--data"])
         .arg(&data)
-        .output()
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
         .unwrap();
-    assert!(!o.status.success(), "the second server started");
-    let err = String::from_utf8_lossy(&o.stderr);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = second.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(20) {
+            let _ = second.kill();
+            let _ = second.wait();
+            panic!("a second server on {} is serving", data.display());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(!status.success(), "the second server exited with {status}");
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut second.stderr.take().unwrap(), &mut err).unwrap();
     assert!(
         err.contains(&data.display().to_string()),
         "message does not name the folder: {err}"

@@ -160,7 +160,7 @@ fn is_local_host(host: &str) -> bool {
 /// Guards applied before any handler:
 /// - on a loopback bind, a `Host` that is not a loopback name is refused (403): a page
 ///   of another site whose name was rebound to 127.0.0.1 cannot read the API;
-/// - an `Origin` other than the server's own (scheme `http`, authority = `Host`) is
+/// - an `Origin` other than the server's own (authority = `Host`) is
 ///   refused (403): a foreign page cannot write, even with a "simple" request that
 ///   browsers send without asking;
 /// - a body whose `Content-Length` exceeds the body limit is refused from the header
@@ -199,8 +199,11 @@ fn check_request(st: &AppState, h: &HeaderMap) -> Result<(), ApiError> {
     }
     if let Some(origin) = h.get(header::ORIGIN) {
         let origin = origin.to_str().unwrap_or("");
+        // The server's own pages: scheme http (or https behind a proxy that keeps the
+        // Host), authority = Host.
         let same = origin
             .strip_prefix("http://")
+            .or_else(|| origin.strip_prefix("https://"))
             .is_some_and(|authority| host.is_some_and(|h| h.eq_ignore_ascii_case(authority)));
         if !same {
             return Err(ApiError::new(
