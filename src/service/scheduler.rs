@@ -607,13 +607,19 @@ mod tests {
             );
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
-        // The final event went out once the status was stored.
+        // The final event goes out once the status is stored.
         let mut events = events;
-        let mut last = None;
-        while let Ok(e) = events.try_recv() {
-            last = Some(e);
-        }
-        assert_eq!(last, Some(SweepEvent::Status(SweepStatus::Done)));
+        let last = loop {
+            match tokio::time::timeout(Duration::from_secs(10), events.recv()).await {
+                Ok(Ok(SweepEvent::Variant { .. })) => continue,
+                Ok(Ok(SweepEvent::Status(SweepStatus::Running))) => continue,
+                other => break other,
+            }
+        };
+        assert!(
+            matches!(last, Ok(Ok(SweepEvent::Status(SweepStatus::Done)))),
+            "last event {last:?}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
