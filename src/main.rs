@@ -227,6 +227,20 @@ struct ServeArgs {
     /// Backend of /api/eval: cpu, gpu or auto.
     #[arg(long, default_value = "auto")]
     eval_backend: BackendKind,
+    /// Largest estimated memory of one request (e.g. 256M, 1G; 422 naming the field
+    /// beyond; docs/service-limits.md).
+    #[arg(long, default_value = "256M")]
+    max_request_memory: String,
+    /// Most eval states and coefficient speeds in flight across requests (503 with
+    /// Retry-After beyond).
+    #[arg(long, default_value_t = 1 << 16)]
+    max_states_in_flight: u64,
+    /// Seconds a client has to send a request's header, from its first byte.
+    #[arg(long, default_value_t = 10.0)]
+    header_timeout_s: f64,
+    /// Most connections open at once from one client address.
+    #[arg(long, default_value_t = 512)]
+    max_connections_per_client: usize,
 }
 
 #[cfg(feature = "service")]
@@ -675,6 +689,11 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
         eval_backend: a.eval_backend,
         database: a.database,
+        max_request_bytes: bearing_sweep::sweep::budget::parse_size(&a.max_request_memory)
+            .map_err(|e| CliError::input("--max-request-memory", e))?,
+        max_states_in_flight: a.max_states_in_flight,
+        header_timeout: std::time::Duration::from_secs_f64(a.header_timeout_s.clamp(0.1, 3600.0)),
+        max_connections_per_client: a.max_connections_per_client,
     };
     serve_command(config, &mut |n| eprintln!("{n}"))
 }

@@ -13,6 +13,7 @@ pub fn serve_command(
     }
     serve_blocking(config, notice).map_err(|e| match e {
         ServeError::Config(m) => CliError::input("--bind", m),
+        ServeError::Busy(m) => CliError::input("--data", m),
         other => CliError::input("serve", other.to_string()),
     })
 }

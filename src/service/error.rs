@@ -10,6 +10,11 @@ use super::store::StoreError;
 use crate::cli::CliError;
 use crate::sweep::SweepError;
 
+/// `Retry-After` of a 503 for an unreachable store, s (a database restart takes a few).
+pub const STORE_RETRY_AFTER_S: u64 = 5;
+/// `Retry-After` of a 429 for a full sweep queue, s.
+pub const QUEUE_RETRY_AFTER_S: u64 = 10;
+
 /// An API failure.
 #[derive(Debug, thiserror::Error)]
 #[error("{status}: {path}: {message}")]
@@ -20,6 +25,8 @@ pub struct ApiError {
     pub path: String,
     /// What is wrong, for a person.
     pub message: String,
+    /// Seconds after which a retry may succeed (sent as `Retry-After` on 429 and 503).
+    pub retry_after_s: Option<u64>,
 }
 
 /// The error body.
@@ -45,6 +52,28 @@ impl ApiError {
             status,
             path: path.into(),
             message: message.into(),
+            retry_after_s: None,
+        }
+    }
+
+    /// 503: the server cannot take this now (store unreachable, work budget in use);
+    /// `Retry-After: retry_after_s`.
+    pub fn unavailable(message: impl Into<String>, retry_after_s: u64) -> Self {
+        ApiError {
+            retry_after_s: Some(retry_after_s),
+            ..Self::new(StatusCode::SERVICE_UNAVAILABLE, "$", message)
+        }
+    }
+
+    /// 429: too many of something queued by clients; `Retry-After: retry_after_s`.
+    pub fn too_many(
+        path: impl Into<String>,
+        message: impl Into<String>,
+        retry_after_s: u64,
+    ) -> Self {
+        ApiError {
+            retry_after_s: Some(retry_after_s),
+            ..Self::new(StatusCode::TOO_MANY_REQUESTS, path, message)
         }
     }
 
@@ -77,7 +106,12 @@ impl IntoResponse for ApiError {
                 message: self.message,
             },
         };
-        (self.status, axum::Json(body)).into_response()
+        let mut r = (self.status, axum::Json(body)).into_response();
+        if let Some(s) = self.retry_after_s {
+            r.headers_mut()
+                .insert(axum::http::header::RETRY_AFTER, s.into());
+        }
+        r
     }
 }
 
@@ -85,6 +119,12 @@ impl From<StoreError> for ApiError {
     fn from(e: StoreError) -> Self {
         match e {
             StoreError::NotFound(id) => ApiError::not_found(format!("no sweep `{id}`")),
+            StoreError::Unavailable(m) => ApiError::unavailable(m, STORE_RETRY_AFTER_S),
+            StoreError::QueueFull { open, limit } => ApiError::too_many(
+                "$",
+                format!("{open} sweeps are queued or running, the limit is {limit} (wait, or raise it with `serve --max-queued`)"),
+                QUEUE_RETRY_AFTER_S,
+            ),
             other => ApiError::internal(other.to_string()),
         }
     }

@@ -105,11 +105,9 @@ impl Coalescer {
         Coalescer { tx, counters, pool }
     }
 
-    /// Evaluates one request body (the `eval` input) with `accuracy`; the answer is
-    /// `eval`'s output for these states.
-    pub async fn eval(&self, text: String, accuracy: f64) -> Result<Value, ApiError> {
-        let doc: Value = serde_json::from_str(&text)
-            .map_err(|e| ApiError::bad_request("$", format!("not valid JSON: {e}")))?;
+    /// Evaluates one request body (the `eval` input: its text and `doc`, the text
+    /// parsed) with `accuracy`; the answer is `eval`'s output for these states.
+    pub async fn eval(&self, text: String, doc: Value, accuracy: f64) -> Result<Value, ApiError> {
         let (reply, rx) = oneshot::channel();
         self.tx
             .send(Pending {

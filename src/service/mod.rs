@@ -6,6 +6,8 @@ mod command;
 mod csv;
 mod error;
 mod eval;
+pub mod limits;
+mod listen;
 mod loadgen;
 mod metrics;
 #[cfg(feature = "postgres")]
@@ -58,6 +60,18 @@ pub struct ServiceConfig {
     /// `postgres://…`: keep sweeps in PostgreSQL and leave them to `worker` processes
     /// (README "Workers and PostgreSQL"); default none: the embedded SQLite store.
     pub database: Option<String>,
+    /// Largest estimated memory of one request (eval states, coefficient speeds and the
+    /// parsed body), bytes (default 256 MiB; 422 naming the field beyond).
+    pub max_request_bytes: u64,
+    /// Most eval states and coefficient speeds in flight across all requests (default
+    /// 65,536; 503 with `Retry-After` while they are in use).
+    pub max_states_in_flight: u64,
+    /// Time a client has to send a request's header, from its first byte (default
+    /// 10 s; the connection is closed after it).
+    pub header_timeout: Duration,
+    /// Most connections open at once from one client address (default 512; more are
+    /// closed at once).
+    pub max_connections_per_client: usize,
 }
 
 impl Default for ServiceConfig {
@@ -73,6 +87,10 @@ impl Default for ServiceConfig {
             eval_window: Duration::from_millis(2),
             eval_backend: BackendKind::Cpu,
             database: None,
+            max_request_bytes: 256 << 20,
+            max_states_in_flight: 1 << 16,
+            header_timeout: Duration::from_secs(10),
+            max_connections_per_client: 512,
         }
     }
 }
@@ -86,6 +104,9 @@ pub enum ServeError {
     /// The store could not be opened.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// Another `serve` holds the store folder.
+    #[error("{0}")]
+    Busy(String),
     /// Binding or serving failed.
     #[error("{what}: {source}")]
     Io {
@@ -109,6 +130,8 @@ pub struct AppState {
     pub coalescer: Coalescer,
     /// Request latencies.
     pub latency: Arc<metrics::LatencyHistogram>,
+    /// The work and memory budget of requests.
+    pub limits: Arc<limits::Limits>,
     /// Becomes true when the server shuts down (ends event streams).
     pub shutdown: tokio::sync::watch::Receiver<bool>,
 }
@@ -120,6 +143,16 @@ pub fn check_config(config: &ServiceConfig) -> Result<(), ServeError> {
             "refusing to listen on {} without a token: anyone who can reach it could run work on this machine. Pass --token T (or set BEARING_SWEEP_TOKEN), or bind 127.0.0.1",
             config.bind
         )));
+    }
+    if config.max_request_bytes == 0 || config.max_states_in_flight == 0 {
+        return Err(ServeError::Config(
+            "--max-request-memory and --max-states-in-flight must be positive".into(),
+        ));
+    }
+    if config.max_connections_per_client == 0 {
+        return Err(ServeError::Config(
+            "--max-connections-per-client must be at least 1".into(),
+        ));
     }
     if config.max_running == 0 {
         return Err(ServeError::Config(
@@ -145,8 +178,10 @@ pub fn start(config: ServiceConfig, store: Arc<dyn Store>) -> Result<Running, Se
     tokio::spawn(scheduler.clone().run());
     let coalescer = Coalescer::start(config.eval_window, config.eval_backend);
     let (tx, rx) = tokio::sync::watch::channel(false);
+    let limits = Arc::new(limits::Limits::new(&config));
     Ok(Running {
         state: AppState {
+            limits,
             config: Arc::new(config),
             store,
             scheduler,
@@ -184,6 +219,11 @@ pub fn serve_blocking(
         })?;
     runtime.block_on(async move {
         let database = config.database.clone();
+        // One server per store folder: held until this function returns.
+        let _lock = match &database {
+            Some(_) => None,
+            None => Some(listen::DataLock::acquire(&config.data)?),
+        };
         let store: Arc<dyn Store> = match &database {
             #[cfg(feature = "postgres")]
             Some(url) => Arc::new(pg::PgStore::open(url)?),
@@ -225,18 +265,22 @@ pub fn serve_blocking(
         let stop = running.shutdown;
         let scheduler = running.state.scheduler.clone();
         let draining = scheduler.clone();
-        axum::serve(listener, app)
-            .with_graceful_shutdown(async move {
+        let conf = running.state.config.clone();
+        listen::serve(
+            listener,
+            app,
+            listen::ConnLimits {
+                header_timeout: conf.header_timeout,
+                per_client: conf.max_connections_per_client,
+            },
+            async move {
                 shutdown_signal().await;
                 draining.stop_taking();
                 // End the long-lived event streams so the graceful shutdown completes.
                 let _ = stop.send(true);
-            })
-            .await
-            .map_err(|source| ServeError::Io {
-                what: "serving".into(),
-                source,
-            })?;
+            },
+        )
+        .await;
         notice("shutting down: checkpointing running sweeps".into());
         scheduler.drain().await;
         notice("stopped".into());

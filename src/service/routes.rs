@@ -4,6 +4,7 @@
 
 use std::collections::HashMap;
 use std::convert::Infallible;
+use std::io::Write;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
@@ -21,6 +22,7 @@ use subtle::ConstantTimeEq;
 use utoipa::OpenApi;
 
 use super::error::{ApiError, ErrorBody};
+use super::limits::{Held, COEFF_BYTES_PER_SPEED, EVAL_BYTES_PER_STATE, STREAM_CHUNK_BYTES};
 use super::scheduler::{now_unix_s, SweepEvent};
 use super::store::{NewSweep, SweepRow, SweepStatus, SweepUpdate};
 use super::sweeps::{options_from_query, parse_sweep_doc, validate_variants, ParsedSweep};
@@ -32,6 +34,8 @@ use crate::sweep::runner::{result_skeleton, write_result_doc};
 const DEFAULT_PAGE: u64 = 100;
 /// Largest page of variant records.
 const MAX_PAGE: u64 = 10_000;
+/// How often an event stream checks the store for an end it was not told of.
+const RECHECK: Duration = Duration::from_secs(5);
 /// SSE keep-alive comment interval.
 const KEEP_ALIVE: Duration = Duration::from_secs(15);
 
@@ -84,6 +88,8 @@ pub fn router(state: AppState) -> Router {
         .nest("/api", api)
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn(json_errors))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), guard))
         .layer(axum::middleware::from_fn_with_state(state.clone(), timing))
         // gzip for clients that ask (CSV and results compress well; event streams are left
         // alone by the default predicate), and a span per request for
@@ -102,6 +108,149 @@ async fn method_not_allowed(uri: Uri) -> ApiError {
         StatusCode::METHOD_NOT_ALLOWED,
         "$",
         format!("method not allowed on {}", uri.path()),
+    )
+}
+
+/// Every error answer is the JSON error body: the framework's own rejections (a path that
+/// is not UTF-8 once decoded, a malformed query) come as plain text and are rewrapped,
+/// their text as the message.
+async fn json_errors(req: Request, next: Next) -> Response {
+    let r = next.run(req).await;
+    let status = r.status();
+    let is_json = r
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_json {
+        return r;
+    }
+    let (parts, body) = r.into_parts();
+    // Framework messages are one line; anything longer is cut.
+    let text = axum::body::to_bytes(body, 4096).await.unwrap_or_default();
+    let message = String::from_utf8_lossy(&text).trim().to_string();
+    let message = if message.is_empty() {
+        status.canonical_reason().unwrap_or("error").to_string()
+    } else {
+        message
+    };
+    let mut e = ApiError::new(status, "$", message).into_response();
+    for (k, v) in parts.headers.iter() {
+        if k != header::CONTENT_TYPE && k != header::CONTENT_LENGTH {
+            e.headers_mut().insert(k.clone(), v.clone());
+        }
+    }
+    e
+}
+
+/// Whether `host` (a Host header value or an Origin's authority, with or without port)
+/// names this machine's loopback interface.
+fn is_local_host(host: &str) -> bool {
+    let name = if let Some(rest) = host.strip_prefix('[') {
+        rest.split(']').next().unwrap_or("")
+    } else {
+        host.rsplit_once(':').map_or(host, |(h, _)| h)
+    };
+    name.eq_ignore_ascii_case("localhost")
+        || name
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
+/// Guards applied before any handler:
+/// - on a loopback bind, a `Host` that is not a loopback name is refused (403): a page
+///   of another site whose name was rebound to 127.0.0.1 cannot read the API;
+/// - an `Origin` other than the server's own (authority = `Host`) is
+///   refused (403): a foreign page cannot write, even with a "simple" request that
+///   browsers send without asking;
+/// - a body whose `Content-Length` exceeds the body limit is refused from the header
+///   (413, the body is not read);
+/// - a request with a body must say `Content-Type: application/json` (415).
+async fn guard(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    match check_request(&st, req.headers()) {
+        Ok(()) => next.run(req).await,
+        Err(e) => {
+            let mut r = e.into_response();
+            // The client may still be sending a body we will not read.
+            r.headers_mut().insert(
+                header::CONNECTION,
+                header::HeaderValue::from_static("close"),
+            );
+            r
+        }
+    }
+}
+
+fn check_request(st: &AppState, h: &HeaderMap) -> Result<(), ApiError> {
+    let host = h.get(header::HOST).and_then(|v| v.to_str().ok());
+    if st.config.bind.ip().is_loopback() {
+        if let Some(host) = host {
+            if !is_local_host(host) {
+                return Err(ApiError::new(
+                    StatusCode::FORBIDDEN,
+                    "Host",
+                    format!(
+                        "`{}` is not this machine: a server bound to loopback answers only requests addressed to localhost, 127.0.0.1 or [::1]",
+                        crate::json::quote(host)
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some(origin) = h.get(header::ORIGIN) {
+        let origin = origin.to_str().unwrap_or("");
+        // The server's own pages: scheme http (or https behind a proxy that keeps the
+        // Host), authority = Host.
+        let same = origin
+            .strip_prefix("http://")
+            .or_else(|| origin.strip_prefix("https://"))
+            .is_some_and(|authority| host.is_some_and(|h| h.eq_ignore_ascii_case(authority)));
+        if !same {
+            return Err(ApiError::new(
+                StatusCode::FORBIDDEN,
+                "Origin",
+                format!(
+                    "requests from the page `{}` are refused: only the server's own pages may call it from a browser",
+                    crate::json::quote(origin)
+                ),
+            ));
+        }
+    }
+    let length = h
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    if let Some(n) = length {
+        if n > st.config.max_body_bytes as u64 {
+            return Err(too_large(st.config.max_body_bytes));
+        }
+    }
+    let has_body = length.is_some_and(|n| n > 0) || h.contains_key(header::TRANSFER_ENCODING);
+    if has_body {
+        let ct = h
+            .get(header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("");
+        let media = ct.split(';').next().unwrap_or("").trim();
+        if !media.eq_ignore_ascii_case("application/json") {
+            return Err(ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "Content-Type",
+                format!(
+                    "a request body must be sent as `Content-Type: application/json` (got `{}`)",
+                    crate::json::quote(ct)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn too_large(limit: usize) -> ApiError {
+    ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "$",
+        format!("the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"),
     )
 }
 
@@ -156,6 +305,7 @@ async fn healthz() -> Json<Value> {
 
 async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
     let store = st.store.clone();
+    // Summary rows only: the cost does not grow with what the sweeps stored.
     let queued = blocking(move || {
         Ok(store
             .list_sweeps()?
@@ -209,16 +359,37 @@ fn query(uri: &Uri) -> Result<HashMap<String, String>, ApiError> {
         .map_err(|e| ApiError::bad_request("?", format!("malformed query: {e}")))
 }
 
-/// The body, at most `limit` bytes (413 beyond).
-async fn read_body(body: Body, limit: usize) -> Result<axum::body::Bytes, ApiError> {
-    axum::body::to_bytes(body, limit).await.map_err(|_| {
-        ApiError::new(
-            StatusCode::PAYLOAD_TOO_LARGE,
-            "$",
-            format!(
-                "the body is larger than {limit} bytes (raise it with `serve --max-body-bytes`)"
-            ),
-        )
+/// The body, at most the body limit (413 beyond), read under the budget of bodies in
+/// flight (503 while it is full; the share is held as long as the returned guard).
+async fn read_body(
+    st: &AppState,
+    headers: &HeaderMap,
+    body: Body,
+) -> Result<(axum::body::Bytes, Held), ApiError> {
+    let limit = st.config.max_body_bytes;
+    let declared = headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .unwrap_or(limit as u64)
+        .min(limit as u64);
+    let held = st.limits.take_body(declared)?;
+    let bytes = axum::body::to_bytes(body, limit)
+        .await
+        .map_err(|_| too_large(limit))?;
+    Ok((bytes, held))
+}
+
+/// A JSON body parsed as `run` parses its files: duplicate keys refused, naming the path.
+fn parse_body(bytes: &[u8]) -> Result<Value, ApiError> {
+    let text = std::str::from_utf8(bytes)
+        .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
+    crate::json::parse_json(text).map_err(|e| {
+        if e.reason.contains("duplicate") {
+            ApiError::invalid(e.path, e.reason)
+        } else {
+            ApiError::bad_request(e.path, format!("not valid JSON: {}", e.reason))
+        }
     })
 }
 
@@ -287,13 +458,16 @@ pub struct Created {
         (status = 400, description = "Not JSON", body = ErrorBody),
         (status = 401, description = "Token required", body = ErrorBody),
         (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 415, description = "The body is not sent as application/json", body = ErrorBody),
         (status = 422, description = "Invalid spec or option: the JSON path and why", body = ErrorBody),
-        (status = 429, description = "Too many queued sweeps", body = ErrorBody),
+        (status = 429, description = "Too many queued sweeps (Retry-After)", body = ErrorBody),
+        (status = 503, description = "Busy or store unavailable (Retry-After)", body = ErrorBody),
     ),
     security((), ("bearer" = [])))]
 async fn submit_sweep(
     State(st): State<AppState>,
     uri: Uri,
+    headers: HeaderMap,
     body: Body,
 ) -> Result<Response, ApiError> {
     let q = query(&uri)?;
@@ -302,9 +476,9 @@ async fn submit_sweep(
         q.get("accuracy").map(String::as_str),
         q.get("full_model").map(String::as_str),
     )?;
-    let bytes = read_body(body, st.config.max_body_bytes).await?;
-    let doc: Value = serde_json::from_slice(&bytes)
-        .map_err(|e| ApiError::bad_request("$", format!("not valid JSON: {e}")))?;
+    let (bytes, _held) = read_body(&st, &headers, body).await?;
+    let doc = parse_body(&bytes)?;
+    drop(bytes);
     let max_variants = st.config.max_variants;
     let max_queued = st.config.max_queued;
     let store = st.store.clone();
@@ -320,26 +494,18 @@ async fn submit_sweep(
         if let ParsedSweep::Runner(spec) = &parsed {
             validate_variants(spec)?;
         }
-        let queued = store
-            .list_sweeps()?
-            .iter()
-            .filter(|s| !s.status.is_final())
-            .count() as u64;
-        if queued >= max_queued {
-            return Err(ApiError::new(
-                StatusCode::TOO_MANY_REQUESTS,
-                "$",
-                format!("{queued} sweeps are queued or running, the limit is {max_queued} (wait, or raise it with `serve --max-queued`)"),
-            ));
-        }
-        let row = store.insert_sweep(&NewSweep {
-            id: sweep_id(),
-            name: parsed.name(),
-            spec: doc,
-            options,
-            total,
-            created_unix_s: now_unix_s(),
-        })?;
+        // Counted and inserted in one transaction (429 at the limit).
+        let row = store.insert_sweep_limited(
+            &NewSweep {
+                id: sweep_id(),
+                name: parsed.name(),
+                spec: doc,
+                options,
+                total,
+                created_unix_s: now_unix_s(),
+            },
+            max_queued,
+        )?;
         Ok(row)
     })
     .await?;
@@ -484,7 +650,20 @@ pub fn rfc3339(t: f64) -> String {
     )
 }
 
+/// A sweep's summary row (no spec, header or result: status and progress only).
 async fn row_or_404(st: &AppState, id: &str) -> Result<SweepRow, ApiError> {
+    let store = st.store.clone();
+    let key = id.to_string();
+    blocking(move || {
+        store
+            .sweep_summary(&key)?
+            .ok_or_else(|| ApiError::not_found(format!("no sweep `{key}`")))
+    })
+    .await
+}
+
+/// A sweep's whole row (spec and header: what rebuilding its result needs).
+async fn full_row_or_404(st: &AppState, id: &str) -> Result<SweepRow, ApiError> {
     let store = st.store.clone();
     let key = id.to_string();
     blocking(move || {
@@ -493,6 +672,89 @@ async fn row_or_404(st: &AppState, id: &str) -> Result<SweepRow, ApiError> {
             .ok_or_else(|| ApiError::not_found(format!("no sweep `{key}`")))
     })
     .await
+}
+
+/// One piece of a streamed answer.
+enum Piece {
+    Chunk(axum::body::Bytes),
+    Fail(ApiError),
+}
+
+/// A `Write` that sends what it is given as chunks of about [`STREAM_CHUNK_BYTES`] to a
+/// streamed answer (from a blocking thread).
+struct ChunkWriter {
+    tx: tokio::sync::mpsc::Sender<Piece>,
+    buf: Vec<u8>,
+}
+
+impl ChunkWriter {
+    fn send(&mut self) -> std::io::Result<()> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        let chunk = std::mem::replace(&mut self.buf, Vec::with_capacity(STREAM_CHUNK_BYTES));
+        self.tx
+            .blocking_send(Piece::Chunk(chunk.into()))
+            .map_err(|_| std::io::Error::new(std::io::ErrorKind::BrokenPipe, "client gone"))
+    }
+}
+
+impl std::io::Write for ChunkWriter {
+    fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(data);
+        if self.buf.len() >= STREAM_CHUNK_BYTES {
+            self.send()?;
+        }
+        Ok(data.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// An answer written by `write` on a blocking thread and sent in chunks as it is
+/// written (memory: a few chunks, whatever the answer's size). An error before the first
+/// chunk is the answer; a later one cuts the body short (the client sees a truncated
+/// transfer, never a wrong document).
+async fn stream_blocking(
+    content_type: &'static str,
+    write: impl FnOnce(&mut ChunkWriter) -> Result<(), ApiError> + Send + 'static,
+) -> Result<Response, ApiError> {
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<Piece>(4);
+    tokio::task::spawn_blocking(move || {
+        let mut w = ChunkWriter {
+            tx: tx.clone(),
+            buf: Vec::with_capacity(STREAM_CHUNK_BYTES),
+        };
+        let out = write(&mut w).and_then(|()| {
+            w.send()
+                .map_err(|e| ApiError::internal(format!("streaming: {e}")))
+        });
+        if let Err(e) = out {
+            let _ = tx.blocking_send(Piece::Fail(e));
+        }
+    });
+    let first = match rx.recv().await {
+        None => axum::body::Bytes::new(),
+        Some(Piece::Fail(e)) => return Err(e),
+        Some(Piece::Chunk(c)) => c,
+    };
+    let rest = futures_util::stream::unfold(rx, |mut rx| async move {
+        match rx.recv().await? {
+            Piece::Chunk(c) => Some((Ok::<_, std::io::Error>(c), rx)),
+            Piece::Fail(e) => Some((Err(std::io::Error::other(e.message)), rx)),
+        }
+    });
+    let stream = futures_util::StreamExt::chain(
+        futures_util::stream::once(async move { Ok::<_, std::io::Error>(first) }),
+        rest,
+    );
+    Ok((
+        [(header::CONTENT_TYPE, content_type)],
+        Body::from_stream(stream),
+    )
+        .into_response())
 }
 
 /// A sweep's status, progress and timings.
@@ -547,11 +809,13 @@ async fn delete_sweep(
     State(st): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<StatusCode, ApiError> {
-    st.scheduler.forget(&id);
     let store = st.store.clone();
     let key = id.clone();
-    let gone = blocking(move || Ok(store.delete_sweep(&key)?)).await?;
-    if !gone {
+    let gone = blocking(move || Ok(store.delete_sweep(&key)?)).await;
+    // After the store forgot it: a stream that subscribed before sees `Deleted`, one
+    // that subscribes after finds no sweep (404).
+    st.scheduler.forget(&id);
+    if !gone? {
         return Err(ApiError::not_found(format!("no sweep `{id}`")));
     }
     Ok(StatusCode::NO_CONTENT)
@@ -629,10 +893,22 @@ async fn sweep_result(
         ));
     }
     let store = st.store.clone();
-    let bytes = blocking(move || {
-        if let Some(doc) = &r.result_doc {
-            let text = serde_json::to_string_pretty(doc).unwrap_or_default() + "\n";
-            return Ok(text.into_bytes());
+    let r = full_row_or_404(&st, &id).await?;
+    stream_blocking("application/json", move |w| {
+        if let Some(text) = store.result_doc_text(&r.id)? {
+            // Stored as served (pretty, newline); a compact one of an older store is
+            // pretty-printed on the way.
+            if text.starts_with("{\n") {
+                w.write_all(text.as_bytes())
+            } else {
+                let doc: Value = serde_json::from_str(&text)
+                    .map_err(|e| ApiError::internal(format!("stored result: {e}")))?;
+                serde_json::to_writer_pretty(&mut *w, &doc)
+                    .map_err(std::io::Error::other)
+                    .and_then(|()| w.write_all(b"\n"))
+            }
+            .map_err(|e| ApiError::internal(format!("streaming: {e}")))?;
+            return Ok(());
         }
         let ParsedSweep::Runner(spec) = parse_sweep_doc(&r.spec)? else {
             return Err(ApiError::internal(
@@ -647,13 +923,11 @@ async fn sweep_result(
             r.total,
             r.run.clone().unwrap_or(Value::Null),
         );
-        let mut out = Vec::new();
         let mut sink = super::store::StoreSink::new(store, &r.id, Box::new(|_, _| {}));
-        write_result_doc(&mut out, &doc, &mut sink, &mut |_| {})?;
-        Ok(out)
+        write_result_doc(w, &doc, &mut sink, &mut |_| {})?;
+        Ok(())
     })
-    .await?;
-    Ok(([(header::CONTENT_TYPE, "application/json")], bytes).into_response())
+    .await
 }
 
 /// Variant records (result.jsonl lines), readable while the sweep runs; `format=csv`
@@ -704,22 +978,26 @@ async fn sweep_variants(
     let store = st.store.clone();
     if csv_wanted {
         // Every variant (offset/limit apply to JSON pages only): one flat row each.
-        let text = blocking(move || {
+        // The CSV has no series: lines are kept without them (a page at a time), and
+        // the text goes out in chunks.
+        return stream_blocking("text/csv; charset=utf-8", move |w| {
             let mut lines = Vec::new();
             let mut at = 0;
             loop {
                 let page = store.variant_lines(&r.id, at, MAX_PAGE)?;
                 let n = page.len() as u64;
-                lines.extend(page.into_iter().map(|(_, l)| l));
+                lines.extend(page.into_iter().map(|(_, l)| without_series(l)));
                 if n < MAX_PAGE {
                     break;
                 }
                 at += n;
             }
-            Ok(csv::variants_csv(&lines))
+            let text = csv::variants_csv(&lines);
+            drop(lines);
+            w.write_all(text.as_bytes())
+                .map_err(|e| ApiError::internal(format!("streaming: {e}")))
         })
-        .await?;
-        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], text).into_response());
+        .await;
     }
     let total = r.total;
     let page = blocking(move || Ok(store.variant_lines(&r.id, offset, limit)?)).await?;
@@ -733,6 +1011,22 @@ async fn sweep_variants(
     }
     body.push_str("]}");
     Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
+}
+
+/// A variant line without its `series` (what the CSV leaves out anyway).
+fn without_series(line: String) -> String {
+    if !line.contains("\"series\"") {
+        return line;
+    }
+    match serde_json::from_str::<Value>(&line) {
+        Ok(mut v) => {
+            if let Some(o) = v.as_object_mut() {
+                o.remove("series");
+            }
+            v.to_string()
+        }
+        Err(_) => line,
+    }
 }
 
 /// Names of a sweep's figures.
@@ -791,7 +1085,7 @@ fn status_event(status: SweepStatus, p: &ProgressSnapshot) -> Event {
 
 /// Server-Sent Events: `status` first (and on every change: `{"status", "progress"}`), one
 /// `variant` per committed variant (`{"id", "ok", "progress"}`), and the stream ends after a
-/// final status (`done`, `failed`, `cancelled`).
+/// final status (`done`, `failed`, `cancelled`) or a `deleted` event.
 #[utoipa::path(get, path = "/api/sweeps/{id}/events",
     params(("id" = String, Path, description = "Sweep id")),
     responses((status = 200, description = "text/event-stream", content_type = "text/event-stream", body = String),
@@ -836,6 +1130,11 @@ async fn sweep_events(
                                 json!({"id": id, "ok": ok, "progress": progress}).to_string());
                             return Some((Ok::<_, Infallible>(e), Phase::Live(rx, shutdown)));
                         }
+                        Ok(SweepEvent::Deleted) => {
+                            let e = Event::default().event("deleted").data(
+                                json!({"status": "deleted"}).to_string());
+                            return Some((Ok(e), Phase::End));
+                        }
                         Ok(SweepEvent::Status(s)) => {
                             let p = match row_or_404(&st, &sweep).await {
                                 Ok(r) => progress_of(&st, &r),
@@ -848,6 +1147,20 @@ async fn sweep_events(
                         Err(tokio::sync::broadcast::error::RecvError::Closed) => return None,
                     },
                     _ = shutdown.changed() => return None,
+                    // A safety net: a stream whose sweep ended or vanished without an
+                    // event reaching it (a race, another server) ends with what the
+                    // store says.
+                    _ = tokio::time::sleep(RECHECK) => match row_or_404(&st, &sweep).await {
+                        Err(e) if e.status == StatusCode::NOT_FOUND => {
+                            let e = Event::default().event("deleted").data(
+                                json!({"status": "deleted"}).to_string());
+                            return Some((Ok(e), Phase::End));
+                        }
+                        Ok(r) if r.status.is_final() => {
+                            return Some((Ok(status_event(r.status, &progress_of(&st, &r))), Phase::End));
+                        }
+                        _ => continue,
+                    },
                 }
             }
         }
@@ -870,9 +1183,16 @@ async fn sweep_events(
               (status = 400, description = "Not JSON", body = ErrorBody),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 413, description = "Body too large", body = ErrorBody),
-              (status = 422, description = "Invalid input: the JSON path and why", body = ErrorBody)),
+              (status = 415, description = "The body is not sent as application/json", body = ErrorBody),
+              (status = 422, description = "Invalid input (the JSON path and why), or over the per-request memory budget", body = ErrorBody),
+              (status = 503, description = "The evaluation budget is in use (Retry-After)", body = ErrorBody)),
     security((), ("bearer" = [])))]
-async fn eval(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Response, ApiError> {
+async fn eval(
+    State(st): State<AppState>,
+    uri: Uri,
+    headers: HeaderMap,
+    body: Body,
+) -> Result<Response, ApiError> {
     let q = query(&uri)?;
     let accuracy = match q.get("accuracy") {
         None => crate::bearing::Accuracy::default().rtol(),
@@ -887,11 +1207,26 @@ async fn eval(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Respon
                 )
             })?,
     };
-    let bytes = read_body(body, st.config.max_body_bytes).await?;
+    let (bytes, _body) = read_body(&st, &headers, body).await?;
+    let doc = parse_body(&bytes)?;
+    let states = doc
+        .get("states")
+        .and_then(Value::as_array)
+        .map_or(0, Vec::len) as u64;
+    let _work = st.limits.take_work(
+        "states",
+        "states",
+        states,
+        EVAL_BYTES_PER_STATE,
+        bytes.len() as u64,
+    )?;
     let text = String::from_utf8(bytes.to_vec())
         .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
-    let out = st.coalescer.eval(text, accuracy).await?;
-    Ok(Json(out).into_response())
+    drop(bytes);
+    let out = st.coalescer.eval(text, doc, accuracy).await?;
+    let body = serde_json::to_vec(&out).map_err(|e| ApiError::internal(e.to_string()))?;
+    drop(out);
+    Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
 }
 
 /// Linearised bearing coefficients: body and answer as `coefficients`' input and JSON
@@ -902,12 +1237,32 @@ async fn eval(State(st): State<AppState>, uri: Uri, body: Body) -> Result<Respon
               (status = 400, description = "Not JSON", body = ErrorBody),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 413, description = "Body too large", body = ErrorBody),
-              (status = 422, description = "Invalid input: the JSON path and why", body = ErrorBody)),
+              (status = 415, description = "The body is not sent as application/json", body = ErrorBody),
+              (status = 422, description = "Invalid input (the JSON path and why), or over the per-request memory budget", body = ErrorBody),
+              (status = 503, description = "The evaluation budget is in use (Retry-After)", body = ErrorBody)),
     security((), ("bearer" = [])))]
-async fn coefficients(State(st): State<AppState>, body: Body) -> Result<Response, ApiError> {
-    let bytes = read_body(body, st.config.max_body_bytes).await?;
+async fn coefficients(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let (bytes, _body) = read_body(&st, &headers, body).await?;
+    let doc = parse_body(&bytes)?;
+    let (field, speeds) = match doc.get("speeds").and_then(Value::as_array) {
+        Some(a) => ("speeds", a.len() as u64),
+        None => ("speed", 1),
+    };
+    drop(doc);
+    let _work = st.limits.take_work(
+        field,
+        "speeds",
+        speeds,
+        COEFF_BYTES_PER_SPEED,
+        bytes.len() as u64,
+    )?;
     let text = String::from_utf8(bytes.to_vec())
         .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
+    drop(bytes);
     let out = tokio::task::spawn_blocking(move || crate::cli::coefficients_json(&text))
         .await
         .map_err(|e| ApiError::internal(format!("coefficients task: {e}")))??;

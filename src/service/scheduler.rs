@@ -25,6 +25,11 @@ const EVENT_BUFFER: usize = 1024;
 /// Longest wait of the scheduler loop between looks at the queue (a missed wake-up costs
 /// at most this).
 const POLL: Duration = Duration::from_millis(500);
+/// First wait before writing a sweep's final status again after the store refused it
+/// (disk full, database unreachable); doubles up to [`FINAL_RETRY_MAX`].
+const FINAL_RETRY_START: Duration = Duration::from_millis(200);
+/// Longest wait between two attempts at a final status.
+const FINAL_RETRY_MAX: Duration = Duration::from_secs(5);
 
 /// A live event of one sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,6 +45,8 @@ pub enum SweepEvent {
     },
     /// The sweep's status changed (`done`, `failed`, `cancelled` end the stream).
     Status(SweepStatus),
+    /// The sweep was deleted (ends the stream).
+    Deleted,
 }
 
 /// The in-memory side of a sweep: cancel flag, progress counters, event channel.
@@ -149,11 +156,13 @@ impl Scheduler {
         self.job(id).cancel.store(true, Ordering::Relaxed);
     }
 
-    /// Forgets the in-memory side of a deleted sweep.
+    /// Forgets the in-memory side of a deleted sweep (call it after the store deleted
+    /// it): its run stops, and its event streams get [`SweepEvent::Deleted`] and end.
     pub fn forget(&self, id: &str) {
         let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(j) = jobs.remove(id) {
             j.cancel.store(true, Ordering::Relaxed);
+            let _ = j.events.send(SweepEvent::Deleted);
         }
     }
 
@@ -170,13 +179,7 @@ impl Scheduler {
             }
             while (self.running() as usize) < self.max_running {
                 let store = self.store.clone();
-                let next = tokio::task::spawn_blocking(move || {
-                    store.list_sweeps().map(|l| {
-                        l.into_iter()
-                            .find(|s| s.status == SweepStatus::Queued && !store.runs_elsewhere(s))
-                    })
-                })
-                .await;
+                let next = tokio::task::spawn_blocking(move || store.next_queued()).await;
                 let Ok(Ok(Some(row))) = next else { break };
                 if self.draining.load(Ordering::Relaxed) {
                     return;
@@ -228,7 +231,7 @@ impl Scheduler {
                 }
             };
             let status = update.status;
-            let _ = me.store.update_sweep(&id, &update);
+            me.write_final(&id, &update);
             if let Some(s) = status {
                 let _ = job.events.send(SweepEvent::Status(s));
                 if s.is_final() {
@@ -245,6 +248,36 @@ impl Scheduler {
         let mut threads = self.threads.lock().unwrap_or_else(|e| e.into_inner());
         threads.retain(|h| !h.is_finished());
         threads.push(handle);
+    }
+
+    /// Writes a job's last update; a store that refuses it (disk full, database down) is
+    /// retried with backoff until it takes it, the sweep is gone, or the server drains
+    /// (then the sweep stays `running` in the store and the next start requeues it):
+    /// a sweep is never left `running` by a server that goes on serving.
+    fn write_final(&self, id: &str, update: &SweepUpdate) {
+        let mut delay = FINAL_RETRY_START;
+        let mut warned = false;
+        loop {
+            match self.store.update_sweep(id, update) {
+                Ok(()) | Err(super::store::StoreError::NotFound(_)) => {
+                    if warned {
+                        tracing::warn!("sweep {id}: final status recorded");
+                    }
+                    return;
+                }
+                Err(e) => {
+                    if !warned {
+                        tracing::warn!("sweep {id}: cannot record its final status ({e}); retrying until the store takes it");
+                        warned = true;
+                    }
+                    if self.draining.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    std::thread::sleep(delay);
+                    delay = (delay * 2).min(FINAL_RETRY_MAX);
+                }
+            }
+        }
     }
 
     /// Runs one sweep to its end on this (blocking) thread; returns the final update.
@@ -272,9 +305,12 @@ impl Scheduler {
                         return failed(e.to_string());
                     }
                 }
+                // Stored as served: pretty, with a newline, as `run` writes result.json.
+                let text = serde_json::to_string_pretty(&doc).unwrap_or_default() + "\n";
+                drop(doc);
                 return SweepUpdate {
                     status: Some(SweepStatus::Done),
-                    result_doc: Some(doc),
+                    result_doc: Some(text),
                     finished_unix_s: Some(now_unix_s()),
                     done: Some(points),
                     ..Default::default()
@@ -425,8 +461,9 @@ mod tests {
     use crate::service::SqliteStore;
     use crate::sweep::sink::Committed;
 
-    /// The SQLite store, except that opening the variants of sweep `boom` panics.
-    struct PanicStore(SqliteStore);
+    /// The SQLite store, except that opening the variants of sweep `boom` panics, and
+    /// the first `.1` final statuses are refused as by a full disk.
+    struct PanicStore(SqliteStore, std::sync::atomic::AtomicU32);
 
     impl Store for PanicStore {
         fn insert_sweep(&self, n: &NewSweep) -> Result<SweepRow, StoreError> {
@@ -438,7 +475,25 @@ mod tests {
         fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
             self.0.sweep(id)
         }
+        fn insert_sweep_limited(&self, n: &NewSweep, m: u64) -> Result<SweepRow, StoreError> {
+            self.0.insert_sweep_limited(n, m)
+        }
+        fn sweep_summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+            self.0.sweep_summary(id)
+        }
+        fn result_doc_text(&self, id: &str) -> Result<Option<String>, StoreError> {
+            self.0.result_doc_text(id)
+        }
         fn update_sweep(&self, id: &str, c: &SweepUpdate) -> Result<(), StoreError> {
+            let is_final = c.status.is_some_and(SweepStatus::is_final);
+            if is_final
+                && self
+                    .1
+                    .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
+                    .is_ok()
+            {
+                return Err(StoreError::Unavailable("database or disk is full".into()));
+            }
             self.0.update_sweep(id, c)
         }
         fn delete_sweep(&self, id: &str) -> Result<bool, StoreError> {
@@ -474,7 +529,10 @@ mod tests {
     async fn a_panicking_job_is_marked_failed_and_the_next_one_runs() {
         let dir = std::env::temp_dir().join(format!("bearing-sweep-sched-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let store: Arc<dyn Store> = Arc::new(PanicStore(SqliteStore::open(&dir).unwrap()));
+        let store: Arc<dyn Store> = Arc::new(PanicStore(
+            SqliteStore::open(&dir).unwrap(),
+            std::sync::atomic::AtomicU32::new(0),
+        ));
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0, 70.0]}]});
         for id in ["boom", "fine"] {
@@ -506,6 +564,62 @@ mod tests {
         );
         let fine = status("fine");
         assert_eq!((fine.status, fine.done), (SweepStatus::Done, 3), "{fine:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Issue 22 item 5: on a full disk the final status of a sweep could not be written
+    /// and the sweep stayed `running` forever; it is now written once the store takes it.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_final_status_the_store_refuses_is_written_when_it_takes_it() {
+        let dir =
+            std::env::temp_dir().join(format!("bearing-sweep-sched-full-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let store: Arc<dyn Store> = Arc::new(PanicStore(
+            SqliteStore::open(&dir).unwrap(),
+            std::sync::atomic::AtomicU32::new(3),
+        ));
+        let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
+                          "axes": [{"path": "spin", "values": [50.0, 60.0]}]});
+        store
+            .insert_sweep(&NewSweep {
+                id: "full".into(),
+                name: "full".into(),
+                spec,
+                options: json!({}),
+                total: 2,
+                created_unix_s: now_unix_s(),
+            })
+            .unwrap();
+        let sched = Scheduler::new(store.clone(), 1).unwrap();
+        let events = sched.job("full").events.subscribe();
+        tokio::spawn(sched.clone().run());
+        let start = std::time::Instant::now();
+        loop {
+            let row = store.sweep_summary("full").unwrap().unwrap();
+            if row.status.is_final() {
+                assert_eq!((row.status, row.done), (SweepStatus::Done, 2), "{row:?}");
+                break;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "the sweep stayed {:?} (its final status was refused 3 times)",
+                row.status
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        // The final event goes out once the status is stored.
+        let mut events = events;
+        let last = loop {
+            match tokio::time::timeout(Duration::from_secs(10), events.recv()).await {
+                Ok(Ok(SweepEvent::Variant { .. })) => continue,
+                Ok(Ok(SweepEvent::Status(SweepStatus::Running))) => continue,
+                other => break other,
+            }
+        };
+        assert!(
+            matches!(last, Ok(Ok(SweepEvent::Status(SweepStatus::Done)))),
+            "last event {last:?}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -1,5 +1,6 @@
 //! The embedded store: one SQLite database (`DIR/sweeps.db`, WAL journal, full sync so a
-//! committed variant survives a crash) behind a mutex.
+//! committed variant survives a crash) behind a mutex. Listing and status read the
+//! summary columns only; a stored result document is read on its own route.
 
 use std::path::Path;
 use std::sync::Mutex;
@@ -53,32 +54,40 @@ pub struct SqliteStore {
     conn: Mutex<Connection>,
 }
 
-fn backend(e: impl std::fmt::Display) -> StoreError {
-    StoreError::Backend(e.to_string())
-}
-
 impl SqliteStore {
-    /// Opens (creating) `dir/sweeps.db`.
+    /// Opens (creating) `dir/sweeps.db`. Every failure names the file and the reason
+    /// (e.g. a read-only folder or file, a file that is not a database).
     pub fn open(dir: &Path) -> Result<Self, StoreError> {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| StoreError::Backend(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| {
+            StoreError::Backend(format!(
+                "store folder {}: cannot create it: {e}",
+                dir.display()
+            ))
+        })?;
         let path = dir.join("sweeps.db");
-        let conn = Connection::open(&path)
-            .map_err(|e| StoreError::Backend(format!("{}: {e}", path.display())))?;
+        let fail = |e: &dyn std::fmt::Display| {
+            StoreError::Backend(format!(
+                "{}: {e}{}",
+                path.display(),
+                why_unwritable(dir, &path)
+            ))
+        };
+        let conn = Connection::open(&path).map_err(|e| fail(&e))?;
         conn.busy_timeout(std::time::Duration::from_millis(BUSY_TIMEOUT_MS))
-            .map_err(backend)?;
+            .map_err(|e| fail(&e))?;
         let mode: String = conn
             .query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0))
-            .map_err(backend)?;
+            .map_err(|e| fail(&e))?;
         if !mode.eq_ignore_ascii_case("wal") {
             return Err(StoreError::Backend(format!(
-                "{}: cannot switch to WAL mode (got {mode})",
-                path.display()
+                "{}: cannot switch to WAL mode (got {mode}){}",
+                path.display(),
+                why_unwritable(dir, &path)
             )));
         }
         conn.execute_batch("PRAGMA synchronous=FULL; PRAGMA foreign_keys=ON;")
             .and_then(|_| conn.execute_batch(SCHEMA))
-            .map_err(backend)?;
+            .map_err(|e| fail(&e))?;
         Ok(SqliteStore {
             conn: Mutex::new(conn),
         })
@@ -92,11 +101,53 @@ impl SqliteStore {
             .conn
             .lock()
             .map_err(|_| StoreError::Backend("store lock poisoned".into()))?;
-        f(&mut conn).map_err(backend)
+        f(&mut conn).map_err(classify)
     }
 }
 
-const COLUMNS: &str = "id, seq, name, status, spec, options, total, done, failed, computed, message, run, result_doc, created, started, finished, header";
+/// The reason SQLite's own message leaves out ("unable to open database file"): whether
+/// the file and its folder (where the WAL and shared-memory files go) can be written,
+/// with the operating system's words; empty when both can.
+fn why_unwritable(dir: &Path, file: &Path) -> String {
+    if file.exists() {
+        if let Err(e) = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(file)
+        {
+            return format!(" (the file cannot be opened for writing: {e})");
+        }
+    }
+    let probe = dir.join(format!(".write-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            String::new()
+        }
+        Err(e) => format!(
+            " (its folder {} cannot be written, and SQLite keeps its journal beside the file: {e})",
+            dir.display()
+        ),
+    }
+}
+
+/// A database error as a store error: a full disk, a busy database or an I/O error may
+/// pass (503 with `Retry-After`); anything else is a fault.
+fn classify(e: rusqlite::Error) -> StoreError {
+    use rusqlite::ErrorCode as C;
+    match e.sqlite_error_code() {
+        Some(C::DiskFull | C::DatabaseBusy | C::DatabaseLocked | C::SystemIoFailure) => {
+            StoreError::Unavailable(e.to_string())
+        }
+        _ => StoreError::Backend(e.to_string()),
+    }
+}
+
+/// The summary columns: everything but the spec, the stream header and a stored result
+/// document (which may be large: listing and status read these only).
+const SUMMARY: &str = "id, seq, name, status, NULL, options, total, done, failed, computed, message, run, created, started, finished, NULL";
+/// Every column a run needs (the spec and the header too).
+const COLUMNS: &str = "id, seq, name, status, spec, options, total, done, failed, computed, message, run, created, started, finished, header";
 
 fn json_col(text: Option<String>) -> Option<Value> {
     text.and_then(|t| serde_json::from_str(&t).ok())
@@ -118,18 +169,32 @@ fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SweepRow> {
         computed: r.get::<_, i64>(9)? as u64,
         message: r.get(10)?,
         run: json_col(r.get(11)?),
-        result_doc: json_col(r.get(12)?),
-        created_unix_s: r.get(13)?,
-        started_unix_s: r.get(14)?,
-        finished_unix_s: r.get(15)?,
-        header: json_col(r.get(16)?),
+        created_unix_s: r.get(12)?,
+        started_unix_s: r.get(13)?,
+        finished_unix_s: r.get(14)?,
+        header: json_col(r.get(15)?),
     })
 }
 
 impl Store for SqliteStore {
     fn insert_sweep(&self, new: &NewSweep) -> Result<SweepRow, StoreError> {
-        self.with(|c| {
-            c.execute(
+        self.insert_sweep_limited(new, u64::MAX)
+    }
+
+    fn insert_sweep_limited(&self, new: &NewSweep, max_open: u64) -> Result<SweepRow, StoreError> {
+        // Counted and inserted in one immediate (write-locked) transaction: two servers
+        // or threads cannot both see room for one more.
+        let open = self.with(|c| {
+            let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+            let open: i64 = tx.query_row(
+                "SELECT count(*) FROM sweeps WHERE status IN ('queued', 'running')",
+                [],
+                |r| r.get(0),
+            )?;
+            if open as u64 >= max_open {
+                return Ok(Some(open as u64));
+            }
+            tx.execute(
                 "INSERT INTO sweeps (id, name, status, spec, options, total, created) VALUES (?1, ?2, 'queued', ?3, ?4, ?5, ?6)",
                 params![
                     new.id,
@@ -140,17 +205,45 @@ impl Store for SqliteStore {
                     new.created_unix_s
                 ],
             )?;
-            Ok(())
+            tx.commit()?;
+            Ok(None)
         })?;
-        self.sweep(&new.id)?
+        if let Some(open) = open {
+            return Err(StoreError::QueueFull {
+                open,
+                limit: max_open,
+            });
+        }
+        self.sweep_summary(&new.id)?
             .ok_or_else(|| StoreError::NotFound(new.id.clone()))
     }
 
     fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError> {
         self.with(|c| {
-            let mut st = c.prepare(&format!("SELECT {COLUMNS} FROM sweeps ORDER BY seq"))?;
+            let mut st = c.prepare(&format!("SELECT {SUMMARY} FROM sweeps ORDER BY seq"))?;
             let rows = st.query_map([], row)?;
             rows.collect()
+        })
+    }
+
+    fn sweep_summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+        self.with(|c| {
+            c.query_row(
+                &format!("SELECT {SUMMARY} FROM sweeps WHERE id = ?1"),
+                [id],
+                row,
+            )
+            .optional()
+        })
+    }
+
+    fn result_doc_text(&self, id: &str) -> Result<Option<String>, StoreError> {
+        self.with(|c| {
+            c.query_row("SELECT result_doc FROM sweeps WHERE id = ?1", [id], |r| {
+                r.get::<_, Option<String>>(0)
+            })
+            .optional()
+            .map(Option::flatten)
         })
     }
 
@@ -190,7 +283,7 @@ impl Store for SqliteStore {
             if let Some(d) = &change.result_doc {
                 tx.execute(
                     "UPDATE sweeps SET result_doc = ?2 WHERE id = ?1",
-                    params![id, d.to_string()],
+                    params![id, d],
                 )?;
             }
             if let Some(t) = change.started_unix_s {

@@ -17,6 +17,18 @@ pub enum StoreError {
     /// The database failed (I/O, corruption, lock): the backend's message.
     #[error("store: {0}")]
     Backend(String),
+    /// The store cannot be reached now (database down or restarting, disk full, busy):
+    /// retrying later may succeed (HTTP 503 with `Retry-After`).
+    #[error("store unavailable: {0}")]
+    Unavailable(String),
+    /// `insert_sweep_limited` found `open` sweeps queued or running, at the `limit`.
+    #[error("{open} sweeps are queued or running, the limit is {limit}")]
+    QueueFull {
+        /// Sweeps queued or running.
+        open: u64,
+        /// The limit.
+        limit: u64,
+    },
     /// The sweep does not exist (deleted meanwhile).
     #[error("sweep {0} not found")]
     NotFound(String),
@@ -107,7 +119,8 @@ pub struct SweepRow {
     pub name: String,
     /// Status.
     pub status: SweepStatus,
-    /// The spec as posted.
+    /// The spec as posted (`Null` in summary rows: [`Store::list_sweeps`],
+    /// [`Store::sweep_summary`]).
     pub spec: Value,
     /// Run options.
     pub options: Value,
@@ -124,9 +137,8 @@ pub struct SweepRow {
     pub message: Option<String>,
     /// The result's `run` section once done (timings, simulator).
     pub run: Option<Value>,
-    /// A whole result document stored as is (friction maps, which have no variant lines).
-    pub result_doc: Option<Value>,
-    /// The run identity given to `open_stream` (format, spec hash, settings, count).
+    /// The run identity given to `open_stream` (format, spec hash, settings, count);
+    /// `None` in summary rows.
     pub header: Option<Value>,
     /// Submission time, s since the Unix epoch.
     pub created_unix_s: f64,
@@ -145,8 +157,9 @@ pub struct SweepUpdate {
     pub message: Option<Option<String>>,
     /// The result's `run` section.
     pub run: Option<Value>,
-    /// A whole result document.
-    pub result_doc: Option<Value>,
+    /// A whole result document, as the text served (friction maps, which have no
+    /// variant lines): pretty JSON and a newline, as `run` writes result.json.
+    pub result_doc: Option<String>,
     /// Start time, s since the Unix epoch.
     pub started_unix_s: Option<f64>,
     /// End time, s since the Unix epoch.
@@ -162,12 +175,35 @@ pub struct SweepUpdate {
 /// Durability contract: once `commit_variant` returns, the line survives a crash of the
 /// process; `open_stream` of the same identity returns it again.
 pub trait Store: Send + Sync + 'static {
-    /// Stores a new sweep with status `queued` and returns it.
+    /// Stores a new sweep with status `queued` and returns it (a summary row).
     fn insert_sweep(&self, new: &NewSweep) -> Result<SweepRow, StoreError>;
-    /// Every sweep, oldest first.
+    /// [`Store::insert_sweep`] unless `max_open` sweeps are queued or running already
+    /// ([`StoreError::QueueFull`]): counted and inserted in one transaction, so
+    /// simultaneous submissions never pass the limit.
+    fn insert_sweep_limited(&self, new: &NewSweep, max_open: u64) -> Result<SweepRow, StoreError>;
+    /// Every sweep, oldest first, as summary rows (no spec, header or result document:
+    /// listing costs the same whatever was stored).
     fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError>;
-    /// One sweep.
+    /// One sweep, whole (spec and header too; what a run needs).
     fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError>;
+    /// One sweep as a summary row (status, counts, times, `run` section).
+    fn sweep_summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError>;
+    /// The stored result document's text (friction maps), if any.
+    fn result_doc_text(&self, id: &str) -> Result<Option<String>, StoreError>;
+    /// The oldest queued sweep this server runs itself, whole (`None`: none).
+    fn next_queued(&self) -> Result<Option<SweepRow>, StoreError> {
+        for s in self.list_sweeps()? {
+            if s.status != SweepStatus::Queued {
+                continue;
+            }
+            if let Some(full) = self.sweep(&s.id)? {
+                if full.status == SweepStatus::Queued && !self.runs_elsewhere(&full) {
+                    return Ok(Some(full));
+                }
+            }
+        }
+        Ok(None)
+    }
     /// Changes a sweep.
     fn update_sweep(&self, id: &str, change: &SweepUpdate) -> Result<(), StoreError>;
     /// Removes a sweep, its variants and figures; false when there was none.

@@ -208,6 +208,27 @@ fn describe(cfg: &tokio_postgres::Config) -> String {
     format!("{host}:{port}/{}", cfg.get_dbname().unwrap_or("-"))
 }
 
+/// First key of the per-sweep advisory lock taken by every transaction that stores
+/// variant results (`pg_advisory_xact_lock(RESULTS_LOCK_CLASS, hashtext(sweep_id))`).
+const RESULTS_LOCK_CLASS: i32 = 0x6273;
+
+/// Takes the per-sweep results lock for the rest of `tx` (see [`PgQueue::complete`]).
+pub(crate) async fn lock_results(
+    tx: &tokio_postgres::Transaction<'_>,
+    sweep_id: &str,
+) -> Result<(), tokio_postgres::Error> {
+    tx.execute(
+        "SELECT pg_advisory_xact_lock($1, hashtext($2))",
+        &[&RESULTS_LOCK_CLASS, &sweep_id],
+    )
+    .await
+    .map(|_| ())
+}
+
+/// Advisory lock key serialising limited submissions (`pg_advisory_xact_lock`): any
+/// constant other users of the database do not take ("bsweepq" in ASCII).
+const SUBMIT_LOCK_KEY: i64 = 0x0062_7377_6565_7071;
+
 fn millis(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
@@ -301,6 +322,18 @@ impl PgQueue {
 
     /// Enqueues a sweep and its work batches in one transaction.
     pub async fn submit(&self, s: &NewSweep) -> Result<(), PgError> {
+        self.submit_limited(s, None).await.map(|_| ())
+    }
+
+    /// [`PgQueue::submit`] unless `max_open` sweeps are queued or running already: then
+    /// nothing is stored and the count is returned (`Ok(Some(open))`). The count and the
+    /// insert are one transaction serialised by an advisory lock, so simultaneous
+    /// submissions (from any number of servers) never pass the limit.
+    pub async fn submit_limited(
+        &self,
+        s: &NewSweep,
+        max_open: Option<u64>,
+    ) -> Result<Option<u64>, PgError> {
         if s.batch_variants <= 0 {
             return Err(PgError::Sweep {
                 id: s.id.clone(),
@@ -317,6 +350,23 @@ impl PgQueue {
             .transaction()
             .await
             .map_err(self.db("submitting a sweep"))?;
+        if let Some(limit) = max_open {
+            // Held to the end of the transaction: one counting submitter at a time.
+            tx.execute("SELECT pg_advisory_xact_lock($1)", &[&SUBMIT_LOCK_KEY])
+                .await
+                .map_err(self.db("locking the sweep count"))?;
+            let open: i64 = tx
+                .query_one(
+                    "SELECT count(*) FROM sweeps WHERE status IN ('queued', 'running')",
+                    &[],
+                )
+                .await
+                .map_err(self.db("counting open sweeps"))?
+                .get(0);
+            if open as u64 >= limit {
+                return Ok(Some(open as u64));
+            }
+        }
         tx.execute(
             "INSERT INTO sweeps (id, name, kind, spec, options, backend, batch_variants, total,
                                  status, finished_at, posted_spec, local, created_at)
@@ -343,7 +393,7 @@ impl PgQueue {
         .map_err(self.db("inserting a sweep"))?;
         if s.local {
             tx.commit().await.map_err(self.db("submitting a sweep"))?;
-            return Ok(());
+            return Ok(None);
         }
         tx.execute(
             "INSERT INTO work_batches (sweep_id, batch_no, first_id, end_id)
@@ -354,7 +404,7 @@ impl PgQueue {
         .await
         .map_err(self.db("inserting work batches"))?;
         tx.commit().await.map_err(self.db("submitting a sweep"))?;
-        Ok(())
+        Ok(None)
     }
 
     /// Claims up to `max_variants` variants (whole batches, at least one) of the oldest
@@ -622,6 +672,14 @@ impl PgQueue {
         let ids: Vec<i64> = rows.iter().map(|r| r.id as i64).collect();
         let oks: Vec<bool> = rows.iter().map(|r| r.ok).collect();
         let lines: Vec<&str> = rows.iter().map(|r| r.line.as_str()).collect();
+        // Result rows of one sweep commit in the order of their `seq`: the lock (held to
+        // the commit) makes the sequence numbers drawn below and the commit one step, so
+        // a reader following `seq > last seen` never passes over a late commit of lower
+        // numbers (the server's event stream; issue 22 item 4). Only the insert and two
+        // small updates are serialised, not the computing.
+        lock_results(&tx, &lease.sweep_id)
+            .await
+            .map_err(self.db(CTX))?;
         tx.execute(
             "INSERT INTO variant_results (sweep_id, variant_id, ok, line, lease_id, worker_id)
              SELECT $1, v.id, v.ok, v.line, $5, $6

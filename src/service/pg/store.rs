@@ -24,9 +24,14 @@ use crate::service::{
 };
 use crate::sweep::sink::Committed;
 
-/// How long a store call retries transient errors before it fails (a restart of the
+/// How long opening the store retries transient errors before it fails (a restart of the
 /// database server takes a few seconds).
 pub const RETRY_FOR: Duration = Duration::from_secs(30);
+/// How long one call of a running server (a request, the scheduler) retries transient
+/// errors, and waits at most in all, before it fails as [`StoreError::Unavailable`]
+/// (HTTP 503 with `Retry-After`): a client is better told to come back than kept
+/// waiting through an outage.
+pub const CALL_RETRY_FOR: Duration = Duration::from_secs(3);
 /// First retry delay; doubles up to [`RETRY_MAX`].
 const RETRY_START: Duration = Duration::from_millis(100);
 /// Longest retry delay.
@@ -44,6 +49,7 @@ pub struct PgStore {
 fn backend(e: PgError) -> StoreError {
     match e {
         PgError::NotFound(id) => StoreError::NotFound(id),
+        other if other.is_transient() => StoreError::Unavailable(other.to_string()),
         other => StoreError::Backend(other.to_string()),
     }
 }
@@ -56,7 +62,22 @@ const ROW_COLUMNS: &str = "id, seq, name, status, spec, posted_spec, options, to
         AS failed,
     (s.computed + COALESCE((SELECT sum(l.stored) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
         AS computed,
-    error, run, result_doc, header, settings,
+    error, run, header, settings,
+    extract(epoch FROM created_at)::float8 AS created_s,
+    extract(epoch FROM started_at)::float8 AS started_s,
+    extract(epoch FROM finished_at)::float8 AS finished_s";
+
+/// [`ROW_COLUMNS`] without the large documents (spec, posted spec, header, settings):
+/// what listing and status read.
+const SUMMARY_COLUMNS: &str = "id, seq, name, status, NULL::text AS spec,
+    NULL::text AS posted_spec, options, total,
+    (s.done + COALESCE((SELECT sum(l.stored) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS done,
+    (s.failed + COALESCE((SELECT sum(l.not_ok) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS failed,
+    (s.computed + COALESCE((SELECT sum(l.stored) FROM leases l WHERE l.sweep_id = s.id), 0))::bigint
+        AS computed,
+    error, run, NULL::text AS header, NULL::text AS settings,
     extract(epoch FROM created_at)::float8 AS created_s,
     extract(epoch FROM started_at)::float8 AS started_s,
     extract(epoch FROM finished_at)::float8 AS finished_s";
@@ -86,7 +107,6 @@ fn to_row(r: &tokio_postgres::Row) -> SweepRow {
         computed: r.get::<_, i64>("computed") as u64,
         message: r.get("error"),
         run: json_col(r, "run"),
-        result_doc: json_col(r, "result_doc"),
         header,
         created_unix_s: r.get("created_s"),
         started_unix_s: r.get("started_s"),
@@ -111,7 +131,7 @@ impl PgStore {
             rt: Some(rt),
             batch_variants: DEFAULT_BATCH_VARIANTS,
         };
-        store.call(|q| async move { q.migrate().await.map(|_| ()) })?;
+        store.call_for(RETRY_FOR, |q| async move { q.migrate().await.map(|_| ()) })?;
         Ok(store)
     }
 
@@ -120,8 +140,20 @@ impl PgStore {
         &self.queue
     }
 
-    /// Runs `f(queue)` on the store's runtime, retrying transient errors with backoff.
+    /// Runs `f(queue)` on the store's runtime, retrying transient errors with backoff
+    /// for up to [`CALL_RETRY_FOR`].
     fn call<T, F, Fut>(&self, f: F) -> Result<T, StoreError>
+    where
+        T: Send + 'static,
+        F: Fn(PgQueue) -> Fut + Send + 'static,
+        Fut: std::future::Future<Output = Result<T, PgError>> + Send,
+    {
+        self.call_for(CALL_RETRY_FOR, f)
+    }
+
+    /// [`PgStore::call`] retrying for up to `window` in all (each attempt is cut at the
+    /// end of the window too: an unreachable host does not hold the caller longer).
+    fn call_for<T, F, Fut>(&self, window: Duration, f: F) -> Result<T, StoreError>
     where
         T: Send + 'static,
         F: Fn(PgQueue) -> Fut + Send + 'static,
@@ -137,8 +169,16 @@ impl PgStore {
             let started = Instant::now();
             let mut delay = RETRY_START;
             let result = loop {
-                match f(queue.clone()).await {
-                    Err(e) if e.is_transient() && started.elapsed() < RETRY_FOR => {
+                let left = window.saturating_sub(started.elapsed());
+                let attempt = match tokio::time::timeout(left, f(queue.clone())).await {
+                    Ok(r) => r.map_err(backend),
+                    Err(_) => Err(StoreError::Unavailable(format!(
+                        "PostgreSQL at {}: no answer within {window:?}",
+                        queue.target()
+                    ))),
+                };
+                match attempt {
+                    Err(StoreError::Unavailable(e)) if started.elapsed() + delay < window => {
                         tracing::warn!("{e}; retrying in {delay:?}");
                         tokio::time::sleep(delay).await;
                         delay = (delay * 2).min(RETRY_MAX);
@@ -150,7 +190,23 @@ impl PgStore {
         });
         rx.recv()
             .map_err(|_| StoreError::Backend("the PostgreSQL store's runtime stopped".into()))?
-            .map_err(backend)
+    }
+
+    fn summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+        let id = id.to_string();
+        self.call(move |q| {
+            let id = id.clone();
+            async move {
+                const CTX: &str = "reading a sweep's status";
+                let c = q.connection(CTX).await?;
+                let sql = format!("SELECT {SUMMARY_COLUMNS} FROM sweeps s WHERE s.id = $1");
+                let r = c
+                    .query_opt(&sql, &[&id])
+                    .await
+                    .map_err(|e| q.db_error(CTX, e))?;
+                Ok(r.as_ref().map(to_row))
+            }
+        })
     }
 
     fn row(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
@@ -182,6 +238,10 @@ impl Drop for PgStore {
 
 impl Store for PgStore {
     fn insert_sweep(&self, new: &NewSweep) -> Result<SweepRow, StoreError> {
+        self.insert_sweep_limited(new, u64::MAX)
+    }
+
+    fn insert_sweep_limited(&self, new: &NewSweep, max_open: u64) -> Result<SweepRow, StoreError> {
         let parsed = parse_sweep_doc(&new.spec).map_err(|e| StoreError::Backend(e.to_string()))?;
         let options: SweepOptions = serde_json::from_value(new.options.clone()).unwrap_or_default();
         let sweep = match &parsed {
@@ -210,19 +270,63 @@ impl Store for PgStore {
                 created_unix_s: Some(new.created_unix_s),
             },
         };
-        self.call(move |q| {
+        let limit = (max_open < u64::MAX).then_some(max_open);
+        let full = self.call(move |q| {
             let sweep = sweep.clone();
-            async move { q.submit(&sweep).await }
+            async move { q.submit_limited(&sweep, limit).await }
         })?;
-        self.row(&new.id)?
+        if let Some(open) = full {
+            return Err(StoreError::QueueFull {
+                open,
+                limit: max_open,
+            });
+        }
+        self.summary(&new.id)?
             .ok_or_else(|| StoreError::NotFound(new.id.clone()))
+    }
+
+    fn sweep_summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+        self.summary(id)
+    }
+
+    fn result_doc_text(&self, id: &str) -> Result<Option<String>, StoreError> {
+        let id = id.to_string();
+        self.call(move |q| {
+            let id = id.clone();
+            async move {
+                const CTX: &str = "reading a result document";
+                let c = q.connection(CTX).await?;
+                let r = c
+                    .query_opt("SELECT result_doc FROM sweeps WHERE id = $1", &[&id])
+                    .await
+                    .map_err(|e| q.db_error(CTX, e))?;
+                Ok(r.and_then(|r| r.get::<_, Option<String>>(0)))
+            }
+        })
+    }
+
+    fn next_queued(&self) -> Result<Option<SweepRow>, StoreError> {
+        // Only local sweeps (friction maps) run on the server; workers run the rest.
+        self.call(|q| async move {
+            const CTX: &str = "looking for a local sweep";
+            let c = q.connection(CTX).await?;
+            let sql = format!(
+                "SELECT {ROW_COLUMNS} FROM sweeps s WHERE status = 'queued' AND local
+                 ORDER BY seq LIMIT 1"
+            );
+            let r = c
+                .query_opt(&sql, &[])
+                .await
+                .map_err(|e| q.db_error(CTX, e))?;
+            Ok(r.as_ref().map(to_row))
+        })
     }
 
     fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError> {
         self.call(|q| async move {
             const CTX: &str = "listing sweeps";
             let c = q.connection(CTX).await?;
-            let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps s ORDER BY seq");
+            let sql = format!("SELECT {SUMMARY_COLUMNS} FROM sweeps s ORDER BY seq");
             let rows = c.query(&sql, &[]).await.map_err(|e| q.db_error(CTX, e))?;
             Ok(rows.iter().map(to_row).collect())
         })
@@ -238,7 +342,7 @@ impl Store for PgStore {
         let set_message = change.message.is_some();
         let message = change.message.clone().flatten();
         let run = change.run.as_ref().map(Value::to_string);
-        let doc = change.result_doc.as_ref().map(Value::to_string);
+        let doc = change.result_doc.clone();
         let (started, finished) = (change.started_unix_s, change.finished_unix_s);
         let done = change.done.map(|d| d as i64);
         self.call(move |q| {
@@ -356,6 +460,10 @@ impl Store for PgStore {
                 const CTX: &str = "committing a variant";
                 let mut c = q.connection(CTX).await?;
                 let tx = c.transaction().await.map_err(|e| q.db_error(CTX, e))?;
+                // Commit order = `seq` order within a sweep (see `PgQueue::complete`).
+                super::queue::lock_results(&tx, &id)
+                    .await
+                    .map_err(|e| q.db_error(CTX, e))?;
                 let n = tx
                     .execute(
                         "INSERT INTO variant_results (sweep_id, variant_id, ok, line, worker_id)
