@@ -689,7 +689,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         eval_window: std::time::Duration::from_secs_f64(a.eval_window_ms.clamp(0.0, 1e3) / 1e3),
         eval_backend: a.eval_backend,
         database: a.database,
-        max_request_bytes: bearing_sweep::sweep::budget::parse_size(&a.max_request_memory)
+        max_request_bytes: bearing_sweep::budget::parse_size(&a.max_request_memory)
             .map_err(|e| CliError::input("--max-request-memory", e))?,
         max_states_in_flight: a.max_states_in_flight,
         header_timeout: std::time::Duration::from_secs_f64(a.header_timeout_s.clamp(0.1, 3600.0)),

@@ -11,7 +11,7 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use super::error::ApiError;
 use super::ServiceConfig;
-use crate::sweep::budget::show_bytes;
+use crate::budget::show_bytes;
 
 /// Peak memory per evaluated state of `/api/eval`, bytes: the request's parsed states,
 /// the coalesced call's input text, the backend's results, the answer as text and as
