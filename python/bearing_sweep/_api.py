@@ -373,7 +373,7 @@ def coefficients(
     if speed is not None:
         doc["speed"] = speed
     if speeds is not None:
-        doc["speeds"] = list(np.asarray(list(speeds), dtype=np.float64)) if not isinstance(speeds, (list, tuple)) else list(speeds)
+        doc["speeds"] = list(speeds)
     if load is not None:
         doc["load"] = list(load)
     text, notices = _core.coefficients(_dumps(doc), backend, float(accuracy))
@@ -425,10 +425,6 @@ def _flatten(value: Any, prefix: str, row: dict) -> None:
             _flatten(v, f"{prefix}.{k}" if prefix else k, row)
     else:
         row[prefix] = value
-
-
-def _spec_name(spec: Mapping[str, Any]) -> str:
-    return "sweep.json"
 
 
 def run(
