@@ -10,7 +10,8 @@ use bearing_sweep::bench::{
     BenchAllOptions, BenchLoadsOptions, BenchRotorOptions,
 };
 use bearing_sweep::cli::{
-    coefficients_json_with, ross_csv, stability_scene_file, CoefficientOptions, StabilityOptions,
+    coefficients_json_with, ross_csv, ross_toml, stability_scene_file, CoefficientOptions,
+    RossVersion, StabilityOptions, ROSS_TILT_NOTICE,
 };
 use bearing_sweep::cli::{
     eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
@@ -272,7 +273,9 @@ struct SubmitArgs {
 struct CoefficientsArgs {
     /// Input JSON file, `-` for standard input.
     file: String,
-    /// Output: `json` or `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy).
+    /// Output: `json`, `ross-csv` (speed, kxx, kxy, kyx, kyy, cxx, cxy, cyx, cyy) or
+    /// `ross-toml` (a file ROSS 2.x's `BearingElement.load` reads, with load, ε and geometry;
+    /// `ross3-toml` for ROSS 3.x).
     #[arg(long, default_value = "json")]
     format: String,
     /// Backend: cpu, gpu or auto.
@@ -558,10 +561,13 @@ fn print_lines(lines: Vec<String>) {
 
 /// `coefficients`: linearised K and C, JSON (or ROSS CSV) on stdout.
 fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
-    if a.format != "json" && a.format != "ross-csv" {
+    if !["json", "ross-csv", "ross-toml", "ross3-toml"].contains(&a.format.as_str()) {
         return Err(CliError::input(
             "--format",
-            format!("`{}`: expected json or ross-csv", a.format),
+            format!(
+                "`{}`: expected json, ross-csv, ross-toml or ross3-toml",
+                a.format
+            ),
         ));
     }
     let text = read_input(&a.file)?;
@@ -575,8 +581,15 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
+    if a.format.starts_with("ross-") {
+        eprintln!("{ROSS_TILT_NOTICE}");
+    }
     if a.format == "ross-csv" {
         print_text(&ross_csv(&out))
+    } else if a.format == "ross-toml" {
+        print_text(&ross_toml(&out, RossVersion::V2))
+    } else if a.format == "ross3-toml" {
+        print_text(&ross_toml(&out, RossVersion::V3))
     } else {
         print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
     }

@@ -1,6 +1,6 @@
 //! `bearing-sweep coefficients`: the linearised 4×4 stiffness and damping of a bearing at
 //! its static equilibrium under a load (one speed or a list), or at a given journal state;
-//! also as ROSS `BearingElement` rows.
+//! also as ROSS `BearingElement` rows (CSV) or a TOML file `ross.BearingElement.load` reads.
 
 use serde_json::{json, Map, Value};
 
@@ -314,4 +314,219 @@ pub fn ross_csv(out: &Value) -> String {
         s.push('\n');
     }
     s
+}
+
+/// What ROSS's `BearingElement` cannot hold, said on stderr with every ROSS export.
+pub const ROSS_TILT_NOTICE: &str = "notice: ROSS's BearingElement holds the x-y force block only (kxx..cyy); the tilt blocks of K and C (film moments against tilt and the force-tilt coupling, rows and columns tilt_x, tilt_y) are not part of a ROSS bearing and are left out of its model (the TOML export records them under `bearing_sweep`)";
+
+/// The TOML table ROSS's `BearingElement.load` reads (the first table of the file).
+pub const ROSS_TOML_TABLE: &str = "BearingElement_bearing_sweep";
+
+/// Which ROSS the TOML export is for: the rotor-speed argument of `BearingElement` is
+/// `frequency` in ross-rotordynamics 2.x (the last release for Python < 3.13) and `speed`
+/// in 3.x, where `frequency` means the whirl frequency (a 2.x file read by ROSS 3 would
+/// be silently wrong, so the two are separate formats).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RossVersion {
+    /// ross-rotordynamics 2.x: `frequency` = rotor speed (`--format ross-toml`).
+    V2,
+    /// ross-rotordynamics 3.x: `speed` = rotor speed (`--format ross3-toml`).
+    V3,
+}
+
+impl RossVersion {
+    /// The constructor argument that holds the rotor speeds.
+    pub fn speed_key(self) -> &'static str {
+        match self {
+            RossVersion::V2 => "frequency",
+            RossVersion::V3 => "speed",
+        }
+    }
+}
+
+/// A `coefficients` output as a TOML file in the layout of ross-rotordynamics
+/// `Element.save` (one table `[BearingElement_<tag>]` holding the constructor's arguments;
+/// `BearingElement.load(file)` builds the element from the file's first table). The
+/// speeds go to the rotor-speed argument of `version` (rad/s). Everything
+/// ROSS has no argument for (static load, equilibrium, ε, attitude angle, geometry, the
+/// full 4×4 K and C with their tilt blocks and error estimates) is recorded in the
+/// sub-table `bearing_sweep`, which ROSS passes to the constructor's `**kwargs` and
+/// ignores.
+pub fn ross_toml(out: &Value, version: RossVersion) -> String {
+    let single = [out.clone()];
+    let points: &[Value] = match out.get("points").and_then(Value::as_array) {
+        Some(p) => p,
+        None => &single,
+    };
+    let rows: Vec<&Vec<Value>> = out["ross"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_array)
+        .collect();
+    let column = |j: usize| -> Value {
+        Value::Array(
+            rows.iter()
+                .map(|r| r.get(j).cloned().unwrap_or(Value::Null))
+                .collect(),
+        )
+    };
+    let per_point =
+        |f: &dyn Fn(&Value) -> Value| -> Value { Value::Array(points.iter().map(f).collect()) };
+    let mut s = String::new();
+    s.push_str(
+        "# ROSS bearing from `bearing-sweep coefficients --format ross-toml`.\n\
+         # Python: brg = ross.BearingElement.load(\"this.toml\"); brg.n = <node>  (n is 0 here)\n\
+         # Frame: x, y across the bore, spin from +x toward +y (ROSS's positive spin about +z);\n\
+         # K = -dW/dq, C = -dW/dq' (W the film load on the journal); SI units.\n\
+         # ROSS's BearingElement holds the x-y force block only. The tilt blocks of our 4x4 K and C\n\
+         # (film moments against tilt, force-tilt coupling) cannot be held by it and are NOT used by\n\
+         # ROSS; they are recorded in [",
+    );
+    s.push_str(ROSS_TOML_TABLE);
+    s.push_str(".bearing_sweep] with the static load, ε, attitude angle and geometry.\n");
+    s.push_str(&match version {
+        RossVersion::V2 => "# Layout of ross-rotordynamics 2.x: `frequency` is the ROTOR SPEED (rad/s) at which each\n\
+                            # coefficient set was linearised (for ROSS 3 use --format ross3-toml).\n"
+            .to_string(),
+        RossVersion::V3 => "# Layout of ross-rotordynamics 3.x: `speed` is the rotor speed (rad/s) at which each\n\
+                            # coefficient set was linearised (for ROSS 2 use --format ross-toml).\n"
+            .to_string(),
+    });
+    s.push('[');
+    s.push_str(ROSS_TOML_TABLE);
+    s.push_str("]\nn = 0\n");
+    s.push_str(&format!(
+        "{} = {}\n",
+        version.speed_key(),
+        toml_value(&column(0))
+    ));
+    for (j, name) in ROSS_COLUMNS.iter().enumerate().skip(1) {
+        s.push_str(&format!("{name} = {}\n", toml_value(&column(j))));
+    }
+    let mut meta = Map::new();
+    meta.insert(
+        "note".into(),
+        json!("read by bearing-sweep, ignored by ROSS (passed to BearingElement's **kwargs)"),
+    );
+    for key in [
+        "frame",
+        "signs",
+        "units",
+        "method",
+        "accuracy",
+        "clearance_convention",
+    ] {
+        if let Some(v) = out.get(key) {
+            meta.insert(key.into(), v.clone());
+        }
+    }
+    meta.insert("speed_rad_s".into(), column(0));
+    meta.insert("load_N".into(), per_point(&|p| p["load"].clone()));
+    for (key, field) in [
+        ("eccentricity_ratio", "eccentricity_ratio"),
+        ("eccentricity_ratio_max_end", "eccentricity_ratio_max_end"),
+        ("attitude_angle_rad", "attitude_angle_rad"),
+        ("attitude_angle_deg", "attitude_angle_deg"),
+        ("journal_x_m", "x"),
+        ("journal_y_m", "y"),
+        ("load_residual_N", "load_residual"),
+    ] {
+        meta.insert(key.into(), per_point(&|p| p["equilibrium"][field].clone()));
+    }
+    for key in [
+        "sommerfeld",
+        "sommerfeld_classical",
+        "friction_coefficient",
+        "friction_torque",
+        "power_loss",
+    ] {
+        meta.insert(key.into(), per_point(&|p| p[key].clone()));
+    }
+    meta.insert(
+        "h_min_m".into(),
+        per_point(&|p| p["loads"]["h_min"].clone()),
+    );
+    meta.insert("order".into(), json!(ORDER));
+    for key in ["stiffness", "damping", "stiffness_error", "damping_error"] {
+        meta.insert(key.into(), per_point(&|p| p[key].clone()));
+    }
+    if let Some(b) = out.get("bearing") {
+        meta.insert("bearing".into(), b.clone());
+    }
+    s.push_str(&format!("\n[{ROSS_TOML_TABLE}.bearing_sweep]\n"));
+    for (k, v) in &meta {
+        // A key whose values are all missing (no load or attitude for a given state) is
+        // left out: TOML has no null.
+        if is_all_null(v) {
+            continue;
+        }
+        s.push_str(&format!("{} = {}\n", toml_key(k), toml_value(v)));
+    }
+    s
+}
+
+fn is_all_null(v: &Value) -> bool {
+    match v {
+        Value::Null => true,
+        Value::Array(a) => a.iter().all(is_all_null),
+        _ => false,
+    }
+}
+
+fn toml_key(k: &str) -> String {
+    if !k.is_empty()
+        && k.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        k.to_string()
+    } else {
+        toml_string(k)
+    }
+}
+
+fn toml_string(text: &str) -> String {
+    let mut s = String::with_capacity(text.len() + 2);
+    s.push('"');
+    for c in text.chars() {
+        match c {
+            '"' => s.push_str("\\\""),
+            '\\' => s.push_str("\\\\"),
+            '\n' => s.push_str("\\n"),
+            '\t' => s.push_str("\\t"),
+            c if (c as u32) < 0x20 || c == '\u{7f}' => s.push_str(&format!("\\u{:04X}", c as u32)),
+            c => s.push(c),
+        }
+    }
+    s.push('"');
+    s
+}
+
+/// A JSON value as a TOML value: numbers keep every bit (`{:?}` is Rust's shortest
+/// round-trip form, always with a `.` or an exponent for floats), objects become inline
+/// tables, `null` (only inside arrays here) becomes `nan`.
+fn toml_value(v: &Value) -> String {
+    match v {
+        Value::Null => "nan".into(),
+        Value::Bool(b) => b.to_string(),
+        Value::Number(n) => match (n.as_i64(), n.as_u64(), n.as_f64()) {
+            (Some(i), _, _) if !n.is_f64() => i.to_string(),
+            (_, Some(u), _) if !n.is_f64() => u.to_string(),
+            (_, _, Some(x)) if x.is_finite() => format!("{x:?}"),
+            _ => "nan".into(),
+        },
+        Value::String(t) => toml_string(t),
+        Value::Array(a) => {
+            let items: Vec<String> = a.iter().map(toml_value).collect();
+            format!("[{}]", items.join(", "))
+        }
+        Value::Object(m) => {
+            let items: Vec<String> = m
+                .iter()
+                .filter(|(_, v)| !v.is_null())
+                .map(|(k, v)| format!("{} = {}", toml_key(k), toml_value(v)))
+                .collect();
+            format!("{{ {} }}", items.join(", "))
+        }
+    }
 }

@@ -11,7 +11,8 @@ mod submit;
 mod sweep;
 
 pub use coefficients::{
-    coefficients_json, coefficients_json_with, ross_csv, CoefficientOptions, ROSS_COLUMNS,
+    coefficients_json, coefficients_json_with, ross_csv, ross_toml, CoefficientOptions,
+    RossVersion, ROSS_COLUMNS, ROSS_TILT_NOTICE, ROSS_TOML_TABLE,
 };
 pub use eval::{
     eval_file, eval_json, eval_json_pooled, eval_stream, EvalOptions, EvaluatorPool, EVAL_CHUNK,
