@@ -18,7 +18,8 @@
 //! 16 of the 256, to keep the reference affordable); it is written once to
 //! `$CARGO_TARGET_DIR/workload-ref-NAME.json` and reused.
 //!
-//! Run (harness-less): `cargo bench --bench workloads -- NAME [--method auto] [--no-error]`.
+//! Run (harness-less): `cargo bench --bench workloads -- NAME [--method auto] [--rtol X]
+//! [--no-error]` (`--rtol`: `rtol = atol = X` instead of 1e-6).
 //! `--no-error` skips the reference (for instruction counts under callgrind).
 
 use std::time::Instant;
@@ -129,11 +130,21 @@ fn main() {
         .map(|w| w[1].clone())
         .unwrap_or_else(|| "dopri5".into());
     let no_error = args.iter().any(|a| a == "--no-error");
+    // `--rtol X`: rtol = atol = X instead of the scenes' 1e-6 (for comparisons at equal
+    // error).
+    let tol: Option<f64> = args
+        .windows(2)
+        .find(|w| w[0] == "--rtol")
+        .map(|w| w[1].parse().expect("--rtol takes a number"));
     let mut scenes = workload(&name);
     let m: Method =
         serde_json::from_value(serde_json::Value::String(method.clone())).expect("a method name");
     for s in &mut scenes {
         s.integrator.method = m;
+        if let Some(t) = tol {
+            s.integrator.rtol = t;
+            s.integrator.atol = t;
+        }
     }
     let t0 = Instant::now();
     let rs = run(&scenes, 1e-6);
@@ -174,7 +185,8 @@ fn main() {
     let reference: Vec<Track> = match std::fs::read_to_string(&path) {
         Ok(text) => serde_json::from_str(&text).expect("a reference file"),
         Err(_) => {
-            let mut tight: Vec<Scene> = pick.iter().map(|&k| scenes[k].clone()).collect();
+            // The scenes as the workload defines them, at a tight tolerance.
+            let mut tight: Vec<Scene> = pick.iter().map(|&k| workload(&name)[k].clone()).collect();
             for s in &mut tight {
                 s.integrator.method = Method::Dopri5;
                 s.integrator.rtol = 1e-11;

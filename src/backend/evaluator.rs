@@ -198,6 +198,8 @@ pub struct LoadEvaluator {
     /// Per film state (in request order): its request, rate scale and packed index.
     slots: Vec<(usize, f64, usize)>,
     bearing_ok: Vec<Result<(), StateFault>>,
+    /// Per bearing of the current call: referred to by a request.
+    bearing_used: Vec<bool>,
     prepared: Vec<Prepared>,
     seen: KeyMap,
     integrals: Vec<FilmIntegrals>,
@@ -239,6 +241,7 @@ impl LoadEvaluator {
             packed: Vec::new(),
             slots: Vec::new(),
             bearing_ok: Vec::new(),
+            bearing_used: Vec::new(),
             prepared: Vec::new(),
             seen: KeyMap::default(),
             integrals: Vec::new(),
@@ -315,13 +318,28 @@ impl LoadEvaluator {
         let mut occurrence: std::collections::HashMap<u32, u32> = Default::default();
         self.stats.calls += 1;
         self.stats.states += requests.len() as u64;
+        // Validate only the bearings this call's requests refer to: a rotor batch passes
+        // every variant's bearings on every call, and once most variants have ended
+        // (a sweep's slowest variant alone) validating all of them cost more than the
+        // loads (5 % of `sweeps/clearance-viscosity.json`; BENCHMARKS.md "Issue 28").
+        self.bearing_used.clear();
+        self.bearing_used.resize(bearings.len(), false);
+        for req in requests {
+            if let Some(u) = self.bearing_used.get_mut(req.bearing as usize) {
+                *u = true;
+            }
+        }
         self.bearing_ok.clear();
-        self.bearing_ok.extend(bearings.iter().map(|b| {
-            b.validate().map_err(|e| StateFault::InvalidBearing {
-                field: e.field,
-                reason: e.reason,
-            })
-        }));
+        self.bearing_ok
+            .extend(bearings.iter().zip(&self.bearing_used).map(|(b, &used)| {
+                if !used {
+                    return Ok(());
+                }
+                b.validate().map_err(|e| StateFault::InvalidBearing {
+                    field: e.field,
+                    reason: e.reason,
+                })
+            }));
         let bearing_ok = &self.bearing_ok;
         let prepare = |req: &LoadRequest| -> Prepared {
             let ok = bearing_ok.get(req.bearing as usize).copied().unwrap_or(Err(

@@ -260,6 +260,7 @@ fn start_directions() -> &'static [[(f64, f64); 4]; 5] {
 /// loops unroll and the roots stay in registers; the arithmetic, and its order, is that of
 /// the generic loop (bit-identical results).
 #[inline]
+#[allow(clippy::needless_range_loop)] // the loops mirror the generic algorithm's indices
 fn durand_kerner<const N: usize>(a: &[f64; 4], roots: &mut [(f64, f64); 4]) -> usize {
     let mut r = [(0.0, 0.0); N];
     r.copy_from_slice(&roots[..N]);
@@ -316,8 +317,8 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     }
     let lead = c[n];
     let mut a = [0.0; 4];
-    for k in 0..n {
-        a[k] = c[k] / lead;
+    for (ak, ck) in a.iter_mut().zip(&c).take(n) {
+        *ak = ck / lead;
     }
     // Start on a circle of radius ~ the roots' geometric mean, at angles 0.4 + 2πk/n.
     let radius = (a[0].abs() as f32).powf(1.0 / n as f32) as f64;

@@ -73,11 +73,16 @@ const FAC_MAX: f64 = 10.0;
 /// Step shrink after a right-hand-side fault in a stage.
 const FAULT_SHRINK: f64 = 0.25;
 
-/// Stiffness test of Hairer's DOPRI5 (Hairer-Wanner, Solving ODEs II, IV.2): `h |λ|`,
+/// Stiffness test after Hairer's DOPRI5 (Hairer-Wanner, Solving ODEs II, IV.2): `h |λ|`,
 /// estimated per accepted step as `h ‖k7 − k6‖ / ‖y7 − y6‖` (two evaluations at `t + h`),
-/// above this value means the step sits on the stability boundary of the method (about
-/// 3.3 on the negative real axis)...
-const STIFF_H_LAMBDA: f64 = 3.25;
+/// above this value means the step is held near the stability boundary of the method
+/// (about 3.3 on the negative real axis). Hairer uses 3.25, on the boundary; with the
+/// rotor's error control on the journal centres the stiff variants' steps sit just under
+/// it (h |λ| ≈ 3.0, accuracy of the stiff tilt mode near instability: the clearance x
+/// viscosity sweep's δ = 1e-4 m, μ = 0.1 Pa·s variant takes 22 948 steps at rtol 1e-6,
+/// 2.18e-5 s each, against 20 871 on the boundary), so the test counts steps within
+/// 25 % of it...
+const STIFF_H_LAMBDA: f64 = 2.5;
 /// ... for this many accepted steps without [`NONSTIFF_RESET`] steps below it in
 /// between: the variant is stiff.
 const STIFF_STEPS: u32 = 15;
@@ -124,6 +129,22 @@ fn h_lambda(h: f64, k6: &[f64], k7: &[f64], y6: &[f64], y7: &[f64], scale: &[f64
     }
 }
 
+/// The larger of the estimates in the natural scales and in the error weights' scales:
+/// each is a Rayleigh-type lower bound of the stiffest rate, seeing best the modes its
+/// weights emphasise.
+#[allow(clippy::too_many_arguments)]
+fn h_lambda_max(
+    h: f64,
+    k6: &[f64],
+    k7: &[f64],
+    y6: &[f64],
+    y7: &[f64],
+    natural: &[f64],
+    error: &[f64],
+) -> f64 {
+    h_lambda(h, k6, k7, y6, y7, natural).max(h_lambda(h, k6, k7, y6, y7, error))
+}
+
 /// Integrates the batch with dopri5. With `switch` (method `auto`), a variant found stiff
 /// by Hairer's test is taken out of the dopri5 batch after that step (its samples so far
 /// recorded) and continued by radau5 ([`super::radau::continue_from`]), all handed-over
@@ -157,6 +178,12 @@ pub(crate) fn run<S: BatchSystem>(
     let mut handed: Vec<usize> = Vec::new();
     // Stage 6's input (the point of k6), for the stiffness test.
     let mut ysti = if switch { vec![0.0; n * d] } else { Vec::new() };
+    let mut stiff_scale = if switch { vec![1.0; n * d] } else { Vec::new() };
+    if switch {
+        for id in 0..n {
+            sys.stiffness_scales(id, &mut stiff_scale[id * d..(id + 1) * d]);
+        }
+    }
 
     for id in 0..n {
         if tracks[id].check_settings(&settings[id]) && finite(&y[id * d..(id + 1) * d]) {
@@ -341,12 +368,13 @@ pub(crate) fn run<S: BatchSystem>(
                     end(tr, status, start);
                     ended.push(id);
                 } else if switch && !fixed {
-                    let hl = h_lambda(
+                    let hl = h_lambda_max(
                         h,
                         &k[5][r.clone()],
                         &k[6][r.clone()],
                         &ysti[r.clone()],
                         &ynew[r.clone()],
+                        &stiff_scale[r.clone()],
                         &scale[r.clone()],
                     );
                     if stiff_count[id].observe(hl) {

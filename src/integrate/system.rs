@@ -16,8 +16,8 @@ pub enum Method {
     /// forward-difference Jacobians (one batched call per state component), cubic
     /// collocation dense output.
     Radau5,
-    /// Dopri5 with Hairer's stiffness test per variant: a variant whose steps sit on
-    /// dopri5's stability boundary (15 accepted steps with `h |λ| > 3.25`) is handed to
+    /// Dopri5 with Hairer's stiffness test per variant: a variant whose steps sit near
+    /// dopri5's stability boundary (15 accepted steps with `h |λ| > 2.5`) is handed to
     /// radau5 from that point on ([`Stats::stiff_switch_time`]); the others stay dopri5,
     /// step for step the same as [`Method::Dopri5`].
     Auto,
@@ -149,6 +149,13 @@ pub trait BatchSystem {
     /// Typical magnitude of each component of variant `id` (the unit of `atol`).
     fn scales(&self, _id: usize, out: &mut [f64]) {
         out.fill(1.0);
+    }
+
+    /// Magnitudes in which [`Method::Auto`]'s stiffness test measures `‖Δf‖ / ‖Δy‖` for
+    /// variant `id`: the components' natural sizes, so that the stiffest mode shows
+    /// whatever the error weights emphasise. Default: [`BatchSystem::scales`].
+    fn stiffness_scales(&self, id: usize, out: &mut [f64]) {
+        self.scales(id, out);
     }
 
     /// Derivatives of `ys.len() / dim` packed states; entry `k` belongs to variant

@@ -441,6 +441,10 @@ impl BatchSystem for RotorBatch<'_, '_> {
         out.copy_from_slice(&self.models[id].scales);
     }
 
+    fn stiffness_scales(&self, id: usize, out: &mut [f64]) {
+        out.copy_from_slice(&self.models[id].natural_scales);
+    }
+
     fn eval(
         &mut self,
         ids: &[usize],
