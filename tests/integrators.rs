@@ -444,3 +444,116 @@ fn the_step_budget_ends_a_variant_with_max_steps() {
         }
     }
 }
+
+/// Prothero-Robinson `y' = -p (y - cos t) - sin t`, exact `y = cos t` from `y(0) = 1`;
+/// stiff for large `p` (eigenvalue `-p`).
+fn prothero(t: f64, y: &[f64], p: f64, dy: &mut [f64]) -> Result<(), String> {
+    dy[0] = -p * (y[0] - t.cos()) - t.sin();
+    Ok(())
+}
+
+#[test]
+fn auto_switches_the_stiff_variant_to_radau5_and_leaves_the_others_dopri5() {
+    // Variant 0 is mild (p = 1), variant 1 stiff (p = 1e5: dopri5 would need
+    // ~2 * 1e5 / 3.3 = 60 000 stability-limited steps over 2 s).
+    let ps = vec![1.0, 1e5];
+    let set: Vec<Settings> = ps
+        .iter()
+        .map(|_| settings(Method::Auto, 2.0, 0.01, 1e-6, None))
+        .collect();
+    let mut auto = Ode::new(1, ps.clone(), prothero);
+    let out = run_batch(Method::Auto, &mut auto, &[1.0, 1.0], &set);
+    let mut plain = Ode::new(1, ps.clone(), prothero);
+    let set_d: Vec<Settings> = ps
+        .iter()
+        .map(|_| settings(Method::Dopri5, 2.0, 0.01, 1e-6, None))
+        .collect();
+    let out_d = run_batch(Method::Dopri5, &mut plain, &[1.0, 1.0], &set_d);
+    // Radau5 alone on the same batch: the error the stiff variant may have after the
+    // hand-over. It is far above rtol at the samples (7.9e-4 measured): radau5's steps grow
+    // to ~0.1 s on the smooth solution and its samples come from the cubic collocation
+    // polynomial, whose interpolation error between step ends is O(h^4). A broken
+    // hand-over (wrong state, time or samples) gives errors of order one.
+    let mut radau = Ode::new(1, ps.clone(), prothero);
+    let set_r: Vec<Settings> = ps
+        .iter()
+        .map(|_| settings(Method::Radau5, 2.0, 0.01, 1e-6, None))
+        .collect();
+    run_batch(Method::Radau5, &mut radau, &[1.0, 1.0], &set_r);
+    let max_err = |samples: &[(f64, Vec<f64>)]| {
+        samples
+            .iter()
+            .map(|(t, y)| (y[0] - t.cos()).abs())
+            .fold(0.0, f64::max)
+    };
+    for id in 0..2 {
+        assert_eq!(out[id].0, Status::Finished, "auto variant {id}");
+        assert_eq!(out_d[id].0, Status::Finished, "dopri5 variant {id}");
+        assert_eq!(
+            auto.samples[id].len(),
+            201,
+            "variant {id}: samples k * 0.01 <= 2"
+        );
+        // rtol = atol = 1e-6 per step; globally a few times that, or radau5's own error.
+        let tol = 1e-5f64.max(3.0 * max_err(&radau.samples[id]));
+        for (k, (t, y)) in auto.samples[id].iter().enumerate() {
+            let err = (y[0] - t.cos()).abs();
+            assert!(
+                err < tol,
+                "auto variant {id} sample {k} t={t}: got {}, want {}, tol {tol:e}",
+                y[0],
+                t.cos()
+            );
+        }
+        eprintln!(
+            "variant {id}: auto max error {:.2e}, radau5 alone {:.2e}, dopri5 alone {:.2e}",
+            max_err(&auto.samples[id]),
+            max_err(&radau.samples[id]),
+            max_err(&plain.samples[id])
+        );
+    }
+    // The mild variant never switched and ran exactly as under dopri5.
+    assert_eq!(out[0].1.stiff_switch_time, None);
+    assert_eq!(
+        auto.samples[0], plain.samples[0],
+        "mild variant: auto != dopri5"
+    );
+    assert_eq!(out[0].1.rhs_evaluations, out_d[0].1.rhs_evaluations);
+    // The stiff one switched early (15 stability-limited steps of ~3e-5) and then cost
+    // far fewer evaluations than dopri5's stability-limited march.
+    let t_switch = out[1]
+        .1
+        .stiff_switch_time
+        .expect("the stiff variant switched");
+    assert!(t_switch > 0.0 && t_switch < 0.01, "switched at {t_switch}");
+    let (ea, ed) = (out[1].1.rhs_evaluations, out_d[1].1.rhs_evaluations);
+    assert!(
+        ed > 200_000 && ea * 20 < ed,
+        "stiff variant: auto {ea} evaluations, dopri5 {ed}"
+    );
+    // Samples continue without gap or repeat across the hand-over.
+    for (k, (t, _)) in auto.samples[1].iter().enumerate() {
+        assert!((t - k as f64 * 0.01).abs() < 1e-12, "sample {k} at {t}");
+    }
+}
+
+#[test]
+fn auto_on_a_non_stiff_batch_is_dopri5_step_for_step() {
+    let ws = vec![2.0 * std::f64::consts::PI, 3.0, 7.5];
+    let y0: Vec<f64> = ws.iter().flat_map(|_| [1.0, 0.0]).collect();
+    let mut runs = Vec::new();
+    for method in [Method::Dopri5, Method::Auto] {
+        let mut sys = Ode::new(2, ws.clone(), spring);
+        let set: Vec<Settings> = ws
+            .iter()
+            .map(|_| settings(method, 2.0, 0.013, 1e-8, None))
+            .collect();
+        let out = run_batch(method, &mut sys, &y0, &set);
+        runs.push((out, sys.samples));
+    }
+    for id in 0..ws.len() {
+        assert_eq!(runs[1].0[id].1.stiff_switch_time, None, "variant {id}");
+        assert_eq!(runs[0].0[id].1.steps, runs[1].0[id].1.steps, "variant {id}");
+        assert_eq!(runs[0].1[id], runs[1].1[id], "variant {id}: samples differ");
+    }
+}

@@ -1,6 +1,8 @@
 //! The batched front end every caller uses: validate and pack on the host, one backend
 //! call for all good states, CPU recomputation of anything non-finite, loads out.
 
+use std::hash::BuildHasherDefault;
+
 use rayon::prelude::*;
 
 use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
@@ -144,6 +146,39 @@ impl EvaluatorOptions {
     }
 }
 
+/// Hasher of the deduplication keys (bit patterns of packed states): a multiply-rotate
+/// mix of each 8-byte word (the FxHash scheme), several times cheaper than the default
+/// SipHash on 64-byte keys. Keys are our own kernel inputs, not adversarial, so no
+/// resistance to chosen collisions is needed; equal keys still compare in full.
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl std::hash::Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(w));
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        // FxHash's odd multiplier (a 64-bit approximation of 2^64 / golden ratio).
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+/// The deduplication map: packed-state key to its index in the call's packed list.
+type KeyMap = std::collections::HashMap<[u64; 8], usize, BuildHasherDefault<KeyHasher>>;
+
 /// Bit pattern of a packed state: the key of identical kernel inputs.
 fn key_of(p: &PackedState) -> [u64; 8] {
     let mut k = [0u64; 8];
@@ -163,8 +198,10 @@ pub struct LoadEvaluator {
     /// Per film state (in request order): its request, rate scale and packed index.
     slots: Vec<(usize, f64, usize)>,
     bearing_ok: Vec<Result<(), StateFault>>,
+    /// Per bearing of the current call: referred to by a request.
+    bearing_used: Vec<bool>,
     prepared: Vec<Prepared>,
-    seen: std::collections::HashMap<[u64; 8], usize>,
+    seen: KeyMap,
     integrals: Vec<FilmIntegrals>,
     bad: Vec<bool>,
     notices: Vec<String>,
@@ -204,8 +241,9 @@ impl LoadEvaluator {
             packed: Vec::new(),
             slots: Vec::new(),
             bearing_ok: Vec::new(),
+            bearing_used: Vec::new(),
             prepared: Vec::new(),
-            seen: std::collections::HashMap::new(),
+            seen: KeyMap::default(),
             integrals: Vec::new(),
             bad: Vec::new(),
             notices: Vec::new(),
@@ -280,13 +318,28 @@ impl LoadEvaluator {
         let mut occurrence: std::collections::HashMap<u32, u32> = Default::default();
         self.stats.calls += 1;
         self.stats.states += requests.len() as u64;
+        // Validate only the bearings this call's requests refer to: a rotor batch passes
+        // every variant's bearings on every call, and once most variants have ended
+        // (a sweep's slowest variant alone) validating all of them cost more than the
+        // loads (5 % of `sweeps/clearance-viscosity.json`; BENCHMARKS.md "Issue 28").
+        self.bearing_used.clear();
+        self.bearing_used.resize(bearings.len(), false);
+        for req in requests {
+            if let Some(u) = self.bearing_used.get_mut(req.bearing as usize) {
+                *u = true;
+            }
+        }
         self.bearing_ok.clear();
-        self.bearing_ok.extend(bearings.iter().map(|b| {
-            b.validate().map_err(|e| StateFault::InvalidBearing {
-                field: e.field,
-                reason: e.reason,
-            })
-        }));
+        self.bearing_ok
+            .extend(bearings.iter().zip(&self.bearing_used).map(|(b, &used)| {
+                if !used {
+                    return Ok(());
+                }
+                b.validate().map_err(|e| StateFault::InvalidBearing {
+                    field: e.field,
+                    reason: e.reason,
+                })
+            }));
         let bearing_ok = &self.bearing_ok;
         let prepare = |req: &LoadRequest| -> Prepared {
             let ok = bearing_ok.get(req.bearing as usize).copied().unwrap_or(Err(

@@ -145,11 +145,16 @@ impl Accuracy {
 /// eccentricity vector `(ex, ey)` (`|ε| < 1`) and rate vector `(rx, ry)`.
 #[inline]
 pub fn slice_integrals(ex: f64, ey: f64, rx: f64, ry: f64) -> [f64; 2] {
-    let r = rx.hypot(ry);
+    // Lengths as `sqrt(x² + y²)`, not `hypot` (a libm call costing about as much as the
+    // rest of the slice's arithmetic but one `atan2`): the kernel's inputs are of order
+    // one (`|ε| < 1`, rates scaled to at most 1), so the squares can neither overflow nor
+    // lose anything that matters (a component below 1e-154 contributes below rounding).
+    // Within 1 ulp of `hypot`; the WGSL kernel computes the same way.
+    let r = (rx * rx + ry * ry).sqrt();
     if r == 0.0 {
         return [0.0, 0.0];
     }
-    let eps = ex.hypot(ey);
+    let eps = (ex * ex + ey * ey).sqrt();
     let (cphi, sphi) = if eps > 0.0 {
         (ex / eps, ey / eps)
     } else {
@@ -233,6 +238,66 @@ pub fn quartic_roots(c: [f64; 5]) -> ([(f64, f64); 4], usize) {
     (roots, n)
 }
 
+/// Durand-Kerner start points: for degree `n` (1..=4), `(cos, sin)` of the angles
+/// `0.4 + 2πk/n`, `k < n`, computed once (they are the same for every state; computing them
+/// per state cost a `sincos` per root, ~5 % of a rotor run's instructions).
+fn start_directions() -> &'static [[(f64, f64); 4]; 5] {
+    static TABLE: std::sync::OnceLock<[[(f64, f64); 4]; 5]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [[(0.0, 0.0); 4]; 5];
+        for (n, row) in t.iter_mut().enumerate().skip(1) {
+            for (k, dir) in row.iter_mut().enumerate().take(n) {
+                let ang = 0.4 + 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+                *dir = (ang.cos(), ang.sin());
+            }
+        }
+        t
+    })
+}
+
+/// Durand-Kerner sweeps on the monic polynomial of degree `N` with lower coefficients
+/// `a[..N]`, from `roots[..N]`; returns the sweeps taken. Written for a fixed degree so the
+/// loops unroll and the roots stay in registers; the arithmetic, and its order, is that of
+/// the generic loop (bit-identical results).
+#[inline]
+#[allow(clippy::needless_range_loop)] // the loops mirror the generic algorithm's indices
+fn durand_kerner<const N: usize>(a: &[f64; 4], roots: &mut [(f64, f64); 4]) -> usize {
+    let mut r = [(0.0, 0.0); N];
+    r.copy_from_slice(&roots[..N]);
+    let mut sweeps = ROOT_ITERATIONS;
+    for sweep in 1..=ROOT_ITERATIONS {
+        let mut moved: f64 = 0.0;
+        for i in 0..N {
+            let z = r[i];
+            // p(z), monic, by Horner.
+            let mut p = (1.0, 0.0);
+            for k in (0..N).rev() {
+                p = (p.0 * z.0 - p.1 * z.1 + a[k], p.0 * z.1 + p.1 * z.0);
+            }
+            let mut q = (1.0, 0.0);
+            for (j, w) in r.iter().enumerate() {
+                if j != i {
+                    let d = (z.0 - w.0, z.1 - w.1);
+                    q = (q.0 * d.0 - q.1 * d.1, q.0 * d.1 + q.1 * d.0);
+                }
+            }
+            let den = q.0 * q.0 + q.1 * q.1;
+            if den == 0.0 {
+                continue;
+            }
+            let step = ((p.0 * q.0 + p.1 * q.1) / den, (p.1 * q.0 - p.0 * q.1) / den);
+            r[i] = (z.0 - step.0, z.1 - step.1);
+            moved = moved.max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
+        }
+        if moved < 1e-13 {
+            sweeps = sweep;
+            break;
+        }
+    }
+    roots[..N].copy_from_slice(&r);
+    sweeps
+}
+
 /// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
 pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     let mut roots = [(0.0, 0.0); 4];
@@ -251,7 +316,10 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
         return (roots, 0, 0);
     }
     let lead = c[n];
-    let a: Vec<f64> = (0..n).map(|k| c[k] / lead).collect();
+    let mut a = [0.0; 4];
+    for (ak, ck) in a.iter_mut().zip(&c).take(n) {
+        *ak = ck / lead;
+    }
     // Start on a circle of radius ~ the roots' geometric mean, at angles 0.4 + 2πk/n.
     let radius = (a[0].abs() as f32).powf(1.0 / n as f32) as f64;
     let radius = if radius > 0.0 && radius.is_finite() {
@@ -259,40 +327,15 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     } else {
         1.0
     };
-    for (k, root) in roots.iter_mut().enumerate().take(n) {
-        let ang = 0.4 + 2.0 * std::f64::consts::PI * k as f64 / n as f64;
-        *root = (radius * ang.cos(), radius * ang.sin());
+    for (root, dir) in roots.iter_mut().zip(&start_directions()[n]).take(n) {
+        *root = (radius * dir.0, radius * dir.1);
     }
-    let mut sweeps = ROOT_ITERATIONS;
-    for sweep in 1..=ROOT_ITERATIONS {
-        let mut moved: f64 = 0.0;
-        for i in 0..n {
-            let z = roots[i];
-            // p(z), monic, by Horner.
-            let mut p = (1.0, 0.0);
-            for k in (0..n).rev() {
-                p = (p.0 * z.0 - p.1 * z.1 + a[k], p.0 * z.1 + p.1 * z.0);
-            }
-            let mut q = (1.0, 0.0);
-            for (j, w) in roots.iter().enumerate().take(n) {
-                if j != i {
-                    let d = (z.0 - w.0, z.1 - w.1);
-                    q = (q.0 * d.0 - q.1 * d.1, q.0 * d.1 + q.1 * d.0);
-                }
-            }
-            let den = q.0 * q.0 + q.1 * q.1;
-            if den == 0.0 {
-                continue;
-            }
-            let step = ((p.0 * q.0 + p.1 * q.1) / den, (p.1 * q.0 - p.0 * q.1) / den);
-            roots[i] = (z.0 - step.0, z.1 - step.1);
-            moved = moved.max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
-        }
-        if moved < 1e-13 {
-            sweeps = sweep;
-            break;
-        }
-    }
+    let sweeps = match n {
+        1 => durand_kerner::<1>(&a, &mut roots),
+        2 => durand_kerner::<2>(&a, &mut roots),
+        3 => durand_kerner::<3>(&a, &mut roots),
+        _ => durand_kerner::<4>(&a, &mut roots),
+    };
     (roots, n, sweeps)
 }
 
@@ -427,7 +470,10 @@ impl Singularities {
             } else {
                 settings.kappa_behind
             };
-            step = step.min(kappa * (s - re).hypot(im));
+            // sqrt of the sum of squares as in the WGSL kernel (no overflow: |s|, |re|
+            // and |im| are of order one where they bind).
+            let dx = s - re;
+            step = step.min(kappa * (dx * dx + im * im).sqrt());
         }
         let mut end = s + step;
         if self.kink_s > s && self.kink_s < end {

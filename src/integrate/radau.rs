@@ -102,14 +102,37 @@ pub(crate) fn run<S: BatchSystem>(
     settings: &[Settings],
     start: Instant,
 ) -> Vec<(Status<S::Fault>, Stats)> {
+    let d = sys.dim();
+    let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
+    let mut y = y0.to_vec();
+    let mut rec = Packed::new();
+    let mut ended = Vec::new();
+    let active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
+    rec.flush_records(sys);
+    notify(sys, &tracks, &mut ended);
+    continue_from(sys, &mut y, settings, &mut tracks, active, start);
+    tracks.into_iter().map(|t| (t.status, t.stats)).collect()
+}
+
+/// Integrates the variants in `active` from where their tracks stand (`tracks[id].t`,
+/// state `y[id * dim..]`, samples from `tracks[id].next_sample` on) to their ends. A
+/// track with a step size already set (a variant handed over from dopri5 by
+/// [`super::Method::Auto`]) starts with that step; a fresh one (`h = 0`) gets the
+/// initial-step heuristic.
+pub(crate) fn continue_from<S: BatchSystem>(
+    sys: &mut S,
+    y: &mut [f64],
+    settings: &[Settings],
+    tracks: &mut [Track<S::Fault>],
+    mut active: Vec<usize>,
+    start: Instant,
+) {
     let n = settings.len();
     let d = sys.dim();
     let jd = sys.jacobian_dim().min(d);
     let d3 = 3 * d;
     let mu = mu_real();
     let vinv = collocation_inverse();
-    let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
-    let mut y = y0.to_vec();
     let mut f0 = vec![0.0; n * d];
     let mut jac: Vec<DMatrix<f64>> = vec![DMatrix::zeros(d, d); n];
     let mut z = vec![0.0; n * d3];
@@ -146,11 +169,6 @@ pub(crate) fn run<S: BatchSystem>(
     let mut work: Vec<usize> = Vec::new();
     let mut retry: Vec<usize> = Vec::new();
 
-    let mut active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
-    rec.flush_records(sys);
-    notify(sys, &tracks, &mut ended);
-    let mut first = true;
-
     while !active.is_empty() {
         // 1. f(t, y) where the state is new.
         buf.clear();
@@ -160,7 +178,7 @@ pub(crate) fn run<S: BatchSystem>(
                     .copy_from_slice(&y[id * d..(id + 1) * d]);
             }
         }
-        buf.eval(sys, &mut tracks);
+        buf.eval(sys, tracks);
         for e in 0..buf.len() {
             let id = buf.ids[e];
             vars[id].need_f0 = false;
@@ -180,15 +198,14 @@ pub(crate) fn run<S: BatchSystem>(
             }
         }
         active.retain(|&id| matches!(tracks[id].status, Status::Running));
-        if first {
-            for &id in &active {
+        for &id in &active {
+            if tracks[id].h == 0.0 {
                 let s = &settings[id];
                 let r = id * d..(id + 1) * d;
                 tracks[id].h = s
                     .fixed_step
                     .unwrap_or_else(|| initial_step(&y[r.clone()], &f0[r.clone()], &scale[r], s));
             }
-            first = false;
         }
         // 2. Jacobians: one batched call per column.
         work.clear();
@@ -200,7 +217,7 @@ pub(crate) fn run<S: BatchSystem>(
                 slot.copy_from_slice(&y[id * d..(id + 1) * d]);
                 slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
             }
-            buf.eval(sys, &mut tracks);
+            buf.eval(sys, tracks);
             // A forward difference can leave the domain (a journal 1e-10 m off the wall
             // is pushed through it by the probe of a quaternion component, 1.5e-8 rad):
             // those columns are retried as backward differences, which move the other
@@ -226,7 +243,7 @@ pub(crate) fn run<S: BatchSystem>(
                 slot.copy_from_slice(&y[id * d..(id + 1) * d]);
                 slot[col] -= jacobian_delta(slot[col], scale[id * d + col]);
             }
-            buf.eval(sys, &mut tracks);
+            buf.eval(sys, tracks);
             for e in 0..buf.len() {
                 let id = buf.ids[e];
                 if let Some(f) = &buf.faults[e] {
@@ -318,7 +335,7 @@ pub(crate) fn run<S: BatchSystem>(
             if buf.len() == 0 {
                 break;
             }
-            buf.eval(sys, &mut tracks);
+            buf.eval(sys, tracks);
             let mut e = 0;
             while e < buf.len() {
                 let id = buf.ids[e];
@@ -508,7 +525,6 @@ pub(crate) fn run<S: BatchSystem>(
         }
         active.retain(|&id| matches!(tracks[id].status, Status::Running));
         rec.flush_records(sys);
-        notify(sys, &tracks, &mut ended);
+        notify(sys, tracks, &mut ended);
     }
-    tracks.into_iter().map(|t| (t.status, t.stats)).collect()
 }

@@ -16,6 +16,11 @@ pub enum Method {
     /// forward-difference Jacobians (one batched call per state component), cubic
     /// collocation dense output.
     Radau5,
+    /// Dopri5 with Hairer's stiffness test per variant: a variant whose steps sit near
+    /// dopri5's stability boundary (15 accepted steps with `h |λ| > 2.5`) is handed to
+    /// radau5 from that point on ([`Stats::stiff_switch_time`]); the others stay dopri5,
+    /// step for step the same as [`Method::Dopri5`].
+    Auto,
     /// Classical 4th-order Runge-Kutta at the fixed step `Settings::fixed_step`, with its
     /// 3rd-order continuous extension for samples; 4 evaluations per step.
     Rk4,
@@ -27,6 +32,7 @@ impl Method {
         match self {
             Method::Dopri5 => "dopri5",
             Method::Radau5 => "radau5",
+            Method::Auto => "auto",
             Method::Rk4 => "rk4",
         }
     }
@@ -120,6 +126,10 @@ pub struct Stats {
     pub factorizations: u64,
     /// Wall time from the start of the batch to this variant's end, s.
     pub wall_time_s: f64,
+    /// [`Method::Auto`]: the time at which the variant was handed from dopri5 to radau5
+    /// (`None`: it was not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiff_switch_time: Option<f64>,
 }
 
 /// A batch of ODE systems of a common dimension, `y' = f(t, y)`, identified by index.
@@ -139,6 +149,13 @@ pub trait BatchSystem {
     /// Typical magnitude of each component of variant `id` (the unit of `atol`).
     fn scales(&self, _id: usize, out: &mut [f64]) {
         out.fill(1.0);
+    }
+
+    /// Magnitudes in which [`Method::Auto`]'s stiffness test measures `‖Δf‖ / ‖Δy‖` for
+    /// variant `id`: the components' natural sizes, so that the stiffest mode shows
+    /// whatever the error weights emphasise. Default: [`BatchSystem::scales`].
+    fn stiffness_scales(&self, id: usize, out: &mut [f64]) {
+        self.scales(id, out);
     }
 
     /// Derivatives of `ys.len() / dim` packed states; entry `k` belongs to variant
@@ -181,7 +198,8 @@ pub fn run_batch<S: BatchSystem>(
         "y0 must hold one state per variant"
     );
     match method {
-        Method::Dopri5 => super::dopri::run(sys, y0, settings, start),
+        Method::Dopri5 => super::dopri::run(sys, y0, settings, start, false),
+        Method::Auto => super::dopri::run(sys, y0, settings, start, true),
         Method::Radau5 => super::radau::run(sys, y0, settings, start),
         Method::Rk4 => super::rk4::run(sys, y0, settings, start),
     }

@@ -92,6 +92,8 @@ pub struct RotorModel {
     /// Moment of inertia about the shaft axis (ideal joints), kg·m².
     pub(crate) j_axis: f64,
     pub(crate) scales: [f64; DIM],
+    /// Natural magnitudes of the components (the stiffness test's unit).
+    pub(crate) natural_scales: [f64; DIM],
 }
 
 impl RotorModel {
@@ -132,6 +134,31 @@ impl RotorModel {
             *s = spin;
         }
         scales[WORK] = ke;
+        // The natural magnitudes, before the tilt components are weighted for error
+        // control below: the stiffness test of method `auto` measures in these (with the
+        // tilt weighted 1400 times more it sees the tilt modes only and missed the stiff
+        // translational one of the clearance x viscosity sweep).
+        let natural_scales = scales;
+        // Error control on what users read (issue 28): the journal centres at the end
+        // faces, not only G. A quaternion error δ in its x or y component tilts the shaft
+        // by 2δ and moves an end centre at lever arm ℓ (from G) by 2ℓδ; a tilt-rate error
+        // moves its velocity by ℓ times it. With the scale clearance / (2ℓ) on those
+        // quaternion components and clearance·spin / ℓ on the body's x, y angular
+        // velocity (ℓ the largest end lever), the tolerance met on them is met on every
+        // end centre as on G (unit 1 and `spin` before, which let tilt errors 10-50x
+        // larger than G's through: BENCHMARKS.md "Issue 28").
+        let lever = bearings
+            .iter()
+            .map(|b| b.p_i.norm().max(b.p_j.norm()))
+            .fold(0.0, f64::max);
+        if lever > 0.0 && lever.is_finite() {
+            for s in &mut scales[Q + 1..Q + 3] {
+                *s = (clearance / (2.0 * lever)).min(1.0);
+            }
+            for s in &mut scales[W..W + 2] {
+                *s = (clearance * spin / lever).min(spin);
+            }
+        }
         RotorModel {
             kind: scene.model,
             mass: r.mass,
@@ -149,6 +176,7 @@ impl RotorModel {
                 .map(|c| (c.stiffness, c.damping)),
             j_axis: inertia[(2, 2)] + r.mass * (u[0] * u[0] + u[1] * u[1]),
             scales,
+            natural_scales,
         }
     }
 

@@ -323,6 +323,10 @@ pub struct SimStats {
     pub factorizations: u64,
     /// Wall time from the start of the variant's batch to its end, s.
     pub wall_time_s: f64,
+    /// Method `"auto"`: the time, s, at which dopri5's stiffness test handed this variant
+    /// to radau5 (absent: dopri5 ran throughout, or another method was asked for).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiff_switch_s: Option<f64>,
 }
 
 /// One simulation's outcome.
@@ -435,6 +439,10 @@ impl BatchSystem for RotorBatch<'_, '_> {
 
     fn scales(&self, id: usize, out: &mut [f64]) {
         out.copy_from_slice(&self.models[id].scales);
+    }
+
+    fn stiffness_scales(&self, id: usize, out: &mut [f64]) {
+        out.copy_from_slice(&self.models[id].natural_scales);
     }
 
     fn eval(
@@ -689,6 +697,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
                 jacobians: stats.jacobians,
                 factorizations: stats.factorizations,
                 wall_time_s: stats.wall_time_s,
+                stiff_switch_s: stats.stiff_switch_time,
             },
         };
         (self.progress)(self.scenes[id], &result);
