@@ -28,7 +28,7 @@ pub use linear::{
 };
 pub use modes::{max_growth, modes, Mode, Shape};
 pub use plots::{campbell_svg, damping_svg};
-pub use sweep_sim::{StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
+pub use sweep_sim::{reductions_schema, StabilitySimulator, SCAN_HIGH, SCAN_LOW, SCAN_POINTS};
 
 /// An evaluator for finite differences: an f32 backend (rounding ~1e-7 relative, so
 /// differences over steps of ~1e-4 of the clearance would keep ~3 digits) is replaced by
