@@ -8,6 +8,6 @@ pub use all::{
     bench_all, machine_description, BenchAllOptions, BenchAllReport, STIFF_VISCOSITY_PA_S,
 };
 pub use loads::{
-    bench_loads, bench_loads_markdown, bench_states, BenchLoadsOptions, BenchLoadsReport, BenchRow,
-    DEFAULT_GPU_BATCH,
+    bench_loads, bench_loads_markdown, bench_states, gpu_timing_batch, BenchLoadsOptions,
+    BenchLoadsReport, BenchRow, DEFAULT_GPU_BATCH,
 };
