@@ -135,14 +135,44 @@ pub struct BackendChoice {
 }
 
 impl BackendChoice {
-    /// The one stderr line of an `auto` choice.
+    /// The one stderr line of an `auto` choice: the reason without its parenthesised
+    /// details (the driver's words, the benchmark behind a rule), which stay in the
+    /// output's `backend_choice`, so that a CPU run's line stays short.
     pub fn line(&self) -> String {
         let target = if self.backend == "gpu" { "GPU" } else { "CPU" };
-        format!(
-            "notice: backend auto: {}; using the {target} backend",
-            self.reason
-        )
+        let reason = self
+            .reason
+            .split_once(" (")
+            .map_or(self.reason.as_str(), |(head, _)| head);
+        format!("notice: backend auto: {reason}; using the {target} backend")
     }
+}
+
+/// Gives the process a private `XDG_RUNTIME_DIR` when it has none (or one that is not an
+/// existing absolute folder): the Vulkan loader's window-system layers (lavapipe's
+/// included) print `error: XDG_RUNTIME_DIR is invalid or not set` on stderr while
+/// enumerating adapters otherwise, although nothing is wrong. Call it first thing in
+/// `main`, before any thread starts (it sets an environment variable).
+pub fn ensure_xdg_runtime_dir() {
+    let usable = std::env::var_os("XDG_RUNTIME_DIR")
+        .map(std::path::PathBuf::from)
+        .is_some_and(|p| p.is_absolute() && p.is_dir());
+    if usable {
+        return;
+    }
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::getuid() };
+    let dir = std::env::temp_dir().join(format!("bearing-sweep-runtime-{uid}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The XDG spec asks for a folder only its user can enter.
+        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+    }
+    std::env::set_var("XDG_RUNTIME_DIR", &dir);
 }
 
 /// The CPU backend at `accuracy` as the choice for a `kind` request, with `reason`, and

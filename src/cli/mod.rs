@@ -11,6 +11,7 @@ mod serve;
 mod stability;
 mod submit;
 mod sweep;
+mod warnings;
 mod worker;
 
 pub use bench::bench_backend;
@@ -29,6 +30,7 @@ pub use serve::{serve_command, TOKEN_ENV};
 pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 pub use submit::{submit_command, SubmitOptions};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
+pub use warnings::{bearing_warnings, scene_file_warnings, sweep_warnings};
 pub use worker::{worker_command, WorkerCommandOptions};
 
 /// A command failure shown to the user (exit status 2).
