@@ -140,12 +140,31 @@ impl BackendChoice {
     /// output's `backend_choice`, so that a CPU run's line stays short.
     pub fn line(&self) -> String {
         let target = if self.backend == "gpu" { "GPU" } else { "CPU" };
-        let reason = self
-            .reason
-            .split_once(" (")
-            .map_or(self.reason.as_str(), |(head, _)| head);
+        let reason = without_final_parenthesis(&self.reason);
         format!("notice: backend auto: {reason}; using the {target} backend")
     }
+}
+
+/// `text` without a final ` (...)` group (nested parentheses inside it, such as an
+/// adapter's name, are kept together with it; a text not ending in `)` is returned whole).
+fn without_final_parenthesis(text: &str) -> &str {
+    if !text.ends_with(')') {
+        return text;
+    }
+    let mut depth = 0i32;
+    for (i, c) in text.char_indices().rev() {
+        match c {
+            ')' => depth += 1,
+            '(' => {
+                depth -= 1;
+                if depth == 0 {
+                    return text[..i].trim_end();
+                }
+            }
+            _ => {}
+        }
+    }
+    text
 }
 
 /// Gives the process a private `XDG_RUNTIME_DIR` when it has none (or one that is not an
@@ -245,8 +264,11 @@ pub fn choose_backend(
     };
     let device = g.info().device;
     if kind == BackendKind::Auto && g.is_software() {
+        // The adapter's short name in the notice line; its full description (driver and
+        // versions) in the final parenthesis, which the line leaves out.
+        let short = device.split(" (").next().unwrap_or(&device);
         return Ok(cpu(format!(
-            "the GPU adapter `{device}` is a software rasteriser (use --backend gpu to run on it)"
+            "the GPU adapter `{short}` is a software rasteriser (`{device}`; use --backend gpu to run on it)"
         )));
     }
     let reason = match (kind, states_per_call) {
@@ -314,5 +336,26 @@ impl FilmBackend for Chosen {
     }
     fn choice(&self) -> Option<BackendChoice> {
         Some(self.choice.clone())
+    }
+}
+
+#[cfg(test)]
+mod notice_tests {
+    use super::without_final_parenthesis as strip;
+
+    #[test]
+    fn the_auto_notice_drops_only_the_final_parenthesis() {
+        assert_eq!(
+            strip("no GPU adapter (no Vulkan loader: details)"),
+            "no GPU adapter"
+        );
+        assert_eq!(
+            strip("the GPU adapter `llvmpipe (LLVM 15.0.6, 256 bits)` is a software rasteriser (use --backend gpu to run on it)"),
+            "the GPU adapter `llvmpipe (LLVM 15.0.6, 256 bits)` is a software rasteriser"
+        );
+        assert_eq!(
+            strip("2 bearing states per call, below the GPU crossover of 64"),
+            "2 bearing states per call, below the GPU crossover of 64"
+        );
     }
 }
