@@ -2,7 +2,7 @@
 //! scheduler running sweeps through the same runner as `run`, and coalesced film-load
 //! evaluation.
 
-mod csv;
+pub mod csv;
 mod error;
 mod eval;
 mod loadgen;
@@ -53,7 +53,7 @@ pub struct ServiceConfig {
     /// Backend of `/api/eval` (default cpu).
     pub eval_backend: BackendKind,
     /// `postgres://…`: keep sweeps in PostgreSQL and leave them to `worker` processes
-    /// (README "Workers and PostgreSQL"); default none: the embedded SQLite store.
+    /// (docs/api.md "Workers and PostgreSQL"); default none: the embedded SQLite store.
     pub database: Option<String>,
 }
 
