@@ -1,5 +1,5 @@
 //! The memory budget: a spec's memory is estimated before anything runs and a spec over
-//! the budget is refused, naming the field that drives the estimate (README "Limits").
+//! the budget is refused, naming the field that drives the estimate (docs/cli.md "Limits").
 //! The budget is process-wide; `run --max-memory` raises it.
 //!
 //! Rotor samples do not grow with `t_end`: each simulation keeps at most
@@ -117,7 +117,7 @@ pub fn check(what: &str, bytes: f64) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{what} needs about {}, over the memory budget of {} (raise it with `run --max-memory`, README \"Limits\")",
+            "{what} needs about {}, over the memory budget of {} (raise it with `run --max-memory`, docs/cli.md \"Limits\")",
             show_bytes(bytes),
             show_bytes(budget as f64)
         ))

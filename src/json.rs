@@ -379,7 +379,8 @@ impl<'de, 'a: 'de> MapAccess<'de> for StrictMap<'a> {
 }
 
 /// Deserialises `value` as `T`; on failure returns the JSON path of the offending field
-/// (`"$"` for the document itself) and serde's reason (user input in it cut short).
+/// (`"$"` for the document itself) and serde's reason (user input in it cut short; an
+/// unknown field's reason ends with the nearest allowed name, [`did_you_mean`]).
 /// A struct given as an array is refused.
 pub fn deserialize_at<T: DeserializeOwned>(value: &Value) -> Result<T, (String, String)> {
     serde_path_to_error::deserialize(Strict(value)).map_err(|e| {
@@ -389,11 +390,78 @@ pub fn deserialize_at<T: DeserializeOwned>(value: &Value) -> Result<T, (String, 
         } else {
             shorten(&path, MAX_ECHO_CHARS * 2)
         };
-        (
-            path,
-            shorten(&e.into_inner().to_string(), MAX_ECHO_CHARS * 3),
-        )
+        let msg = e.into_inner().to_string();
+        let mut reason = shorten(&msg, MAX_ECHO_CHARS * 3);
+        if let Some(hint) = unknown_field_hint(&msg) {
+            reason.push_str(&hint);
+        }
+        (path, reason)
     })
+}
+
+/// For serde's "unknown field `x`, expected one of `a`, `b`" (or "expected `a` or `b`"):
+/// `"; did you mean `a`?"` when an allowed name is near `x`, else `None`.
+pub fn unknown_field_hint(serde_message: &str) -> Option<String> {
+    let rest = serde_message.strip_prefix("unknown field `")?;
+    let (unknown, allowed) = rest.split_once("`, ")?;
+    let names: Vec<&str> = allowed.split('`').skip(1).step_by(2).collect();
+    did_you_mean(unknown, &names).map(|n| format!("; did you mean `{n}`?"))
+}
+
+/// The allowed name nearest to the unknown one `unknown`, if near enough to be a typo:
+/// edit distance (insertions, deletions, substitutions, adjacent swaps; ASCII case
+/// ignored) at most 1 for names up to 4 characters, 2 up to 8, 3 beyond, or `unknown` a
+/// prefix of at least 3 characters of exactly one name (`visc` for `viscosity`).
+pub fn did_you_mean<'a>(unknown: &str, allowed: &[&'a str]) -> Option<&'a str> {
+    let u = unknown.to_ascii_lowercase();
+    let limit = match u.chars().count() {
+        0..=4 => 1,
+        5..=8 => 2,
+        _ => 3,
+    };
+    let best = allowed
+        .iter()
+        .map(|a| (edit_distance(&u, &a.to_ascii_lowercase()), *a))
+        .min_by_key(|(d, _)| *d);
+    if let Some((d, name)) = best {
+        if d <= limit {
+            return Some(name);
+        }
+    }
+    let prefixed: Vec<&&str> = allowed
+        .iter()
+        .filter(|a| u.len() >= 3 && a.to_ascii_lowercase().starts_with(&u))
+        .collect();
+    match prefixed.as_slice() {
+        [one] => Some(one),
+        _ => None,
+    }
+}
+
+/// Optimal-string-alignment distance (Levenshtein with adjacent transpositions).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.chars().collect();
+    let b: Vec<char> = b.chars().collect();
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for j in 0..=b.len() {
+        d[0][j] = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut v = (d[i - 1][j] + 1)
+                .min(d[i][j - 1] + 1)
+                .min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                v = v.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = v;
+        }
+    }
+    d[a.len()][b.len()]
 }
 
 /// Deserialises `value` as `T` exactly as [`deserialize_at`] does (a struct given as an
@@ -429,6 +497,46 @@ mod tests {
         length: f64,
         clearance: f64,
         viscosity: f64,
+    }
+
+    #[test]
+    fn unknown_fields_get_the_nearest_allowed_name() {
+        let names = [
+            "radius",
+            "length",
+            "clearance",
+            "viscosity",
+            "clearance_convention",
+            "model",
+        ];
+        for (typo, want) in [
+            ("viscosty", Some("viscosity")),
+            ("Viscosity", Some("viscosity")),
+            ("clearence", Some("clearance")),
+            ("lenght", Some("length")),
+            ("radus", Some("radius")),
+            ("visc", Some("viscosity")),
+            ("mdoel", Some("model")),
+            ("speed", None),
+            ("xyz", None),
+        ] {
+            assert_eq!(did_you_mean(typo, &names), want, "{typo}");
+        }
+        // Through the deserialiser: the reason ends with the hint, the path is the field's.
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct B {
+            radius: f64,
+            viscosity: f64,
+        }
+        let v: Value = serde_json::from_str(r#"{"radius": 1, "viscosty": 2}"#).unwrap();
+        let (path, reason) = deserialize_at::<B>(&v).unwrap_err();
+        assert_eq!(path, "viscosty", "{reason}");
+        assert!(
+            reason.contains("unknown field") && reason.ends_with("did you mean `viscosity`?"),
+            "{reason}"
+        );
     }
 
     #[derive(Debug, serde::Deserialize)]

@@ -1,6 +1,7 @@
 //! bearing-sweep: rigid rotors in hydrodynamic journal bearings (Stefanelli, Valentini,
 //! Vita, DETC2005-84858), the nonlinear film model evaluated in batches on CPU and GPU.
-//! The physics contract is `MODEL.md` (shipped in `shared/`); conventions there hold here.
+//! The physics contract is `docs/model.md` (the model, its frames, signs and closed forms);
+//! conventions there hold here.
 
 pub mod backend;
 pub mod bearing;

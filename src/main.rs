@@ -43,12 +43,12 @@ enum Command {
     Eval(EvalArgs),
     /// Simulate a scene file (writes OUT/<file stem>/result.json and SVG figures 7-10), or
     /// run a sweep spec (a file with `base` or `kind`; writes OUT/<spec stem>/result.json,
-    /// streaming variants to result.jsonl, resumable; see README "Sweeps").
+    /// streaming variants to result.jsonl, resumable; see docs/cli.md "Sweeps").
     Run(RunArgs),
     /// Merge sweep shard results into the result of the unsharded run.
     Merge(MergeArgs),
     #[cfg(feature = "service")]
-    /// Run the sweep service: HTTP API, job store, scheduler (README "Service").
+    /// Run the sweep service: HTTP API, job store, scheduler (docs/api.md "Service").
     Serve(ServeArgs),
     #[cfg(feature = "service")]
     /// Submit a sweep spec to a running service; prints its id.
@@ -65,7 +65,7 @@ enum Command {
     Finite(FiniteArgs),
     #[cfg(feature = "postgres")]
     /// Pull sweep work batches from a PostgreSQL queue (`serve --database`) and run them
-    /// until stopped (README "Workers and PostgreSQL").
+    /// until stopped (docs/api.md "Workers and PostgreSQL").
     Worker(WorkerArgs),
     /// Benchmarks (Markdown report on stdout).
     Bench {
@@ -78,7 +78,7 @@ enum Command {
 enum BenchCommand {
     #[cfg(feature = "postgres")]
     /// PostgreSQL queue: variants/s with 1, 2, 4 worker processes against `run`, claim and
-    /// commit overhead per batch, and a claim storm (README "Workers and PostgreSQL").
+    /// commit overhead per batch, and a claim storm (docs/api.md "Workers and PostgreSQL").
     Queue(BenchQueueArgs),
     /// Every work-precision benchmark (loads on CPU and GPU, backend vs batch size, rotor
     /// integrators, stiff variant, lockstep batches) into one folder with an index.md:
@@ -132,7 +132,7 @@ struct EvalArgs {
     #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the load vector (1e-3, 1e-6, 1e-9 or 1e-12; rounded tighter).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value = "1e-6")]
     accuracy: f64,
 }
 
@@ -174,7 +174,7 @@ struct RunArgs {
     #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (1e-3, 1e-6, 1e-9 or 1e-12).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value = "1e-6")]
     accuracy: f64,
     /// Sweeps: run only shard K of N (variant i belongs to shard i mod N).
     #[arg(long)]
@@ -185,11 +185,11 @@ struct RunArgs {
     /// Sweeps: no progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Turn every model reduction off (README "Model reductions"), exact ones included.
+    /// Turn every model reduction off (docs/cli.md "Model reductions"), exact ones included.
     #[arg(long)]
     full_model: bool,
     /// Memory budget (e.g. 8G, 512M; default 2G): specs and scenes estimated above it
-    /// are refused before running (README "Limits").
+    /// are refused before running (docs/cli.md "Limits").
     #[arg(long)]
     max_memory: Option<String>,
 }
@@ -262,7 +262,7 @@ struct SubmitArgs {
     #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value = "1e-6")]
     accuracy: f64,
     /// Turn every model reduction off.
     #[arg(long)]
@@ -282,7 +282,7 @@ struct CoefficientsArgs {
     #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads (the coefficients are differences of loads).
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value = "1e-12")]
     accuracy: f64,
 }
 
@@ -301,7 +301,7 @@ struct StabilityArgs {
     #[arg(long, default_value = "auto")]
     backend: BackendKind,
     /// Relative accuracy of the film loads.
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value = "1e-12")]
     accuracy: f64,
 }
 
@@ -421,7 +421,7 @@ struct BenchBackendArgs {
     )]
     sizes: Vec<usize>,
     /// Accuracy level of the rule.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value = "1e-6")]
     accuracy: f64,
     /// CPU backend threads.
     #[arg(long, default_value_t = 2)]
@@ -443,7 +443,7 @@ struct BenchRotorArgs {
     #[arg(long, default_value_t = 0.5)]
     t_end: f64,
     /// Film-load accuracy level.
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value = "1e-12")]
     accuracy: f64,
     /// Timing repeats per configuration (the fastest counts).
     #[arg(long, default_value_t = 3)]
@@ -464,17 +464,34 @@ struct BenchRotorArgs {
 }
 
 fn main() -> ExitCode {
+    // Before any thread: the Vulkan loader would print an XDG_RUNTIME_DIR error otherwise.
+    bearing_sweep::backend::ensure_xdg_runtime_dir();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Eval(a) => eval(a),
-        Command::Run(a) => run(a),
+        Command::Eval(a) => {
+            let file = a.file.clone();
+            eval(a).map_err(|e| name_file(&file, e))
+        }
+        Command::Run(a) => {
+            let file = a.file.clone();
+            run(a).map_err(|e| name_file(&file, e))
+        }
         Command::Merge(a) => merge_command(&a.out, &a.shards).map(print_lines),
         #[cfg(feature = "service")]
         Command::Serve(a) => serve(a),
         #[cfg(feature = "service")]
-        Command::Submit(a) => submit(a),
-        Command::Coefficients(a) => coefficients_cmd(a),
-        Command::Stability(a) => stability_cmd(a),
+        Command::Submit(a) => {
+            let file = a.spec.clone();
+            submit(a).map_err(|e| name_file(&file, e))
+        }
+        Command::Coefficients(a) => {
+            let file = a.file.clone();
+            coefficients_cmd(a).map_err(|e| name_file(&file, e))
+        }
+        Command::Stability(a) => {
+            let file = a.file.clone();
+            stability_cmd(a).map_err(|e| name_file(&file, e))
+        }
         Command::Finite(a) => finite_cmd(a),
         #[cfg(feature = "postgres")]
         Command::Worker(a) => worker(a),
@@ -505,6 +522,26 @@ fn main() -> ExitCode {
             eprintln!("error: {message}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// A JSON syntax error or a duplicate key in the input file `file` names the file (the
+/// JSON path alone does not say which file a command was reading); other input errors
+/// name their JSON path as before.
+fn name_file(file: &str, e: CliError) -> CliError {
+    match e {
+        CliError::Input { path, reason }
+            if reason.starts_with("not valid JSON") || reason.starts_with("duplicate key") =>
+        {
+            let name = if file == "-" { "standard input" } else { file };
+            let path = if path == "$" {
+                name.to_string()
+            } else {
+                format!("{name}: {path}")
+            };
+            CliError::Input { path, reason }
+        }
+        other => other,
     }
 }
 
@@ -644,6 +681,12 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
         return run_sweep_file(a, &text);
+    }
+    // Implausible values warn before the run (a mistyped unit can cost minutes).
+    if let Ok(doc) = serde_json::from_str::<serde_json::Value>(&text) {
+        for w in bearing_sweep::cli::scene_file_warnings(&doc) {
+            eprintln!("{w}");
+        }
     }
     if a.shard.is_some() {
         return Err(CliError::input(

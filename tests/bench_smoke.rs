@@ -192,3 +192,42 @@ fn bench_loads_without_adapter_skips_gpu_rows_with_a_note() {
     assert!(md.contains("| rule | 1e-6 |"), "{md}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Issue 23 item 8: the GPU rows' timing batch holds distinct states only, so the
+/// evaluator's dedupe (which integrates each distinct state once) removes nothing and the
+/// headline rate is measured on distinct work: no two states are equal bit for bit, and a
+/// dedupe-on evaluator run over the batch reports zero states served from another's
+/// integrals.
+#[test]
+fn bench_gpu_timing_batch_has_no_duplicate_states() {
+    use bearing_sweep::backend::{CpuBackend, LoadEvaluator};
+    use bearing_sweep::bearing::{Accuracy, BearingParams};
+    let params = BearingParams::paper_table2();
+    let n = 4000;
+    let batch = bearing_sweep::bench::gpu_timing_batch(&params, n);
+    assert_eq!(batch.len(), n);
+    let key = |s: &bearing_sweep::bearing::BearingState| {
+        [s.xi, s.yi, s.xj, s.yj, s.vxi, s.vyi, s.vxj, s.vyj, s.omega].map(f64::to_bits)
+    };
+    let mut seen = std::collections::HashMap::new();
+    for (k, r) in batch.iter().enumerate() {
+        if let Some(first) = seen.insert(key(&r.state), k) {
+            panic!("states {first} and {k} are equal: {:?}", r.state);
+        }
+    }
+    // Its first states are the benchmark states (the error rows use those).
+    let states = bearing_sweep::bench::bench_states(&params, 100);
+    for (k, s) in states.iter().enumerate() {
+        assert_eq!(key(s), key(&batch[k].state), "state {k}");
+    }
+    let acc = Accuracy::new(1e-3).unwrap();
+    let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(acc, Some(2))));
+    let mut out = Vec::new();
+    ev.evaluate(&[params], &batch, &mut out);
+    let stats = ev.stats();
+    assert_eq!(
+        stats.deduplicated, 0,
+        "dedupe removed {} of {n} states: the timing would not be of distinct work",
+        stats.deduplicated
+    );
+}

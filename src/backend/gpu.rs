@@ -185,7 +185,7 @@ fn self_check_states() -> Vec<PackedState> {
 }
 
 impl GpuBackend {
-    /// Opens the adapter (see the README's "Backends"), builds the pipeline for the rule
+    /// Opens the adapter (see docs/cli.md "Backends"), builds the pipeline for the rule
     /// at `accuracy` and checks it against the CPU kernel on a few fixed states. An f64
     /// kernel that fails to build or to agree is replaced by the f32 one (with a notice)
     /// unless f64 was demanded.

@@ -144,14 +144,63 @@ pub struct BackendChoice {
 }
 
 impl BackendChoice {
-    /// The one stderr line of an `auto` choice.
+    /// The one stderr line of an `auto` choice: the reason without its parenthesised
+    /// details (the driver's words, the benchmark behind a rule), which stay in the
+    /// output's `backend_choice`, so that a CPU run's line stays short.
     pub fn line(&self) -> String {
         let target = if self.backend == "gpu" { "GPU" } else { "CPU" };
-        format!(
-            "notice: backend auto: {}; using the {target} backend",
-            self.reason
-        )
+        let reason = without_final_parenthesis(&self.reason);
+        format!("notice: backend auto: {reason}; using the {target} backend")
     }
+}
+
+/// `text` without a final ` (...)` group (nested parentheses inside it, such as an
+/// adapter's name, are kept together with it; a text not ending in `)` is returned whole).
+fn without_final_parenthesis(text: &str) -> &str {
+    if !text.ends_with(')') {
+        return text;
+    }
+    let mut depth = 0i32;
+    for (i, c) in text.char_indices().rev() {
+        match c {
+            ')' => depth += 1,
+            '(' => {
+                depth -= 1;
+                if depth == 0 {
+                    return text[..i].trim_end();
+                }
+            }
+            _ => {}
+        }
+    }
+    text
+}
+
+/// Gives the process a private `XDG_RUNTIME_DIR` when it has none (or one that is not an
+/// existing absolute folder): the Vulkan loader's window-system layers (lavapipe's
+/// included) print `error: XDG_RUNTIME_DIR is invalid or not set` on stderr while
+/// enumerating adapters otherwise, although nothing is wrong. Call it first thing in
+/// `main`, before any thread starts (it sets an environment variable).
+pub fn ensure_xdg_runtime_dir() {
+    let usable = std::env::var_os("XDG_RUNTIME_DIR")
+        .map(std::path::PathBuf::from)
+        .is_some_and(|p| p.is_absolute() && p.is_dir());
+    if usable {
+        return;
+    }
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::getuid() };
+    let dir = std::env::temp_dir().join(format!("bearing-sweep-runtime-{uid}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The XDG spec asks for a folder only its user can enter.
+        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+    }
+    std::env::set_var("XDG_RUNTIME_DIR", &dir);
 }
 
 /// The CPU backend at `accuracy` as the choice for a `kind` request, with `reason`, and
@@ -224,8 +273,11 @@ pub fn choose_backend(
     };
     let device = g.info().device;
     if kind == BackendKind::Auto && g.is_software() {
+        // The adapter's short name in the notice line; its full description (driver and
+        // versions) in the final parenthesis, which the line leaves out.
+        let short = device.split(" (").next().unwrap_or(&device);
         return Ok(cpu(format!(
-            "the GPU adapter `{device}` is a software rasteriser (use --backend gpu to run on it)"
+            "the GPU adapter `{short}` is a software rasteriser (`{device}`; use --backend gpu to run on it)"
         )));
     }
     let reason = match (kind, states_per_call) {
@@ -293,5 +345,26 @@ impl FilmBackend for Chosen {
     }
     fn choice(&self) -> Option<BackendChoice> {
         Some(self.choice.clone())
+    }
+}
+
+#[cfg(test)]
+mod notice_tests {
+    use super::without_final_parenthesis as strip;
+
+    #[test]
+    fn the_auto_notice_drops_only_the_final_parenthesis() {
+        assert_eq!(
+            strip("no GPU adapter (no Vulkan loader: details)"),
+            "no GPU adapter"
+        );
+        assert_eq!(
+            strip("the GPU adapter `llvmpipe (LLVM 15.0.6, 256 bits)` is a software rasteriser (use --backend gpu to run on it)"),
+            "the GPU adapter `llvmpipe (LLVM 15.0.6, 256 bits)` is a software rasteriser"
+        );
+        assert_eq!(
+            strip("2 bearing states per call, below the GPU crossover of 64"),
+            "2 bearing states per call, below the GPU crossover of 64"
+        );
     }
 }

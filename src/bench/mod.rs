@@ -13,8 +13,8 @@ pub use all::{
 };
 pub use backend_report::bench_backend;
 pub use loads::{
-    bench_loads, bench_loads_markdown, bench_states, BenchLoadsOptions, BenchLoadsReport, BenchRow,
-    DEFAULT_GPU_BATCH,
+    bench_loads, bench_loads_markdown, bench_states, gpu_timing_batch, BenchLoadsOptions,
+    BenchLoadsReport, BenchRow, DEFAULT_GPU_BATCH,
 };
 pub use rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, RotorBenchRow,

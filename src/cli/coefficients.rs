@@ -138,11 +138,14 @@ pub fn coefficients_json_with(
     let obj = doc
         .as_object()
         .ok_or_else(|| CliError::input("$", "expected an object"))?;
+    const FIELDS: [&str; 5] = ["bearing", "speed", "speeds", "load", "state"];
     for key in obj.keys() {
-        if !["bearing", "speed", "speeds", "load", "state"].contains(&key.as_str()) {
+        if !FIELDS.contains(&key.as_str()) {
+            let hint = crate::json::did_you_mean(key, &FIELDS)
+                .map_or(String::new(), |n| format!("; did you mean `{n}`?"));
             return Err(CliError::input(
                 key.clone(),
-                "unknown field (expected `bearing` with `speed` or `speeds` and `load`, or `bearing` and `state`)",
+                format!("unknown field (expected `bearing` with `speed` or `speeds` and `load`, or `bearing` and `state`){hint}"),
             ));
         }
     }

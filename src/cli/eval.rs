@@ -401,6 +401,8 @@ impl<'de, W: Write> Visitor<'de> for Document<'_, '_, W> {
                             &format!("{} (got {})", e.reason, crate::json::num(e.value)),
                         )
                     })?;
+                    run.notices
+                        .extend(super::warnings::bearing_warnings("bearing", &v));
                     run.bearing = Some(b);
                     if run.pending.len() >= EVAL_CHUNK || seen_states {
                         run.flush().map_err(|e| stop(run, e))?;
@@ -411,10 +413,12 @@ impl<'de, W: Write> Visitor<'de> for Document<'_, '_, W> {
                     map.next_value_seed(States(run))?;
                 }
                 other => {
+                    let hint = crate::json::did_you_mean(other, &["bearing", "states"])
+                        .map_or(String::new(), |n| format!("; did you mean `{n}`?"));
                     return Err(located(
                         &crate::json::quote(other),
-                        "unknown field (expected `bearing` and `states`)",
-                    ))
+                        &format!("unknown field (expected `bearing` and `states`){hint}"),
+                    ));
                 }
             }
         }

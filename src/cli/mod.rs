@@ -9,6 +9,7 @@ mod stability;
 #[cfg(feature = "service")]
 mod submit;
 mod sweep;
+mod warnings;
 
 pub use coefficients::{
     coefficients_json, coefficients_json_with, ross_csv, ross_toml, CoefficientOptions,
@@ -23,6 +24,7 @@ pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 #[cfg(feature = "service")]
 pub use submit::{submit_command, SubmitOptions, TOKEN_ENV};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
+pub use warnings::{bearing_warnings, scene_file_warnings, sweep_warnings};
 
 /// A command failure shown to the user (exit status 2).
 #[derive(Debug, thiserror::Error)]

@@ -68,7 +68,7 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
         )
     })?;
     // Every scene's samples are kept for result.json and the figures, decimated to the
-    // cap that the budget leaves each (README "Limits"): only what cannot fit even at the
+    // cap that the budget leaves each (docs/cli.md "Limits"): only what cannot fit even at the
     // floor cap is refused.
     let total: f64 = scenes
         .iter()

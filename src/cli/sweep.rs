@@ -91,6 +91,11 @@ pub fn run_command(
                 ));
             }
             let spec = FrictionMapSpec::parse(&doc)?;
+            if let Some(b) = doc.get("bearing") {
+                for w in super::warnings::bearing_warnings("bearing", b) {
+                    notice(w);
+                }
+            }
             let (result, plot) = friction_map(&spec, accuracy);
             let dir = out.parent().unwrap_or(Path::new("."));
             mkdir(dir)?;
@@ -121,6 +126,9 @@ pub fn run_command(
         _ => {
             let spec_dir = spec_path.parent().filter(|_| spec_file != "-");
             let spec = parse_spec(&doc, spec_dir)?;
+            for w in super::warnings::sweep_warnings(&doc, &spec.base) {
+                notice(w);
+            }
             let choice = SimulatorChoice {
                 backend: opts.backend,
                 accuracy,

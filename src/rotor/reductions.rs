@@ -1,5 +1,5 @@
 //! Model reductions: what a scene may skip, the bound each one is held to, and the report
-//! of what every run applied and declined (README "Model reductions").
+//! of what every run applied and declined (docs/cli.md "Model reductions").
 //!
 //! Exact reductions (on by default): identical kernel inputs integrated once per call and
 //! tiny calls run on the CPU instead of a GPU round trip ([`crate::backend::EvaluatorOptions`]),

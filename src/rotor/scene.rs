@@ -236,7 +236,7 @@ pub struct Scene {
     /// Film-breakdown threshold.
     #[serde(default)]
     pub film: FilmSpec,
-    /// Model reductions (README "Model reductions"). Default: the exact ones on, the
+    /// Model reductions (docs/cli.md "Model reductions"). Default: the exact ones on, the
     /// approximations off.
     #[serde(default)]
     pub reductions: super::reductions::ReductionSpec,
@@ -353,7 +353,7 @@ impl Scene {
                 "more than 1e7 samples: choose a longer interval",
             ));
         }
-        // Samples are decimated to fit the budget (README "Limits"): only a scene whose
+        // Samples are decimated to fit the budget (docs/cli.md "Limits"): only a scene whose
         // samples cannot fit even at the floor cap is refused.
         crate::budget::check(
             &format!(

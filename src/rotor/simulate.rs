@@ -155,7 +155,7 @@ pub struct BearingSeries {
     pub friction_coefficient: Vec<Option<f64>>,
 }
 
-/// Uniform samples of one simulation, decimated to a bounded count (README "Limits"):
+/// Uniform samples of one simulation, decimated to a bounded count (docs/cli.md "Limits"):
 /// a store holding `cap` samples drops every other one and doubles its stride, so the
 /// kept samples are every `sample_stride`-th sample time, plus always the last one (the
 /// end of the run or the failure) so windows end at the true end.
@@ -347,7 +347,7 @@ pub struct SimResult {
     pub samples: TimeSeries,
     /// Counters.
     pub stats: SimStats,
-    /// Model reductions applied and declined (README "Model reductions").
+    /// Model reductions applied and declined (docs/cli.md "Model reductions").
     #[serde(default)]
     pub model_reductions: ReductionReport,
 }

@@ -3,7 +3,7 @@
 //! evaluation.
 
 mod command;
-mod csv;
+pub mod csv;
 mod error;
 mod eval;
 pub mod limits;
@@ -58,7 +58,7 @@ pub struct ServiceConfig {
     /// Backend of `/api/eval` (default cpu).
     pub eval_backend: BackendKind,
     /// `postgres://…`: keep sweeps in PostgreSQL and leave them to `worker` processes
-    /// (README "Workers and PostgreSQL"); default none: the embedded SQLite store.
+    /// (docs/api.md "Workers and PostgreSQL"); default none: the embedded SQLite store.
     pub database: Option<String>,
     /// Largest estimated memory of one request (eval states, coefficient speeds and the
     /// parsed body), bytes (default 256 MiB; 422 naming the field beyond).

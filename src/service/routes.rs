@@ -452,7 +452,7 @@ pub struct Created {
         ("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Film accuracy (as `run --accuracy`; default 1e-6)"),
         ("full_model" = Option<bool>, Query, description = "Every model reduction off (as `run --full-model`)"),
     ),
-    request_body(content = crate::sweep::spec::SpecDocument, description = "A sweep spec (see sweeps/ and README \"Sweeps\")", content_type = "application/json"),
+    request_body(content = crate::sweep::spec::SpecDocument, description = "A sweep spec (see sweeps/ and docs/cli.md \"Sweeps\")", content_type = "application/json"),
     responses(
         (status = 201, description = "Queued", body = Created),
         (status = 400, description = "Not JSON", body = ErrorBody),
@@ -1230,7 +1230,7 @@ async fn eval(
 }
 
 /// Linearised bearing coefficients: body and answer as `coefficients`' input and JSON
-/// output (README "Coefficients and stability"), computed on a blocking thread.
+/// output (docs/cli.md "Coefficients and stability"), computed on a blocking thread.
 #[utoipa::path(post, path = "/api/coefficients",
     request_body(content = serde_json::Value, description = "`{\"bearing\", \"speed\" (or \"speeds\"), \"load\"}` or `{\"bearing\", \"state\"}` as for `coefficients`", content_type = "application/json"),
     responses((status = 200, description = "`coefficients`' JSON output", body = serde_json::Value),

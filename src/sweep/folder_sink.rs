@@ -3,7 +3,9 @@
 //! then one variant per line, each written with one call and flushed, so a kill leaves at
 //! most one torn last line, which a resume drops) and an advisory lock `result.lock`
 //! holding the running process's id, so that a second run into the same folder refuses
-//! instead of corrupting the stream.
+//! instead of corrupting the stream. The lock file is removed when the sink is dropped
+//! (a finished or stopped run); only a killed process leaves it, and the next run takes
+//! it over (the lock itself died with the process).
 
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
@@ -94,8 +96,42 @@ impl FolderSink {
     }
 }
 
-/// Takes the advisory lock at `path` and writes this process's id into it.
+/// Takes the advisory lock at `path` and writes this process's id into it. A run that
+/// finishes removes the file while holding the lock, so a second process may have opened
+/// the old file and locked it after that: it then holds a lock on a removed file, and it
+/// tries again on the path's current file.
 fn take_lock(path: &Path) -> Result<File, SweepError> {
+    // Each retry follows a removal by a run that just finished: a few suffice.
+    const ATTEMPTS: usize = 8;
+    let mut last = None;
+    for _ in 0..ATTEMPTS {
+        let f = take_lock_once(path)?;
+        if same_file(&f, path) {
+            return Ok(f);
+        }
+        last = Some(f);
+    }
+    last.ok_or_else(|| SweepError::Output(format!("{}: cannot take the lock", path.display())))
+}
+
+/// Whether `f` is still the file at `path` (not one removed after `f` was opened).
+fn same_file(f: &File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (f.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (f, path);
+        true
+    }
+}
+
+fn take_lock_once(path: &Path) -> Result<File, SweepError> {
     let mut f = OpenOptions::new()
         .read(true)
         .write(true)
@@ -213,6 +249,9 @@ impl Drop for FolderSink {
         if let Some(f) = &self.file {
             let _ = f.sync_all();
         }
+        // `result.lock` goes while its lock is still held (the handle closes after this),
+        // so a finished folder holds only its results.
+        let _ = std::fs::remove_file(lock_path(&self.result));
     }
 }
 
@@ -296,12 +335,69 @@ fn check_header(path: &Path, found: &Value, expected: &Value) -> Result<(), Swee
         )));
     }
     if found != expected {
+        let mut diffs = Vec::new();
+        differing_keys("", found, expected, &mut diffs);
+        let listed: Vec<String> = diffs
+            .iter()
+            .map(|(key, was, now)| {
+                let flag = flag_of(key).map_or(String::new(), |f| format!(" ({f})"));
+                format!("`{key}`{flag}: folder {was}, this run {now}")
+            })
+            .collect();
+        let dir = path.parent().unwrap_or(Path::new("."));
         return Err(SweepError::Output(format!(
-            "{}: written by a different spec, settings or shard (its header {found}, this run {expected}); use another --out or delete it",
-            path.display()
+            "{}: this folder holds a run with a different spec, settings or shard, so it cannot be resumed: {}. To keep both, give this run another --out; to start over, delete {}; to resume the folder's run, repeat its flags",
+            path.display(),
+            crate::json::shorten(&listed.join("; "), 1200),
+            dir.display()
         )));
     }
     Ok(())
+}
+
+/// The leaf keys (dotted paths) where `a` and `b` differ, with both values (a key missing
+/// on one side reads `none`).
+fn differing_keys(prefix: &str, a: &Value, b: &Value, out: &mut Vec<(String, String, String)>) {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                let p = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                match (x.get(k), y.get(k)) {
+                    (Some(u), Some(v)) => differing_keys(&p, u, v, out),
+                    (u, v) => out.push((p, shown(u), shown(v))),
+                }
+            }
+        }
+        _ if a != b => out.push((prefix.to_string(), shown(Some(a)), shown(Some(b)))),
+        _ => {}
+    }
+}
+
+fn shown(v: Option<&Value>) -> String {
+    match v {
+        None => "none".into(),
+        Some(v) => crate::json::shorten(&v.to_string(), 80),
+    }
+}
+
+/// The command-line flag or input behind a header key, where one is.
+fn flag_of(key: &str) -> Option<&'static str> {
+    let leaf = key.rsplit('.').next().unwrap_or(key);
+    Some(match leaf {
+        "spec_hash" | "count" => "the spec file changed",
+        "shard" | "index" if key.starts_with("shard") => "--shard",
+        "backend" | "precision" | "device" => "--backend",
+        "film_accuracy" | "accuracy" => "--accuracy",
+        "full_model" => "--full-model",
+        _ => return None,
+    })
 }
 
 #[cfg(test)]

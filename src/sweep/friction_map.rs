@@ -177,7 +177,7 @@ hand_schema!(
     )
 );
 
-/// A friction-map spec as written (README "Friction maps").
+/// A friction-map spec as written (docs/cli.md "Friction maps").
 #[derive(Clone, Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FrictionMapDoc {

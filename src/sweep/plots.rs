@@ -18,7 +18,8 @@ use serde_json::Value;
 use utoipa::ToSchema;
 
 use super::spec::{
-    hand_schema, join, one_of_names, parse_path, present, resolve, schema, type_name, Axis, PathSeg,
+    hand_schema, join, one_of_names, parse_path, present, resolve, schema, type_name, Axis,
+    PathSeg, SweepKind,
 };
 use super::SweepError;
 use crate::plot::{line_plot_svg, Scale, Series};
@@ -105,10 +106,21 @@ pub struct PlotDoc {
     pub y_label: Option<String>,
 }
 
-/// Checks a plot's `y` against the shape of a variant's reductions (any bearing index
-/// stands for bearing 0 there: the count is the scene's): it must name a number.
-fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
-    let schema = super::reduce::Reductions::schema();
+/// Checks a plot's `y` against the shape of a variant's reductions of sweep kind `kind`
+/// (rotor and synthetic variants share the signal reductions, stability variants have
+/// their own; any bearing index stands for bearing 0 there: the count is the scene's): it
+/// must name a number.
+fn check_y(y_path: &[PathSeg], kind: SweepKind) -> Result<(), String> {
+    let (schema, example) = match kind {
+        SweepKind::Rotor | SweepKind::Synthetic => (
+            super::reduce::Reductions::schema(),
+            "`h_min.value_m`, `bearings[0].whirl.subsync_amplitude_m`",
+        ),
+        SweepKind::Stability => (
+            super::stability_sim::reductions_schema(),
+            "`threshold_speed_rad_s`, `log_dec_min`",
+        ),
+    };
     let as_first: Vec<PathSeg> = y_path
         .iter()
         .map(|s| match s {
@@ -118,7 +130,8 @@ fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
         .collect();
     let leaf = resolve(&schema, &as_first).map_err(|r| {
         format!(
-            "not a reduction of a variant: {}",
+            "not a reduction of a {} variant: {}",
+            kind.name(),
             r.replace("the base scene", "`reductions`")
                 .replace(" (write the field into `base` to sweep it;", " (")
         )
@@ -126,7 +139,7 @@ fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
     match leaf.first() {
         Some((_, v)) if v.is_number() => Ok(()),
         Some((_, v)) => Err(format!(
-            "names {}, not a number (e.g. `h_min.value_m`, `bearings[0].whirl.subsync_amplitude_m`)",
+            "names {}, not a number (e.g. {example})",
             type_name(v)
         )),
         None => Err("names nothing".into()),
@@ -134,8 +147,13 @@ fn check_y(y_path: &[PathSeg]) -> Result<(), String> {
 }
 
 /// Checks the spec's typed `plots` against its axes: names usable in a file name and
-/// unique, `x` and `series` axes of the sweep, `y` a number of a variant's reductions.
-pub fn plots_from_doc(list: &[PlotDoc], axes: &[Axis]) -> Result<Vec<PlotSpec>, SweepError> {
+/// unique, `x` and `series` axes of the sweep, `y` a number of the reductions of a variant
+/// of `kind`.
+pub fn plots_from_doc(
+    list: &[PlotDoc],
+    axes: &[Axis],
+    kind: SweepKind,
+) -> Result<Vec<PlotSpec>, SweepError> {
     let mut out: Vec<PlotSpec> = Vec::new();
     let axis_names: Vec<&str> = axes.iter().map(|a| a.path.as_str()).collect();
     for (k, p) in list.iter().enumerate() {
@@ -182,7 +200,7 @@ pub fn plots_from_doc(list: &[PlotDoc], axes: &[Axis]) -> Result<Vec<PlotSpec>, 
                 "`[*]` is not allowed here: name one bearing, e.g. bearings[0]",
             ));
         }
-        check_y(&y_path).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
+        check_y(&y_path, kind).map_err(|r| SweepError::spec(join(&at, "y"), r))?;
         let scale = |s: Option<ScaleDoc>| s.map_or(Scale::Linear, |s| s.0);
         out.push(PlotSpec {
             name,

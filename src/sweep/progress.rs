@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use serde::Serialize;
 
 /// Least time between bar redraws (indicatif's refresh rate, Hz).
@@ -70,6 +70,21 @@ impl ProgressCounters {
         }
     }
 
+    /// Seconds since this run's variants started, variants this run finished (resumed
+    /// ones excluded) and variants left.
+    pub fn run_so_far(&self) -> (f64, u64, u64) {
+        let done = self.done.load(Ordering::Relaxed);
+        let total = self.total.load(Ordering::Relaxed);
+        let ran = done.saturating_sub(self.resumed.load(Ordering::Relaxed));
+        let elapsed = self
+            .started
+            .lock()
+            .ok()
+            .and_then(|s| s.map(|t| t.elapsed().as_secs_f64()))
+            .unwrap_or(0.0);
+        (elapsed, ran, total.saturating_sub(done))
+    }
+
     /// Current counts, rate and time left.
     pub fn snapshot(&self) -> ProgressSnapshot {
         self.snapshot_plus(0, 0)
@@ -106,6 +121,59 @@ impl ProgressCounters {
     }
 }
 
+/// Seconds of a run before the bar shows a rate and a time left: earlier, a rate from the
+/// first variant or none (`0/s`) says nothing.
+pub const RATE_AFTER_S: f64 = 2.0;
+
+/// The bar's rate: blank for the first [`RATE_AFTER_S`] seconds and before any variant of
+/// this run finished, then variants per second to 3 significant digits (per minute below
+/// 0.1/s).
+pub fn rate_text(elapsed_s: f64, ran: u64) -> String {
+    if !(elapsed_s >= RATE_AFTER_S) || ran == 0 {
+        return String::new();
+    }
+    let per_s = ran as f64 / elapsed_s;
+    if per_s < 0.1 {
+        format!("{}/min", sig3(per_s * 60.0))
+    } else {
+        format!("{}/s", sig3(per_s))
+    }
+}
+
+/// The bar's time left at the run's rate, in whole seconds, minutes or hours (blank while
+/// [`rate_text`] is).
+pub fn left_text(elapsed_s: f64, ran: u64, left: u64) -> String {
+    if !(elapsed_s >= RATE_AFTER_S) || ran == 0 {
+        return String::new();
+    }
+    let s = (left as f64 * elapsed_s / ran as f64).round();
+    let t = if s < 60.0 {
+        format!("{s:.0} s")
+    } else if s < 3600.0 {
+        format!("{:.0} min {:.0} s", (s / 60.0).floor(), s % 60.0)
+    } else {
+        format!(
+            "{:.0} h {:.0} min",
+            (s / 3600.0).floor(),
+            ((s % 3600.0) / 60.0).floor()
+        )
+    };
+    format!("{t} left")
+}
+
+/// `x > 0` to 3 significant digits, without an exponent in the usual range.
+fn sig3(x: f64) -> String {
+    if x >= 100.0 {
+        format!("{x:.0}")
+    } else if x >= 10.0 {
+        format!("{x:.1}")
+    } else if x >= 1.0 {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// The runner's progress reporter: shared counters plus, on a terminal, a bar.
 pub struct Progress {
     counters: Arc<ProgressCounters>,
@@ -128,12 +196,25 @@ impl Progress {
                 Some(0),
                 ProgressDrawTarget::stderr_with_hz(REDRAW_HZ),
             );
+            let (c_rate, c_left) = (counters.clone(), counters.clone());
             bar.set_style(
-                ProgressStyle::with_template(
-                    "[{bar:30}] {pos}/{len} variants  {per_sec}  {eta} left",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("#>-"),
+                ProgressStyle::with_template("[{bar:30}] {pos}/{len} variants  {rate}  {left}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .with_key(
+                        "rate",
+                        move |_: &ProgressState, w: &mut dyn std::fmt::Write| {
+                            let (elapsed, ran, _) = c_rate.run_so_far();
+                            let _ = w.write_str(&rate_text(elapsed, ran));
+                        },
+                    )
+                    .with_key(
+                        "left",
+                        move |_: &ProgressState, w: &mut dyn std::fmt::Write| {
+                            let (elapsed, ran, left) = c_left.run_so_far();
+                            let _ = w.write_str(&left_text(elapsed, ran, left));
+                        },
+                    )
+                    .progress_chars("#>-"),
             );
             bar
         });
@@ -176,6 +257,27 @@ impl Progress {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bar_shows_no_rate_for_two_seconds_then_three_digits() {
+        // Issue 23 item 6: no `0/s` at the start, no 4-decimal rates.
+        assert_eq!(rate_text(0.5, 0), "");
+        assert_eq!(rate_text(1.9, 7), "", "a rate before 2 s");
+        assert_eq!(rate_text(5.0, 0), "", "no variant finished yet");
+        assert_eq!(left_text(1.0, 3, 10), "");
+        for (elapsed, ran, want) in [
+            (2.0, 1, "0.500/s"),
+            (3.0, 10, "3.33/s"),
+            (2.5, 100, "40.0/s"),
+            (4.0, 123_457, "30864/s"),
+            (60.0, 3, "3.00/min"),
+        ] {
+            assert_eq!(rate_text(elapsed, ran), want, "{ran} in {elapsed} s");
+        }
+        assert_eq!(left_text(10.0, 5, 4), "8 s left");
+        assert_eq!(left_text(10.0, 1, 50), "8 min 20 s left");
+        assert_eq!(left_text(100.0, 1, 100), "2 h 46 min left");
+    }
 
     #[test]
     fn counters_count_resumed_and_failed_variants() {

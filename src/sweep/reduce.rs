@@ -1,7 +1,7 @@
 //! Per-variant reductions of simulated signals (time series in SI units) to the numbers a
 //! design sweep compares, and decimated series. Pure functions on slices: no I/O.
 //!
-//! Definitions (the README's "Sweeps" section repeats them):
+//! Definitions (docs/cli.md "Sweeps" section repeats them):
 //! - **Evaluation window**: the last `N` revolutions (revolutions counted from the
 //!   integral of `|spin|`), the last fraction of the run, or the last seconds. Windowed
 //!   quantities describe the steady state; run extremes (`h_min`, `eccentricity_max`,
@@ -315,7 +315,7 @@ pub struct WhirlDoc {
     pub min_amplitude_ratio: Option<Num>,
 }
 
-/// The spec's `reductions` as written (README "Sweeps" documents the fields).
+/// The spec's `reductions` as written (docs/cli.md "Sweeps" documents the fields).
 #[derive(Clone, Debug, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReductionsDoc {
@@ -517,7 +517,7 @@ pub struct Whirl {
     /// Sub-synchronous whirl detected (see the module doc).
     pub oil_whirl: bool,
     /// Largest `|ratio|` searched, present only when below `max_ratio`: the kept sample
-    /// rate (decimated samples, README "Limits") would alias higher ratios, so they were
+    /// rate (decimated samples, docs/cli.md "Limits") would alias higher ratios, so they were
     /// not searched rather than reported wrong.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub searched_up_to_ratio: Option<f64>,

@@ -88,7 +88,7 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
         "model_reductions": r.model_reductions,
         "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
     });
-    // Only when decimated (README "Limits"), so undecimated records are unchanged: the
+    // Only when decimated (docs/cli.md "Limits"), so undecimated records are unchanged: the
     // reductions saw every `sample_stride`-th sample.
     if r.samples.sample_stride > 1 {
         extra["sample_stride"] = json!(r.samples.sample_stride);

@@ -72,7 +72,7 @@ pub fn prepare_simulator(
         SweepKind::Stability => {
             super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
             // The coefficients are differences of film loads: always the tightest level
-            // (README "Coefficients and stability").
+            // (docs/cli.md "Coefficients and stability").
             let tight = Accuracy::new(1e-12).expect("a calibrated level");
             if choice.accuracy.rtol() != tight.rtol() {
                 notice(format!(
@@ -107,10 +107,10 @@ pub fn prepare_simulator(
                     BackendKind::Auto,
                     choice.accuracy,
                     format!(
-                        "a short-film rotor sweep runs its integrators on one thread beside \
-                         a GPU but on all {threads} here beside the CPU backend (the CPU is \
-                         as fast from {SHORT_FILM_SWEEP_CPU_THREADS} threads, BENCHMARKS.md \
-                         \"GPU backend\")"
+                        "a short-film rotor sweep is as fast on the CPU from \
+                         {SHORT_FILM_SWEEP_CPU_THREADS} threads (here {threads}; beside a GPU \
+                         its integrators run on one thread, beside the CPU backend on all; \
+                         BENCHMARKS.md \"GPU backend\")"
                     ),
                 );
                 (b, (!notices.is_empty()).then(|| notices.join("\n")))

@@ -14,7 +14,7 @@
 //!  "reductions": {...}}
 //! ```
 //!
-//! The README's "Sweeps" section documents every field.
+//! docs/cli.md "Sweeps" documents every field.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -305,6 +305,9 @@ fn serde_error(
         } else {
             format!("unknown field (expected one of: {})", names.join(", "))
         };
+        if let Some(hint) = crate::json::unknown_field_hint(&msg) {
+            reason.push_str(&hint);
+        }
     } else if let Some((_, expected)) = msg
         .strip_prefix("invalid type: ")
         .and_then(|r| r.rsplit_once(", expected "))
@@ -602,7 +605,7 @@ hand_schema!(
         [
             schema::typed(
                 utoipa::openapi::Type::Object,
-                "The scene (README \"Scene files\"); axes set its values"
+                "The scene (docs/cli.md \"Scene files\"); axes set its values"
             ),
             schema::typed(
                 utoipa::openapi::Type::String,
@@ -725,7 +728,7 @@ impl<'de> Deserialize<'de> for ModeDoc {
     }
 }
 
-/// A scene sweep spec as written (kinds rotor, synthetic, stability); the README's "Sweeps"
+/// A scene sweep spec as written (kinds rotor, synthetic, stability); docs/cli.md "Sweeps"
 /// section documents every field.
 #[derive(Clone, Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -777,7 +780,7 @@ impl utoipa::PartialSchema for SpecDocument {
                 super::friction_map::FrictionMapDoc::name(),
             ))
             .description(Some(
-                "A sweep spec exactly as `run` reads it (README \"Sweeps\"; sweeps/ has examples), with the base scene inline",
+                "A sweep spec exactly as `run` reads it (docs/cli.md \"Sweeps\"; sweeps/ has examples), with the base scene inline",
             ))
             .into()
     }
@@ -847,7 +850,7 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         None => ReductionOptions::default(),
         Some(r) => ReductionOptions::from_doc(r, "reductions")?,
     };
-    let plots = super::plots::plots_from_doc(d.plots.as_deref().unwrap_or_default(), &axes)?;
+    let plots = super::plots::plots_from_doc(d.plots.as_deref().unwrap_or_default(), &axes, kind)?;
     // Echoed and hashed as given (a resume compares it), with the base and the kind inlined.
     let mut canonical = doc.as_object().cloned().unwrap_or_default();
     canonical.insert("base".into(), base.clone());

@@ -46,6 +46,27 @@ impl StabilitySimulator {
     }
 }
 
+/// The shape of a stability variant's `reductions` with every field present (numbers 0,
+/// one bearing): what a plot's `y` of a `"kind": "stability"` spec is checked against
+/// before running (`crate::sweep::plots`). `tests/examples.rs` checks it against the
+/// reductions a run of `sweeps/stability-map.json` writes.
+pub fn reductions_schema() -> Value {
+    json!({
+        "speed_rad_s": 0.0,
+        "stable": false,
+        "sigma_max_1_s": 0.0,
+        "least_damped": {"sigma_1_s": 0.0, "frequency_rad_s": 0.0, "whirl_ratio": 0.0,
+                         "damping_ratio": 0.0, "log_dec": 0.0, "direction": "forward"},
+        "log_dec_min": 0.0,
+        "log_dec_min_whirl_ratio": 0.0,
+        "threshold_speed_rad_s": 0.0,
+        "threshold_over_speed": 0.0,
+        "threshold_whirl_ratio": 0.0,
+        "threshold_note": "",
+        "eccentricity_ratio": [0.0],
+    })
+}
+
 /// The least log-dec among the oscillating modes and that mode.
 fn least_log_dec(modes: &[crate::stability::Mode]) -> Option<&crate::stability::Mode> {
     modes.iter().filter(|m| m.log_dec.is_some()).min_by(|a, b| {
