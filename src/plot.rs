@@ -241,7 +241,7 @@ pub struct Rect {
 impl Rect {
     /// Whether `(px, py)` lies inside (borders included).
     pub fn contains(&self, px: f64, py: f64) -> bool {
-        px >= self.x && px <= self.x + self.w && py >= self.y && py <= self.y + self.h
+        (self.x..=self.x + self.w).contains(&px) && (self.y..=self.y + self.h).contains(&py)
     }
 
     fn grown(&self, d: f64) -> Rect {
@@ -403,7 +403,7 @@ fn linear_ticks(lo: f64, hi: f64, target: usize) -> Vec<(f64, String)> {
 /// values when the range is narrower than a factor ~2.
 fn log_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
     let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
-    let inside = |v: f64| v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9);
+    let inside = |v: f64| (lo * (1.0 - 1e-9)..=hi * (1.0 + 1e-9)).contains(&v);
     let decades = (hi / lo).log10();
     let every = ((decades / 8.0).ceil() as i32).max(1);
     let with = |mults: &[f64], labelled: bool| -> Vec<(f64, String)> {
@@ -547,13 +547,22 @@ impl Figure {
         for g in &self.guides {
             let (label, colour, dash) = match g {
                 Guide::VLine {
-                    label, colour, dash, ..
+                    label,
+                    colour,
+                    dash,
+                    ..
                 }
                 | Guide::HLine {
-                    label, colour, dash, ..
+                    label,
+                    colour,
+                    dash,
+                    ..
                 }
                 | Guide::Ray {
-                    label, colour, dash, ..
+                    label,
+                    colour,
+                    dash,
+                    ..
                 } => (label, colour.as_str(), Some(*dash)),
                 Guide::Circle { label, .. } => (label, "#777777", Some(Dash::Dashed)),
             };
@@ -684,7 +693,10 @@ impl Figure {
                     let pts: Vec<(f64, f64)> = (0..=n)
                         .map(|k| {
                             let a = std::f64::consts::TAU * k as f64 / n as f64;
-                            l.to_px(self, (centre.0 + radius * a.cos(), centre.1 + radius * a.sin()))
+                            l.to_px(
+                                self,
+                                (centre.0 + radius * a.cos(), centre.1 + radius * a.sin()),
+                            )
                         })
                         .collect();
                     for w in pts.windows(2) {
@@ -1172,9 +1184,9 @@ fn dash_attr(d: Option<Dash>) -> String {
 
 fn marker_svg(m: Marker, x: f64, y: f64, colour: &str, r: f64) -> String {
     match m {
-        Marker::Circle => format!(
-            r#"<circle class="marker" cx="{x:.1}" cy="{y:.1}" r="{r}" fill="{colour}"/>"#
-        ),
+        Marker::Circle => {
+            format!(r#"<circle class="marker" cx="{x:.1}" cy="{y:.1}" r="{r}" fill="{colour}"/>"#)
+        }
         Marker::Ring => format!(
             r##"<circle class="marker" cx="{x:.1}" cy="{y:.1}" r="{r}" fill="#ffffff" stroke="{colour}" stroke-width="1.5"/>"##
         ),
@@ -1219,7 +1231,16 @@ pub fn line_plot_svg_equal_aspect(
     y_label: &str,
     series: &[Series<'_>],
 ) -> Result<String, String> {
-    simple(title, x_label, y_label, series, Scale::Linear, Scale::Linear, true).svg()
+    simple(
+        title,
+        x_label,
+        y_label,
+        series,
+        Scale::Linear,
+        Scale::Linear,
+        true,
+    )
+    .svg()
 }
 
 /// The [`Figure`] of [`line_plot_svg`]: markers at the points of curves with at most 40.
@@ -1287,9 +1308,7 @@ pub fn unit_of_path(path: &str) -> Unit {
         "couple_unbalance" | "angle" | "tilt" => unit(1e3, "mrad", "rad"),
         "gravity" => unit(1.0, "m/s²", "m/s²"),
         "velocity" => unit(1.0, "m/s", "m/s"),
-        "t_end" | "sample_interval" | "fixed_step" | "max_step" | "duration" => {
-            unit(1.0, "s", "s")
-        }
+        "t_end" | "sample_interval" | "fixed_step" | "max_step" | "duration" => unit(1.0, "s", "s"),
         "load" => unit(1.0, "N", "N"),
         _ => ONE,
     }
@@ -1474,7 +1493,7 @@ mod tests {
             assert!(n >= 3, "[{lo}, {hi}]: {n} labels in {t:?}");
             assert!(
                 t.iter()
-                    .all(|(v, _)| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9)),
+                    .all(|(v, _)| (lo * (1.0 - 1e-9)..=hi * (1.0 + 1e-9)).contains(v)),
                 "[{lo}, {hi}]: a tick outside: {t:?}"
             );
         }
@@ -1487,14 +1506,20 @@ mod tests {
             "5 mPa·s"
         );
         assert_eq!(
-            label_in("radial clearance (m)", unit_of_path("bearings[*].clearance")),
+            label_in(
+                "radial clearance (m)",
+                unit_of_path("bearings[*].clearance")
+            ),
             "radial clearance (µm)"
         );
         assert_eq!(
             label_in("h_min", unit_of_reduction("h_min.value_m")),
             "h_min (µm)"
         );
-        assert_eq!(label_in("speed (rpm)", unit_of_path("initial.spin")), "speed (rpm)");
+        assert_eq!(
+            label_in("speed (rpm)", unit_of_path("initial.spin")),
+            "speed (rpm)"
+        );
         assert_eq!(
             name_of_reduction("bearings[0].friction_coefficient.mean"),
             "friction coefficient, mean (bearing 1)"

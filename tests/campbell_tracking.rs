@@ -86,34 +86,47 @@ fn tracked_modes_keep_their_shape_where_frequencies_cross() {
     // modes and ends above both.
     let (wx, wy) = ((KX / M).sqrt(), (KY / M).sqrt());
     assert!(forward_conical(0.0) < wx && forward_conical(400.0) > wy);
-    let steps: Vec<(&[Mode], &M4)> = r.iter().map(|a| (a.modes.as_slice(), &a.linear.mass)).collect();
+    let steps: Vec<(&[Mode], &M4)> = r
+        .iter()
+        .map(|a| (a.modes.as_slice(), &a.linear.mass))
+        .collect();
     let tracks = track_modes(&steps);
-    assert_eq!(tracks.len(), 4, "two translational and two conical modes: {tracks:?}");
+    assert_eq!(
+        tracks.len(),
+        4,
+        "two translational and two conical modes: {tracks:?}"
+    );
     let tol = 0.01;
     let mut seen = [false; 3];
     for (t, idx) in tracks.iter().enumerate() {
-        assert!(idx.iter().all(Option::is_some), "track {t} misses a speed: {idx:?}");
+        assert!(
+            idx.iter().all(Option::is_some),
+            "track {t} misses a speed: {idx:?}"
+        );
         let at = |s: usize| &r[s].modes[idx[s].unwrap()];
         let first = translation_share(at(0));
-        for s in 0..speeds.len() {
+        for (s, &w) in speeds.iter().enumerate() {
             let m = at(s);
             let share = translation_share(m);
             assert!(
                 (share > 0.99) == (first > 0.99),
-                "track {t}, speed index {s} ({} rad/s): translation share {share}, at the start {first}",
-                speeds[s]
+                "track {t}, speed index {s} ({w} rad/s): translation share {share}, at the start {first}"
             );
             let f = m.frequency_rad_s.abs();
             if first > 0.99 {
                 // A translational track keeps its frequency: √(k_x/m) or √(k_y/m).
-                let expected = if (at(0).frequency_rad_s.abs() - wx).abs() < 1.0 { wx } else { wy };
+                let expected = if (at(0).frequency_rad_s.abs() - wx).abs() < 1.0 {
+                    wx
+                } else {
+                    wy
+                };
                 assert!(
                     (f / expected - 1.0).abs() < tol,
                     "track {t}, speed index {s}: frequency {f}, expected {expected}, tolerance {tol} relative"
                 );
                 seen[if expected == wx { 0 } else { 1 }] = true;
             } else if m.frequency_rad_s > 0.0 {
-                let expected = forward_conical(speeds[s]);
+                let expected = forward_conical(w);
                 assert!(
                     (f / expected - 1.0).abs() < tol,
                     "track {t}, speed index {s}: forward conical {f}, closed form {expected}, tolerance {tol} relative"
@@ -126,11 +139,18 @@ fn tracked_modes_keep_their_shape_where_frequencies_cross() {
     // Ranked by frequency instead, the second-lowest curve would change mode: the check
     // above is not vacuous.
     let second = |s: usize| {
-        let mut m: Vec<&Mode> = r[s].modes.iter().filter(|m| m.frequency_rad_s != 0.0).collect();
+        let mut m: Vec<&Mode> = r[s]
+            .modes
+            .iter()
+            .filter(|m| m.frequency_rad_s != 0.0)
+            .collect();
         m.sort_by(|a, b| a.frequency_rad_s.abs().total_cmp(&b.frequency_rad_s.abs()));
         translation_share(m[1])
     };
-    assert!((second(0) > 0.99) != (second(40) > 0.99), "ranking would not swap here");
+    assert!(
+        (second(0) > 0.99) != (second(40) > 0.99),
+        "ranking would not swap here"
+    );
 }
 
 #[test]
@@ -145,20 +165,36 @@ fn the_campbell_diagram_draws_tracked_curves_with_whirl_direction_and_stability(
     let near_x: Vec<&bearing_sweep::plot::Curve> = fig
         .curves
         .iter()
-        .filter(|c| c.dash.is_some() && !c.points.is_empty() && (c.points[0].1 / wx - 1.0).abs() < 0.05)
+        .filter(|c| {
+            c.dash.is_some() && !c.points.is_empty() && (c.points[0].1 / wx - 1.0).abs() < 0.05
+        })
         .collect();
     assert!(!near_x.is_empty(), "no curve starts at the x mode");
     for c in &near_x {
         for (i, p) in c.points.iter().enumerate() {
-            assert!((p.1 / wx - 1.0).abs() < 0.05, "curve {:?} point {i}: {p:?}, expected ~{wx}", c.label);
+            assert!(
+                (p.1 / wx - 1.0).abs() < 0.05,
+                "curve {:?} point {i}: {p:?}, expected ~{wx}",
+                c.label
+            );
         }
     }
-    assert!(svg.contains("operating speed 300 rad/s"), "no operating-speed line");
+    assert!(
+        svg.contains("operating speed 300 rad/s"),
+        "no operating-speed line"
+    );
     assert!(svg.contains(">1x<"), "no 1x line in the legend");
     assert!(svg.contains("backward whirl"), "no backward-whirl key");
-    assert!(!svg.contains("tests/") && !svg.contains(".rs"), "a source path in the figure");
+    assert!(
+        !svg.contains("tests/") && !svg.contains(".rs"),
+        "a source path in the figure"
+    );
     // Legend only for drawn modes.
-    assert_eq!(svg.matches(">mode ").count(), 4, "the four drawn modes in the legend");
+    assert_eq!(
+        svg.matches(">mode ").count(),
+        4,
+        "the four drawn modes in the legend"
+    );
     // Cross-coupled stiffness beyond the anisotropy ((k_y − k_x)/2) turns the
     // translational modes into circular whirls and destabilises the forward one.
     let r = runs(&speeds, KT, 3.0e5);
@@ -167,12 +203,26 @@ fn the_campbell_diagram_draws_tracked_curves_with_whirl_direction_and_stability(
         .svg()
         .unwrap();
     // Unstable points (log dec < 0) are marked, and only those.
-    let unstable: usize = r.iter().map(|a| a.modes.iter().filter(|m| m.log_dec.is_some_and(|d| d < 0.0)).count()).sum();
+    let unstable: usize = r
+        .iter()
+        .map(|a| {
+            a.modes
+                .iter()
+                .filter(|m| m.log_dec.is_some_and(|d| d < 0.0))
+                .count()
+        })
+        .sum();
     assert!(unstable > 0, "the cross-coupled case has unstable modes");
     let triangles = svg.matches("class=\"marker\" d=\"M").count();
     assert_eq!(triangles, unstable, "one triangle per unstable point");
-    assert!(svg.contains("unstable (log dec &lt; 0)"), "no key for the unstable marker");
-    let d = damping_figure("Log dec", &r, Some(300.0)).unwrap().svg().unwrap();
+    assert!(
+        svg.contains("unstable (log dec &lt; 0)"),
+        "no key for the unstable marker"
+    );
+    let d = damping_figure("Log dec", &r, Some(300.0))
+        .unwrap()
+        .svg()
+        .unwrap();
     assert!(d.contains("stability limit"));
 }
 
@@ -183,8 +233,18 @@ fn a_far_mode_does_not_stretch_the_frequency_window() {
     let r = runs(&speeds, KT * 1e4, 0.0);
     let fig = campbell_figure("far", &r, None, None).unwrap();
     let (lo, hi) = fig.y_range.unwrap();
-    assert!(lo == 0.0 && hi < 2.5 * 400.0 * 1.07, "window {lo}..{hi} stretched by the far modes");
+    assert!(
+        lo == 0.0 && hi < 2.5 * 400.0 * 1.07,
+        "window {lo}..{hi} stretched by the far modes"
+    );
     let svg = fig.svg().unwrap();
-    assert_eq!(svg.matches(">mode ").count(), 2, "only the two drawn modes in the legend");
-    assert!(svg.contains("2 modes above"), "no note of the modes left out");
+    assert_eq!(
+        svg.matches(">mode ").count(),
+        2,
+        "only the two drawn modes in the legend"
+    );
+    assert!(
+        svg.contains("2 modes above"),
+        "no note of the modes left out"
+    );
 }

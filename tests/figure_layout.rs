@@ -4,7 +4,9 @@
 //! legend, clean tick labels (`0`, never `-1.11e-16`), no yellow on white. The checker is
 //! itself shown to fail on a figure that breaks the rules.
 
-use bearing_sweep::plot::{line_plot_svg, line_plot_svg_equal_aspect, Figure, Guide, Scale, Series};
+use bearing_sweep::plot::{
+    line_plot_svg, line_plot_svg_equal_aspect, Figure, Guide, Scale, Series,
+};
 use bearing_sweep::sweep::plots::render;
 use bearing_sweep::sweep::spec::parse_spec;
 use serde_json::{json, Value};
@@ -94,7 +96,7 @@ fn meets(r: (f64, f64, f64, f64), a: (f64, f64), b: (f64, f64)) -> bool {
     (0..=n).any(|k| {
         let t = k as f64 / n as f64;
         let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-        x >= r.0 && x <= r.0 + r.2 && y >= r.1 && y <= r.1 + r.3
+        (r.0..=r.0 + r.2).contains(&x) && (r.1..=r.1 + r.3).contains(&y)
     })
 }
 
@@ -123,7 +125,7 @@ fn check(name: &str, svg: &str) -> Result<Parsed, String> {
     }
     if let Some(r) = p.legend {
         for (i, m) in p.markers.iter().enumerate() {
-            if m.0 >= r.0 && m.0 <= r.0 + r.2 && m.1 >= r.1 && m.1 <= r.1 + r.3 {
+            if (r.0..=r.0 + r.2).contains(&m.0) && (r.1..=r.1 + r.3).contains(&m.1) {
                 return Err(format!(
                     "{name}: legend box {r:?} covers marker {i} at {m:?}"
                 ));
@@ -173,7 +175,9 @@ fn the_checker_fails_on_a_figure_that_breaks_the_rules() {
     );
     let e = check("marker", &marker).unwrap_err();
     assert!(e.contains("covers marker 0"), "{e}");
-    let yellow = covered.replace("90,90 160,130", "10,10 20,20").replace("#0072B2", "#fde725");
+    let yellow = covered
+        .replace("90,90 160,130", "10,10 20,20")
+        .replace("#0072B2", "#fde725");
     let e = check("yellow", &yellow).unwrap_err();
     assert!(e.contains("yellow"), "{e}");
 }
@@ -204,13 +208,28 @@ fn sweep_plots_have_units_readable_log_axes_and_a_free_legend() {
     let svg = render(&variants, &spec.plots[0]).unwrap();
     let p = must("h-min", &svg);
     let all = p.texts.join("\n");
-    for want in ["viscosity = 5 mPa·s", "viscosity = 24.2 mPa·s", "(µm)", "radial clearance (µm)"] {
-        assert!(all.contains(want), "h-min: no `{want}` in the texts:\n{all}");
+    for want in [
+        "viscosity = 5 mPa·s",
+        "viscosity = 24.2 mPa·s",
+        "(µm)",
+        "radial clearance (µm)",
+    ] {
+        assert!(
+            all.contains(want),
+            "h-min: no `{want}` in the texts:\n{all}"
+        );
     }
-    assert!(!all.contains("bearings[*]"), "raw path in the texts:\n{all}");
+    assert!(
+        !all.contains("bearings[*]"),
+        "raw path in the texts:\n{all}"
+    );
     let svg = render(&variants, &spec.plots[1]).unwrap();
     let p = must("friction", &svg);
-    assert!(p.texts.iter().any(|t| t == "clearance (µm)"), "{:?}", p.texts);
+    assert!(
+        p.texts.iter().any(|t| t == "clearance (µm)"),
+        "{:?}",
+        p.texts
+    );
 }
 
 #[test]
@@ -226,8 +245,20 @@ fn log_axes_with_narrow_ranges_label_three_ticks() {
         "stability curve",
         "eccentricity ratio",
         "threshold speed × √(c/g)",
-        &[Series { label: "closed form", points: curve.clone() },
-          Series { label: "this code", points: curve.iter().step_by(3).map(|&(x, y)| (x, y * 1.01)).collect() }],
+        &[
+            Series {
+                label: "closed form",
+                points: curve.clone(),
+            },
+            Series {
+                label: "this code",
+                points: curve
+                    .iter()
+                    .step_by(3)
+                    .map(|&(x, y)| (x, y * 1.01))
+                    .collect(),
+            },
+        ],
         Scale::Linear,
         Scale::Log,
     )
@@ -238,12 +269,37 @@ fn log_axes_with_narrow_ranges_label_three_ticks() {
         .enumerate()
         .map(|(k, &t)| (t, 10f64.powi(-3 - k as i32)))
         .collect();
-    let svg = line_plot_svg("work-precision", "wall time (s)", "error", &[Series { label: "RK45", points: wp }], Scale::Log, Scale::Log).unwrap();
+    let svg = line_plot_svg(
+        "work-precision",
+        "wall time (s)",
+        "error",
+        &[Series {
+            label: "RK45",
+            points: wp,
+        }],
+        Scale::Log,
+        Scale::Log,
+    )
+    .unwrap();
     let p = must("work-precision", &svg);
     let x: Vec<f64> = p.x_labels.iter().filter_map(|s| s.parse().ok()).collect();
-    assert!(x.iter().filter(|&&v| v < 0.1).count() >= 3, "x labels below 0.1 s: {x:?}");
+    assert!(
+        x.iter().filter(|&&v| v < 0.1).count() >= 3,
+        "x labels below 0.1 s: {x:?}"
+    );
     // A narrow log range (a factor 1.3) still labels three values.
-    let svg = line_plot_svg("narrow", "x", "y", &[Series { label: "", points: vec![(1.0, 2.0), (2.0, 2.6)] }], Scale::Log, Scale::Log).unwrap();
+    let svg = line_plot_svg(
+        "narrow",
+        "x",
+        "y",
+        &[Series {
+            label: "",
+            points: vec![(1.0, 2.0), (2.0, 2.6)],
+        }],
+        Scale::Log,
+        Scale::Log,
+    )
+    .unwrap();
     must("narrow", &svg);
 }
 
@@ -265,15 +321,29 @@ fn a_legend_goes_where_the_data_is_not() {
     let p = must("full", &svg);
     assert!(p.legend.is_some(), "no legend");
     // Data rising to the top right: the legend goes to a free corner (top left).
-    let rising = [Series { label: "rising", points: (0..20).map(|i| (i as f64, (i * i) as f64)).collect() },
-                  Series { label: "flat", points: (0..20).map(|i| (i as f64, 100.0)).collect() }];
+    let rising = [
+        Series {
+            label: "rising",
+            points: (0..20).map(|i| (i as f64, (i * i) as f64)).collect(),
+        },
+        Series {
+            label: "flat",
+            points: (0..20).map(|i| (i as f64, 100.0)).collect(),
+        },
+    ];
     let svg = line_plot_svg("rising", "x", "y", &rising, Scale::Linear, Scale::Linear).unwrap();
     let p = must("rising", &svg);
     let (lx, _, _, _) = p.legend.unwrap();
     assert!(lx < 200.0, "legend at x = {lx}, not the free left side");
     // Float noise around zero reads 0.
-    let noisy = [Series { label: "", points: vec![(0.0, -1.11e-16), (1.0, 1.0), (2.0, -1.0)] }];
-    let p = must("noisy", &line_plot_svg("noisy", "x", "y", &noisy, Scale::Linear, Scale::Linear).unwrap());
+    let noisy = [Series {
+        label: "",
+        points: vec![(0.0, -1.11e-16), (1.0, 1.0), (2.0, -1.0)],
+    }];
+    let p = must(
+        "noisy",
+        &line_plot_svg("noisy", "x", "y", &noisy, Scale::Linear, Scale::Linear).unwrap(),
+    );
     assert!(p.y_labels.iter().any(|s| s == "0"), "{:?}", p.y_labels);
 }
 
@@ -285,19 +355,57 @@ fn an_orbit_shows_its_clearance_circle_in_equal_units() {
             (60.0 + 20.0 * a.cos(), -70.0 + 25.0 * a.sin())
         })
         .collect();
-    let mut fig = bearing_sweep::plot::simple("orbit", "x (µm)", "y (µm)", &[Series { label: "journal", points: orbit }], Scale::Linear, Scale::Linear, true);
-    fig.guides.push(Guide::Circle { centre: (0.0, 0.0), radius: 150.0, label: "clearance circle".into() });
+    let mut fig = bearing_sweep::plot::simple(
+        "orbit",
+        "x (µm)",
+        "y (µm)",
+        &[Series {
+            label: "journal",
+            points: orbit,
+        }],
+        Scale::Linear,
+        Scale::Linear,
+        true,
+    );
+    fig.guides.push(Guide::Circle {
+        centre: (0.0, 0.0),
+        radius: 150.0,
+        label: "clearance circle".into(),
+    });
     let svg = fig.svg().unwrap();
     must("orbit", &svg);
     assert!(svg.contains("class=\"guide\" cx="), "no circle drawn");
     // The circle lies inside the plot: the range covers ±150 µm.
     let l = fig.layout().unwrap();
-    assert!(l.x_range.0 <= -150.0 && l.x_range.1 >= 150.0, "{:?}", l.x_range);
-    assert!(l.y_range.0 <= -150.0 && l.y_range.1 >= 150.0, "{:?}", l.y_range);
+    assert!(
+        l.x_range.0 <= -150.0 && l.x_range.1 >= 150.0,
+        "{:?}",
+        l.x_range
+    );
+    assert!(
+        l.y_range.0 <= -150.0 && l.y_range.1 >= 150.0,
+        "{:?}",
+        l.y_range
+    );
     // Equal aspect: data units per px match on both axes within 1 %.
-    let (sx, sy) = ((l.x_range.1 - l.x_range.0) / l.plot.w, (l.y_range.1 - l.y_range.0) / l.plot.h);
+    let (sx, sy) = (
+        (l.x_range.1 - l.x_range.0) / l.plot.w,
+        (l.y_range.1 - l.y_range.0) / l.plot.h,
+    );
     assert!((sx / sy - 1.0).abs() < 0.01, "x {sx} vs y {sy} per px");
     // The old single-series path still works.
-    must("equal", &line_plot_svg_equal_aspect("t", "x", "y", &[Series { label: "", points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)] }]).unwrap());
+    must(
+        "equal",
+        &line_plot_svg_equal_aspect(
+            "t",
+            "x",
+            "y",
+            &[Series {
+                label: "",
+                points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)],
+            }],
+        )
+        .unwrap(),
+    );
     let _ = Figure::new("", "", "", Scale::Linear, Scale::Linear);
 }

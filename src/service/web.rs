@@ -99,7 +99,10 @@ pub fn api() -> Router<AppState> {
         .route("/examples", get(list_examples))
         .route("/examples/{name}", get(get_example))
         .route("/validate", post(validate))
-        .route("/sweeps/{id}/variants/{variant}/series", get(variant_series))
+        .route(
+            "/sweeps/{id}/variants/{variant}/series",
+            get(variant_series),
+        )
 }
 
 /// The OpenAPI description of the page's `/api` routes, merged into the service's
@@ -235,12 +238,10 @@ async fn variant_series(
             .ok_or_else(|| ApiError::not_found(format!("no sweep {id:?}")))?;
         let mut spec = match parse_sweep_doc(&row.spec)? {
             ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => spec,
-            _ => {
-                return Err(ApiError::invalid(
-                    "kind",
-                    "only rotor sweeps have time series (stability sweeps and friction maps have none)",
-                ))
-            }
+            _ => return Err(ApiError::invalid(
+                "kind",
+                "only rotor sweeps have time series (stability sweeps and friction maps have none)",
+            )),
         };
         let count = crate::sweep::Expansion::new(&spec).count();
         if variant >= count {
@@ -262,9 +263,8 @@ async fn variant_series(
         .collect();
         spec.reductions.points = points;
         let v = crate::sweep::Expansion::new(&spec).variant(&spec, variant);
-        let mut prepared =
-            crate::sweep::simulator::prepare_simulator(&spec, &choice, &mut |_| {})
-                .map_err(|e| ApiError::invalid("$", e.to_string()))?;
+        let mut prepared = crate::sweep::simulator::prepare_simulator(&spec, &choice, &mut |_| {})
+            .map_err(|e| ApiError::invalid("$", e.to_string()))?;
         let mut outcome = None;
         prepared.sim.run_batch(
             &[crate::sweep::runner::Job {

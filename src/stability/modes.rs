@@ -196,13 +196,17 @@ pub fn mac(a: &Shape, b: &Shape, mass: &M4) -> f64 {
     };
     let (a, b) = (v(a), v(b));
     let form = |p: &[Complex<f64>; 4], q: &[Complex<f64>; 4]| -> Complex<f64> {
-        let mut s = Complex::new(0.0, 0.0);
-        for i in 0..4 {
-            for j in 0..4 {
-                s += p[i].conj() * mass[i][j] * q[j];
-            }
-        }
-        s
+        p.iter()
+            .zip(mass)
+            .map(|(pi, row)| {
+                pi.conj()
+                    * row
+                        .iter()
+                        .zip(q)
+                        .map(|(m, qj)| qj * *m)
+                        .sum::<Complex<f64>>()
+            })
+            .sum()
     };
     let (ab, aa, bb) = (form(&a, &b), form(&a, &a).re, form(&b, &b).re);
     if aa > 0.0 && bb > 0.0 {

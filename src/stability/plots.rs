@@ -64,7 +64,10 @@ const WINDOW_ABOVE_SPEED: f64 = 2.5;
 
 /// The tracks worth drawing and the frequency window's top, rad/s, with a note of what is
 /// left out.
-fn window<'a>(all: Vec<Track<'a>>, top_speed: f64) -> (Vec<(usize, Track<'a>)>, f64, Option<String>) {
+fn window<'a>(
+    all: Vec<Track<'a>>,
+    top_speed: f64,
+) -> (Vec<(usize, Track<'a>)>, f64, Option<String>) {
     let lowest = |t: &Track| {
         t.points
             .iter()
@@ -160,15 +163,11 @@ fn track_label(k: usize) -> String {
 
 /// Markers of a track's points by log decrement: unstable (< 0) filled triangles, lightly
 /// damped (< [`LOG_DEC_MARGIN`]) rings.
-fn stability_markers(
-    t: &Track,
-    colour: &str,
-    y: impl Fn(&Mode) -> f64,
-) -> [Curve; 2] {
+fn stability_markers(t: &Track, colour: &str, y: impl Fn(&Mode) -> f64) -> [Curve; 2] {
     let pick = |lo: f64, hi: f64| -> Vec<(f64, f64)> {
         t.points
             .iter()
-            .filter(|(_, m)| m.log_dec.is_some_and(|d| d >= lo && d < hi))
+            .filter(|(_, m)| m.log_dec.is_some_and(|d| (lo..hi).contains(&d)))
             .map(|(w, m)| (*w, y(m)))
             .collect()
     };
@@ -263,7 +262,11 @@ pub fn campbell_figure(
             let upto = (end + 1).min(t.points.len());
             any_backward |= !dir;
             fig.curves.push(Curve {
-                label: if first { track_label(*k) } else { String::new() },
+                label: if first {
+                    track_label(*k)
+                } else {
+                    String::new()
+                },
                 points: t.points[start..upto]
                     .iter()
                     .map(|(w, m)| (*w, m.frequency_rad_s.abs()))
@@ -396,14 +399,26 @@ pub fn damping_figure(
         let bottom = lo.min(0.0);
         let pad = 0.05 * (top - bottom);
         fig.y_range = Some((bottom - pad, top + pad));
+        // A mode entirely above the window is not drawn: no legend entry for it.
+        for c in fig.curves.iter_mut() {
+            if !c.points.iter().any(|p| p.1 <= top + pad) {
+                c.legend = false;
+            }
+        }
         if hi > top + pad {
             let n = fig.note.take();
             fig.note = Some(
-                [n, Some(format!("log dec above {} (strongly damped) cut off", tick_label(top)))]
-                    .into_iter()
-                    .flatten()
-                    .collect::<Vec<_>>()
-                    .join("; "),
+                [
+                    n,
+                    Some(format!(
+                        "log dec above {} (strongly damped) cut off",
+                        tick_label(top)
+                    )),
+                ]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>()
+                .join("; "),
             );
         }
     }

@@ -11,7 +11,6 @@
 //! null (failed before the window, or undefined) are left out of their curve. The plot of
 //! result `R.json` is written to `R.<name>.svg`.
 
-
 use serde::{de, Deserialize, Deserializer};
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -226,7 +225,10 @@ pub fn figure(variants: &[Value], plot: &PlotSpec) -> Result<Figure, String> {
             Some(s) => match params.get(s) {
                 Some(Value::Number(n)) => {
                     let val = n.as_f64().unwrap_or(f64::NAN);
-                    (format!("{} = {}", name_of_path(s), value_in(val, us)), Some(val))
+                    (
+                        format!("{} = {}", name_of_path(s), value_in(val, us)),
+                        Some(val),
+                    )
                 }
                 other => (
                     format!(
@@ -305,7 +307,12 @@ pub fn ramp(t: f64) -> String {
     let f = t - i as f64;
     let mix = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
     let (a, b) = (STOPS[i], STOPS[i + 1]);
-    format!("#{:02x}{:02x}{:02x}", mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+    format!(
+        "#{:02x}{:02x}{:02x}",
+        mix(a.0, b.0),
+        mix(a.1, b.1),
+        mix(a.2, b.2)
+    )
 }
 
 #[cfg(test)]

@@ -1454,7 +1454,7 @@ function renderParallel() {
   const s = $("#parallel");
   s.innerHTML = "";
   const W = Math.round(Math.min(1100, Math.max(330, (s.parentElement && s.parentElement.clientWidth) || 800))), H = 360;
-  const mt = 46, mb = 40, ml = 40, mr = 70;
+  const mt = 62, mb = 40, ml = 40, mr = 70;
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
   s.append(svg("text", { x: ml, y: 17, class: "title" }, `${q.label} over the ${axes.length} swept parameters`));
   const cols = axes.map((p) => ({ label: pathLabel(p), u: unitOfPath(p), get: (v) => (v.params || {})[p] }))
@@ -1476,7 +1476,7 @@ function renderParallel() {
     const pts = cols.map((c, i) => { const x = c.get(v); return isNum(x) ? `${X(i).toFixed(1)},${Y(c.norm(x)).toFixed(1)}` : null; }).filter(Boolean);
     const label = `variant ${v.id}: ${cols.map((c) => `${c.label} ${withUnit(c.get(v), c.u)}`).join(", ")}`;
     const line = svg("polyline", { points: pts.join(" "), class: `pc-line${v.id === state.variantId ? " sel" : ""}`, "data-id": v.id,
-      stroke: isNum(qv) ? colour(qc.norm(qv)) : "#bbb", "stroke-dasharray": isNum(qv) ? null : "3 3" });
+      stroke: isNum(qv) ? colour(0.85 * qc.norm(qv)) : "#bbb", "stroke-dasharray": isNum(qv) ? null : "3 3" }); // viridis short of its yellow end
     line.append(svg("title", {}, label));
     line.addEventListener("click", () => showVariant(v.id, true));
     line.addEventListener("mousemove", (e) => showTip(e, label));
@@ -1486,7 +1486,7 @@ function renderParallel() {
   cols.forEach((c, i) => {
     const x = X(i);
     s.append(svg("line", { x1: x, x2: x, y1: mt, y2: H - mb, stroke: "#444" }));
-    s.append(svg("text", { x, y: mt - 22, "text-anchor": i === 0 ? "start" : i === cols.length - 1 ? "end" : "middle", class: c.quantity ? "label strong" : "label" },
+    s.append(svg("text", { x, y: mt - 12, "text-anchor": i === 0 ? "start" : i === cols.length - 1 ? "end" : "middle", class: c.quantity ? "label strong" : "label" },
       `${c.label}${c.u.unit ? ` (${c.u.unit})` : ""}`));
     const ticks = (c.log ? logTicks(c.lo, c.hi) : niceTicks(c.lo, c.hi, 4)).filter((t) => t.label && t.v >= c.lo - 1e-12 * Math.abs(c.lo) && t.v <= c.hi + 1e-12 * Math.abs(c.hi));
     const shown = ticks.length >= 2 ? ticks.map((t) => t.v) : [c.lo, c.hi];
