@@ -668,16 +668,22 @@ fn figures() {
     std::fs::write(
         dir.join("stability-campbell.svg"),
         campbell_svg(
-            "Campbell diagram: general rigid rotor (tests/stability.rs)",
+            "Campbell diagram: general rigid rotor",
             &runs,
             th.speed_rad_s,
+            Some(500.0),
         )
         .unwrap(),
     )
     .unwrap();
     std::fs::write(
         dir.join("stability-damping.svg"),
-        damping_svg("Damping ratio vs speed: general rigid rotor", &runs).unwrap(),
+        damping_svg(
+            "Logarithmic decrement vs speed: general rigid rotor",
+            &runs,
+            Some(500.0),
+        )
+        .unwrap(),
     )
     .unwrap();
 }

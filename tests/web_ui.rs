@@ -234,7 +234,12 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     let long = Duration::from_secs(180);
     let short = Duration::from_secs(30);
 
-    // 1. Pick an example and load it into the editor.
+    // 1. The editor starts with an example (no "Load example" needed); pick another and
+    // load it.
+    b.wait("an example already in the editor", short, || {
+        let v = b.exec("return document.querySelector('#spec').value", json!([]));
+        v.as_str().unwrap_or("").contains("\"axes\"").then_some(())
+    });
     b.wait("the example list", short, || {
         (b.count("#example option[value='clearance-viscosity']") == 1).then_some(())
     });
@@ -389,11 +394,11 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     let plots = plots["plots"].as_array().map_or(0, Vec::len);
     assert_eq!(plots, 2, "the spec asks for two plots");
     b.wait("the server's figures", short, || {
-        (b.count("#server-plots figure img") == plots).then_some(())
+        (b.count("#server-plots figure svg") == plots).then_some(())
     });
     std::thread::sleep(Duration::from_millis(500));
     assert_eq!(
-        b.count("#server-plots figure img"),
+        b.count("#server-plots figure svg"),
         plots,
         "figures shown twice"
     );
@@ -470,18 +475,59 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.wait("variant 3 in the orbit panel", short, || {
         b.text("#variant-id").starts_with("3 ").then_some(())
     });
+    // The orbit is drawn at full resolution: the variant simulated again through
+    // GET .../variants/3/series, not the spec's kept samples (a polygon).
+    b.wait("the full-resolution orbit", long, || {
+        (b.exec(
+            "return document.querySelector('#orbit').dataset.full",
+            json!([]),
+        ) == json!("1"))
+        .then_some(())
+    });
     let points = b.exec(
         "const p = document.querySelector('#orbit path.series'); return p ? (p.getAttribute('d').match(/[ML]/g) || []).length : 0",
         json!([]),
     );
-    let kept = v3["series"]["bearings"][0]["xi"]
-        .as_array()
-        .map_or(0, Vec::len);
-    assert!(kept > 10, "the spec keeps the orbit: {kept} points");
+    let kept = v3["series"]["bearings"][0]["xi"].as_array().unwrap();
+    assert!(
+        kept.len() > 10,
+        "the spec keeps the orbit: {} points",
+        kept.len()
+    );
+    let (status, full) = get_json(&format!(
+        "{base}/api/sweeps/{id}/variants/3/series?points=4000"
+    ));
+    assert_eq!(status, 200, "{full}");
+    let full_xi = full["series"]["bearings"][0]["xi"].as_array().unwrap();
     assert_eq!(
         points.as_u64().unwrap() as usize,
-        kept,
-        "orbit path points vs kept samples"
+        full_xi.len(),
+        "orbit path points vs the full series"
+    );
+    // Every simulated sample (up to 4000), not the spec's decimation.
+    assert!(
+        full_xi.len() > kept.len(),
+        "full resolution {} samples vs {} kept",
+        full_xi.len(),
+        kept.len()
+    );
+    // The same simulation: the kept samples' ends are the full series' ends.
+    for (what, a, e) in [
+        ("first", &full_xi[0], &kept[0]),
+        ("last", full_xi.last().unwrap(), kept.last().unwrap()),
+    ] {
+        assert_close(
+            &format!("variant 3 orbit, {what} xi"),
+            a.as_f64().unwrap(),
+            e.as_f64().unwrap(),
+            1e-9,
+        );
+    }
+    // Parameters in engineering units.
+    let params = b.text("#variant-params");
+    assert!(
+        params.contains("µm") && params.contains("mPa·s") && !params.contains("0.000"),
+        "parameters not in engineering units: {params:?}"
     );
     // Hover reads a value (after the page's smooth scroll to the orbit has settled).
     let hover_cell = "#map-h_min rect.cell[data-id='0']";
@@ -688,6 +734,263 @@ fn page_submits_watches_and_reads_a_sweep_in_chromium() {
     b.screenshot(&shots.join("phone.png"), false);
     b.exec("window.scrollTo(0, 0)", json!([]));
     b.screenshot(&shots.join("phone-full.png"), true);
+    drop(b);
+    drop(server);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// A 3-axis synthetic sweep (4 x 5 x 2 = 40 variants, seconds to run).
+fn three_axis_spec() -> Value {
+    let mut spec: Value =
+        serde_json::from_str(include_str!("../sweeps/synthetic-whirl.json")).unwrap();
+    spec["name"] = json!("web test: three axes");
+    spec["axes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"path": "bearings[*].eccentricity", "values": [0.2, 0.4]}));
+    spec
+}
+
+fn wait_done(base: &str, id: &str) {
+    let t = std::time::Instant::now();
+    loop {
+        let (_, info) = get_json(&format!("{base}/api/sweeps/{id}"));
+        if info["status"] == "done" {
+            return;
+        }
+        assert!(
+            t.elapsed() < Duration::from_secs(300),
+            "sweep not done: {info}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// Issue 23 item 5: a sweep at its own URL (a reload keeps it and the open variant), the
+/// queue without sideways scrolling at 1280 px (rate, ETA and Cancel in view), zoom and
+/// SVG/PNG export on every figure, legends clear of the data, and parallel coordinates
+/// for a sweep with three axes.
+#[test]
+fn page_urls_zoom_export_and_parallel_coordinates_in_chromium() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let data = scratch("urls");
+    let server = Server::start(&data, &[]);
+    let base = server.base.clone();
+    let short = Duration::from_secs(30);
+    let (s, created) = post_json(
+        &format!("{base}/api/sweeps"),
+        &three_axis_spec().to_string(),
+    );
+    assert_eq!(s, 201, "{created}");
+    let id = created["id"].as_str().unwrap().to_string();
+    wait_done(&base, &id);
+    let b = Browser::start(&chromium, &chromedriver, data.join("profile"))
+        .unwrap_or_else(|e| panic!("browser: {e}"));
+    b.viewport(1280, 800, false);
+
+    // 1. A link to the sweep and a variant opens both; a reload keeps them.
+    b.goto(&format!("{base}/#sweep={id}&variant=7"));
+    for round in ["link", "reload"] {
+        b.wait(&format!("{round}: the sweep from the URL"), short, || {
+            b.text("#detail-name").contains(&id).then_some(())
+        });
+        b.wait(&format!("{round}: variant 7 from the URL"), short, || {
+            b.text("#variant-id").starts_with("7 ").then_some(())
+        });
+        if round == "link" {
+            b.exec("location.reload()", json!([]));
+            std::thread::sleep(Duration::from_millis(500));
+        }
+    }
+
+    // 2. Parallel coordinates: one line per variant; a click opens it and the URL follows.
+    b.wait("the parallel coordinates", short, || {
+        (b.count("#parallel .pc-line") == 40).then_some(())
+    });
+    assert_eq!(
+        b.exec(
+            "return document.querySelector('#parallel-fig').hidden",
+            json!([])
+        ),
+        json!(false)
+    );
+    let axes_drawn = b.exec(
+        "return [...document.querySelectorAll('#parallel text.label')].map(t => t.textContent)",
+        json!([]),
+    );
+    assert_eq!(
+        axes_drawn.as_array().unwrap().len(),
+        4,
+        "3 parameters and the quantity: {axes_drawn}"
+    );
+    b.exec(
+        "document.querySelector('#parallel .pc-line[data-id=\"12\"]').dispatchEvent(new MouseEvent('click', {bubbles: true}))",
+        json!([]),
+    );
+    b.wait("variant 12 from the parallel coordinates", short, || {
+        b.text("#variant-id").starts_with("12 ").then_some(())
+    });
+    let hash = b.exec("return location.hash", json!([]));
+    assert_eq!(
+        hash,
+        json!(format!("#sweep={id}&variant=12")),
+        "the URL follows the variant"
+    );
+
+    // 3. Every figure has zoom and export; legends leave the data clear.
+    let missing = b.exec(
+        "return [...document.querySelectorAll('#detail figure')].filter(f => !f.hidden && f.querySelector('svg') && f.querySelector('svg').childElementCount)
+            .filter(f => !f.querySelector('.figtools .export-svg') || !f.querySelector('.figtools .export-png') || !f.querySelector('.figtools .zoom-reset'))
+            .map(f => f.querySelector('svg').id)",
+        json!([]),
+    );
+    assert_eq!(missing, json!([]), "figures without zoom/export tools");
+    let figures = b.count("#detail figure .figtools");
+    assert!(
+        figures >= 5,
+        "{figures} figures with tools (maps, curves, parallel, orbit, history)"
+    );
+    let overlaps = b.exec(
+        "const bad = [];
+         for (const s of document.querySelectorAll('#detail svg')) {
+           const lg = s.querySelector('rect.legend'); if (!lg) continue;
+           const r = lg.getBBox();
+           for (const p of s.querySelectorAll('path.series')) {
+             const pts = (p.getAttribute('d').match(/-?[\\d.]+,-?[\\d.]+/g) || []).map(q => q.split(',').map(Number));
+             for (let i = 0; i < pts.length; i++) {
+               const [x, y] = pts[i];
+               if (x >= r.x && x <= r.x + r.width && y >= r.y && y <= r.y + r.height) { bad.push(s.id + ' point ' + i); break; }
+             }
+           }
+         }
+         return bad",
+        json!([]),
+    );
+    assert_eq!(overlaps, json!([]), "legend boxes over data points");
+    // Zoom by dragging on the curves: the x axis re-ticks to the dragged range; reset.
+    let ticks = |b: &Browser| {
+        b.exec(
+            "return [...document.querySelectorAll('#curves text.tick.x')].map(t => t.textContent).join(' ')",
+            json!([]),
+        )
+    };
+    b.exec(
+        "document.getElementById('curves').scrollIntoView({block: 'center'})",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let before = ticks(&b);
+    let target = b.find("#curves").unwrap();
+    let el = json!({"element-6066-11e4-a52e-4f735466cecf": target});
+    b.cmd(
+        "POST",
+        "/actions",
+        Some(json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+            "actions": [{"type": "pointerMove", "duration": 0, "origin": el, "x": -60, "y": -40},
+                        {"type": "pointerDown", "button": 0},
+                        {"type": "pointerMove", "duration": 100, "origin": el, "x": 0, "y": 20},
+                        {"type": "pointerMove", "duration": 100, "origin": el, "x": 40, "y": 40},
+                        {"type": "pointerUp", "button": 0}]}]})),
+    )
+    .expect("drag");
+    let zoomed = b.wait("the zoomed axis", short, || {
+        let t = ticks(&b);
+        (t != before).then_some(t)
+    });
+    eprintln!("x ticks {before:?} -> zoomed {zoomed:?}");
+    b.click("#curves-fig .zoom-reset");
+    assert_eq!(ticks(&b), before, "reset zoom restores the axis");
+    // Export: the SVG file is the figure (styles inlined); the PNG a PNG.
+    let downloads = data.join("downloads");
+    std::fs::create_dir_all(&downloads).unwrap();
+    b.cmd(
+        "POST",
+        "/goog/cdp/execute",
+        Some(json!({"cmd": "Browser.setDownloadBehavior",
+                    "params": {"behavior": "allow", "downloadPath": downloads.to_string_lossy()}})),
+    )
+    .expect("allow downloads");
+    for (button, ext) in [("export-svg", "svg"), ("export-png", "png")] {
+        b.click(&format!("#curves-fig .{button}"));
+        let bytes = b.wait(&format!("the {ext} download"), short, || {
+            let f = std::fs::read_dir(&downloads)
+                .ok()?
+                .flatten()
+                .find(|e| e.path().extension().is_some_and(|x| x == ext))?;
+            std::fs::read(f.path()).ok().filter(|t| t.len() > 100)
+        });
+        if ext == "svg" {
+            let text = String::from_utf8(bytes).unwrap();
+            assert!(
+                text.contains("<svg")
+                    && text.contains("<style>")
+                    && text.contains("class=\"series\""),
+                "exported SVG: {:.300}",
+                text
+            );
+        } else {
+            assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "exported PNG signature");
+        }
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let shots = screenshot_dir();
+    b.exec(
+        "document.getElementById('parallel-fig').scrollIntoView()",
+        json!([]),
+    );
+    std::thread::sleep(Duration::from_millis(400));
+    b.screenshot(&shots.join("desktop-parallel.png"), false);
+
+    // 4. The queue at 1280 px with a running sweep: no sideways scroll; rate, ETA and
+    // Cancel in view.
+    let mut long = small_spec();
+    long["name"] = json!("web test: a long-running sweep with a long name to cut");
+    long["base"]["integrator"]["t_end"] = json!(5.0);
+    let (s, running) = post_json(&format!("{base}/api/sweeps"), &long.to_string());
+    assert_eq!(s, 201, "{running}");
+    let rid = running["id"].as_str().unwrap().to_string();
+    b.exec("window.scrollTo(0, 0)", json!([]));
+    let cancel = format!("#queue tbody tr[data-id='{rid}'] button[aria-label^='cancel']");
+    b.wait(
+        "the running sweep's Cancel in the queue",
+        Duration::from_secs(60),
+        || (b.count(&cancel) == 1).then_some(()),
+    );
+    let fit = b.exec(
+        "const w = document.documentElement;
+         const wrap = document.querySelector('#queue-sec .tablewrap');
+         const btn = document.querySelector(arguments[0]);
+         const row = btn.closest('tr');
+         return {page: w.scrollWidth, view: w.clientWidth, wrap: wrap.scrollWidth, wrapView: wrap.clientWidth,
+                 cancelRight: btn.getBoundingClientRect().right, wrapRight: wrap.getBoundingClientRect().right,
+                 cells: [...row.children].map(c => c.textContent)}",
+        json!([cancel]),
+    );
+    eprintln!("queue at 1280 px: {fit}");
+    assert!(
+        fit["page"].as_f64() <= fit["view"].as_f64(),
+        "page scrolls sideways: {fit}"
+    );
+    assert!(
+        fit["wrap"].as_f64() <= fit["wrapView"].as_f64(),
+        "queue scrolls sideways: {fit}"
+    );
+    assert!(
+        fit["cancelRight"].as_f64() <= fit["wrapRight"].as_f64(),
+        "Cancel out of view: {fit}"
+    );
+    b.wait("rate and ETA of the running sweep", Duration::from_secs(120), || {
+        let cells = b.exec(
+            "return [...document.querySelector(arguments[0]).closest('tr').children].map(c => c.textContent)",
+            json!([cancel]),
+        );
+        let c: Vec<String> = cells.as_array()?.iter().map(|x| x.as_str().unwrap_or("").to_string()).collect();
+        (c.len() == 7 && c[4].ends_with("/s") && c[5] != "—").then_some(())
+    });
+    b.screenshot(&shots.join("desktop-queue.png"), false);
+    let _ = post_json(&format!("{base}/api/sweeps/{rid}/cancel"), "");
     drop(b);
     drop(server);
     let _ = std::fs::remove_dir_all(&data);

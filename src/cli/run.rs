@@ -8,9 +8,9 @@ use std::io::Write;
 use super::CliError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
 use crate::bearing::Accuracy;
-use crate::plot::{line_plot_svg, line_plot_svg_equal_aspect, Scale, Series};
+use crate::plot::Scale;
 use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
-use crate::rotor::{load_scene, simulate_batch, ModelKind, SimResult};
+use crate::rotor::{load_scene, simulate_batch, ModelKind, Scene, SimResult};
 
 /// Options of `run` beyond the scene file.
 #[derive(Clone, Debug, PartialEq)]
@@ -152,7 +152,7 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
     w.flush().map_err(io)?;
     drop(w);
     files.push(result_path);
-    for (name, svg) in figures(&results) {
+    for (name, svg) in figures(&results, &scenes) {
         let p = dir.join(name);
         write(&p, &svg)?;
         files.push(p);
@@ -166,78 +166,104 @@ pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunRe
 }
 
 /// The paper's Figs. 7-10 for any set of results: G's trajectory, x_G(t), y_G(t) (every
-/// result) and bearing 1's journal-centre orbit at its first end face (bearing model).
-pub fn figures(results: &[SimResult]) -> Vec<(String, String)> {
+/// result) and bearing 1's journal-centre orbit at its first end face inside its clearance
+/// circle (bearing model; `scenes[k]` is result `k`'s scene). Displacements in µm.
+pub fn figures(results: &[SimResult], scenes: &[Scene]) -> Vec<(String, String)> {
+    use crate::plot::{Curve, Guide};
     let label = |r: &SimResult| match r.model {
         ModelKind::Bearing => format!("{} (journal bearings)", r.name),
         ModelKind::Ideal => format!("{} (ideal revolute joints)", r.name),
     };
-    let labels: Vec<String> = results.iter().map(label).collect();
-    let series =
-        |f: &dyn Fn(&SimResult) -> Vec<(f64, f64)>, only_bearing: bool| -> Vec<Series<'_>> {
-            results
-                .iter()
-                .zip(&labels)
-                .filter(|(r, _)| !only_bearing || r.model == ModelKind::Bearing)
-                .map(|(r, l)| Series {
-                    label: l.as_str(),
-                    points: f(r),
-                })
-                .filter(|s| !s.points.is_empty())
-                .collect()
-        };
-    let zip = |a: &[f64], b: &[f64]| a.iter().copied().zip(b.iter().copied()).collect::<Vec<_>>();
+    /// Metres to micrometres.
+    const UM: f64 = 1e6;
+    let zip = |a: &[f64], b: &[f64], sa: f64, sb: f64| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x * sa, y * sb))
+            .collect::<Vec<_>>()
+    };
+    let figure = |title: &str,
+                  x: &str,
+                  y: &str,
+                  equal: bool,
+                  only_bearing: bool,
+                  f: &dyn Fn(&SimResult) -> Vec<(f64, f64)>| {
+        let mut fig = crate::plot::simple(title, x, y, &[], Scale::Linear, Scale::Linear, equal);
+        for (k, r) in results.iter().enumerate() {
+            if only_bearing && r.model != ModelKind::Bearing {
+                continue;
+            }
+            let pts = f(r);
+            if pts.is_empty() {
+                continue;
+            }
+            let mut c = Curve::line(label(r), pts, k);
+            c.width = 1.5;
+            fig.curves.push(c);
+        }
+        // One curve needs no legend (the title names the quantity).
+        if fig.curves.len() == 1 {
+            fig.curves[0].legend = false;
+        }
+        fig
+    };
     let mut out = Vec::new();
+    let mut orbit = figure(
+        "Fig. 10: bearing 1, journal centre at its first end face",
+        "x_i (µm)",
+        "y_i (µm)",
+        true,
+        true,
+        &|r| {
+            r.samples
+                .bearings
+                .first()
+                .map(|b| zip(&b.xi, &b.yi, UM, UM))
+                .unwrap_or_default()
+        },
+    );
+    // The clearance circle of bearing 1 (the first bearing-model scene's).
+    if let Some(c) = results
+        .iter()
+        .zip(scenes)
+        .find(|(r, _)| r.model == ModelKind::Bearing)
+        .and_then(|(_, s)| s.bearings.first())
+        .map(|b| b.params().clearance)
+    {
+        orbit.guides.push(Guide::Circle {
+            centre: (0.0, 0.0),
+            radius: c * UM,
+            label: format!("clearance circle, {} µm", crate::plot::tick_label(c * UM)),
+        });
+    }
     let plots: [(&str, Result<String, String>); 4] = [
         (
             "fig7-g-trajectory.svg",
-            line_plot_svg_equal_aspect(
+            figure(
                 "Fig. 7: trajectory of the centre of mass G",
-                "x_G [m]",
-                "y_G [m]",
-                &series(&|r| zip(&r.samples.x_g, &r.samples.y_g), false),
-            ),
+                "x_G (µm)",
+                "y_G (µm)",
+                true,
+                false,
+                &|r| zip(&r.samples.x_g, &r.samples.y_g, UM, UM),
+            )
+            .svg(),
         ),
         (
             "fig8-x-g.svg",
-            line_plot_svg(
-                "Fig. 8: x_G(t)",
-                "t [s]",
-                "x_G [m]",
-                &series(&|r| zip(&r.samples.t, &r.samples.x_g), false),
-                Scale::Linear,
-                Scale::Linear,
-            ),
+            figure("Fig. 8: x_G(t)", "t (s)", "x_G (µm)", false, false, &|r| {
+                zip(&r.samples.t, &r.samples.x_g, 1.0, UM)
+            })
+            .svg(),
         ),
         (
             "fig9-y-g.svg",
-            line_plot_svg(
-                "Fig. 9: y_G(t)",
-                "t [s]",
-                "y_G [m]",
-                &series(&|r| zip(&r.samples.t, &r.samples.y_g), false),
-                Scale::Linear,
-                Scale::Linear,
-            ),
+            figure("Fig. 9: y_G(t)", "t (s)", "y_G (µm)", false, false, &|r| {
+                zip(&r.samples.t, &r.samples.y_g, 1.0, UM)
+            })
+            .svg(),
         ),
-        (
-            "fig10-bearing1-orbit.svg",
-            line_plot_svg_equal_aspect(
-                "Fig. 10: bearing 1, journal centre at its first end face",
-                "x_i [m]",
-                "y_i [m]",
-                &series(
-                    &|r| {
-                        r.samples
-                            .bearings
-                            .first()
-                            .map(|b| zip(&b.xi, &b.yi))
-                            .unwrap_or_default()
-                    },
-                    true,
-                ),
-            ),
-        ),
+        ("fig10-bearing1-orbit.svg", orbit.svg()),
     ];
     for (name, svg) in plots {
         if let Ok(svg) = svg {

@@ -182,11 +182,16 @@ pub fn stability_scene_file(
                             &format!("Campbell diagram: {}", scene.name),
                             &ok_runs,
                             threshold.speed_rad_s,
+                            Some(spin),
                         ),
                     ),
                     (
                         format!("damping{suffix}.svg"),
-                        damping_svg(&format!("Damping ratio vs speed: {}", scene.name), &ok_runs),
+                        damping_svg(
+                            &format!("Logarithmic decrement vs speed: {}", scene.name),
+                            &ok_runs,
+                            Some(spin),
+                        ),
                     ),
                 ] {
                     match svg {

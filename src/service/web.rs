@@ -99,13 +99,17 @@ pub fn api() -> Router<AppState> {
         .route("/examples", get(list_examples))
         .route("/examples/{name}", get(get_example))
         .route("/validate", post(validate))
+        .route(
+            "/sweeps/{id}/variants/{variant}/series",
+            get(variant_series),
+        )
 }
 
 /// The OpenAPI description of the page's `/api` routes, merged into the service's
 /// document (`ApiDoc`) by its `/api/openapi.json` handler.
 #[derive(utoipa::OpenApi)]
 #[openapi(
-    paths(list_examples, get_example, validate),
+    paths(list_examples, get_example, validate, variant_series),
     components(schemas(ErrorBody))
 )]
 pub struct WebApiDoc;
@@ -173,6 +177,114 @@ async fn validate(
             ParsedSweep::FrictionMap(_) => "friction_map",
         };
         Ok(Json(json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total})))
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("internal: {e}")))?
+}
+
+/// Samples a full-resolution series may have at most (a 20 k-point orbit is ~1 MB of JSON).
+pub const MAX_SERIES_POINTS: usize = 20_000;
+/// Samples a full-resolution series has by default.
+const DEFAULT_SERIES_POINTS: usize = 4_000;
+
+/// `GET /api/sweeps/{id}/variants/{variant}/series?points=N`: one variant of a rotor sweep
+/// simulated again with the sweep's run options and every series group kept, decimated
+/// to at most `N` samples (default 4000, at most [`MAX_SERIES_POINTS`]) instead of the
+/// spec's `reductions.points`; the page's full-resolution orbit. The simulation is
+/// deterministic, so the series is the one the stored variant's reductions came from.
+/// `200 {"variant", "points", "status", "message", "series"}`.
+#[utoipa::path(get, path = "/api/sweeps/{id}/variants/{variant}/series",
+    params(
+        ("id" = String, Path, description = "Sweep id"),
+        ("variant" = u64, Path, description = "Variant id"),
+        ("points" = Option<usize>, Query, description = "Samples at most (default 4000, at most 20000)"),
+    ),
+    responses(
+        (status = 200, description = "`{variant, points, status, message, series}`: the kept series (t, x_g, y_g, spin, bearings[k].xi ...) at full resolution", body = serde_json::Value),
+        (status = 400, description = "Malformed query", body = ErrorBody),
+        (status = 401, description = "Token required", body = ErrorBody),
+        (status = 404, description = "No such sweep or variant", body = ErrorBody),
+        (status = 422, description = "Not a rotor sweep (no time series), or its options no longer parse", body = ErrorBody),
+    ),
+    security((), ("bearer" = [])))]
+async fn variant_series(
+    State(st): State<AppState>,
+    Path((id, variant)): Path<(String, String)>,
+    uri: Uri,
+) -> Result<Json<Value>, ApiError> {
+    let q = axum::extract::Query::<HashMap<String, String>>::try_from_uri(&uri)
+        .map_err(|e| ApiError::bad_request("?", format!("malformed query: {e}")))?
+        .0;
+    let points = match q.get("points") {
+        None => DEFAULT_SERIES_POINTS,
+        Some(p) => match p.parse::<usize>() {
+            Ok(n) if (2..=MAX_SERIES_POINTS).contains(&n) => n,
+            _ => {
+                return Err(ApiError::bad_request(
+                    "points",
+                    format!("must be a whole number from 2 to {MAX_SERIES_POINTS}, not {p:?}"),
+                ))
+            }
+        },
+    };
+    let variant: u64 = variant
+        .parse()
+        .map_err(|_| ApiError::bad_request("variant", format!("not a variant id: {variant:?}")))?;
+    let store = st.store.clone();
+    tokio::task::spawn_blocking(move || {
+        let row = store
+            .sweep(&id)
+            .map_err(|e| ApiError::internal(format!("store: {e}")))?
+            .ok_or_else(|| ApiError::not_found(format!("no sweep {id:?}")))?;
+        let mut spec = match parse_sweep_doc(&row.spec)? {
+            ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => spec,
+            _ => return Err(ApiError::invalid(
+                "kind",
+                "only rotor sweeps have time series (stability sweeps and friction maps have none)",
+            )),
+        };
+        let count = crate::sweep::Expansion::new(&spec).count();
+        if variant >= count {
+            return Err(ApiError::not_found(format!(
+                "sweep {id:?} has variants 0 to {}, not {variant}",
+                count.saturating_sub(1)
+            )));
+        }
+        let choice = super::sweeps::parse_options(&row.options)?;
+        use crate::sweep::reduce::SeriesGroup;
+        spec.reductions.keep = [
+            SeriesGroup::Orbit,
+            SeriesGroup::Film,
+            SeriesGroup::Friction,
+            SeriesGroup::Forces,
+            SeriesGroup::Spin,
+        ]
+        .into_iter()
+        .collect();
+        spec.reductions.points = points;
+        let v = crate::sweep::Expansion::new(&spec).variant(&spec, variant);
+        let mut prepared = crate::sweep::simulator::prepare_simulator(&spec, &choice, &mut |_| {})
+            .map_err(|e| ApiError::invalid("$", e.to_string()))?;
+        let mut outcome = None;
+        prepared.sim.run_batch(
+            &[crate::sweep::runner::Job {
+                id: variant,
+                scene: v.scene,
+            }],
+            &mut |_, o| outcome = Some(o),
+        );
+        let o = outcome.ok_or_else(|| ApiError::internal("the simulator reported nothing"))?;
+        let series = o
+            .signals
+            .as_ref()
+            .and_then(|s| crate::sweep::reduce::kept_series(s, &spec.reductions));
+        Ok(Json(json!({
+            "variant": variant,
+            "points": points,
+            "status": o.status,
+            "message": o.message,
+            "series": series,
+        })))
     })
     .await
     .map_err(|e| ApiError::internal(format!("internal: {e}")))?

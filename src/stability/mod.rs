@@ -26,8 +26,8 @@ pub use error::StabilityError;
 pub use linear::{
     bearing_state, linearise_batch, BearingPoint, Frame, LinearRotor, RotorDescription, M4,
 };
-pub use modes::{max_growth, modes, Mode, Shape};
-pub use plots::{campbell_svg, damping_svg};
+pub use modes::{mac, max_growth, modes, track_modes, Mode, Shape, TRACK_MIN_MAC};
+pub use plots::{campbell_figure, campbell_svg, damping_figure, damping_svg, LOG_DEC_MARGIN};
 
 /// An evaluator for finite differences: an f32 backend (rounding ~1e-7 relative, so
 /// differences over steps of ~1e-4 of the clearance would keep ~3 digits) is replaced by

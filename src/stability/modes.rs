@@ -4,7 +4,7 @@
 
 use nalgebra::{Complex, DMatrix, Matrix4};
 
-use super::linear::{Frame, LinearRotor};
+use super::linear::{Frame, LinearRotor, M4};
 
 /// One mode (one eigenvalue of each complex-conjugate pair, or one real eigenvalue).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -184,4 +184,102 @@ pub fn max_growth(modes: &[Mode]) -> f64 {
         .iter()
         .map(|m| m.sigma_1_s)
         .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Mass-weighted modal assurance criterion of two shapes,
+/// `|aᴴ M b|² / ((aᴴ M a)(bᴴ M b))`, in `0..=1` (1: the same shape up to a complex
+/// factor). `M` weighs translations (kg) and tilts (kg·m²) by their kinetic energy, so the
+/// shapes' mixed units (per unit journal displacement, 1/m) compare consistently.
+pub fn mac(a: &Shape, b: &Shape, mass: &M4) -> f64 {
+    let v = |s: &Shape| -> [Complex<f64>; 4] {
+        [s.x, s.y, s.tilt_x, s.tilt_y].map(|[re, im]| Complex::new(re, im))
+    };
+    let (a, b) = (v(a), v(b));
+    let form = |p: &[Complex<f64>; 4], q: &[Complex<f64>; 4]| -> Complex<f64> {
+        p.iter()
+            .zip(mass)
+            .map(|(pi, row)| {
+                pi.conj()
+                    * row
+                        .iter()
+                        .zip(q)
+                        .map(|(m, qj)| qj * *m)
+                        .sum::<Complex<f64>>()
+            })
+            .sum()
+    };
+    let (ab, aa, bb) = (form(&a, &b), form(&a, &a).re, form(&b, &b).re);
+    if aa > 0.0 && bb > 0.0 {
+        (ab.norm_sqr() / (aa * bb)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Least MAC at which a mode continues a track from the neighbouring speed (below it the
+/// mode starts a new track: its shape is not the one the track followed).
+pub const TRACK_MIN_MAC: f64 = 0.3;
+
+/// Modes followed over ascending speeds by continuity of their shapes (not by frequency
+/// rank, which swaps curves where two modes cross): at each speed every oscillating mode
+/// joins the track whose last shape it matches best by [`mac`] (largest MAC first, each
+/// track and mode once, at least [`TRACK_MIN_MAC`]); a mode matching none starts a track.
+/// `steps[k]` holds speed `k`'s modes and mass matrix; the answer lists per track the index
+/// of its mode at each speed (`None` where it has none). Non-oscillating modes (real
+/// eigenvalues) are left out. Tracks are ordered by their frequency where they start.
+pub fn track_modes(steps: &[(&[Mode], &M4)]) -> Vec<Vec<Option<usize>>> {
+    // Per track: (last shape, last |frequency|, indices).
+    let mut tracks: Vec<(Shape, f64, Vec<Option<usize>>)> = Vec::new();
+    for (k, (modes, mass)) in steps.iter().enumerate() {
+        let osc: Vec<usize> = (0..modes.len())
+            .filter(|&i| modes[i].frequency_rad_s != 0.0 && modes[i].frequency_rad_s.is_finite())
+            .collect();
+        let mut pairs: Vec<(f64, f64, usize, usize)> = Vec::new();
+        for (t, (shape, freq, _)) in tracks.iter().enumerate() {
+            for &i in &osc {
+                let m = mac(shape, &modes[i].shape, mass);
+                if m >= TRACK_MIN_MAC {
+                    // Ties (e.g. repeated frequencies) go to the nearer frequency.
+                    let df = (modes[i].frequency_rad_s.abs() - freq).abs();
+                    pairs.push((m, df, t, i));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.total_cmp(&b.1)));
+        let mut track_used = vec![false; tracks.len()];
+        let mut mode_used = vec![false; modes.len()];
+        for t in tracks.iter_mut() {
+            t.2.push(None);
+        }
+        for (_, _, t, i) in pairs {
+            if track_used[t] || mode_used[i] {
+                continue;
+            }
+            track_used[t] = true;
+            mode_used[i] = true;
+            tracks[t].0 = modes[i].shape.clone();
+            tracks[t].1 = modes[i].frequency_rad_s.abs();
+            tracks[t].2[k] = Some(i);
+        }
+        for &i in &osc {
+            if !mode_used[i] {
+                let mut idx = vec![None; k + 1];
+                idx[k] = Some(i);
+                tracks.push((modes[i].shape.clone(), modes[i].frequency_rad_s.abs(), idx));
+            }
+        }
+    }
+    let first_freq = |t: &(Shape, f64, Vec<Option<usize>>)| -> f64 {
+        t.2.iter()
+            .enumerate()
+            .find_map(|(k, i)| i.map(|i| steps[k].0[i].frequency_rad_s.abs()))
+            .unwrap_or(f64::INFINITY)
+    };
+    let first_speed = |t: &(Shape, f64, Vec<Option<usize>>)| t.2.iter().position(Option::is_some);
+    tracks.sort_by(|a, b| {
+        first_speed(a)
+            .cmp(&first_speed(b))
+            .then(first_freq(a).total_cmp(&first_freq(b)))
+    });
+    tracks.into_iter().map(|t| t.2).collect()
 }

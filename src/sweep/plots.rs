@@ -11,8 +11,6 @@
 //! null (failed before the window, or undefined) are left out of their curve. The plot of
 //! result `R.json` is written to `R.<name>.svg`.
 
-use std::collections::BTreeMap;
-
 use serde::{de, Deserialize, Deserializer};
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -22,7 +20,10 @@ use super::spec::{
     PathSeg, SweepKind,
 };
 use super::SweepError;
-use crate::plot::{line_plot_svg, Scale, Series};
+use crate::plot::{
+    label_in, name_of_path, name_of_reduction, unit_of_path, unit_of_reduction, value_in, Curve,
+    Dash, Figure, Marker, Scale, ONE, PALETTE,
+};
 
 /// One plot.
 #[derive(Clone, Debug, PartialEq)]
@@ -218,59 +219,117 @@ pub fn plots_from_doc(
     Ok(out)
 }
 
-/// Renders `plot` from a complete result's variants.
+/// Renders `plot` from a complete result's variants, in display units (film thickness
+/// and clearances in µm, viscosity in mPa·s: [`crate::plot::unit_of_path`]); legend entries
+/// read `viscosity = 5 mPa·s`. More curves than palette colours, all of a numeric series
+/// axis, take a sequential colour ramp (ordered like their values).
 pub fn render(variants: &[Value], plot: &PlotSpec) -> Result<String, String> {
-    let mut curves: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-    let mut order: Vec<String> = Vec::new();
+    figure(variants, plot)?.svg()
+}
+
+/// The [`Figure`] of [`render`].
+pub fn figure(variants: &[Value], plot: &PlotSpec) -> Result<Figure, String> {
+    let ux = unit_of_path(&plot.x);
+    let uy = unit_of_reduction(&plot.y);
+    let us = plot.series.as_deref().map(unit_of_path).unwrap_or(ONE);
+    // (label, numeric series value, points)
+    let mut curves: Vec<(String, Option<f64>, Vec<(f64, f64)>)> = Vec::new();
     for v in variants {
         let params = &v["params"];
         let Some(x) = params.get(&plot.x).and_then(Value::as_f64) else {
             continue;
         };
-        let label = match &plot.series {
+        let (label, key) = match &plot.series {
             Some(s) => match params.get(s) {
                 Some(Value::Number(n)) => {
-                    format!(
-                        "{s} = {}",
-                        crate::plot::tick_label(n.as_f64().unwrap_or(f64::NAN))
+                    let val = n.as_f64().unwrap_or(f64::NAN);
+                    (
+                        format!("{} = {}", name_of_path(s), value_in(val, us)),
+                        Some(val),
                     )
                 }
-                other => format!("{s} = {}", other.cloned().unwrap_or(Value::Null)),
+                other => (
+                    format!(
+                        "{} = {}",
+                        name_of_path(s),
+                        crate::json::shorten(
+                            &other.cloned().unwrap_or(Value::Null).to_string(),
+                            40
+                        )
+                    ),
+                    None,
+                ),
             },
-            None => plot.y.clone(),
+            None => (String::new(), None),
         };
         let y = resolve(&v["reductions"], &plot.y_path)
             .ok()
             .and_then(|r| r.first().and_then(|(_, val)| val.as_f64()));
-        if !order.contains(&label) {
-            order.push(label.clone());
-        }
+        let at = match curves.iter().position(|c| c.0 == label) {
+            Some(i) => i,
+            None => {
+                curves.push((label, key, Vec::new()));
+                curves.len() - 1
+            }
+        };
         if let Some(y) = y {
-            curves.entry(label).or_default().push((x, y));
+            curves[at].2.push((x * ux.scale, y * uy.scale));
         }
     }
-    let series: Vec<Series<'_>> = order
-        .iter()
-        .filter_map(|label| {
-            let mut pts = curves.get(label)?.clone();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            Some(Series {
-                label: label.as_str(),
-                points: pts,
-            })
-        })
-        .collect();
+    curves.retain(|c| !c.2.is_empty());
+    if curves.iter().all(|c| c.1.is_some()) {
+        curves.sort_by(|a, b| a.1.unwrap_or(0.0).total_cmp(&b.1.unwrap_or(0.0)));
+    }
+    let sequential = curves.len() > PALETTE.len() && curves.iter().all(|c| c.1.is_some());
+    let x_name = name_of_path(&plot.x);
+    let y_name = name_of_reduction(&plot.y);
     let title = plot
         .title
         .clone()
-        .unwrap_or_else(|| format!("{} over {}", plot.y, plot.x));
-    line_plot_svg(
+        .unwrap_or_else(|| format!("{y_name} against {x_name}"));
+    let mut fig = Figure::new(
         &title,
-        plot.x_label.as_deref().unwrap_or(&plot.x),
-        plot.y_label.as_deref().unwrap_or(&plot.y),
-        &series,
+        &label_in(plot.x_label.as_deref().unwrap_or(&x_name), ux),
+        &label_in(plot.y_label.as_deref().unwrap_or(&y_name), uy),
         plot.x_scale,
         plot.y_scale,
+    );
+    let n = curves.len();
+    for (k, (label, _, mut pts)) in curves.into_iter().enumerate() {
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let few = pts.len() <= 40;
+        let mut c = Curve::line(label, pts, k);
+        if sequential {
+            c.colour = ramp(k as f64 / (n - 1).max(1) as f64);
+            c.dash = Some(Dash::Solid);
+        }
+        c.marker = few.then_some(Marker::Circle);
+        fig.curves.push(c);
+    }
+    Ok(fig)
+}
+
+/// Viridis from its dark end to 85 % (the yellow end is unreadable on white), `t` in 0..1.
+pub fn ramp(t: f64) -> String {
+    const STOPS: [(u8, u8, u8); 7] = [
+        (0x44, 0x01, 0x54),
+        (0x46, 0x33, 0x7e),
+        (0x36, 0x5c, 0x8d),
+        (0x27, 0x7f, 0x8e),
+        (0x1f, 0xa1, 0x87),
+        (0x4a, 0xc1, 0x6d),
+        (0x7a, 0xd1, 0x51),
+    ];
+    let t = t.clamp(0.0, 1.0) * (STOPS.len() - 1) as f64;
+    let i = (t.floor() as usize).min(STOPS.len() - 2);
+    let f = t - i as f64;
+    let mix = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    format!(
+        "#{:02x}{:02x}{:02x}",
+        mix(a.0, b.0),
+        mix(a.1, b.1),
+        mix(a.2, b.2)
     )
 }
 
@@ -309,6 +368,6 @@ mod tests {
             svg.matches("<polyline").count() >= 2,
             "one line per value of b"
         );
-        assert!(svg.contains("b = 10") && svg.contains("b = 20"));
+        assert!(svg.contains("b = 10") && svg.contains("b = 20"), "{svg}");
     }
 }

@@ -47,20 +47,22 @@ function fmtDuration(s) {
 // Display units of known quantities: SI value * scale shown with the unit label.
 const UNITS = {
   m_um: { unit: "µm", scale: 1e6 }, m_mm: { unit: "mm", scale: 1e3 }, pas: { unit: "Pa·s", scale: 1 },
+  mpas: { unit: "mPa·s", scale: 1e3 }, mrad: { unit: "mrad", scale: 1e3 },
   kg: { unit: "kg", scale: 1 }, rads: { unit: "rad/s", scale: 1 }, rad: { unit: "rad", scale: 1 },
   s: { unit: "s", scale: 1 }, ms: { unit: "ms", scale: 1 }, n: { unit: "N", scale: 1 }, w: { unit: "W", scale: 1 },
   nm: { unit: "N·m", scale: 1 }, one: { unit: "", scale: 1 }, ms2: { unit: "m/s²", scale: 1 },
   kgm2: { unit: "kg·m²", scale: 1 }, mps: { unit: "m/s", scale: 1 },
 };
-// The unit of a scene field from the last name in an axis path (README "Scenes and run").
+// The unit of a scene field from the last name in an axis path (README "Scenes and run");
+// the same table as `unit_of_path` in src/plot.rs, so the page and the server's SVGs agree.
 function unitOfPath(path) {
   const names = path.replace(/\[[^\]]*\]/g, "").split(".");
   const last = names[names.length - 1];
   const table = {
-    clearance: "m_um", radius: "m_mm", length: "m_mm", axial_position: "m_mm", viscosity: "pas",
-    mass: "kg", inertia: "kgm2", static_unbalance: "m_mm", couple_unbalance: "rad", gravity: "ms2",
-    spin: names.includes("initial") || names.length === 1 ? "rads" : "one", angle: "rad", offset: "m_um",
-    velocity: "mps", tilt: "rad", t_end: "s", sample_interval: "s", fixed_step: "s", max_step: "s",
+    clearance: "m_um", radius: "m_mm", length: "m_mm", axial_position: "m_mm", viscosity: "mpas",
+    mass: "kg", inertia: "kgm2", static_unbalance: "m_um", couple_unbalance: "mrad", gravity: "ms2",
+    spin: names.includes("initial") || names.length === 1 ? "rads" : "one", angle: "mrad", offset: "m_um",
+    velocity: "mps", tilt: "mrad", t_end: "s", sample_interval: "s", fixed_step: "s", max_step: "s",
     threshold: "m_um", stiffness: "one", damping: "one", duration: "s", g_radius: "m_um",
     cost_ms: "ms", orbit: "m_um", whirl: "m_um", load: "n", eccentricity: "one", whirl_ratio: "one",
     friction_coefficient: "one", rtol: "one", atol: "one",
@@ -68,6 +70,8 @@ function unitOfPath(path) {
   return UNITS[table[last] || "one"];
 }
 const pathLabel = (p) => p.replace(/^bearings\[\*\]\./, "").replace(/^initial\./, "initial ");
+// "143.1 µm", "24.2 mPa·s": an SI value in its display unit, 4 significant digits.
+const withUnit = (x, u) => (isNum(x) ? `${fmt(x * u.scale)}${u.unit ? " " + u.unit : ""}` : JSON.stringify(x));
 
 // A path into a JSON value: "a.b[2].c".
 function getPath(obj, path) {
@@ -150,8 +154,9 @@ async function api(method, path, body, opts = {}) {
   }
   return { ok: res.ok, status: res.status, data, text, error };
 }
-function saveBlob(name, text, type) {
-  const url = URL.createObjectURL(new Blob([text], { type }));
+function saveBlob(name, text, type) { saveBlobObj(name, new Blob([text], { type })); }
+function saveBlobObj(name, blob) {
+  const url = URL.createObjectURL(blob);
   const a = el("a", { href: url, download: name });
   document.body.append(a); a.click(); a.remove();
   setTimeout(() => URL.revokeObjectURL(url), 5000);
@@ -231,7 +236,49 @@ function mergeSweep(s) {
   const prev = state.sweeps.get(s.id) || {};
   const merged = { ...prev, ...Object.fromEntries(Object.entries(s).filter(([, v]) => v !== undefined && v !== null)) };
   state.sweeps.set(s.id, merged);
+  noteProgress(merged);
   return merged;
+}
+// Rate and ETA from what this page saw finish over the last minute (the server's figures
+// until 3 s of history exist), the ETA shown as a running blend of the previous estimate
+// counted down and the new one: it moves smoothly instead of jumping with each batch.
+const RATE_WINDOW_MS = 60000;
+const progressSeen = new Map(); // id -> {hist: [[ms, done]], eta, at}
+function noteProgress(s) {
+  if (!isNum(s.done)) return;
+  const p = progressSeen.get(s.id) || { hist: [], eta: null, at: 0 };
+  const now = Date.now();
+  if (!p.hist.length || p.hist[p.hist.length - 1][1] !== s.done) p.hist.push([now, s.done]);
+  while (p.hist.length > 2 && now - p.hist[1][0] > RATE_WINDOW_MS) p.hist.shift();
+  progressSeen.set(s.id, p);
+}
+function rateOf(s) {
+  const p = progressSeen.get(s.id);
+  if (p && p.hist.length >= 2) {
+    const [t0, d0] = p.hist[0], [, d1] = p.hist[p.hist.length - 1];
+    const span = (Date.now() - t0) / 1000;
+    if (span >= 3 && d1 > d0) return (d1 - d0) / span;
+  }
+  return isNum(s.rate) ? s.rate : null;
+}
+function etaOf(s) {
+  if (TERMINAL.has(s.status) || !isNum(s.total)) return null;
+  const rate = rateOf(s);
+  const raw = rate > 0 ? (s.total - s.done) / rate : isNum(s.eta) ? s.eta : null;
+  if (raw === null) return null;
+  const p = progressSeen.get(s.id) || { hist: [], eta: null, at: 0 };
+  const now = Date.now();
+  if (now - p.at < 900 && p.eta !== null) return p.eta; // once per second at most
+  const counted = p.eta === null ? raw : Math.max(0, p.eta - (now - p.at) / 1000);
+  p.eta = p.eta === null ? raw : 0.75 * counted + 0.25 * raw;
+  p.at = now;
+  progressSeen.set(s.id, p);
+  return p.eta;
+}
+function fmtEta(x) {
+  if (!isNum(x)) return "—";
+  if (x >= 120) return fmtDuration(Math.round(x / 10) * 10); // no false precision
+  return fmtDuration(x);
 }
 
 // ---------------------------------------------------------------- health and token
@@ -271,6 +318,11 @@ async function loadExamples() {
     const r2 = await api("GET", `/api/examples/${encodeURIComponent(ev.name)}`);
     if (r2.ok && r2.data) fillEval(r2.data);
   }
+  // The editor starts with an example (the page's first sweep needs no "Load example").
+  if (!$("#spec").value.trim()) {
+    const pick = state.examples.find((e) => e.role === "sweep" && e.name === "clearance-viscosity") || state.examples.find((e) => e.role === "sweep");
+    if (pick) { sel.value = pick.name; await loadExample(); }
+  }
   showExampleDesc();
 }
 function showExampleDesc() {
@@ -283,6 +335,7 @@ async function loadExample() {
   const r = await api("GET", `/api/examples/${encodeURIComponent(name)}`);
   if (!r.ok) { showSpecError(r.error); return; }
   setSpecText(r.text);
+  showExampleDesc();
 }
 function setSpecText(text) {
   const ta = $("#spec");
@@ -447,8 +500,9 @@ function renderQueue() {
     bar.setAttribute("aria-label", `${label} progress`);
     c[2].lastChild.textContent = ` ${s.done}/${s.total ?? "?"}`;
     c[3].textContent = String(s.failed);
-    c[4].textContent = isNum(s.rate) && s.rate > 0 ? `${fmt(s.rate, 3)} /s` : "—";
-    c[5].textContent = TERMINAL.has(s.status) ? "—" : fmtDuration(s.eta);
+    const rate = rateOf(s);
+    c[4].textContent = isNum(rate) && rate > 0 ? `${fmt(rate, 3)} /s` : "—";
+    c[5].textContent = TERMINAL.has(s.status) ? "—" : fmtEta(etaOf(s));
     const term = TERMINAL.has(s.status) ? "1" : "0";
     if (tr.dataset.term !== term) {
       tr.dataset.term = term;
@@ -531,16 +585,40 @@ async function deleteSweep(id) {
   const r = await api("DELETE", `/api/sweeps/${encodeURIComponent(id)}`);
   if (!r.ok && r.status !== 404) { alert(`delete failed: ${r.error.message}`); return; }
   state.sweeps.delete(id);
-  if (state.selected === id) { state.selected = null; $("#detail").hidden = true; }
+  if (state.selected === id) { state.selected = null; $("#detail").hidden = true; writeHash(); }
   renderQueue();
 }
 
 // ---------------------------------------------------------------- detail panel
+// Each sweep (and its open variant) has its own URL: #sweep=ID&variant=N. A reload, a
+// bookmark or a link opens the same view; the back button returns to the previous sweep.
+function hashParams() {
+  const h = new URLSearchParams(location.hash.replace(/^#/, ""));
+  return { sweep: h.get("sweep"), variant: h.get("variant") };
+}
+function writeHash(newEntry) {
+  const p = new URLSearchParams();
+  if (state.selected) p.set("sweep", state.selected);
+  if (state.selected && state.variantId !== null) p.set("variant", String(state.variantId));
+  const h = p.toString() ? `#${p}` : "";
+  if (location.hash === h || (!h && !location.hash)) return;
+  const url = h || location.pathname + location.search;
+  const sameSweep = hashParams().sweep === state.selected;
+  if (newEntry && !sameSweep) history.pushState(null, "", url); else history.replaceState(null, "", url);
+}
+function followHash() {
+  const { sweep, variant } = hashParams();
+  if (sweep && sweep !== state.selected) {
+    state.pendingVariant = variant === null ? null : Number(variant);
+    selectSweep(sweep);
+  } else if (sweep && variant !== null && Number(variant) !== state.variantId) showVariant(variant, false);
+}
 async function selectSweep(id) {
   if (state.selected !== id) {
     state.selected = id;
     delete $("#detail").dataset.events; delete $("#detail").dataset.lastEvent;
     state.variants = []; state.result = null; state.spec = null; state.variantId = null;
+    $("#sweep-message").hidden = true;
     $("#variant-id").textContent = "(click a map cell or a table row)";
     $("#variant-params").textContent = "";
     $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
@@ -548,10 +626,16 @@ async function selectSweep(id) {
     plotsFor = null;
   }
   $("#detail").hidden = false;
+  writeHash(true);
   renderQueue();
   renderProgress();
   watch(id);
   await refreshSweep(id);
+  if (!state.sweeps.has(id) && state.selected === id) {
+    $("#sweep-message").hidden = false;
+    $("#sweep-message").textContent = `No sweep ${id} on this server (deleted, or a link from another server).`;
+    return;
+  }
   await loadVariants(true);
   $("#detail-h").scrollIntoView({ block: "start", behavior: "smooth" });
 }
@@ -570,8 +654,9 @@ function renderProgress() {
     p.value = 1;
     $("#sweep-counts").textContent = `friction map: ${curves.length} speeds × ${curves[0].points.length} loads`;
   }
-  $("#sweep-rate").textContent = isNum(s.rate) ? `${fmt(s.rate, 3)} variants/s` : "";
-  $("#sweep-eta").textContent = !TERMINAL.has(s.status) && isNum(s.eta) ? `ETA ${fmtDuration(s.eta)}` : "";
+  const rate = rateOf(s), eta = etaOf(s);
+  $("#sweep-rate").textContent = isNum(rate) ? `${fmt(rate, 3)} variants/s` : "";
+  $("#sweep-eta").textContent = !TERMINAL.has(s.status) && isNum(eta) ? `ETA ${fmtEta(eta)}` : "";
   $("#detail-cancel").hidden = TERMINAL.has(s.status);
   const msg = $("#sweep-message");
   msg.hidden = !s.message;
@@ -644,11 +729,15 @@ function renderDetail() {
     for (const e of document.querySelectorAll(sel)) e.hidden = isMap;
   if (isMap) {
     renderProgress();
+    $("#parallel-fig").hidden = true;
     drawFig4(state.result); $("#maps-controls").hidden = true; $("#curves-controls").hidden = true; $("#curves-fig").hidden = true; $("#maps").innerHTML = ""; $("#maps-note").textContent = ""; return; }
   renderTable();
   renderMaps();
   renderCurves();
-  if (state.variantId === null && state.variants.length) showVariant(state.variants[0].id, false);
+  renderParallel();
+  const pend = state.pendingVariant;
+  if (pend !== null && pend !== undefined && state.variants.some((v) => v.id === Number(pend))) { state.pendingVariant = null; showVariant(pend, false); }
+  else if (state.variantId === null && state.variants.length) showVariant(state.variants[0].id, false);
   else if (state.variantId !== null) showVariant(state.variantId, false);
 }
 
@@ -737,22 +826,44 @@ function colour(t) {
   const a = c(VIRIDIS[i]), b = c(VIRIDIS[i + 1]);
   return `rgb(${a.map((v, k) => Math.round(v + (b[k] - v) * f)).join(",")})`;
 }
+// Ticks as src/plot.rs draws them: [{v, label}], label "" for a minor tick.
+// Linear: steps 1, 2, 2.5, 5 x 10^n, zero exactly "0" (never -1.11e-16).
 function niceTicks(lo, hi, n = 5) {
-  if (!(hi > lo)) return [lo];
-  const step0 = (hi - lo) / n, mag = 10 ** Math.floor(Math.log10(step0));
-  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= step0) || 10 * mag;
+  if (!(hi > lo)) return [{ v: lo, label: fmt(lo, 3) }];
+  const raw = (hi - lo) / n, mag = 10 ** Math.floor(Math.log10(raw));
+  const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((st) => st >= raw * (1 - 1e-9)) || 10 * mag;
   const out = [];
-  for (let t = Math.ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) out.push(Math.abs(t) < step * 1e-9 ? 0 : t);
+  const e = Math.floor(Math.log10(step) + 1e-9);
+  const dec = Math.abs(step / 10 ** e - 2.5) < 1e-6 ? Math.max(0, 1 - e) : Math.max(0, -e); // 0.25, 2.5, 250
+  const big = Math.max(Math.abs(lo), Math.abs(hi));
+  for (let k = Math.ceil(lo / step - 1e-9); k <= Math.floor(hi / step + 1e-9) && out.length < 100; k++) {
+    const v = k * step;
+    out.push({ v, label: k === 0 ? "0" : big >= 1e5 || big < 1e-3 ? fmt(v, 3) : v.toFixed(dec) });
+  }
   return out;
 }
+// Log: decades (2..9 as minor ticks), else 1-2-5, else 1..9, else linear: at least 3 labels.
 function logTicks(lo, hi) {
-  const out = [];
-  const decades = Math.log10(hi / lo);
-  const mults = decades > 2.5 ? [1] : decades > 1.2 ? [1, 3] : [1, 2, 5]; // labels that fit
-  for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
-    for (const m of mults) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) out.push(t); }
-  }
-  return out.length >= 2 ? out : niceTicks(lo, hi);
+  const e0 = Math.floor(Math.log10(lo)), e1 = Math.ceil(Math.log10(hi));
+  const inside = (v) => v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9);
+  const every = Math.max(1, Math.ceil(Math.log10(hi / lo) / 8));
+  const withM = (mults, labelled) => {
+    const out = [];
+    for (let e = e0; e <= e1; e++) for (const m of mults) {
+      const v = Number((m * 10 ** e).toPrecision(12));
+      if (inside(v)) out.push({ v, label: labelled && (m !== 1 || ((e % every) + every) % every === 0) ? fmt(v, 3) : "" });
+    }
+    return out;
+  };
+  const count = (t) => t.filter((x) => x.label).length;
+  const dec = withM([1], true);
+  if (count(dec) >= 3) return Math.log10(hi / lo) <= 8 ? dec.concat(withM([2, 3, 4, 5, 6, 7, 8, 9], false)) : dec;
+  const ots = withM([1, 2, 5], true);
+  if (count(ots) >= 3) return ots.concat(withM([3, 4, 6, 7, 8, 9], false));
+  const all = withM([1, 2, 3, 4, 5, 6, 7, 8, 9], true);
+  if (count(all) >= 3) return all;
+  for (let n = 4; n <= 12; n++) { const t = niceTicks(lo, hi, n).filter((x) => x.v > 0); if (t.length >= 3 || n === 12) return t; }
+  return [];
 }
 const tip = () => $("#tip");
 function showTip(evt, text) {
@@ -888,7 +999,7 @@ function drawHeatmap(s, q, px, py) {
   const bx = W - mr + 14, bh = H - mt - mb, N = 40;
   for (let k = 0; k < N; k++) s.append(svg("rect", { x: bx, y: mt + bh - ((k + 1) * bh) / N, width: 14, height: bh / N + 0.5, fill: colour((k + 0.5) / N) }));
   if (vals.length) {
-    let ticks = logScale ? logTicks(lo, hi) : niceTicks(lo, hi, 4);
+    let ticks = (logScale ? logTicks(lo, hi) : niceTicks(lo, hi, 4)).filter((t) => t.label).map((t) => t.v);
     if (ticks.filter((t) => t >= lo && t <= hi).length < 3) ticks = [lo, hi]; // a narrow range: label its ends
     for (const t of ticks) {
       const yy = mt + bh - norm(t) * bh;
@@ -897,76 +1008,150 @@ function drawHeatmap(s, q, px, py) {
       s.append(svg("text", { x: bx + 20, y: yy + 4 }, fmt(t * q.u.scale, 3)));
     }
   }
+  addFigureTools(s);
 }
 
 // ---- line charts (curves, Fig. 4, orbits, time histories)
-const PALETTE = ["#1f5fbf", "#d1495b", "#2a9d8f", "#e9a03b", "#6a4c93", "#4d908e", "#bc4b51", "#577590", "#8ab17d", "#f08a4b"];
-// series: [{name, xs, ys}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}
+// The palette and line patterns of src/plot.rs (Okabe-Ito without yellow; patterns
+// after the seventh curve), so the page and the server's SVGs look alike.
+const PALETTE = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#56B4E9", "#E69F00", "#000000"];
+const DASHES = [null, "7 4", "9 3 2 3", "2 3"];
+const textW = (t, px = 12) => String(t).length * 0.6 * px; // DejaVu-like average advance
+// Whether segment a-b meets rectangle r (Liang-Barsky).
+function meetsRect(r, a, b) {
+  const dx = b[0] - a[0], dy = b[1] - a[1];
+  let t0 = 0, t1 = 1;
+  for (const [p, q] of [[-dx, a[0] - r.x], [dx, r.x + r.w - a[0]], [-dy, a[1] - r.y], [dy, r.y + r.h - a[1]]]) {
+    if (p === 0) { if (q < 0) return false; } else {
+      const t = q / p;
+      if (p < 0) t0 = Math.max(t0, t); else t1 = Math.min(t1, t);
+      if (t0 > t1) return false;
+    }
+  }
+  return true;
+}
+// series: [{name, xs, ys, color?, dash?}]; opts: {title, xLabel, yLabel, xLog, yLog, equal, circle}.
+// Drag a rectangle to zoom (the axes re-tick), double-click or "Reset zoom" to go back.
 function lineChart(s, series, opts) {
   s.innerHTML = "";
-  const W = figWidth(s), H = opts.equal ? 460 : 330, ml = 70, mr = 28, mt = 26, mb = 46; // mr: room for the last x label
+  s._redraw = () => lineChart(s, series, opts);
+  const W = figWidth(s), H = opts.equal ? 460 : 330;
   s.setAttribute("viewBox", `0 0 ${W} ${H}`);
-  const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0));
-  s.append(svg("text", { x: ml, y: 16, class: "title" }, opts.title || ""));
+  const ok = (x, y) => isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0);
+  const pts = series.flatMap((ser) => ser.xs.map((x, i) => [x, ser.ys[i]])).filter(([x, y]) => ok(x, y));
+  s.append(svg("text", { x: 70, y: 17, class: "title" }, opts.title || ""));
+  addFigureTools(s, { reset: () => { s._zoom = null; s._redraw(); } });
   if (!pts.length) { s.append(svg("text", { x: W / 2, y: H / 2, "text-anchor": "middle" }, "no data")); return; }
-  let [x0, x1] = [Math.min(...pts.map((p) => p[0])), Math.max(...pts.map((p) => p[0]))];
-  let [y0, y1] = [Math.min(...pts.map((p) => p[1])), Math.max(...pts.map((p) => p[1]))];
+  let x0 = Math.min(...pts.map((p) => p[0])), x1 = Math.max(...pts.map((p) => p[0]));
+  let y0 = Math.min(...pts.map((p) => p[1])), y1 = Math.max(...pts.map((p) => p[1]));
   if (opts.circle) { x0 = Math.min(x0, -opts.circle); x1 = Math.max(x1, opts.circle); y0 = Math.min(y0, -opts.circle); y1 = Math.max(y1, opts.circle); }
   const pad = (a, b, log) => {
-    if (log) return a === b ? [a / 2, b * 2] : [a, b];
+    if (log) { if (a === b) return [a / 1.5, b * 1.5]; const f = Math.max(1.1, (b / a) ** 0.04); return [a / f, b * f]; }
     if (a === b) return [a - (Math.abs(a) || 1) * 0.1, b + (Math.abs(b) || 1) * 0.1];
     const d = (b - a) * 0.04; return [a - d, b + d];
   };
   [x0, x1] = pad(x0, x1, opts.xLog); [y0, y1] = pad(y0, y1, opts.yLog);
-  const pw = W - ml - mr, ph = H - mt - mb;
-  if (opts.equal) { // same scale on both axes: widen the shorter span
-    const sx = (x1 - x0) / pw, sy = (y1 - y0) / ph, k = Math.max(sx, sy);
-    const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
-    x0 = cx - (k * pw) / 2; x1 = cx + (k * pw) / 2; y0 = cy - (k * ph) / 2; y1 = cy + (k * ph) / 2;
+  if (s._zoom) ({ x0, x1, y0, y1 } = s._zoom);
+  const named = series.filter((ser) => ser.name);
+  const legendOn = series.length > 1 ? named.length > 0 : named.length === 1;
+  const items = legendOn ? series.map((ser, k) => ({ ser, k })).filter(({ ser }) => ser.name).slice(0, 12) : [];
+  const lw = items.length ? Math.max(...items.map(({ ser }) => textW(ser.name))) + 44 : 0, lh = items.length * 15 + 8;
+  // The frame for `extra` px kept on the right (an outside legend).
+  const frame = (extra) => {
+    const ml = 72, mr = 18 + extra, mt = 28, mb = 48;
+    const pw = W - ml - mr, ph = H - mt - mb;
+    let [a0, a1, b0, b1] = [x0, x1, y0, y1];
+    if (opts.equal && !s._zoom) { // same scale on both axes: widen the shorter span
+      const k = Math.max((a1 - a0) / pw, (b1 - b0) / ph), cx = (a0 + a1) / 2, cy = (b0 + b1) / 2;
+      a0 = cx - (k * pw) / 2; a1 = cx + (k * pw) / 2; b0 = cy - (k * ph) / 2; b1 = cy + (k * ph) / 2;
+    }
+    const tx = (x) => ml + (opts.xLog ? Math.log(x / a0) / Math.log(a1 / a0) : (x - a0) / (a1 - a0)) * pw;
+    const ty = (y) => mt + ph - (opts.yLog ? Math.log(y / b0) / Math.log(b1 / b0) : (y - b0) / (b1 - b0)) * ph;
+    const ix = (px) => { const t = (px - ml) / pw; return opts.xLog ? a0 * (a1 / a0) ** t : a0 + t * (a1 - a0); };
+    const iy = (py) => { const t = (mt + ph - py) / ph; return opts.yLog ? b0 * (b1 / b0) ** t : b0 + t * (b1 - b0); };
+    return { ml, mr, mt, mb, pw, ph, tx, ty, ix, iy, x0: a0, x1: a1, y0: b0, y1: b1 };
+  };
+  let f = frame(0);
+  // Legend: the first free spot inside (corners, then edge middles), else outside right.
+  let box = null;
+  if (items.length) {
+    const segs = [], dots = [];
+    for (const ser of series) {
+      let prev = null;
+      ser.xs.forEach((x, i) => {
+        const y = ser.ys[i];
+        if (!ok(x, y)) { prev = null; return; }
+        const q = [f.tx(x), f.ty(y)];
+        if (prev) segs.push([prev, q]); else dots.push(q);
+        prev = q;
+      });
+    }
+    if (opts.circle) for (let k = 0; k < 48; k++) {
+      const a = (2 * Math.PI * k) / 48, b = (2 * Math.PI * (k + 1)) / 48, r = opts.circle;
+      segs.push([[f.tx(r * Math.cos(a)), f.ty(r * Math.sin(a))], [f.tx(r * Math.cos(b)), f.ty(r * Math.sin(b))]]);
+    }
+    const L = f.ml + 6, R = f.ml + f.pw - lw - 6, T = f.mt + 6, B = f.mt + f.ph - lh - 6;
+    const CX = f.ml + (f.pw - lw) / 2, CY = f.mt + (f.ph - lh) / 2;
+    for (const [x, y] of [[R, T], [L, T], [R, B], [L, B], [CX, T], [CX, B], [R, CY], [L, CY]]) {
+      if (lw + 12 > f.pw || lh + 12 > f.ph) break;
+      const g = { x: x - 3, y: y - 3, w: lw + 6, h: lh + 6 };
+      if (!segs.some(([a, b]) => meetsRect(g, a, b)) && !dots.some(([a, b]) => a >= g.x - 2 && a <= g.x + g.w + 2 && b >= g.y - 2 && b <= g.y + g.h + 2)) { box = { x, y }; break; }
+    }
+    if (!box) { f = frame(lw + 10); box = { x: f.ml + f.pw + 8, y: f.mt }; }
   }
-  const tx = (x) => ml + (opts.xLog ? Math.log(x / x0) / Math.log(x1 / x0) : (x - x0) / (x1 - x0)) * pw;
-  const ty = (y) => mt + ph - (opts.yLog ? Math.log(y / y0) / Math.log(y1 / y0) : (y - y0) / (y1 - y0)) * ph;
+  const { ml, mt, pw, ph, tx, ty } = f;
   const grid = svg("g", { class: "grid" }), axis = svg("g", { class: "axis" });
-  for (const t of opts.xLog ? logTicks(x0, x1) : niceTicks(x0, x1, 6)) {
-    grid.append(svg("line", { x1: tx(t), x2: tx(t), y1: mt, y2: mt + ph }));
-    axis.append(svg("text", { x: tx(t), y: mt + ph + 14, "text-anchor": "middle" }, fmt(t, 3)));
+  let lastRight = -Infinity;
+  for (const t of opts.xLog ? logTicks(f.x0, f.x1) : niceTicks(f.x0, f.x1, Math.max(3, Math.round(pw / 90)))) {
+    grid.append(svg("line", { x1: tx(t.v), x2: tx(t.v), y1: mt, y2: mt + ph, class: t.label ? null : "minor" }));
+    axis.append(svg("line", { x1: tx(t.v), x2: tx(t.v), y1: mt + ph, y2: mt + ph + (t.label ? 5 : 3) }));
+    const half = textW(t.label) / 2;
+    if (t.label && tx(t.v) - half > lastRight + 6) { axis.append(svg("text", { x: tx(t.v), y: mt + ph + 17, "text-anchor": "middle", class: "tick x" }, t.label)); lastRight = tx(t.v) + half; }
   }
-  for (const t of opts.yLog ? logTicks(y0, y1) : niceTicks(y0, y1, 5)) {
-    grid.append(svg("line", { x1: ml, x2: ml + pw, y1: ty(t), y2: ty(t) }));
-    axis.append(svg("text", { x: ml - 4, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
+  for (const t of opts.yLog ? logTicks(f.y0, f.y1) : niceTicks(f.y0, f.y1, Math.max(3, Math.round(ph / 60)))) {
+    grid.append(svg("line", { x1: ml, x2: ml + pw, y1: ty(t.v), y2: ty(t.v), class: t.label ? null : "minor" }));
+    axis.append(svg("line", { x1: ml - (t.label ? 5 : 3), x2: ml, y1: ty(t.v), y2: ty(t.v) }));
+    if (t.label) axis.append(svg("text", { x: ml - 7, y: ty(t.v) + 4, "text-anchor": "end", class: "tick y" }, t.label));
   }
-  axis.append(svg("path", { d: `M${ml},${mt}V${mt + ph}H${ml + pw}`, fill: "none" }));
+  axis.append(svg("rect", { x: ml, y: mt, width: pw, height: ph, fill: "none", stroke: "#444" }));
   s.append(grid, axis);
-  s.append(svg("text", { x: ml + pw / 2, y: H - 8, "text-anchor": "middle" }, opts.xLabel || ""));
-  s.append(svg("text", { x: 14, y: mt + ph / 2, "text-anchor": "middle", transform: `rotate(-90 14 ${mt + ph / 2})` }, opts.yLabel || ""));
-  if (opts.circle) s.append(svg("circle", { cx: tx(0), cy: ty(0), r: Math.abs(tx(opts.circle) - tx(0)), fill: "none", stroke: "#999", "stroke-dasharray": "4 3" }));
+  s.append(svg("text", { x: ml + pw / 2, y: H - 10, "text-anchor": "middle", class: "label" }, opts.xLabel || ""));
+  s.append(svg("text", { x: 15, y: mt + ph / 2, "text-anchor": "middle", class: "label", transform: `rotate(-90 15 ${mt + ph / 2})` }, opts.yLabel || ""));
+  const clipId = `clip-${s.id || Math.random().toString(36).slice(2)}`;
+  s.append(svg("clipPath", { id: clipId }, undefined));
+  s.lastChild.append(svg("rect", { x: ml, y: mt, width: pw, height: ph }));
+  const body = svg("g", { "clip-path": `url(#${clipId})` });
+  s.append(body);
+  if (opts.circle) body.append(svg("circle", { cx: tx(0), cy: ty(0), r: Math.abs(tx(opts.circle) - tx(0)), fill: "none", stroke: "#777", "stroke-width": 1.5, "stroke-dasharray": "7 4", class: "guide" }));
   const drawn = [];
   series.forEach((ser, k) => {
     const c = ser.color || PALETTE[k % PALETTE.length];
-    let d = "";
-    let pen = false;
+    const dash = ser.dash !== undefined ? ser.dash : DASHES[Math.floor(k / PALETTE.length) % 4];
+    let d = "", pen = false;
     ser.xs.forEach((x, i) => {
       const y = ser.ys[i];
-      if (!isNum(x) || !isNum(y) || (opts.xLog && x <= 0) || (opts.yLog && y <= 0)) { pen = false; return; }
+      if (!ok(x, y)) { pen = false; return; }
       d += `${pen ? "L" : "M"}${tx(x).toFixed(1)},${ty(y).toFixed(1)}`;
       pen = true;
       drawn.push({ x, y, name: ser.name, px: tx(x), py: ty(y) });
     });
-    s.append(svg("path", { d, fill: "none", stroke: c, "stroke-width": 1.6, class: "series", "data-name": ser.name }));
-    if (ser.xs.length <= 40) ser.xs.forEach((x, i) => { const y = ser.ys[i]; if (isNum(x) && isNum(y) && (!opts.xLog || x > 0) && (!opts.yLog || y > 0)) s.append(svg("circle", { cx: tx(x), cy: ty(y), r: 2.2, fill: c })); });
+    body.append(svg("path", { d, fill: "none", stroke: c, "stroke-width": 2, "stroke-linejoin": "round", "stroke-dasharray": dash, class: "series", "data-name": ser.name }));
+    if (ser.xs.length <= 40) ser.xs.forEach((x, i) => { const y = ser.ys[i]; if (ok(x, y)) body.append(svg("circle", { cx: tx(x), cy: ty(y), r: 3, fill: c, class: "marker" })); });
   });
-  // legend
-  if (series.length > 1 || (series[0] && series[0].name)) {
-    series.slice(0, 10).forEach((ser, k) => {
-      const y = mt + 8 + k * 14;
-      s.append(svg("line", { x1: ml + pw - 120, x2: ml + pw - 104, y1: y, y2: y, stroke: ser.color || PALETTE[k % PALETTE.length], "stroke-width": 2 }));
-      s.append(svg("text", { x: ml + pw - 100, y: y + 4 }, ser.name || ""));
+  if (box) {
+    s.append(svg("rect", { x: box.x, y: box.y, width: lw, height: lh, class: "legend", fill: "#fff", "fill-opacity": 0.92, stroke: "#b8bec6" }));
+    items.forEach(({ ser, k }, i) => {
+      const y = box.y + 4 + 15 * (i + 0.5);
+      s.append(svg("line", { x1: box.x + 8, x2: box.x + 32, y1: y, y2: y, stroke: ser.color || PALETTE[k % PALETTE.length], "stroke-width": 2,
+        "stroke-dasharray": ser.dash !== undefined ? ser.dash : DASHES[Math.floor(k / PALETTE.length) % 4] }));
+      s.append(svg("text", { x: box.x + 38, y: y + 4, class: "legend-entry" }, ser.name));
     });
   }
   // hover: the nearest drawn point
   const hover = svg("circle", { r: 4, fill: "none", stroke: "#000", visibility: "hidden" });
   s.append(hover);
   s.onmousemove = (e) => {
+    if (s._dragging) return;
     const r = s.getBoundingClientRect();
     const mx = ((e.clientX - r.left) / r.width) * W, my = ((e.clientY - r.top) / r.height) * H;
     let best = null, bd = Infinity;
@@ -976,6 +1161,121 @@ function lineChart(s, series, opts) {
     showTip(e, `${best.name ? best.name + ": " : ""}${opts.xName || "x"} ${fmt(best.x)}, ${opts.yName || "y"} ${fmt(best.y)}`);
   };
   s.onmouseleave = () => { hover.setAttribute("visibility", "hidden"); hideTip(); };
+  s._zoomTo = (a, b, c, d) => { // a viewBox rectangle -> data ranges
+    const xa = f.ix(a), xb = f.ix(c), ya = f.iy(d), yb = f.iy(b);
+    s._zoom = { x0: Math.min(xa, xb), x1: Math.max(xa, xb), y0: Math.min(ya, yb), y1: Math.max(ya, yb) };
+    s._redraw();
+  };
+  enableDragZoom(s);
+}
+
+// ---- zoom and export of every figure
+// Drag a rectangle on a figure to zoom into it: line charts re-draw their axes over the
+// data in the rectangle (s._zoomTo); other figures (maps, parallel coordinates, the
+// server's SVGs) magnify by their viewBox. Double-click (or "Reset zoom") goes back.
+function enableDragZoom(s) {
+  if (s._dragZoom) return;
+  s._dragZoom = true;
+  let start = null, box = null;
+  const at = (e) => {
+    const r = s.getBoundingClientRect(), vb = s.viewBox.baseVal;
+    return [vb.x + ((e.clientX - r.left) / r.width) * vb.width, vb.y + ((e.clientY - r.top) / r.height) * vb.height];
+  };
+  s.addEventListener("pointerdown", (e) => {
+    if (e.button !== 0 || !s.viewBox.baseVal || !s.viewBox.baseVal.width) return;
+    start = at(e); s._dragging = false;
+  });
+  s.addEventListener("pointermove", (e) => {
+    if (!start) return;
+    const p = at(e);
+    if (!s._dragging && Math.hypot(p[0] - start[0], p[1] - start[1]) < 6) return;
+    if (!s._dragging) { s._dragging = true; s.setPointerCapture(e.pointerId); box = svg("rect", { class: "zoombox" }); s.append(box); hideTip(); }
+    box.setAttribute("x", Math.min(p[0], start[0])); box.setAttribute("y", Math.min(p[1], start[1]));
+    box.setAttribute("width", Math.abs(p[0] - start[0])); box.setAttribute("height", Math.abs(p[1] - start[1]));
+  });
+  s.addEventListener("pointerup", (e) => {
+    const a = start; start = null;
+    if (!a || !s._dragging) { s._dragging = false; return; }
+    const p = at(e);
+    if (box) box.remove();
+    box = null;
+    // The click that ends a drag must not open a variant.
+    const swallow = (ev) => ev.stopPropagation();
+    s.addEventListener("click", swallow, { capture: true, once: true });
+    setTimeout(() => s.removeEventListener("click", swallow, { capture: true }), 300);
+    setTimeout(() => { s._dragging = false; }, 0);
+    const [x0, y0, x1, y1] = [Math.min(a[0], p[0]), Math.min(a[1], p[1]), Math.max(a[0], p[0]), Math.max(a[1], p[1])];
+    if (x1 - x0 < 8 || y1 - y0 < 8) return;
+    if (s._zoomTo) s._zoomTo(x0, y0, x1, y1);
+    else zoomViewBox(s, x0, y0, x1, y1);
+  });
+  s.addEventListener("dblclick", () => resetZoom(s));
+}
+function zoomViewBox(s, x0, y0, x1, y1) {
+  const vb = s.viewBox.baseVal;
+  if (!s._vb0) s._vb0 = `${vb.x} ${vb.y} ${vb.width} ${vb.height}`;
+  // Keep the figure's aspect: widen the rectangle's shorter side.
+  const k = vb.width / vb.height;
+  let w = x1 - x0, h = y1 - y0;
+  if (w / h > k) h = w / k; else w = h * k;
+  const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
+  s.setAttribute("viewBox", `${cx - w / 2} ${cy - h / 2} ${w} ${h}`);
+  s.classList.add("zoomed");
+}
+function resetZoom(s) {
+  if (s._zoom) { s._zoom = null; if (s._redraw) s._redraw(); }
+  if (s._vb0) { s.setAttribute("viewBox", s._vb0); s._vb0 = null; }
+  s.classList.remove("zoomed");
+}
+// Styles an exported SVG needs (the page's CSS does not travel with it).
+const FIG_CSS = "text{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;font-size:12px;fill:#222}" +
+  ".title{font-size:14px;font-weight:600}.label{font-size:13px}.grid line{stroke:#e4e7eb}.grid line.minor{stroke:#f0f2f4}.axis line{stroke:#444}" +
+  "rect.cell{stroke:#fff;stroke-width:.5}rect.cell.missing{fill:#eee}text.cv.light{fill:#fff}text.cv.dark{fill:#111}.pc-line{fill:none}";
+function svgText(s) {
+  const c = s.cloneNode(true);
+  c.setAttribute("xmlns", SVGNS);
+  const vb = s.viewBox.baseVal;
+  c.setAttribute("width", String(Math.round(vb.width))); c.setAttribute("height", String(Math.round(vb.height)));
+  for (const e of c.querySelectorAll(".zoombox")) e.remove();
+  const st = document.createElementNS(SVGNS, "style");
+  st.textContent = FIG_CSS;
+  c.insertBefore(svg("rect", { x: vb.x, y: vb.y, width: vb.width, height: vb.height, fill: "#fff" }), c.firstChild);
+  c.insertBefore(st, c.firstChild);
+  return `<?xml version="1.0" encoding="UTF-8"?>\n${new XMLSerializer().serializeToString(c)}\n`;
+}
+function figureName(s) {
+  const sw = state.sweeps.get(state.selected);
+  const stem = (sw && sw.name ? sw.name : state.selected || "figure").replace(/[^a-z0-9._-]+/gi, "-").slice(0, 40);
+  return `${stem}-${(s.id || "figure").replace(/[^a-z0-9_-]+/gi, "-")}`;
+}
+function exportPng(s) {
+  const vb = s.viewBox.baseVal, k = 2; // twice the drawing size: sharp in a report
+  const url = URL.createObjectURL(new Blob([svgText(s)], { type: "image/svg+xml" }));
+  const img = new Image();
+  img.onload = () => {
+    const cv = document.createElement("canvas");
+    cv.width = Math.round(vb.width * k); cv.height = Math.round(vb.height * k);
+    const g = cv.getContext("2d");
+    g.fillStyle = "#fff"; g.fillRect(0, 0, cv.width, cv.height);
+    g.drawImage(img, 0, 0, cv.width, cv.height);
+    URL.revokeObjectURL(url);
+    cv.toBlob((blob) => saveBlobObj(`${figureName(s)}.png`, blob));
+  };
+  img.src = url;
+}
+// Buttons under a figure: reset zoom, SVG, PNG (once per figure element).
+function addFigureTools(s, opts = {}) {
+  enableDragZoom(s);
+  const fig = s.closest("figure");
+  if (!fig || fig.querySelector(":scope > .figtools")) return;
+  const label = s.getAttribute("aria-label") || s.id || "figure";
+  const bar = el("div", { class: "figtools" },
+    el("span", { class: "note", text: "drag to zoom" }),
+    el("button", { type: "button", class: "zoom-reset", text: "Reset zoom", "aria-label": `reset zoom of ${label}`, onclick: () => resetZoom(s) }),
+    el("button", { type: "button", class: "export-svg", text: "SVG", "aria-label": `save ${label} as SVG`, onclick: () => saveBlob(`${figureName(s)}.svg`, svgText(s), "image/svg+xml") }),
+    el("button", { type: "button", class: "export-png", text: "PNG", "aria-label": `save ${label} as PNG`, onclick: () => exportPng(s) }));
+  void opts;
+  fig.append(bar);
 }
 function renderCurves() {
   const sel = $("#curve-q");
@@ -1024,8 +1324,20 @@ async function loadServerPlots(id) {
   for (const name of names) {
     const rr = await api("GET", `/api/sweeps/${encodeURIComponent(id)}/plots/${encodeURIComponent(name)}`);
     if (!rr.ok || state.selected !== id || plotsFor !== id) continue;
-    const url = URL.createObjectURL(new Blob([rr.text], { type: "image/svg+xml" }));
-    holder.append(el("figure", { class: "server-plot" }, el("img", { src: url, alt: `server plot ${name}` }), el("figcaption", { text: name })));
+    // Inline (not an <img>): the same zoom and export as the page's own figures.
+    const doc = new DOMParser().parseFromString(rr.text, "image/svg+xml");
+    const root = doc.documentElement;
+    if (!root || root.nodeName !== "svg") continue;
+    const s = document.importNode(root, true);
+    s.removeAttribute("width"); s.removeAttribute("height");
+    s.id = `server-${name.replace(/[^a-z0-9_-]+/gi, "-")}`;
+    s.setAttribute("role", "img"); s.setAttribute("aria-label", `server plot ${name}`);
+    // Each SVG names its clip path "plot-area": unique ids on one page.
+    for (const c of s.querySelectorAll("clipPath#plot-area")) c.id = `${s.id}-clip`;
+    for (const g of s.querySelectorAll("[clip-path]")) g.setAttribute("clip-path", `url(#${s.id}-clip)`);
+    const fig = el("figure", { class: "server-plot" }, s, el("figcaption", { text: name }));
+    holder.append(fig);
+    addFigureTools(s);
   }
 }
 
@@ -1036,24 +1348,51 @@ function clearanceOf(v, k) {
   const base = state.spec && state.spec.base;
   return base && base.bearings && base.bearings[k] ? base.bearings[k].clearance : null;
 }
+// Full-resolution series of variants ("sweep/variant" -> series, "loading" or {error}):
+// the records keep `reductions.points` samples; the server simulates the variant again
+// for the orbit (GET /api/sweeps/{id}/variants/{v}/series).
+const FULL_POINTS = 4000;
+const fullSeries = new Map();
+function isRotorSweep() {
+  const k = state.spec && state.spec.kind;
+  return !k || k === "rotor";
+}
+function seriesOf(v) {
+  const f = fullSeries.get(`${state.selected}/${v.id}`);
+  return f && f.t ? { s: f, full: true } : { s: v.series, full: false };
+}
+async function loadFullSeries(v) {
+  const sweep = state.selected, key = `${sweep}/${v.id}`;
+  if (fullSeries.has(key) || !isRotorSweep() || v.status === "invalid") return;
+  fullSeries.set(key, "loading");
+  const r = await api("GET", `/api/sweeps/${encodeURIComponent(sweep)}/variants/${v.id}/series?points=${FULL_POINTS}`);
+  fullSeries.set(key, r.ok && r.data && r.data.series ? r.data.series : { error: (r.error && r.error.message) || "no series" });
+  if (state.selected === sweep && state.variantId === v.id) showVariant(v.id, false);
+}
 function showVariant(id, user) {
   const v = state.variants.find((x) => x.id === Number(id));
   if (!v) { $("#variant-note").textContent = `variant ${id} is not finished (or not in this sweep)`; return; }
+  if (state.variantId !== v.id) { resetZoom($("#orbit")); resetZoom($("#history")); }
   state.variantId = v.id;
+  writeHash();
   for (const tr of document.querySelectorAll("#variants tbody tr")) tr.classList.toggle("sel", Number(tr.dataset.id) === v.id);
   for (const r of document.querySelectorAll("#maps rect.cell")) r.classList.toggle("sel", Number(r.dataset.id) === v.id);
+  for (const l of document.querySelectorAll("#parallel .pc-line")) l.classList.toggle("sel", Number(l.dataset.id) === v.id);
   $("#variant-id").textContent = `${v.id} (${v.status})`;
   $("#variant-pick").value = v.id;
-  $("#variant-params").textContent = Object.entries(v.params || {}).map(([k, x]) => `${k} = ${JSON.stringify(x)}`).join("\n") + (v.message ? `\n${v.message}` : "");
-  const s = v.series;
+  $("#variant-params").textContent = Object.entries(v.params || {}).map(([k, x]) => `${pathLabel(k)} = ${withUnit(x, unitOfPath(k))}`).join("\n") + (v.message ? `\n${v.message}` : "");
+  loadFullSeries(v);
+  const { s, full } = seriesOf(v);
   const bsel = $("#orbit-bearing"), hsel = $("#hist-series");
+  const pending = fullSeries.get(`${state.selected}/${v.id}`);
   if (!s) {
-    $("#variant-note").textContent = 'This sweep kept no time series. Add "keep": ["orbit"] (or "film", "friction", "forces", "spin") to the spec\'s reductions to see orbits and histories.';
+    $("#variant-note").textContent = pending === "loading" ? "Simulating this variant again for its time series…"
+      : isRotorSweep() ? `No time series: ${pending && pending.error ? pending.error : "this sweep kept none"}.` : "This kind of sweep has no time series.";
     $("#orbit").innerHTML = ""; $("#history").innerHTML = "";
     bsel.innerHTML = ""; hsel.innerHTML = "";
     $("#orbit-cap").textContent = ""; $("#history-cap").textContent = "";
   } else {
-    $("#variant-note").textContent = "";
+    $("#variant-note").textContent = full ? "" : pending === "loading" ? "Showing the kept samples; loading the full-resolution series…" : "";
     const nb = (s.bearings || []).length;
     const orbitItems = [];
     for (let k = 0; k < nb; k++) if (s.bearings[k].xi) orbitItems.push([`b${k}`, `bearing ${k + 1} journal (face z = 0)`]);
@@ -1067,9 +1406,12 @@ function showVariant(id, user) {
   }
   if (user) $("#variant-h").scrollIntoView({ block: "start", behavior: "smooth" });
 }
+function samplesNote(full, n) {
+  return full ? `full resolution: ${n} samples (the variant simulated again)` : `${n} kept samples (the spec's reductions.points)`;
+}
 function drawOrbit(v) {
-  const s = v.series, which = $("#orbit-bearing").value;
-  if (!which) { $("#orbit").innerHTML = ""; return; }
+  const { s, full } = seriesOf(v), which = $("#orbit-bearing").value;
+  if (!which || !s) { $("#orbit").innerHTML = ""; return; }
   let xs, ys, circle = null, name;
   if (which === "g") { xs = s.x_g; ys = s.y_g; name = "G"; }
   else {
@@ -1079,8 +1421,10 @@ function drawOrbit(v) {
     if (isNum(c)) circle = c * 1e6;
   }
   const um = (a) => (a || []).map((x) => (isNum(x) ? x * 1e6 : null));
-  lineChart($("#orbit"), [{ name: "", xs: um(xs), ys: um(ys) }], { title: `Orbit of ${name}, variant ${v.id}`, xLabel: "x (µm)", yLabel: "y (µm)", equal: true, circle, xName: "x µm", yName: "y µm" });
-  $("#orbit-cap").textContent = `${name} in the bearing frame over the kept span${circle ? "; dashed: the clearance circle" : ""}.`;
+  const o = $("#orbit");
+  o.dataset.full = full ? "1" : "0";
+  lineChart(o, [{ name: "", xs: um(xs), ys: um(ys) }], { title: `Orbit of ${name}, variant ${v.id}`, xLabel: "x (µm)", yLabel: "y (µm)", equal: true, circle, xName: "x µm", yName: "y µm" });
+  $("#orbit-cap").textContent = `${name} in the bearing frame over the kept span${circle ? "; dashed: the clearance circle" : ""}; ${samplesNote(full, (xs || []).length)}.`;
 }
 function seriesUnit(key) {
   if (/(^|\.)(x_g|y_g|xi|yi|xj|yj|h_min)$/.test(key)) return UNITS.m_um;
@@ -1090,13 +1434,70 @@ function seriesUnit(key) {
   return UNITS.one;
 }
 function drawHistory(v) {
-  const key = $("#hist-series").value;
-  if (!key) { $("#history").innerHTML = ""; return; }
-  const ys = getPath(v.series, key) || [];
+  const key = $("#hist-series").value, { s, full } = seriesOf(v);
+  if (!key || !s) { $("#history").innerHTML = ""; return; }
+  const ys = getPath(s, key) || [];
   const u = seriesUnit(key);
-  lineChart($("#history"), [{ name: "", xs: v.series.t || ys.map((_, i) => i), ys: ys.map((y) => (isNum(y) ? y * u.scale : null)) }],
-    { title: `${key}, variant ${v.id}`, xLabel: v.series.t ? "t (s)" : "sample", yLabel: `${key}${u.unit ? ` (${u.unit})` : ""}`, xName: "t", yName: key });
-  $("#history-cap").textContent = `Time history of ${key} (decimated to the spec's reductions.points).`;
+  lineChart($("#history"), [{ name: "", xs: s.t || ys.map((_, i) => i), ys: ys.map((y) => (isNum(y) ? y * u.scale : null)) }],
+    { title: `${key}, variant ${v.id}`, xLabel: s.t ? "t (s)" : "sample", yLabel: `${key}${u.unit ? ` (${u.unit})` : ""}`, xName: "t", yName: key });
+  $("#history-cap").textContent = `Time history of ${key}; ${samplesNote(full, ys.length)}.`;
+}
+
+// ---- parallel coordinates: every variant a line across its swept parameters and the
+// chosen quantity (coloured by it), for sweeps with more than two numeric axes.
+function renderParallel() {
+  const fig = $("#parallel-fig");
+  const axes = numericAxes();
+  const q = QUANTITIES.find((x) => x.key === $("#curve-q").value);
+  if (axes.length <= 2 || !q || !state.variants.length) { fig.hidden = true; return; }
+  fig.hidden = false;
+  const s = $("#parallel");
+  s.innerHTML = "";
+  const W = Math.round(Math.min(1100, Math.max(330, (s.parentElement && s.parentElement.clientWidth) || 800))), H = 360;
+  const mt = 62, mb = 40, ml = 40, mr = 70;
+  s.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  s.append(svg("text", { x: ml, y: 17, class: "title" }, `${q.label} over the ${axes.length} swept parameters`));
+  const cols = axes.map((p) => ({ label: pathLabel(p), u: unitOfPath(p), get: (v) => (v.params || {})[p] }))
+    .concat([{ label: q.label, u: q.u, get: (v) => q.get(v), quantity: true }]);
+  for (const c of cols) {
+    const vals = state.variants.map(c.get).filter(isNum);
+    c.lo = Math.min(...vals); c.hi = Math.max(...vals);
+    c.log = c.lo > 0 && c.hi / c.lo > 20;
+    c.norm = (x) => (c.hi === c.lo ? 0.5 : c.log ? Math.log(x / c.lo) / Math.log(c.hi / c.lo) : (x - c.lo) / (c.hi - c.lo));
+  }
+  const X = (i) => ml + (i * (W - ml - mr)) / (cols.length - 1);
+  const Y = (t) => mt + (1 - t) * (H - mt - mb);
+  const qc = cols[cols.length - 1];
+  const lines = svg("g", { class: "pc-lines" });
+  s.append(lines);
+  const ordered = [...state.variants].sort((a, b) => (isNum(qc.get(a)) ? 1 : 0) - (isNum(qc.get(b)) ? 1 : 0));
+  for (const v of ordered) {
+    const qv = qc.get(v);
+    const pts = cols.map((c, i) => { const x = c.get(v); return isNum(x) ? `${X(i).toFixed(1)},${Y(c.norm(x)).toFixed(1)}` : null; }).filter(Boolean);
+    const label = `variant ${v.id}: ${cols.map((c) => `${c.label} ${withUnit(c.get(v), c.u)}`).join(", ")}`;
+    const line = svg("polyline", { points: pts.join(" "), class: `pc-line${v.id === state.variantId ? " sel" : ""}`, "data-id": v.id,
+      stroke: isNum(qv) ? colour(0.85 * qc.norm(qv)) : "#bbb", "stroke-dasharray": isNum(qv) ? null : "3 3" }); // viridis short of its yellow end
+    line.append(svg("title", {}, label));
+    line.addEventListener("click", () => showVariant(v.id, true));
+    line.addEventListener("mousemove", (e) => showTip(e, label));
+    line.addEventListener("mouseleave", hideTip);
+    lines.append(line);
+  }
+  cols.forEach((c, i) => {
+    const x = X(i);
+    s.append(svg("line", { x1: x, x2: x, y1: mt, y2: H - mb, stroke: "#444" }));
+    s.append(svg("text", { x, y: mt - 12, "text-anchor": i === 0 ? "start" : i === cols.length - 1 ? "end" : "middle", class: c.quantity ? "label strong" : "label" },
+      `${c.label}${c.u.unit ? ` (${c.u.unit})` : ""}`));
+    const ticks = (c.log ? logTicks(c.lo, c.hi) : niceTicks(c.lo, c.hi, 4)).filter((t) => t.label && t.v >= c.lo - 1e-12 * Math.abs(c.lo) && t.v <= c.hi + 1e-12 * Math.abs(c.hi));
+    const shown = ticks.length >= 2 ? ticks.map((t) => t.v) : [c.lo, c.hi];
+    for (const t of shown) {
+      const y = Y(c.norm(t));
+      s.append(svg("line", { x1: x - 4, x2: x, y1: y, y2: y, stroke: "#444" }));
+      s.append(svg("text", { x: x - 6, y: y + 4, "text-anchor": "end", class: "tick" }, fmt(t * c.u.scale, 3)));
+    }
+  });
+  addFigureTools(s);
+  $("#parallel-cap").textContent = `One line per variant through its swept parameters to ${q.label}, coloured by it (dashed grey: no value). Hover to read, click to open a variant; "Curves of" picks the quantity.`;
 }
 
 // ---------------------------------------------------------------- downloads
@@ -1204,13 +1605,15 @@ document.addEventListener("DOMContentLoaded", () => {
   $("#dl-result").addEventListener("click", () => download("result"));
   $("#status-filter").addEventListener("change", renderTable);
   $("#map-x").addEventListener("change", () => { renderMaps(); renderCurves(); });
+  window.addEventListener("hashchange", followHash);
   $("#map-y").addEventListener("change", () => { $("#map-y").dataset.touched = "1"; renderMaps(); renderCurves(); });
-  $("#curve-q").addEventListener("change", renderCurves);
+  $("#curve-q").addEventListener("change", () => { renderCurves(); renderParallel(); });
   $("#variant-open").addEventListener("click", () => showVariant($("#variant-pick").value, true));
   $("#variant-pick").addEventListener("keydown", (e) => { if (e.key === "Enter") showVariant($("#variant-pick").value, true); });
   $("#orbit-bearing").addEventListener("change", () => { const v = state.variants.find((x) => x.id === state.variantId); if (v) drawOrbit(v); });
   $("#hist-series").addEventListener("change", () => { const v = state.variants.find((x) => x.id === state.variantId); if (v) drawHistory(v); });
   refreshAll();
+  followHash();
   setInterval(refreshQueue, 3000); // the list (other clients' sweeps); live progress comes by SSE
   setInterval(checkHealth, 15000);
   // Figures are drawn for their width: redraw when it changes (phone turned, window resized).
