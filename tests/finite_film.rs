@@ -36,9 +36,11 @@ fn aligned(p: &BearingParams, ecc: f64) -> BearingState {
 
 fn grid(n_theta: u32, n_z: u32) -> FiniteSettings {
     FiniteSettings {
-        n_theta,
-        n_z,
+        n_theta: Some(n_theta),
+        n_z: Some(n_z),
         tolerance: 1e-11,
+        // The free inlet these checks were written for (issue 16's default).
+        inlet: Inlet::None,
         ..FiniteSettings::default()
     }
 }
@@ -658,7 +660,7 @@ fn bearing_json_takes_model_and_rejects_bad_settings() {
     assert_eq!(p.model, FilmModel::Finite);
     assert_eq!(
         (p.finite.n_theta, p.finite.n_z, p.finite.inlet),
-        (48, 12, Inlet::MaxFilm)
+        (Some(48), Some(12), Inlet::MaxFilm)
     );
     assert_eq!(p.finite.tolerance, FiniteSettings::default().tolerance);
     let default: BearingParams = serde_json::from_value(serde_json::json!({
@@ -706,6 +708,8 @@ fn rotor_scene_runs_with_either_model() {
         s["integrator"]["t_end"] = serde_json::json!(0.05);
         for b in s["bearings"].as_array_mut().unwrap() {
             b["model"] = serde_json::json!(model);
+            // 128×16-class grids: the run's point is the model switch, not 5e-4.
+            b["finite"] = serde_json::json!({"accuracy": 1e-2});
         }
         let scenes = load_scene(&s.to_string()).unwrap();
         let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
@@ -743,14 +747,14 @@ fn rotor_scene_runs_with_either_model() {
 }
 
 /// `eval` with a finite bearing reports the model and a Richardson error estimate per
-/// state, and the estimate tracks the true discretisation error of the default grid
-/// (against 256×64 extrapolated): within a factor 3 either way.
+/// state, and the estimate tracks the true discretisation error at accuracy 2e-3
+/// (against 1024×128 extrapolated): within a factor 3 either way.
 #[test]
 fn eval_reports_model_and_a_truthful_error_estimate() {
     use bearing_sweep::cli::{eval_json, EvalOptions};
     let input = serde_json::json!({
         "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
-                    "model": "finite"},
+                    "model": "finite", "finite": {"accuracy": 2e-3, "inlet": "none"}},
         "states": [
             {"xi": 1.8e-4, "yi": 0.0, "xj": 1.8e-4, "yj": 0.0, "vxi": 0.0, "vyi": 0.0,
              "vxj": 0.0, "vyj": 0.0, "omega": 100.0},
@@ -766,7 +770,7 @@ fn eval_reports_model_and_a_truthful_error_estimate() {
         assert_eq!(l["film_model"], "finite");
         let est = l["finite_error_estimate"].as_f64().unwrap();
         let s: BearingState = serde_json::from_value(input["states"][k].clone()).unwrap();
-        let reference = extrapolated(&p, &s, grid(256, 64));
+        let reference = extrapolated(&p, &s, grid(1024, 128));
         let got = [
             l["wx"].as_f64().unwrap(),
             l["wy"].as_f64().unwrap(),
@@ -799,6 +803,7 @@ fn a_sweep_axis_varies_the_film_model() {
     base["integrator"]["t_end"] = serde_json::json!(0.02);
     for b in base["bearings"].as_array_mut().unwrap() {
         b["model"] = serde_json::json!("short");
+        b["finite"] = serde_json::json!({"accuracy": 1e-2});
     }
     let spec = serde_json::json!({
         "kind": "rotor", "name": "film model axis", "base": base,

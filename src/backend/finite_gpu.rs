@@ -77,6 +77,13 @@ impl FinitePipeline {
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
+        if grid.accuracy.is_some() {
+            return Err(BackendError::Device(
+                "the WGSL finite-film kernel solves explicit grids (finite.n_theta, finite.n_z); \
+                 the accuracy-driven grid choice runs on the CPU"
+                    .into(),
+            ));
+        }
         let interior = grid.n_theta * (grid.n_z.max(1) - 1);
         if interior > FINITE_MAX_NODES {
             return Err(BackendError::Device(format!(
@@ -277,6 +284,9 @@ impl FinitePipeline {
                         sweeps: r[4] as u32,
                         iteration_error: r[5],
                         converged: r[6] > 0.5,
+                        n_theta: grid.n_theta as u32,
+                        n_z: grid.n_z as u32,
+                        ..SolveReport::default()
                     });
                 }
             }

@@ -5,8 +5,10 @@
 use std::time::Instant;
 
 use crate::backend::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::{finite_solution, FiniteSettings};
-use crate::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
+use crate::bearing::finite::{
+    finite_solution, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver,
+};
+use crate::bearing::{finish_loads, pack_state, Accuracy, BearingParams, BearingState, FilmModel};
 
 /// Flops per node and sweep of the CPU kernel (coefficients precomputed per solve):
 /// 4 mul + 3 add (neighbour sum), sub + mul (Gauss–Seidel value), sub + mul + add
@@ -48,9 +50,9 @@ fn norm_err(a: [f64; 4], b: [f64; 4]) -> f64 {
     d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// One grid's row: states/s (cold start), mean sweeps, median error vs the reference.
+/// One setting's row: states/s (cold start), mean sweeps, median error vs the reference.
 struct Row {
-    grid: (u32, u32),
+    label: String,
     states_per_s: f64,
     sweeps: f64,
     error_median: f64,
@@ -62,16 +64,12 @@ fn run_grid(
     p: &BearingParams,
     states: &[BearingState],
     reference: &[[f64; 4]],
-    grid: (u32, u32),
+    finite: FiniteSettings,
     reps: usize,
 ) -> Row {
     let bp = BearingParams {
         model: FilmModel::Finite,
-        finite: FiniteSettings {
-            n_theta: grid.0,
-            n_z: grid.1,
-            ..FiniteSettings::default()
-        },
+        finite,
         ..*p
     };
     ev.set_warm_start(false);
@@ -98,7 +96,10 @@ fn run_grid(
         .collect();
     errs.sort_by(|a, b| a.total_cmp(b));
     Row {
-        grid,
+        label: match finite.fixed_grid() {
+            Some((t, z)) => format!("{t}×{z}"),
+            None => format!("accuracy {:.0e}", finite.accuracy),
+        },
         states_per_s: (reps * states.len()) as f64 / secs,
         sweeps: (after.finite_sweeps - before.finite_sweeps) as f64
             / (after.finite_states - before.finite_states).max(1) as f64,
@@ -111,15 +112,14 @@ fn run_grid(
 /// the markdown report.
 pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
     let (p, states) = bench_states(n);
-    // Converged reference: 256×64 Richardson-extrapolated from 128×32.
+    // Converged reference: 1024×128 Richardson-extrapolated from 512×64 (≤ 1e-5,
+    // tests/finite_accuracy.rs).
     let reference: Vec<[f64; 4]> = states
         .iter()
         .map(|s| {
             let g = FiniteSettings {
-                n_theta: 256,
-                n_z: 64,
                 tolerance: 1e-10,
-                ..FiniteSettings::default()
+                ..FiniteSettings::with_grid(1024, 128)
             };
             finite_solution(&p, s, &g, true)
                 .ok()
@@ -128,22 +128,35 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
         })
         .collect();
     let grids = [(32, 8), (64, 16), (128, 32)];
-    let mut md = format!(
-        "Finite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
-         third whirling/squeezing), cold start, tolerance 1e-8; error: load vector \
-         (W_x, W_y, M_x/B, M_y/B) against 256×64 Richardson-extrapolated.\n\n\
-         | backend | grid | states/s | sweeps/state | median error | max error | GFLOP/s (counted) |\n\
-         |---|---|---|---|---|---|---|\n"
+    let mut md = solver_table(&p, &states, &reference);
+    md += &format!(
+        "\nFinite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
+         third whirling/squeezing), cold start, tolerance 1e-8, projected multigrid; error: \
+         load vector (W_x, W_y, M_x/B, M_y/B) against 1024×128 Richardson-extrapolated. \
+         Sweeps: work in sweeps of the final grid.\n\n\
+         | backend | setting | states/s | sweeps/state | median error | max error |\n\
+         |---|---|---|---|---|---|\n"
     );
     let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
     let threads = cpu.info().device;
-    for g in grids {
+    let mut settings: Vec<(FiniteSettings, usize)> = grids
+        .iter()
+        .map(|&(t, z)| (FiniteSettings::with_grid(t, z), reps))
+        .collect();
+    for accuracy in [FiniteSettings::default().accuracy, 1e-4] {
+        settings.push((
+            FiniteSettings {
+                accuracy,
+                ..FiniteSettings::default()
+            },
+            1,
+        ));
+    }
+    for (g, reps) in settings {
         let r = run_grid(&mut cpu, &p, &states, &reference, g, reps);
-        let nodes = (g.0 * (g.1 - 1)) as f64;
-        let gf = r.states_per_s * r.sweeps * nodes * CPU_FLOPS_PER_NODE_SWEEP * 1e-9;
         md += &format!(
-            "| cpu ({threads}) | {}×{} | {:.0} | {:.0} | {:.2e} | {:.2e} | {gf:.2} |\n",
-            r.grid.0, r.grid.1, r.states_per_s, r.sweeps, r.error_median, r.error_max
+            "| cpu ({threads}) | {} | {:.0} | {:.0} | {:.2e} | {:.2e} |\n",
+            r.label, r.states_per_s, r.sweeps, r.error_median, r.error_max
         );
     }
     if gpu {
@@ -158,17 +171,22 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
                 for gr in grids {
                     if (gr.0 * (gr.1 - 1)) as usize > crate::backend::FINITE_MAX_NODES {
                         md += &format!(
-                            "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | | |\n",
+                            "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | |\n",
                             gr.0, gr.1
                         );
                         continue;
                     }
-                    let r = run_grid(&mut ev, &p, &states, &reference, gr, reps);
-                    let nodes = (gr.0 * (gr.1 - 1)) as f64;
-                    let gf = r.states_per_s * r.sweeps * nodes * GPU_FLOPS_PER_NODE_SWEEP * 1e-9;
+                    let r = run_grid(
+                        &mut ev,
+                        &p,
+                        &states,
+                        &reference,
+                        FiniteSettings::with_grid(gr.0, gr.1),
+                        reps,
+                    );
                     md += &format!(
-                        "| gpu ({name}) | {}×{} | {:.0} | {:.0} | {:.2e} | {:.2e} | {gf:.2} |\n",
-                        r.grid.0, r.grid.1, r.states_per_s, r.sweeps, r.error_median, r.error_max
+                        "| gpu ({name}, PSOR kernel) | {} | {:.0} | {:.0} | {:.2e} | {:.2e} |\n",
+                        r.label, r.states_per_s, r.sweeps, r.error_median, r.error_max
                     );
                 }
                 let notices = ev.take_notices();
@@ -178,6 +196,72 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
             }
             Err(e) => md += &format!("\nGPU skipped: {e}\n"),
         }
+    }
+    md
+}
+
+/// Projected SOR against projected multigrid on fixed grids: one thread, cold starts,
+/// tolerance 1e-8, the same states; work (sweeps of the grid: node updates over nodes),
+/// time per state and the error against the reference (the same discrete problem, so
+/// the same error: equal error by construction). Markdown table.
+fn solver_table(p: &BearingParams, states: &[BearingState], reference: &[[f64; 4]]) -> String {
+    let mut md = String::from(
+        "PSOR vs projected multigrid, one thread, cold start, tolerance 1e-8 (same discrete \
+         problem: the errors agree to the tolerance):\n\n\
+         | grid | PSOR sweeps | PSOR ms/state | multigrid work (sweeps) | multigrid ms/state | \
+         speed-up | median error | max error |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let jobs: Vec<(FiniteJob, f64)> = states
+        .iter()
+        .filter_map(|s| {
+            let packed = pack_state(p, s).ok()?;
+            Some((
+                FiniteJob {
+                    state: packed.state,
+                    aspect: p.length / p.radius,
+                },
+                packed.rate_scale,
+            ))
+        })
+        .collect();
+    for (t, z) in [(32, 8), (64, 16), (128, 32), (256, 64)] {
+        let g = FiniteGrid::from(&FiniteSettings::with_grid(t, z));
+        let mut solver = FiniteSolver::new();
+        let mut run = |psor: bool| {
+            let start = Instant::now();
+            let mut sweeps = 0u64;
+            let mut errs = Vec::new();
+            for ((job, scale), (s, want)) in jobs.iter().zip(states.iter().zip(reference)) {
+                let (ints, r) = if psor {
+                    solver.solve_psor(job, &g, &mut Vec::new())
+                } else {
+                    solver.solve(job, &g, &mut Vec::new())
+                };
+                sweeps += r.sweeps as u64;
+                let l = finish_loads(p, s, &ints, *scale);
+                errs.push(norm_err(l.load_vector(p.length), *want));
+            }
+            errs.sort_by(|a, b| a.total_cmp(b));
+            let n = jobs.len().max(1) as f64;
+            (
+                sweeps as f64 / n,
+                start.elapsed().as_secs_f64() / n * 1e3,
+                errs[errs.len() / 2],
+                errs[errs.len() - 1],
+            )
+        };
+        let a = run(true);
+        let b = run(false);
+        md += &format!(
+            "| {t}×{z} | {:.0} | {:.3} | {:.0} | {:.3} | {:.1}× | {:.2e} | {:.2e} |\n",
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            a.1 / b.1,
+            b.2,
+            b.3
+        );
     }
     md
 }
@@ -199,8 +283,8 @@ pub fn bench_finite_rotor(t_end: f64) -> String {
     );
     for (label, model, warm) in [
         ("short", "short", true),
-        ("finite 64×16, warm start", "finite", true),
-        ("finite 64×16, cold start", "finite", false),
+        ("finite (default accuracy), warm start", "finite", true),
+        ("finite (default accuracy), cold start", "finite", false),
     ] {
         let mut s = base.clone();
         for b in s["bearings"].as_array_mut().expect("bearings") {

@@ -22,13 +22,15 @@ pub struct ShortModelError {
     pub extrapolated: bool,
 }
 
-/// The grid the stored map was computed on (`n_theta` 128, `n_z` 32; Richardson error of
+/// The grid and inlet (`none`) the stored map was computed on (`n_theta` 128, `n_z` 32; Richardson error of
 /// the finite loads ≤ 0.13 % up to ε = 0.9 and ≤ 0.6 % at ε = 0.95, docs/finite-film.md).
 pub fn error_map_settings() -> FiniteSettings {
     FiniteSettings {
-        n_theta: 128,
-        n_z: 32,
+        n_theta: Some(128),
+        n_z: Some(32),
         tolerance: 1e-9,
+        // The stored map was computed with the free inlet (issue 16's default).
+        inlet: super::Inlet::None,
         ..FiniteSettings::default()
     }
 }

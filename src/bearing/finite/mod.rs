@@ -1,9 +1,11 @@
 //! Finite-length Reynolds film (issue 16): the full (θ, z) Reynolds equation with
-//! Swift–Stieber cavitation, solved by red-black projected SOR; settings, solver, loads,
+//! Swift–Stieber cavitation, solved by projected full multigrid with the grid chosen for a
+//! requested accuracy (issue 20); settings, solvers, loads,
 //! the short-bearing model-error map and the `auto` model choice. See docs/finite-film.md.
 
 mod error_map;
 mod map;
+mod multigrid;
 mod settings;
 mod solver;
 
@@ -14,6 +16,6 @@ pub use error_map::{
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
-    finite_integrals, finite_loads, finite_solution, richardson_estimate, FiniteGrid, FiniteJob,
-    FiniteSolution, FiniteSolver, SolveReport,
+    accuracy_ladder, finite_integrals, finite_loads, finite_solution, ladder_estimate,
+    richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver, SolveReport,
 };

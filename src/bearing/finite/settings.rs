@@ -35,46 +35,62 @@ impl FilmModel {
 #[serde(rename_all = "snake_case")]
 pub enum Inlet {
     /// No inlet: pure Swift–Stieber complementarity over the whole 360° film; the
-    /// pressure zone's both boundaries are free. Default.
-    #[default]
+    /// pressure zone's both boundaries are free (the pressure zone may start upstream of
+    /// the maximum film: at ε = 0.1, B/D = 0.5 the attitude angle is 1.3° above the
+    /// classical tables).
     None,
     /// Ambient pressure held along the line of maximum film thickness (at each `z` the
-    /// grid column nearest it): the 360° bearing of Raimondi and Boyd (1958), fed at the
-    /// maximum film, with Swift–Stieber (Reynolds) cavitation downstream.
+    /// grid column nearest it; in accuracy mode the grid has a node on it): the 360°
+    /// bearing of Raimondi and Boyd (1958) and Butenschoen (1976), fed at the maximum
+    /// film, with Swift–Stieber (Reynolds) cavitation downstream. Default (issue 20:
+    /// within 0.2 % in S and 0.02° in attitude of Butenschoen's B/d = 1/2 table).
+    #[default]
     MaxFilm,
 }
 
-/// Grid and tolerance of the finite-length film (JSON `"finite"` in a bearing's object).
-/// Every field has a default.
+/// Accuracy, grid and tolerance of the finite-length film (JSON `"finite"` in a bearing's
+/// object). Every field has a default.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FiniteSettings {
-    /// Grid intervals around the circumference (θ, periodic); even, 8..=1024.
-    /// Default 64 (Δθ = 5.6°).
-    #[serde(default = "default_n_theta")]
-    pub n_theta: u32,
-    /// Grid intervals along the bearing length (z, `p = 0` at both ends); 2..=512.
-    /// Default 16.
-    #[serde(default = "default_n_z")]
-    pub n_z: u32,
-    /// Relative tolerance of the projected-SOR iteration (estimated iteration error of the
-    /// field over its maximum), in (0, 0.1]. Default 1e-8.
+    /// Requested relative discretisation error of the load vector `(W_x, W_y, M_x/B,
+    /// M_y/B)` (norm of the error over the norm of the vector): the solver refines the
+    /// grid per state until the Richardson estimate from its nested multigrid solutions
+    /// is at most this (docs/finite-film.md "Accuracy"). In [1e-6, 0.1]. Default
+    /// [`DEFAULT_ACCURACY`]. Ignored when `n_theta` or `n_z` is given.
+    #[serde(default = "default_accuracy")]
+    pub accuracy: f64,
+    /// Explicit grid (overrides `accuracy`): intervals around the circumference (θ,
+    /// periodic); even, 8..=1024. When only `n_z` is given, 64.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_theta: Option<u32>,
+    /// Explicit grid (overrides `accuracy`): intervals along the bearing length (z,
+    /// `p = 0` at both ends); 2..=512. When only `n_theta` is given, 16.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_z: Option<u32>,
+    /// Relative tolerance of the multigrid iteration on each grid (estimated iteration
+    /// error of the field over its maximum), in (0, 0.1]. Default 1e-8.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// For `"model": "auto"`: largest short-bearing model error (relative, from the
     /// model-error map) accepted before the finite model is used. Default 0.05 (5 %).
     #[serde(default = "default_auto_tolerance")]
     pub auto_tolerance: f64,
-    /// Film inlet: `"none"` (default) or `"max_film"` (see [`Inlet`]).
+    /// Film inlet: `"max_film"` (default) or `"none"` (see [`Inlet`]).
     #[serde(default)]
     pub inlet: Inlet,
 }
 
-fn default_n_theta() -> u32 {
-    64
-}
-fn default_n_z() -> u32 {
-    16
+/// Default of [`FiniteSettings::accuracy`]: chosen so that the default run's load vector
+/// is within 1e-3 of the converged solution for ε ≤ 0.95, aligned and tilted
+/// (tests/finite_accuracy.rs; the estimate is honest within a factor 3).
+pub const DEFAULT_ACCURACY: f64 = 5e-4;
+/// Grid used for the missing direction when only one of `n_theta`, `n_z` is given.
+const DEFAULT_N_THETA: u32 = 64;
+const DEFAULT_N_Z: u32 = 16;
+
+fn default_accuracy() -> f64 {
+    DEFAULT_ACCURACY
 }
 fn default_tolerance() -> f64 {
     1e-8
@@ -86,11 +102,12 @@ fn default_auto_tolerance() -> f64 {
 impl Default for FiniteSettings {
     fn default() -> Self {
         FiniteSettings {
-            n_theta: default_n_theta(),
-            n_z: default_n_z(),
+            accuracy: default_accuracy(),
+            n_theta: None,
+            n_z: None,
             tolerance: default_tolerance(),
             auto_tolerance: default_auto_tolerance(),
-            inlet: Inlet::None,
+            inlet: Inlet::MaxFilm,
         }
     }
 }
@@ -121,15 +138,26 @@ impl FiniteSettings {
                 reason,
             })
         };
-        if self.n_theta < 8 || self.n_theta > MAX_N_THETA || !self.n_theta.is_multiple_of(2) {
+        if !(self.accuracy >= 1e-6 && self.accuracy <= 0.1) {
             return err(
-                "finite.n_theta",
-                self.n_theta as f64,
-                "must be an even number in 8..=1024",
+                "finite.accuracy",
+                self.accuracy,
+                "must be a number in [1e-6, 0.1]",
             );
         }
-        if self.n_z < 2 || self.n_z > MAX_N_Z {
-            return err("finite.n_z", self.n_z as f64, "must be in 2..=512");
+        if let Some(n) = self.n_theta {
+            if !(8..=MAX_N_THETA).contains(&n) || !n.is_multiple_of(2) {
+                return err(
+                    "finite.n_theta",
+                    n as f64,
+                    "must be an even number in 8..=1024",
+                );
+            }
+        }
+        if let Some(n) = self.n_z {
+            if !(2..=MAX_N_Z).contains(&n) {
+                return err("finite.n_z", n as f64, "must be in 2..=512");
+            }
         }
         if !(self.tolerance > 0.0 && self.tolerance <= 0.1) {
             return err(
@@ -148,15 +176,34 @@ impl FiniteSettings {
         Ok(())
     }
 
-    /// The grid with half the intervals in both directions (the coarse grid of the
-    /// Richardson error estimate); `None` when it would be below the minimum.
+    /// Settings with the explicit grid `n_theta × n_z`.
+    pub fn with_grid(n_theta: u32, n_z: u32) -> FiniteSettings {
+        FiniteSettings {
+            n_theta: Some(n_theta),
+            n_z: Some(n_z),
+            ..FiniteSettings::default()
+        }
+    }
+
+    /// The explicit grid `(n_theta, n_z)` when either is given (the other at its
+    /// default), `None` in accuracy mode.
+    pub fn fixed_grid(&self) -> Option<(u32, u32)> {
+        match (self.n_theta, self.n_z) {
+            (None, None) => None,
+            (t, z) => Some((t.unwrap_or(DEFAULT_N_THETA), z.unwrap_or(DEFAULT_N_Z))),
+        }
+    }
+
+    /// The explicit grid with half the intervals in both directions (the coarse grid of
+    /// the Richardson error estimate); `None` in accuracy mode or when it would be below
+    /// the minimum.
     pub fn coarse(&self) -> Option<FiniteSettings> {
-        let c = FiniteSettings {
-            n_theta: self.n_theta / 2,
-            n_z: self.n_z / 2,
+        let (nt, nz) = self.fixed_grid()?;
+        let halvable = nt.is_multiple_of(4) && nz.is_multiple_of(2);
+        (halvable && nt / 2 >= 8 && nz / 2 >= 2).then(|| FiniteSettings {
+            n_theta: Some(nt / 2),
+            n_z: Some(nz / 2),
             ..*self
-        };
-        let halvable = self.n_theta.is_multiple_of(4) && self.n_z.is_multiple_of(2);
-        (halvable && c.n_theta >= 8 && c.n_z >= 2).then_some(c)
+        })
     }
 }

@@ -1,0 +1,645 @@
+//! Projected full-approximation multigrid for the Swift–Stieber complementarity problem
+//! (issue 20; docs/finite-film.md "Solver").
+//!
+//! The discrete problem on each grid is the LCP `p ≥ 0, A p − f ≥ 0, pᵀ(A p − f) = 0` with
+//! `A` the five-point finite-volume operator of [`super::solver`] (an M-matrix: diagonal
+//! `d`, off-diagonals `−a`), `f = −rhs`. One V-cycle on level `l`:
+//!
+//! 1. `NU_PRE` red-black projected Gauss–Seidel sweeps (the smoother);
+//! 2. the residual `r = f − A p`, set to zero where the constraint is active
+//!    (`p = 0`, `r < 0`: those nodes are solved, their residual is the contact force);
+//! 3. FAS coarse problem (Brandt–Cryer): `u₀ = inject(p)`, `f_H = A_H u₀ + R r` (full
+//!    weighting), constraint `u_H ≥ 0`, solved by a V-cycle on level `l − 1`;
+//! 4. correction `p ← max(0, p + P(u_H − u₀))` (bilinear `P`) at the nodes inside the
+//!    pressure zone only (node and four neighbours positive: a truncated correction;
+//!    the free boundary is left to the smoother), held nodes kept at 0;
+//! 5. `NU_POST` smoothing sweeps.
+//!
+//! Coarsening halves both directions where the grid's couplings `cθ = λ/Δθ²` and
+//! `cz = 1/Δζ²` are within a factor [`ANISOTROPY`] of each other, else only the strongly
+//! coupled one (semi-coarsening keeps point smoothing effective for short and long
+//! bearings). The coarsest grid is solved by projected SOR.
+//!
+//! Full multigrid: each grid starts from the bilinear interpolation of the next coarser
+//! solution, so a solve from cold costs a few V-cycles of the finest grid, linear in the
+//! node count, and passes through every coarser grid's solution (the nested solutions the
+//! accuracy control of [`super::solver`] extrapolates from).
+
+use std::f64::consts::PI;
+
+use super::solver::{FiniteGrid, FiniteJob};
+
+/// Smoothing sweeps before the coarse-grid correction.
+const NU_PRE: u32 = 2;
+/// Smoothing sweeps after the coarse-grid correction.
+const NU_POST: u32 = 1;
+/// Couplings within this factor of each other: coarsen both directions.
+const ANISOTROPY: f64 = 4.0;
+/// Largest number of interior nodes solved by projected SOR as the coarsest grid without
+/// further coarsening being attempted.
+const COARSEST_NODES: usize = 64;
+/// Sweep limit of the coarsest-grid projected SOR.
+const COARSEST_SWEEPS: u32 = 4000;
+
+/// How a grid was coarsened into the next coarser one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Coarsen {
+    /// Both directions halved.
+    Both,
+    /// Only θ halved.
+    Theta,
+    /// Only ζ halved.
+    Zeta,
+}
+
+/// One grid of the hierarchy with its operator, right-hand sides and iterate.
+#[derive(Default)]
+pub(crate) struct Level {
+    pub nt: usize,
+    pub nz: usize,
+    /// East-face coefficient of node k (between θ_i and θ_{i+1}).
+    ae: Vec<f64>,
+    /// North-face coefficient of node k (between ζ_j and ζ_{j+1}).
+    an: Vec<f64>,
+    /// Diagonal of `A` (sum of the four face coefficients).
+    d: Vec<f64>,
+    /// Inverse diagonal; 0 at held nodes (the inlet), which the smoother keeps at 0.
+    inv_d: Vec<f64>,
+    /// Inverse diagonal as a correction grid: its own inlet column is not held (it
+    /// differs from the fine grid's; held, it would feed a correction `0 − u₀` back even
+    /// at the fine solution); nodes next to a held fine node are frozen at `u₀` (0 here,
+    /// set per V-cycle, skipped by the smoother).
+    inv_d_free: Vec<f64>,
+    /// Whether this grid is the one being solved (holds apply) or a correction grid.
+    top: bool,
+    /// This grid's own right-hand side `f = −rhs` (when it is the finest grid solved).
+    f_own: Vec<f64>,
+    /// Right-hand side in use (own, or the FAS right-hand side as a coarse grid).
+    f: Vec<f64>,
+    /// Iterate.
+    pub p: Vec<f64>,
+    /// Injected fine iterate `u₀` (as a coarse grid) / scratch.
+    base: Vec<f64>,
+    /// Residual scratch.
+    r: Vec<f64>,
+    /// Relationship to the next coarser level (None: coarsest).
+    pub coarsen: Option<Coarsen>,
+}
+
+#[inline]
+fn film(ecc: &[f64; 4], zeta: f64, c: f64, s: f64) -> f64 {
+    let ex = ecc[0] + (ecc[2] - ecc[0]) * zeta;
+    let ey = ecc[1] + (ecc[3] - ecc[1]) * zeta;
+    1.0 - ex * c - ey * s
+}
+
+impl Level {
+    fn len(&self) -> usize {
+        self.nt * (self.nz + 1)
+    }
+
+    fn interior(&self) -> usize {
+        self.nt * (self.nz.max(1) - 1)
+    }
+
+    /// Discretises the job's Reynolds equation on an `nt × nz` grid (the same
+    /// discretisation as the PSOR solver's, see [`super::solver`]).
+    /// `theta0`: angle of node 0, rad (0 on explicit grids; the accuracy ladder puts a
+    /// node on the maximum film so the inlet line is on the grid at every level).
+    pub fn setup(
+        &mut self,
+        job: &FiniteJob,
+        nt: usize,
+        nz: usize,
+        max_film_inlet: bool,
+        theta0: f64,
+    ) {
+        self.nt = nt;
+        self.nz = nz;
+        let n = self.len();
+        let dt = 2.0 * PI / nt as f64;
+        let dz = 1.0 / nz as f64;
+        let ct = job.aspect * job.aspect / (dt * dt);
+        let cz = 1.0 / (dz * dz);
+        let e = &job.state.ecc;
+        let r = &job.state.rate;
+        for v in [
+            &mut self.ae,
+            &mut self.an,
+            &mut self.d,
+            &mut self.inv_d,
+            &mut self.inv_d_free,
+            &mut self.f_own,
+            &mut self.f,
+            &mut self.p,
+            &mut self.base,
+            &mut self.r,
+        ] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        let trig: Vec<(f64, f64)> = (0..2 * nt)
+            .map(|k| {
+                let th = theta0 + 0.5 * dt * k as f64;
+                (th.cos(), th.sin())
+            })
+            .collect();
+        for j in 0..=nz {
+            let zeta = j as f64 * dz;
+            let zh = (j as f64 + 0.5) * dz;
+            let a = r[0] + (r[2] - r[0]) * zeta;
+            let b = r[1] + (r[3] - r[1]) * zeta;
+            for i in 0..nt {
+                let k = j * nt + i;
+                let (cf, sf) = trig[2 * i + 1];
+                let (cn, sn) = trig[2 * i];
+                let hf = film(e, zeta, cf, sf);
+                self.ae[k] = ct * hf * hf * hf;
+                if j < nz {
+                    let hn = film(e, zh, cn, sn);
+                    self.an[k] = cz * hn * hn * hn;
+                }
+                self.f_own[k] = -6.0 * (a * sn - b * cn);
+            }
+        }
+        for j in 1..nz {
+            for i in 0..nt {
+                let k = j * nt + i;
+                let im = if i == 0 { nt - 1 } else { i - 1 };
+                let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
+                self.d[k] = d;
+                self.inv_d[k] = 1.0 / d;
+                self.inv_d_free[k] = 1.0 / d;
+            }
+            if max_film_inlet {
+                // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
+                let zeta = j as f64 * dz;
+                let ex = e[0] + (e[2] - e[0]) * zeta;
+                let ey = e[1] + (e[3] - e[1]) * zeta;
+                if ex != 0.0 || ey != 0.0 {
+                    let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                    let i = (th / dt).round() as usize % nt;
+                    self.inv_d[j * nt + i] = 0.0;
+                }
+            }
+        }
+        self.f.copy_from_slice(&self.f_own);
+    }
+
+    /// The inverse diagonal in force: with the inlet holds when this grid is solved,
+    /// without them as a correction grid.
+    #[inline]
+    fn inv(&self) -> &[f64] {
+        if self.top {
+            &self.inv_d
+        } else {
+            &self.inv_d_free
+        }
+    }
+
+    /// `Σ a_nb p_nb` at interior node `k = j nt + i`.
+    #[inline]
+    fn neighbours(&self, p: &[f64], j: usize, i: usize) -> f64 {
+        let nt = self.nt;
+        let row = j * nt;
+        let k = row + i;
+        let ip = if i + 1 == nt { row } else { k + 1 };
+        let im = if i == 0 { row + nt - 1 } else { k - 1 };
+        self.ae[k] * p[ip]
+            + self.ae[im] * p[im]
+            + self.an[k] * p[k + nt]
+            + self.an[k - nt] * p[k - nt]
+    }
+
+    /// One red-black projected SOR sweep with factor `omega` (1: Gauss–Seidel); returns
+    /// the largest change and the largest value.
+    pub fn sweep(&mut self, omega: f64) -> (f64, f64) {
+        let (nt, nz) = (self.nt, self.nz);
+        let mut p = std::mem::take(&mut self.p);
+        let inv = if self.top {
+            std::mem::take(&mut self.inv_d)
+        } else {
+            std::mem::take(&mut self.inv_d_free)
+        };
+        let mut max_dp = 0.0_f64;
+        let mut max_p = 0.0_f64;
+        for colour in 0..2 {
+            for j in 1..nz {
+                let row = j * nt;
+                let mut i = (colour + j) % 2;
+                while i < nt {
+                    let k = row + i;
+                    if inv[k] == 0.0 && !self.top {
+                        // Frozen on a correction grid (next to a held fine node).
+                        i += 2;
+                        continue;
+                    }
+                    let gs = (self.neighbours(&p, j, i) + self.f[k]) * inv[k];
+                    let old = p[k];
+                    let new = (old + omega * (gs - old)).max(0.0);
+                    p[k] = new;
+                    max_dp = max_dp.max((new - old).abs());
+                    max_p = max_p.max(new);
+                    i += 2;
+                }
+            }
+        }
+        self.p = p;
+        if self.top {
+            self.inv_d = inv;
+        } else {
+            self.inv_d_free = inv;
+        }
+        (max_dp, max_p)
+    }
+
+    /// `r = f − A p`, zero at held nodes and where the constraint is active.
+    fn residual(&mut self) {
+        let (nt, nz) = (self.nt, self.nz);
+        for j in 1..nz {
+            for i in 0..nt {
+                let k = j * nt + i;
+                let v = if self.inv()[k] == 0.0 {
+                    0.0
+                } else {
+                    let r = self.f[k] - self.d[k] * self.p[k] + self.neighbours(&self.p, j, i);
+                    if self.p[k] <= 0.0 && r < 0.0 {
+                        0.0
+                    } else {
+                        r
+                    }
+                };
+                self.r[k] = v;
+            }
+        }
+    }
+
+    /// `A u` at interior node (j, i) of this level (held nodes: 0).
+    #[inline]
+    fn apply(&self, u: &[f64], j: usize, i: usize) -> f64 {
+        let k = j * self.nt + i;
+        if self.inv()[k] == 0.0 {
+            0.0
+        } else {
+            self.d[k] * u[k] - self.neighbours(u, j, i)
+        }
+    }
+
+    /// Projected SOR on this grid until the change is below `tol` of the largest value.
+    fn solve_coarsest(&mut self, aspect: f64, tol: f64) -> u64 {
+        let g = FiniteGrid {
+            n_theta: self.nt,
+            n_z: self.nz,
+            tolerance: tol,
+            max_film_inlet: false,
+            accuracy: None,
+        };
+        let omega = g.relaxation(aspect);
+        let mut updates = 0;
+        let mut hist = [f64::INFINITY; 6];
+        for s in 0..COARSEST_SWEEPS {
+            let (dp, mp) = self.sweep(omega);
+            updates += self.interior() as u64;
+            hist.rotate_left(1);
+            hist[5] = dp;
+            let measured = if hist[0].is_finite() && hist[0] > 0.0 {
+                (hist[5] / hist[0]).powf(0.2)
+            } else {
+                0.0
+            };
+            let rho = measured.max(omega - 1.0).min(0.9999);
+            if dp == 0.0 || (s >= 5 && dp * rho / (1.0 - rho) <= tol * mp) {
+                break;
+            }
+        }
+        updates
+    }
+}
+
+/// The next coarser grid of `nt × nz` at aspect `B/r0`, and how it is coarsened; `None`
+/// when the grid is the coarsest.
+pub(crate) fn coarser(nt: usize, nz: usize, aspect: f64) -> Option<(usize, usize, Coarsen)> {
+    if nt * (nz.max(1) - 1) <= COARSEST_NODES {
+        return None;
+    }
+    let dt = 2.0 * PI / nt as f64;
+    let ct = aspect * aspect / (dt * dt);
+    let cz = (nz * nz) as f64;
+    // θ stays even and at least 4 intervals; ζ keeps at least 2 intervals.
+    let can_t = nt.is_multiple_of(4) && nt >= 8;
+    let can_z = nz.is_multiple_of(2) && nz >= 4;
+    let pick = if ct > ANISOTROPY * cz {
+        can_t.then_some(Coarsen::Theta)
+    } else if cz > ANISOTROPY * ct {
+        can_z.then_some(Coarsen::Zeta)
+    } else if can_t && can_z {
+        Some(Coarsen::Both)
+    } else if can_t {
+        Some(Coarsen::Theta)
+    } else if can_z {
+        Some(Coarsen::Zeta)
+    } else {
+        None
+    };
+    pick.map(|c| match c {
+        Coarsen::Both => (nt / 2, nz / 2, c),
+        Coarsen::Theta => (nt / 2, nz, c),
+        Coarsen::Zeta => (nt, nz / 2, c),
+    })
+}
+
+/// Stride of a coarsening in (θ, ζ).
+fn strides(c: Coarsen) -> (usize, usize) {
+    match c {
+        Coarsen::Both => (2, 2),
+        Coarsen::Theta => (2, 1),
+        Coarsen::Zeta => (1, 2),
+    }
+}
+
+/// Full-weighting restriction of `fine.r` into `out` (coarse grid `nt × nz`).
+fn restrict_residual(fine: &Level, c: Coarsen, nt: usize, nz: usize, out: &mut [f64]) {
+    let (st, sz) = strides(c);
+    let wt: &[(isize, f64)] = if st == 2 {
+        &[(-1, 0.25), (0, 0.5), (1, 0.25)]
+    } else {
+        &[(0, 1.0)]
+    };
+    let wz: &[(isize, f64)] = if sz == 2 {
+        &[(-1, 0.25), (0, 0.5), (1, 0.25)]
+    } else {
+        &[(0, 1.0)]
+    };
+    let fnt = fine.nt as isize;
+    for v in out.iter_mut() {
+        *v = 0.0;
+    }
+    for jc in 1..nz {
+        for ic in 0..nt {
+            let (jf, if_) = ((jc * sz) as isize, (ic * st) as isize);
+            let mut acc = 0.0;
+            for &(dz, w1) in wz {
+                let row = (jf + dz) as usize * fine.nt;
+                for &(dt, w2) in wt {
+                    let i = (if_ + dt).rem_euclid(fnt) as usize;
+                    acc += w1 * w2 * fine.r[row + i];
+                }
+            }
+            out[jc * nt + ic] = acc;
+        }
+    }
+}
+
+/// `fine.p[k] += P(coarse.p − coarse.base)` by bilinear interpolation at the nodes inside
+/// the pressure zone, then projected; held nodes set to 0.
+fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let (st, sz) = strides(c);
+    let cnt = coarse.nt;
+    let e = |jc: usize, ic: usize| {
+        let k = jc * cnt + (ic % cnt);
+        coarse.p[k] - coarse.base[k]
+    };
+    for j in 1..fine.nz {
+        let (jc, jo) = (j / sz, j % sz);
+        for i in 0..fine.nt {
+            let (ic, io) = (i / st, i % st);
+            let v = match (jo, io) {
+                (0, 0) => e(jc, ic),
+                (0, _) => 0.5 * (e(jc, ic) + e(jc, ic + 1)),
+                (_, 0) => 0.5 * (e(jc, ic) + e(jc + 1, ic)),
+                _ => 0.25 * (e(jc, ic) + e(jc, ic + 1) + e(jc + 1, ic) + e(jc + 1, ic + 1)),
+            };
+            let k = j * fine.nt + i;
+            // Truncation: only nodes inside the pressure zone (the node and its four
+            // neighbours positive) take the correction; the free boundary's nodes are
+            // left to the smoother. Corrected there, the coarse grid's view of the
+            // active set fights the fine one and the cycle settles into a limit cycle
+            // (measured: a constant change per cycle from 256 × 32 on).
+            let nt = fine.nt;
+            let row = j * nt;
+            let (ip, im) = (row + (i + 1) % nt, row + (i + nt - 1) % nt);
+            let inside = fine.p[k] > 0.0
+                && fine.p[ip] > 0.0
+                && fine.p[im] > 0.0
+                && (j + 1 == fine.nz || fine.p[k + nt] > 0.0)
+                && (j == 1 || fine.p[k - nt] > 0.0);
+            if fine.inv()[k] == 0.0 {
+                // Held (solved grid): 0; frozen (correction grid): unchanged.
+                if fine.top {
+                    fine.p[k] = 0.0;
+                }
+            } else if inside {
+                fine.p[k] = (fine.p[k] + v).max(0.0);
+            }
+        }
+    }
+}
+
+/// `fine.p = P coarse.p` (bilinear interpolation of a solution; the FMG start).
+pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let (st, sz) = strides(c);
+    let cnt = coarse.nt;
+    let u = |jc: usize, ic: usize| coarse.p[jc * cnt + (ic % cnt)];
+    for j in 1..fine.nz {
+        let (jc, jo) = (j / sz, j % sz);
+        for i in 0..fine.nt {
+            let (ic, io) = (i / st, i % st);
+            let v = match (jo, io) {
+                (0, 0) => u(jc, ic),
+                (0, _) => 0.5 * (u(jc, ic) + u(jc, ic + 1)),
+                (_, 0) => 0.5 * (u(jc, ic) + u(jc + 1, ic)),
+                _ => 0.25 * (u(jc, ic) + u(jc, ic + 1) + u(jc + 1, ic) + u(jc + 1, ic + 1)),
+            };
+            let k = j * fine.nt + i;
+            fine.p[k] = if fine.inv_d[k] == 0.0 {
+                0.0
+            } else {
+                v.max(0.0)
+            };
+        }
+    }
+}
+
+/// A grid hierarchy, coarsest first: `levels[0]` is the coarsest, `levels[l].coarsen`
+/// says how `levels[l]` relates to `levels[l − 1]`.
+#[derive(Default)]
+pub(crate) struct Hierarchy {
+    pub levels: Vec<Level>,
+    /// Angle of node 0 on every level, rad (see [`Level::setup`]).
+    pub theta0: f64,
+    /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
+    pub updates: u64,
+}
+
+impl Hierarchy {
+    /// Builds (reusing allocations) the hierarchy below and including `nt × nz`.
+    pub fn build(&mut self, job: &FiniteJob, nt: usize, nz: usize, inlet: bool) {
+        let mut dims = vec![(nt, nz, None)];
+        let (mut a, mut b) = (nt, nz);
+        while let Some((c, d, how)) = coarser(a, b, job.aspect) {
+            dims.last_mut().expect("nonempty").2 = Some(how);
+            dims.push((c, d, None));
+            a = c;
+            b = d;
+        }
+        dims.reverse();
+        self.levels.resize_with(dims.len(), Level::default);
+        for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
+            lvl.setup(job, a, b, inlet, self.theta0);
+            lvl.coarsen = how;
+        }
+    }
+
+    /// Adds a finer level on top (`how` relates it to the current top).
+    pub fn push_finer(&mut self, job: &FiniteJob, nt: usize, nz: usize, inlet: bool, how: Coarsen) {
+        let mut lvl = Level::default();
+        lvl.setup(job, nt, nz, inlet, self.theta0);
+        lvl.coarsen = Some(how);
+        self.levels.push(lvl);
+    }
+
+    /// One V-cycle on level `l` (its `f` set by the caller).
+    pub fn vcycle(&mut self, l: usize, aspect: f64) {
+        if l == 0 || self.levels[l].coarsen.is_none() {
+            // Coarse enough: solve (tight, cheap).
+            self.updates += self.levels[l].solve_coarsest(aspect, 1e-12);
+            return;
+        }
+        let how = self.levels[l].coarsen.expect("checked");
+        let (lo, hi) = self.levels.split_at_mut(l);
+        let fine = &mut hi[0];
+        let coarse = &mut lo[l - 1];
+        for _ in 0..NU_PRE {
+            fine.sweep(1.0);
+        }
+        self.updates += NU_PRE as u64 * fine.interior() as u64;
+        fine.residual();
+        let (st, sz) = strides(how);
+        // Coarse nodes whose restriction stencil touches a held fine node are frozen at
+        // u₀ (no correction there): the coarse grid cannot represent the held line, and
+        // at the fine solution u₀ is the coarse solution, so the fixed point is kept.
+        {
+            let fine_inv = fine.inv();
+            let fnt = fine.nt;
+            for jc in 1..coarse.nz {
+                for ic in 0..coarse.nt {
+                    let (jf, i0) = (jc * sz, ic * st);
+                    let mut held = false;
+                    for dj in [-1isize, 0, 1] {
+                        let j = jf as isize + dj;
+                        if j < 1 || j >= fine.nz as isize || (sz == 1 && dj != 0) {
+                            continue;
+                        }
+                        for di in [-1isize, 0, 1] {
+                            if st == 1 && di != 0 {
+                                continue;
+                            }
+                            let i = (i0 as isize + di).rem_euclid(fnt as isize) as usize;
+                            held |= fine_inv[j as usize * fnt + i] == 0.0;
+                        }
+                    }
+                    let k = jc * coarse.nt + ic;
+                    coarse.inv_d_free[k] = if held { 0.0 } else { 1.0 / coarse.d[k] };
+                }
+            }
+        }
+        // u₀ = injection of the fine iterate.
+        for jc in 0..=coarse.nz {
+            for ic in 0..coarse.nt {
+                let v = fine.p[jc * sz * fine.nt + ic * st];
+                coarse.base[jc * coarse.nt + ic] = v;
+                coarse.p[jc * coarse.nt + ic] = v;
+            }
+        }
+        let mut rr = std::mem::take(&mut coarse.f);
+        restrict_residual(fine, how, coarse.nt, coarse.nz, &mut rr);
+        for jc in 1..coarse.nz {
+            for ic in 0..coarse.nt {
+                let k = jc * coarse.nt + ic;
+                rr[k] = if coarse.inv()[k] == 0.0 {
+                    0.0
+                } else {
+                    rr[k] + coarse.apply(&coarse.base, jc, ic)
+                };
+            }
+        }
+        coarse.f = rr;
+        self.vcycle(l - 1, aspect);
+        let (lo, hi) = self.levels.split_at_mut(l);
+        let fine = &mut hi[0];
+        prolong_correction(fine, &lo[l - 1], how);
+        for _ in 0..NU_POST {
+            fine.sweep(1.0);
+        }
+        self.updates += NU_POST as u64 * fine.interior() as u64;
+    }
+
+    /// V-cycles on the top level `l` (own right-hand side) until the estimated iteration
+    /// error of the field is below `tol` of its maximum, at most `max_cycles`; returns
+    /// (cycles, estimated error, converged).
+    pub fn iterate(
+        &mut self,
+        l: usize,
+        aspect: f64,
+        tol: f64,
+        max_cycles: u32,
+    ) -> (u32, f64, bool) {
+        for (n, lvl) in self.levels.iter_mut().enumerate() {
+            lvl.top = n == l;
+        }
+        {
+            let lvl = &mut self.levels[l];
+            lvl.f.copy_from_slice(&lvl.f_own);
+        }
+        if l == 0 || self.levels[l].coarsen.is_none() {
+            self.updates += self.levels[l].solve_coarsest(aspect, tol);
+            return (1, 0.0, true);
+        }
+        let mut prev = Vec::new();
+        let mut last_change = f64::INFINITY;
+        let mut err = f64::INFINITY;
+        for cycle in 1..=max_cycles {
+            prev.clear();
+            prev.extend_from_slice(&self.levels[l].p);
+            self.vcycle(l, aspect);
+            let p = &self.levels[l].p;
+            let mut change = 0.0_f64;
+            let mut max_p = 0.0_f64;
+            for (a, b) in p.iter().zip(&prev) {
+                change = change.max((a - b).abs());
+                max_p = max_p.max(*a);
+            }
+            // Contraction per cycle: measured, at least 0.1 (a typical multigrid
+            // factor), and 0.5 until measured.
+            let rho = if last_change.is_finite() && last_change > 0.0 {
+                (change / last_change).clamp(0.1, 0.95)
+            } else {
+                0.5
+            };
+            last_change = change;
+            err = if max_p > 0.0 {
+                change * rho / (1.0 - rho) / max_p
+            } else {
+                0.0
+            };
+            if change == 0.0 || err <= tol {
+                return (cycle, err, true);
+            }
+        }
+        (max_cycles, err, false)
+    }
+}
+
+impl Level {
+    /// Copies a warm-start field of this grid's length in (held nodes set to 0).
+    pub fn load_field(&mut self, field: &[f64]) {
+        for (k, (p, v)) in self.p.iter_mut().zip(field).enumerate() {
+            let interior = k >= self.nt && k < self.nt * self.nz;
+            *p = if interior && self.inv_d[k] != 0.0 {
+                *v
+            } else {
+                0.0
+            };
+        }
+    }
+}
