@@ -129,7 +129,8 @@ pub const RATE_AFTER_S: f64 = 2.0;
 /// this run finished, then variants per second to 3 significant digits (per minute below
 /// 0.1/s).
 pub fn rate_text(elapsed_s: f64, ran: u64) -> String {
-    if !(elapsed_s >= RATE_AFTER_S) || ran == 0 {
+    // NaN elapsed reads as "too early".
+    if elapsed_s.is_nan() || elapsed_s < RATE_AFTER_S || ran == 0 {
         return String::new();
     }
     let per_s = ran as f64 / elapsed_s;
@@ -143,7 +144,8 @@ pub fn rate_text(elapsed_s: f64, ran: u64) -> String {
 /// The bar's time left at the run's rate, in whole seconds, minutes or hours (blank while
 /// [`rate_text`] is).
 pub fn left_text(elapsed_s: f64, ran: u64, left: u64) -> String {
-    if !(elapsed_s >= RATE_AFTER_S) || ran == 0 {
+    // NaN elapsed reads as "too early".
+    if elapsed_s.is_nan() || elapsed_s < RATE_AFTER_S || ran == 0 {
         return String::new();
     }
     let s = (left as f64 * elapsed_s / ran as f64).round();
