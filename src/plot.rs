@@ -1302,9 +1302,8 @@ pub fn unit_of_path(path: &str) -> Unit {
         .collect();
     let last = names.last().copied().unwrap_or("");
     match last {
-        "clearance" | "offset" | "static_unbalance" | "threshold" | "g_radius" => {
-            unit(1e6, "µm", "m")
-        }
+        "clearance" | "offset" | "static_unbalance" | "threshold" | "g_radius" | "orbit"
+        | "whirl" => unit(1e6, "µm", "m"),
         "radius" | "length" | "axial_position" => unit(1e3, "mm", "m"),
         "viscosity" => unit(1e3, "mPa·s", "Pa·s"),
         "mass" => unit(1.0, "kg", "kg"),
