@@ -501,6 +501,11 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// A data range `(low, high)`.
+type Span = (f64, f64);
+/// A point in px.
+type Px = (f64, f64);
+
 /// Legend row height, px.
 const LEGEND_ROW: f64 = 17.0;
 /// Length of a legend's line sample, px.
@@ -580,7 +585,7 @@ impl Figure {
     }
 
     /// Data ranges (before the equal-aspect widening), padded.
-    fn ranges(&self) -> Result<((f64, f64), (f64, f64)), String> {
+    fn ranges(&self) -> Result<(Span, Span), String> {
         let pts: Vec<(f64, f64)> = self
             .curves
             .iter()
@@ -649,7 +654,7 @@ impl Figure {
 
     /// Pixel points of every drawn mark (line vertices by segment, markers), for the
     /// legend's placement.
-    fn marks(&self, l: &Layout) -> (Vec<((f64, f64), (f64, f64))>, Vec<(f64, f64)>) {
+    fn marks(&self, l: &Layout) -> (Vec<(Px, Px)>, Vec<Px>) {
         let mut segs = Vec::new();
         let mut dots = Vec::new();
         for c in &self.curves {
@@ -1297,9 +1302,8 @@ pub fn unit_of_path(path: &str) -> Unit {
         .collect();
     let last = names.last().copied().unwrap_or("");
     match last {
-        "clearance" | "offset" | "static_unbalance" | "threshold" | "g_radius" => {
-            unit(1e6, "µm", "m")
-        }
+        "clearance" | "offset" | "static_unbalance" | "threshold" | "g_radius" | "orbit"
+        | "whirl" => unit(1e6, "µm", "m"),
         "radius" | "length" | "axial_position" => unit(1e3, "mm", "m"),
         "viscosity" => unit(1e3, "mPa·s", "Pa·s"),
         "mass" => unit(1.0, "kg", "kg"),

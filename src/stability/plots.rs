@@ -395,7 +395,7 @@ pub fn damping_figure(
     // almost real) do not squash the region near 0 that decides stability.
     values.sort_by(f64::total_cmp);
     if let (Some(&lo), Some(&hi)) = (values.first(), values.last()) {
-        let top = hi.min(LOG_DEC_TOP).max(0.5);
+        let top = hi.clamp(0.5, LOG_DEC_TOP);
         let bottom = lo.min(0.0);
         let pad = 0.05 * (top - bottom);
         fig.y_range = Some((bottom - pad, top + pad));

@@ -233,7 +233,8 @@ pub fn figure(variants: &[Value], plot: &PlotSpec) -> Result<Figure, String> {
     let uy = unit_of_reduction(&plot.y);
     let us = plot.series.as_deref().map(unit_of_path).unwrap_or(ONE);
     // (label, numeric series value, points)
-    let mut curves: Vec<(String, Option<f64>, Vec<(f64, f64)>)> = Vec::new();
+    // (legend label, numeric series value, points)
+    let mut curves: Vec<SeriesCurve> = Vec::new();
     for v in variants {
         let params = &v["params"];
         let Some(x) = params.get(&plot.x).and_then(Value::as_f64) else {
@@ -308,6 +309,9 @@ pub fn figure(variants: &[Value], plot: &PlotSpec) -> Result<Figure, String> {
     }
     Ok(fig)
 }
+
+/// A curve of a plot: legend label, its numeric series value, points.
+type SeriesCurve = (String, Option<f64>, Vec<(f64, f64)>);
 
 /// Viridis from its dark end to 85 % (the yellow end is unreadable on white), `t` in 0..1.
 pub fn ramp(t: f64) -> String {
