@@ -69,7 +69,23 @@ pub struct Threshold {
     pub grid_rad_s: Vec<f64>,
     /// What the result means when there is no threshold.
     pub note: String,
+    /// Every speed whose analysis failed (scan and bracketing), in the order met, with
+    /// the reason (issue 20: no failed point is dropped silently).
+    pub failed: Vec<FailedSpeed>,
 }
+
+/// A speed of a threshold search whose analysis failed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FailedSpeed {
+    /// The speed, rad/s.
+    pub speed_rad_s: f64,
+    /// Why (the analysis error).
+    pub reason: String,
+}
+
+/// Failed analyses during the bracketing of one rotor before the search stops and
+/// reports the bracket it has.
+const MAX_SEARCH_FAILURES: u32 = 3;
 
 /// Relative width of the final bracket.
 pub const THRESHOLD_RTOL: f64 = 1e-7;
@@ -108,14 +124,29 @@ pub fn thresholds(
             .map(|r| r.as_ref().ok().map(SpeedAnalysis::max_growth))
             .collect();
         cursor += g.len();
+        let failed: Vec<FailedSpeed> = scan[cursor - g.len()..cursor]
+            .iter()
+            .zip(g)
+            .filter_map(|(r, &w)| {
+                r.as_ref().err().map(|e| FailedSpeed {
+                    speed_rad_s: w,
+                    reason: e.to_string(),
+                })
+            })
+            .collect();
         let mut bracket = None;
         let mut note = String::new();
-        for i in 0..g.len().saturating_sub(1) {
-            if let (Some(a), Some(b)) = (growth[i], growth[i + 1]) {
-                if a < 0.0 && b >= 0.0 {
-                    bracket = Some((g[i], g[i + 1]));
-                    break;
-                }
+        // Consecutive analysed speeds (failed ones skipped): a sign change between them
+        // brackets a threshold even across a failed speed.
+        let ok: Vec<(f64, f64)> = g
+            .iter()
+            .zip(&growth)
+            .filter_map(|(&w, s)| s.map(|s| (w, s)))
+            .collect();
+        for pair in ok.windows(2) {
+            if pair[0].1 < 0.0 && pair[1].1 >= 0.0 {
+                bracket = Some((pair[0].0, pair[1].0));
+                break;
             }
         }
         if bracket.is_none() {
@@ -141,6 +172,7 @@ pub fn thresholds(
             grid_growth_1_s: growth,
             grid_rad_s: g.clone(),
             note,
+            failed,
         });
     }
     // Bracketing in lockstep: the Illinois variant of regula falsi on the largest growth
@@ -150,6 +182,10 @@ pub fn thresholds(
     let mut last_unstable: Vec<Option<Mode>> = vec![None; rotors.len()];
     // (g_lo, g_hi, side last moved: -1 lo, +1 hi, 0 none)
     let mut gvals: Vec<(f64, f64, i8)> = vec![(0.0, 0.0, 0); rotors.len()];
+    // Failed analyses in the bracketing, and the last failed speed (the next try avoids it).
+    let mut search_failures = vec![0u32; rotors.len()];
+    let mut avoid: Vec<Option<f64>> = vec![None; rotors.len()];
+    let mut stopped: Vec<Option<(f64, f64)>> = vec![None; rotors.len()];
     let mut offset = 0;
     for (k, b) in brackets.iter().enumerate() {
         if let Some((lo, hi)) = b {
@@ -187,6 +223,12 @@ pub fn thresholds(
                 } else {
                     0.5 * (lo + hi)
                 };
+                // After a failure: the middle of the larger side of the failed speed.
+                let x = match avoid[k] {
+                    Some(f) if f - lo > hi - f => 0.5 * (lo + f),
+                    Some(f) => 0.5 * (f + hi),
+                    None => x,
+                };
                 (rotors[k], x)
             })
             .collect();
@@ -197,6 +239,7 @@ pub fn thresholds(
             out[k].iterations += 1;
             match r {
                 Ok(a) if a.max_growth() >= 0.0 => {
+                    avoid[k] = None;
                     brackets[k] = Some((lo, *mid));
                     // Illinois: the same end moved twice in a row halves the other's value.
                     let glo = if side == 1 { 0.5 * glo } else { glo };
@@ -204,20 +247,34 @@ pub fn thresholds(
                     last_unstable[k] = top_mode(&a.modes);
                 }
                 Ok(a) => {
+                    avoid[k] = None;
                     brackets[k] = Some((*mid, hi));
                     let ghi = if side == -1 { 0.5 * ghi } else { ghi };
                     gvals[k] = (a.max_growth(), ghi, -1);
                 }
                 Err(e) => {
-                    out[k].note = format!("threshold search stopped at {mid} rad/s: {e}");
-                    brackets[k] = None;
-                    out[k].bracket_rad_s = Some([lo, hi]);
+                    out[k].failed.push(FailedSpeed {
+                        speed_rad_s: *mid,
+                        reason: e.to_string(),
+                    });
+                    search_failures[k] += 1;
+                    avoid[k] = Some(*mid);
+                    if search_failures[k] >= MAX_SEARCH_FAILURES {
+                        // Report the bracket reached: the threshold lies inside it.
+                        out[k].note = format!(
+                            "threshold search stopped after {} failed speeds (see failed); the \
+                             threshold lies in bracket_rad_s, reported at its middle",
+                            search_failures[k]
+                        );
+                        stopped[k] = Some((lo, hi));
+                        brackets[k] = None;
+                    }
                 }
             }
         }
     }
     for (k, t) in out.iter_mut().enumerate() {
-        if let Some((lo, hi)) = brackets[k] {
+        if let Some((lo, hi)) = brackets[k].or(stopped[k]) {
             t.speed_rad_s = Some(0.5 * (lo + hi));
             t.bracket_rad_s = Some([lo, hi]);
             if let Some(m) = &last_unstable[k] {

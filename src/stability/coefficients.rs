@@ -12,9 +12,12 @@
 // Index loops mirror the matrix subscripts.
 #![allow(clippy::needless_range_loop)]
 
+use rayon::prelude::*;
+
 use super::StabilityError;
-use crate::backend::{LoadEvaluator, LoadRequest};
-use crate::bearing::{BearingParams, BearingState, Loads};
+use crate::backend::{effective_model, LoadEvaluator, LoadRequest};
+use crate::bearing::finite::finite_solution;
+use crate::bearing::{BearingParams, BearingState, FilmModel, Loads};
 
 /// Names of the coordinates, in matrix order.
 pub const ORDER: [&str; 4] = ["x", "y", "tilt_x", "tilt_y"];
@@ -79,10 +82,16 @@ pub struct BearingCoefficients {
     pub stiffness: [[f64; 4]; 4],
     /// `C[i][j] = −∂L_i/∂q̇_j`; N·s/m, N·s/rad, N·m·s/m, N·m·s/rad.
     pub damping: [[f64; 4]; 4],
-    /// Error estimate of each stiffness coefficient (same units; zero without Richardson).
+    /// Error estimate of each stiffness coefficient (same units; zero without
+    /// Richardson): the difference-step error plus, for the finite film, the
+    /// discretisation error bound `|K_h − K_2h|` from the same differences on the half
+    /// grid.
     pub stiffness_error: [[f64; 4]; 4],
-    /// Error estimate of each damping coefficient.
+    /// Error estimate of each damping coefficient (as `stiffness_error`).
     pub damping_error: [[f64; 4]; 4],
+    /// Finite film: the grid `[n_theta, n_z]` every differenced state was solved on
+    /// (chosen at the state itself in accuracy mode); `None` for the short film.
+    pub grid: Option<[u32; 2]>,
     /// Loads at the state itself.
     pub loads: Loads,
     /// `(W_x, W_y, M_x, M_y)` about the mid-plane, N and N·m.
@@ -172,6 +181,57 @@ fn levels(richardson: bool) -> &'static [f64] {
     }
 }
 
+/// The finite-film grid `[n_theta, n_z]` a job's loads are differenced on: the explicit
+/// grid, or in accuracy mode the grid the solver chooses at the job's own state (held for
+/// every perturbed state: a grid change between differenced states would be a jump of
+/// the order of the accuracy over a step of ~1e-3 δ). `None` for the short film.
+pub fn difference_grid(params: &BearingParams, state: &BearingState) -> Option<[u32; 2]> {
+    grid_and_estimate(params, state).map(|g| g.0)
+}
+
+/// [`difference_grid`] with the relative discretisation error estimate of the loads
+/// there (accuracy mode; 0 on an explicit grid).
+fn grid_and_estimate(params: &BearingParams, state: &BearingState) -> Option<([u32; 2], f64)> {
+    if effective_model(params, state) != FilmModel::Finite {
+        return None;
+    }
+    if let Some((t, z)) = params.finite.fixed_grid() {
+        return Some(([t, z], 0.0));
+    }
+    let r = finite_solution(params, state, &params.finite, false)
+        .ok()?
+        .report;
+    // A state without film pressure (no spin, no squeeze) has no grid choice: the
+    // explicit default.
+    Some(if r.n_theta > 0 {
+        ([r.n_theta, r.n_z], r.error_estimate)
+    } else {
+        ([64, 16], 0.0)
+    })
+}
+
+/// Noise floor of a bearing's film loads, relative: the finite film's iteration
+/// tolerance (its iterate's error shows in the loads at that level; warm starts make it
+/// vary between evaluations), 0 for the short film (rounding only). Newton iterations
+/// stop at a multiple of it instead of chasing noise.
+pub fn load_noise(params: &BearingParams) -> f64 {
+    if params.model == FilmModel::Short {
+        0.0
+    } else {
+        params.finite.tolerance
+    }
+}
+
+/// `params` with the finite film pinned to `grid` (unchanged for `None`).
+pub fn pin_grid(params: &BearingParams, grid: Option<[u32; 2]>) -> BearingParams {
+    let mut p = *params;
+    if let Some([t, z]) = grid {
+        p.finite.n_theta = Some(t);
+        p.finite.n_z = Some(z);
+    }
+    p
+}
+
 /// Linearised coefficients of every job, all perturbed states in one evaluator call.
 /// Bearing `k` of the call is `jobs[k]`; a job whose state (or a perturbed one) has no
 /// film loads gets that bearing's error, the others are unaffected.
@@ -182,119 +242,216 @@ pub fn coefficients_batch(
 ) -> Vec<Result<BearingCoefficients, StabilityError>> {
     let lv = levels(options.richardson);
     let per_job = 1 + 8 * lv.len() * 2;
-    let params: Vec<BearingParams> = jobs.iter().map(|j| j.params).collect();
+    // Finite film: one grid per job (see `difference_grid`), and with Richardson the
+    // same differences on the half grid for the discretisation error (bearing index
+    // `jobs.len() + k`).
+    let chosen: Vec<Option<([u32; 2], f64)>> = jobs
+        .par_iter()
+        .map(|j| grid_and_estimate(&j.params, &j.state))
+        .collect();
+    let grids: Vec<Option<[u32; 2]>> = chosen.iter().map(|c| c.map(|g| g.0)).collect();
+    let mut params: Vec<BearingParams> = jobs
+        .iter()
+        .zip(&grids)
+        .map(|(j, g)| pin_grid(&j.params, *g))
+        .collect();
+    let coarse: Vec<Option<BearingParams>> = params
+        .iter()
+        .zip(&grids)
+        .map(|(p, g)| {
+            if !options.richardson || g.is_none() {
+                return None;
+            }
+            p.finite.coarse().map(|c| BearingParams { finite: c, ..*p })
+        })
+        .collect();
+    if let Some(&first) = params.first() {
+        // Jobs without a half grid get a placeholder (no request uses it).
+        params.extend(coarse.iter().map(|c| c.unwrap_or(first)));
+    }
     let mut requests = Vec::with_capacity(jobs.len() * per_job);
     let mut steps = Vec::with_capacity(jobs.len());
+    // Start of each job's fine and coarse chunks in the requests.
+    let mut starts: Vec<(usize, Option<usize>)> = Vec::with_capacity(jobs.len());
     for (k, job) in jobs.iter().enumerate() {
         let st = steps_of(job, options.relative_step);
         steps.push(st);
-        let b = k as u32;
-        requests.push(LoadRequest {
-            bearing: b,
-            state: job.state,
+        let fine_start = requests.len();
+        push_differences(&mut requests, k as u32, job, &st, lv);
+        let coarse_start = coarse[k].map(|_| {
+            let at = requests.len();
+            push_differences(&mut requests, (jobs.len() + k) as u32, job, &st, lv);
+            at
         });
-        let len = job.params.length;
-        for c in 0..8 {
-            let unit = match c {
-                0 | 1 => st.position_m,
-                2 | 3 => st.tilt_rad,
-                4 | 5 => st.velocity_m_s,
-                _ => st.tilt_rate_rad_s,
-            };
-            for &f in lv {
-                for sign in [1.0, -1.0] {
-                    let mut dq = [0.0; 4];
-                    let mut dv = [0.0; 4];
-                    if c < 4 {
-                        dq[c] = sign * f * unit;
-                    } else {
-                        dv[c - 4] = sign * f * unit;
-                    }
-                    requests.push(LoadRequest {
-                        bearing: b,
-                        state: perturb(&job.state, len, dq, dv),
-                    });
-                }
-            }
-        }
+        starts.push((fine_start, coarse_start));
     }
     let mut results = Vec::new();
     evaluator.evaluate(&params, &requests, &mut results);
     jobs.iter()
         .enumerate()
         .map(|(k, job)| {
-            let chunk = &results[k * per_job..(k + 1) * per_job];
-            let len = job.params.length;
-            let mut mids = Vec::with_capacity(per_job);
-            for (n, r) in chunk.iter().enumerate() {
-                match r {
-                    Ok(l) => mids.push(mid_plane_loads(l, len)),
-                    Err(fault) => {
-                        return Err(StabilityError::Film {
-                            bearing: k,
-                            context: if n == 0 {
-                                "at the state to linearise about".into()
-                            } else {
-                                "at a perturbed state of the finite differences".into()
-                            },
-                            fault: *fault,
-                        })
-                    }
-                }
-            }
-            let base = match &chunk[0] {
-                Ok(l) => *l,
-                Err(_) => unreachable!("checked above"),
-            };
-            let st = steps[k];
-            let mut out = BearingCoefficients {
-                stiffness: [[0.0; 4]; 4],
-                damping: [[0.0; 4]; 4],
-                stiffness_error: [[0.0; 4]; 4],
-                damping_error: [[0.0; 4]; 4],
-                loads: base,
-                mid_plane_loads: mids[0],
-                steps: st,
-            };
-            for c in 0..8 {
-                let unit = match c {
-                    0 | 1 => st.position_m,
-                    2 | 3 => st.tilt_rad,
-                    4 | 5 => st.velocity_m_s,
-                    _ => st.tilt_rate_rad_s,
-                };
+            let (fs, cs) = starts[k];
+            let mut out = differentiate(
+                k,
+                job,
+                &results[fs..fs + per_job],
+                &steps[k],
+                lv,
+                options.richardson,
+            )?;
+            out.grid = grids[k];
+            if let Some(cs) = cs {
+                let c = differentiate(
+                    k,
+                    job,
+                    &results[cs..cs + per_job],
+                    &steps[k],
+                    lv,
+                    options.richardson,
+                )?;
+                // The fine grid's discretisation error, bounded by |K_h − K_2h|: a
+                // coefficient is a difference of loads whose free boundaries move by
+                // sub-cell amounts, so its grid convergence is less regular than the
+                // loads' (measured: |K_h − K_2h|/3, the second-order value, was 2× short
+                // at 128 × 16); |K_h − K_2h| is the geometric tail at a contraction 1/2.
+                // Coarse grids converge irregularly (|K_h − K_2h| was measured 3× short
+                // at 128 × 16, where K_2h is 64 × 8): a coefficient also carries at least
+                // the loads' relative discretisation error, taken ×3 (measured ≤ 2×).
+                let est = chosen[k].map_or(0.0, |g| g.1);
                 for i in 0..4 {
-                    let mut d = [0.0; 3];
-                    let mut magnitude: f64 = 0.0;
-                    for (l, &f) in lv.iter().enumerate() {
-                        let at = 1 + (c * lv.len() + l) * 2;
-                        let (p, m) = (mids[at][i], mids[at + 1][i]);
-                        magnitude = magnitude.max(p.abs()).max(m.abs());
-                        d[l] = (p - m) / (2.0 * f * unit);
-                    }
-                    let (value, error) = if options.richardson {
-                        // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
-                        // estimate is the change of the last level (conservative: the
-                        // returned value is one level better), plus rounding of the
-                        // differences at the smallest step.
-                        let r1 = (4.0 * d[1] - d[0]) / 3.0;
-                        let r2 = (4.0 * d[2] - d[1]) / 3.0;
-                        let value = r2 + (r2 - r1) / 15.0;
-                        let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.25 * unit);
-                        (value, (r2 - r1).abs() + rounding)
-                    } else {
-                        (d[0], 0.0)
-                    };
-                    if c < 4 {
-                        out.stiffness[i][c] = -value;
-                        out.stiffness_error[i][c] = error;
-                    } else {
-                        out.damping[i][c - 4] = -value;
-                        out.damping_error[i][c - 4] = error;
+                    for j in 0..4 {
+                        out.stiffness_error[i][j] += (out.stiffness[i][j] - c.stiffness[i][j])
+                            .abs()
+                            .max(3.0 * est * out.stiffness[i][j].abs());
+                        out.damping_error[i][j] += (out.damping[i][j] - c.damping[i][j])
+                            .abs()
+                            .max(3.0 * est * out.damping[i][j].abs());
                     }
                 }
             }
             Ok(out)
         })
         .collect()
+}
+
+/// The state of `job` and its perturbations for the differences, on bearing `b`.
+fn push_differences(
+    requests: &mut Vec<LoadRequest>,
+    b: u32,
+    job: &CoefficientJob,
+    st: &Steps,
+    lv: &[f64],
+) {
+    requests.push(LoadRequest {
+        bearing: b,
+        state: job.state,
+    });
+    let len = job.params.length;
+    for c in 0..8 {
+        let unit = match c {
+            0 | 1 => st.position_m,
+            2 | 3 => st.tilt_rad,
+            4 | 5 => st.velocity_m_s,
+            _ => st.tilt_rate_rad_s,
+        };
+        for &f in lv {
+            for sign in [1.0, -1.0] {
+                let mut dq = [0.0; 4];
+                let mut dv = [0.0; 4];
+                if c < 4 {
+                    dq[c] = sign * f * unit;
+                } else {
+                    dv[c - 4] = sign * f * unit;
+                }
+                requests.push(LoadRequest {
+                    bearing: b,
+                    state: perturb(&job.state, len, dq, dv),
+                });
+            }
+        }
+    }
+}
+
+/// Coefficients of job `k` from the loads of its state and perturbations (`chunk`, in
+/// the order of [`push_differences`]).
+fn differentiate(
+    k: usize,
+    job: &CoefficientJob,
+    chunk: &[crate::backend::LoadResult],
+    st: &Steps,
+    lv: &[f64],
+    richardson: bool,
+) -> Result<BearingCoefficients, StabilityError> {
+    let len = job.params.length;
+    let mut mids = Vec::with_capacity(chunk.len());
+    for (n, r) in chunk.iter().enumerate() {
+        match r {
+            Ok(l) => mids.push(mid_plane_loads(l, len)),
+            Err(fault) => {
+                return Err(StabilityError::Film {
+                    bearing: k,
+                    context: if n == 0 {
+                        "at the state to linearise about".into()
+                    } else {
+                        "at a perturbed state of the finite differences".into()
+                    },
+                    fault: *fault,
+                })
+            }
+        }
+    }
+    let base = match &chunk[0] {
+        Ok(l) => *l,
+        Err(_) => unreachable!("checked above"),
+    };
+    let st = *st;
+    let mut out = BearingCoefficients {
+        stiffness: [[0.0; 4]; 4],
+        damping: [[0.0; 4]; 4],
+        stiffness_error: [[0.0; 4]; 4],
+        damping_error: [[0.0; 4]; 4],
+        loads: base,
+        mid_plane_loads: mids[0],
+        steps: st,
+        grid: None,
+    };
+    for c in 0..8 {
+        let unit = match c {
+            0 | 1 => st.position_m,
+            2 | 3 => st.tilt_rad,
+            4 | 5 => st.velocity_m_s,
+            _ => st.tilt_rate_rad_s,
+        };
+        for i in 0..4 {
+            let mut d = [0.0; 3];
+            let mut magnitude: f64 = 0.0;
+            for (l, &f) in lv.iter().enumerate() {
+                let at = 1 + (c * lv.len() + l) * 2;
+                let (p, m) = (mids[at][i], mids[at + 1][i]);
+                magnitude = magnitude.max(p.abs()).max(m.abs());
+                d[l] = (p - m) / (2.0 * f * unit);
+            }
+            let (value, error) = if richardson {
+                // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
+                // estimate is the change of the last level (conservative: the
+                // returned value is one level better), plus rounding of the
+                // differences at the smallest step.
+                let r1 = (4.0 * d[1] - d[0]) / 3.0;
+                let r2 = (4.0 * d[2] - d[1]) / 3.0;
+                let value = r2 + (r2 - r1) / 15.0;
+                let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.25 * unit);
+                (value, (r2 - r1).abs() + rounding)
+            } else {
+                (d[0], 0.0)
+            };
+            if c < 4 {
+                out.stiffness[i][c] = -value;
+                out.stiffness_error[i][c] = error;
+            } else {
+                out.damping[i][c - 4] = -value;
+                out.damping_error[i][c - 4] = error;
+            }
+        }
+    }
+    Ok(out)
 }

@@ -3,7 +3,9 @@
 //! for an aligned journal in this model, MODEL.md section 7); then Newton iterations on
 //! the batched film loads polish it to rounding.
 
-use super::coefficients::{aligned_state, coefficients_batch, CoefficientJob, DiffOptions};
+use super::coefficients::{
+    aligned_state, coefficients_batch, load_noise, pin_grid, CoefficientJob, DiffOptions,
+};
 use super::StabilityError;
 use crate::backend::LoadEvaluator;
 use crate::bearing::{BearingParams, BearingState, Loads};
@@ -114,6 +116,10 @@ pub fn bearing_equilibria(
         pos[k] = closed_form_position(params, *omega, *load);
     }
     let mut iterations = vec![0u32; cases.len()];
+    // Finite film in accuracy mode: the grid chosen at the first iterate is held for the
+    // iteration (a grid change between iterates is a jump of the order of the accuracy,
+    // which Newton cannot converge through).
+    let mut pinned: Vec<Option<[u32; 2]>> = vec![None; cases.len()];
     loop {
         let active: Vec<usize> = (0..cases.len()).filter(|&k| out[k].is_none()).collect();
         if active.is_empty() {
@@ -122,7 +128,7 @@ pub fn bearing_equilibria(
         let jobs: Vec<CoefficientJob> = active
             .iter()
             .map(|&k| CoefficientJob {
-                params: cases[k].0,
+                params: pin_grid(&cases[k].0, pinned[k]),
                 state: aligned_state(pos[k][0], pos[k][1], cases[k].1),
             })
             .collect();
@@ -136,13 +142,20 @@ pub fn bearing_equilibria(
                     continue;
                 }
             };
+            if pinned[k].is_none() {
+                pinned[k] = c.grid;
+            }
             let p = load[0].hypot(load[1]);
             let r = [c.loads.wx + load[0], c.loads.wy + load[1]];
+            // The film's own noise floor (finite film: its iteration tolerance).
+            let noise = load_noise(&params);
+            let tolerance = TOLERANCE.max(10.0 * noise);
+            let accept = 1e-8_f64.max(100.0 * noise);
             let rel = if p > 0.0 { r[0].hypot(r[1]) / p } else { 0.0 };
             let kk = c.stiffness;
             let det = kk[0][0] * kk[1][1] - kk[0][1] * kk[1][0];
-            if rel <= TOLERANCE || iterations[k] >= MAX_ITERATIONS || det == 0.0 || p == 0.0 {
-                if rel > 1e-8 {
+            if rel <= tolerance || iterations[k] >= MAX_ITERATIONS || det == 0.0 || p == 0.0 {
+                if rel > accept {
                     out[k] = Some(Err(StabilityError::NoEquilibrium {
                         speed_rad_s: omega,
                         reason: format!(

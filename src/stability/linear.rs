@@ -20,7 +20,8 @@
 use nalgebra::{Matrix4, Vector4};
 
 use super::coefficients::{
-    aligned_state, coefficients_batch, perturb, BearingCoefficients, CoefficientJob, DiffOptions,
+    aligned_state, coefficients_batch, load_noise, perturb, pin_grid, BearingCoefficients,
+    CoefficientJob, DiffOptions,
 };
 use super::equilibrium::closed_form_position;
 use super::StabilityError;
@@ -328,6 +329,12 @@ pub fn linearise_batch(
     let mut q: Vec<[f64; 4]> = points.iter().map(|(r, w)| initial_guess(r, *w)).collect();
     let mut iters = vec![0u32; n];
     let mut converged = vec![false; n];
+    // Finite film in accuracy mode: each bearing's grid is chosen at the first iterate
+    // and held for the Newton iteration (see `bearing_equilibria`).
+    let mut pinned: Vec<Vec<Option<[u32; 2]>>> = points
+        .iter()
+        .map(|(r, _)| vec![None; r.bearings.len()])
+        .collect();
     for (k, (r, w)) in points.iter().enumerate() {
         if !w.is_finite() {
             out[k] = Some(Err(StabilityError::input("speed", "must be finite")));
@@ -348,9 +355,9 @@ pub fn linearise_batch(
         for &k in &active {
             let (r, w) = points[k];
             let fr = r.frame_rate(w);
-            for (p, a) in &r.bearings {
+            for (b, (p, a)) in r.bearings.iter().enumerate() {
                 jobs.push(CoefficientJob {
-                    params: *p,
+                    params: pin_grid(p, pinned[k][b]),
                     state: bearing_state(&q[k], p, *a, w, fr),
                 });
             }
@@ -368,6 +375,9 @@ pub fn linearise_batch(
             for (b, (_, a)) in r.bearings.iter().enumerate() {
                 match coeffs.next().expect("one result per job") {
                     Ok(c) => {
+                        if pinned[k][b].is_none() {
+                            pinned[k][b] = c.grid;
+                        }
                         let t = transfer(*a);
                         res += t.transpose() * Vector4::from_column_slice(&c.mid_plane_loads);
                         let kb = from_m4(&c.stiffness) + fr * from_m4(&c.damping) * quarter_turn();
@@ -432,7 +442,14 @@ pub fn linearise_batch(
                 .map(|(p, a)| a.abs() + 0.5 * p.length)
                 .fold(0.0, f64::max);
             let size = step[0].hypot(step[1]) + reach * step[2].hypot(step[3]);
-            if size <= NEWTON_TOL * dmin {
+            // The films' noise floor (finite film: its iteration tolerance) bounds how
+            // small a step can be resolved: stop at ten times it.
+            let noise = r
+                .bearings
+                .iter()
+                .map(|(p, _)| load_noise(p))
+                .fold(0.0, f64::max);
+            if size <= NEWTON_TOL.max(10.0 * noise) * dmin {
                 converged[k] = true;
             } else if iters[k] >= MAX_NEWTON {
                 out[k] = Some(Err(StabilityError::NoEquilibrium {

@@ -12,11 +12,12 @@ mod modes;
 mod plots;
 
 pub use analysis::{
-    analyse_points, geometric_grid, thresholds, SpeedAnalysis, Threshold, THRESHOLD_RTOL,
+    analyse_points, geometric_grid, thresholds, FailedSpeed, SpeedAnalysis, Threshold,
+    THRESHOLD_RTOL,
 };
 pub use coefficients::{
-    aligned_state, coefficients_batch, mid_plane_loads, perturb, BearingCoefficients,
-    CoefficientJob, DiffOptions, Steps, ORDER,
+    aligned_state, coefficients_batch, difference_grid, load_noise, mid_plane_loads, perturb,
+    pin_grid, BearingCoefficients, CoefficientJob, DiffOptions, Steps, ORDER,
 };
 pub use equilibrium::{
     bearing_equilibria, closed_form_position, equilibrium_state, ocvirk_capacity,

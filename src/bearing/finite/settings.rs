@@ -200,7 +200,7 @@ impl FiniteSettings {
     pub fn coarse(&self) -> Option<FiniteSettings> {
         let (nt, nz) = self.fixed_grid()?;
         let halvable = nt.is_multiple_of(4) && nz.is_multiple_of(2);
-        (halvable && nt / 2 >= 8 && nz / 2 >= 2).then(|| FiniteSettings {
+        (halvable && nt / 2 >= 8 && nz / 2 >= 2).then_some(FiniteSettings {
             n_theta: Some(nt / 2),
             n_z: Some(nz / 2),
             ..*self
