@@ -746,10 +746,12 @@ async fn stream_blocking(
             Piece::Fail(e) => Some((Err(std::io::Error::other(e.message)), rx)),
         }
     });
-    let stream = futures_util::StreamExt::chain(
+    // Fused: the gzip layer polls the body once more after its end, and an unfused
+    // `unfold` panics when polled after it returned `None`.
+    let stream = futures_util::StreamExt::fuse(futures_util::StreamExt::chain(
         futures_util::stream::once(async move { Ok::<_, std::io::Error>(first) }),
         rest,
-    );
+    ));
     Ok((
         [(header::CONTENT_TYPE, content_type)],
         Body::from_stream(stream),
@@ -1165,10 +1167,11 @@ async fn sweep_events(
             }
         }
     });
-    let stream = futures_util::StreamExt::chain(
+    // Fused, like the chunked bodies: nothing may poll `unfold` after its end.
+    let stream = futures_util::StreamExt::fuse(futures_util::StreamExt::chain(
         futures_util::stream::once(async move { Ok::<_, Infallible>(first) }),
         live,
-    );
+    ));
     Ok(Sse::new(stream)
         .keep_alive(KeepAlive::new().interval(KEEP_ALIVE))
         .into_response())
