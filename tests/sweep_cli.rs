@@ -126,7 +126,7 @@ fn shards_merged_equal_the_unsharded_run() {
     for r in [&full, &merged] {
         let svg = std::fs::read_to_string(r.parent().unwrap().join("whirl.svg")).unwrap();
         assert!(
-            svg.contains("whirl = 2e-5"),
+            svg.contains("whirl = 20 µm"),
             "{}: legend missing",
             r.display()
         );
