@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use bearing_sweep::service::pg::{
     submit_spec, Completion, Lease, LeaseState, PgError, PgQueue, SweepOptions, VariantRow,
-    MIGRATIONS,
+    MIGRATIONS, RESULTS_LOCK_CLASS,
 };
 use pg_support::PgCluster;
 use serde_json::{json, Value};
@@ -416,4 +416,54 @@ async fn bad_urls_and_unreachable_servers_are_errors_not_panics() {
         e.to_string().contains(&format!("127.0.0.1:{port}/db")),
         "{e}"
     );
+}
+
+/// Issue 22 item 4, deterministically: while one transaction holds a sweep's results lock
+/// (as a completion does between drawing its sequence numbers and its commit), another
+/// worker's completion of the same sweep waits for it instead of committing later
+/// sequence numbers first, which a reader following `seq > last seen` would then pass
+/// over. Without the lock in `complete` the second completion returns at once.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_completion_waits_for_an_earlier_one_of_the_same_sweep() {
+    let Some(pg) = PgCluster::start_or_skip("ordered completions") else {
+        return;
+    };
+    let q = queue(&pg).await;
+    let (id, _) = submit_spec(&q, &spec(4), SweepOptions::default(), 2)
+        .await
+        .unwrap();
+    let lease = q.claim("B", "cpu", 2, LONG).await.unwrap().unwrap();
+    // "Worker A": a transaction in the middle of storing its results.
+    let (mut client, conn) = tokio_postgres::connect(&pg.url(), tokio_postgres::NoTls)
+        .await
+        .unwrap();
+    tokio::spawn(conn);
+    let tx = client.transaction().await.unwrap();
+    tx.execute(
+        "SELECT pg_advisory_xact_lock($1, hashtext($2))",
+        &[&RESULTS_LOCK_CLASS, &id],
+    )
+    .await
+    .unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let b = {
+        let (q, lease, done) = (q.clone(), lease.clone(), done.clone());
+        tokio::spawn(async move {
+            let r = q.complete(&lease, &settings(), &rows(&lease)).await;
+            done.store(true, std::sync::atomic::Ordering::SeqCst);
+            r
+        })
+    };
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    assert!(
+        !done.load(std::sync::atomic::Ordering::SeqCst),
+        "worker B committed while worker A still held the sweep's results open"
+    );
+    tx.commit().await.unwrap();
+    let r = tokio::time::timeout(Duration::from_secs(30), b)
+        .await
+        .expect("B completes once A has committed")
+        .unwrap();
+    r.unwrap();
+    assert_eq!(stored(&q, &id).await.len(), lease.variant_ids().len());
 }

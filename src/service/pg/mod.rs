@@ -21,7 +21,7 @@ pub use migrations::{migrate, Migration, MIGRATIONS};
 pub use monitor::{monitor, run_section, spawn_monitor};
 pub use queue::{
     BatchStats, Completion, Lease, LeaseState, NewSweep, PgQueue, SweepJob, SweepOptions, SweepRow,
-    VariantRow, DEFAULT_BATCH_VARIANTS,
+    VariantRow, DEFAULT_BATCH_VARIANTS, RESULTS_LOCK_CLASS,
 };
 pub use result::result_document;
 pub use store::{PgStore, RETRY_FOR};

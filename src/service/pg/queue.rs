@@ -210,7 +210,7 @@ fn describe(cfg: &tokio_postgres::Config) -> String {
 
 /// First key of the per-sweep advisory lock taken by every transaction that stores
 /// variant results (`pg_advisory_xact_lock(RESULTS_LOCK_CLASS, hashtext(sweep_id))`).
-const RESULTS_LOCK_CLASS: i32 = 0x6273;
+pub const RESULTS_LOCK_CLASS: i32 = 0x6273;
 
 /// Takes the per-sweep results lock for the rest of `tx` (see [`PgQueue::complete`]).
 pub(crate) async fn lock_results(
