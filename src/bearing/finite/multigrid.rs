@@ -27,7 +27,7 @@
 
 use std::f64::consts::PI;
 
-use super::solver::{FiniteGrid, FiniteJob};
+use super::solver::{film, FiniteGrid, FiniteJob};
 
 /// Smoothing sweeps before the coarse-grid correction.
 const NU_PRE: u32 = 2;
@@ -84,13 +84,6 @@ pub(crate) struct Level {
     r: Vec<f64>,
     /// Relationship to the next coarser level (None: coarsest).
     pub coarsen: Option<Coarsen>,
-}
-
-#[inline]
-fn film(ecc: &[f64; 4], zeta: f64, c: f64, s: f64) -> f64 {
-    let ex = ecc[0] + (ecc[2] - ecc[0]) * zeta;
-    let ey = ecc[1] + (ecc[3] - ecc[1]) * zeta;
-    1.0 - ex * c - ey * s
 }
 
 impl Level {

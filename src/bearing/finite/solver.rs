@@ -130,8 +130,10 @@ pub struct FiniteSolver {
     sin: Vec<f64>,
 }
 
+/// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
+/// for end eccentricities `ecc` (shared by the PSOR and multigrid solvers).
 #[inline]
-fn film(ecc: &[f64; 4], zeta: f64, c: f64, s: f64) -> f64 {
+pub(super) fn film(ecc: &[f64; 4], zeta: f64, c: f64, s: f64) -> f64 {
     let ex = ecc[0] + (ecc[2] - ecc[0]) * zeta;
     let ey = ecc[1] + (ecc[3] - ecc[1]) * zeta;
     1.0 - ex * c - ey * s
