@@ -31,7 +31,8 @@ struct Params {
 }
 
 // Per job (stride 12 f64): ecc[4], rate[4], lambda_dtheta (λ/Δθ²), omega (SOR factor),
-// warm (1: `fields` holds a start), unused.
+// warm (1: `fields` holds a start), supply (nondimensional pressure per Pa: a held node's
+// value is its pressure in Pa times this).
 const JOB_STRIDE: u32 = 12u;
 // Per result (stride 8 f64): integrals[4], sweeps, iteration error, converged, unused.
 const OUT_STRIDE: u32 = 8u;
@@ -46,6 +47,10 @@ const OUT_STRIDE: u32 = 8u;
 @group(0) @binding(4) var<storage, read_write> results: array<f64>;
 // Inlet column per row, (n_z + 1) per job; NO_INLET where none.
 @group(0) @binding(5) var<storage, read> inlets: array<u32>;
+// Grooves and arcs (src/bearing/groove.rs, shared by every job of the dispatch), 3 f64
+// per node of the full grid: east-face factor, north-face factor (Shortley–Weller at a
+// held band's edge; 1 elsewhere), held pressure in Pa (negative: free).
+@group(0) @binding(6) var<storage, read> geo: array<f64>;
 
 var<workgroup> p: array<f64, MAX_NODES>;
 var<workgroup> red: array<f64, 256>;
@@ -107,6 +112,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     let ct = jobs[base + 8u];
     let omega = jobs[base + 9u];
     let warm = jobs[base + 10u] > 0.5;
+    let supply = jobs[base + 11u];
     let dz = 1.0 / f64(nz);
     let cz = f64(nz) * f64(nz);
 
@@ -145,10 +151,12 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
                 let ip = select(i + 1u, 0u, i + 1u == nt);
                 // Face coefficients: θ faces at half steps 2i + 1 and 2 im + 1, ζ faces
                 // at node angle 2i.
-                let ae = ct * h3(e, 2u * i + 1u);
-                let aw = ct * h3(e, 2u * im + 1u);
-                let an = cz * h3(en, 2u * i);
-                let as_ = cz * h3(es, 2u * i);
+                let kf = j * nt + i;
+                let ae = ct * h3(e, 2u * i + 1u) * geo[3u * kf];
+                let aw = ct * h3(e, 2u * im + 1u) * geo[3u * (j * nt + im)];
+                let an = cz * h3(en, 2u * i) * geo[3u * kf + 1u];
+                let as_ = cz * h3(es, 2u * i) * geo[3u * (kf - nt) + 1u];
+                let held = geo[3u * kf + 2u];
                 var pn: f64 = 0.0;
                 if j + 1u < nz {
                     pn = p[k + nt];
@@ -164,7 +172,9 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
                 let rhs = 6.0 * (a * trig[4u * i + 1u] - b * trig[4u * i]);
                 let old = p[k];
                 var new_p: f64 = 0.0;
-                if inlets[ibase + j] != i {
+                if held >= 0.0 {
+                    new_p = held * supply;
+                } else if inlets[ibase + j] != i {
                     let gs = (s - rhs) / (ae + aw + an + as_);
                     new_p = max(old + omega * (gs - old), 0.0);
                 }

@@ -137,10 +137,7 @@ fn multigrid_matches_psor() {
     let p = bearing(FiniteSettings::default());
     for (label, s) in states(&p).into_iter().step_by(2) {
         let packed = pack_state(&p, &s).unwrap();
-        let job = FiniteJob {
-            state: packed.state,
-            aspect: p.length / p.radius,
-        };
+        let job = FiniteJob::new(&p, &packed);
         for inlet in [Inlet::None, Inlet::MaxFilm] {
             for (nt, nz) in [(32, 8), (64, 16), (96, 12), (128, 32)] {
                 let g = FiniteGrid::from(&FiniteSettings {
@@ -179,10 +176,7 @@ fn multigrid_work_is_linear_in_nodes() {
     let p = bearing(FiniteSettings::default());
     for (label, s) in states(&p) {
         let packed = pack_state(&p, &s).unwrap();
-        let job = FiniteJob {
-            state: packed.state,
-            aspect: p.length / p.radius,
-        };
+        let job = FiniteJob::new(&p, &packed);
         let mut psor = Vec::new();
         for (nt, nz) in [(64, 8), (128, 16), (256, 32), (512, 64)] {
             let g = FiniteGrid::from(&FiniteSettings {

@@ -372,11 +372,8 @@ impl LoadEvaluator {
                     self.finite.push(FiniteSlot {
                         request: k,
                         rate_scale: p.rate_scale,
-                        job: FiniteJob {
-                            state: p.state,
-                            aspect: b.length / b.radius,
-                        },
-                        grid: (&b.finite).into(),
+                        job: FiniteJob::new(b, &p),
+                        grid: FiniteGrid::for_bearing(b),
                         key: (req.bearing, *n),
                     });
                     *n += 1;

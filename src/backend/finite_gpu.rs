@@ -107,6 +107,16 @@ impl FinitePipeline {
         });
         let full = grid.field_len();
         let dt = 2.0 * PI / grid.n_theta as f64;
+        // Grooves and arcs: face factors and held pressures per node (binding 6).
+        let held = grid.layout.held_nodes(grid.n_theta, grid.n_z, 0.0);
+        let geo: Vec<f64> = (0..full)
+            .flat_map(|k| [held.east[k], held.north[k], held.held_pa[k]])
+            .collect();
+        let geo_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite grooves"),
+            contents: bytemuck::cast_slice(&geo),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         for (c, chunk) in jobs.chunks(CHUNK).enumerate() {
             let fchunk = &mut fields[c * CHUNK..c * CHUNK + chunk.len()];
             let n = chunk.len();
@@ -123,7 +133,7 @@ impl FinitePipeline {
                 job_data.push(job.aspect * job.aspect / (dt * dt));
                 job_data.push(grid.relaxation(job.aspect));
                 job_data.push(if warm { 1.0 } else { 0.0 });
-                job_data.push(0.0);
+                job_data.push(job.supply);
                 if grid.max_film_inlet {
                     let e = &job.state.ecc;
                     for j in 0..=grid.n_z {
@@ -196,6 +206,7 @@ impl FinitePipeline {
                 &fields_buf,
                 &results_buf,
                 &inlets_buf,
+                &geo_buf,
             ]
             .iter()
             .enumerate()

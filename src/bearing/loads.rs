@@ -88,7 +88,11 @@ pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed
         w * ecc[2] - 2.0 * state.vyj / d,
         w * ecc[3] + 2.0 * state.vxj / d,
     ];
-    let rate_scale = rate.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    // A groove supply pressure sets a scale of its own (0 without grooves: unchanged).
+    let rate_scale = rate
+        .iter()
+        .fold(0.0_f64, |m, v| m.max(v.abs()))
+        .max(params.supply_rate());
     if !rate_scale.is_finite() {
         // Finite but enormous inputs overflowed: name the input whose term did.
         let terms = [

@@ -4,6 +4,7 @@
 mod baseline;
 pub mod finite;
 mod friction;
+pub mod groove;
 mod loads;
 mod params;
 pub mod reference;
@@ -13,6 +14,7 @@ mod state;
 pub use baseline::baseline_loads;
 pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
+pub use groove::{Arc, Arcs, FilmLayout, Groove, Grooves};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{

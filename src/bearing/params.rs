@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::finite::{FilmModel, FiniteSettings};
+use super::groove::{Arcs, FilmLayout, Grooves};
 
 /// Which relative clearance the friction law of eqs. (10)-(11) uses (MODEL.md section 5).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,6 +57,17 @@ pub struct BearingParams {
     /// Grid, tolerance and `auto` threshold of the finite model; all fields default.
     #[serde(default)]
     pub finite: FiniteSettings,
+    /// Axial oil-supply grooves (docs/grooves.md): a list of at most
+    /// [`super::groove::MAX_GROOVES`] objects `{"angle", "width", "supply_pressure",
+    /// "length"}` (degrees, degrees, Pa gauge, m). Default: none. Needs `"model":
+    /// "finite"`; replaces the finite film's `max_film` inlet line.
+    #[serde(default, skip_serializing_if = "Grooves::is_empty")]
+    pub grooves: Grooves,
+    /// Lands of a partial-arc bearing: a list of at most [`super::groove::MAX_ARCS`]
+    /// objects `{"start", "extent"}` (degrees); outside every arc there is no film
+    /// (ambient pressure). Default: none, the full 360° land. Needs `"model": "finite"`.
+    #[serde(default, skip_serializing_if = "Arcs::is_empty")]
+    pub arcs: Arcs,
 }
 
 /// A bearing parameter that cannot be used.
@@ -81,6 +93,8 @@ impl BearingParams {
             clearance_convention: ClearanceConvention::Paper,
             model: FilmModel::Short,
             finite: FiniteSettings::default(),
+            grooves: Grooves::default(),
+            arcs: Arcs::default(),
         }
     }
 
@@ -115,6 +129,28 @@ impl BearingParams {
                 reason: e.reason,
             });
         }
+        if let Err(e) = super::groove::validate(&self.grooves, &self.arcs, self.length) {
+            return Err(ParamError {
+                field: e.field,
+                value: e.value,
+                reason: e.reason,
+            });
+        }
+        if self.model != FilmModel::Finite {
+            let (field, count) = if self.grooves.is_empty() {
+                ("arcs", self.arcs.as_slice().len())
+            } else {
+                ("grooves", self.grooves.as_slice().len())
+            };
+            if count > 0 {
+                return Err(ParamError {
+                    field,
+                    value: count as f64,
+                    reason: "grooves and arcs need \"model\": \"finite\" (the short-bearing rule \
+                             integrates each slice's loaded half-turn in closed form; docs/grooves.md)",
+                });
+            }
+        }
         if self.clearance >= self.radius {
             return Err(ParamError {
                 field: "clearance",
@@ -123,6 +159,27 @@ impl BearingParams {
             });
         }
         Ok(())
+    }
+
+    /// The held bands of the grooves and arcs (empty for the plain 360° bearing).
+    pub fn film_layout(&self) -> FilmLayout {
+        FilmLayout::new(&self.grooves, &self.arcs, self.length)
+    }
+
+    /// Rate, 1/s, at which the largest groove supply pressure is the film's pressure
+    /// scale: `p_s δ² / (μ B²)` (0 without a supply pressure). [`super::pack_state`]
+    /// takes the larger of it and the kinematic rate, so a supplied film at rest carries
+    /// its hydrostatic load.
+    pub fn supply_rate(&self) -> f64 {
+        if self.grooves.is_empty() {
+            return 0.0;
+        }
+        let ps = self
+            .grooves
+            .as_slice()
+            .iter()
+            .fold(0.0_f64, |m, g| m.max(g.supply_pressure));
+        ps * self.clearance * self.clearance / (self.viscosity * self.length * self.length)
     }
 
     /// Scale of every film load: `3 μ r0 B³ / δ²`, N·s (times a rate in 1/s gives N).

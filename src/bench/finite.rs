@@ -216,10 +216,7 @@ fn solver_table(p: &BearingParams, states: &[BearingState], reference: &[[f64; 4
         .filter_map(|s| {
             let packed = pack_state(p, s).ok()?;
             Some((
-                FiniteJob {
-                    state: packed.state,
-                    aspect: p.length / p.radius,
-                },
+                FiniteJob::new(p, &packed),
                 packed.rate_scale,
             ))
         })

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::bearing::{BearingParams, ClearanceConvention, FilmModel, FiniteSettings};
+use crate::bearing::{Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves};
 use crate::integrate::Method;
 
 /// Rigid-rotor mass properties. The body frame has its origin at the centre of mass `G`
@@ -53,6 +53,13 @@ pub struct BearingSpec {
     /// Axial coordinate of the bearing's mid-plane along the shaft from `G`, m (paper:
     /// +0.2 and −0.1).
     pub axial_position: f64,
+    /// Axial oil-supply grooves (docs/grooves.md); default none. Needs `"model":
+    /// "finite"`.
+    #[serde(default, skip_serializing_if = "Grooves::is_empty")]
+    pub grooves: Grooves,
+    /// Lands of a partial-arc bearing (docs/grooves.md); default none (360°).
+    #[serde(default, skip_serializing_if = "Arcs::is_empty")]
+    pub arcs: Arcs,
 }
 
 impl BearingSpec {
@@ -66,6 +73,8 @@ impl BearingSpec {
             clearance_convention: self.clearance_convention,
             model: self.model,
             finite: self.finite,
+            grooves: self.grooves,
+            arcs: self.arcs,
         }
     }
 }

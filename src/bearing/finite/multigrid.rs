@@ -28,6 +28,7 @@
 use std::f64::consts::PI;
 
 use super::solver::{film, FiniteGrid, FiniteJob};
+use crate::bearing::FilmLayout;
 
 /// Smoothing sweeps before the coarse-grid correction.
 const NU_PRE: u32 = 2;
@@ -63,8 +64,11 @@ pub(crate) struct Level {
     an: Vec<f64>,
     /// Diagonal of `A` (sum of the four face coefficients).
     d: Vec<f64>,
-    /// Inverse diagonal; 0 at held nodes (the inlet), which the smoother keeps at 0.
+    /// Inverse diagonal; 0 at held nodes (the inlet, grooves, gaps between arcs), which
+    /// the smoother keeps at their `hold` value.
     inv_d: Vec<f64>,
+    /// Held value of each held node (0 elsewhere and at the inlet).
+    hold: Vec<f64>,
     /// Inverse diagonal as a correction grid: its own inlet column is not held (it
     /// differs from the fine grid's; held, it would feed a correction `0 − u₀` back even
     /// at the fine solution); nodes next to a held fine node are frozen at `u₀` (0 here,
@@ -99,12 +103,15 @@ impl Level {
     /// discretisation as the PSOR solver's, see [`super::solver`]).
     /// `theta0`: angle of node 0, rad (0 on explicit grids; the accuracy ladder puts a
     /// node on the maximum film so the inlet line is on the grid at every level).
+    /// `layout`: the grooves and arcs, held at their pressures (Shortley–Weller faces at
+    /// their edges, see [`FilmLayout::held_nodes`]).
     pub fn setup(
         &mut self,
         job: &FiniteJob,
         nt: usize,
         nz: usize,
         max_film_inlet: bool,
+        layout: &FilmLayout,
         theta0: f64,
     ) {
         self.nt = nt;
@@ -122,6 +129,7 @@ impl Level {
             &mut self.d,
             &mut self.inv_d,
             &mut self.inv_d_free,
+            &mut self.hold,
             &mut self.f_own,
             &mut self.f,
             &mut self.p,
@@ -137,6 +145,7 @@ impl Level {
                 (th.cos(), th.sin())
             })
             .collect();
+        let held = layout.held_nodes(nt, nz, theta0);
         for j in 0..=nz {
             let zeta = j as f64 * dz;
             let zh = (j as f64 + 0.5) * dz;
@@ -147,10 +156,10 @@ impl Level {
                 let (cf, sf) = trig[2 * i + 1];
                 let (cn, sn) = trig[2 * i];
                 let hf = film(e, zeta, cf, sf);
-                self.ae[k] = ct * hf * hf * hf;
+                self.ae[k] = ct * hf * hf * hf * held.east[k];
                 if j < nz {
                     let hn = film(e, zh, cn, sn);
-                    self.an[k] = cz * hn * hn * hn;
+                    self.an[k] = cz * hn * hn * hn * held.north[k];
                 }
                 self.f_own[k] = -6.0 * (a * sn - b * cn);
             }
@@ -161,8 +170,13 @@ impl Level {
                 let im = if i == 0 { nt - 1 } else { i - 1 };
                 let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
                 self.d[k] = d;
-                self.inv_d[k] = 1.0 / d;
                 self.inv_d_free[k] = 1.0 / d;
+                if held.held_pa[k] >= 0.0 {
+                    self.inv_d[k] = 0.0;
+                    self.hold[k] = held.held_pa[k] * job.supply;
+                } else {
+                    self.inv_d[k] = 1.0 / d;
+                }
             }
             if max_film_inlet {
                 // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
@@ -227,9 +241,14 @@ impl Level {
                         i += 2;
                         continue;
                     }
-                    let gs = (self.neighbours(&p, j, i) + self.f[k]) * inv[k];
                     let old = p[k];
-                    let new = (old + omega * (gs - old)).max(0.0);
+                    let new = if inv[k] == 0.0 {
+                        // Held (solved grid): its value (0 at the inlet).
+                        self.hold[k]
+                    } else {
+                        let gs = (self.neighbours(&p, j, i) + self.f[k]) * inv[k];
+                        (old + omega * (gs - old)).max(0.0)
+                    };
                     p[k] = new;
                     max_dp = max_dp.max((new - old).abs());
                     max_p = max_p.max(new);
@@ -286,6 +305,7 @@ impl Level {
             tolerance: tol,
             max_film_inlet: false,
             accuracy: None,
+            layout: FilmLayout::default(),
         };
         let omega = g.relaxation(aspect);
         let mut updates = 0;
@@ -417,9 +437,9 @@ fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
                 && (j + 1 == fine.nz || fine.p[k + nt] > 0.0)
                 && (j == 1 || fine.p[k - nt] > 0.0);
             if fine.inv()[k] == 0.0 {
-                // Held (solved grid): 0; frozen (correction grid): unchanged.
+                // Held (solved grid): its value; frozen (correction grid): unchanged.
                 if fine.top {
-                    fine.p[k] = 0.0;
+                    fine.p[k] = fine.hold[k];
                 }
             } else if inside {
                 fine.p[k] = (fine.p[k] + v).max(0.0);
@@ -445,7 +465,7 @@ pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
             };
             let k = j * fine.nt + i;
             fine.p[k] = if fine.inv_d[k] == 0.0 {
-                0.0
+                fine.hold[k]
             } else {
                 v.max(0.0)
             };
@@ -466,7 +486,7 @@ pub(crate) struct Hierarchy {
 
 impl Hierarchy {
     /// Builds (reusing allocations) the hierarchy below and including `nt × nz`.
-    pub fn build(&mut self, job: &FiniteJob, nt: usize, nz: usize, inlet: bool) {
+    pub fn build(&mut self, job: &FiniteJob, nt: usize, nz: usize, g: &FiniteGrid) {
         let mut dims = vec![(nt, nz, None)];
         let (mut a, mut b) = (nt, nz);
         while let Some((c, d, how)) = coarser(a, b, job.aspect) {
@@ -478,15 +498,22 @@ impl Hierarchy {
         dims.reverse();
         self.levels.resize_with(dims.len(), Level::default);
         for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
-            lvl.setup(job, a, b, inlet, self.theta0);
+            lvl.setup(job, a, b, g.max_film_inlet, &g.layout, self.theta0);
             lvl.coarsen = how;
         }
     }
 
     /// Adds a finer level on top (`how` relates it to the current top).
-    pub fn push_finer(&mut self, job: &FiniteJob, nt: usize, nz: usize, inlet: bool, how: Coarsen) {
+    pub fn push_finer(
+        &mut self,
+        job: &FiniteJob,
+        nt: usize,
+        nz: usize,
+        g: &FiniteGrid,
+        how: Coarsen,
+    ) {
         let mut lvl = Level::default();
-        lvl.setup(job, nt, nz, inlet, self.theta0);
+        lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0);
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
     }
@@ -624,14 +651,16 @@ impl Hierarchy {
 }
 
 impl Level {
-    /// Copies a warm-start field of this grid's length in (held nodes set to 0).
+    /// Copies a warm-start field of this grid's length in (held nodes set to their value).
     pub fn load_field(&mut self, field: &[f64]) {
         for (k, (p, v)) in self.p.iter_mut().zip(field).enumerate() {
             let interior = k >= self.nt && k < self.nt * self.nz;
-            *p = if interior && self.inv_d[k] != 0.0 {
+            *p = if !interior {
+                0.0
+            } else if self.inv_d[k] != 0.0 {
                 *v
             } else {
-                0.0
+                self.hold[k]
             };
         }
     }

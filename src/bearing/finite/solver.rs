@@ -23,8 +23,8 @@ use std::f64::consts::PI;
 use super::multigrid::{prolong_solution, Coarsen, Hierarchy};
 use super::{FiniteSettings, Inlet};
 use crate::bearing::{
-    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, Loads, PackedState,
-    StateFault,
+    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
+    Packed, PackedState, StateFault,
 };
 
 /// Grid dimensions and tolerance, copied from [`FiniteSettings`] (what the kernels need).
@@ -36,12 +36,15 @@ pub struct FiniteGrid {
     pub n_z: usize,
     /// Relative iteration tolerance.
     pub tolerance: f64,
-    /// Pressure held at ambient along the maximum-film line.
+    /// Pressure held at ambient along the maximum-film line (never with grooves or arcs).
     pub max_film_inlet: bool,
     /// `Some(target)`: the grid is chosen per state from the nested multigrid solutions
     /// until the Richardson estimate of the load vector's relative error is below
     /// `target` (`n_theta`/`n_z` are then 0: the grid varies); `None`: the fixed grid.
     pub accuracy: Option<f64>,
+    /// Grooves and gaps between arcs: the film's held bands (docs/grooves.md); empty for
+    /// the plain 360° bearing.
+    pub layout: FilmLayout,
 }
 
 impl From<&FiniteSettings> for FiniteGrid {
@@ -57,7 +60,22 @@ impl From<&FiniteSettings> for FiniteGrid {
             } else {
                 Some(s.accuracy)
             },
+            layout: FilmLayout::default(),
         }
+    }
+}
+
+impl FiniteGrid {
+    /// The grid of a bearing: its finite settings and its grooves and arcs (which
+    /// replace the `max_film` inlet line when present).
+    pub fn for_bearing(params: &BearingParams) -> FiniteGrid {
+        let layout = params.film_layout();
+        let mut g = FiniteGrid::from(&params.finite);
+        if !layout.is_empty() {
+            g.max_film_inlet = false;
+            g.layout = layout;
+        }
+        g
     }
 }
 
@@ -94,6 +112,26 @@ pub struct FiniteJob {
     pub state: PackedState,
     /// Length over journal radius `B/r0` (the film's aspect; `λ = (B/r0)²`).
     pub aspect: f64,
+    /// Nondimensional pressure per pascal, `δ² / (μ ρ B²)` with `ρ` the rate scale, 1/Pa:
+    /// a groove's held `P` is its supply pressure times this (0: no supply pressure).
+    pub supply: f64,
+}
+
+impl FiniteJob {
+    /// The job of a packed state of bearing `params`.
+    pub fn new(params: &BearingParams, packed: &Packed) -> FiniteJob {
+        let supply = if packed.rate_scale > 0.0 && !params.grooves.is_empty() {
+            params.clearance * params.clearance
+                / (params.viscosity * packed.rate_scale * params.length * params.length)
+        } else {
+            0.0
+        };
+        FiniteJob {
+            state: packed.state,
+            aspect: params.length / params.radius,
+            supply,
+        }
+    }
 }
 
 /// How a solve went.
@@ -126,6 +164,8 @@ pub struct FiniteSolver {
     an: Vec<f64>,
     inv_d: Vec<f64>,
     rhs: Vec<f64>,
+    /// Held value of each node where `inv_d` is 0.
+    hold: Vec<f64>,
     cos: Vec<f64>,
     sin: Vec<f64>,
 }
@@ -162,10 +202,17 @@ impl FiniteSolver {
             self.cos.push(th.cos());
             self.sin.push(th.sin());
         }
-        for v in [&mut self.ae, &mut self.an, &mut self.inv_d, &mut self.rhs] {
+        for v in [
+            &mut self.ae,
+            &mut self.an,
+            &mut self.inv_d,
+            &mut self.rhs,
+            &mut self.hold,
+        ] {
             v.clear();
             v.resize(n, 0.0);
         }
+        let held = g.layout.held_nodes(nt, nz, 0.0);
         for j in 0..=nz {
             let zeta = j as f64 * dz;
             let zh = (j as f64 + 0.5) * dz;
@@ -174,10 +221,10 @@ impl FiniteSolver {
             for i in 0..nt {
                 let k = j * nt + i;
                 let hf = film(e, zeta, self.cos[2 * i + 1], self.sin[2 * i + 1]);
-                self.ae[k] = ct * hf * hf * hf;
+                self.ae[k] = ct * hf * hf * hf * held.east[k];
                 if j < nz {
                     let hn = film(e, zh, self.cos[2 * i], self.sin[2 * i]);
-                    self.an[k] = cz * hn * hn * hn;
+                    self.an[k] = cz * hn * hn * hn * held.north[k];
                 }
                 self.rhs[k] = 6.0 * (a * self.sin[2 * i] - b * self.cos[2 * i]);
             }
@@ -187,7 +234,13 @@ impl FiniteSolver {
                 let k = j * nt + i;
                 let im = if i == 0 { nt - 1 } else { i - 1 };
                 let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
-                self.inv_d[k] = 1.0 / d;
+                if held.held_pa[k] >= 0.0 {
+                    // A groove or a gap between arcs: held at its pressure.
+                    self.inv_d[k] = 0.0;
+                    self.hold[k] = held.held_pa[k] * job.supply;
+                } else {
+                    self.inv_d[k] = 1.0 / d;
+                }
             }
             if g.max_film_inlet {
                 // The column nearest the maximum film, angle arg(−ε(ζ)): held at zero
@@ -267,7 +320,7 @@ impl FiniteSolver {
         let warm = field.len() == g.field_len() && field.iter().all(|v| v.is_finite() && *v >= 0.0);
         self.mg.theta0 = 0.0;
         self.mg.updates = 0;
-        self.mg.build(job, g.n_theta, g.n_z, g.max_film_inlet);
+        self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
             self.mg.levels[top].load_field(field);
@@ -301,8 +354,7 @@ impl FiniteSolver {
             0.0
         };
         self.mg.updates = 0;
-        self.mg
-            .build(job, ladder[0].0, ladder[0].1, g.max_film_inlet);
+        self.mg.build(job, ladder[0].0, ladder[0].1, g);
         let mut top = self.mg.levels.len() - 1;
         let mut res = self.fmg(job.aspect, top, g.tolerance);
         let grid_of = |(nt, nz): (usize, usize)| FiniteGrid {
@@ -320,8 +372,7 @@ impl FiniteSolver {
         let mut estimate = f64::INFINITY;
         let mut met = false;
         for &(nt, nz) in &ladder[1..] {
-            self.mg
-                .push_finer(job, nt, nz, g.max_film_inlet, Coarsen::Both);
+            self.mg.push_finer(job, nt, nz, g, Coarsen::Both);
             top += 1;
             let (lo, hi) = self.mg.levels.split_at_mut(top);
             prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
@@ -391,9 +442,13 @@ impl FiniteSolver {
                             + self.ae[im] * p[im]
                             + self.an[k] * p[k + nt]
                             + self.an[k - nt] * p[k - nt];
-                        let gs = (s - self.rhs[k]) * self.inv_d[k];
                         let old = p[k];
-                        let new = (old + omega * (gs - old)).max(0.0);
+                        let new = if self.inv_d[k] == 0.0 {
+                            self.hold[k]
+                        } else {
+                            let gs = (s - self.rhs[k]) * self.inv_d[k];
+                            (old + omega * (gs - old)).max(0.0)
+                        };
                         p[k] = new;
                         max_dp = max_dp.max((new - old).abs());
                         max_p = max_p.max(new);
@@ -556,14 +611,15 @@ pub fn finite_solution(
     estimate: bool,
 ) -> Result<FiniteSolution, StateFault> {
     let packed = pack_state(params, state)?;
-    let job = FiniteJob {
-        state: packed.state,
-        aspect: params.length / params.radius,
-    };
+    let job = FiniteJob::new(params, &packed);
+    let grid = FiniteGrid::for_bearing(&BearingParams {
+        finite: *settings,
+        ..*params
+    });
     let mut solver = FiniteSolver::new();
     let mut field = Vec::new();
     let (ints, report) = if packed.rate_scale > 0.0 {
-        solver.solve(&job, &settings.into(), &mut field)
+        solver.solve(&job, &grid, &mut field)
     } else {
         ([0.0; 4], SolveReport::default())
     };
@@ -571,7 +627,12 @@ pub fn finite_solution(
     let (mut error_estimate, mut extrapolated) = (None, None);
     if estimate && packed.rate_scale > 0.0 {
         if let Some(coarse) = settings.coarse() {
-            let (ci, _) = solver.solve(&job, &(&coarse).into(), &mut Vec::new());
+            let cg = FiniteGrid {
+                layout: grid.layout,
+                max_film_inlet: grid.max_film_inlet,
+                ..FiniteGrid::from(&coarse)
+            };
+            let (ci, _) = solver.solve(&job, &cg, &mut Vec::new());
             let cl = finish_loads(params, state, &ci, packed.rate_scale);
             let (v, w) = (
                 loads.load_vector(params.length),
