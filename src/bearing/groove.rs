@@ -118,7 +118,8 @@ macro_rules! paths {
 }
 const GROOVE_PATHS: [[&str; 4]; MAX_GROOVES] =
     paths!("grooves", 0, 1, 2, 3, 4, 5, 6, 7; ["angle", "width", "supply_pressure", "length"]);
-const ARC_PATHS: [[&str; 2]; MAX_ARCS] = paths!("arcs", 0, 1, 2, 3, 4, 5, 6, 7; ["start", "extent"]);
+const ARC_PATHS: [[&str; 2]; MAX_ARCS] =
+    paths!("arcs", 0, 1, 2, 3, 4, 5, 6, 7; ["start", "extent"]);
 
 /// A groove or arc that cannot be used: the JSON path below the bearing, the value, why.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -451,12 +452,15 @@ mod tests {
             length: None,
         };
         let cases = [
+            (vec![ok, Groove { width: 0.0, ..ok }], "grooves[1].width"),
             (
-                vec![ok, Groove { width: 0.0, ..ok }],
-                "grooves[1].width",
-            ),
-            (
-                vec![ok, Groove { angle: f64::NAN, ..ok }],
+                vec![
+                    ok,
+                    Groove {
+                        angle: f64::NAN,
+                        ..ok
+                    },
+                ],
                 "grooves[1].angle",
             ),
             (
@@ -466,11 +470,14 @@ mod tests {
                 }],
                 "grooves[0].supply_pressure",
             ),
-            (vec![Groove { length: Some(1.0), ..ok }], "grooves[0].length"),
             (
-                vec![ok, Groove { angle: 355.0, ..ok }],
-                "grooves[1].angle",
+                vec![Groove {
+                    length: Some(1.0),
+                    ..ok
+                }],
+                "grooves[0].length",
             ),
+            (vec![ok, Groove { angle: 355.0, ..ok }], "grooves[1].angle"),
         ];
         for (g, path) in cases {
             let e = validate(&grooves(&g), &Arcs::default(), 0.05).unwrap_err();
@@ -478,7 +485,11 @@ mod tests {
         }
         // Touching grooves are fine; the two-axial-groove bearing is.
         validate(
-            &grooves(&[ok, Groove { angle: 20.0, ..ok }, Groove { angle: 180.0, ..ok }]),
+            &grooves(&[
+                ok,
+                Groove { angle: 20.0, ..ok },
+                Groove { angle: 180.0, ..ok },
+            ]),
             &Arcs::default(),
             0.05,
         )
@@ -491,11 +502,19 @@ mod tests {
             )
             .unwrap()
         };
-        let e = validate(&Grooves::default(), &arcs(&[(0.0, 200.0), (190.0, 20.0)]), 0.05)
-            .unwrap_err();
+        let e = validate(
+            &Grooves::default(),
+            &arcs(&[(0.0, 200.0), (190.0, 20.0)]),
+            0.05,
+        )
+        .unwrap_err();
         assert_eq!(e.field, "arcs[1].start");
-        let e = validate(&Grooves::default(), &arcs(&[(0.0, 180.0), (180.0, 180.0)]), 0.05)
-            .unwrap_err();
+        let e = validate(
+            &Grooves::default(),
+            &arcs(&[(0.0, 180.0), (180.0, 180.0)]),
+            0.05,
+        )
+        .unwrap_err();
         assert_eq!(e.field, "arcs[1].extent");
         let e = validate(&Grooves::default(), &arcs(&[(0.0, 400.0)]), 0.05).unwrap_err();
         assert_eq!(e.field, "arcs[0].extent");
@@ -512,10 +531,11 @@ mod tests {
         assert_eq!(g.as_slice().len(), MAX_GROOVES);
         assert_eq!(
             serde_json::to_value(g).unwrap(),
-            serde_json::from_str::<serde_json::Value>(&list.replace(
-                r#""width": 1}"#,
-                r#""width": 1.0, "supply_pressure": 0.0}"#
-            ).replace(r#""angle": 0"#, r#""angle": 0.0"#))
+            serde_json::from_str::<serde_json::Value>(
+                &list
+                    .replace(r#""width": 1}"#, r#""width": 1.0, "supply_pressure": 0.0}"#)
+                    .replace(r#""angle": 0"#, r#""angle": 0.0"#)
+            )
             .unwrap()
         );
     }

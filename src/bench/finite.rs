@@ -215,10 +215,7 @@ fn solver_table(p: &BearingParams, states: &[BearingState], reference: &[[f64; 4
         .iter()
         .filter_map(|s| {
             let packed = pack_state(p, s).ok()?;
-            Some((
-                FiniteJob::new(p, &packed),
-                packed.rate_scale,
-            ))
+            Some((FiniteJob::new(p, &packed), packed.rate_scale))
         })
         .collect();
     for (t, z) in [(32, 8), (64, 16), (128, 32), (256, 64)] {

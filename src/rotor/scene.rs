@@ -3,7 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::bearing::{Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves};
+use crate::bearing::{
+    Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves,
+};
 use crate::integrate::Method;
 
 /// Rigid-rotor mass properties. The body frame has its origin at the centre of mass `G`

@@ -16,6 +16,7 @@ pub use error_map::{
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
-    accuracy_ladder, finite_integrals, finite_loads, finite_solution, ladder_estimate,
-    richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver, SolveReport,
+    accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
+    ladder_estimate, richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
+    SolveReport,
 };
