@@ -159,6 +159,21 @@ fn compare_lund_thomsen(accuracy: f64) -> Vec<String> {
         let ks = clearance / w;
         let bs = clearance * omega / w;
         let tol = |e: f64| RTOL * e.abs() + ATOL;
+        println!(
+            "| {label} | {:.3} ({}) | {:.2} ({}) | {:.2} {:.2} {:.2} {:.2} | {:.2} {:.2} {:.2} {:.2} |",
+            eq.eccentricity_ratio,
+            row[1],
+            eq.attitude_angle.to_degrees(),
+            row[2],
+            k[0][0] * ks,
+            k[0][1] * ks,
+            k[1][0] * ks,
+            k[1][1] * ks,
+            b[0][0] * bs,
+            b[0][1] * bs,
+            b[1][0] * bs,
+            b[1][1] * bs
+        );
         for (q, actual, expected) in [
             ("Kxx", k[0][0] * ks, row[3]),
             ("Kxy", k[0][1] * ks, row[4]),
@@ -537,4 +552,126 @@ fn cpu_and_gpu_agree_with_grooves() {
         }
     }
     assert!(gpu_ev.take_notices().is_empty(), "no CPU fallback expected");
+}
+
+/// A rotor scene (JSON) on two grooved bearings, with a groove field to break.
+fn scene_json(grooves: &str, model: &str) -> String {
+    let b = |pos: f64| {
+        format!(
+            r#"{{"radius": 0.02, "length": 0.02, "clearance": 0.0001, "viscosity": 0.02,
+                "axial_position": {pos}, "model": "{model}", "finite": {{"n_theta": 72, "n_z": 8}},
+                "grooves": {grooves}}}"#
+        )
+    };
+    format!(
+        r#"{{"name": "grooved", "rotor": {{"mass": 3.0, "inertia": [0.03, 0.03, 0.02]}},
+            "bearings": [{}, {}], "gravity": [0.0, -9.81, 0.0], "spin": "held",
+            "initial": {{"spin": 500.0}},
+            "integrator": {{"method": "dopri5", "rtol": 1e-6, "atol": 1e-6, "t_end": 0.002,
+                            "sample_interval": 5e-4}}}}"#,
+        b(0.12),
+        b(-0.08)
+    )
+}
+
+/// Bad grooves and arcs are refused with the JSON path and the reason; grooves with the
+/// short (or auto) film are refused naming the field.
+#[test]
+fn bad_grooves_are_located() {
+    use bearing_sweep::rotor::load_scene;
+    let two = r#"[{"angle": 0, "width": 20}, {"angle": 180, "width": 20}]"#;
+    load_scene(&scene_json(two, "finite")).expect("the two-axial-groove scene is valid");
+    for (grooves, model, path, words) in [
+        (
+            r#"[{"angle": 0, "width": 20}, {"angle": 180, "width": 200}]"#,
+            "finite",
+            "bearings[0].grooves[1].width",
+            "(0, 180)",
+        ),
+        (
+            r#"[{"angle": 0, "width": 20}, {"angle": 10, "width": 20}]"#,
+            "finite",
+            "bearings[0].grooves[1].angle",
+            "overlaps",
+        ),
+        (
+            r#"[{"angle": 0, "width": 20, "supply_pressure": -5}]"#,
+            "finite",
+            "bearings[0].grooves[0].supply_pressure",
+            ">= 0",
+        ),
+        (
+            r#"[{"angle": 0, "width": 20, "length": 0.5}]"#,
+            "finite",
+            "bearings[0].grooves[0].length",
+            "bearing length",
+        ),
+        (two, "short", "bearings[0].grooves", "\"model\": \"finite\""),
+        (two, "auto", "bearings[0].grooves", "\"model\": \"finite\""),
+    ] {
+        let e = load_scene(&scene_json(grooves, model)).unwrap_err();
+        assert!(
+            e.path == path && e.reason.contains(words),
+            "{grooves} ({model}): got `{}`: {}, expected `{path}` and `{words}`",
+            e.path,
+            e.reason
+        );
+    }
+    // Parser-level: too many grooves, an unknown field, a wrong type.
+    let nine = format!("[{}]", vec![r#"{"angle": 0, "width": 1}"#; 9].join(","));
+    for (grooves, path, words) in [
+        (nine.as_str(), "bearings[0].grooves", "at most 8"),
+        (
+            r#"[{"angle": 0, "widht": 20}]"#,
+            "bearings[0].grooves[0].widht",
+            "unknown field",
+        ),
+        (
+            r#"[{"angle": "top", "width": 20}]"#,
+            "bearings[0].grooves[0].angle",
+            "",
+        ),
+    ] {
+        let e = load_scene(&scene_json(grooves, "finite")).unwrap_err();
+        assert!(
+            e.path == path && e.reason.contains(words),
+            "{grooves}: got `{}`: {}, expected `{path}` and `{words}`",
+            e.path,
+            e.reason
+        );
+    }
+}
+
+/// A rotor scene on two-axial-groove bearings integrates (the finite film with grooves
+/// inside the time integration) and its JSON round-trips with the grooves.
+#[test]
+fn grooved_scene_runs() {
+    use bearing_sweep::rotor::load_scene;
+    let two = r#"[{"angle": 0, "width": 20}, {"angle": 180, "width": 20}]"#;
+    let scenes = load_scene(&scene_json(two, "finite")).unwrap();
+    let json = serde_json::to_value(&scenes[0]).unwrap();
+    assert_eq!(json["bearings"][0]["grooves"][1]["angle"], 180.0);
+    assert!(
+        serde_json::to_value(BearingParams::paper_table2())
+            .unwrap()
+            .get("grooves")
+            .is_none(),
+        "no grooves: no key (outputs as before)"
+    );
+    let dir = std::env::temp_dir().join(format!("grooves-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("scene.json");
+    std::fs::write(&file, scene_json(two, "finite")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
+        .args(["run", file.to_str().unwrap(), "--out"])
+        .arg(dir.join("out"))
+        .args(["--backend", "cpu", "--quiet"])
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        out.status.success(),
+        "run failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -54,6 +54,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../sweeps/stability-map-timed.json"),
     ),
     ("finite-film", include_str!("../../sweeps/finite-film.json")),
+    (
+        "two-axial-groove",
+        include_str!("../../sweeps/two-axial-groove.json"),
+    ),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`
