@@ -76,7 +76,9 @@ pub struct FiniteSettings {
     /// model-error map) accepted before the finite model is used. Default 0.05 (5 %).
     #[serde(default = "default_auto_tolerance")]
     pub auto_tolerance: f64,
-    /// Film inlet: `"max_film"` (default) or `"none"` (see [`Inlet`]).
+    /// Film inlet: `"max_film"` (default) or `"none"` (see [`Inlet`]). Not used when the
+    /// bearing has `grooves` or `arcs`: the film is then fed at the grooves and arc ends
+    /// (docs/grooves.md).
     #[serde(default)]
     pub inlet: Inlet,
 }
