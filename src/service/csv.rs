@@ -230,8 +230,17 @@ pub fn param_column(axis_path: &str, numeric: bool) -> String {
         last = key;
     }
     let mut name = words.join("_");
+    // Groove and arc fields (docs/grooves.md): angles in degrees, pressure in Pa.
+    let grooved = axis_path
+        .split('.')
+        .any(|p| p.starts_with("grooves") || p.starts_with("arcs"));
+    let unit = match last {
+        "angle" | "width" | "start" | "extent" if grooved => Some("deg"),
+        "supply_pressure" => Some("pa"),
+        _ => scene_unit(last),
+    };
     if numeric {
-        if let Some(u) = scene_unit(last) {
+        if let Some(u) = unit {
             name.push('_');
             name.push_str(u);
         }
@@ -375,6 +384,13 @@ mod tests {
             ("rotor.static_unbalance[0]", "rotor_static_unbalance_0_m"),
             ("initial.spin", "initial_spin_rad_s"),
             ("gravity[1]", "gravity_1_m_s2"),
+            ("bearings[*].grooves[*].width", "bearings_grooves_width_deg"),
+            ("bearings[0].grooves[1].angle", "b0_grooves_1_angle_deg"),
+            (
+                "bearings[0].grooves[1].supply_pressure",
+                "b0_grooves_1_supply_pressure_pa",
+            ),
+            ("bearings[*].arcs[0].extent", "bearings_arcs_0_extent_deg"),
         ] {
             assert_eq!(param_column(path, true), want, "{path}");
         }
