@@ -181,9 +181,8 @@ pub fn validate(grooves: &Grooves, arcs: &Arcs, length_m: f64) -> Result<(), Geo
             }
         }
         let a = interval(g.angle, g.width, true);
-        for (m, h) in gs[..k].iter().enumerate() {
+        for h in &gs[..k] {
             if overlaps(a, interval(h.angle, h.width, true)) {
-                let _ = m;
                 return err(p[0], g.angle, "this groove overlaps an earlier one");
             }
         }
@@ -523,10 +522,10 @@ mod tests {
     #[test]
     fn too_many_grooves_are_refused_by_the_parser() {
         let one = r#"{"angle": 0, "width": 1}"#;
-        let list = format!("[{}]", vec![one; MAX_GROOVES + 1].join(","));
+        let list = format!("[{}]", [one; MAX_GROOVES + 1].join(","));
         let e = serde_json::from_str::<Grooves>(&list).unwrap_err();
         assert!(e.to_string().contains("at most 8"), "{e}");
-        let list = format!("[{}]", vec![one; MAX_GROOVES].join(","));
+        let list = format!("[{}]", [one; MAX_GROOVES].join(","));
         let g: Grooves = serde_json::from_str(&list).unwrap();
         assert_eq!(g.as_slice().len(), MAX_GROOVES);
         assert_eq!(
@@ -584,8 +583,8 @@ mod tests {
         let held: Vec<usize> = (0..72).filter(|&i| hg.held_pa[72 + i] >= 0.0).collect();
         assert_eq!(held, vec![0, 1, 2, 34, 35, 36, 37, 38, 70, 71]);
         assert!((hg.east[72 + 69] - 1.0).abs() < 1e-9);
-        // 64 intervals (5.625°): the edge at 10° is 1.78 steps from node 0 ... node 2 at
-        // 11.25° is held (within half a step), node 3 free at 0.222 steps + ... check s.
+        // 64 intervals (5.625°): node 2 at 11.25° is outside the groove (edge 10°) but
+        // within half a step of it, so held; node 3 is free.
         let h = g.held_nodes(64, 8, 0.0);
         let held: Vec<usize> = (0..4).filter(|&i| h.held_pa[64 + i] >= 0.0).collect();
         assert_eq!(held, vec![0, 1, 2]);
