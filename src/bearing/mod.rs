@@ -2,6 +2,7 @@
 //! the default load rule, friction, the brute-force baseline and reference values.
 
 mod baseline;
+pub mod film_flow;
 pub mod finite;
 mod friction;
 mod loads;
@@ -11,6 +12,7 @@ mod rule;
 mod state;
 
 pub use baseline::baseline_loads;
+pub use film_flow::{bearing_loads, FilmFlow, FrictionLaw};
 pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
