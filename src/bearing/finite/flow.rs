@@ -15,8 +15,11 @@
 //! The sums are exact discrete identities:
 //!
 //! - **side flow** at an end: the pressure flux through the faces between the end row and
-//!   the first interior row, `Σ_i a_N (P_1 − P_0) Δθ Δζ`: the interior cells' fluxes
-//!   telescope to exactly these two (conservative).
+//!   the first interior row, `Σ_i a_N (P_1 − P_0) Δθ Δζ` (the interior cells' fluxes
+//!   telescope to exactly these two: conservative), carried on to the end face itself
+//!   through the end half-cells `[0, Δζ/2]` of the pressure zone's columns (less their
+//!   Couette and squeeze outflow `rhs ΔθΔζ/2`; the θ pressure flux there is zero at the
+//!   end row), which makes it second order in the grid.
 //! - **inlet flow**: `Σ (σ_k − storage_k)` over held and cavitated nodes: the flow into
 //!   the held nodes, with the ruptured zone carrying on the Couette flow that left the
 //!   pressure zone at rupture (as streamers, at constant flow) instead of a full film.
@@ -98,12 +101,33 @@ pub fn flow_integrals(
         })
         .collect();
     let mut out = FlowIntegrals::default();
-    for i in 0..nt {
-        out.side[0] += an[i] * (p[nt + i] - p[i]);
-        let k = (nz - 1) * nt + i;
-        out.side[1] += an[k] * (p[k] - p[k + nt]);
-    }
     let mut abs_residual = 0.0;
+    // End half-cells (rows 0 and n_z, area ΔθΔζ/2): the side flow of a column whose first
+    // interior node is in the pressure zone is the face flux less the half cell's own
+    // Couette and squeeze outflow (the face is Δζ/2 inside the end; without the half
+    // cell the side flow would be first order in Δζ); elsewhere the half cell belongs to
+    // the ruptured or held zone and its balance goes to the inlet flow.
+    for (end, (row, inner, face)) in [(0, nt, 0), (nz * nt, (nz - 1) * nt, (nz - 1) * nt)]
+        .into_iter()
+        .enumerate()
+    {
+        let zeta = if end == 0 { 0.0 } else { 1.0 };
+        let ex = e[0] + (e[2] - e[0]) * zeta;
+        let ey = e[1] + (e[3] - e[1]) * zeta;
+        for i in 0..nt {
+            let flux = an[face + i] * (p[inner + i] - p[row + i]);
+            let rhs = -f[row + i];
+            let (c, s) = trig[2 * i];
+            let storage = rhs - 6.0 * spin * (ex * s - ey * c);
+            if inv_d[inner + i] != 0.0 && p[inner + i] > 0.0 {
+                out.side[end] += flux - 0.5 * rhs;
+                out.storage += 0.5 * storage;
+            } else {
+                out.side[end] += flux;
+                out.inlet += 0.5 * (rhs - storage);
+            }
+        }
+    }
     let mut loads = [0.0; 4];
     for j in 1..nz {
         let zeta = j as f64 * dz;
