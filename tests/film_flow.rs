@@ -365,3 +365,67 @@ fn finite_pressure_torque_matches_the_load_moment_identity() {
         );
     }
 }
+
+/// `eval` (and the service's eval, the same code) reports the film's friction and flow
+/// beside the paper's law, for the short and the finite film; a faulty state has `null`s.
+/// The finite film's numbers through the evaluator (field from the backend) are those of
+/// the direct solve.
+#[test]
+fn eval_reports_film_friction_and_flow() {
+    use bearing_sweep::cli::{eval_json, EvalOptions};
+    for model in ["short", "finite"] {
+        let input = serde_json::json!({
+            "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
+                        "model": model, "finite": {"accuracy": 2e-3}},
+            "states": [
+                {"xi": 1.8e-4, "yi": 0.0, "xj": 1.8e-4, "yj": 0.0, "vxi": 0.0, "vyi": 0.0,
+                 "vxj": 0.0, "vyj": 0.0, "omega": 100.0},
+                {"xi": 4e-4, "yi": 0.0, "xj": 0.0, "yj": 0.0, "vxi": 0.0, "vyi": 0.0,
+                 "vxj": 0.0, "vyj": 0.0, "omega": 100.0}
+            ]
+        });
+        let (out, _) = eval_json(&input.to_string(), EvalOptions::default()).unwrap();
+        let p: BearingParams = serde_json::from_value(input["bearing"].clone()).unwrap();
+        let s: BearingState = serde_json::from_value(input["states"][0].clone()).unwrap();
+        let want = if model == "short" {
+            short(&p, &s)
+        } else {
+            finite(&p, &s)
+        };
+        let l = &out["loads"][0];
+        assert_eq!(l["friction_model"], "paper", "{model}");
+        let film = &l["film"];
+        for (n, (key, expected)) in [
+            ("friction_torque_nm", want.film.friction_torque_nm),
+            ("power_loss_w", want.film.power_loss_w),
+            ("friction_variable", want.film.friction_variable.unwrap()),
+            ("side_flow_i_m3_per_s", want.film.side_flow_i_m3_per_s),
+            ("side_flow_j_m3_per_s", want.film.side_flow_j_m3_per_s),
+            ("side_flow_m3_per_s", want.film.side_flow_m3_per_s),
+            ("inlet_flow_m3_per_s", want.film.inlet_flow_m3_per_s),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let actual = film[key].as_f64().unwrap_or(f64::NAN);
+            check(
+                &format!("{model} eval film.{key}"),
+                n,
+                actual,
+                expected,
+                1e-9,
+            );
+        }
+        // Steady, aligned: inlet = side flow (finite: to the solver's tolerance).
+        check(
+            &format!("{model} inlet/side"),
+            0,
+            want.film.inlet_flow_m3_per_s,
+            want.film.side_flow_m3_per_s,
+            1e-6,
+        );
+        let bad = &out["loads"][1];
+        assert_eq!(bad["status"], "through_wall", "{model}: {bad}");
+        assert!(bad["film"].is_null() && bad["friction_model"].is_null());
+    }
+}
