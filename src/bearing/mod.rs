@@ -2,6 +2,7 @@
 //! the default load rule, friction, the brute-force baseline and reference values.
 
 mod baseline;
+pub mod film_flow;
 pub mod finite;
 mod friction;
 pub mod groove;
@@ -12,6 +13,7 @@ mod rule;
 mod state;
 
 pub use baseline::baseline_loads;
+pub use film_flow::{bearing_loads, FilmFlow, FrictionLaw};
 pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
 pub use groove::{Arc, Arcs, FilmLayout, Groove, Grooves};

@@ -105,6 +105,12 @@ fn point_json(
         "friction_coefficient": c.loads.friction_coefficient,
         "friction_torque": c.loads.mz,
         "power_loss": c.loads.power_loss,
+        "friction_model": c.loads.friction_model.name(),
+        "film_friction_torque_nm": c.loads.film.friction_torque_nm,
+        "film_power_loss_w": c.loads.film.power_loss_w,
+        "film_friction_variable": c.loads.film.friction_variable,
+        "side_flow_m3_per_s": c.loads.film.side_flow_m3_per_s,
+        "inlet_flow_m3_per_s": c.loads.film.inlet_flow_m3_per_s,
         "order": ORDER,
         "stiffness": matrix(&c.stiffness),
         "damping": matrix(&c.damping),
@@ -443,6 +449,11 @@ pub fn ross_toml(out: &Value, version: RossVersion) -> String {
         "friction_coefficient",
         "friction_torque",
         "power_loss",
+        "film_friction_torque_nm",
+        "film_power_loss_w",
+        "film_friction_variable",
+        "side_flow_m3_per_s",
+        "inlet_flow_m3_per_s",
     ] {
         meta.insert(key.into(), per_point(&|p| p[key].clone()));
     }

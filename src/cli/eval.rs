@@ -260,6 +260,9 @@ impl<W: Write> Run<'_, W> {
             "backend_choice": evaluator.choice(),
             "clearance_convention": bearing.clearance_convention.name(),
             "film_model": bearing.model.name(),
+            "friction_model": "paper (mz, friction_coefficient, power_loss: eqs. 10-11); film: \
+                               shear stress over the film (full-film Couette shear over 360° \
+                               plus the pressure-gradient term), side and inlet flows",
             "units": "SI (N, N·m, m, W)",
         });
         let text = serde_json::to_string_pretty(&doc).unwrap_or_default();
@@ -342,6 +345,7 @@ fn load_json(k: usize, r: &LoadResult, bearing: &BearingParams, state: &BearingS
             "error": format!("states[{k}]: {fault}"),
             "wx": null, "wy": null, "mx": null, "my": null, "mz": null,
             "friction_coefficient": null, "sommerfeld": null, "h_min": null, "power_loss": null,
+            "friction_model": null, "film": null,
         }),
     }
 }

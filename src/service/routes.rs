@@ -1182,7 +1182,7 @@ async fn sweep_events(
 #[utoipa::path(post, path = "/api/eval",
     params(("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Relative accuracy (as `eval --accuracy`; default 1e-6)")),
     request_body(content = serde_json::Value, description = "`{\"bearing\": {...}, \"states\": [...]}` as for `eval`", content_type = "application/json"),
-    responses((status = 200, description = "`eval`'s output", body = serde_json::Value),
+    responses((status = 200, description = "`eval`'s output: per state `status`, `wx, wy` (N), `mx, my, mz` (N·m), `friction_coefficient`, `sommerfeld`, `h_min` (m), `power_loss` (W), `friction_model` (`paper`: the law of `mz`, `friction_coefficient`, `power_loss`) and `film`: `{friction_torque_nm, power_loss_w, friction_coefficient, friction_variable, side_flow_i_m3_per_s, side_flow_j_m3_per_s, side_flow_m3_per_s, inlet_flow_m3_per_s}` from the shear stress over the film and its flows (docs/outputs.md)", body = serde_json::Value),
               (status = 400, description = "Not JSON", body = ErrorBody),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 413, description = "Body too large", body = ErrorBody),

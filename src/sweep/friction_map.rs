@@ -452,7 +452,13 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Frict
                             Some(json!({"eccentricity": num(Some(eps)),
                                         "attitude_deg": num(Some(if eps > 0.0 { attitude } else { 90.0 })),
                                         "h_min_m": num(Some(l.h_min)),
-                                        "film_force_n": num(Some(w))})),
+                                        "film_force_n": num(Some(w)),
+                                        // The film's own friction and flow (issue 24).
+                                        "film_friction_coefficient": num(l.film.friction_coefficient),
+                                        "film_friction_variable": num(l.film.friction_variable),
+                                        "film_friction_torque_nm": num(Some(l.film.friction_torque_nm.abs())),
+                                        "film_power_loss_w": num(Some(l.film.power_loss_w)),
+                                        "side_flow_m3_per_s": num(Some(l.film.side_flow_m3_per_s))})),
                         )
                     }
                     None => (f64::NAN, None),
@@ -504,9 +510,11 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Frict
         "model": match spec.model { MapModel::Sommerfeld => "sommerfeld", MapModel::Film => "film" },
         "integrator": "none (no dynamics: eqs. 10-11 evaluated directly)",
         "clearance_convention": p.clearance_convention.name(),
+        "friction_model": "paper (friction_coefficient, friction_torque_nm, power_loss_w: eqs. 10-11); film_*: the short film's shear stress (model film only)",
         "accuracy": match spec.model { MapModel::Film => json!(accuracy.rtol()), MapModel::Sommerfeld => Value::Null },
         "units": {"load_n": "N", "speed_rad_s": "rad/s", "friction_torque_nm": "N·m (magnitude)",
-                  "power_loss_w": "W", "h_min_m": "m", "film_force_n": "N", "attitude_deg": "degrees, from the load to the line of centres",
+                  "power_loss_w": "W", "film_power_loss_w": "W", "film_friction_torque_nm": "N·m (magnitude)",
+                  "side_flow_m3_per_s": "m³/s", "film_friction_coefficient, film_friction_variable": "dimensionless", "h_min_m": "m", "film_force_n": "N", "attitude_deg": "degrees, from the load to the line of centres",
                   "friction_coefficient, sommerfeld, eccentricity": "dimensionless"},
         "curves": curves,
     });
