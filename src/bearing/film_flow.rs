@@ -228,7 +228,14 @@ pub fn projected_integral(e0: [f64; 2], e1: [f64; 2], c0: [f64; 2], c1: [f64; 2]
     let f = |t: f64| {
         let s = t.hypot(k);
         let log_term = if k > 0.0 {
-            (n0 - 0.5 * n2 * k * k) * (t / k).asinh()
+            // asinh(t/k) = sign(t) (ln 2|t| − ln k) + O(k²/t²) where t/k may overflow
+            // (a subnormal k: a spin of 1e-310 rad/s).
+            let ash = if t.abs() > 1e8 * k {
+                t.signum() * ((2.0 * t.abs()).ln() - k.ln())
+            } else {
+                (t / k).asinh()
+            };
+            (n0 - 0.5 * n2 * k * k) * ash
         } else {
             // k = 0: c vanishes at t = 0, so n0 = 0 and the term is absent.
             0.0
