@@ -18,6 +18,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::lubricant::Lubricant;
+use super::{BearingParams, BearingState, Loads};
 
 /// Default effective-temperature factor `k` in `T_eff = T_supply + k ΔT`: 0.8, the value
 /// Khonsari & Booser (*Applied Tribology*, ch. 8, effective temperature) recommend from
@@ -247,6 +248,68 @@ pub fn solve_balance(
         (fb, pqb) = eval(b)?;
     }
     Ok(finish(b, pqb, evaluations))
+}
+
+/// Side flow of one state, m³/s: the half-Sommerfeld short film's side leakage for an
+/// aligned journal, `Q = |ω0| r0 δ B ε` (the converging film's `U c L ε`; Hamrock,
+/// *Fundamentals of Fluid Film Lubrication*, short-bearing side flow), taken at the
+/// mid-plane eccentricity ratio and without the squeeze terms. Used for every film model
+/// until the film's own side flow (issue 24 item 1) replaces it (docs/thermal.md).
+pub fn short_film_side_flow(params: &BearingParams, state: &BearingState) -> f64 {
+    let ex = 0.5 * (state.xi + state.xj);
+    let ey = 0.5 * (state.yi + state.yj);
+    let eps = (ex.hypot(ey) / params.clearance).min(1.0);
+    state.omega.abs() * params.radius * params.clearance * params.length * eps
+}
+
+/// The balance of one fixed state (`eval`): `loads` were computed with `params.viscosity`
+/// = `μ(T_supply)`. At a fixed journal position every load, the friction torque and the
+/// power scale with `μ` (the pressure and the shear are linear in `μ`; `f`, `S` and the
+/// flow do not change), so the balance needs no further film solutions. Returns the
+/// balance and the loads at `μ(T_eff)`; `None` for a bearing without a lubricant.
+pub fn state_balance(
+    params: &BearingParams,
+    state: &BearingState,
+    loads: &Loads,
+) -> Option<Result<(Balance, Loads), ThermalError>> {
+    let (lub, supply) = (params.lubricant?, params.supply_temperature?);
+    let mu_s = params.viscosity;
+    let q = short_film_side_flow(params, state);
+    let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
+        Ok((loads.power_loss * mu / mu_s, q))
+    });
+    Some(bal.map(|b| {
+        let s = b.viscosity_pa_s / mu_s;
+        let scaled = Loads {
+            wx: loads.wx * s,
+            wy: loads.wy * s,
+            mx: loads.mx * s,
+            my: loads.my * s,
+            mz: loads.mz * s,
+            power_loss: loads.power_loss * s,
+            ..*loads
+        };
+        (b, scaled)
+    }))
+}
+
+/// The balance of one state as written in outputs (`eval`, friction maps).
+pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
+    serde_json::json!({
+        "lubricant": bearing.lubricant.map(|l| l.name()),
+        "supply_temperature_c": bearing.supply_temperature,
+        "effective_temperature_c": b.effective_temperature_c,
+        "temperature_rise_k": b.temperature_rise_k,
+        "effective_viscosity_pa_s": b.viscosity_pa_s,
+        "power_loss_w": b.power_loss_w,
+        "side_flow_m3_s": b.side_flow_m3_s,
+        "heat_to_flow_w": b.heat_to_flow_w,
+        "heat_to_housing_w": b.heat_to_housing_w,
+        "effective_factor": bearing.thermal.effective_factor,
+        "tolerance_k": bearing.thermal.tolerance,
+        "evaluations": b.evaluations,
+        "side_flow_model": "short film, half-Sommerfeld: |ω0| r0 δ B ε at the mid-plane",
+    })
 }
 
 #[cfg(test)]
