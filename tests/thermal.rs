@@ -269,3 +269,158 @@ fn service_eval_with_a_lubricant() {
     assert_eq!(a.status, 422, "{}", a.text);
     assert!(a.text.contains("not both"), "{}", a.text);
 }
+
+/// The design chart of the paper bearing (h_min, power loss, side flow and temperature
+/// rise against clearance for ISO VG 32/46/68 supplied at 40 °C; docs/thermal.md), with
+/// its physics checked: a thicker grade gives a thicker film and more power at every
+/// clearance. `BEARING_SWEEP_WRITE_FIGURES=1` writes
+/// `reports/figures/thermal-design-chart.svg` and prints the isothermal-vs-thermal table.
+#[test]
+fn design_chart_thicker_oil_thicker_film_more_power() {
+    use bearing_sweep::bearing::{BearingParams, FilmRule};
+    use bearing_sweep::plot::{line_plot_svg, Scale, Series};
+    use bearing_sweep::sweep::friction_map::{equilibrium_eccentricity, map_balance};
+    let (load, omega, supply) = (1000.0, 1000.0, 40.0);
+    let clearances: Vec<f64> = (0..12)
+        .map(|k| 40e-6 * (600.0f64 / 40.0).powf(k as f64 / 11.0))
+        .collect();
+    let rule = FilmRule::new(Accuracy::default().settings());
+    let grades = [32u16, 46, 68];
+    // [grade][clearance] -> (h_min µm, power W, flow L/min, rise K, isothermal h_min µm,
+    // isothermal power W)
+    let mut rows = Vec::new();
+    for &g in &grades {
+        let mut row = Vec::new();
+        for &c in &clearances {
+            let p: BearingParams = serde_json::from_value(json!({
+                "radius": 0.02, "length": 0.02, "clearance": c,
+                "lubricant": format!("ISO VG {g}"), "supply_temperature": supply}))
+            .unwrap();
+            let b = map_balance(&p, &rule, load, omega).unwrap();
+            let hot = BearingParams {
+                viscosity: b.viscosity_pa_s,
+                ..p
+            };
+            let (_, l) = equilibrium_eccentricity(&hot, &rule, load, omega).unwrap();
+            let (_, li) = equilibrium_eccentricity(&p, &rule, load, omega).unwrap();
+            row.push((
+                l.h_min * 1e6,
+                b.power_loss_w,
+                b.side_flow_m3_s * 6e4,
+                b.temperature_rise_k,
+                li.h_min * 1e6,
+                li.power_loss,
+            ));
+        }
+        rows.push(row);
+    }
+    for k in 0..clearances.len() {
+        for gi in 1..grades.len() {
+            let (thin, thick) = (rows[gi - 1][k], rows[gi][k]);
+            assert!(
+                thick.0 > thin.0 && thick.1 > thin.1,
+                "clearance index {k}: VG {} h_min {} µm / {} W not above VG {} {} µm / {} W",
+                grades[gi],
+                thick.0,
+                thick.1,
+                grades[gi - 1],
+                thin.0,
+                thin.1
+            );
+        }
+        for (gi, r) in rows.iter().enumerate() {
+            // Heating thins the oil: the thermal film is thinner than the isothermal one.
+            assert!(
+                r[k].0 < r[k].4,
+                "VG {} clearance index {k}: thermal h_min {} not below isothermal {}",
+                grades[gi],
+                r[k].0,
+                r[k].4
+            );
+        }
+    }
+    if std::env::var("BEARING_SWEEP_WRITE_FIGURES").is_err() {
+        return;
+    }
+    let names: Vec<String> = grades.iter().map(|g| format!("ISO VG {g}")).collect();
+    let panel = |title: &str, y: &str, pick: &dyn Fn(&(f64, f64, f64, f64, f64, f64)) -> f64| {
+        let series: Vec<Series<'_>> = rows
+            .iter()
+            .zip(&names)
+            .map(|(row, n)| Series {
+                label: n,
+                points: clearances
+                    .iter()
+                    .zip(row)
+                    .map(|(&c, r)| (c * 1e6, pick(r)))
+                    .collect(),
+            })
+            .collect();
+        line_plot_svg(
+            title,
+            "radial clearance (µm)",
+            y,
+            &series,
+            Scale::Log,
+            Scale::Log,
+        )
+        .unwrap()
+    };
+    let panels = [
+        panel("Minimum film thickness", "h_min (µm)", &|r| r.0),
+        panel("Friction power loss", "power loss (W)", &|r| r.1),
+        panel("Side flow", "side flow (L/min)", &|r| r.2),
+        panel("Oil temperature rise", "ΔT (K)", &|r| r.3),
+    ];
+    // Four panels in a 2 x 2 grid of nested SVGs, each at its own size.
+    let size = |s: &str, key: &str| -> f64 {
+        let at = s.find(&format!("{key}=\"")).unwrap() + key.len() + 2;
+        s[at..].split('"').next().unwrap().trim_end_matches("px").parse().unwrap()
+    };
+    let (w, h) = (size(&panels[0], "width"), size(&panels[0], "height"));
+    let head = 40.0;
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{}\" y=\"26\" font-family=\"sans-serif\" font-size=\"18\" text-anchor=\"middle\">Paper bearing (r0 = B = 20 mm), {load} N at {omega} rad/s, oil supplied at {supply} °C, thermal balance (k = 0.8, adiabatic)</text>\n",
+        2.0 * w,
+        2.0 * h + head,
+        w
+    );
+    for (i, p) in panels.iter().enumerate() {
+        let body = p.trim_start_matches(|c| c != '<');
+        let body = body.strip_prefix("<?xml").map_or(body, |r| &r[r.find("?>").unwrap() + 2..]);
+        let inner = body.replacen(
+            "<svg ",
+            &format!(
+                "<svg x=\"{}\" y=\"{}\" ",
+                (i % 2) as f64 * w,
+                head + (i / 2) as f64 * h
+            ),
+            1,
+        );
+        svg.push_str(&inner);
+        svg.push('\n');
+    }
+    svg.push_str("</svg>\n");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("reports/figures/thermal-design-chart.svg");
+    std::fs::write(&path, svg).unwrap();
+    println!("| grade | clearance µm | h_min isothermal µm | h_min thermal µm | change | power isothermal W | power thermal W | change | ΔT K |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (gi, row) in rows.iter().enumerate() {
+        for k in [0, 4, 8, 11] {
+            let r = row[k];
+            println!(
+                "| VG {} | {:.0} | {:.2} | {:.2} | {:+.1} % | {:.1} | {:.1} | {:+.1} % | {:.1} |",
+                grades[gi],
+                clearances[k] * 1e6,
+                r.4,
+                r.0,
+                100.0 * (r.0 / r.4 - 1.0),
+                r.5,
+                r.1,
+                100.0 * (r.1 / r.5 - 1.0),
+                r.3
+            );
+        }
+    }
+}
