@@ -582,13 +582,23 @@ impl LoadEvaluator {
                 self.stats.finite_unconverged += u64::from(!reports[n].converged);
                 let req = &requests[slot.request];
                 out[slot.request] = if ints[n].iter().all(|x| x.is_finite()) {
-                    finish_loads(
-                        &bearings[req.bearing as usize],
-                        &req.state,
-                        &ints[n],
-                        slot.rate_scale,
-                    )
-                    .finite_or_fault()
+                    let params = &bearings[req.bearing as usize];
+                    finish_loads(params, &req.state, &ints[n], slot.rate_scale)
+                        .finite_or_fault()
+                        .map(|mut l| {
+                            // Film friction and flow from the returned field (issue 24).
+                            crate::bearing::finite::apply_finite_flow(
+                                &mut l,
+                                params,
+                                &req.state,
+                                slot.rate_scale,
+                                &slot.job,
+                                &grid,
+                                &reports[n],
+                                &fields[n],
+                            );
+                            l
+                        })
                 } else {
                     Err(StateFault::BackendNonFinite)
                 };

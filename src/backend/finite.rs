@@ -3,8 +3,8 @@
 
 use rayon::prelude::*;
 
-use crate::bearing::finite::{short_model_error, FiniteGrid, FiniteJob, FiniteSolver, SolveReport};
-use crate::bearing::{BearingParams, BearingState, FilmIntegrals, FilmModel};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, FiniteSolver, SolveReport};
+use crate::bearing::FilmIntegrals;
 
 /// Solves `jobs` on the calling thread's rayon pool, one task per state (a state is
 /// 0.1-10 ms of work, so no chunking is needed). `fields[k]` is job k's warm start
@@ -44,23 +44,6 @@ pub(crate) fn cpu_integrate_finite(
     }
 }
 
-/// The model a state of bearing `params` is evaluated with: `short` and `finite` as
-/// given; `auto` picks `finite` where the model-error map's load or attitude error
-/// (attitude in radians, i.e. the tangential share of the load) at the bearing's `B/D`
-/// and the state's larger end eccentricity exceeds `finite.auto_tolerance`.
-pub fn effective_model(params: &BearingParams, state: &BearingState) -> FilmModel {
-    match params.model {
-        FilmModel::Auto => {
-            let (ei, ej) = state.eccentricity_ratios(params.clearance);
-            let err = short_model_error(params.length / (2.0 * params.radius), ei.max(ej));
-            if err.load.abs().max(err.attitude_deg.to_radians().abs())
-                > params.finite.auto_tolerance
-            {
-                FilmModel::Finite
-            } else {
-                FilmModel::Short
-            }
-        }
-        m => m,
-    }
-}
+/// The model a state is evaluated with (moved to [`crate::bearing::finite`] so that the
+/// bearing layer can resolve `auto` too).
+pub use crate::bearing::finite::effective_model;

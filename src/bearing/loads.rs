@@ -3,6 +3,7 @@
 
 use serde::Serialize;
 
+use super::film_flow::{short_film_flow, FilmFlow, FrictionLaw};
 use super::friction::friction;
 use super::rule::{FilmIntegrals, FilmRule, PackedState};
 use super::{BearingParams, BearingState, StateFault};
@@ -28,6 +29,14 @@ pub struct Loads {
     pub h_min: f64,
     /// Friction power loss `|M_z ω0|`, W.
     pub power_loss: f64,
+    /// Which law produced `mz`, `friction_coefficient` and `power_loss`: `"paper"`
+    /// (eqs. 10-11, the default and today the only one these fields take; the film's own
+    /// friction is in `film`).
+    pub friction_model: FrictionLaw,
+    /// Film friction (shear stress over the film) and flow: side flow at both ends and
+    /// the inlet flow (issue 24; [`crate::bearing::film_flow`]). Short film: closed forms;
+    /// finite film: from the converged pressure field.
+    pub film: FilmFlow,
 }
 
 impl Loads {
@@ -52,6 +61,14 @@ impl Loads {
             ("sommerfeld", self.sommerfeld.unwrap_or(0.0)),
             ("h_min", self.h_min),
             ("power_loss", self.power_loss),
+            ("film.friction_torque_nm", self.film.friction_torque_nm),
+            ("film.power_loss_w", self.film.power_loss_w),
+            (
+                "film.friction_variable",
+                self.film.friction_variable.unwrap_or(0.0),
+            ),
+            ("film.side_flow_m3_per_s", self.film.side_flow_m3_per_s),
+            ("film.inlet_flow_m3_per_s", self.film.inlet_flow_m3_per_s),
         ];
         match fields.iter().find(|(_, v)| !v.is_finite()) {
             Some(&(quantity, _)) => Err(StateFault::Overflow { quantity }),
@@ -135,6 +152,7 @@ pub fn finish_loads(
     let mx = -f * params.length * integrals[3];
     let my = f * params.length * integrals[2];
     let fr = friction(params, wx.hypot(wy), state.omega);
+    let film = short_film_flow(params, state, [wx, wy], [mx, my]);
     Loads {
         wx,
         wy,
@@ -145,6 +163,8 @@ pub fn finish_loads(
         sommerfeld: fr.sommerfeld,
         h_min: state.h_min(params.clearance),
         power_loss: (fr.mz * state.omega).abs(),
+        friction_model: FrictionLaw::Paper,
+        film,
     }
 }
 

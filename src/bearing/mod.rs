@@ -3,6 +3,7 @@
 //! lubricants and the thermal balance (issue 24).
 
 mod baseline;
+pub mod film_flow;
 pub mod finite;
 mod friction;
 mod loads;
@@ -14,6 +15,7 @@ mod state;
 pub mod thermal;
 
 pub use baseline::baseline_loads;
+pub use film_flow::{bearing_loads, FilmFlow, FrictionLaw};
 pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};

@@ -2,7 +2,7 @@
 //! steady rotation, over `B/D` and eccentricity `ε` (docs/finite-film.md "Model-error map").
 
 use super::{finite_loads, FiniteSettings};
-use crate::bearing::{film_loads, Accuracy, BearingParams, BearingState, FilmRule};
+use crate::bearing::{film_loads, Accuracy, BearingParams, BearingState, FilmModel, FilmRule};
 
 /// `B/D` values of the stored map (rows).
 pub const ERROR_MAP_ASPECTS: [f64; 10] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0];
@@ -163,5 +163,26 @@ pub fn short_model_error(b_over_d: f64, ecc: f64) -> ShortModelError {
         load: scale * bilinear(&MAP_LOAD, (rk, rw), (ck, cw)),
         attitude_deg: scale * bilinear(&MAP_ATTITUDE_DEG, (rk, rw), (ck, cw)),
         extrapolated: (r_out && bd > ERROR_MAP_ASPECTS[0]) || c_out,
+    }
+}
+
+/// The model a state of bearing `params` is evaluated with: `short` and `finite` as
+/// given; `auto` picks `finite` where the model-error map's load or attitude error
+/// (attitude in radians, i.e. the tangential share of the load) at the bearing's `B/D`
+/// and the state's larger end eccentricity exceeds `finite.auto_tolerance`.
+pub fn effective_model(params: &BearingParams, state: &BearingState) -> FilmModel {
+    match params.model {
+        FilmModel::Auto => {
+            let (ei, ej) = state.eccentricity_ratios(params.clearance);
+            let err = short_model_error(params.length / (2.0 * params.radius), ei.max(ej));
+            if err.load.abs().max(err.attitude_deg.to_radians().abs())
+                > params.finite.auto_tolerance
+            {
+                FilmModel::Finite
+            } else {
+                FilmModel::Short
+            }
+        }
+        m => m,
     }
 }

@@ -4,14 +4,18 @@
 //! the short-bearing model-error map and the `auto` model choice. See docs/finite-film.md.
 
 mod error_map;
+mod flow;
 mod map;
 mod multigrid;
 mod settings;
 mod solver;
 
 pub use error_map::{
-    compute_short_model_error, error_map_settings, short_model_error, ShortModelError,
-    ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
+    compute_short_model_error, effective_model, error_map_settings, short_model_error,
+    ShortModelError, ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
+};
+pub use flow::{
+    apply_finite_flow, film_flow_of, flow_integrals, solution_grid, solution_theta0, FlowIntegrals,
 };
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};

@@ -624,6 +624,13 @@ impl Hierarchy {
 }
 
 impl Level {
+    /// The discrete operator for post-processing a converged field ([`super::flow`]):
+    /// east and north face coefficients, this grid's own right-hand side `f = −rhs`, and
+    /// the inverse diagonal in force when solved (0 at held nodes).
+    pub(crate) fn operator(&self) -> (&[f64], &[f64], &[f64], &[f64]) {
+        (&self.ae, &self.an, &self.f_own, &self.inv_d)
+    }
+
     /// Copies a warm-start field of this grid's length in (held nodes set to 0).
     pub fn load_field(&mut self, field: &[f64]) {
         for (k, (p, v)) in self.p.iter_mut().zip(field).enumerate() {

@@ -567,7 +567,18 @@ pub fn finite_solution(
     } else {
         ([0.0; 4], SolveReport::default())
     };
-    let loads = finish_loads(params, state, &ints, packed.rate_scale).finite_or_fault()?;
+    let mut loads = finish_loads(params, state, &ints, packed.rate_scale).finite_or_fault()?;
+    // Film friction and flow from the field (issue 24; output only, see super::flow).
+    super::flow::apply_finite_flow(
+        &mut loads,
+        params,
+        state,
+        packed.rate_scale,
+        &job,
+        &settings.into(),
+        &report,
+        &field,
+    );
     let (mut error_estimate, mut extrapolated) = (None, None);
     if estimate && packed.rate_scale > 0.0 {
         if let Some(coarse) = settings.coarse() {
