@@ -375,7 +375,13 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
     // Four panels in a 2 x 2 grid of nested SVGs, each at its own size.
     let size = |s: &str, key: &str| -> f64 {
         let at = s.find(&format!("{key}=\"")).unwrap() + key.len() + 2;
-        s[at..].split('"').next().unwrap().trim_end_matches("px").parse().unwrap()
+        s[at..]
+            .split('"')
+            .next()
+            .unwrap()
+            .trim_end_matches("px")
+            .parse()
+            .unwrap()
     };
     let (w, h) = (size(&panels[0], "width"), size(&panels[0], "height"));
     let head = 40.0;
@@ -387,7 +393,9 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
     );
     for (i, p) in panels.iter().enumerate() {
         let body = p.trim_start_matches(|c| c != '<');
-        let body = body.strip_prefix("<?xml").map_or(body, |r| &r[r.find("?>").unwrap() + 2..]);
+        let body = body
+            .strip_prefix("<?xml")
+            .map_or(body, |r| &r[r.find("?>").unwrap() + 2..]);
         let inner = body.replacen(
             "<svg ",
             &format!(

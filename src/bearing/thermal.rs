@@ -250,18 +250,6 @@ pub fn solve_balance(
     Ok(finish(b, pqb, evaluations))
 }
 
-/// Side flow of one state, m³/s: the half-Sommerfeld short film's side leakage for an
-/// aligned journal, `Q = |ω0| r0 δ B ε` (the converging film's `U c L ε`; Hamrock,
-/// *Fundamentals of Fluid Film Lubrication*, short-bearing side flow), taken at the
-/// mid-plane eccentricity ratio and without the squeeze terms. Used for every film model
-/// until the film's own side flow (issue 24 item 1) replaces it (docs/thermal.md).
-pub fn short_film_side_flow(params: &BearingParams, state: &BearingState) -> f64 {
-    let ex = 0.5 * (state.xi + state.xj);
-    let ey = 0.5 * (state.yi + state.yj);
-    let eps = (ex.hypot(ey) / params.clearance).min(1.0);
-    state.omega.abs() * params.radius * params.clearance * params.length * eps
-}
-
 /// The balance of one fixed state (`eval`): `loads` were computed with `params.viscosity`
 /// = `μ(T_supply)`. At a fixed journal position every load, the friction torque and the
 /// power scale with `μ` (the pressure and the shear are linear in `μ`; `f`, `S` and the
@@ -274,7 +262,9 @@ pub fn state_balance(
 ) -> Option<Result<(Balance, Loads), ThermalError>> {
     let (lub, supply) = (params.lubricant?, params.supply_temperature?);
     let mu_s = params.viscosity;
-    let q = short_film_side_flow(params, state);
+    let _ = state;
+    // Side flow of the film itself (short: closed form; finite: its converged field).
+    let q = loads.film.side_flow_m3_per_s;
     let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
         Ok((loads.power_loss * mu / mu_s, q))
     });
@@ -287,6 +277,11 @@ pub fn state_balance(
             my: loads.my * s,
             mz: loads.mz * s,
             power_loss: loads.power_loss * s,
+            film: super::film_flow::FilmFlow {
+                friction_torque_nm: loads.film.friction_torque_nm * s,
+                power_loss_w: loads.film.power_loss_w * s,
+                ..loads.film
+            },
             ..*loads
         };
         (b, scaled)
@@ -308,7 +303,7 @@ pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
         "effective_factor": bearing.thermal.effective_factor,
         "tolerance_k": bearing.thermal.tolerance,
         "evaluations": b.evaluations,
-        "side_flow_model": "short film, half-Sommerfeld: |ω0| r0 δ B ε at the mid-plane",
+        "side_flow_model": "the film's own side flow at both ends (film.side_flow_m3_per_s)",
     })
 }
 

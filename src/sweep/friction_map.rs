@@ -390,8 +390,8 @@ pub fn equilibrium_eccentricity(
 
 /// The effective-temperature balance of the aligned journal carrying `load` (N) at
 /// `omega` (rad/s): every balance step solves the static equilibrium at `μ(T)`; power
-/// from eqs. 10-11 on the film force, side flow from the short film's closed form at the
-/// equilibrium eccentricity ([`crate::bearing::thermal::short_film_side_flow`]).
+/// from eqs. 10-11 on the film force, side flow the film's own at the equilibrium
+/// ([`crate::bearing::Loads::film`]).
 pub fn map_balance(
     params: &BearingParams,
     rule: &FilmRule,
@@ -409,20 +409,11 @@ pub fn map_balance(
             viscosity: mu,
             ..*params
         };
-        let (eps, l) = equilibrium_eccentricity(&pm, rule, load, omega)
+        let (_, l) = equilibrium_eccentricity(&pm, rule, load, omega)
             .ok_or_else(|| "no film equilibrium under this load".to_string())?;
         let w = l.wx.hypot(l.wy);
         let fr = friction(&pm, w, omega);
-        let state = BearingState {
-            xi: eps * pm.clearance,
-            xj: eps * pm.clearance,
-            omega,
-            ..Default::default()
-        };
-        Ok((
-            (fr.mz * omega).abs(),
-            crate::bearing::thermal::short_film_side_flow(&pm, &state),
-        ))
+        Ok(((fr.mz * omega).abs(), l.film.side_flow_m3_per_s))
     })
 }
 
