@@ -432,3 +432,43 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
         }
     }
 }
+
+/// `coefficients` with a lubricant: per speed the equilibrium and the balance solved
+/// together; the stiffness and damping are those of a plain bearing at μ(T_eff) (within
+/// their own error estimates), and the rise grows with speed.
+#[test]
+fn coefficients_solve_equilibrium_and_balance_together() {
+    use bearing_sweep::cli::coefficients_json;
+    let doc =
+        json!({"bearing": lubricated(json!({})), "speeds": [300.0, 3000.0], "load": [0.0, -200.0]});
+    let out = coefficients_json(&doc.to_string()).unwrap();
+    let pts = out["points"].as_array().unwrap();
+    let rises: Vec<f64> = pts
+        .iter()
+        .map(|p| f(&p["thermal"], "temperature_rise_k"))
+        .collect();
+    assert!(rises[1] > rises[0], "rises {rises:?}");
+    for (k, p) in pts.iter().enumerate() {
+        let mu = f(&p["thermal"], "effective_viscosity_pa_s");
+        let plain = json!({"bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": mu},
+                           "speed": p["speed"], "load": [0.0, -200.0]});
+        let q = coefficients_json(&plain.to_string()).unwrap();
+        for kind in ["stiffness", "damping"] {
+            for i in 0..2 {
+                for j in 0..2 {
+                    let (a, e) = (
+                        p[kind][i][j].as_f64().unwrap(),
+                        q[kind][i][j].as_f64().unwrap(),
+                    );
+                    let tol = 1e-6 * e.abs().max(1.0)
+                        + p[format!("{kind}_error")][i][j].as_f64().unwrap_or(0.0)
+                        + q[format!("{kind}_error")][i][j].as_f64().unwrap_or(0.0);
+                    assert!(
+                        (a - e).abs() <= tol,
+                        "speed {k} {kind}[{i}][{j}]: actual {a}, expected {e}, tolerance {tol}"
+                    );
+                }
+            }
+        }
+    }
+}
