@@ -275,6 +275,10 @@ fn service_eval_with_a_lubricant() {
 /// its physics checked: a thicker grade gives a thicker film and more power at every
 /// clearance. `BEARING_SWEEP_WRITE_FIGURES=1` writes
 /// `reports/figures/thermal-design-chart.svg` and prints the isothermal-vs-thermal table.
+/// One chart point: (h_min µm, power W, flow L/min, rise K, isothermal h_min µm,
+/// isothermal power W).
+type Point = (f64, f64, f64, f64, f64, f64);
+
 #[test]
 fn design_chart_thicker_oil_thicker_film_more_power() {
     use bearing_sweep::bearing::{BearingParams, FilmRule};
@@ -288,7 +292,7 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
     let grades = [32u16, 46, 68];
     // [grade][clearance] -> (h_min µm, power W, flow L/min, rise K, isothermal h_min µm,
     // isothermal power W)
-    let mut rows = Vec::new();
+    let mut rows: Vec<Vec<Point>> = Vec::new();
     for &g in &grades {
         let mut row = Vec::new();
         for &c in &clearances {
@@ -343,7 +347,7 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
         return;
     }
     let names: Vec<String> = grades.iter().map(|g| format!("ISO VG {g}")).collect();
-    let panel = |title: &str, y: &str, pick: &dyn Fn(&(f64, f64, f64, f64, f64, f64)) -> f64| {
+    let panel = |title: &str, y: &str, pick: &dyn Fn(&Point) -> f64| {
         let series: Vec<Series<'_>> = rows
             .iter()
             .zip(&names)
