@@ -54,6 +54,14 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../sweeps/stability-map-timed.json"),
     ),
     ("finite-film", include_str!("../../sweeps/finite-film.json")),
+    (
+        "clearance-oil-grade",
+        include_str!("../../sweeps/clearance-oil-grade.json"),
+    ),
+    (
+        "friction-map-thermal",
+        include_str!("../../sweeps/friction-map-thermal.json"),
+    ),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`

@@ -193,7 +193,8 @@ pub struct FrictionMapDoc {
     #[serde(default, deserialize_with = "present")]
     #[schema(value_type = String)]
     pub description: Option<String>,
-    /// The bearing (`radius`, `length`, `clearance`, `viscosity`, SI units; as in a scene).
+    /// The bearing (`radius`, `length`, `clearance`, `viscosity` or `lubricant` with
+    /// `supply_temperature` (docs/thermal.md), SI units; as in a scene).
     #[serde(default, deserialize_with = "present")]
     #[schema(value_type = Object, required = true)]
     pub bearing: Option<Value>,
