@@ -62,7 +62,7 @@ fn grid(clearances: &[f64], viscosities: &[f64]) -> Vec<Scene> {
             s.name = format!("c{c:.3e}-mu{mu:.3e}");
             for b in &mut s.bearings {
                 b.clearance = c;
-                b.viscosity = mu;
+                b.viscosity = Some(mu);
             }
             out.push(s);
         }

@@ -464,7 +464,7 @@ fn journal_centres_meet_the_tolerance_like_g_against_a_tight_reference() {
         s.integrator.method = method;
         for b in &mut s.bearings {
             b.clearance = c;
-            b.viscosity = mu;
+            b.viscosity = Some(mu);
         }
         scenes.push(s);
     }

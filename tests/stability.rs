@@ -560,7 +560,7 @@ fn stability_cli_and_sweep_agree_with_the_library() {
         let mut s = general_rotor(500.0);
         for b in &mut s.bearings {
             b.clearance = v["params"]["bearings[*].clearance"].as_f64().unwrap();
-            b.viscosity = v["params"]["bearings[*].viscosity"].as_f64().unwrap();
+            b.viscosity = v["params"]["bearings[*].viscosity"].as_f64();
         }
         let r = RotorDescription::from_scene(&s).unwrap();
         let grid = geometric_grid(SCAN_LOW * 500.0, SCAN_HIGH * 500.0, SCAN_POINTS);

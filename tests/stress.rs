@@ -655,14 +655,14 @@ fn extreme_scenes(t_end: f64) -> Vec<Scene> {
     };
     vec![
         named(base.clone(), "viscosity-1e-4", |s| {
-            both(s, &|b| b.viscosity = 1e-4)
+            both(s, &|b| b.viscosity = Some(1e-4))
         }),
         named(base.clone(), "viscosity-10-radau5", |s| {
-            both(s, &|b| b.viscosity = 10.0);
+            both(s, &|b| b.viscosity = Some(10.0));
             s.integrator.method = Method::Radau5
         }),
         named(base.clone(), "viscosity-10-dopri5-budget", |s| {
-            both(s, &|b| b.viscosity = 10.0);
+            both(s, &|b| b.viscosity = Some(10.0));
             s.integrator.max_steps = 2000
         }),
         named(base.clone(), "clearance-5um", |s| {

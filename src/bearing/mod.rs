@@ -1,5 +1,6 @@
 //! Hydrodynamic journal-bearing film model (MODEL.md sections 1-7): parameters, states,
-//! the default load rule, friction, the brute-force baseline and reference values.
+//! the default load rule, friction, the brute-force baseline and reference values;
+//! lubricants and the thermal balance (issue 24).
 
 mod baseline;
 pub mod film_flow;
@@ -7,10 +8,12 @@ pub mod finite;
 mod friction;
 pub mod groove;
 mod loads;
+pub mod lubricant;
 mod params;
 pub mod reference;
 mod rule;
 mod state;
+pub mod thermal;
 
 pub use baseline::baseline_loads;
 pub use film_flow::{bearing_loads, FilmFlow, FrictionLaw};
@@ -18,9 +21,11 @@ pub use finite::{FilmModel, FiniteSettings};
 pub use friction::{friction, Friction};
 pub use groove::{Arc, Arcs, FilmLayout, Groove, Grooves};
 pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
+pub use lubricant::Lubricant;
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{
     quartic_roots, quartic_roots_counted, slice_integrals, Accuracy, FilmIntegrals, FilmRule,
     PackedState, RuleSettings, Singularities, ACCURACY_LEVELS,
 };
 pub use state::{BearingState, End, StateFault};
+pub use thermal::{solve_balance, Balance, ThermalError, ThermalSettings};

@@ -4,6 +4,8 @@ use serde::{Deserialize, Serialize};
 
 use super::finite::{FilmModel, FiniteSettings};
 use super::groove::{Arcs, FilmLayout, Grooves};
+use super::lubricant::Lubricant;
+use super::thermal::ThermalSettings;
 
 /// Which relative clearance the friction law of eqs. (10)-(11) uses (MODEL.md section 5).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -35,10 +37,13 @@ impl ClearanceConvention {
     }
 }
 
-/// Constant inputs of one hydrodynamic journal bearing. SI units; no field has a
-/// default except `clearance_convention`.
+/// Constant inputs of one hydrodynamic journal bearing. SI units. The lubricant is given
+/// either as `viscosity` or as `lubricant` with `supply_temperature` (exactly one of the
+/// two ways; docs/thermal.md); with a lubricant, `viscosity` holds `μ` at the supply
+/// temperature after parsing, and steady runs replace it by `μ(T_eff)` from the thermal
+/// balance ([`super::thermal`]). The kernels only ever read `viscosity`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, remote = "Self")]
 pub struct BearingParams {
     /// Journal radius `r0`, m (paper's Table 2: 0.02).
     pub radius: f64,
@@ -46,7 +51,9 @@ pub struct BearingParams {
     pub length: f64,
     /// Radial clearance `δ`, m (Table 2: 0.0003).
     pub clearance: f64,
-    /// Lubricant dynamic viscosity `μ`, Pa·s (Table 2: 0.0242).
+    /// Lubricant dynamic viscosity `μ`, Pa·s (Table 2: 0.0242). Required unless
+    /// `lubricant` is given (then absent in JSON, resolved at the supply temperature).
+    #[serde(default = "unset_viscosity")]
     pub viscosity: f64,
     /// Relative clearance in the friction law; default `"paper"`.
     #[serde(default)]
@@ -68,6 +75,54 @@ pub struct BearingParams {
     /// (ambient pressure). Default: none, the full 360° land. Needs `"model": "finite"`.
     #[serde(default, skip_serializing_if = "Arcs::is_empty")]
     pub arcs: Arcs,
+    /// Lubricant: `"ISO VG 22"` ... `"ISO VG 220"` or `{"nu40", "nu100", "density",
+    /// "expansion", "specific_heat"}` (docs/thermal.md). Default none (`viscosity` given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lubricant: Option<Lubricant>,
+    /// Oil supply temperature, °C; required with `lubricant`, refused without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supply_temperature: Option<f64>,
+    /// Thermal balance settings (effective-temperature factor, housing conductance,
+    /// thermal capacity, tolerance); used with `lubricant` only; all fields default.
+    #[serde(default, skip_serializing_if = "is_default_thermal")]
+    pub thermal: ThermalSettings,
+}
+
+/// `viscosity` absent from the JSON (JSON has no NaN, so NaN marks it).
+fn unset_viscosity() -> f64 {
+    f64::NAN
+}
+
+fn is_default_thermal(t: &ThermalSettings) -> bool {
+    *t == ThermalSettings::default()
+}
+
+/// Supply temperatures accepted, °C: mineral oils are pumpable and below their flash
+/// points (~200 °C and up) in this range.
+const SUPPLY_RANGE_C: (f64, f64) = (-30.0, 200.0);
+
+impl Serialize for BearingParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error;
+        let mut v = BearingParams::serialize(self, serde_json::value::Serializer)
+            .map_err(S::Error::custom)?;
+        // With a lubricant the viscosity is derived: written back, it would be refused.
+        if self.lubricant.is_some() {
+            if let Some(m) = v.as_object_mut() {
+                m.remove("viscosity");
+            }
+        }
+        v.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for BearingParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut p = BearingParams::deserialize(d)?;
+        p.resolve_lubricant().map_err(D::Error::custom)?;
+        Ok(p)
+    }
 }
 
 /// A bearing parameter that cannot be used.
@@ -95,7 +150,62 @@ impl BearingParams {
             finite: FiniteSettings::default(),
             grooves: Grooves::default(),
             arcs: Arcs::default(),
+            lubricant: None,
+            supply_temperature: None,
+            thermal: ThermalSettings::default(),
         }
+    }
+
+    /// Checks the lubricant fields (exactly one of `viscosity` and `lubricant` +
+    /// `supply_temperature`) and sets `viscosity` to `μ(T_supply)` when a lubricant is
+    /// given. The message names the fields.
+    pub fn resolve_lubricant(&mut self) -> Result<(), String> {
+        let given = !self.viscosity.is_nan();
+        match (self.lubricant, self.supply_temperature) {
+            (Some(_), _) if given => Err(
+                "give either `viscosity` or `lubricant` with `supply_temperature`, not both"
+                    .into(),
+            ),
+            (Some(_), None) => Err(
+                "`lubricant` needs `supply_temperature` (the oil's supply temperature, °C)"
+                    .into(),
+            ),
+            (Some(l), Some(t)) => {
+                let (lo, hi) = SUPPLY_RANGE_C;
+                if !(t.is_finite() && (lo..=hi).contains(&t)) {
+                    return Err(format!(
+                        "`supply_temperature` must be in {lo}..={hi} °C (got {t})"
+                    ));
+                }
+                self.viscosity = l.dynamic_viscosity(t);
+                Ok(())
+            }
+            (None, Some(_)) => Err(
+                "`supply_temperature` needs `lubricant` (e.g. \"ISO VG 46\"); with a plain `viscosity` there is no temperature"
+                    .into(),
+            ),
+            (None, None) if !given => Err(
+                "missing field `viscosity` (or give `lubricant` and `supply_temperature`)".into(),
+            ),
+            (None, None) => Ok(()),
+        }
+    }
+
+    /// This bearing with `viscosity` taken at `celsius` from its lubricant (unchanged
+    /// without one).
+    pub fn at_temperature(&self, celsius: f64) -> Self {
+        match self.lubricant {
+            Some(l) => BearingParams {
+                viscosity: l.dynamic_viscosity(celsius),
+                ..*self
+            },
+            None => *self,
+        }
+    }
+
+    /// `true` when the thermal balance applies (a lubricant with a supply temperature).
+    pub fn is_thermal(&self) -> bool {
+        self.lubricant.is_some() && self.supply_temperature.is_some()
     }
 
     /// Every field finite and positive, and the clearance smaller than the radius.
@@ -121,6 +231,19 @@ impl BearingParams {
                     reason: "must be positive",
                 });
             }
+        }
+        if let Err((field, value, reason)) = self.thermal.validate() {
+            let field = match field {
+                "effective_factor" => "thermal.effective_factor",
+                "housing_conductance" => "thermal.housing_conductance",
+                "thermal_capacity" => "thermal.thermal_capacity",
+                _ => "thermal.tolerance",
+            };
+            return Err(ParamError {
+                field,
+                value,
+                reason,
+            });
         }
         if let Err(e) = self.finite.validate() {
             return Err(ParamError {

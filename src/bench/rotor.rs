@@ -105,7 +105,7 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
             ));
         }
         for b in &mut base.bearings {
-            b.viscosity = mu;
+            b.viscosity = Some(mu);
         }
     }
     let prefix = if opts.viscosity.is_some() {

@@ -249,8 +249,46 @@ pub fn coefficients_json_with(
         }
         (None, None) => return Err(CliError::input("speed", "missing (rad/s)")),
     };
-    let cases: Vec<(BearingParams, f64, [f64; 2])> =
-        speeds.iter().map(|&w| (params, w, load)).collect();
+    // With a lubricant: per speed, the equilibrium and the effective-temperature balance
+    // solved together (each balance step an equilibrium at μ(T); docs/thermal.md); the
+    // coefficients at μ(T_eff).
+    let mut per_speed = vec![params; speeds.len()];
+    let mut balances = vec![None; speeds.len()];
+    if let (Some(lub), Some(supply)) = (params.lubricant, params.supply_temperature) {
+        let rule = crate::bearing::FilmRule::new(accuracy.settings());
+        for (k, &w) in speeds.iter().enumerate() {
+            let b = crate::bearing::solve_balance(&lub, supply, &params.thermal, |mu| {
+                // A field assignment, not `..params`: the struct update inside this
+                // closure trips a rustc ICE (broken MIR with the const-generic groove list).
+                let mut pm = params;
+                pm.viscosity = mu;
+                let eq = bearing_equilibria(&mut ev, &[(pm, w, load)])
+                    .remove(0)
+                    .map_err(|e| e.to_string())?;
+                let st = aligned_state(eq.x, eq.y, w);
+                let l = crate::bearing::film_flow::bearing_loads(&pm, &st, &rule)
+                    .map_err(|e| e.to_string())?;
+                Ok((l.power_loss, l.film.side_flow_m3_per_s))
+            })
+            .map_err(|e| {
+                CliError::input(
+                    if list {
+                        format!("speeds[{k}]")
+                    } else {
+                        "speed".into()
+                    },
+                    format!("thermal balance: {e}"),
+                )
+            })?;
+            per_speed[k].viscosity = b.viscosity_pa_s;
+            balances[k] = Some(b);
+        }
+    }
+    let cases: Vec<(BearingParams, f64, [f64; 2])> = speeds
+        .iter()
+        .zip(&per_speed)
+        .map(|(&w, p)| (*p, w, load))
+        .collect();
     let eqs = bearing_equilibria(&mut ev, &cases);
     let mut states = Vec::new();
     let mut good = Vec::new();
@@ -271,7 +309,11 @@ pub fn coefficients_json_with(
     }
     let jobs: Vec<CoefficientJob> = states
         .iter()
-        .map(|s| CoefficientJob { params, state: *s })
+        .zip(&per_speed)
+        .map(|(s, p)| CoefficientJob {
+            params: *p,
+            state: *s,
+        })
         .collect();
     let coeffs = coefficients_batch(&mut ev, &jobs, &DiffOptions::default());
     let mut points = Vec::new();
@@ -288,14 +330,21 @@ pub fn coefficients_json_with(
             )
         })?;
         rows.push(ross_row(speeds[k], &c));
-        points.push(point_json(
-            &params,
+        let mut p = point_json(
+            &per_speed[k],
             speeds[k],
             Some(load),
             Some(&good[k]),
             &states[k],
             &c,
-        ));
+        );
+        if let (Some(b), Some(m)) = (&balances[k], p.as_object_mut()) {
+            m.insert(
+                "thermal".into(),
+                crate::bearing::thermal::balance_json(b, &params),
+            );
+        }
+        points.push(p);
     }
     if list {
         out.insert("points".into(), json!(points));

@@ -318,7 +318,27 @@ impl<W: Write> Run<'_, W> {
 /// One output entry, as the whole-document `eval` always wrote it.
 fn load_json(k: usize, r: &LoadResult, bearing: &BearingParams, state: &BearingState) -> Value {
     match r {
-        Ok(l) => {
+        Ok(l0) => {
+            // With a lubricant: the effective-temperature balance (docs/thermal.md); the
+            // loads are those at μ(T_eff).
+            let mut l = *l0;
+            let mut thermal = None;
+            match crate::bearing::thermal::state_balance(bearing, state, l0) {
+                None => {}
+                Some(Ok((b, scaled))) => {
+                    l = scaled;
+                    thermal = Some(b);
+                }
+                Some(Err(e)) => {
+                    return json!({
+                        "status": "thermal_error",
+                        "error": format!("states[{k}]: thermal balance: {e}"),
+                        "wx": null, "wy": null, "mx": null, "my": null, "mz": null,
+                        "friction_coefficient": null, "sommerfeld": null, "h_min": null, "power_loss": null,
+                    })
+                }
+            }
+            let l = &l;
             let mut m = match serde_json::to_value(l) {
                 Ok(Value::Object(m)) => m,
                 _ => Map::new(),
@@ -335,8 +355,19 @@ fn load_json(k: usize, r: &LoadResult, bearing: &BearingParams, state: &BearingS
                         &bearing.finite,
                         l,
                     );
-                    m.insert("finite_error_estimate".into(), json!(est));
+                    // The estimate was made at the supply viscosity: loads scale with μ.
+                    let scale = thermal.map_or(1.0, |b| b.viscosity_pa_s / bearing.viscosity);
+                    m.insert(
+                        "finite_error_estimate".into(),
+                        json!(est.map(|e| e * scale)),
+                    );
                 }
+            }
+            if let Some(b) = thermal {
+                m.insert(
+                    "thermal".into(),
+                    crate::bearing::thermal::balance_json(&b, bearing),
+                );
             }
             Value::Object(m)
         }

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bearing::{
     Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves,
+    Lubricant, ThermalSettings,
 };
 use crate::integrate::Method;
 
@@ -41,8 +42,10 @@ pub struct BearingSpec {
     pub length: f64,
     /// Radial clearance `δ`, m.
     pub clearance: f64,
-    /// Lubricant dynamic viscosity `μ`, Pa·s.
-    pub viscosity: f64,
+    /// Lubricant dynamic viscosity `μ`, Pa·s. Required unless `lubricant` is given
+    /// (exactly one of the two).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub viscosity: Option<f64>,
     /// Relative clearance in the friction law: `"paper"` (default) or `"vogelpohl"`.
     #[serde(default)]
     pub clearance_convention: ClearanceConvention,
@@ -62,22 +65,52 @@ pub struct BearingSpec {
     /// Lands of a partial-arc bearing (docs/grooves.md); default none (360°).
     #[serde(default, skip_serializing_if = "Arcs::is_empty")]
     pub arcs: Arcs,
+    /// Lubricant (`"ISO VG 46"` or an object, docs/thermal.md) instead of `viscosity`;
+    /// needs `supply_temperature`. In a scene the film runs at the supply temperature's
+    /// viscosity (docs/thermal.md "Rotor scenes").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lubricant: Option<Lubricant>,
+    /// Oil supply temperature, °C (with `lubricant` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supply_temperature: Option<f64>,
+    /// Thermal settings (docs/thermal.md); every field defaults.
+    #[serde(default)]
+    pub thermal: ThermalSettings,
 }
 
 impl BearingSpec {
-    /// The film model's parameters.
+    /// The film model's parameters, the viscosity resolved from the lubricant at the
+    /// supply temperature where one is given (NaN, refused by validation, when the
+    /// lubricant fields are inconsistent: [`BearingSpec::lubricant_error`] says why).
     pub fn params(&self) -> BearingParams {
+        let mut p = self.raw_params();
+        if p.resolve_lubricant().is_err() {
+            p.viscosity = f64::NAN;
+        }
+        p
+    }
+
+    fn raw_params(&self) -> BearingParams {
         BearingParams {
             radius: self.radius,
             length: self.length,
             clearance: self.clearance,
-            viscosity: self.viscosity,
+            viscosity: self.viscosity.unwrap_or(f64::NAN),
             clearance_convention: self.clearance_convention,
             model: self.model,
             finite: self.finite,
             grooves: self.grooves,
             arcs: self.arcs,
+            lubricant: self.lubricant,
+            supply_temperature: self.supply_temperature,
+            thermal: self.thermal,
         }
+    }
+
+    /// Why the lubricant fields cannot be used (`viscosity` and `lubricant` both or
+    /// neither given, `supply_temperature` missing or out of range), if so.
+    pub fn lubricant_error(&self) -> Option<String> {
+        self.raw_params().resolve_lubricant().err()
     }
 }
 
@@ -309,6 +342,9 @@ impl Scene {
             return Err(err("bearings", "at least one bearing is needed"));
         }
         for (k, bs) in self.bearings.iter().enumerate() {
+            if let Some(reason) = bs.lubricant_error() {
+                return Err(err(format!("bearings[{k}]"), reason));
+            }
             bs.params().validate().map_err(|e| {
                 err(
                     format!("bearings[{k}].{}", e.field),

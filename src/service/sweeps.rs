@@ -17,7 +17,7 @@ pub enum ParsedSweep {
     /// A rotor or synthetic sweep (runs through the runner).
     Runner(Box<SweepSpec>),
     /// A friction map (no dynamics; one document).
-    FrictionMap(FrictionMapSpec),
+    FrictionMap(Box<FrictionMapSpec>),
 }
 
 impl ParsedSweep {
@@ -47,7 +47,9 @@ pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
         ));
     }
     match spec_kind(doc) {
-        Some("friction_map") => Ok(ParsedSweep::FrictionMap(FrictionMapSpec::parse(doc)?)),
+        Some("friction_map") => Ok(ParsedSweep::FrictionMap(Box::new(FrictionMapSpec::parse(
+            doc,
+        )?))),
         _ => Ok(ParsedSweep::Runner(Box::new(parse_spec(doc, None)?))),
     }
 }

@@ -58,6 +58,14 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "two-axial-groove",
         include_str!("../../sweeps/two-axial-groove.json"),
     ),
+    (
+        "clearance-oil-grade",
+        include_str!("../../sweeps/clearance-oil-grade.json"),
+    ),
+    (
+        "friction-map-thermal",
+        include_str!("../../sweeps/friction-map-thermal.json"),
+    ),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`

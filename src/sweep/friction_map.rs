@@ -193,7 +193,8 @@ pub struct FrictionMapDoc {
     #[serde(default, deserialize_with = "present")]
     #[schema(value_type = String)]
     pub description: Option<String>,
-    /// The bearing (`radius`, `length`, `clearance`, `viscosity`, SI units; as in a scene).
+    /// The bearing (`radius`, `length`, `clearance`, `viscosity` or `lubricant` with
+    /// `supply_temperature` (docs/thermal.md), SI units; as in a scene).
     #[serde(default, deserialize_with = "present")]
     #[schema(value_type = Object, required = true)]
     pub bearing: Option<Value>,
@@ -320,6 +321,12 @@ impl FrictionMapSpec {
             }
         }
         let model = d.model.unwrap_or(MapModel::Sommerfeld);
+        if bearing.is_thermal() && model == MapModel::Sommerfeld {
+            return Err(SweepError::spec(
+                "model",
+                "a bearing with a lubricant needs \"model\": \"film\" (the thermal balance's side flow needs the film's eccentricity; docs/thermal.md)",
+            ));
+        }
         if model == MapModel::Film {
             if let Some(k) = speed.iter().position(|&w| w == 0.0) {
                 return Err(SweepError::spec(
@@ -382,6 +389,35 @@ pub fn equilibrium_eccentricity(
     best
 }
 
+/// The effective-temperature balance of the aligned journal carrying `load` (N) at
+/// `omega` (rad/s): every balance step solves the static equilibrium at `μ(T)`; power
+/// from eqs. 10-11 on the film force, side flow the film's own at the equilibrium
+/// ([`crate::bearing::Loads::film`]).
+pub fn map_balance(
+    params: &BearingParams,
+    rule: &FilmRule,
+    load: f64,
+    omega: f64,
+) -> Result<crate::bearing::Balance, crate::bearing::ThermalError> {
+    let (Some(lub), Some(supply)) = (params.lubricant, params.supply_temperature) else {
+        return Err(crate::bearing::ThermalError::Film {
+            celsius: f64::NAN,
+            reason: "no lubricant".into(),
+        });
+    };
+    crate::bearing::solve_balance(&lub, supply, &params.thermal, |mu| {
+        let pm = BearingParams {
+            viscosity: mu,
+            ..*params
+        };
+        let (_, l) = equilibrium_eccentricity(&pm, rule, load, omega)
+            .ok_or_else(|| "no film equilibrium under this load".to_string())?;
+        let w = l.wx.hypot(l.wy);
+        let fr = friction(&pm, w, omega);
+        Ok(((fr.mz * omega).abs(), l.film.side_flow_m3_per_s))
+    })
+}
+
 fn num(x: Option<f64>) -> Value {
     x.filter(|v| v.is_finite())
         .and_then(serde_json::Number::from_f64)
@@ -439,8 +475,26 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Frict
         for &load in &spec.load {
             let mut m = Map::new();
             m.insert("load_n".into(), num(Some(load)));
+            // With a lubricant: the balance and the equilibrium solved together (each
+            // balance step an equilibrium at μ(T)); the rest of the point at μ(T_eff).
+            let mut pe = *p;
+            let mut thermal_err = None;
+            if let (true, MapModel::Film) = (p.is_thermal(), spec.model) {
+                match map_balance(p, &rule, load, omega) {
+                    Ok(b) => {
+                        pe.viscosity = b.viscosity_pa_s;
+                        m.insert(
+                            "thermal".into(),
+                            crate::bearing::thermal::balance_json(&b, p),
+                        );
+                    }
+                    Err(e) => thermal_err = Some(e.to_string()),
+                }
+            }
+            let p = &pe;
             let (w_abs, extra) = match spec.model {
                 MapModel::Sommerfeld => (load, None),
+                MapModel::Film if thermal_err.is_some() => (f64::NAN, None),
                 MapModel::Film => match equilibrium_eccentricity(p, &rule, load, omega) {
                     Some((eps, l)) => {
                         let w = l.wx.hypot(l.wy);
@@ -479,7 +533,10 @@ pub fn friction_map(spec: &FrictionMapSpec, accuracy: Accuracy) -> (Value, Frict
                 "power_loss_w".into(),
                 num(Some((fr.mz * omega).abs()).filter(|_| ok)),
             );
-            if let Some(Value::Object(e)) = extra {
+            if let Some(reason) = thermal_err {
+                m.insert("status".into(), json!("thermal_error"));
+                m.insert("error".into(), json!(reason));
+            } else if let Some(Value::Object(e)) = extra {
                 m.extend(e);
             } else if spec.model == MapModel::Film {
                 m.insert("status".into(), json!("no_equilibrium"));
