@@ -16,3 +16,4 @@ mod rk4;
 mod system;
 
 pub use system::{run_batch, BatchSystem, Method, Settings, Stats, Status};
+pub use common::sample_count;
