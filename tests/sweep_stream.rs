@@ -32,6 +32,15 @@ fn scene(clearance: f64, t_end: f64, max_steps: u64) -> Value {
     })
 }
 
+/// The paper rotor at held spin asking for the constant friction coefficient (its check
+/// reads every sample after the settling window).
+fn held_with_friction_check() -> Value {
+    let mut s = scene(3e-4, 0.5, 100_000);
+    s["spin"] = json!("held");
+    s["reductions"] = json!({"constant_friction": {"enabled": true, "settle_time": 0.1}});
+    s
+}
+
 /// Runs `scenes` on the CPU, reduced as they go under `opts` (`stream`) or from stored
 /// samples.
 fn run(scenes: &[Value], opts: Option<&ReductionOptions>) -> Vec<Outcome> {
@@ -51,7 +60,9 @@ fn run(scenes: &[Value], opts: Option<&ReductionOptions>) -> Vec<Outcome> {
         .collect();
     let mut out: Vec<Option<Outcome>> = vec![None; jobs.len()];
     sim.run_batch(&jobs, &mut |k, o| out[k] = Some(o));
-    out.into_iter().map(|o| o.expect("every job reported")).collect()
+    out.into_iter()
+        .map(|o| o.expect("every job reported"))
+        .collect()
 }
 
 fn options(window: Window, span: Span) -> ReductionOptions {
@@ -107,6 +118,8 @@ fn streamed_reductions_equal_stored_ones_bit_for_bit() {
         scene(3e-4, 0.5, 100_000),
         scene(1e-4, 0.5, 100_000),
         scene(3e-4, 0.5, 400),
+        // Held spin with the constant-friction check: run as the samples come.
+        held_with_friction_check(),
     ];
     let stored = run(&scenes, None);
     for (window, span) in [
@@ -125,7 +138,10 @@ fn streamed_reductions_equal_stored_ones_bit_for_bit() {
             assert_eq!(s.status, r.status, "{at}");
             assert_eq!(s.extra, r.extra, "{at}: sim record");
             let signals = r.signals.as_ref().expect("stored samples");
-            assert!(s.signals.is_none(), "{at}: streamed variant stored its samples");
+            assert!(
+                s.signals.is_none(),
+                "{at}: streamed variant stored its samples"
+            );
             let red = s.reduced.as_ref().expect("reduced as it ran");
             let want = serde_json::to_value(reduce(signals, &opts)).unwrap();
             same(
@@ -141,8 +157,17 @@ fn streamed_reductions_equal_stored_ones_bit_for_bit() {
             );
         }
     }
-    // The early-ended run really ended early (the fallback path was exercised).
+    // The early-ended run really ended early (the fallback path was exercised), and the
+    // friction check reported a deviation.
     assert_ne!(stored[2].status, "ok");
+    let fr = &stored[3].extra.as_ref().unwrap()["model_reductions"]["declined"];
+    assert!(
+        fr.as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e["name"] == "constant_friction" && e["error"].is_number()),
+        "no friction deviation reported: {fr}"
+    );
 }
 
 #[test]

@@ -14,9 +14,9 @@ pub use scene::{
     RotorSpec, Scene, SceneError, SpinMode,
 };
 pub use simulate::simulate_batch_streaming_cancellable;
-pub use simulate::{simulate_batch_observed, BearingSample, Sample, SampleObserver, SeriesStore};
 pub use simulate::{numbers_per_sample, sample_cap, simulate_batch_capped};
 pub use simulate::{
     settings_of, simulate_batch, simulate_batch_streaming, BearingSeries, FilmEvent, RotorFault,
     SimResult, SimStats, SimStatus, TimeSeries,
 };
+pub use simulate::{simulate_batch_observed, BearingSample, Sample, SampleObserver, SeriesStore};

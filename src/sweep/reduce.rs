@@ -842,7 +842,6 @@ pub fn stats(t: &[f64], v: &[f64]) -> Option<Stats> {
     stats_opt(t, |i| Some(v[i]))
 }
 
-
 /// Steady orbit of `(x, y)` (see the module doc).
 pub fn orbit(x: &[f64], y: &[f64]) -> Option<Orbit> {
     if x.is_empty() {
@@ -1093,9 +1092,7 @@ pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Red
             bearings: Vec::new(),
         };
     }
-    let (w0, truncated) = window_start_in(&s.t, &s.spin, opts.window, run.t0, || {
-        run.revolutions()
-    });
+    let (w0, truncated) = window_start_in(&s.t, &s.spin, opts.window, run.t0, || run.revolutions());
     let tw = &s.t[w0..];
     let spin_mean = stats(tw, &s.spin[w0..]).map(|st| st.mean);
     let window = WindowInfo {

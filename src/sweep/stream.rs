@@ -12,8 +12,8 @@
 use std::collections::BTreeSet;
 
 use super::reduce::{
-    angle_step, decimate_indices, kept_series_from, reduce_tail, BearingSignals, Reductions,
-    ReductionOptions, RunTotals, SeriesGroup, Signals, Span, Window,
+    angle_step, decimate_indices, kept_series_from, reduce_tail, BearingSignals, ReductionOptions,
+    Reductions, RunTotals, SeriesGroup, Signals, Span, Window,
 };
 use crate::rotor::{Sample, SampleObserver, Scene};
 use serde_json::Value;
