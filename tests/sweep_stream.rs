@@ -199,3 +199,23 @@ fn held_samples_do_not_grow_with_t_end() {
         "held {long} samples of a {samples_long}-sample run (allowed a quarter)"
     );
 }
+
+#[test]
+fn an_invalid_variant_streamed_reports_like_a_stored_one() {
+    // A negative clearance fails the scene check before anything runs: no samples, no
+    // panic in the whole-run series, the same record as the stored path.
+    let bad = scene(-3e-4, 0.5, 100_000);
+    let opts = options(Window::Revolutions(3.0), Span::Run);
+    let stored = run(std::slice::from_ref(&bad), None);
+    let streamed = run(&[bad], Some(&opts));
+    assert_eq!(streamed[0].status, stored[0].status);
+    assert_ne!(streamed[0].status, "ok");
+    let red = streamed[0].reduced.as_ref().expect("reduced");
+    let want = serde_json::to_value(reduce(stored[0].signals.as_ref().unwrap(), &opts)).unwrap();
+    same(
+        "invalid: reductions",
+        &serde_json::to_value(&red.reductions).unwrap(),
+        &want,
+    );
+    assert_eq!(red.series, None);
+}

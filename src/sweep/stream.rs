@@ -249,7 +249,7 @@ impl RunReducer {
             }
             Some(r) => {
                 let mut s = r.fallback.clone();
-                if (self.totals.samples - 1) % r.stride != 0 {
+                if self.totals.samples > 0 && !(self.totals.samples - 1).is_multiple_of(r.stride) {
                     append(&mut s, &mut r.last.clone());
                 }
                 kept_series_from(&s, 0, opts)
