@@ -43,13 +43,20 @@ pub(crate) struct Track<F> {
     pub last_rejected: bool,
 }
 
+/// Output samples of a run that reaches `t_end`: `floor(t_end / dt) + 1` (times
+/// `k * sample_interval`, with a relative slack of 1e-9 for rounding), 1 for settings
+/// that cannot be sampled.
+pub fn sample_count(s: &Settings) -> usize {
+    if s.sample_interval > 0.0 && s.t_end >= 0.0 {
+        (s.t_end / s.sample_interval * (1.0 + SAMPLE_SLACK)).floor() as usize + 1
+    } else {
+        1
+    }
+}
+
 impl<F: Clone> Track<F> {
     pub(crate) fn new(s: &Settings) -> Self {
-        let n = if s.sample_interval > 0.0 && s.t_end >= 0.0 {
-            (s.t_end / s.sample_interval * (1.0 + SAMPLE_SLACK)).floor() as usize + 1
-        } else {
-            1
-        };
+        let n = sample_count(s);
         Track {
             t: 0.0,
             h: 0.0,

@@ -15,4 +15,5 @@ mod radau;
 mod rk4;
 mod system;
 
+pub use common::sample_count;
 pub use system::{run_batch, BatchSystem, Method, Settings, Stats, Status};

@@ -19,3 +19,4 @@ pub use simulate::{
     settings_of, simulate_batch, simulate_batch_streaming, BearingSeries, FilmEvent, RotorFault,
     SimResult, SimStats, SimStatus, TimeSeries,
 };
+pub use simulate::{simulate_batch_observed, BearingSample, Sample, SampleObserver, SeriesStore};

@@ -304,6 +304,155 @@ impl Decimator {
     }
 }
 
+/// One bearing's values at one sample time (the columns of [`BearingSeries`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BearingSample {
+    /// Journal centre at the first end face, bearing frame, m.
+    pub xi: f64,
+    /// See `xi`, m.
+    pub yi: f64,
+    /// Journal centre at the second end face, m.
+    pub xj: f64,
+    /// See `xj`, m.
+    pub yj: f64,
+    /// Minimum film thickness, m.
+    pub h_min: f64,
+    /// Larger end eccentricity ratio.
+    pub eccentricity_max: f64,
+    /// Film force (ideal joints: joint reaction) on the journal, x, N.
+    pub wx: f64,
+    /// Same, y, N.
+    pub wy: f64,
+    /// Friction torque about `+z`, N·m.
+    pub mz: f64,
+    /// Friction coefficient; `None` where infinite or undefined.
+    pub friction_coefficient: Option<f64>,
+}
+
+/// One output sample of a simulation (the columns of [`TimeSeries`]), handed to a
+/// [`SampleObserver`] as it is taken.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample<'a> {
+    /// Sample time, s.
+    pub t: f64,
+    /// Centre of mass, global x, m.
+    pub x_g: f64,
+    /// Centre of mass, global y, m.
+    pub y_g: f64,
+    /// Global `z` component of the angular velocity, rad/s.
+    pub spin: f64,
+    /// Kinetic energy, J.
+    pub kinetic_energy: f64,
+    /// Work done on the rotor since `t = 0`, J.
+    pub work: f64,
+    /// Per bearing, in scene order.
+    pub bearings: &'a [BearingSample],
+}
+
+/// Takes a simulation's samples as they are taken: the decimating store
+/// ([`SeriesStore`], what [`simulate_batch`] returns), or a caller's running reductions
+/// that keep only what they need ([`simulate_batch_observed`]).
+pub trait SampleObserver: Send {
+    /// Whether [`SampleObserver::take_series`] returns the samples (then the constant
+    /// friction check reads them; otherwise it runs as the samples come).
+    const STORES_SERIES: bool = false;
+    /// One sample, in time order.
+    fn observe(&mut self, sample: &Sample<'_>);
+    /// The stored samples, taken (empty for an observer that stores none).
+    fn take_series(&mut self) -> TimeSeries {
+        TimeSeries::default()
+    }
+}
+
+/// The decimating store of one simulation: at most `cap` samples (see [`TimeSeries`]).
+#[derive(Clone, Debug)]
+pub struct SeriesStore {
+    series: TimeSeries,
+    decimator: Decimator,
+    cap: usize,
+}
+
+impl SeriesStore {
+    /// A store keeping at most `cap` samples (rounded up to an even number, at least 2).
+    pub fn new(cap: usize) -> Self {
+        SeriesStore {
+            series: TimeSeries::default(),
+            decimator: Decimator::default(),
+            // Even, so a thinned store's last sample stays on the doubled stride.
+            cap: (cap.max(2) + 1) & !1,
+        }
+    }
+}
+
+impl SampleObserver for SeriesStore {
+    const STORES_SERIES: bool = true;
+
+    fn observe(&mut self, x: &Sample<'_>) {
+        let s = &mut self.series;
+        self.decimator.before_push(s);
+        s.t.push(x.t);
+        s.x_g.push(x.x_g);
+        s.y_g.push(x.y_g);
+        s.spin.push(x.spin);
+        s.kinetic_energy.push(x.kinetic_energy);
+        s.work.push(x.work);
+        if s.bearings.len() != x.bearings.len() {
+            s.bearings = vec![BearingSeries::default(); x.bearings.len()];
+        }
+        for (bs, b) in s.bearings.iter_mut().zip(x.bearings) {
+            bs.xi.push(b.xi);
+            bs.yi.push(b.yi);
+            bs.xj.push(b.xj);
+            bs.yj.push(b.yj);
+            bs.h_min.push(b.h_min);
+            bs.eccentricity_max.push(b.eccentricity_max);
+            bs.wx.push(b.wx);
+            bs.wy.push(b.wy);
+            bs.mz.push(b.mz);
+            bs.friction_coefficient.push(b.friction_coefficient);
+        }
+        self.decimator.after_push(s, self.cap);
+    }
+
+    fn take_series(&mut self) -> TimeSeries {
+        std::mem::take(&mut self.series)
+    }
+}
+
+/// The constant-friction check run as the samples come (for observers that store
+/// none): the same numbers as [`friction_deviation`] on every sample.
+#[derive(Clone, Debug, Default)]
+struct FrictionWatch {
+    /// Each bearing's coefficient at the first sample at or after the settling time
+    /// (`None` inside: undefined there, the bearing is skipped); `None` before it.
+    start: Option<Vec<Option<f64>>>,
+    /// Largest relative deviation so far.
+    dev: Option<f64>,
+}
+
+impl FrictionWatch {
+    fn observe(&mut self, settle: f64, x: &Sample<'_>) {
+        if self.start.is_none() {
+            if x.t < settle {
+                return;
+            }
+            self.start = Some(x.bearings.iter().map(|b| b.friction_coefficient).collect());
+        }
+        let Some(start) = &self.start else { return };
+        for (f0, b) in start.iter().zip(x.bearings) {
+            let (Some(f0), Some(f)) = (*f0, b.friction_coefficient) else {
+                continue;
+            };
+            let d = if f0 != 0.0 {
+                ((f - f0) / f0).abs()
+            } else {
+                (f - f0).abs()
+            };
+            self.dev = Some(self.dev.map_or(d, |m: f64| m.max(d)));
+        }
+    }
+}
+
 /// Counters of one simulation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SimStats {
@@ -353,7 +502,7 @@ pub struct SimResult {
 }
 
 /// The rotor batch as a lockstep system.
-struct RotorBatch<'a, 'p> {
+struct RotorBatch<'a, 'p, O: SampleObserver> {
     models: Vec<RotorModel>,
     params: Vec<BearingParams>,
     offsets: Vec<usize>,
@@ -362,10 +511,12 @@ struct RotorBatch<'a, 'p> {
     results: Vec<LoadResult>,
     ends: Vec<EndKin>,
     ideal_loads: Vec<[f64; 4]>,
-    series: Vec<TimeSeries>,
-    decimators: Vec<Decimator>,
-    /// Most samples kept per simulation (even, at least 2).
-    cap: usize,
+    /// Each simulation's sample observer (the store, or running reductions).
+    observers: Vec<O>,
+    /// One sample's bearing values (reused).
+    row: Vec<BearingSample>,
+    /// The constant-friction check of observers that store no samples.
+    friction: Vec<FrictionWatch>,
     sample_evals: Vec<u64>,
     events: Vec<Vec<FilmEvent>>,
     below: Vec<bool>,
@@ -377,13 +528,13 @@ struct RotorBatch<'a, 'p> {
     method: Method,
     out: &'a mut [Option<SimResult>],
     keep_samples: bool,
-    progress: &'a mut (dyn FnMut(usize, &SimResult) + 'p),
+    progress: &'a mut (dyn FnMut(usize, &SimResult, &mut O) + 'p),
     /// Once set, every evaluation faults at once so the batch ends within a few cheap
     /// rounds (the caller discards those results).
     cancel: Option<&'a AtomicBool>,
 }
 
-impl RotorBatch<'_, '_> {
+impl<O: SampleObserver> RotorBatch<'_, '_, O> {
     /// Film loads of every bearing-model entry, in one evaluator call.
     fn film_pass(&mut self, ids: &[usize], ys: &[f64]) {
         self.requests.clear();
@@ -426,7 +577,7 @@ fn fault_of(bearing: usize, f: &StateFault) -> RotorFault {
     }
 }
 
-impl BatchSystem for RotorBatch<'_, '_> {
+impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     type Fault = RotorFault;
 
     fn dim(&self) -> usize {
@@ -549,86 +700,75 @@ impl BatchSystem for RotorBatch<'_, '_> {
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
             let y = &ys[k * DIM..(k + 1) * DIM];
-            let s = &mut self.series[id];
-            self.decimators[id].before_push(s);
             let g = m.g_position(y);
             let kin = m.kin(y);
-            s.t.push(ts[k]);
-            s.x_g.push(g[0]);
-            s.y_g.push(g[1]);
-            s.spin.push(kin.w_global[2]);
-            s.kinetic_energy.push(m.kinetic_energy(y));
-            s.work.push(y[WORK]);
-            if s.bearings.len() != m.bearings.len() {
-                s.bearings = vec![BearingSeries::default(); m.bearings.len()];
-            }
+            self.row.clear();
             if m.kind == ModelKind::Ideal {
                 m.ideal_derivative(y, &mut scratch, &mut self.ideal_loads);
                 for (b, geom) in m.bearings.iter().enumerate() {
-                    let bs = &mut s.bearings[b];
                     let l = self.ideal_loads[b];
-                    for v in [
-                        &mut bs.xi,
-                        &mut bs.yi,
-                        &mut bs.xj,
-                        &mut bs.yj,
-                        &mut bs.eccentricity_max,
-                    ] {
-                        v.push(0.0);
-                    }
-                    bs.h_min.push(geom.params.clearance);
-                    bs.wx.push(l[0]);
-                    bs.wy.push(l[1]);
-                    bs.mz.push(l[2]);
-                    bs.friction_coefficient
-                        .push(l[3].is_finite().then_some(l[3]));
-                }
-                self.decimators[id].after_push(s, self.cap);
-                continue;
-            }
-            self.sample_evals[id] += m.bearings.len() as u64;
-            for (b, geom) in m.bearings.iter().enumerate() {
-                let st = self.requests[cursor].state;
-                let res = &self.results[cursor];
-                cursor += 1;
-                let bs = &mut s.bearings[b];
-                let d = geom.params.clearance;
-                bs.xi.push(st.xi);
-                bs.yi.push(st.yi);
-                bs.xj.push(st.xj);
-                bs.yj.push(st.yj);
-                let (ei, ej) = st.eccentricity_ratios(d);
-                bs.eccentricity_max.push(ei.max(ej));
-                let h = st.h_min(d);
-                bs.h_min.push(h);
-                let below = h < m.threshold;
-                let flag = &mut self.below[self.offsets[id] + b];
-                if below && !*flag {
-                    self.events[id].push(FilmEvent {
-                        time: ts[k],
-                        bearing: b,
-                        h_min: h,
+                    self.row.push(BearingSample {
+                        h_min: geom.params.clearance,
+                        wx: l[0],
+                        wy: l[1],
+                        mz: l[2],
+                        friction_coefficient: l[3].is_finite().then_some(l[3]),
+                        ..BearingSample::default()
                     });
                 }
-                *flag = below;
-                match res {
-                    Ok(l) => {
-                        bs.wx.push(l.wx);
-                        bs.wy.push(l.wy);
-                        bs.mz.push(l.mz);
-                        bs.friction_coefficient.push(l.friction_coefficient);
+            } else {
+                self.sample_evals[id] += m.bearings.len() as u64;
+                for (b, geom) in m.bearings.iter().enumerate() {
+                    let st = self.requests[cursor].state;
+                    let res = &self.results[cursor];
+                    cursor += 1;
+                    let d = geom.params.clearance;
+                    let (ei, ej) = st.eccentricity_ratios(d);
+                    let h = st.h_min(d);
+                    let below = h < m.threshold;
+                    let flag = &mut self.below[self.offsets[id] + b];
+                    if below && !*flag {
+                        self.events[id].push(FilmEvent {
+                            time: ts[k],
+                            bearing: b,
+                            h_min: h,
+                        });
                     }
-                    Err(_) => {
+                    *flag = below;
+                    let (wx, wy, mz, friction_coefficient) = match res {
+                        Ok(l) => (l.wx, l.wy, l.mz, l.friction_coefficient),
                         // A sample between accepted steps outside the film's domain:
                         // no loads (never NaN), friction unknown.
-                        bs.wx.push(0.0);
-                        bs.wy.push(0.0);
-                        bs.mz.push(0.0);
-                        bs.friction_coefficient.push(None);
-                    }
+                        Err(_) => (0.0, 0.0, 0.0, None),
+                    };
+                    self.row.push(BearingSample {
+                        xi: st.xi,
+                        yi: st.yi,
+                        xj: st.xj,
+                        yj: st.yj,
+                        h_min: h,
+                        eccentricity_max: ei.max(ej),
+                        wx,
+                        wy,
+                        mz,
+                        friction_coefficient,
+                    });
                 }
             }
-            self.decimators[id].after_push(&mut self.series[id], self.cap);
+            let sample = Sample {
+                t: ts[k],
+                x_g: g[0],
+                y_g: g[1],
+                spin: kin.w_global[2],
+                kinetic_energy: m.kinetic_energy(y),
+                work: y[WORK],
+                bearings: &self.row,
+            };
+            let spec = &self.reductions[id];
+            if !O::STORES_SERIES && spec.constant_friction.enabled && self.held[id] {
+                self.friction[id].observe(spec.constant_friction.settle_time, &sample);
+            }
+            self.observers[id].observe(&sample);
         }
     }
 
@@ -670,9 +810,14 @@ impl BatchSystem for RotorBatch<'_, '_> {
             0
         };
         let spec = &self.reductions[id];
-        let friction_dev = (spec.constant_friction.enabled && self.held[id])
-            .then(|| friction_deviation(&self.series[id], spec.constant_friction.settle_time))
-            .flatten();
+        let samples = self.observers[id].take_series();
+        let friction_dev = if !(spec.constant_friction.enabled && self.held[id]) {
+            None
+        } else if O::STORES_SERIES {
+            friction_deviation(&samples, spec.constant_friction.settle_time)
+        } else {
+            self.friction[id].dev
+        };
         let model_reductions = variant_report(
             spec,
             spec.is_full(),
@@ -687,7 +832,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
             status,
             model_reductions,
             film_events: std::mem::take(&mut self.events[id]),
-            samples: std::mem::take(&mut self.series[id]),
+            samples,
             stats: SimStats {
                 steps: stats.steps,
                 rejected: stats.rejected,
@@ -700,7 +845,7 @@ impl BatchSystem for RotorBatch<'_, '_> {
                 stiff_switch_s: stats.stiff_switch_time,
             },
         };
-        (self.progress)(self.scenes[id], &result);
+        (self.progress)(self.scenes[id], &result, &mut self.observers[id]);
         let slot = &mut self.out[self.scenes[id]];
         *slot = Some(if self.keep_samples {
             result
@@ -762,7 +907,7 @@ pub fn simulate_batch(
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
     let cap = sample_cap(scenes);
-    simulate(scenes, evaluator, progress, true, None, cap)
+    stored(scenes, evaluator, progress, true, None, cap)
 }
 
 /// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing).
@@ -785,7 +930,7 @@ pub fn simulate_batch_capped(
     progress: &mut dyn FnMut(usize, &SimResult),
     cap: usize,
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, true, None, cap)
+    stored(scenes, evaluator, progress, true, None, cap)
 }
 
 /// [`simulate_batch`] for large sweeps: each result's samples go to `progress` only and
@@ -797,7 +942,7 @@ pub fn simulate_batch_streaming(
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
     let cap = sample_cap(scenes);
-    simulate(scenes, evaluator, progress, false, None, cap)
+    stored(scenes, evaluator, progress, false, None, cap)
 }
 
 /// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
@@ -811,10 +956,25 @@ pub fn simulate_batch_streaming_cancellable(
     cancel: &AtomicBool,
     cap: usize,
 ) -> Vec<SimResult> {
-    simulate(scenes, evaluator, progress, false, Some(cancel), cap)
+    stored(scenes, evaluator, progress, false, Some(cancel), cap)
 }
 
-fn simulate(
+/// Simulates every scene like [`simulate_batch_streaming_cancellable`], handing each
+/// sample to the scene's observer (`observers[i]` for `scenes[i]`) instead of storing
+/// it: memory holds what the observers keep. `progress(i, &result, &mut observer)` is
+/// called as each variant ends, its `samples` empty.
+pub fn simulate_batch_observed<O: SampleObserver>(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    observers: Vec<O>,
+    progress: &mut dyn FnMut(usize, &SimResult, &mut O),
+    cancel: Option<&AtomicBool>,
+) {
+    simulate(scenes, evaluator, observers, progress, false, cancel);
+}
+
+/// The decimating store behind every [`SimResult`] with samples.
+fn stored(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
@@ -822,8 +982,26 @@ fn simulate(
     cancel: Option<&AtomicBool>,
     cap: usize,
 ) -> Vec<SimResult> {
-    // Even, so a thinned store's last sample stays on the doubled stride; 2 at least.
-    let cap = (cap.max(2) + 1) & !1;
+    let observers = vec![SeriesStore::new(cap); scenes.len()];
+    simulate(
+        scenes,
+        evaluator,
+        observers,
+        &mut |i, r, _| progress(i, r),
+        keep_samples,
+        cancel,
+    )
+}
+
+fn simulate<O: SampleObserver>(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    observers: Vec<O>,
+    progress: &mut dyn FnMut(usize, &SimResult, &mut O),
+    keep_samples: bool,
+    cancel: Option<&AtomicBool>,
+) -> Vec<SimResult> {
+    let mut observers: Vec<Option<O>> = observers.into_iter().map(Some).collect();
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
     let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
     for (i, s) in scenes.iter().enumerate() {
@@ -844,7 +1022,9 @@ fn simulate(
                     stats: SimStats::default(),
                     model_reductions: ReductionReport::default(),
                 };
-                progress(i, &r);
+                if let Some(o) = observers[i].as_mut() {
+                    progress(i, &r, o);
+                }
                 out[i] = Some(r);
             }
         }
@@ -871,9 +1051,12 @@ fn simulate(
             results: Vec::new(),
             ends: Vec::new(),
             ideal_loads: Vec::new(),
-            series: vec![TimeSeries::default(); n],
-            decimators: vec![Decimator::default(); n],
-            cap,
+            observers: idx
+                .iter()
+                .map(|&i| observers[i].take().expect("one observer per scene"))
+                .collect(),
+            row: Vec::new(),
+            friction: vec![FrictionWatch::default(); n],
             sample_evals: vec![0; n],
             events: vec![Vec::new(); n],
             below: Vec::new(),

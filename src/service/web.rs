@@ -286,10 +286,7 @@ async fn variant_series(
             &mut |_, o| outcome = Some(o),
         );
         let o = outcome.ok_or_else(|| ApiError::internal("the simulator reported nothing"))?;
-        let series = o
-            .signals
-            .as_ref()
-            .and_then(|s| crate::sweep::reduce::kept_series(s, &spec.reductions));
+        let series = o.kept_series(&spec.reductions);
         Ok(Json(json!({
             "variant": variant,
             "points": points,

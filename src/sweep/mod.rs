@@ -19,6 +19,7 @@ pub mod simulator;
 pub mod sink;
 pub mod spec;
 pub mod stability_sim;
+pub mod stream;
 pub mod synthetic;
 
 pub use expand::Expansion;

@@ -642,11 +642,27 @@ impl Reductions {
 
 /// Index of the first sample of the window, and whether the run was too short.
 pub fn window_start(t: &[f64], spin: &[f64], window: Window) -> (usize, bool) {
+    let Some(&t0) = t.first() else {
+        return (0, false);
+    };
+    window_start_in(t, spin, window, t0, || revolutions_from(t, spin, 0))
+}
+
+/// [`window_start`] over the last samples of a run (`t`, `spin`: the run's tail, at
+/// least every sample of the window and the one before it), given the run's first
+/// sample time `t0` and its revolutions `run_revolutions()` (both over the whole run).
+pub fn window_start_in(
+    t: &[f64],
+    spin: &[f64],
+    window: Window,
+    t0: f64,
+    run_revolutions: impl FnOnce() -> f64,
+) -> (usize, bool) {
     let n = t.len();
     if n < 2 {
         return (0, n == 1);
     }
-    let (t0, t1) = (t[0], t[n - 1]);
+    let t1 = t[n - 1];
     let (start, truncated) = match window {
         Window::Fraction(f) => {
             let ts = t1 - f * (t1 - t0);
@@ -657,7 +673,7 @@ pub fn window_start(t: &[f64], spin: &[f64], window: Window) -> (usize, bool) {
             (t.iter().position(|&x| x >= ts).unwrap_or(0), ts < t0)
         }
         Window::Revolutions(r) => {
-            let angle = revolutions_from(t, spin, 0) * std::f64::consts::TAU;
+            let angle = run_revolutions() * std::f64::consts::TAU;
             let target = r * std::f64::consts::TAU;
             if angle < target {
                 (0, true)
@@ -684,9 +700,92 @@ pub fn window_start(t: &[f64], spin: &[f64], window: Window) -> (usize, bool) {
 pub fn revolutions_from(t: &[f64], spin: &[f64], start: usize) -> f64 {
     let mut acc = 0.0;
     for i in start..t.len().saturating_sub(1) {
-        acc += 0.5 * (spin[i].abs() + spin[i + 1].abs()) * (t[i + 1] - t[i]);
+        acc += angle_step(t[i], spin[i], t[i + 1], spin[i + 1]);
     }
     acc / std::f64::consts::TAU
+}
+
+/// Angle turned between two samples (trapezoidal rule on `|spin|`), rad.
+pub(crate) fn angle_step(t0: f64, spin0: f64, t1: f64, spin1: f64) -> f64 {
+    0.5 * (spin0.abs() + spin1.abs()) * (t1 - t0)
+}
+
+/// What the reductions read from a whole run, kept as the run goes: its sample count,
+/// first time, angle turned, and each bearing's extremes (film minimum, eccentricity and
+/// force peaks). [`RunTotals::of`] gives the same numbers from stored signals.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunTotals {
+    /// Samples seen.
+    pub samples: usize,
+    /// First sample time, s.
+    pub t0: f64,
+    /// Angle turned from the first sample (trapezoidal on `|spin|`, summed in time
+    /// order), rad.
+    pub angle_rad: f64,
+    /// The latest sample's time (s) and spin (rad/s).
+    last: Option<(f64, f64)>,
+    /// Per bearing.
+    pub bearings: Vec<BearingTotals>,
+}
+
+/// A bearing's extremes over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BearingTotals {
+    /// Thinnest film and its time (the first of equals).
+    pub h_min: Option<Extreme>,
+    /// Largest eccentricity ratio and its time.
+    pub eccentricity_max: Option<Extreme>,
+    /// Largest `|W|` and its time.
+    pub force_peak: Option<Extreme>,
+}
+
+/// `best` updated with sample `(t, x)`: smallest (`sign = 1`) or largest (`sign = −1`),
+/// finite values only, the first of equals.
+fn keep_extreme(best: &mut Option<Extreme>, t: f64, x: f64, sign: f64) {
+    if x.is_finite() && best.is_none_or(|b| sign * x < sign * b.value) {
+        *best = Some(Extreme { value: x, t_s: t });
+    }
+}
+
+impl RunTotals {
+    /// Adds one sample: time `t`, spin, and per bearing `(h_min, eccentricity_max, wx, wy)`.
+    pub fn observe(&mut self, t: f64, spin: f64, bearings: impl Iterator<Item = [f64; 4]>) {
+        match self.last {
+            None => self.t0 = t,
+            Some((tp, sp)) => self.angle_rad += angle_step(tp, sp, t, spin),
+        }
+        self.last = Some((t, spin));
+        self.samples += 1;
+        for (k, [h, e, wx, wy]) in bearings.enumerate() {
+            if self.bearings.len() <= k {
+                self.bearings.push(BearingTotals::default());
+            }
+            let b = &mut self.bearings[k];
+            keep_extreme(&mut b.h_min, t, h, 1.0);
+            keep_extreme(&mut b.eccentricity_max, t, e, -1.0);
+            keep_extreme(&mut b.force_peak, t, wx.hypot(wy), -1.0);
+        }
+    }
+
+    /// The totals of stored signals.
+    pub fn of(s: &Signals) -> Self {
+        let mut r = RunTotals::default();
+        for i in 0..s.t.len() {
+            r.observe(
+                s.t[i],
+                s.spin[i],
+                s.bearings
+                    .iter()
+                    .map(|b| [b.h_min[i], b.eccentricity_max[i], b.wx[i], b.wy[i]]),
+            );
+        }
+        r
+    }
+
+    /// Revolutions turned over the run.
+    pub fn revolutions(&self) -> f64 {
+        self.angle_rad / std::f64::consts::TAU
+    }
 }
 
 /// Trapezoidal weights of the samples `t` (sum = `t_last − t_first`).
@@ -741,17 +840,6 @@ pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<Stats> {
 /// [`stats_opt`] of a plain signal.
 pub fn stats(t: &[f64], v: &[f64]) -> Option<Stats> {
     stats_opt(t, |i| Some(v[i]))
-}
-
-/// Smallest (`sign = 1`) or largest (`sign = −1`) sample and its time.
-fn extreme(t: &[f64], v: &[f64], sign: f64) -> Option<Extreme> {
-    let mut best: Option<Extreme> = None;
-    for (&ti, &x) in t.iter().zip(v) {
-        if x.is_finite() && best.is_none_or(|b| sign * x < sign * b.value) {
-            best = Some(Extreme { value: x, t_s: ti });
-        }
-    }
-    best
 }
 
 /// Steady orbit of `(x, y)` (see the module doc).
@@ -985,8 +1073,15 @@ fn pick(v: &[f64], idx: &[usize]) -> Value {
 
 /// Reduces one variant's signals. Every output number is finite or `null`.
 pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
+    reduce_tail(s, &RunTotals::of(s), opts)
+}
+
+/// [`reduce`] of a run kept as it went: `s` its last samples (at least the evaluation
+/// window and the sample before it, [`super::stream::RunReducer`]), `run` its totals.
+/// The same numbers as [`reduce`] on every sample.
+pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Reductions {
     let n = s.t.len();
-    if n == 0 {
+    if n == 0 || run.samples == 0 {
         return Reductions {
             window: None,
             h_min: None,
@@ -997,7 +1092,7 @@ pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
             bearings: Vec::new(),
         };
     }
-    let (w0, truncated) = window_start(&s.t, &s.spin, opts.window);
+    let (w0, truncated) = window_start_in(&s.t, &s.spin, opts.window, run.t0, || run.revolutions());
     let tw = &s.t[w0..];
     let spin_mean = stats(tw, &s.spin[w0..]).map(|st| st.mean);
     let window = WindowInfo {
@@ -1016,14 +1111,19 @@ pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
         .iter()
         .enumerate()
         .map(|(k, b)| {
-            let force: Vec<f64> = b.wx.iter().zip(&b.wy).map(|(x, y)| x.hypot(*y)).collect();
-            let power: Vec<f64> =
-                b.mz.iter()
-                    .zip(&s.spin)
-                    .map(|(m, w)| (m * w).abs())
-                    .collect();
-            let torque: Vec<f64> = b.mz.iter().map(|m| m.abs()).collect();
-            let hm = extreme(&s.t, &b.h_min, 1.0);
+            let force: Vec<f64> = b.wx[w0..]
+                .iter()
+                .zip(&b.wy[w0..])
+                .map(|(x, y)| x.hypot(*y))
+                .collect();
+            let power: Vec<f64> = b.mz[w0..]
+                .iter()
+                .zip(&s.spin[w0..])
+                .map(|(m, w)| (m * w).abs())
+                .collect();
+            let torque: Vec<f64> = b.mz[w0..].iter().map(|m| m.abs()).collect();
+            let totals = run.bearings.get(k).copied().unwrap_or_default();
+            let hm = totals.h_min;
             if let Some(e) = hm {
                 if h_min.is_none_or(|h| e.value < h.value_m) {
                     h_min = Some(FilmMin {
@@ -1033,7 +1133,7 @@ pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
                     });
                 }
             }
-            let power_mean = stats(tw, &power[w0..]).map(|st| st.mean);
+            let power_mean = stats(tw, &power).map(|st| st.mean);
             total_power = match (total_power, power_mean) {
                 (Some(a), Some(p)) => Some(a + p),
                 _ => None,
@@ -1048,12 +1148,12 @@ pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
             }
             BearingReduction {
                 friction_coefficient: stats_opt(tw, |i| b.friction_coefficient[w0 + i]),
-                friction_torque_nm: stats(tw, &torque[w0..]),
+                friction_torque_nm: stats(tw, &torque),
                 power_loss_w: power_mean,
-                force_n: stats(tw, &force[w0..]),
-                force_peak_n: extreme(&s.t, &force, -1.0),
+                force_n: stats(tw, &force),
+                force_peak_n: totals.force_peak,
                 h_min_m: hm,
-                eccentricity_max: extreme(&s.t, &b.eccentricity_max, -1.0),
+                eccentricity_max: totals.eccentricity_max,
                 orbit: orbit(&b.xi[w0..], &b.yi[w0..]),
                 whirl: wh,
             }
@@ -1072,13 +1172,18 @@ pub fn reduce(s: &Signals, opts: &ReductionOptions) -> Reductions {
 
 /// The kept series, decimated (`None` when nothing is kept).
 pub fn kept_series(s: &Signals, opts: &ReductionOptions) -> Option<Value> {
-    if opts.keep.is_empty() || s.t.is_empty() {
-        return None;
-    }
     let start = match opts.span {
         Span::Run => 0,
         Span::Window => window_start(&s.t, &s.spin, opts.window).0,
     };
+    kept_series_from(s, start, opts)
+}
+
+/// [`kept_series`] of samples `start..` of `s` (every column of a kept group present).
+pub fn kept_series_from(s: &Signals, start: usize, opts: &ReductionOptions) -> Option<Value> {
+    if opts.keep.is_empty() || s.t.is_empty() {
+        return None;
+    }
     let idx = decimate_indices(start, s.t.len(), opts.points);
     let mut m = Map::new();
     m.insert("t".into(), pick(&s.t, &idx));

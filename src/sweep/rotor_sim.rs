@@ -4,14 +4,15 @@
 
 use serde_json::{json, Value};
 
-use super::reduce::{BearingSignals, Signals};
-use super::runner::{BatchSimulator, Job, Outcome};
+use super::reduce::{BearingSignals, ReductionOptions, Signals};
+use super::runner::{BatchSimulator, Job, Outcome, Reduced};
+use super::stream::{streams, RunReducer};
 use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
 use crate::bearing::Accuracy;
 use crate::rotor::reductions::{evaluator_report, ReductionSpec};
 use std::sync::atomic::AtomicBool;
 
-use crate::rotor::simulate_batch_streaming_cancellable;
+use crate::rotor::{simulate_batch_observed, simulate_batch_streaming_cancellable};
 use crate::rotor::{Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
@@ -74,6 +75,25 @@ pub fn signals_of(r: &SimResult, scene: &Scene) -> Signals {
     }
 }
 
+/// The outcome of a simulation reduced as it ran.
+pub fn outcome_reduced(
+    r: &SimResult,
+    scene: &Scene,
+    reducer: &RunReducer,
+    opts: &ReductionOptions,
+) -> Outcome {
+    let (reductions, series) = reducer.finish(opts);
+    Outcome {
+        signals: None,
+        reduced: Some(Reduced {
+            reductions,
+            series,
+            peak_stored_samples: reducer.peak_stored_samples(),
+        }),
+        ..outcome_of(r, scene)
+    }
+}
+
 /// The outcome the runner streams for one simulation.
 pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
     let status = status_name(r);
@@ -101,6 +121,7 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
         signals: Some(signals_of(r, scene)),
         // Deterministic counters only (wall times go to the run section, not here).
         extra: Some(extra),
+        reduced: None,
     }
 }
 
@@ -118,6 +139,9 @@ pub struct RotorSimulator {
     info: BackendInfo,
     workers: Vec<LoadEvaluator>,
     full_model: bool,
+    /// The spec's reductions: with a window of fixed length each variant is reduced as it
+    /// runs and keeps only what they need ([`super::stream`]).
+    reductions: Option<ReductionOptions>,
 }
 
 impl RotorSimulator {
@@ -142,12 +166,20 @@ impl RotorSimulator {
             info,
             workers,
             full_model: false,
+            reductions: None,
         }
     }
 
     /// `--full-model`: every variant's scene gets every reduction off.
     pub fn set_full_model(&mut self, full: bool) {
         self.full_model = full;
+    }
+
+    /// Reduce each variant with `opts` as it runs where its window has a fixed length
+    /// (memory then follows the window, not `t_end`); otherwise the samples are stored
+    /// and the runner reduces them.
+    pub fn set_reductions(&mut self, opts: &ReductionOptions) {
+        self.reductions = streams(opts).then(|| opts.clone());
     }
 
     /// Evaluator counters summed over the evaluator and the per-thread workers.
@@ -234,17 +266,12 @@ impl BatchSimulator for RotorSimulator {
         }
         // The whole batch is in flight at once (across threads): it shares the budget.
         let cap = crate::rotor::sample_cap(&scenes);
+        let opts = self.reductions.as_ref();
         if self.workers.len() <= 1 || scenes.len() <= 1 {
             let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
-            let results = simulate_batch_streaming_cancellable(
-                &scenes,
-                evaluator,
-                &mut |i, r| done(index[i], outcome_of(r, &scenes[i])),
-                cancel,
-                cap,
-            );
-            // The runner has what it needs; free the batch's series at once.
-            drop(results);
+            simulate_chunk(&scenes, evaluator, opts, cancel, cap, &mut |i, o| {
+                done(index[i], o)
+            });
             return;
         }
         // Round-robin over the threads: neighbouring variants (often alike in cost, e.g.
@@ -263,17 +290,10 @@ impl BatchSimulator for RotorSimulator {
                 }
                 let tx = tx.clone();
                 scope.spawn(move || {
-                    let results = simulate_batch_streaming_cancellable(
-                        chunk,
-                        evaluator,
-                        // The receiver lives until every worker is done.
-                        &mut |i, r| {
-                            let _ = tx.send((ids[i], outcome_of(r, &chunk[i])));
-                        },
-                        cancel,
-                        cap,
-                    );
-                    drop(results);
+                    // The receiver lives until every worker is done.
+                    simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
+                        let _ = tx.send((ids[i], o));
+                    });
                 });
             }
             drop(tx);
@@ -290,5 +310,38 @@ impl BatchSimulator for RotorSimulator {
             n.extend(w.take_notices());
         }
         n
+    }
+}
+
+/// Simulates `scenes` on one evaluator, reporting `done(i, outcome)` as each ends: reduced
+/// as they run under `opts` (a window of fixed length), else from their stored samples
+/// (at most `cap` each).
+fn simulate_chunk(
+    scenes: &[Scene],
+    evaluator: &mut LoadEvaluator,
+    opts: Option<&ReductionOptions>,
+    cancel: &AtomicBool,
+    cap: usize,
+    done: &mut dyn FnMut(usize, Outcome),
+) {
+    match opts {
+        Some(opts) => simulate_batch_observed(
+            scenes,
+            evaluator,
+            scenes.iter().map(|s| RunReducer::new(s, opts)).collect(),
+            &mut |i, r, reducer| done(i, outcome_reduced(r, &scenes[i], reducer, opts)),
+            Some(cancel),
+        ),
+        None => {
+            let results = simulate_batch_streaming_cancellable(
+                scenes,
+                evaluator,
+                &mut |i, r| done(i, outcome_of(r, &scenes[i])),
+                cancel,
+                cap,
+            );
+            // The runner has what it needs; free the batch's series at once.
+            drop(results);
+        }
     }
 }

@@ -50,6 +50,30 @@ pub struct Outcome {
     pub signals: Option<Signals>,
     /// Simulator-specific deterministic extras (e.g. step counts), stored as `"sim"`.
     pub extra: Option<Value>,
+    /// Reductions and kept series computed as the run went (then `signals` is `None`).
+    pub reduced: Option<Reduced>,
+}
+
+/// A variant's reductions computed as it ran ([`super::stream::RunReducer`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reduced {
+    /// The reductions.
+    pub reductions: super::reduce::Reductions,
+    /// The kept series (`None`: nothing kept).
+    pub series: Option<Value>,
+    /// Most samples held at once while it ran (not written out).
+    pub peak_stored_samples: usize,
+}
+
+impl Outcome {
+    /// The kept series, however the variant was reduced.
+    pub fn kept_series(&self, opts: &super::reduce::ReductionOptions) -> Option<Value> {
+        match (&self.reduced, &self.signals) {
+            (Some(r), _) => r.series.clone(),
+            (None, Some(s)) => kept_series(s, opts),
+            (None, None) => None,
+        }
+    }
 }
 
 impl Outcome {
@@ -60,6 +84,7 @@ impl Outcome {
             message: None,
             signals: Some(signals),
             extra: None,
+            reduced: None,
         }
     }
 
@@ -70,6 +95,7 @@ impl Outcome {
             message: Some(message),
             signals: None,
             extra: None,
+            reduced: None,
         }
     }
 }
@@ -620,7 +646,15 @@ pub(crate) fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, mut o: 
     if let Some(msg) = o.message {
         m.insert("message".into(), json!(msg));
     }
-    if let Some(s) = &o.signals {
+    if let Some(r) = o.reduced.take() {
+        m.insert(
+            "reductions".into(),
+            serde_json::to_value(&r.reductions).unwrap_or(Value::Null),
+        );
+        if let Some(series) = r.series {
+            m.insert("series".into(), series);
+        }
+    } else if let Some(s) = &o.signals {
         let r = reduce(s, &spec.reductions);
         m.insert(
             "reductions".into(),

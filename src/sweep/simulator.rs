@@ -137,6 +137,7 @@ pub fn prepare_simulator(
                 choice.accuracy,
             );
             sim.set_full_model(choice.full_model);
+            sim.set_reductions(&spec.reductions);
             let settings = sim.settings(choice.accuracy.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),

@@ -173,6 +173,7 @@ impl BatchSimulator for StabilitySimulator {
                         "threshold_iterations": t.iterations,
                         "notes": r.notes,
                     })),
+                    reduced: None,
                 },
             );
         }

@@ -279,6 +279,7 @@ impl BatchSimulator for SyntheticSimulator {
                     )),
                     signals: Some(sig),
                     extra: None,
+                    reduced: None,
                 },
             };
             done(k, outcome);
