@@ -73,10 +73,7 @@ fn main() {
         let (mut solve_s, mut post_s) = (0.0, 0.0);
         for s in st.iter().take(m) {
             let packed = pack_state(&fp, s).unwrap();
-            let job = FiniteJob {
-                state: packed.state,
-                aspect: fp.length / fp.radius,
-            };
+            let job = FiniteJob::new(&fp, &packed);
             let mut field = Vec::new();
             let t = Instant::now();
             let (_, report) = FiniteSolver::new().solve(&job, &g, &mut field);

@@ -80,10 +80,7 @@ const BUTENSCHOEN: [(f64, f64, f64, f64); 9] = [
 /// Solves a state and returns its loads, the flow integrals and the solver's integrals.
 fn solve_with_flow(p: &BearingParams, s: &BearingState) -> (Loads, FlowIntegrals, [f64; 4], f64) {
     let packed = pack_state(p, s).unwrap();
-    let job = FiniteJob {
-        state: packed.state,
-        aspect: p.length / p.radius,
-    };
+    let job = FiniteJob::new(p, &packed);
     let g = FiniteGrid::from(&p.finite);
     let mut field = Vec::new();
     let (ints, report) = FiniteSolver::new().solve(&job, &g, &mut field);

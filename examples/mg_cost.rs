@@ -1,0 +1,109 @@
+//! Cost probe of the finite-film solvers (BENCHMARKS.md "Issue 20: multigrid cost"):
+//! one thread, cold starts, the 32 states of the finite benchmark, fixed grids with the
+//! default settings (max-film inlet, tolerance 1e-8); PSOR and multigrid per state, the
+//! minimum over `reps` repetitions (the machine is shared), counted work (sweeps of the
+//! grid) and the largest relative difference of the load vectors (same discrete problem).
+//!
+//! Then the default accuracy mode (multigrid ladder) against the 64 × 16 PSOR state (the
+//! default before issue 20): ms/state and node updates/state (machine-independent work).
+//!
+//! `cargo run --release --example mg_cost -- [reps]`
+use std::time::Instant;
+
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
+use bearing_sweep::bearing::{finish_loads, pack_state};
+use bearing_sweep::bench::finite::bench_states;
+
+fn main() {
+    let reps: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
+    let (p, states) = bench_states(32);
+    let jobs: Vec<_> = states
+        .iter()
+        .map(|s| {
+            let packed = pack_state(&p, s).expect("valid state");
+            (FiniteJob::new(&p, &packed), packed.rate_scale, *s)
+        })
+        .collect();
+    println!("| grid | PSOR sweeps | PSOR ms/state | multigrid work (sweeps) | multigrid ms/state | speed-up | max rel. difference |");
+    println!("|---|---|---|---|---|---|---|");
+    for (t, z) in [(32, 8), (64, 16), (128, 32), (256, 64)] {
+        let g = FiniteGrid::from(&FiniteSettings::with_grid(t, z));
+        let mut solver = FiniteSolver::new();
+        let mut run = |psor: bool| {
+            let mut best = f64::INFINITY;
+            let mut sweeps = 0u64;
+            let mut loads = Vec::new();
+            for _ in 0..reps {
+                sweeps = 0;
+                loads.clear();
+                let start = Instant::now();
+                for (job, scale, s) in &jobs {
+                    let (ints, r) = if psor {
+                        solver.solve_psor(job, &g, &mut Vec::new())
+                    } else {
+                        solver.solve(job, &g, &mut Vec::new())
+                    };
+                    sweeps += r.sweeps as u64;
+                    loads.push(finish_loads(&p, s, &ints, *scale).load_vector(p.length));
+                }
+                best = best.min(start.elapsed().as_secs_f64());
+            }
+            let n = jobs.len() as f64;
+            (sweeps as f64 / n, best / n * 1e3, loads)
+        };
+        let a = run(true);
+        let b = run(false);
+        let diff =
+            a.2.iter()
+                .zip(&b.2)
+                .map(|(x, y)| {
+                    let d: f64 = (0..4).map(|k| (x[k] - y[k]).powi(2)).sum::<f64>().sqrt();
+                    d / x.iter().map(|v| v * v).sum::<f64>().sqrt()
+                })
+                .fold(0.0, f64::max);
+        println!(
+            "| {t}×{z} | {:.0} | {:.3} | {:.0} | {:.3} | {:.2}× | {:.1e} |",
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            a.1 / b.1,
+            diff
+        );
+    }
+    // Default accuracy against the old default (64 × 16 PSOR).
+    let mut solver = FiniteSolver::new();
+    let mut time_it = |g: &FiniteGrid, psor: bool| {
+        let mut best = f64::INFINITY;
+        let mut updates = 0u64;
+        for _ in 0..reps {
+            updates = 0;
+            let start = Instant::now();
+            for (job, _, _) in &jobs {
+                let (_, r) = if psor {
+                    solver.solve_psor(job, g, &mut Vec::new())
+                } else {
+                    solver.solve(job, g, &mut Vec::new())
+                };
+                updates += r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1));
+            }
+            best = best.min(start.elapsed().as_secs_f64());
+        }
+        let n = jobs.len() as f64;
+        (best / n * 1e3, updates as f64 / n)
+    };
+    let old = time_it(&FiniteGrid::from(&FiniteSettings::with_grid(64, 16)), true);
+    let acc = time_it(&FiniteGrid::from(&FiniteSettings::default()), false);
+    println!();
+    println!("| setting | ms/state | node updates/state |");
+    println!("|---|---|---|");
+    println!("| 64×16 PSOR (old default) | {:.3} | {:.0} |", old.0, old.1);
+    println!(
+        "| accuracy 5e-4 multigrid (default) | {:.3} | {:.0} |",
+        acc.0, acc.1
+    );
+    println!("| ratio | {:.1}× | {:.1}× |", acc.0 / old.0, acc.1 / old.1);
+}
