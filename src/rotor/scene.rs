@@ -4,8 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bearing::{
-    Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves,
-    Lubricant, ThermalSettings,
+    Arcs, BearingParams, ClearanceConvention, FilmModel, FiniteSettings, Grooves, Lubricant,
+    ThermalSettings,
 };
 use crate::integrate::Method;
 
