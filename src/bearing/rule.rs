@@ -298,20 +298,61 @@ fn durand_kerner<const N: usize>(a: &[f64; 4], roots: &mut [(f64, f64); 4]) -> u
     sweeps
 }
 
-/// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
-pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
-    let mut roots = [(0.0, 0.0); 4];
+/// The degree [`quartic_roots`] keeps: leading terms below rounding at `|t| = 2` dropped
+/// (their roots lie far outside).
+fn kept_degree(c: &[f64; 5]) -> usize {
     let mut norm: f64 = 0.0;
     let mut scale = 1.0;
-    for &ck in &c {
+    for &ck in c {
         norm = norm.max(ck.abs() * scale);
         scale *= 2.0;
     }
     let mut n = 4;
-    // Drop leading terms below rounding at |t| = 2 (their roots lie far outside).
     while n > 0 && c[n].abs() * 2f64.powi(n as i32) <= 1e-13 * norm {
         n -= 1;
     }
+    n
+}
+
+/// True when `c[0] + c[1] t + ... + c[n] t^n` provably has no root in the disk
+/// `|t| <= radius`. One Graeffe step squares the roots (`p(t) p(−t) = q(t²)`, `q` of degree
+/// `n` with coefficients `d_m = Σ_{j+k=2m} (−1)^k c_j c_k`); then `|d_0| > Σ_{m≥1} |d_m| ρ^m`
+/// with `ρ = radius²` leaves `q`, hence `p`, without a root in the disk (triangle
+/// inequality). Without the Graeffe step this test needs every root beyond ~13 `radius`
+/// (degree 4); with it, beyond ~2.3 `radius`. Each `|d_m|` is raised by 1e-14 of the sum
+/// of its terms' magnitudes, more than the rounding of the few products (a false "no
+/// root" would need rounding to exceed that).
+fn no_root_within(c: &[f64; 5], n: usize, radius: f64) -> bool {
+    let rho = radius * radius;
+    let mut rhs = 0.0;
+    let mut pw = 1.0;
+    for m in 1..=n {
+        pw *= rho;
+        let (mut d, mut mag) = (0.0, 0.0);
+        for j in 0..=n {
+            let k = 2 * m as isize - j as isize;
+            if k < 0 || k as usize > n {
+                continue;
+            }
+            let t = c[j] * c[k as usize];
+            let t = if k % 2 == 0 { t } else { -t };
+            d += t;
+            mag += t.abs();
+        }
+        rhs += (d.abs() + 1e-14 * mag) * pw;
+    }
+    c[0] * c[0] > rhs
+}
+
+/// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
+pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
+    let n = kept_degree(&c);
+    durand_kerner_from(c, n)
+}
+
+/// Durand-Kerner on the first `n + 1` coefficients of `c` (`n` from [`kept_degree`]).
+fn durand_kerner_from(c: [f64; 5], n: usize) -> ([(f64, f64); 4], usize, usize) {
+    let mut roots = [(0.0, 0.0); 4];
     if n == 0 {
         return (roots, 0, 0);
     }
@@ -339,9 +380,31 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     (roots, n, sweeps)
 }
 
+/// Radius in `t = s − 1/2` beyond which no arc-end root can end a panel early: a panel
+/// starting at `s ∈ [0, 1)` is cut by a root `ρ` only if `κ |s − ρ| < 1 − s`, and
+/// `|s − ρ| >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ_min` never
+/// bind (the worst start is `s = 0`). 1 % is added so that the 1e-13 to which
+/// Durand-Kerner converges cannot bring a root back inside.
+fn far_radius(settings: &RuleSettings) -> f64 {
+    let kappa_min = settings.kappa_ahead.min(settings.kappa_behind);
+    (0.5 + 1.0 / kappa_min) * 1.01
+}
+
 impl Singularities {
-    /// Locates the singularities of `state` under `settings`.
+    /// Locates the singularities of `state` under `settings`. Arc-end roots that provably
+    /// cannot shorten any panel are left out (they are not searched for: see
+    /// [`Singularities::of_all_roots`] for the full list).
     pub fn of(state: &PackedState, settings: &RuleSettings) -> Self {
+        Self::locate(state, settings, false)
+    }
+
+    /// [`Singularities::of`] with every arc-end root found by Durand-Kerner, far or not
+    /// (the panel layout is the same; for tests and root statistics).
+    pub fn of_all_roots(state: &PackedState, settings: &RuleSettings) -> Self {
+        Self::locate(state, settings, true)
+    }
+
+    fn locate(state: &PackedState, settings: &RuleSettings, all_roots: bool) -> Self {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
         let (e1x, e1y) = (ejx - e0x, ejy - e0y);
@@ -417,13 +480,22 @@ impl Singularities {
         let b0 = rcx * rcx + rcy * rcy;
         let b1 = 2.0 * (rcx * r1x + rcy * r1y);
         let b2 = r1sq;
-        let (roots, n, sweeps) = quartic_roots_counted([
+        let c = [
             a0 * a0 - b0,
             2.0 * a0 * a1 - b1,
             a1 * a1 + 2.0 * a0 * a2 - b2,
             2.0 * a1 * a2,
             a2 * a2,
-        ]);
+        ];
+        let n = kept_degree(&c);
+        if !all_roots && no_root_within(&c, n, far_radius(settings)) {
+            // No root can shorten a panel (see `far_radius`): the panel layout is the one
+            // the roots would give, without finding them (bit-identical results; on the
+            // rotor workloads of issue 28 nearly every tilted state takes this path).
+            sing.root_work = (n, 0);
+            return sing;
+        }
+        let (roots, n, sweeps) = durand_kerner_from(c, n);
         sing.root_work = (n, sweeps);
         // Near the rate vector's zero s_r ± i d_r two roots of Q cluster. Locally
         // (ε ≈ ε(s_r), r = |r1| (t ê + d_r ê⊥), t = s − s_r) Q/|r1|² is the quadratic
