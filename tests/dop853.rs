@@ -3,6 +3,8 @@
 //! closed form at every sample, fewer right-hand-side evaluations than dopri5 at a tight
 //! tolerance, and a batch equal to single runs.
 
+#![allow(clippy::needless_range_loop)]
+
 use bearing_sweep::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
 
 /// Damped oscillators `x'' + 2 ζ w x' + w² x = 0` (`ζ = 0.1`), `w` per variant.

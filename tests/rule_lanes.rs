@@ -3,6 +3,8 @@
 //! an arithmetic one instead of libm's), and the branch-free edge cases (zero rate, centred
 //! journal) as in the scalar path.
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use bearing_sweep::bearing::{atan2_lane, slice_integrals, slices_lanes, LaneIsa, Lanes, LANES};

@@ -245,6 +245,7 @@ pub fn atan2_lane(y: f64, x: f64) -> f64 {
 /// [`slice_integrals`] only through that angle's last few bits (tests/rule_lanes.rs).
 /// Identical bit for bit whichever instruction set runs it ([`slices_lanes`]).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across six arrays
 fn slices_lanes_generic(
     ex: &Lanes,
     ey: &Lanes,
@@ -777,6 +778,7 @@ impl FilmRule {
     }
 
     /// Film integrals of one packed state, and the number of slices evaluated.
+    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
     pub fn integrate(&self, state: &PackedState) -> (FilmIntegrals, u32) {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;

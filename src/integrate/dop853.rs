@@ -307,7 +307,7 @@ const FAULT_SHRINK: f64 = 0.25;
 /// Hairer's DOP853 error norm: the 5th-order estimate `err5` damped by the 3rd-order one
 /// `err3` as `|h| err5² / sqrt(n (err5² + 0.01 err3²))`, each weighted by
 /// `atol · scale + rtol · max(|y|, |y_new|)` like the other methods' norms.
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 fn err_norm_853(
     h: f64,
     k: &[Vec<f64>],
