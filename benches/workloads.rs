@@ -21,11 +21,15 @@
 //! Run (harness-less): `cargo bench --bench workloads -- NAME [--method auto] [--rtol X]
 //! [--no-error]` (`--rtol`: `rtol = atol = X` instead of 1e-6).
 //! `--no-error` skips the reference (for instruction counts under callgrind).
+//! `--kernel` runs the workload once recording its packed states, then times the film
+//! rule alone on them (states per second per thread, slices and root sweeps per state).
 
 use std::time::Instant;
 
-use bearing_sweep::backend::{CpuBackend, LoadEvaluator};
-use bearing_sweep::bearing::Accuracy;
+use bearing_sweep::backend::{BackendError, BackendInfo, CpuBackend, FilmBackend, LoadEvaluator};
+use bearing_sweep::bearing::{
+    Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings, Singularities,
+};
 use bearing_sweep::integrate::Method;
 use bearing_sweep::rotor::{load_scene, simulate_batch, Scene, SimResult};
 
@@ -84,6 +88,92 @@ fn workload(name: &str) -> Vec<Scene> {
             .collect(),
         other => panic!("unknown workload {other} (grid9, sweep30, spin256)"),
     }
+}
+
+/// A CPU backend that keeps a copy of every state it integrates (for `--kernel`).
+struct Recording {
+    inner: CpuBackend,
+    states: std::sync::Arc<std::sync::Mutex<Vec<PackedState>>>,
+}
+
+impl FilmBackend for Recording {
+    fn info(&self) -> BackendInfo {
+        self.inner.info()
+    }
+    fn settings(&self) -> RuleSettings {
+        self.inner.settings()
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        self.states.lock().unwrap().extend_from_slice(states);
+        self.inner.integrate(states, out)
+    }
+}
+
+/// `--kernel`: the workload's own packed states (every 7th, at most 200 000), then the
+/// rule alone on them on this thread: states per second, slices and root-finder sweeps
+/// per state, and a checksum of the integrals (to compare kernels).
+fn kernel(scenes: &[Scene], level: f64) {
+    let acc = Accuracy::new(level).expect("a calibrated level");
+    let states = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let rec = Recording {
+        inner: CpuBackend::new(acc, Some(1)),
+        states: states.clone(),
+    };
+    let mut ev = LoadEvaluator::new(Box::new(rec));
+    simulate_batch(scenes, &mut ev, &mut |_, _| {});
+    let all = states.lock().unwrap();
+    let picked: Vec<PackedState> = all.iter().step_by(7).take(200_000).copied().collect();
+    let rule = FilmRule::new(acc.settings());
+    let (mut slices, mut sweeps, mut tilted) = (0u64, 0u64, 0u64);
+    for s in &picked {
+        let (_, n) = rule.integrate(s);
+        slices += n as u64;
+        if n > 1 {
+            tilted += 1;
+            sweeps += Singularities::of(s, rule.settings()).root_work.1 as u64;
+        }
+    }
+    if std::env::var("ROOT_HIST").is_ok() {
+        let mut hist = [0u64; 8];
+        for s in &picked {
+            let sing = Singularities::of(s, rule.settings());
+            let d = sing.complex[..sing.complex_count]
+                .iter()
+                .map(|&(re, im)| (re - 0.5).hypot(im))
+                .fold(f64::INFINITY, f64::min);
+            let b = [1.0, 2.5, 4.0, 6.0, 13.0, 100.0, 1e4, f64::INFINITY]
+                .iter()
+                .position(|&x| d < x)
+                .unwrap_or(7);
+            hist[b] += 1;
+        }
+        println!(
+            "nearest complex singularity |s - 1/2| < 1, 2.5, 4, 6, 13, 100, 1e4, inf: {hist:?}"
+        );
+    }
+    let mut out = Vec::new();
+    let mut cpu = CpuBackend::new(acc, Some(1));
+    let t0 = Instant::now();
+    let mut reps = 0;
+    while reps < 3 || t0.elapsed().as_secs_f64() < 1.0 {
+        cpu.integrate(&picked, &mut out).unwrap();
+        reps += 1;
+    }
+    let per = t0.elapsed().as_secs_f64() / reps as f64;
+    let sum: f64 = out.iter().flat_map(|v| v.iter()).map(|v| v.abs()).sum();
+    println!(
+        "kernel: {} states ({} recorded, {tilted} tilted), {:.0} states/s on one thread, \
+         {:.1} slices/state, {:.1} root sweeps per tilted state, checksum {sum:.15e}",
+        picked.len(),
+        all.len(),
+        picked.len() as f64 / per,
+        slices as f64 / picked.len() as f64,
+        sweeps as f64 / tilted.max(1) as f64
+    );
 }
 
 fn run(scenes: &[Scene], level: f64) -> Vec<SimResult> {
@@ -145,6 +235,10 @@ fn main() {
             s.integrator.rtol = t;
             s.integrator.atol = t;
         }
+    }
+    if args.iter().any(|a| a == "--kernel") {
+        kernel(&scenes, 1e-6);
+        return;
     }
     let t0 = Instant::now();
     let rs = run(&scenes, 1e-6);

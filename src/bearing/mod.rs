@@ -24,8 +24,9 @@ pub use loads::{film_loads, finish_loads, pack_state, Loads, Packed};
 pub use lubricant::Lubricant;
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{
-    quartic_roots, quartic_roots_counted, slice_integrals, Accuracy, FilmIntegrals, FilmRule,
-    PackedState, RuleSettings, Singularities, ACCURACY_LEVELS,
+    atan2_lane, quartic_roots, quartic_roots_counted, slice_integrals, slices_lanes, Accuracy,
+    FilmIntegrals, FilmRule, LaneIsa, Lanes, PackedState, RuleSettings, Singularities,
+    ACCURACY_LEVELS, LANES,
 };
 pub use state::{BearingState, End, StateFault};
 pub use thermal::{solve_balance, Balance, ThermalError, ThermalSettings};

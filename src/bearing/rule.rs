@@ -193,6 +193,191 @@ pub fn slice_integrals(ex: f64, ey: f64, rx: f64, ry: f64) -> [f64; 2] {
     ]
 }
 
+/// Slices evaluated together by [`slices_lanes`]: one panel of up to 8 Gauss nodes (the
+/// 1e-3 to 1e-9 levels use 5, 7 and 9 nodes; 12 at 1e-12 take two calls), the width of an
+/// AVX-512 register of f64.
+pub const LANES: usize = 8;
+
+/// Inputs or outputs of [`slices_lanes`], one slice per lane.
+pub type Lanes = [f64; LANES];
+
+/// `atan(u)` for `|u| <= 1` without a library call (the WGSL kernel's `atan_unit`): two
+/// half-angle reductions `atan(u) = 2 atan(u / (1 + √(1 + u²)))` bring `|v| <= tan(π/16)`,
+/// then the odd Taylor series to `v^23` (truncation below 2e-19 relative). Branch-free, so
+/// that it vectorises.
+#[inline(always)]
+fn atan_unit(u: f64) -> f64 {
+    let v = u / (1.0 + (1.0 + u * u).sqrt());
+    let v = v / (1.0 + (1.0 + v * v).sqrt());
+    let v2 = v * v;
+    // Coefficients 1/(2k+1) of the alternating series, k = 11 down to 0.
+    let mut p = 1.0 / 23.0;
+    for k in (0..11).rev() {
+        p = 1.0 / (2 * k + 1) as f64 - v2 * p;
+    }
+    4.0 * v * p
+}
+
+/// `atan2(y, x)` in `(−π, π]` by half angles (the WGSL kernel's `atan2_arith`): `x >= 0`:
+/// `2 atan(y / (r + x))`; `x < 0`: `2 (±π/2 − atan(y / (r − x)))`, both arguments in
+/// `[−1, 1]` and free of cancellation; 0 at the origin. Within a few ulp of libm's `atan2`
+/// (tests/rule_lanes.rs), branch-free.
+#[inline(always)]
+pub fn atan2_lane(y: f64, x: f64) -> f64 {
+    let r = (x * x + y * y).sqrt();
+    let right = x >= 0.0;
+    let den = if right { r + x } else { r - x };
+    let a = atan_unit(y / den);
+    let half_pi = if y < 0.0 { -0.5 * PI } else { 0.5 * PI };
+    let v = if right { 2.0 * a } else { 2.0 * (half_pi - a) };
+    if r == 0.0 {
+        0.0
+    } else {
+        v
+    }
+}
+
+/// [`slice_integrals`] for [`LANES`] slices at once, written branch-free (selects instead
+/// of early returns) so that the compiler evaluates the lanes in SIMD registers. Every
+/// operation is the scalar path's, in the same order (Rust does not contract `a * b + c`
+/// into a fused multiply-add, and `+ − × ÷ √` are correctly rounded in SIMD too), except
+/// `atan2`, which is [`atan2_lane`] instead of libm's: results differ from
+/// [`slice_integrals`] only through that angle's last few bits (tests/rule_lanes.rs).
+/// Identical bit for bit whichever instruction set runs it ([`slices_lanes`]).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across six arrays
+fn slices_lanes_generic(
+    ex: &Lanes,
+    ey: &Lanes,
+    rx: &Lanes,
+    ry: &Lanes,
+    out_c: &mut Lanes,
+    out_s: &mut Lanes,
+) {
+    for i in 0..LANES {
+        let (ex, ey, rx, ry) = (ex[i], ey[i], rx[i], ry[i]);
+        let r = (rx * rx + ry * ry).sqrt();
+        let eps = (ex * ex + ey * ey).sqrt();
+        let off = eps > 0.0;
+        let cphi = if off { ex / eps } else { 1.0 };
+        let sphi = if off { ey / eps } else { 0.0 };
+        let (ca, sa) = (rx / r, ry / r);
+        let cb = ca * cphi + sa * sphi;
+        let sb = sa * cphi - ca * sphi;
+        let sq2 = (1.0 - eps) * (1.0 + eps);
+        let sq = sq2.sqrt();
+        let da = 1.0 + eps * cb;
+        let db = 1.0 - eps * cb;
+        let cga = (-cb - eps) / da;
+        let sga = -sq * sb / da;
+        let cgb = (cb - eps) / db;
+        let sgb = sq * sb / db;
+        let dg = atan2_lane(cga * sgb - sga * cgb, cga * cgb + sga * sgb);
+        let dg = if dg <= 0.0 { dg + 2.0 * PI } else { dg };
+        let d_sc = sgb * cgb - sga * cga;
+        let a_sc = 0.5 * (sgb * sgb - sga * sga) - eps * (cgb - cga);
+        let a_cc = (0.5 + eps * eps) * dg + 0.5 * d_sc + 2.0 * eps * (sgb - sga);
+        let a_ss = 0.5 * dg - 0.5 * d_sc;
+        let i_sc = a_sc / (sq2 * sq2);
+        let i_cc = a_cc / (sq2 * sq2 * sq);
+        let i_ss = a_ss / (sq2 * sq);
+        let c_arc = cb * i_sc - sb * i_cc;
+        let s_arc = cb * i_ss - sb * i_sc;
+        // A zero rate vector: no pressure (the scalar path's early return).
+        let loaded = r != 0.0;
+        out_c[i] = if loaded {
+            r * (c_arc * cphi - s_arc * sphi)
+        } else {
+            0.0
+        };
+        out_s[i] = if loaded {
+            r * (s_arc * cphi + c_arc * sphi)
+        } else {
+            0.0
+        };
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn slices_lanes_avx512(
+    ex: &Lanes,
+    ey: &Lanes,
+    rx: &Lanes,
+    ry: &Lanes,
+    out_c: &mut Lanes,
+    out_s: &mut Lanes,
+) {
+    slices_lanes_generic(ex, ey, rx, ry, out_c, out_s)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn slices_lanes_avx2(
+    ex: &Lanes,
+    ey: &Lanes,
+    rx: &Lanes,
+    ry: &Lanes,
+    out_c: &mut Lanes,
+    out_s: &mut Lanes,
+) {
+    slices_lanes_generic(ex, ey, rx, ry, out_c, out_s)
+}
+
+/// The instruction set [`slices_lanes`] runs on, detected once per process.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LaneIsa {
+    /// The build's baseline (SSE2 on x86-64: two lanes per register).
+    Baseline,
+    /// AVX2, four f64 lanes.
+    Avx2,
+    /// AVX-512F, eight f64 lanes.
+    Avx512,
+}
+
+impl LaneIsa {
+    /// The widest instruction set this CPU offers.
+    pub fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return LaneIsa::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return LaneIsa::Avx2;
+            }
+        }
+        LaneIsa::Baseline
+    }
+}
+
+/// [`slice_integrals`] of eight slices at once on instruction set `isa` (one of those
+/// [`LaneIsa::detect`] may return; a wider one than the CPU has falls back to the
+/// baseline). The same bits on every instruction set.
+pub fn slices_lanes(
+    isa: LaneIsa,
+    ex: &Lanes,
+    ey: &Lanes,
+    rx: &Lanes,
+    ry: &Lanes,
+    out_c: &mut Lanes,
+    out_s: &mut Lanes,
+) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            unsafe { slices_lanes_avx512(ex, ey, rx, ry, out_c, out_s) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { slices_lanes_avx2(ex, ey, rx, ry, out_c, out_s) }
+        }
+        _ => slices_lanes_generic(ex, ey, rx, ry, out_c, out_s),
+    }
+}
+
 /// Most complex singularities a state's axial integrand has: four roots of the
 /// arc-end quartic and the rate vector's zero.
 pub const MAX_COMPLEX_SINGULARITIES: usize = 5;
@@ -298,20 +483,64 @@ fn durand_kerner<const N: usize>(a: &[f64; 4], roots: &mut [(f64, f64); 4]) -> u
     sweeps
 }
 
-/// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
-pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
-    let mut roots = [(0.0, 0.0); 4];
+/// The degree [`quartic_roots`] keeps: leading terms below rounding at `|t| = 2` dropped
+/// (their roots lie far outside).
+fn kept_degree(c: &[f64; 5]) -> usize {
     let mut norm: f64 = 0.0;
     let mut scale = 1.0;
-    for &ck in &c {
+    for &ck in c {
         norm = norm.max(ck.abs() * scale);
         scale *= 2.0;
     }
     let mut n = 4;
-    // Drop leading terms below rounding at |t| = 2 (their roots lie far outside).
     while n > 0 && c[n].abs() * 2f64.powi(n as i32) <= 1e-13 * norm {
         n -= 1;
     }
+    n
+}
+
+/// True when `c[0] + c[1] t + ... + c[n] t^n` provably has no root in the disk
+/// `|t| <= radius`. One Graeffe step squares the roots (`p(t) p(−t) = q(t²)`, `q` of degree
+/// `n` with coefficients `d_m = Σ_{j+k=2m} (−1)^k c_j c_k`); then `|d_0| > Σ_{m≥1} |d_m| ρ^m`
+/// with `ρ = radius²` leaves `q`, hence `p`, without a root in the disk (triangle
+/// inequality). Without the Graeffe step this test needs every root beyond ~13 `radius`
+/// (degree 4); with it, beyond ~2.3 `radius`. Each `|d_m|` is raised by 1e-14 of the sum
+/// of its terms' magnitudes, more than the rounding of the few products (a false "no
+/// root" would need rounding to exceed that).
+fn no_root_within(c: &[f64; 5], n: usize, radius: f64) -> bool {
+    // The kept polynomial: terms above degree n are zero.
+    let k = |j: usize| if j <= n { c[j] } else { 0.0 };
+    let (c0, c1, c2, c3, c4) = (k(0), k(1), k(2), k(3), k(4));
+    let rho = radius * radius;
+    // d_m and the magnitude of its terms, m = 1..4 (written out: this runs once per
+    // tilted state).
+    let terms = [
+        (2.0 * c0 * c2 - c1 * c1, 2.0 * (c0 * c2).abs() + c1 * c1),
+        (
+            2.0 * c0 * c4 - 2.0 * c1 * c3 + c2 * c2,
+            2.0 * (c0 * c4).abs() + 2.0 * (c1 * c3).abs() + c2 * c2,
+        ),
+        (2.0 * c2 * c4 - c3 * c3, 2.0 * (c2 * c4).abs() + c3 * c3),
+        (c4 * c4, c4 * c4),
+    ];
+    let mut rhs = 0.0;
+    let mut pw = 1.0;
+    for (d, mag) in terms {
+        pw *= rho;
+        rhs += (d.abs() + 1e-14 * mag) * pw;
+    }
+    c0 * c0 > rhs
+}
+
+/// [`quartic_roots`], also returning the Durand-Kerner sweeps it took (for flop counts).
+pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
+    let n = kept_degree(&c);
+    durand_kerner_from(c, n)
+}
+
+/// Durand-Kerner on the first `n + 1` coefficients of `c` (`n` from [`kept_degree`]).
+fn durand_kerner_from(c: [f64; 5], n: usize) -> ([(f64, f64); 4], usize, usize) {
+    let mut roots = [(0.0, 0.0); 4];
     if n == 0 {
         return (roots, 0, 0);
     }
@@ -339,9 +568,31 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
     (roots, n, sweeps)
 }
 
+/// Radius in `t = s − 1/2` beyond which no arc-end root can end a panel early: a panel
+/// starting at `s ∈ [0, 1)` is cut by a root `ρ` only if `κ |s − ρ| < 1 − s`, and
+/// `|s − ρ| >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ_min` never
+/// bind (the worst start is `s = 0`). 1 % is added so that the 1e-13 to which
+/// Durand-Kerner converges cannot bring a root back inside.
+fn far_radius(settings: &RuleSettings) -> f64 {
+    let kappa_min = settings.kappa_ahead.min(settings.kappa_behind);
+    (0.5 + 1.0 / kappa_min) * 1.01
+}
+
 impl Singularities {
-    /// Locates the singularities of `state` under `settings`.
+    /// Locates the singularities of `state` under `settings`. Arc-end roots that provably
+    /// cannot shorten any panel are left out (they are not searched for: see
+    /// [`Singularities::of_all_roots`] for the full list).
     pub fn of(state: &PackedState, settings: &RuleSettings) -> Self {
+        Self::locate(state, settings, false)
+    }
+
+    /// [`Singularities::of`] with every arc-end root found by Durand-Kerner, far or not
+    /// (the panel layout is the same; for tests and root statistics).
+    pub fn of_all_roots(state: &PackedState, settings: &RuleSettings) -> Self {
+        Self::locate(state, settings, true)
+    }
+
+    fn locate(state: &PackedState, settings: &RuleSettings, all_roots: bool) -> Self {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
         let (e1x, e1y) = (ejx - e0x, ejy - e0y);
@@ -417,13 +668,22 @@ impl Singularities {
         let b0 = rcx * rcx + rcy * rcy;
         let b1 = 2.0 * (rcx * r1x + rcy * r1y);
         let b2 = r1sq;
-        let (roots, n, sweeps) = quartic_roots_counted([
+        let c = [
             a0 * a0 - b0,
             2.0 * a0 * a1 - b1,
             a1 * a1 + 2.0 * a0 * a2 - b2,
             2.0 * a1 * a2,
             a2 * a2,
-        ]);
+        ];
+        let n = kept_degree(&c);
+        if !all_roots && no_root_within(&c, n, far_radius(settings)) {
+            // No root can shorten a panel (see `far_radius`): the panel layout is the one
+            // the roots would give, without finding them (bit-identical results; on the
+            // rotor workloads of issue 28 nearly every tilted state takes this path).
+            sing.root_work = (n, 0);
+            return sing;
+        }
+        let (roots, n, sweeps) = durand_kerner_from(c, n);
         sing.root_work = (n, sweeps);
         // Near the rate vector's zero s_r ± i d_r two roots of Q cluster. Locally
         // (ε ≈ ε(s_r), r = |r1| (t ê + d_r ê⊥), t = s − s_r) Q/|r1|² is the quadratic
@@ -488,14 +748,22 @@ impl Singularities {
 pub struct FilmRule {
     settings: RuleSettings,
     gauss: GaussRule,
+    isa: LaneIsa,
 }
 
 impl FilmRule {
     /// Builds the rule for `settings`.
     pub fn new(settings: RuleSettings) -> Self {
+        Self::with_isa(settings, LaneIsa::detect())
+    }
+
+    /// [`FilmRule::new`] with the slices on instruction set `isa` (the results are the
+    /// same bits on every one; for tests and benchmarks).
+    pub fn with_isa(settings: RuleSettings, isa: LaneIsa) -> Self {
         FilmRule {
             gauss: gauss_legendre_unit(settings.nodes as usize),
             settings,
+            isa,
         }
     }
 
@@ -510,6 +778,7 @@ impl FilmRule {
     }
 
     /// Film integrals of one packed state, and the number of slices evaluated.
+    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
     pub fn integrate(&self, state: &PackedState) -> (FilmIntegrals, u32) {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
@@ -532,15 +801,34 @@ impl FilmRule {
                 sing.panel_end(s, &self.settings)
             };
             let len = end - s;
-            for (x, w) in self.gauss.nodes.iter().zip(&self.gauss.weights) {
-                let z = s + len * x;
-                let [c, sn] =
-                    slice_integrals(e0x + e1x * z, e0y + e1y * z, r0x + r1x * z, r0y + r1y * z);
-                let wg = w * len * z * (1.0 - z);
-                acc[0] += wg * c;
-                acc[1] += wg * sn;
-                acc[2] += wg * z * c;
-                acc[3] += wg * z * sn;
+            // The panel's slices in groups of LANES (unused lanes: a zero rate, no load),
+            // summed node by node in the order of the scalar loop.
+            let (nodes, weights) = (&self.gauss.nodes, &self.gauss.weights);
+            let mut first = 0;
+            while first < nodes.len() {
+                let m = (nodes.len() - first).min(LANES);
+                let (mut ex, mut ey, mut rx, mut ry) =
+                    ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                let mut zs = [0.0; LANES];
+                for i in 0..m {
+                    let z = s + len * nodes[first + i];
+                    zs[i] = z;
+                    ex[i] = e0x + e1x * z;
+                    ey[i] = e0y + e1y * z;
+                    rx[i] = r0x + r1x * z;
+                    ry[i] = r0y + r1y * z;
+                }
+                let (mut cs, mut ss) = ([0.0; LANES], [0.0; LANES]);
+                slices_lanes(self.isa, &ex, &ey, &rx, &ry, &mut cs, &mut ss);
+                for i in 0..m {
+                    let (z, c, sn) = (zs[i], cs[i], ss[i]);
+                    let wg = weights[first + i] * len * z * (1.0 - z);
+                    acc[0] += wg * c;
+                    acc[1] += wg * sn;
+                    acc[2] += wg * z * c;
+                    acc[3] += wg * z * sn;
+                }
+                first += m;
             }
             slices += self.settings.nodes;
             s = end;

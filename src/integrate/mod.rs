@@ -4,11 +4,13 @@
 //! one large batch per stage. Methods: adaptive Dormand-Prince 5(4) with PI step control
 //! and 4th-order dense output ([`Method::Dopri5`]), the L-stable implicit Radau IIA of
 //! order 5 with simplified Newton and batched finite-difference Jacobians
-//! ([`Method::Radau5`]), and fixed-step classical Runge-Kutta ([`Method::Rk4`]).
+//! ([`Method::Radau5`]), fixed-step classical Runge-Kutta ([`Method::Rk4`]), and the
+//! adaptive Dormand-Prince 8(5,3) with 7th-order dense output ([`Method::Dop853`]).
 //! Output goes to [`BatchSystem::record`] at uniform sample times from dense output,
 //! independent of the steps taken. Entry point: [`run_batch`].
 
 mod common;
+mod dop853;
 mod dopri;
 mod linalg;
 mod radau;
