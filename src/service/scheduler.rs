@@ -10,15 +10,17 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use serde_json::{json, Value};
+use serde_json::json;
 use tokio::sync::{broadcast, Notify};
 
 use super::store::{Store, StoreSink, SweepRow, SweepStatus, SweepUpdate};
 use super::sweeps::{parse_options, parse_sweep_doc, ParsedSweep};
 use crate::sweep::friction_map::friction_map;
+use crate::sweep::job::Figures;
 use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
 use crate::sweep::runner::{run_variants, BatchSize, RunnerOptions};
 use crate::sweep::simulator::prepare_simulator;
+use crate::sweep::sink::VariantSink;
 
 /// Events buffered per sweep for slow SSE readers (older ones are skipped).
 const EVENT_BUFFER: usize = 1024;
@@ -30,6 +32,9 @@ const POLL: Duration = Duration::from_millis(500);
 const FINAL_RETRY_START: Duration = Duration::from_millis(200);
 /// Longest wait between two attempts at a final status.
 const FINAL_RETRY_MAX: Duration = Duration::from_secs(5);
+/// Parsed specs kept in memory (a spec is at most a request body, see `serve
+/// --max-body-bytes`; one evicted is parsed again when next needed).
+const SPEC_CACHE: usize = 256;
 
 /// A live event of one sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +55,7 @@ pub enum SweepEvent {
 }
 
 /// The in-memory side of a sweep: cancel flag, progress counters, event channel.
-pub struct Job {
+pub struct LiveSweep {
     /// Set by a cancel request or a drain.
     pub cancel: Arc<AtomicBool>,
     /// Set when the cancel is a drain (the sweep goes back to the queue, not cancelled).
@@ -61,9 +66,9 @@ pub struct Job {
     pub events: broadcast::Sender<SweepEvent>,
 }
 
-impl Job {
+impl LiveSweep {
     fn new() -> Arc<Self> {
-        Arc::new(Job {
+        Arc::new(LiveSweep {
             cancel: Arc::new(AtomicBool::new(false)),
             draining: AtomicBool::new(false),
             progress: ProgressCounters::shared(),
@@ -87,10 +92,13 @@ pub struct SchedulerCounters {
 pub struct Scheduler {
     store: Arc<dyn Store>,
     max_running: usize,
-    jobs: Mutex<HashMap<String, Arc<Job>>>,
+    jobs: Mutex<HashMap<String, Arc<LiveSweep>>>,
     wake: Notify,
     draining: AtomicBool,
     threads: Mutex<Vec<tokio::task::JoinHandle<()>>>,
+    /// Parsed specs by sweep id: a spec is parsed once in this process (at submission, or
+    /// at its first use after a restart), not again on every run or GET of its result.
+    specs: Mutex<HashMap<String, Arc<ParsedSweep>>>,
     /// Metrics counters.
     pub counters: SchedulerCounters,
 }
@@ -128,14 +136,17 @@ impl Scheduler {
             wake: Notify::new(),
             draining: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
+            specs: Mutex::new(HashMap::new()),
             counters: SchedulerCounters::default(),
         }))
     }
 
     /// The job of sweep `id` (created on first use).
-    pub fn job(&self, id: &str) -> Arc<Job> {
+    pub fn job(&self, id: &str) -> Arc<LiveSweep> {
         let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
-        jobs.entry(id.to_string()).or_insert_with(Job::new).clone()
+        jobs.entry(id.to_string())
+            .or_insert_with(LiveSweep::new)
+            .clone()
     }
 
     /// Live progress of a running sweep (`None` when it is not running here).
@@ -156,9 +167,70 @@ impl Scheduler {
         self.job(id).cancel.store(true, Ordering::Relaxed);
     }
 
+    /// Cancels sweep `id`, whose stored status is `status`: a running one stops within a
+    /// second (its runner writes the final status); a queued one is cancelled in the store
+    /// at once and its event streams are told. Returns the status to report now.
+    /// Blocking (a store write).
+    pub fn cancel_sweep(
+        &self,
+        id: &str,
+        status: SweepStatus,
+    ) -> Result<SweepStatus, super::store::StoreError> {
+        self.cancel(id);
+        if status != SweepStatus::Queued {
+            return Ok(status);
+        }
+        // Not started: cancelled at once.
+        self.store.update_sweep(
+            id,
+            &SweepUpdate {
+                status: Some(SweepStatus::Cancelled),
+                finished_unix_s: Some(now_unix_s()),
+                ..Default::default()
+            },
+        )?;
+        let _ = self
+            .job(id)
+            .events
+            .send(SweepEvent::Status(SweepStatus::Cancelled));
+        Ok(SweepStatus::Cancelled)
+    }
+
+    /// Keeps the spec of sweep `id` as parsed at its submission.
+    pub fn remember_spec(&self, id: &str, parsed: Arc<ParsedSweep>) {
+        let mut specs = self.specs.lock().unwrap_or_else(|e| e.into_inner());
+        if specs.len() >= SPEC_CACHE {
+            // Any one goes: it is parsed again at its next use.
+            if let Some(k) = specs.keys().next().cloned() {
+                specs.remove(&k);
+            }
+        }
+        specs.insert(id.to_string(), parsed);
+    }
+
+    /// The parsed spec of the sweep in `row` (a whole row: its spec document is parsed
+    /// here only the first time this process needs it).
+    pub fn spec_of(&self, row: &SweepRow) -> Result<Arc<ParsedSweep>, crate::sweep::SweepError> {
+        if let Some(p) = self
+            .specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(&row.id)
+        {
+            return Ok(p.clone());
+        }
+        let parsed = Arc::new(parse_sweep_doc(&row.spec)?);
+        self.remember_spec(&row.id, parsed.clone());
+        Ok(parsed)
+    }
+
     /// Forgets the in-memory side of a deleted sweep (call it after the store deleted
     /// it): its run stops, and its event streams get [`SweepEvent::Deleted`] and end.
     pub fn forget(&self, id: &str) {
+        self.specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id);
         let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(j) = jobs.remove(id) {
             j.cancel.store(true, Ordering::Relaxed);
@@ -281,14 +353,14 @@ impl Scheduler {
     }
 
     /// Runs one sweep to its end on this (blocking) thread; returns the final update.
-    fn run_job(&self, row: &SweepRow, job: &Arc<Job>) -> SweepUpdate {
+    fn run_job(&self, row: &SweepRow, job: &Arc<LiveSweep>) -> SweepUpdate {
         let failed = |message: String| SweepUpdate {
             status: Some(SweepStatus::Failed),
             message: Some(Some(message)),
             finished_unix_s: Some(now_unix_s()),
             ..Default::default()
         };
-        let parsed = match parse_sweep_doc(&row.spec) {
+        let parsed = match self.spec_of(row) {
             Ok(p) => p,
             Err(e) => return failed(e.to_string()),
         };
@@ -296,10 +368,10 @@ impl Scheduler {
             Ok(c) => c,
             Err(e) => return failed(e.to_string()),
         };
-        let spec = match parsed {
+        let spec = match &*parsed {
             ParsedSweep::FrictionMap(fm) => {
                 let points = (fm.load.len() * fm.speed.len()) as u64;
-                let (doc, plot) = friction_map(&fm, choice.accuracy);
+                let (doc, plot) = friction_map(fm, choice.accuracy.level());
                 if let Ok(svg) = plot.render() {
                     if let Err(e) = self.store.put_plot(&row.id, "friction-map", &svg) {
                         return failed(e.to_string());
@@ -316,10 +388,10 @@ impl Scheduler {
                     ..Default::default()
                 };
             }
-            ParsedSweep::Runner(spec) => spec,
+            ParsedSweep::Runner(spec) => &**spec,
         };
         let mut notices = Vec::new();
-        let mut prepared = match prepare_simulator(&spec, &choice, &mut |n| notices.push(n)) {
+        let mut prepared = match prepare_simulator(spec, &choice, &mut |n| notices.push(n)) {
             Ok(p) => p,
             Err(e) => return failed(e.to_string()),
         };
@@ -349,7 +421,7 @@ impl Scheduler {
         };
         let progress = Progress::silent(job.progress.clone());
         let report = run_variants(
-            &spec,
+            spec,
             prepared.validator,
             prepared.sim.as_mut(),
             &mut sink,
@@ -383,30 +455,18 @@ impl Scheduler {
             };
         }
         // Figures from the light part of the variants (no series), as `run` draws them.
-        if !spec.plots.is_empty() {
-            let mut light: Vec<Value> = Vec::new();
-            let mut offset = 0;
-            loop {
-                let page = match self.store.variant_lines(&row.id, offset, 1000) {
-                    Ok(p) => p,
-                    Err(e) => return failed(e.to_string()),
-                };
-                for (_, line) in &page {
-                    if let Ok(mut v) = serde_json::from_str::<Value>(line) {
-                        if let Some(o) = v.as_object_mut() {
-                            o.remove("series");
-                        }
-                        light.push(v);
-                    }
-                }
-                if page.len() < 1000 {
-                    break;
-                }
-                offset += 1000;
+        let mut figures = Figures::new(spec);
+        if figures.wanted() {
+            let read = sink.for_each_line(&mut |_, line| {
+                figures.add_line(line);
+                Ok(())
+            });
+            if let Err(e) = read {
+                return failed(e.to_string());
             }
-            for p in &spec.plots {
-                if let Ok(svg) = crate::sweep::plots::render(&light, p) {
-                    if let Err(e) = self.store.put_plot(&row.id, &p.name, &svg) {
+            for (name, svg) in figures.draw() {
+                if let Ok(svg) = svg {
+                    if let Err(e) = self.store.put_plot(&row.id, &name, &svg) {
                         return failed(e.to_string());
                     }
                 }
@@ -460,6 +520,7 @@ mod tests {
     use crate::service::store::{NewSweep, StoreError};
     use crate::service::SqliteStore;
     use crate::sweep::sink::Committed;
+    use serde_json::Value;
 
     /// The SQLite store, except that opening the variants of sweep `boom` panics, and
     /// the first `.1` final statuses are refused as by a full disk.

@@ -184,6 +184,15 @@ pub trait Store: Send + Sync + 'static {
     /// Every sweep, oldest first, as summary rows (no spec, header or result document:
     /// listing costs the same whatever was stored).
     fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError>;
+    /// Sweeps queued now (`/metrics`). Default: counts [`Store::list_sweeps`]; the stores
+    /// count with one query.
+    fn count_queued(&self) -> Result<u64, StoreError> {
+        Ok(self
+            .list_sweeps()?
+            .iter()
+            .filter(|s| s.status == SweepStatus::Queued)
+            .count() as u64)
+    }
     /// One sweep, whole (spec and header too; what a run needs).
     fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError>;
     /// One sweep as a summary row (status, counts, times, `run` section).

@@ -181,13 +181,10 @@ async fn validate(
                 format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
             ));
         }
-        let kind = match &parsed {
-            ParsedSweep::Runner(spec) => {
-                super::sweeps::validate_variants(spec)?;
-                spec.kind.name()
-            }
-            ParsedSweep::FrictionMap(_) => "friction_map",
-        };
+        if let ParsedSweep::Runner(spec) = &parsed {
+            super::sweeps::validate_variants(spec)?;
+        }
+        let kind = parsed.kind().name();
         Ok(Json(json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total})))
     })
     .await
@@ -243,13 +240,16 @@ async fn variant_series(
         .parse()
         .map_err(|_| ApiError::bad_request("variant", format!("not a variant id: {variant:?}")))?;
     let store = st.store.clone();
+    let scheduler = st.scheduler.clone();
     tokio::task::spawn_blocking(move || {
         let row = store
             .sweep(&id)
             .map_err(|e| ApiError::internal(format!("store: {e}")))?
             .ok_or_else(|| ApiError::not_found(format!("no sweep {id:?}")))?;
-        let mut spec = match parse_sweep_doc(&row.spec)? {
-            ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => spec,
+        let mut spec = match &*scheduler.spec_of(&row)? {
+            ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => {
+                spec.clone()
+            }
             _ => return Err(ApiError::invalid(
                 "kind",
                 "only rotor sweeps have time series (stability sweeps and friction maps have none)",
@@ -279,7 +279,7 @@ async fn variant_series(
             .map_err(|e| ApiError::invalid("$", e.to_string()))?;
         let mut outcome = None;
         prepared.sim.run_batch(
-            &[crate::sweep::runner::Job {
+            &[crate::sweep::runner::VariantJob {
                 id: variant,
                 scene: v.scene,
             }],

@@ -9,7 +9,9 @@
 pub mod expand;
 pub mod folder_sink;
 pub mod friction_map;
+pub mod job;
 pub mod merge;
+pub mod options;
 pub mod plots;
 pub mod progress;
 pub mod reduce;
@@ -23,6 +25,7 @@ pub mod stream;
 pub mod synthetic;
 
 pub use expand::Expansion;
+pub use options::{RequestedAccuracy, SweepOptions};
 pub use spec::{parse_spec, Axis, AxisValues, Mode, SweepKind, SweepSpec};
 
 /// A sweep failure: bad spec (with the JSON path), bad variant, I/O, resume or merge.

@@ -40,6 +40,10 @@ pub enum SweepKind {
     /// Rotor scenes analysed by linear stability (threshold speed, least log-dec; no time
     /// integration; `crate::sweep::stability_sim::StabilitySimulator`).
     Stability,
+    /// A friction map over load and speed (Fig. 4): no scenes and no dynamics, one
+    /// document (`crate::sweep::friction_map`); not a [`SweepSpec`], so
+    /// [`parse_spec`] refuses it and [`super::job::parse_sweep`] parses either.
+    FrictionMap,
 }
 
 impl SweepKind {
@@ -49,6 +53,24 @@ impl SweepKind {
             SweepKind::Rotor => "rotor",
             SweepKind::Synthetic => "synthetic",
             SweepKind::Stability => "stability",
+            SweepKind::FrictionMap => "friction_map",
+        }
+    }
+
+    /// The kind of a spec document, without parsing the rest: [`SweepKind::Rotor`] when
+    /// `kind` is absent, `None` when it is not one of the names (the parser then says
+    /// why).
+    pub fn of(doc: &Value) -> Option<SweepKind> {
+        match doc.get("kind") {
+            None => Some(SweepKind::Rotor),
+            Some(k) => {
+                let k = k.as_str()?;
+                SweepKind::NAMES
+                    .iter()
+                    .map(|(_, kind)| *kind)
+                    .chain([SweepKind::FrictionMap])
+                    .find(|kind| kind.name() == k)
+            }
         }
     }
 }
@@ -806,7 +828,7 @@ impl ToSchema for SpecDocument {
 
 /// Parses a sweep spec document. `spec_dir` resolves a `base` given as a file name.
 /// Detects the kind only; `kind: "friction_map"` documents are parsed by
-/// [`super::friction_map`] (see [`spec_kind`]).
+/// [`super::friction_map`] (see [`SweepKind::of`] and [`super::job::parse_sweep`]).
 pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, SweepError> {
     let d: SweepSpecDoc = from_value(doc, "")?;
     let kind = d.kind.unwrap_or(SweepKind::Rotor);
@@ -873,14 +895,6 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         ));
     }
     Ok(spec)
-}
-
-/// The `kind` of a spec document, without parsing the rest: `"rotor"` when absent.
-pub fn spec_kind(doc: &Value) -> Option<&str> {
-    match doc.get("kind") {
-        None => Some("rotor"),
-        Some(k) => k.as_str(),
-    }
 }
 
 /// Whether concrete path `a` is `b` or lies inside it (or the other way round):

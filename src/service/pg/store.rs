@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use serde_json::Value;
 
 use super::error::PgError;
-use super::queue::{NewSweep as QueueSweep, PgQueue, SweepOptions, DEFAULT_BATCH_VARIANTS};
+use super::queue::{PgQueue, QueuedSweep, SweepOptions, DEFAULT_BATCH_VARIANTS};
 use crate::service::{
     parse_sweep_doc, NewSweep, ParsedSweep, Store, StoreError, SweepRow, SweepStatus, SweepUpdate,
 };
@@ -245,7 +245,7 @@ impl Store for PgStore {
         let parsed = parse_sweep_doc(&new.spec).map_err(|e| StoreError::Backend(e.to_string()))?;
         let options: SweepOptions = serde_json::from_value(new.options.clone()).unwrap_or_default();
         let sweep = match &parsed {
-            ParsedSweep::Runner(spec) => QueueSweep {
+            ParsedSweep::Runner(spec) => QueuedSweep {
                 id: new.id.clone(),
                 name: new.name.clone(),
                 kind: spec.kind.name().to_string(),
@@ -257,10 +257,10 @@ impl Store for PgStore {
                 local: false,
                 created_unix_s: Some(new.created_unix_s),
             },
-            ParsedSweep::FrictionMap(_) => QueueSweep {
+            ParsedSweep::FrictionMap(_) => QueuedSweep {
                 id: new.id.clone(),
                 name: new.name.clone(),
-                kind: "friction_map".into(),
+                kind: crate::sweep::SweepKind::FrictionMap.name().into(),
                 spec: new.spec.clone(),
                 options,
                 total: new.total,
@@ -334,6 +334,18 @@ impl Store for PgStore {
 
     fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
         self.row(id)
+    }
+
+    fn count_queued(&self) -> Result<u64, StoreError> {
+        self.call(|q| async move {
+            const CTX: &str = "counting queued sweeps";
+            let c = q.connection(CTX).await?;
+            let r = c
+                .query_one("SELECT count(*) FROM sweeps WHERE status = 'queued'", &[])
+                .await
+                .map_err(|e| q.db_error(CTX, e))?;
+            Ok(r.get::<_, i64>(0) as u64)
+        })
     }
 
     fn update_sweep(&self, id: &str, change: &SweepUpdate) -> Result<(), StoreError> {
@@ -564,7 +576,8 @@ impl Store for PgStore {
     }
 
     fn runs_elsewhere(&self, row: &SweepRow) -> bool {
-        // Everything but friction maps goes to the workers.
-        !matches!(parse_sweep_doc(&row.spec), Ok(ParsedSweep::FrictionMap(_)))
+        // Everything but friction maps goes to the workers (the stored spec was parsed
+        // at its submission: its kind is enough here).
+        crate::sweep::SweepKind::of(&row.spec) != Some(crate::sweep::SweepKind::FrictionMap)
     }
 }
