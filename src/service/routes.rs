@@ -25,7 +25,7 @@ use super::error::{ApiError, ErrorBody};
 use super::limits::{Held, COEFF_BYTES_PER_SPEED, EVAL_BYTES_PER_STATE, STREAM_CHUNK_BYTES};
 use super::scheduler::{now_unix_s, SweepEvent};
 use super::store::{NewSweep, SweepRow, SweepStatus};
-use super::sweeps::{options_from_query, parse_sweep_doc, validate_variants, ParsedSweep};
+use super::sweeps::{check_submission, options_from_query, ParsedSweep};
 use super::{csv, AppState};
 use crate::sweep::job::result_document;
 use crate::sweep::progress::ProgressSnapshot;
@@ -478,29 +478,11 @@ async fn submit_sweep(
     let store = st.store.clone();
     let scheduler = st.scheduler.clone();
     let created = blocking(move || {
-        let parsed = parse_sweep_doc(&doc)?;
-        let total = parsed.count();
-        if total > max_variants {
-            return Err(ApiError::invalid(
-                "axes",
-                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
-            ));
-        }
-        if let ParsedSweep::Runner(spec) = &parsed {
-            validate_variants(spec)?;
-        }
+        let (parsed, total) = check_submission(&doc, max_variants)?;
         // Counted and inserted in one transaction (429 at the limit).
-        let row = store.insert_sweep_limited(
-            &NewSweep {
-                id: sweep_id(),
-                name: parsed.name(),
-                spec: doc,
-                options: serde_json::to_value(options).unwrap_or_default(),
-                total,
-                created_unix_s: now_unix_s(),
-            },
-            max_queued,
-        )?;
+        let options = serde_json::to_value(options).unwrap_or_default();
+        let new = NewSweep::submitted(sweep_id(), doc, &parsed, total, options);
+        let row = store.insert_sweep_limited(&new, max_queued)?;
         // Parsed once: the scheduler and the result route use this one.
         scheduler.remember_spec(&row.id, std::sync::Arc::new(parsed));
         Ok(row)

@@ -597,16 +597,11 @@ mod tests {
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0, 70.0]}]});
         for id in ["boom", "fine"] {
-            store
-                .insert_sweep(&NewSweep {
-                    id: id.into(),
-                    name: id.into(),
-                    spec: spec.clone(),
-                    options: json!({}),
-                    total: 3,
-                    created_unix_s: now_unix_s(),
-                })
-                .unwrap();
+            let parsed = parse_sweep_doc(&spec).unwrap();
+            let mut new = NewSweep::submitted(id.into(), spec.clone(), &parsed, 3, json!({}));
+            new.name = id.into();
+            assert_eq!(parsed.count(), 3);
+            store.insert_sweep(&new).unwrap();
         }
         let sched = Scheduler::new(store.clone(), 1).unwrap();
         tokio::spawn(sched.clone().run());
@@ -641,16 +636,11 @@ mod tests {
         ));
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0]}]});
-        store
-            .insert_sweep(&NewSweep {
-                id: "full".into(),
-                name: "full".into(),
-                spec,
-                options: json!({}),
-                total: 2,
-                created_unix_s: now_unix_s(),
-            })
-            .unwrap();
+        let parsed = parse_sweep_doc(&spec).unwrap();
+        let mut new = NewSweep::submitted("full".into(), spec, &parsed, 2, json!({}));
+        new.name = "full".into();
+        assert_eq!(parsed.count(), 2);
+        store.insert_sweep(&new).unwrap();
         let sched = Scheduler::new(store.clone(), 1).unwrap();
         let events = sched.job("full").events.subscribe();
         tokio::spawn(sched.clone().run());

@@ -21,6 +21,24 @@ pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
     crate::sweep::job::parse_sweep(doc, None)
 }
 
+/// A submission checked as `POST /api/sweeps` and `POST /api/validate` check it: parsed,
+/// within the service's `max_variants`, and (a runner sweep) every variant valid. Returns
+/// the parsed sweep and its variant count.
+pub fn check_submission(doc: &Value, max_variants: u64) -> Result<(ParsedSweep, u64), ApiError> {
+    let parsed = parse_sweep_doc(doc)?;
+    let total = parsed.count();
+    if total > max_variants {
+        return Err(ApiError::invalid(
+            "axes",
+            format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
+        ));
+    }
+    if let ParsedSweep::Runner(spec) = &parsed {
+        validate_variants(spec)?;
+    }
+    Ok((parsed, total))
+}
+
 /// Checks every variant of a runner sweep (so a bad variant gets 422 before anything is
 /// stored).
 pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {

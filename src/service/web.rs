@@ -13,7 +13,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::{json, Value};
 
-use super::{options_from_query, parse_sweep_doc, ApiError, AppState, ErrorBody, ParsedSweep};
+use super::{options_from_query, ApiError, AppState, ErrorBody, ParsedSweep};
 
 const INDEX_HTML: &str = include_str!("web/index.html");
 const APP_JS: &str = include_str!("web/app.js");
@@ -173,19 +173,11 @@ async fn validate(
     let max_variants = st.config.max_variants;
     // Expanding and checking every variant is CPU work: off the async threads.
     tokio::task::spawn_blocking(move || {
-        let parsed = parse_sweep_doc(&doc)?;
-        let total = parsed.count();
-        if total > max_variants {
-            return Err(ApiError::invalid(
-                "axes",
-                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
-            ));
-        }
-        if let ParsedSweep::Runner(spec) = &parsed {
-            super::sweeps::validate_variants(spec)?;
-        }
+        let (parsed, total) = super::sweeps::check_submission(&doc, max_variants)?;
         let kind = parsed.kind().name();
-        Ok(Json(json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total})))
+        Ok(Json(
+            json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total}),
+        ))
     })
     .await
     .map_err(|e| ApiError::internal(format!("internal: {e}")))?
