@@ -32,9 +32,70 @@ const POLL: Duration = Duration::from_millis(500);
 const FINAL_RETRY_START: Duration = Duration::from_millis(200);
 /// Longest wait between two attempts at a final status.
 const FINAL_RETRY_MAX: Duration = Duration::from_secs(5);
-/// Parsed specs kept in memory (a spec is at most a request body, see `serve
-/// --max-body-bytes`; one evicted is parsed again when next needed).
+/// Most parsed specs kept in memory (one evicted is parsed again when next needed).
 const SPEC_CACHE: usize = 256;
+/// Most JSON text (canonical form) of the parsed specs kept in memory, bytes: 64 bodies
+/// at the default `serve --max-body-bytes` of 4 MiB would be 256 MiB of text and a few
+/// times that parsed, so the cache is bounded by size too; a spec larger than this alone is
+/// not kept (parsed at each use, as before the cache).
+const SPEC_CACHE_BYTES: usize = 16 << 20;
+/// Size charged for a friction map's fixed fields, bytes (its loads and speeds are
+/// charged 8 bytes each on top).
+const FRICTION_MAP_SPEC_BYTES: usize = 1024;
+
+/// Parsed specs by sweep id, bounded by count and by the size of their JSON text.
+struct SpecCache {
+    entries: HashMap<String, (Arc<ParsedSweep>, usize)>,
+    bytes: usize,
+    max_entries: usize,
+    max_bytes: usize,
+}
+
+impl SpecCache {
+    fn new(max_entries: usize, max_bytes: usize) -> Self {
+        SpecCache {
+            entries: HashMap::new(),
+            bytes: 0,
+            max_entries,
+            max_bytes,
+        }
+    }
+
+    fn get(&self, id: &str) -> Option<Arc<ParsedSweep>> {
+        self.entries.get(id).map(|(p, _)| p.clone())
+    }
+
+    fn insert(&mut self, id: &str, parsed: Arc<ParsedSweep>) {
+        self.remove(id);
+        let weight = spec_weight(&parsed);
+        if weight > self.max_bytes || self.max_entries == 0 {
+            return;
+        }
+        while self.entries.len() >= self.max_entries || self.bytes + weight > self.max_bytes {
+            // Any one goes: it is parsed again at its next use.
+            let Some(k) = self.entries.keys().next().cloned() else {
+                break;
+            };
+            self.remove(&k);
+        }
+        self.bytes += weight;
+        self.entries.insert(id.to_string(), (parsed, weight));
+    }
+
+    fn remove(&mut self, id: &str) {
+        if let Some((_, w)) = self.entries.remove(id) {
+            self.bytes -= w;
+        }
+    }
+}
+
+/// The size a parsed spec is charged in the cache: its canonical JSON text, bytes.
+fn spec_weight(p: &ParsedSweep) -> usize {
+    match p {
+        ParsedSweep::Runner(s) => serde_json::to_string(&s.canonical).map_or(0, |t| t.len()),
+        ParsedSweep::FrictionMap(f) => FRICTION_MAP_SPEC_BYTES + 8 * (f.load.len() + f.speed.len()),
+    }
+}
 
 /// A live event of one sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -98,7 +159,7 @@ pub struct Scheduler {
     threads: Mutex<Vec<tokio::task::JoinHandle<()>>>,
     /// Parsed specs by sweep id: a spec is parsed once in this process (at submission, or
     /// at its first use after a restart), not again on every run or GET of its result.
-    specs: Mutex<HashMap<String, Arc<ParsedSweep>>>,
+    specs: Mutex<SpecCache>,
     /// Metrics counters.
     pub counters: SchedulerCounters,
 }
@@ -136,7 +197,7 @@ impl Scheduler {
             wake: Notify::new(),
             draining: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
-            specs: Mutex::new(HashMap::new()),
+            specs: Mutex::new(SpecCache::new(SPEC_CACHE, SPEC_CACHE_BYTES)),
             counters: SchedulerCounters::default(),
         }))
     }
@@ -198,14 +259,10 @@ impl Scheduler {
 
     /// Keeps the spec of sweep `id` as parsed at its submission.
     pub fn remember_spec(&self, id: &str, parsed: Arc<ParsedSweep>) {
-        let mut specs = self.specs.lock().unwrap_or_else(|e| e.into_inner());
-        if specs.len() >= SPEC_CACHE {
-            // Any one goes: it is parsed again at its next use.
-            if let Some(k) = specs.keys().next().cloned() {
-                specs.remove(&k);
-            }
-        }
-        specs.insert(id.to_string(), parsed);
+        self.specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(id, parsed);
     }
 
     /// The parsed spec of the sweep in `row` (a whole row: its spec document is parsed
@@ -217,7 +274,7 @@ impl Scheduler {
             .unwrap_or_else(|e| e.into_inner())
             .get(&row.id)
         {
-            return Ok(p.clone());
+            return Ok(p);
         }
         let parsed = Arc::new(parse_sweep_doc(&row.spec)?);
         self.remember_spec(&row.id, parsed.clone());
@@ -584,6 +641,50 @@ mod tests {
         fn plot_names(&self, id: &str) -> Result<Vec<String>, StoreError> {
             self.0.plot_names(id)
         }
+    }
+
+    #[test]
+    fn the_spec_cache_stays_within_its_count_and_size() {
+        let spec = |n: usize| {
+            let values: Vec<f64> = (0..n).map(|k| k as f64).collect();
+            let doc = json!({"kind": "synthetic", "base": {"spin": 1.0},
+                             "axes": [{"path": "spin", "values": values}]});
+            Arc::new(parse_sweep_doc(&doc).unwrap())
+        };
+        let w = spec_weight(&spec(10));
+        let canonical = match &*spec(10) {
+            ParsedSweep::Runner(s) => serde_json::to_string(&s.canonical).unwrap(),
+            ParsedSweep::FrictionMap(_) => unreachable!(),
+        };
+        assert_eq!(w, canonical.len());
+        // Room for three of these by size, five by count.
+        let mut c = SpecCache::new(5, 3 * w + w / 2);
+        for k in 0..10 {
+            c.insert(&format!("s{k}"), spec(10));
+            assert!(
+                c.bytes <= 3 * w + w / 2 && c.entries.len() <= 3,
+                "{k}: {}",
+                c.bytes
+            );
+            assert!(c.get(&format!("s{k}")).is_some(), "the newest is kept");
+        }
+        let sum: usize = c.entries.values().map(|(_, w)| w).sum();
+        assert_eq!(c.bytes, sum);
+        // Inserting the same id again does not count it twice.
+        c.insert("s9", spec(10));
+        assert_eq!(c.bytes, c.entries.values().map(|(_, w)| w).sum::<usize>());
+        // A spec larger than the whole budget is not kept.
+        c.insert("big", spec(2000));
+        assert!(c.get("big").is_none() && c.bytes <= 3 * w + w / 2);
+        c.remove("s9");
+        assert!(c.get("s9").is_none());
+        assert_eq!(c.bytes, c.entries.values().map(|(_, w)| w).sum::<usize>());
+        // By count.
+        let mut c = SpecCache::new(2, usize::MAX);
+        for k in 0..5 {
+            c.insert(&format!("s{k}"), spec(3));
+        }
+        assert_eq!(c.entries.len(), 2);
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
