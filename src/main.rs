@@ -3,19 +3,18 @@
 use std::process::ExitCode;
 
 use bearing_sweep::backend::BackendKind;
-use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::bench::backend::{BenchOptions, BenchTarget};
 use bearing_sweep::bench::{
     bench_all, bench_backend, bench_loads, bench_loads_markdown, bench_rotor, bench_rotor_batch,
     BenchAllOptions, BenchLoadsOptions, BenchRotorOptions,
 };
 use bearing_sweep::cli::{
-    coefficients_json_with, ross_csv, ross_toml, stability_scene_file, CoefficientOptions,
-    RossVersion, StabilityOptions, ROSS_TILT_NOTICE,
+    coefficients_json_with, stability_scene_file, CoefficientFormat, CoefficientOptions,
+    StabilityOptions,
 };
 use bearing_sweep::cli::{
     eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
-    CliError, EvalOptions, RunOptions, StdoutWriter, SweepRunOptions,
+    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
 };
 #[cfg(feature = "service")]
 use bearing_sweep::cli::{submit_command, SubmitOptions};
@@ -547,28 +546,9 @@ fn name_file(file: &str, e: CliError) -> CliError {
 
 /// `finite`: the model-error map and the finite-film benchmark.
 fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
-    use bearing_sweep::bearing::finite as fin;
     if let Some(dir) = &a.map {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| CliError::input("--map", format!("{}: {e}", dir.display())))?;
-        let settings = fin::error_map_settings();
-        let n = a.map_resolution.max(2);
-        let aspects: Vec<f64> = (0..=(9 * n / 10))
-            .map(|k| 0.1 + k as f64 / n as f64)
-            .filter(|&v| v <= 1.0 + 1e-9)
-            .collect();
-        let eccs: Vec<f64> = (0..=(95 * n / 100)).map(|k| k as f64 / n as f64).collect();
-        let fine = fin::compute_error_map(&aspects, &eccs, &settings);
-        let svg = fin::error_map_svg(&fine).map_err(|e| CliError::input("--map", e))?;
-        let table = fin::compute_error_map(&fin::ERROR_MAP_ASPECTS, &fin::ERROR_MAP_ECC, &settings);
-        let md = fin::error_map_markdown(&table);
-        for (name, text) in [
-            ("finite-error-map.svg", svg),
-            ("finite-error-map.md", md.clone()),
-        ] {
-            let path = dir.join(name);
-            std::fs::write(&path, text)
-                .map_err(|e| CliError::input("--map", format!("{}: {e}", path.display())))?;
+        let (md, files) = bearing_sweep::cli::error_map_files(dir, a.map_resolution)?;
+        for path in files {
             eprintln!("wrote {}", path.display());
         }
         println!("{md}");
@@ -598,15 +578,10 @@ fn print_lines(lines: Vec<String>) {
 
 /// `coefficients`: linearised K and C, JSON (or ROSS CSV) on stdout.
 fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
-    if !["json", "ross-csv", "ross-toml", "ross3-toml"].contains(&a.format.as_str()) {
-        return Err(CliError::input(
-            "--format",
-            format!(
-                "`{}`: expected json, ross-csv, ross-toml or ross3-toml",
-                a.format
-            ),
-        ));
-    }
+    let format: CoefficientFormat = a
+        .format
+        .parse()
+        .map_err(|r| CliError::input("--format", r))?;
     let text = read_input(&a.file)?;
     let (out, notices) = coefficients_json_with(
         &text,
@@ -618,18 +593,10 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
     for n in notices {
         eprintln!("{n}");
     }
-    if a.format.starts_with("ross-") {
-        eprintln!("{ROSS_TILT_NOTICE}");
+    if let Some(n) = format.notice() {
+        eprintln!("{n}");
     }
-    if a.format == "ross-csv" {
-        print_text(&ross_csv(&out))
-    } else if a.format == "ross-toml" {
-        print_text(&ross_toml(&out, RossVersion::V2))
-    } else if a.format == "ross3-toml" {
-        print_text(&ross_toml(&out, RossVersion::V3))
-    } else {
-        print_text(&(serde_json::to_string_pretty(&out).unwrap_or_default() + "\n"))
-    }
+    print_text(&format.render(&out))
 }
 
 /// `stability`: modes, threshold and Campbell diagram of a scene.
@@ -697,7 +664,7 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     let report = run_scene_file(
         &a.file,
         &text,
-        &RunOptions {
+        &SceneRunOptions {
             backend: a.backend,
             accuracy: a.accuracy,
             out: a.out,
@@ -758,22 +725,15 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
 /// `submit`: a sweep spec to a running service.
 fn submit(a: SubmitArgs) -> Result<(), CliError> {
     let text = read_input(&a.spec)?;
-    let backend = match a.backend {
-        BackendKind::Cpu => "cpu",
-        BackendKind::Gpu => "gpu",
-        BackendKind::Auto => "auto",
-    };
-    let mut query = format!("backend={backend}&accuracy={:e}", a.accuracy);
-    if a.full_model {
-        query.push_str("&full_model=true");
-    }
     let lines = submit_command(
         &text,
         &SubmitOptions {
             server: a.server,
             token: a.token,
             wait: a.wait,
-            query,
+            backend: a.backend,
+            accuracy: a.accuracy,
+            full_model: a.full_model,
         },
     )?;
     for l in lines {
@@ -800,7 +760,7 @@ fn worker(a: WorkerArgs) -> Result<(), CliError> {
 #[cfg(feature = "service")]
 /// `bench serve`: load generator for the service.
 fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
-    let md = bearing_sweep::service::bench_serve(&bearing_sweep::service::LoadOptions {
+    let md = bearing_sweep::bench::bench_serve(&bearing_sweep::bench::LoadOptions {
         server: a.server,
         clients: a.clients,
         states: a.states,
@@ -821,19 +781,18 @@ fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
         path: "current executable".into(),
         source,
     })?;
-    let md =
-        bearing_sweep::service::pg::bench_queue(&bearing_sweep::service::pg::QueueBenchOptions {
-            database: a.database,
-            exe,
-            workers: a.workers,
-            batch: a.batch.max(1),
-            grid: a.grid.max(1),
-            overhead_batches: a.overhead_batches.max(1),
-            storm_workers: a.storm_workers.max(1),
-            storm_s: a.storm_seconds.max(0.1),
-            scratch: a.out,
-        })
-        .map_err(|e| CliError::input("--database", e.to_string()))?;
+    let md = bearing_sweep::bench::bench_queue(&bearing_sweep::bench::QueueBenchOptions {
+        database: a.database,
+        exe,
+        workers: a.workers,
+        batch: a.batch.max(1),
+        grid: a.grid.max(1),
+        overhead_batches: a.overhead_batches.max(1),
+        storm_workers: a.storm_workers.max(1),
+        storm_s: a.storm_seconds.max(0.1),
+        scratch: a.out,
+    })
+    .map_err(|e| CliError::input("--database", e.to_string()))?;
     print!("{md}");
     Ok(())
 }
@@ -866,7 +825,7 @@ fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
 
 /// `bench rotor --batch`: lockstep batches against one-by-one runs.
 fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
-    print_text("| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")?;
+    print_text(bearing_sweep::bench::ROTOR_BATCH_TABLE_HEADER)?;
     a.batch.iter().try_for_each(|&n| {
         bench_rotor_batch(n, a.t_end, a.threads).and_then(|row| print_text(&row))
     })
@@ -899,26 +858,13 @@ fn run_bench_backend(
     max_reps: usize,
     json: Option<String>,
 ) -> Result<(), CliError> {
-    let target = match backend {
-        "cpu" => BenchTarget::Cpu,
-        "gpu" => BenchTarget::Gpu,
-        "both" => BenchTarget::Both,
-        other => {
-            return Err(CliError::input(
-                "--backend",
-                format!("`{other}` (expected cpu, gpu or both)"),
-            ))
-        }
-    };
+    let target: BenchTarget = backend
+        .parse()
+        .map_err(|r| CliError::input("--backend", r))?;
     if sizes.is_empty() || sizes.contains(&0) {
         return Err(CliError::input("--sizes", "batch sizes must be at least 1"));
     }
-    let accuracy = Accuracy::new(accuracy).ok_or_else(|| {
-        CliError::input(
-            "--accuracy",
-            format!("{accuracy} is not a positive number >= 1e-12"),
-        )
-    })?;
+    let accuracy = bearing_sweep::cli::accuracy(accuracy)?;
     let options = BenchOptions {
         sizes,
         accuracy,

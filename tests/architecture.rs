@@ -143,3 +143,96 @@ fn the_checker_sees_an_upward_import() {
     assert!(level_of("sweep") > level_of("rotor"));
     assert!(level_of("numerics") == level_of("plot"));
 }
+
+/// Every benchmark lives in the `bench` room (ARCHITECTURE.md "Rules"): no source file
+/// elsewhere is a benchmark or load generator by its name.
+#[test]
+fn benchmarks_live_in_the_bench_room() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let stray: Vec<String> = files
+        .iter()
+        .filter(|f| room_of(&src, f).is_some_and(|r| r != "bench"))
+        .filter(|f| {
+            let stem = f.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+            stem.contains("bench") || stem.contains("loadgen")
+        })
+        .map(|f| f.strip_prefix(&src).unwrap_or(f).display().to_string())
+        .collect();
+    assert!(stray.is_empty(), "benchmarks outside src/bench: {stray:?}");
+}
+
+/// Public type names defined in one place each: issue 21 found `NewSweep`, `SweepRow`,
+/// `Job` and `RunOptions` defined twice. The names below are still defined twice (two
+/// `GpuBackend`s are one type with and without the `gpu` feature); a new duplicate fails.
+#[test]
+fn a_public_type_name_is_defined_once() {
+    const KNOWN: &[&str] = &["BenchRow", "GpuBackend", "Mode", "Stats"];
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut defined: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).expect("source file is readable");
+        for line in text.lines() {
+            let t = line.trim_start();
+            for kw in ["pub struct ", "pub enum ", "pub trait ", "pub type "] {
+                if let Some(rest) = t.strip_prefix(kw) {
+                    let name: String = rest
+                        .chars()
+                        .take_while(|c| c.is_alphanumeric() || *c == '_')
+                        .collect();
+                    defined.entry(name).or_default().push(
+                        file.strip_prefix(&src)
+                            .unwrap_or(file)
+                            .display()
+                            .to_string(),
+                    );
+                }
+            }
+        }
+    }
+    let twice: Vec<String> = defined
+        .iter()
+        .filter(|(name, at)| at.len() > 1 && !KNOWN.contains(&name.as_str()))
+        .map(|(name, at)| format!("{name}: {at:?}"))
+        .collect();
+    assert!(
+        twice.is_empty(),
+        "public names defined twice:\n{}",
+        twice.join("\n")
+    );
+    for name in ["NewSweep", "SweepRow", "Job", "RunOptions"] {
+        assert!(
+            defined.get(name).is_none_or(|at| at.len() == 1),
+            "{name} is defined twice again"
+        );
+    }
+}
+
+/// `main.rs` parses arguments and calls the library: it hand-parses no enum (no match arm
+/// on a string literal; `FromStr` impls in the library do that) and stays short.
+#[test]
+fn main_parses_arguments_only() {
+    /// Lines `main.rs` may have (clap argument structs are most of it); a ratchet.
+    const MAX_LINES: usize = 1000;
+    let main = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/main.rs");
+    let text = std::fs::read_to_string(&main).expect("src/main.rs is readable");
+    let arms: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let t = l.trim_start();
+            t.starts_with('"') && t.contains("\" =>")
+        })
+        .map(|(n, l)| (n + 1, l.trim()))
+        .collect();
+    assert!(arms.is_empty(), "string match arms in main.rs: {arms:?}");
+    let n = text.lines().count();
+    assert!(
+        n <= MAX_LINES,
+        "main.rs has {n} lines (at most {MAX_LINES})"
+    );
+}

@@ -17,7 +17,7 @@ use bearing_sweep::bearing::{
     film_loads, Accuracy, BearingParams, BearingState, FilmIntegrals, FilmRule, Loads, PackedState,
     RuleSettings,
 };
-use bearing_sweep::cli::{run_scene_file, RunOptions};
+use bearing_sweep::cli::{run_scene_file, SceneRunOptions};
 use bearing_sweep::rotor::reductions::{
     squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, ReductionSpec,
     SQUEEZE_GAIN,
@@ -470,7 +470,7 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
         let rep = run_scene_file(
             "s.json",
             &text,
-            &RunOptions {
+            &SceneRunOptions {
                 backend: BackendKind::Cpu,
                 accuracy: 1e-6,
                 out: out.clone(),

@@ -171,7 +171,7 @@ async fn three_workers_on_500_variants_give_runs_result() {
     let q = PgQueue::new(&pg.url(), 4).unwrap();
     q.migrate().await.unwrap();
     let opts = SweepOptions {
-        backend: "cpu".into(),
+        backend: bearing_sweep::backend::BackendKind::Cpu,
         ..SweepOptions::default()
     };
     let (id, total) = submit_spec(&q, &s, opts, 8).await.unwrap();

@@ -135,6 +135,14 @@ fn shards_merged_equal_the_unsharded_run() {
         !root.join("s/shard-0-of-3/whirl.svg").exists(),
         "a shard wrote a plot"
     );
+    // The merged figure is the unsharded run's, byte for byte (one figure path: issue 21).
+    let figure = |r: &std::path::Path| {
+        std::fs::read_to_string(r.parent().unwrap().join("whirl.svg")).unwrap()
+    };
+    assert!(
+        figure(&merged) == figure(&full),
+        "merged whirl.svg differs from the unsharded run's"
+    );
     assert_eq!(
         deterministic(merged_doc.clone()),
         deterministic(full_doc.clone())

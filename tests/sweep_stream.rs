@@ -11,7 +11,7 @@ use bearing_sweep::sweep::reduce::{
     kept_series, reduce, ReductionOptions, SeriesGroup, Span, Window,
 };
 use bearing_sweep::sweep::rotor_sim::RotorSimulator;
-use bearing_sweep::sweep::runner::{BatchSimulator, Job, Outcome};
+use bearing_sweep::sweep::runner::{BatchSimulator, Outcome, VariantJob};
 use serde_json::{json, Value};
 
 /// The paper rotor (sweeps/clearance-viscosity.json's base) at `clearance` m for `t_end` s,
@@ -50,10 +50,10 @@ fn run(scenes: &[Value], opts: Option<&ReductionOptions>) -> Vec<Outcome> {
     if let Some(o) = opts {
         sim.set_reductions(o);
     }
-    let jobs: Vec<Job> = scenes
+    let jobs: Vec<VariantJob> = scenes
         .iter()
         .enumerate()
-        .map(|(i, s)| Job {
+        .map(|(i, s)| VariantJob {
             id: i as u64,
             scene: s.clone(),
         })

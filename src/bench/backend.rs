@@ -24,6 +24,19 @@ pub enum BenchTarget {
     Both,
 }
 
+impl std::str::FromStr for BenchTarget {
+    type Err = String;
+    /// `cpu`, `gpu` or `both` (`bench backend --backend`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "cpu" => Ok(BenchTarget::Cpu),
+            "gpu" => Ok(BenchTarget::Gpu),
+            "both" => Ok(BenchTarget::Both),
+            other => Err(format!("`{other}` (expected cpu, gpu or both)")),
+        }
+    }
+}
+
 /// Benchmark parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchOptions {

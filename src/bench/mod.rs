@@ -6,7 +6,11 @@ pub mod backend;
 mod backend_report;
 pub mod finite;
 mod loads;
+#[cfg(feature = "postgres")]
+mod queue;
 mod rotor;
+#[cfg(feature = "service")]
+mod serve;
 
 pub use all::{
     bench_all, machine_description, BenchAllOptions, BenchAllReport, STIFF_VISCOSITY_PA_S,
@@ -16,6 +20,11 @@ pub use loads::{
     bench_loads, bench_loads_markdown, bench_states, gpu_timing_batch, BenchLoadsOptions,
     BenchLoadsReport, BenchRow, DEFAULT_GPU_BATCH,
 };
+#[cfg(feature = "postgres")]
+pub use queue::{bench_queue, QueueBenchOptions};
 pub use rotor::{
     bench_rotor, bench_rotor_batch, BenchRotorOptions, BenchRotorReport, RotorBenchRow,
+    ROTOR_BATCH_TABLE_HEADER,
 };
+#[cfg(feature = "service")]
+pub use serve::{bench_serve, spawn_background, LoadOptions, LoadRow};

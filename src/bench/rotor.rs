@@ -259,6 +259,9 @@ fn thread_cpu_s() -> Option<f64> {
     Some(ns * 1e-9)
 }
 
+/// The markdown header of the [`bench_rotor_batch`] rows.
+pub const ROTOR_BATCH_TABLE_HEADER: &str = "| variants | threads | finished | evaluator calls (batch) | states per call | wall batch (s) | main-thread CPU batch (s) | evaluator calls (one by one) | wall one by one (s) | main-thread CPU one by one (s) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n";
+
 /// Lockstep batch against one-by-one runs: `n` paper-rotor variants (spins spread over
 /// 60-140 rad/s, dopri5 at the default tolerance, 1e-6 loads) on the CPU backend with
 /// `threads` threads. Returns a markdown table row set.

@@ -6,7 +6,7 @@ use serde_json::{json, Map, Value};
 
 use super::{from_value, CliError};
 use crate::backend::{create_backend, BackendKind};
-use crate::bearing::{Accuracy, BearingParams, BearingState};
+use crate::bearing::{BearingParams, BearingState};
 use crate::stability::{
     aligned_state, bearing_equilibria, coefficients_batch, BearingCoefficients, CoefficientJob,
     DiffOptions, StabilityError, ORDER,
@@ -166,12 +166,7 @@ pub fn coefficients_json_with(
             format!("{} ({})", e.reason, e.value),
         )
     })?;
-    let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
-        CliError::input(
-            "--accuracy",
-            format!("{} is not a positive number >= 1e-12", options.accuracy),
-        )
-    })?;
+    let accuracy = super::accuracy(options.accuracy)?;
     let (backend, notice) = create_backend(options.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
     let (mut ev, swap) = crate::stability::difference_evaluator(backend, accuracy);

@@ -123,10 +123,7 @@ fn eval_stream_in<R: std::io::Read, W: Write>(
     let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
         CliError::input(
             "--accuracy",
-            format!(
-                "{} is not a positive number >= 1e-12",
-                crate::json::num(options.accuracy)
-            ),
+            crate::sweep::options::refusal(crate::json::num(options.accuracy)),
         )
     })?;
     let mut run = Run {

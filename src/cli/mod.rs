@@ -1,8 +1,10 @@
 //! Command implementations behind the thin `bearing-sweep` binary: JSON in, JSON out,
 //! errors that name the JSON path and the reason.
 
+mod coefficient_format;
 mod coefficients;
 mod eval;
+mod finite;
 mod output;
 mod run;
 mod stability;
@@ -11,6 +13,7 @@ mod submit;
 mod sweep;
 mod warnings;
 
+pub use coefficient_format::CoefficientFormat;
 pub use coefficients::{
     coefficients_json, coefficients_json_with, ross_csv, ross_toml, CoefficientOptions,
     RossVersion, ROSS_COLUMNS, ROSS_TILT_NOTICE, ROSS_TOML_TABLE,
@@ -18,8 +21,9 @@ pub use coefficients::{
 pub use eval::{
     eval_file, eval_json, eval_json_pooled, eval_stream, EvalOptions, EvaluatorPool, EVAL_CHUNK,
 };
+pub use finite::{error_map_files, error_map_grid};
 pub use output::{print_lines, print_text, StdoutWriter};
-pub use run::{figures, run_scene_file, RunOptions, RunReport};
+pub use run::{figures, run_scene_file, RunReport, SceneRunOptions};
 pub use stability::{stability_scene_file, StabilityOptions, DEFAULT_SPEEDS};
 #[cfg(feature = "service")]
 pub use submit::{submit_command, SubmitOptions, TOKEN_ENV};
@@ -71,6 +75,12 @@ impl CliError {
             reason: crate::json::shorten(&reason.into(), crate::json::MAX_MESSAGE_CHARS),
         }
     }
+}
+
+/// The calibrated film accuracy level for `--accuracy rtol`, or the refusal naming the
+/// flag (the wording is [`crate::sweep::options::refusal`], one for every command).
+pub fn accuracy(rtol: f64) -> Result<crate::bearing::Accuracy, CliError> {
+    crate::sweep::options::accuracy_level(rtol).map_err(|r| CliError::input("--accuracy", r))
 }
 
 /// Reads a whole file, `-` meaning standard input.

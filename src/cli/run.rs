@@ -7,14 +7,13 @@ use std::io::Write;
 
 use super::CliError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
-use crate::bearing::Accuracy;
 use crate::plot::Scale;
 use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
 use crate::rotor::{load_scene, simulate_batch, ModelKind, Scene, SimResult};
 
 /// Options of `run` beyond the scene file.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RunOptions {
+pub struct SceneRunOptions {
     /// Backend for the film loads.
     pub backend: BackendKind,
     /// Relative accuracy of the film loads (a calibrated level, see `eval`).
@@ -59,14 +58,13 @@ struct RunDoc<'a> {
 }
 
 /// Runs the scene file at `path` (its text `text`).
-pub fn run_scene_file(path: &str, text: &str, opts: &RunOptions) -> Result<RunReport, CliError> {
+pub fn run_scene_file(
+    path: &str,
+    text: &str,
+    opts: &SceneRunOptions,
+) -> Result<RunReport, CliError> {
     let mut scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
-    let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
-        CliError::input(
-            "--accuracy",
-            format!("{} is not a positive number >= 1e-12", opts.accuracy),
-        )
-    })?;
+    let accuracy = super::accuracy(opts.accuracy)?;
     // Every scene's samples are kept for result.json and the figures, decimated to the
     // cap that the budget leaves each (docs/cli.md "Limits"): only what cannot fit even at the
     // floor cap is refused.

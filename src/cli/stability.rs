@@ -7,7 +7,6 @@ use serde_json::{json, Value};
 
 use super::CliError;
 use crate::backend::{create_backend, BackendKind};
-use crate::bearing::Accuracy;
 use crate::rotor::{load_scene, ModelKind};
 use crate::stability::{
     analyse_points, campbell_svg, damping_svg, geometric_grid, thresholds, RotorDescription,
@@ -77,12 +76,7 @@ pub fn stability_scene_file(
             ));
         }
     }
-    let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
-        CliError::input(
-            "--accuracy",
-            format!("{} is not a positive number >= 1e-12", opts.accuracy),
-        )
-    })?;
+    let accuracy = super::accuracy(opts.accuracy)?;
     let (backend, notice) = create_backend(opts.backend, accuracy)?;
     let mut notices: Vec<String> = notice.into_iter().collect();
     let (mut ev, swap) = crate::stability::difference_evaluator(backend, accuracy);

@@ -8,6 +8,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
 
 use super::CliError;
+use crate::backend::BackendKind;
+use crate::sweep::options::backend_name;
 
 /// Environment variable holding the service's token when `--token` is not given (read by
 /// `serve` and `submit`).
@@ -29,8 +31,28 @@ pub struct SubmitOptions {
     pub token: Option<String>,
     /// Wait for the end with a progress bar.
     pub wait: bool,
-    /// Query string of run options (`backend=cpu&accuracy=1e-6`), may be empty.
-    pub query: String,
+    /// Film-load backend asked of the service (`--backend`).
+    pub backend: BackendKind,
+    /// Film accuracy asked of the service, relative (`--accuracy`; the service checks it).
+    pub accuracy: f64,
+    /// Every model reduction off (`--full-model`).
+    pub full_model: bool,
+}
+
+impl SubmitOptions {
+    /// The run options as the service's query string: `backend=cpu&accuracy=1e-6`, and
+    /// `&full_model=true` when set (the parameters of `POST /api/sweeps`).
+    pub fn query(&self) -> String {
+        let mut query = format!(
+            "backend={}&accuracy={:e}",
+            backend_name(self.backend),
+            self.accuracy
+        );
+        if self.full_model {
+            query.push_str("&full_model=true");
+        }
+        query
+    }
 }
 
 fn agent() -> ureq::Agent {
@@ -79,11 +101,7 @@ pub fn submit_command(text: &str, opts: &SubmitOptions) -> Result<Vec<String>, C
         Some(t) => r.header("Authorization", format!("Bearer {t}")),
         None => r,
     };
-    let url = if opts.query.is_empty() {
-        format!("{base}/api/sweeps")
-    } else {
-        format!("{base}/api/sweeps?{}", opts.query)
-    };
+    let url = format!("{base}/api/sweeps?{}", opts.query());
     let created = answer(
         with_auth(agent.post(&url))
             .content_type("application/json")

@@ -6,13 +6,12 @@ use serde_json::Value;
 
 use super::CliError;
 use crate::backend::BackendKind;
-use crate::bearing::Accuracy;
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
 use crate::sweep::merge::merge;
 use crate::sweep::runner::{run_sweep, write_result, BatchSize, RunOptions, Shard};
-use crate::sweep::simulator::{prepare_simulator, SetupError, SimulatorChoice};
-use crate::sweep::spec::{parse_spec, spec_kind};
-use crate::sweep::SweepError;
+use crate::sweep::simulator::{prepare_simulator, SetupError};
+use crate::sweep::spec::parse_spec;
+use crate::sweep::{RequestedAccuracy, SweepError, SweepKind, SweepOptions};
 
 /// Options of `run` for a sweep spec.
 #[derive(Clone, Debug)]
@@ -73,17 +72,14 @@ pub fn run_command(
         crate::json::parse_json(text).map_err(|e| CliError::input(e.path, e.reason))?;
     let spec_path = Path::new(spec_file);
     let out = result_path(&opts.out, spec_file, opts.shard);
-    let accuracy = Accuracy::new(opts.accuracy).ok_or_else(|| {
-        CliError::input(
-            "--accuracy",
-            format!("{} is not a positive number >= 1e-12", opts.accuracy),
-        )
-    })?;
+    let requested =
+        RequestedAccuracy::new(opts.accuracy).map_err(|r| CliError::input("--accuracy", r))?;
+    let accuracy = requested.level();
     let mkdir = |dir: &Path| {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Sweep(SweepError::io(dir, e)))
     };
-    match spec_kind(&doc) {
-        Some("friction_map") => {
+    match SweepKind::of(&doc) {
+        Some(SweepKind::FrictionMap) => {
             if opts.shard.is_some() {
                 return Err(CliError::input(
                     "--shard",
@@ -129,9 +125,9 @@ pub fn run_command(
             for w in super::warnings::sweep_warnings(&doc, &spec.base) {
                 notice(w);
             }
-            let choice = SimulatorChoice {
+            let choice = SweepOptions {
                 backend: opts.backend,
-                accuracy,
+                accuracy: requested,
                 full_model: opts.full_model,
             };
             let mut prepared = prepare_simulator(&spec, &choice, notice).map_err(|e| match e {

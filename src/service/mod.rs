@@ -8,7 +8,6 @@ mod error;
 mod eval;
 pub mod limits;
 mod listen;
-mod loadgen;
 mod metrics;
 #[cfg(feature = "postgres")]
 pub mod pg;
@@ -22,9 +21,8 @@ pub mod web;
 pub use command::serve_command;
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use eval::{Coalescer, EvalCounters};
-pub use loadgen::{bench_serve, spawn_background, LoadOptions, LoadRow};
 pub use routes::{rfc3339, router, ApiDoc};
-pub use scheduler::{Job, Scheduler, SweepEvent};
+pub use scheduler::{LiveSweep, Scheduler, SweepEvent};
 pub use sqlite::SqliteStore;
 pub use store::{NewSweep, Store, StoreError, StoreSink, SweepRow, SweepStatus, SweepUpdate};
 pub use sweeps::{options_from_query, parse_options, parse_sweep_doc, ParsedSweep};

@@ -24,11 +24,12 @@ use utoipa::OpenApi;
 use super::error::{ApiError, ErrorBody};
 use super::limits::{Held, COEFF_BYTES_PER_SPEED, EVAL_BYTES_PER_STATE, STREAM_CHUNK_BYTES};
 use super::scheduler::{now_unix_s, SweepEvent};
-use super::store::{NewSweep, SweepRow, SweepStatus, SweepUpdate};
-use super::sweeps::{options_from_query, parse_sweep_doc, validate_variants, ParsedSweep};
+use super::store::{NewSweep, SweepRow, SweepStatus};
+use super::sweeps::{check_submission, options_from_query, ParsedSweep};
 use super::{csv, AppState};
+use crate::sweep::job::result_document;
 use crate::sweep::progress::ProgressSnapshot;
-use crate::sweep::runner::{result_skeleton, write_result_doc};
+use crate::sweep::runner::write_result_doc;
 
 /// Variant records per page when `limit` is not given.
 const DEFAULT_PAGE: u64 = 100;
@@ -305,15 +306,8 @@ async fn healthz() -> Json<Value> {
 
 async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
     let store = st.store.clone();
-    // Summary rows only: the cost does not grow with what the sweeps stored.
-    let queued = blocking(move || {
-        Ok(store
-            .list_sweeps()?
-            .iter()
-            .filter(|s| s.status == SweepStatus::Queued)
-            .count() as u64)
-    })
-    .await?;
+    // One count query: the cost does not grow with the sweeps stored.
+    let queued = blocking(move || Ok(store.count_queued()?)).await?;
     let c = &st.scheduler.counters;
     let e = &st.coalescer.counters;
     let text = super::metrics::render(
@@ -482,30 +476,15 @@ async fn submit_sweep(
     let max_variants = st.config.max_variants;
     let max_queued = st.config.max_queued;
     let store = st.store.clone();
+    let scheduler = st.scheduler.clone();
     let created = blocking(move || {
-        let parsed = parse_sweep_doc(&doc)?;
-        let total = parsed.count();
-        if total > max_variants {
-            return Err(ApiError::invalid(
-                "axes",
-                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
-            ));
-        }
-        if let ParsedSweep::Runner(spec) = &parsed {
-            validate_variants(spec)?;
-        }
+        let (parsed, total) = check_submission(&doc, max_variants)?;
         // Counted and inserted in one transaction (429 at the limit).
-        let row = store.insert_sweep_limited(
-            &NewSweep {
-                id: sweep_id(),
-                name: parsed.name(),
-                spec: doc,
-                options,
-                total,
-                created_unix_s: now_unix_s(),
-            },
-            max_queued,
-        )?;
+        let options = serde_json::to_value(options).unwrap_or_default();
+        let new = NewSweep::submitted(sweep_id(), doc, &parsed, total, options);
+        let row = store.insert_sweep_limited(&new, max_queued)?;
+        // Parsed once: the scheduler and the result route use this one.
+        scheduler.remember_spec(&row.id, std::sync::Arc::new(parsed));
         Ok(row)
     })
     .await?;
@@ -835,30 +814,9 @@ async fn cancel_sweep(
     Path(id): Path<String>,
 ) -> Result<Json<SweepSummary>, ApiError> {
     let r = row_or_404(&st, &id).await?;
-    st.scheduler.cancel(&id);
-    let mut status = r.status;
-    if r.status == SweepStatus::Queued {
-        // Not started: cancelled at once.
-        let store = st.store.clone();
-        let key = id.clone();
-        blocking(move || {
-            Ok(store.update_sweep(
-                &key,
-                &SweepUpdate {
-                    status: Some(SweepStatus::Cancelled),
-                    finished_unix_s: Some(now_unix_s()),
-                    ..Default::default()
-                },
-            )?)
-        })
-        .await?;
-        let _ = st
-            .scheduler
-            .job(&id)
-            .events
-            .send(SweepEvent::Status(SweepStatus::Cancelled));
-        status = SweepStatus::Cancelled;
-    }
+    let scheduler = st.scheduler.clone();
+    let (key, was) = (id.clone(), r.status);
+    let status = blocking(move || Ok(scheduler.cancel_sweep(&key, was)?)).await?;
     let p = progress_of(&st, &r);
     Ok(Json(SweepSummary {
         created: rfc3339(r.created_unix_s),
@@ -895,6 +853,7 @@ async fn sweep_result(
         ));
     }
     let store = st.store.clone();
+    let scheduler = st.scheduler.clone();
     let r = full_row_or_404(&st, &id).await?;
     stream_blocking("application/json", move |w| {
         if let Some(text) = store.result_doc_text(&r.id)? {
@@ -912,14 +871,15 @@ async fn sweep_result(
             .map_err(|e| ApiError::internal(format!("streaming: {e}")))?;
             return Ok(());
         }
-        let ParsedSweep::Runner(spec) = parse_sweep_doc(&r.spec)? else {
+        let parsed = scheduler.spec_of(&r)?;
+        let ParsedSweep::Runner(spec) = &*parsed else {
             return Err(ApiError::internal(
                 "internal: a friction map without its document",
             ));
         };
         let header = r.header.clone().unwrap_or(Value::Null);
-        let doc = result_skeleton(
-            &spec,
+        let doc = result_document(
+            spec,
             &header["settings"],
             None,
             r.total,
@@ -1003,15 +963,7 @@ async fn sweep_variants(
     }
     let total = r.total;
     let page = blocking(move || Ok(store.variant_lines(&r.id, offset, limit)?)).await?;
-    // Lines go out as stored (no re-encoding of their numbers).
-    let mut body = format!("{{\"offset\":{offset},\"total\":{total},\"variants\":[");
-    for (k, (_, line)) in page.iter().enumerate() {
-        if k > 0 {
-            body.push(',');
-        }
-        body.push_str(line);
-    }
-    body.push_str("]}");
+    let body = crate::sweep::job::variant_page(offset, total, &page);
     Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
 }
 
@@ -1206,7 +1158,7 @@ async fn eval(
             .ok_or_else(|| {
                 ApiError::invalid(
                     "?accuracy",
-                    format!("`{a}` is not a positive number >= 1e-12"),
+                    crate::sweep::options::refusal(format!("`{a}`")),
                 )
             })?,
     };

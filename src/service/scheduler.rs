@@ -10,15 +10,17 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use serde_json::{json, Value};
+use serde_json::json;
 use tokio::sync::{broadcast, Notify};
 
 use super::store::{Store, StoreSink, SweepRow, SweepStatus, SweepUpdate};
 use super::sweeps::{parse_options, parse_sweep_doc, ParsedSweep};
 use crate::sweep::friction_map::friction_map;
+use crate::sweep::job::Figures;
 use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
 use crate::sweep::runner::{run_variants, BatchSize, RunnerOptions};
 use crate::sweep::simulator::prepare_simulator;
+use crate::sweep::sink::VariantSink;
 
 /// Events buffered per sweep for slow SSE readers (older ones are skipped).
 const EVENT_BUFFER: usize = 1024;
@@ -30,6 +32,70 @@ const POLL: Duration = Duration::from_millis(500);
 const FINAL_RETRY_START: Duration = Duration::from_millis(200);
 /// Longest wait between two attempts at a final status.
 const FINAL_RETRY_MAX: Duration = Duration::from_secs(5);
+/// Most parsed specs kept in memory (one evicted is parsed again when next needed).
+const SPEC_CACHE: usize = 256;
+/// Most JSON text (canonical form) of the parsed specs kept in memory, bytes: 64 bodies
+/// at the default `serve --max-body-bytes` of 4 MiB would be 256 MiB of text and a few
+/// times that parsed, so the cache is bounded by size too; a spec larger than this alone is
+/// not kept (parsed at each use, as before the cache).
+const SPEC_CACHE_BYTES: usize = 16 << 20;
+/// Size charged for a friction map's fixed fields, bytes (its loads and speeds are
+/// charged 8 bytes each on top).
+const FRICTION_MAP_SPEC_BYTES: usize = 1024;
+
+/// Parsed specs by sweep id, bounded by count and by the size of their JSON text.
+struct SpecCache {
+    entries: HashMap<String, (Arc<ParsedSweep>, usize)>,
+    bytes: usize,
+    max_entries: usize,
+    max_bytes: usize,
+}
+
+impl SpecCache {
+    fn new(max_entries: usize, max_bytes: usize) -> Self {
+        SpecCache {
+            entries: HashMap::new(),
+            bytes: 0,
+            max_entries,
+            max_bytes,
+        }
+    }
+
+    fn get(&self, id: &str) -> Option<Arc<ParsedSweep>> {
+        self.entries.get(id).map(|(p, _)| p.clone())
+    }
+
+    fn insert(&mut self, id: &str, parsed: Arc<ParsedSweep>) {
+        self.remove(id);
+        let weight = spec_weight(&parsed);
+        if weight > self.max_bytes || self.max_entries == 0 {
+            return;
+        }
+        while self.entries.len() >= self.max_entries || self.bytes + weight > self.max_bytes {
+            // Any one goes: it is parsed again at its next use.
+            let Some(k) = self.entries.keys().next().cloned() else {
+                break;
+            };
+            self.remove(&k);
+        }
+        self.bytes += weight;
+        self.entries.insert(id.to_string(), (parsed, weight));
+    }
+
+    fn remove(&mut self, id: &str) {
+        if let Some((_, w)) = self.entries.remove(id) {
+            self.bytes -= w;
+        }
+    }
+}
+
+/// The size a parsed spec is charged in the cache: its canonical JSON text, bytes.
+fn spec_weight(p: &ParsedSweep) -> usize {
+    match p {
+        ParsedSweep::Runner(s) => serde_json::to_string(&s.canonical).map_or(0, |t| t.len()),
+        ParsedSweep::FrictionMap(f) => FRICTION_MAP_SPEC_BYTES + 8 * (f.load.len() + f.speed.len()),
+    }
+}
 
 /// A live event of one sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +116,7 @@ pub enum SweepEvent {
 }
 
 /// The in-memory side of a sweep: cancel flag, progress counters, event channel.
-pub struct Job {
+pub struct LiveSweep {
     /// Set by a cancel request or a drain.
     pub cancel: Arc<AtomicBool>,
     /// Set when the cancel is a drain (the sweep goes back to the queue, not cancelled).
@@ -61,9 +127,9 @@ pub struct Job {
     pub events: broadcast::Sender<SweepEvent>,
 }
 
-impl Job {
+impl LiveSweep {
     fn new() -> Arc<Self> {
-        Arc::new(Job {
+        Arc::new(LiveSweep {
             cancel: Arc::new(AtomicBool::new(false)),
             draining: AtomicBool::new(false),
             progress: ProgressCounters::shared(),
@@ -87,10 +153,13 @@ pub struct SchedulerCounters {
 pub struct Scheduler {
     store: Arc<dyn Store>,
     max_running: usize,
-    jobs: Mutex<HashMap<String, Arc<Job>>>,
+    jobs: Mutex<HashMap<String, Arc<LiveSweep>>>,
     wake: Notify,
     draining: AtomicBool,
     threads: Mutex<Vec<tokio::task::JoinHandle<()>>>,
+    /// Parsed specs by sweep id: a spec is parsed once in this process (at submission, or
+    /// at its first use after a restart), not again on every run or GET of its result.
+    specs: Mutex<SpecCache>,
     /// Metrics counters.
     pub counters: SchedulerCounters,
 }
@@ -128,14 +197,17 @@ impl Scheduler {
             wake: Notify::new(),
             draining: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
+            specs: Mutex::new(SpecCache::new(SPEC_CACHE, SPEC_CACHE_BYTES)),
             counters: SchedulerCounters::default(),
         }))
     }
 
     /// The job of sweep `id` (created on first use).
-    pub fn job(&self, id: &str) -> Arc<Job> {
+    pub fn job(&self, id: &str) -> Arc<LiveSweep> {
         let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
-        jobs.entry(id.to_string()).or_insert_with(Job::new).clone()
+        jobs.entry(id.to_string())
+            .or_insert_with(LiveSweep::new)
+            .clone()
     }
 
     /// Live progress of a running sweep (`None` when it is not running here).
@@ -156,9 +228,66 @@ impl Scheduler {
         self.job(id).cancel.store(true, Ordering::Relaxed);
     }
 
+    /// Cancels sweep `id`, whose stored status is `status`: a running one stops within a
+    /// second (its runner writes the final status); a queued one is cancelled in the store
+    /// at once and its event streams are told. Returns the status to report now.
+    /// Blocking (a store write).
+    pub fn cancel_sweep(
+        &self,
+        id: &str,
+        status: SweepStatus,
+    ) -> Result<SweepStatus, super::store::StoreError> {
+        self.cancel(id);
+        if status != SweepStatus::Queued {
+            return Ok(status);
+        }
+        // Not started: cancelled at once.
+        self.store.update_sweep(
+            id,
+            &SweepUpdate {
+                status: Some(SweepStatus::Cancelled),
+                finished_unix_s: Some(now_unix_s()),
+                ..Default::default()
+            },
+        )?;
+        let _ = self
+            .job(id)
+            .events
+            .send(SweepEvent::Status(SweepStatus::Cancelled));
+        Ok(SweepStatus::Cancelled)
+    }
+
+    /// Keeps the spec of sweep `id` as parsed at its submission.
+    pub fn remember_spec(&self, id: &str, parsed: Arc<ParsedSweep>) {
+        self.specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(id, parsed);
+    }
+
+    /// The parsed spec of the sweep in `row` (a whole row: its spec document is parsed
+    /// here only the first time this process needs it).
+    pub fn spec_of(&self, row: &SweepRow) -> Result<Arc<ParsedSweep>, crate::sweep::SweepError> {
+        if let Some(p) = self
+            .specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(&row.id)
+        {
+            return Ok(p);
+        }
+        let parsed = Arc::new(parse_sweep_doc(&row.spec)?);
+        self.remember_spec(&row.id, parsed.clone());
+        Ok(parsed)
+    }
+
     /// Forgets the in-memory side of a deleted sweep (call it after the store deleted
     /// it): its run stops, and its event streams get [`SweepEvent::Deleted`] and end.
     pub fn forget(&self, id: &str) {
+        self.specs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id);
         let mut jobs = self.jobs.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(j) = jobs.remove(id) {
             j.cancel.store(true, Ordering::Relaxed);
@@ -281,14 +410,14 @@ impl Scheduler {
     }
 
     /// Runs one sweep to its end on this (blocking) thread; returns the final update.
-    fn run_job(&self, row: &SweepRow, job: &Arc<Job>) -> SweepUpdate {
+    fn run_job(&self, row: &SweepRow, job: &Arc<LiveSweep>) -> SweepUpdate {
         let failed = |message: String| SweepUpdate {
             status: Some(SweepStatus::Failed),
             message: Some(Some(message)),
             finished_unix_s: Some(now_unix_s()),
             ..Default::default()
         };
-        let parsed = match parse_sweep_doc(&row.spec) {
+        let parsed = match self.spec_of(row) {
             Ok(p) => p,
             Err(e) => return failed(e.to_string()),
         };
@@ -296,10 +425,10 @@ impl Scheduler {
             Ok(c) => c,
             Err(e) => return failed(e.to_string()),
         };
-        let spec = match parsed {
+        let spec = match &*parsed {
             ParsedSweep::FrictionMap(fm) => {
                 let points = (fm.load.len() * fm.speed.len()) as u64;
-                let (doc, plot) = friction_map(&fm, choice.accuracy);
+                let (doc, plot) = friction_map(fm, choice.accuracy.level());
                 if let Ok(svg) = plot.render() {
                     if let Err(e) = self.store.put_plot(&row.id, "friction-map", &svg) {
                         return failed(e.to_string());
@@ -316,10 +445,10 @@ impl Scheduler {
                     ..Default::default()
                 };
             }
-            ParsedSweep::Runner(spec) => spec,
+            ParsedSweep::Runner(spec) => &**spec,
         };
         let mut notices = Vec::new();
-        let mut prepared = match prepare_simulator(&spec, &choice, &mut |n| notices.push(n)) {
+        let mut prepared = match prepare_simulator(spec, &choice, &mut |n| notices.push(n)) {
             Ok(p) => p,
             Err(e) => return failed(e.to_string()),
         };
@@ -349,7 +478,7 @@ impl Scheduler {
         };
         let progress = Progress::silent(job.progress.clone());
         let report = run_variants(
-            &spec,
+            spec,
             prepared.validator,
             prepared.sim.as_mut(),
             &mut sink,
@@ -383,30 +512,18 @@ impl Scheduler {
             };
         }
         // Figures from the light part of the variants (no series), as `run` draws them.
-        if !spec.plots.is_empty() {
-            let mut light: Vec<Value> = Vec::new();
-            let mut offset = 0;
-            loop {
-                let page = match self.store.variant_lines(&row.id, offset, 1000) {
-                    Ok(p) => p,
-                    Err(e) => return failed(e.to_string()),
-                };
-                for (_, line) in &page {
-                    if let Ok(mut v) = serde_json::from_str::<Value>(line) {
-                        if let Some(o) = v.as_object_mut() {
-                            o.remove("series");
-                        }
-                        light.push(v);
-                    }
-                }
-                if page.len() < 1000 {
-                    break;
-                }
-                offset += 1000;
+        let mut figures = Figures::new(spec);
+        if figures.wanted() {
+            let read = sink.for_each_line(&mut |_, line| {
+                figures.add_line(line);
+                Ok(())
+            });
+            if let Err(e) = read {
+                return failed(e.to_string());
             }
-            for p in &spec.plots {
-                if let Ok(svg) = crate::sweep::plots::render(&light, p) {
-                    if let Err(e) = self.store.put_plot(&row.id, &p.name, &svg) {
+            for (name, svg) in figures.draw() {
+                if let Ok(svg) = svg {
+                    if let Err(e) = self.store.put_plot(&row.id, &name, &svg) {
                         return failed(e.to_string());
                     }
                 }
@@ -460,6 +577,7 @@ mod tests {
     use crate::service::store::{NewSweep, StoreError};
     use crate::service::SqliteStore;
     use crate::sweep::sink::Committed;
+    use serde_json::Value;
 
     /// The SQLite store, except that opening the variants of sweep `boom` panics, and
     /// the first `.1` final statuses are refused as by a full disk.
@@ -525,6 +643,50 @@ mod tests {
         }
     }
 
+    #[test]
+    fn the_spec_cache_stays_within_its_count_and_size() {
+        let spec = |n: usize| {
+            let values: Vec<f64> = (0..n).map(|k| k as f64).collect();
+            let doc = json!({"kind": "synthetic", "base": {"spin": 1.0},
+                             "axes": [{"path": "spin", "values": values}]});
+            Arc::new(parse_sweep_doc(&doc).unwrap())
+        };
+        let w = spec_weight(&spec(10));
+        let canonical = match &*spec(10) {
+            ParsedSweep::Runner(s) => serde_json::to_string(&s.canonical).unwrap(),
+            ParsedSweep::FrictionMap(_) => unreachable!(),
+        };
+        assert_eq!(w, canonical.len());
+        // Room for three of these by size, five by count.
+        let mut c = SpecCache::new(5, 3 * w + w / 2);
+        for k in 0..10 {
+            c.insert(&format!("s{k}"), spec(10));
+            assert!(
+                c.bytes <= 3 * w + w / 2 && c.entries.len() <= 3,
+                "{k}: {}",
+                c.bytes
+            );
+            assert!(c.get(&format!("s{k}")).is_some(), "the newest is kept");
+        }
+        let sum: usize = c.entries.values().map(|(_, w)| w).sum();
+        assert_eq!(c.bytes, sum);
+        // Inserting the same id again does not count it twice.
+        c.insert("s9", spec(10));
+        assert_eq!(c.bytes, c.entries.values().map(|(_, w)| w).sum::<usize>());
+        // A spec larger than the whole budget is not kept.
+        c.insert("big", spec(2000));
+        assert!(c.get("big").is_none() && c.bytes <= 3 * w + w / 2);
+        c.remove("s9");
+        assert!(c.get("s9").is_none());
+        assert_eq!(c.bytes, c.entries.values().map(|(_, w)| w).sum::<usize>());
+        // By count.
+        let mut c = SpecCache::new(2, usize::MAX);
+        for k in 0..5 {
+            c.insert(&format!("s{k}"), spec(3));
+        }
+        assert_eq!(c.entries.len(), 2);
+    }
+
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_panicking_job_is_marked_failed_and_the_next_one_runs() {
         let dir = std::env::temp_dir().join(format!("bearing-sweep-sched-{}", std::process::id()));
@@ -536,16 +698,11 @@ mod tests {
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0, 70.0]}]});
         for id in ["boom", "fine"] {
-            store
-                .insert_sweep(&NewSweep {
-                    id: id.into(),
-                    name: id.into(),
-                    spec: spec.clone(),
-                    options: json!({}),
-                    total: 3,
-                    created_unix_s: now_unix_s(),
-                })
-                .unwrap();
+            let parsed = parse_sweep_doc(&spec).unwrap();
+            let mut new = NewSweep::submitted(id.into(), spec.clone(), &parsed, 3, json!({}));
+            new.name = id.into();
+            assert_eq!(parsed.count(), 3);
+            store.insert_sweep(&new).unwrap();
         }
         let sched = Scheduler::new(store.clone(), 1).unwrap();
         tokio::spawn(sched.clone().run());
@@ -580,16 +737,11 @@ mod tests {
         ));
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0]}]});
-        store
-            .insert_sweep(&NewSweep {
-                id: "full".into(),
-                name: "full".into(),
-                spec,
-                options: json!({}),
-                total: 2,
-                created_unix_s: now_unix_s(),
-            })
-            .unwrap();
+        let parsed = parse_sweep_doc(&spec).unwrap();
+        let mut new = NewSweep::submitted("full".into(), spec, &parsed, 2, json!({}));
+        new.name = "full".into();
+        assert_eq!(parsed.count(), 2);
+        store.insert_sweep(&new).unwrap();
         let sched = Scheduler::new(store.clone(), 1).unwrap();
         let events = sched.job("full").events.subscribe();
         tokio::spawn(sched.clone().run());

@@ -226,6 +226,17 @@ impl Store for SqliteStore {
         })
     }
 
+    fn count_queued(&self) -> Result<u64, StoreError> {
+        self.with(|c| {
+            c.query_row(
+                "SELECT count(*) FROM sweeps WHERE status = 'queued'",
+                [],
+                |r| r.get::<_, i64>(0),
+            )
+        })
+        .map(|n| n as u64)
+    }
+
     fn sweep_summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
         self.with(|c| {
             c.query_row(

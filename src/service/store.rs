@@ -8,8 +8,9 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::sweep::job::ParsedSweep;
 use crate::sweep::sink::{Committed, VariantSink};
-use crate::sweep::SweepError;
+use crate::sweep::{SweepError, SweepKind};
 
 /// A store failure.
 #[derive(Debug, thiserror::Error)]
@@ -100,12 +101,44 @@ pub struct NewSweep {
     pub name: String,
     /// The spec document exactly as posted (parsed JSON).
     pub spec: Value,
+    /// Its kind.
+    pub kind: SweepKind,
+    /// Its canonical form (`SweepSpec::canonical`: base inlined), or the posted document
+    /// for a friction map: what a store that queues work for other processes keeps.
+    pub canonical: Value,
     /// Run options (backend, accuracy, full_model) as JSON.
     pub options: Value,
     /// Variants in the sweep.
     pub total: u64,
     /// Submission time, seconds since the Unix epoch.
     pub created_unix_s: f64,
+}
+
+impl NewSweep {
+    /// A submission of `doc`, parsed once as `parsed` (`total` variants), under `id` with
+    /// `options`, now.
+    pub fn submitted(
+        id: String,
+        doc: Value,
+        parsed: &ParsedSweep,
+        total: u64,
+        options: Value,
+    ) -> Self {
+        let canonical = match parsed {
+            ParsedSweep::Runner(spec) => spec.canonical.clone(),
+            ParsedSweep::FrictionMap(_) => doc.clone(),
+        };
+        NewSweep {
+            id,
+            name: parsed.name(),
+            spec: doc,
+            kind: parsed.kind(),
+            canonical,
+            options,
+            total,
+            created_unix_s: super::scheduler::now_unix_s(),
+        }
+    }
 }
 
 /// A stored sweep.
@@ -184,6 +217,15 @@ pub trait Store: Send + Sync + 'static {
     /// Every sweep, oldest first, as summary rows (no spec, header or result document:
     /// listing costs the same whatever was stored).
     fn list_sweeps(&self) -> Result<Vec<SweepRow>, StoreError>;
+    /// Sweeps queued now (`/metrics`). Default: counts [`Store::list_sweeps`]; the stores
+    /// count with one query.
+    fn count_queued(&self) -> Result<u64, StoreError> {
+        Ok(self
+            .list_sweeps()?
+            .iter()
+            .filter(|s| s.status == SweepStatus::Queued)
+            .count() as u64)
+    }
     /// One sweep, whole (spec and header too; what a run needs).
     fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError>;
     /// One sweep as a summary row (status, counts, times, `run` section).

@@ -2,41 +2,13 @@
 //! `base` must be inline: no path from a request reaches the filesystem), and the run
 //! options of the query (`backend`, `accuracy`, `full_model`, mirroring `run`'s flags).
 
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use super::error::ApiError;
 use crate::backend::BackendKind;
-use crate::bearing::Accuracy;
-use crate::sweep::friction_map::FrictionMapSpec;
-use crate::sweep::simulator::SimulatorChoice;
-use crate::sweep::spec::{parse_spec, spec_kind};
-use crate::sweep::{Expansion, SweepError, SweepSpec};
+use crate::sweep::{Expansion, RequestedAccuracy, SweepError, SweepOptions, SweepSpec};
 
-/// A parsed submission.
-pub enum ParsedSweep {
-    /// A rotor or synthetic sweep (runs through the runner).
-    Runner(Box<SweepSpec>),
-    /// A friction map (no dynamics; one document).
-    FrictionMap(Box<FrictionMapSpec>),
-}
-
-impl ParsedSweep {
-    /// Variants (friction-map points) in it.
-    pub fn count(&self) -> u64 {
-        match self {
-            ParsedSweep::Runner(s) => Expansion::new(s).count(),
-            ParsedSweep::FrictionMap(f) => (f.load.len() * f.speed.len()) as u64,
-        }
-    }
-
-    /// The spec's name.
-    pub fn name(&self) -> String {
-        match self {
-            ParsedSweep::Runner(s) => s.name.clone().unwrap_or_default(),
-            ParsedSweep::FrictionMap(f) => f.name.clone().unwrap_or_default(),
-        }
-    }
-}
+pub use crate::sweep::job::ParsedSweep;
 
 /// Parses a spec document as `run` does, refusing a `base` given as a file name.
 pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
@@ -46,12 +18,25 @@ pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
             "a file name is not accepted by the service (no request reaches its filesystem); put the scene object inline",
         ));
     }
-    match spec_kind(doc) {
-        Some("friction_map") => Ok(ParsedSweep::FrictionMap(Box::new(FrictionMapSpec::parse(
-            doc,
-        )?))),
-        _ => Ok(ParsedSweep::Runner(Box::new(parse_spec(doc, None)?))),
+    crate::sweep::job::parse_sweep(doc, None)
+}
+
+/// A submission checked as `POST /api/sweeps` and `POST /api/validate` check it: parsed,
+/// within the service's `max_variants`, and (a runner sweep) every variant valid. Returns
+/// the parsed sweep and its variant count.
+pub fn check_submission(doc: &Value, max_variants: u64) -> Result<(ParsedSweep, u64), ApiError> {
+    let parsed = parse_sweep_doc(doc)?;
+    let total = parsed.count();
+    if total > max_variants {
+        return Err(ApiError::invalid(
+            "axes",
+            format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
+        ));
     }
+    if let ParsedSweep::Runner(spec) = &parsed {
+        validate_variants(spec)?;
+    }
+    Ok((parsed, total))
 }
 
 /// Checks every variant of a runner sweep (so a bad variant gets 422 before anything is
@@ -61,30 +46,24 @@ pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {
     Expansion::new(spec).validate_all(spec, validator)
 }
 
-/// Run options from the query parameters, as stored JSON: `{"backend", "accuracy",
-/// "full_model"}` with `run`'s defaults (auto, 1e-6, false).
+/// Run options from the query parameters (`backend`, `accuracy`, `full_model`) with
+/// `run`'s defaults (auto, 1e-6, false); stored as their JSON.
 pub fn options_from_query(
     backend: Option<&str>,
     accuracy: Option<&str>,
     full_model: Option<&str>,
-) -> Result<Value, ApiError> {
-    let backend = backend.unwrap_or("auto");
-    backend
+) -> Result<SweepOptions, ApiError> {
+    let backend = backend
+        .unwrap_or("auto")
         .parse::<BackendKind>()
         .map_err(|e| ApiError::invalid("?backend", e))?;
     let accuracy = match accuracy {
-        None => Accuracy::default().rtol(),
+        None => RequestedAccuracy::default(),
         Some(a) => {
             let v: f64 = a
                 .parse()
                 .map_err(|_| ApiError::invalid("?accuracy", format!("`{a}` is not a number")))?;
-            Accuracy::new(v).ok_or_else(|| {
-                ApiError::invalid(
-                    "?accuracy",
-                    format!("{v} is not a positive number >= 1e-12"),
-                )
-            })?;
-            v
+            RequestedAccuracy::new(v).map_err(|r| ApiError::invalid("?accuracy", r))?
         }
     };
     let full_model = match full_model {
@@ -97,29 +76,15 @@ pub fn options_from_query(
             ))
         }
     };
-    Ok(json!({"backend": backend, "accuracy": accuracy, "full_model": full_model}))
-}
-
-/// The simulator choice of stored options.
-pub fn parse_options(options: &Value) -> Result<SimulatorChoice, ApiError> {
-    let backend = options
-        .get("backend")
-        .and_then(Value::as_str)
-        .unwrap_or("auto")
-        .parse::<BackendKind>()
-        .map_err(|e| ApiError::invalid("?backend", e))?;
-    let rtol = options
-        .get("accuracy")
-        .and_then(Value::as_f64)
-        .unwrap_or(Accuracy::default().rtol());
-    let accuracy = Accuracy::new(rtol)
-        .ok_or_else(|| ApiError::invalid("?accuracy", format!("{rtol} is out of range")))?;
-    Ok(SimulatorChoice {
+    Ok(SweepOptions {
         backend,
         accuracy,
-        full_model: options
-            .get("full_model")
-            .and_then(Value::as_bool)
-            .unwrap_or(false),
+        full_model,
     })
+}
+
+/// The run options stored with a sweep.
+pub fn parse_options(options: &Value) -> Result<SweepOptions, ApiError> {
+    serde_json::from_value(options.clone())
+        .map_err(|e| ApiError::invalid("options", format!("stored run options: {e}")))
 }

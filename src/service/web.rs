@@ -13,7 +13,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::{json, Value};
 
-use super::{options_from_query, parse_sweep_doc, ApiError, AppState, ErrorBody, ParsedSweep};
+use super::{options_from_query, ApiError, AppState, ErrorBody, ParsedSweep};
 
 const INDEX_HTML: &str = include_str!("web/index.html");
 const APP_JS: &str = include_str!("web/app.js");
@@ -173,22 +173,11 @@ async fn validate(
     let max_variants = st.config.max_variants;
     // Expanding and checking every variant is CPU work: off the async threads.
     tokio::task::spawn_blocking(move || {
-        let parsed = parse_sweep_doc(&doc)?;
-        let total = parsed.count();
-        if total > max_variants {
-            return Err(ApiError::invalid(
-                "axes",
-                format!("{total} variants exceed the service's limit of {max_variants} per sweep (raise it with `serve --max-variants`)"),
-            ));
-        }
-        let kind = match &parsed {
-            ParsedSweep::Runner(spec) => {
-                super::sweeps::validate_variants(spec)?;
-                spec.kind.name()
-            }
-            ParsedSweep::FrictionMap(_) => "friction_map",
-        };
-        Ok(Json(json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total})))
+        let (parsed, total) = super::sweeps::check_submission(&doc, max_variants)?;
+        let kind = parsed.kind().name();
+        Ok(Json(
+            json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total}),
+        ))
     })
     .await
     .map_err(|e| ApiError::internal(format!("internal: {e}")))?
@@ -243,13 +232,16 @@ async fn variant_series(
         .parse()
         .map_err(|_| ApiError::bad_request("variant", format!("not a variant id: {variant:?}")))?;
     let store = st.store.clone();
+    let scheduler = st.scheduler.clone();
     tokio::task::spawn_blocking(move || {
         let row = store
             .sweep(&id)
             .map_err(|e| ApiError::internal(format!("store: {e}")))?
             .ok_or_else(|| ApiError::not_found(format!("no sweep {id:?}")))?;
-        let mut spec = match parse_sweep_doc(&row.spec)? {
-            ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => spec,
+        let mut spec = match &*scheduler.spec_of(&row)? {
+            ParsedSweep::Runner(spec) if spec.kind == crate::sweep::SweepKind::Rotor => {
+                spec.clone()
+            }
             _ => return Err(ApiError::invalid(
                 "kind",
                 "only rotor sweeps have time series (stability sweeps and friction maps have none)",
@@ -279,7 +271,7 @@ async fn variant_series(
             .map_err(|e| ApiError::invalid("$", e.to_string()))?;
         let mut outcome = None;
         prepared.sim.run_batch(
-            &[crate::sweep::runner::Job {
+            &[crate::sweep::runner::VariantJob {
                 id: variant,
                 scene: v.scene,
             }],

@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::runner::{write_plots, write_result_streamed, RESULT_FORMAT};
+use super::job::{without_series, RESULT_FORMAT};
+use super::runner::{write_plots, write_result_streamed};
 use super::SweepError;
 
 /// The result minus its `run` section: the part that must be identical however a sweep
@@ -128,15 +129,7 @@ pub fn merge(
     }
     let mut iter = variants.values().map(|v| Ok(v.to_string()));
     write_result_streamed(out, &doc, &mut iter)?;
-    let light: Vec<Value> = variants
-        .into_values()
-        .map(|mut v| {
-            if let Some(o) = v.as_object_mut() {
-                o.remove("series");
-            }
-            v
-        })
-        .collect();
+    let light: Vec<Value> = variants.into_values().map(without_series).collect();
     let plots = match super::spec::parse_spec(&doc["spec"], None) {
         Ok(spec) => write_plots(&spec, &light, out),
         Err(e) => vec![Err(format!(

@@ -9,20 +9,28 @@
 pub mod expand;
 pub mod folder_sink;
 pub mod friction_map;
+pub mod job;
+pub mod json_path;
 pub mod merge;
+pub mod options;
 pub mod plots;
 pub mod progress;
 pub mod reduce;
+pub mod reduction_options;
 pub mod rotor_sim;
 pub mod runner;
+pub mod schema;
 pub mod simulator;
 pub mod sink;
 pub mod spec;
 pub mod stability_sim;
 pub mod stream;
 pub mod synthetic;
+pub mod whirl;
+pub mod wording;
 
 pub use expand::Expansion;
+pub use options::{RequestedAccuracy, SweepOptions};
 pub use spec::{parse_spec, Axis, AxisValues, Mode, SweepKind, SweepSpec};
 
 /// A sweep failure: bad spec (with the JSON path), bad variant, I/O, resume or merge.

@@ -121,6 +121,8 @@ fn check_y(y_path: &[PathSeg], kind: SweepKind) -> Result<(), String> {
             super::stability_sim::reductions_schema(),
             "`threshold_speed_rad_s`, `log_dec_min`",
         ),
+        // Not reached: a friction map is not parsed as a scene sweep.
+        SweepKind::FrictionMap => return Err("a friction map draws its own figure".into()),
     };
     let as_first: Vec<PathSeg> = y_path
         .iter()

@@ -5,7 +5,7 @@
 use serde_json::{json, Value};
 
 use super::reduce::{BearingSignals, ReductionOptions, Signals};
-use super::runner::{BatchSimulator, Job, Outcome, Reduced};
+use super::runner::{BatchSimulator, Outcome, Reduced, VariantJob};
 use super::stream::{streams, RunReducer};
 use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
 use crate::bearing::Accuracy;
@@ -240,13 +240,13 @@ impl BatchSimulator for RotorSimulator {
         v
     }
 
-    fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+    fn run_batch(&mut self, jobs: &[VariantJob], done: &mut dyn FnMut(usize, Outcome)) {
         self.run_batch_cancellable(jobs, &AtomicBool::new(false), done)
     }
 
     fn run_batch_cancellable(
         &mut self,
-        jobs: &[Job],
+        jobs: &[VariantJob],
         cancel: &AtomicBool,
         done: &mut dyn FnMut(usize, Outcome),
     ) {

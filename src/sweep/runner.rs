@@ -10,7 +10,6 @@
 //! section (timings, machine, resumes) is deterministic: the same spec and settings give
 //! the same bytes however the run was sharded, batched or interrupted.
 
-use std::cell::Cell;
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -22,17 +21,16 @@ use serde_json::{json, Map, Value};
 use super::expand::Expansion;
 pub use super::folder_sink::{stream_path, FolderSink, STREAM_FORMAT};
 use super::progress::{Progress, ProgressCounters};
-use super::reduce::{kept_series, reduce, units, Signals};
+use super::reduce::{kept_series, reduce, Signals};
 use super::sink::VariantSink;
 use super::spec::SweepSpec;
 use super::SweepError;
 
-/// Format tag of a result file.
-pub const RESULT_FORMAT: &str = "bearing-sweep/sweep-result/1";
+pub use super::job::RESULT_FORMAT;
 
 /// One variant handed to the simulator.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Job {
+pub struct VariantJob {
     /// Variant id.
     pub id: u64,
     /// Its scene (validated).
@@ -108,13 +106,13 @@ pub trait BatchSimulator {
     fn info(&self) -> Value;
     /// Simulates `jobs`, calling `done(index in jobs, outcome)` once per job as it
     /// finishes, in any order. A failing variant reports a status; it never stops the batch.
-    fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome));
+    fn run_batch(&mut self, jobs: &[VariantJob], done: &mut dyn FnMut(usize, Outcome));
     /// [`BatchSimulator::run_batch`] that stops early once `cancel` is set: every job is
     /// still reported (the runner drops the outcomes that arrive after the flag is set).
     /// Default: checks nothing (a batch runs to its end).
     fn run_batch_cancellable(
         &mut self,
-        jobs: &[Job],
+        jobs: &[VariantJob],
         cancel: &AtomicBool,
         done: &mut dyn FnMut(usize, Outcome),
     ) {
@@ -164,7 +162,7 @@ impl Shard {
         id % self.count == self.index
     }
 
-    fn to_json(self) -> Value {
+    pub(crate) fn to_json(self) -> Value {
         json!({"index": self.index, "count": self.count})
     }
 }
@@ -341,51 +339,24 @@ fn run_validated_variants(
             cancelled = true;
             break;
         }
-        let variants: Vec<_> = chunk.iter().map(|&id| exp.variant(spec, id)).collect();
-        let jobs: Vec<Job> = variants
-            .iter()
-            .map(|v| Job {
-                id: v.id,
-                scene: v.scene.clone(),
-            })
-            .collect();
-        let reported: Vec<Cell<bool>> = vec![Cell::new(false); jobs.len()];
         let mut commit_error: Option<SweepError> = None;
-        {
-            let mut on_done = |k: usize, outcome: Outcome| {
-                if k >= reported.len() || reported[k].get() || commit_error.is_some() {
-                    return;
-                }
-                reported[k].set(true);
-                // A variant stopped by the cancel flag is not a result.
-                if cancel.load(Ordering::Relaxed) {
-                    return;
-                }
-                let line = variant_line(spec, &variants[k], outcome);
-                let ok = line.get("status").and_then(Value::as_str) == Some("ok");
-                let id = variants[k].id;
-                // Commit before report.
-                match sink.commit(id, ok, &line.to_string()) {
-                    Ok(()) => {
-                        committed.insert(id, ok);
-                        ran += 1;
-                        progress.record(ok);
-                    }
-                    Err(e) => commit_error = Some(e),
-                }
-            };
-            sim.run_batch_cancellable(&jobs, cancel, &mut on_done);
-            let missing: Vec<usize> = (0..jobs.len()).filter(|&k| !reported[k].get()).collect();
-            for k in missing {
-                on_done(
-                    k,
-                    Outcome::failed(
-                        "internal_error",
-                        "the simulator did not report this variant".into(),
-                    ),
-                );
+        super::job::run_batch(spec, &exp, sim, chunk, cancel, &mut |v, outcome| {
+            // A variant stopped by the cancel flag is not a result; nothing is committed
+            // after a failed commit.
+            if commit_error.is_some() || cancel.load(Ordering::Relaxed) {
+                return;
             }
-        }
+            let (ok, line) = super::job::finished_line(spec, v, outcome);
+            // Commit before report.
+            match sink.commit(v.id, ok, &line) {
+                Ok(()) => {
+                    committed.insert(v.id, ok);
+                    ran += 1;
+                    progress.record(ok);
+                }
+                Err(e) => commit_error = Some(e),
+            }
+        });
         if let Some(e) = commit_error.take() {
             return Err(e);
         }
@@ -432,18 +403,6 @@ fn run_validated_variants(
         cancelled,
         run,
     })
-}
-
-/// The result document of a run without its variants (`variants: []`), to be filled from
-/// the sink by [`write_result_doc`].
-pub fn result_skeleton(
-    spec: &SweepSpec,
-    settings: &Value,
-    shard: Option<Shard>,
-    total: u64,
-    run: Value,
-) -> Value {
-    result_doc(spec, settings, shard, total, run)
 }
 
 /// Writes `doc` (whose top-level `variants` is empty) to `w` with the sink's variant lines
@@ -548,24 +507,21 @@ pub fn run_sweep_with(
             stream.display()
         )));
     }
-    let doc = result_doc(spec, &opts.settings, opts.shard, report.total, report.run);
+    let doc =
+        super::job::result_document(spec, &opts.settings, opts.shard, report.total, report.run);
+    // Figures only of a complete result.
     let want_plots = opts.shard.is_none() && !spec.plots.is_empty();
-    let mut light = Vec::new();
+    let mut figures = super::job::Figures::new(spec);
     write_file_atomically(&opts.out, &mut |w| {
         write_result_doc(w, &doc, &mut sink, &mut |line| {
             if want_plots {
-                if let Ok(mut v) = serde_json::from_str::<Value>(line) {
-                    if let Some(o) = v.as_object_mut() {
-                        o.remove("series");
-                    }
-                    light.push(v);
-                }
+                figures.add_line(line);
             }
         })
     })?;
     drop(sink);
     let plots = if want_plots {
-        write_plots(spec, &light, &opts.out)
+        write_figures(figures.draw(), &opts.out)
     } else {
         Vec::new()
     };
@@ -618,23 +574,31 @@ fn sync_parent(path: &Path) -> Result<(), SweepError> {
         .map_err(|e| SweepError::io(dir, e))
 }
 
-/// Writes the spec's plots of a complete result's variants into its folder: `<name>.svg`.
+/// Writes drawn figures into the folder of result file `out`: `<name>.svg` each.
+pub fn write_figures(
+    figures: Vec<super::job::DrawnFigure>,
+    out: &Path,
+) -> Vec<Result<PathBuf, String>> {
+    let dir = out.parent().unwrap_or(Path::new("."));
+    figures
+        .into_iter()
+        .map(|(name, svg)| {
+            let svg = svg.map_err(|e| format!("plot `{name}`: {e}"))?;
+            let path = dir.join(format!("{name}.svg"));
+            std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok(path)
+        })
+        .collect()
+}
+
+/// Writes the spec's plots of a complete result's variants (light part) into its
+/// folder: `<name>.svg`.
 pub fn write_plots(
     spec: &SweepSpec,
     variants: &[Value],
     out: &Path,
 ) -> Vec<Result<PathBuf, String>> {
-    spec.plots
-        .iter()
-        .map(|p| {
-            let dir = out.parent().unwrap_or(Path::new("."));
-            let path = dir.join(format!("{}.svg", p.name));
-            let svg =
-                super::plots::render(variants, p).map_err(|e| format!("plot `{}`: {e}", p.name))?;
-            std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
-            Ok(path)
-        })
-        .collect()
+    write_figures(super::job::draw_figures(spec, variants), out)
 }
 
 /// One variant's stream line.
@@ -678,28 +642,6 @@ pub(crate) fn variant_line(spec: &SweepSpec, v: &super::expand::Variant, mut o: 
         m.insert("sim".into(), extra);
     }
     Value::Object(m)
-}
-
-fn result_doc(
-    spec: &SweepSpec,
-    settings: &Value,
-    shard: Option<Shard>,
-    total: u64,
-    run: Value,
-) -> Value {
-    json!({
-        "format": RESULT_FORMAT,
-        "name": spec.name,
-        "kind": spec.kind.name(),
-        "spec_hash": spec_hash(spec),
-        "spec": spec.canonical,
-        "settings": settings,
-        "count": total,
-        "shard": shard.map(Shard::to_json),
-        "units": units(),
-        "variants": [],
-        "run": run,
-    })
 }
 
 /// Writes `doc` (whose top-level `variants` is empty) with the variant lines from

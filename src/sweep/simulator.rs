@@ -8,23 +8,12 @@ use super::expand::SceneValidator;
 use super::rotor_sim::{validate_scene, RotorSimulator};
 use super::runner::BatchSimulator;
 use super::synthetic::{self, SyntheticSimulator};
-use super::{SweepError, SweepKind, SweepSpec};
+use super::{SweepError, SweepKind, SweepOptions, SweepSpec};
 use crate::backend::{
     chosen_cpu, create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator,
 };
 use crate::bearing::Accuracy;
 use crate::rotor::reductions::{evaluator_options, ReductionSpec};
-
-/// The choices of `run` (and the service's query) that shape the simulator.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SimulatorChoice {
-    /// Film-load backend (`--backend`; default `cpu`).
-    pub backend: BackendKind,
-    /// Film accuracy (`--accuracy`; default 1e-6 relative).
-    pub accuracy: Accuracy,
-    /// Every model reduction off (`--full-model`; default off).
-    pub full_model: bool,
-}
 
 /// Why no simulator could be built.
 #[derive(Debug, thiserror::Error)]
@@ -53,17 +42,30 @@ pub fn scene_validator(kind: SweepKind) -> &'static SceneValidator {
     match kind {
         SweepKind::Synthetic => &synthetic::validate,
         SweepKind::Rotor | SweepKind::Stability => &validate_scene,
+        SweepKind::FrictionMap => &no_scenes,
     }
+}
+
+/// The validator of a kind without scenes: every variant is refused.
+fn no_scenes(_: &Value) -> Result<(), (String, String)> {
+    Err((
+        "kind".into(),
+        "a friction map has no scenes to simulate".into(),
+    ))
 }
 
 /// Builds the simulator for `spec` (a rotor spec's variants are all validated first: a
 /// GPU start is slow). Backend notices (e.g. a fallback to the CPU) go to `notice`.
 pub fn prepare_simulator(
     spec: &SweepSpec,
-    choice: &SimulatorChoice,
+    choice: &SweepOptions,
     notice: &mut dyn FnMut(String),
 ) -> Result<PreparedSimulator, SetupError> {
     match spec.kind {
+        SweepKind::FrictionMap => Err(SetupError::Sweep(SweepError::spec(
+            "kind",
+            "a friction map runs no simulator (`crate::sweep::friction_map`)",
+        ))),
         SweepKind::Synthetic => Ok(PreparedSimulator {
             sim: Box::new(SyntheticSimulator),
             validator: scene_validator(spec.kind),
@@ -74,10 +76,10 @@ pub fn prepare_simulator(
             // The coefficients are differences of film loads: always the tightest level
             // (docs/cli.md "Coefficients and stability").
             let tight = Accuracy::new(1e-12).expect("a calibrated level");
-            if choice.accuracy.rtol() != tight.rtol() {
+            if choice.accuracy.level().rtol() != tight.rtol() {
                 notice(format!(
                     "notice: stability sweeps evaluate the film at accuracy 1e-12 (not {:e})",
-                    choice.accuracy.rtol()
+                    choice.accuracy.level().rtol()
                 ));
             }
             let (backend, n) = create_backend(choice.backend, tight)?;
@@ -105,7 +107,7 @@ pub fn prepare_simulator(
             {
                 let (b, notices) = chosen_cpu(
                     BackendKind::Auto,
-                    choice.accuracy,
+                    choice.accuracy.level(),
                     format!(
                         "a short-film rotor sweep is as fast on the CPU from \
                          {SHORT_FILM_SWEEP_CPU_THREADS} threads (here {threads}; beside a GPU \
@@ -115,7 +117,7 @@ pub fn prepare_simulator(
                 );
                 (b, (!notices.is_empty()).then(|| notices.join("\n")))
             } else {
-                create_backend(choice.backend, choice.accuracy)?
+                create_backend(choice.backend, choice.accuracy.level())?
             };
             if let Some(n) = n {
                 notice(n);
@@ -134,11 +136,11 @@ pub fn prepare_simulator(
             };
             let mut sim = RotorSimulator::new(
                 LoadEvaluator::with_options(backend, eval_options),
-                choice.accuracy,
+                choice.accuracy.level(),
             );
             sim.set_full_model(choice.full_model);
             sim.set_reductions(&spec.reductions);
-            let settings = sim.settings(choice.accuracy.rtol());
+            let settings = sim.settings(choice.accuracy.level().rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
                 validator: scene_validator(spec.kind),

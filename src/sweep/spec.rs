@@ -19,13 +19,19 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use serde::de::{self, DeserializeOwned, MapAccess, SeqAccess, Visitor};
+use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 use serde_json::{Map, Value};
 use utoipa::{PartialSchema, ToSchema};
 
 use super::reduce::ReductionOptions;
 use super::SweepError;
+
+// The spec's helpers live by concern; re-exported here, where the spec types use them.
+pub use super::json_path::{parse_path, resolve, set_path, PathSeg};
+pub use super::schema;
+pub(crate) use super::schema::hand_schema;
+pub use super::wording::{from_value, join, one_of_names, present, type_name, Count, Num, Range3};
 
 /// Most variants one spec may expand to (a guard against typos such as `1e9` points).
 pub const MAX_VARIANTS: u64 = 100_000_000;
@@ -40,6 +46,10 @@ pub enum SweepKind {
     /// Rotor scenes analysed by linear stability (threshold speed, least log-dec; no time
     /// integration; `crate::sweep::stability_sim::StabilitySimulator`).
     Stability,
+    /// A friction map over load and speed (Fig. 4): no scenes and no dynamics, one
+    /// document (`crate::sweep::friction_map`); not a [`SweepSpec`], so
+    /// [`parse_spec`] refuses it and [`super::job::parse_sweep`] parses either.
+    FrictionMap,
 }
 
 impl SweepKind {
@@ -49,19 +59,26 @@ impl SweepKind {
             SweepKind::Rotor => "rotor",
             SweepKind::Synthetic => "synthetic",
             SweepKind::Stability => "stability",
+            SweepKind::FrictionMap => "friction_map",
         }
     }
-}
 
-/// One segment of an axis path.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum PathSeg {
-    /// An object key.
-    Key(String),
-    /// One array element.
-    Index(usize),
-    /// Every element of an array (`[*]`).
-    All,
+    /// The kind of a spec document, without parsing the rest: [`SweepKind::Rotor`] when
+    /// `kind` is absent, `None` when it is not one of the names (the parser then says
+    /// why).
+    pub fn of(doc: &Value) -> Option<SweepKind> {
+        match doc.get("kind") {
+            None => Some(SweepKind::Rotor),
+            Some(k) => {
+                let k = k.as_str()?;
+                SweepKind::NAMES
+                    .iter()
+                    .map(|(_, kind)| *kind)
+                    .chain([SweepKind::FrictionMap])
+                    .find(|kind| kind.name() == k)
+            }
+        }
+    }
 }
 
 /// The values an axis takes.
@@ -215,325 +232,6 @@ pub struct SweepSpec {
     pub plots: Vec<super::plots::PlotSpec>,
     /// The spec with `base` inlined: echoed in outputs and hashed to recognise a resume.
     pub canonical: Value,
-}
-
-/// `prefix.key`, or `key` at the top level.
-pub fn join(prefix: &str, key: &str) -> String {
-    if prefix.is_empty() {
-        key.to_string()
-    } else {
-        format!("{prefix}.{key}")
-    }
-}
-
-/// A JSON type name for error messages.
-pub fn type_name(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "a boolean",
-        Value::Number(_) => "a number",
-        Value::String(_) => "a string",
-        Value::Array(_) => "an array",
-        Value::Object(_) => "an object",
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// The spec document as typed by serde derive: unknown fields are refused by
-// `deny_unknown_fields`, the JSON path of any error is tracked by serde_path_to_error, and
-// the same types give the service's OpenAPI schema (utoipa). Leaves with a project rule
-// (numbers, counts, `[first, last, count]`, named choices) have small hand-written
-// `Deserialize` impls with the project's messages; checks serde cannot express (ranges,
-// exactly one of, axis paths against the base, mode lengths) are functions over the typed
-// document below.
-
-/// Deserialises `v` as the document type `T`; an error names its JSON path under `at`
-/// (`""` for the document itself) in the project's format (`axes[1].logspace[0]`).
-pub fn from_value<T: DeserializeOwned>(v: &Value, at: &str) -> Result<T, SweepError> {
-    crate::json::deserialize_located(v).map_err(|e| serde_error(&e, v, at))
-}
-
-/// A serde_path_to_error error as a [`SweepError::Spec`]: the path in the project's
-/// format, serde's message reworded in the project's terms (`expected an array, got an
-/// object`, `unknown field (expected one of: ...)`, `missing`), user input cut short.
-fn serde_error(
-    e: &serde_path_to_error::Error<serde_json::Error>,
-    root: &Value,
-    at: &str,
-) -> SweepError {
-    use serde_path_to_error::Segment;
-    let mut path = at.to_string();
-    let mut here = Some(root);
-    let mut last_key: Option<&str> = None;
-    for seg in e.path().iter() {
-        last_key = None;
-        match seg {
-            Segment::Seq { index } => {
-                path = format!("{path}[{index}]");
-                here = here.and_then(|h| h.get(*index));
-            }
-            Segment::Map { key } => {
-                path = join(&path, &crate::json::quote(key));
-                here = here.and_then(|h| h.get(key.as_str()));
-                last_key = Some(key);
-            }
-            Segment::Enum { variant } => {
-                path = join(&path, &crate::json::quote(variant));
-                here = here.and_then(|h| h.get(variant.as_str()));
-            }
-            Segment::Unknown => {
-                path = join(&path, "?");
-                here = None;
-            }
-        }
-    }
-    let msg = e.inner().to_string();
-    let mut reason = crate::json::shorten(&msg, crate::json::MAX_ECHO_CHARS * 4);
-    if let Some(field) = msg
-        .strip_prefix("missing field `")
-        .and_then(|r| r.strip_suffix('`'))
-    {
-        path = join(&path, field);
-        reason = "missing".into();
-    } else if let Some(allowed) =
-        last_key.and_then(|k| msg.strip_prefix(&format!("unknown field `{k}`, ")))
-    {
-        // serde: "expected one of `a`, `b`" / "expected `a` or `b`" / "there are no fields".
-        let names: Vec<&str> = allowed.split('`').skip(1).step_by(2).collect();
-        reason = if names.is_empty() {
-            "unknown field (no fields are allowed here)".into()
-        } else {
-            format!("unknown field (expected one of: {})", names.join(", "))
-        };
-        if let Some(hint) = crate::json::unknown_field_hint(&msg) {
-            reason.push_str(&hint);
-        }
-    } else if let Some((_, expected)) = msg
-        .strip_prefix("invalid type: ")
-        .and_then(|r| r.rsplit_once(", expected "))
-    {
-        let got = here.map_or("something else", type_name);
-        reason = format!("expected {}, got {got}", expected_in_words(expected));
-    } else if let Some((_, expected)) = msg
-        .strip_prefix("invalid length ")
-        .and_then(|r| r.split_once(", expected "))
-    {
-        reason = format!("expected {}", expected_in_words(expected));
-    }
-    SweepError::spec(if path.is_empty() { "$".into() } else { path }, reason)
-}
-
-/// serde's `expected ...` phrase for the types used here, in the project's words.
-fn expected_in_words(expected: &str) -> &str {
-    match expected {
-        "a sequence" | "sequence" => "an array",
-        "a map" | "map" => "an object",
-        "f64" | "f32" => "a number",
-        "u64" | "u32" | "usize" => "a non-negative integer",
-        e if e.starts_with("struct ") => "an object",
-        e => e,
-    }
-}
-
-/// For optional fields: absent means `None` (with `#[serde(default)]`), but `null` is
-/// refused like any other wrong type (`expected a string, got null`), as before.
-pub fn present<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
-    d: D,
-) -> Result<Option<T>, D::Error> {
-    T::deserialize(d).map(Some)
-}
-
-/// A JSON number (finite: `crate::json::parse_json` refuses the rest).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Num(pub f64);
-
-impl<'de> Deserialize<'de> for Num {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let v = Value::deserialize(d)?;
-        let x = v.as_f64().ok_or_else(|| {
-            de::Error::custom(format!("expected a number, got {}", type_name(&v)))
-        })?;
-        if !x.is_finite() {
-            return Err(de::Error::custom("must be finite"));
-        }
-        Ok(Num(x))
-    }
-}
-
-/// A non-negative integer; integral floats such as `5.0` or `1e3` are accepted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Count(pub u64);
-
-impl<'de> Deserialize<'de> for Count {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let v = Value::deserialize(d)?;
-        if let Some(n) = v.as_u64() {
-            return Ok(Count(n));
-        }
-        let got = match v.as_f64() {
-            Some(x) if x >= 0.0 && x.fract() == 0.0 && x <= u64::MAX as f64 => {
-                return Ok(Count(x as u64))
-            }
-            Some(x) => crate::json::num(x),
-            None => type_name(&v).to_string(),
-        };
-        Err(de::Error::custom(format!(
-            "expected a non-negative integer, got {got}"
-        )))
-    }
-}
-
-/// `[first, last, count]` of a `linspace` or `logspace`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Range3 {
-    /// First value.
-    pub first: f64,
-    /// Last value.
-    pub last: f64,
-    /// Number of values (checked by the caller: >= 1).
-    pub count: u64,
-}
-
-impl<'de> Deserialize<'de> for Range3 {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Range3;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("[first, last, count]")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Range3, A::Error> {
-                let short = || de::Error::custom("expected [first, last, count]");
-                let first = seq.next_element::<Num>()?.ok_or_else(short)?.0;
-                let last = seq.next_element::<Num>()?.ok_or_else(short)?.0;
-                let count = seq.next_element::<Count>()?.ok_or_else(short)?.0;
-                if seq.next_element::<de::IgnoredAny>()?.is_some() {
-                    return Err(short());
-                }
-                Ok(Range3 { first, last, count })
-            }
-        }
-        d.deserialize_seq(V)
-    }
-}
-
-/// Schema pieces written by hand, for the leaves whose `Deserialize` is hand-written.
-pub mod schema {
-    use utoipa::openapi::schema::{ArrayItems, Schema, SchemaType, Type};
-    use utoipa::openapi::{ArrayBuilder, ObjectBuilder, OneOfBuilder, RefOr};
-
-    /// `{"type": ty}` with a description.
-    pub fn typed(ty: Type, description: &str) -> Schema {
-        ObjectBuilder::new()
-            .schema_type(SchemaType::Type(ty))
-            .description(Some(description))
-            .into()
-    }
-
-    /// A string, one of `names`.
-    pub fn one_of_names(names: &[&str], description: &str) -> Schema {
-        ObjectBuilder::new()
-            .schema_type(SchemaType::Type(Type::String))
-            .enum_values(Some(names.iter().copied()))
-            .description(Some(description))
-            .into()
-    }
-
-    /// `[first, last, count]`.
-    pub fn range3(description: &str) -> Schema {
-        ArrayBuilder::new()
-            .prefix_items([
-                typed(Type::Number, "first value"),
-                typed(Type::Number, "last value"),
-                ObjectBuilder::new()
-                    .schema_type(SchemaType::Type(Type::Integer))
-                    .minimum(Some(1))
-                    .description(Some("number of values, at least 1"))
-                    .into(),
-            ])
-            .items(ArrayItems::False)
-            .min_items(Some(3))
-            .description(Some(description))
-            .into()
-    }
-
-    /// A non-negative integer.
-    pub fn count(description: &str) -> Schema {
-        ObjectBuilder::new()
-            .schema_type(SchemaType::Type(Type::Integer))
-            .minimum(Some(0))
-            .description(Some(description))
-            .into()
-    }
-
-    /// Any of `items`.
-    pub fn any_of(items: impl IntoIterator<Item = Schema>, description: &str) -> Schema {
-        let mut b = OneOfBuilder::new().description(Some(description));
-        for s in items {
-            b = b.item(s);
-        }
-        b.into()
-    }
-
-    /// `schema` as the `RefOr` utoipa's traits return.
-    pub fn inline(schema: Schema) -> RefOr<Schema> {
-        RefOr::T(schema)
-    }
-}
-
-/// Implements `utoipa::ToSchema` for a type whose schema is written by hand (`$schema`: a
-/// `utoipa::openapi::schema::Schema` expression).
-macro_rules! hand_schema {
-    ($ty:ty, $name:literal, $schema:expr) => {
-        impl utoipa::PartialSchema for $ty {
-            fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
-                $crate::sweep::spec::schema::inline($schema)
-            }
-        }
-        impl utoipa::ToSchema for $ty {
-            fn name() -> std::borrow::Cow<'static, str> {
-                std::borrow::Cow::Borrowed($name)
-            }
-        }
-    };
-}
-pub(crate) use hand_schema;
-
-hand_schema!(
-    Num,
-    "SpecNumber",
-    schema::typed(utoipa::openapi::Type::Number, "A finite number")
-);
-hand_schema!(
-    Count,
-    "SpecCount",
-    schema::count("A non-negative integer (integral floats such as 1e3 are accepted)")
-);
-hand_schema!(
-    Range3,
-    "SpecRange",
-    schema::range3("[first, last, count]: count values from first to last, both included")
-);
-
-/// One of `names` (a string), for the hand-written `Deserialize` of named choices; the
-/// error lists them: `expected "run" or "window", got "all"`.
-pub fn one_of_names<T: Copy>(v: &Value, names: &[(&str, T)]) -> Result<T, String> {
-    if let Some(t) = v
-        .as_str()
-        .and_then(|s| names.iter().find(|(n, _)| *n == s).map(|(_, t)| *t))
-    {
-        return Ok(t);
-    }
-    let quoted: Vec<String> = names.iter().map(|(n, _)| format!("\"{n}\"")).collect();
-    let list = match quoted.split_last() {
-        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
-        _ => quoted.join(""),
-    };
-    let got = match v {
-        Value::String(s) => format!("\"{}\"", crate::json::quote(s)),
-        other => type_name(other).to_string(),
-    };
-    Err(format!("expected {list}, got {got}"))
 }
 
 impl SweepKind {
@@ -806,7 +504,7 @@ impl ToSchema for SpecDocument {
 
 /// Parses a sweep spec document. `spec_dir` resolves a `base` given as a file name.
 /// Detects the kind only; `kind: "friction_map"` documents are parsed by
-/// [`super::friction_map`] (see [`spec_kind`]).
+/// [`super::friction_map`] (see [`SweepKind::of`] and [`super::job::parse_sweep`]).
 pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, SweepError> {
     let d: SweepSpecDoc = from_value(doc, "")?;
     let kind = d.kind.unwrap_or(SweepKind::Rotor);
@@ -873,14 +571,6 @@ pub fn parse_spec(doc: &Value, spec_dir: Option<&Path>) -> Result<SweepSpec, Swe
         ));
     }
     Ok(spec)
-}
-
-/// The `kind` of a spec document, without parsing the rest: `"rotor"` when absent.
-pub fn spec_kind(doc: &Value) -> Option<&str> {
-    match doc.get("kind") {
-        None => Some("rotor"),
-        Some(k) => k.as_str(),
-    }
 }
 
 /// Whether concrete path `a` is `b` or lies inside it (or the other way round):
@@ -1101,153 +791,6 @@ fn range_count(r: &Range3, field: &str) -> Result<usize, SweepError> {
         ));
     }
     Ok(n as usize)
-}
-
-/// Parses `key(.key|[n]|[*])*`.
-pub fn parse_path(path: &str) -> Result<Vec<PathSeg>, String> {
-    let bad = |pos: usize, why: &str| {
-        format!(
-            "cannot parse path `{}` at character {pos}: {why}",
-            crate::json::quote(path)
-        )
-    };
-    let bytes = path.as_bytes();
-    let mut segs = Vec::new();
-    let mut i = 0;
-    let key_char = |c: u8| c.is_ascii_alphanumeric() || c == b'_' || c == b'-';
-    let mut expect_key = true;
-    while i < bytes.len() {
-        if expect_key {
-            let start = i;
-            while i < bytes.len() && key_char(bytes[i]) {
-                i += 1;
-            }
-            if i == start {
-                return Err(bad(i, "expected a field name"));
-            }
-            segs.push(PathSeg::Key(path[start..i].to_string()));
-            expect_key = false;
-        } else if bytes[i] == b'.' {
-            i += 1;
-            expect_key = true;
-            if i == bytes.len() {
-                return Err(bad(i, "expected a field name after `.`"));
-            }
-        } else if bytes[i] == b'[' {
-            let close = path[i..]
-                .find(']')
-                .map(|k| i + k)
-                .ok_or_else(|| bad(i, "unclosed `[`"))?;
-            let inner = &path[i + 1..close];
-            if inner == "*" {
-                segs.push(PathSeg::All);
-            } else {
-                let n: usize = inner
-                    .parse()
-                    .map_err(|_| bad(i + 1, "expected an index or `*` inside `[]`"))?;
-                segs.push(PathSeg::Index(n));
-            }
-            i = close + 1;
-        } else {
-            return Err(bad(i, "expected `.` or `[`"));
-        }
-    }
-    if segs.is_empty() {
-        return Err("empty path".into());
-    }
-    Ok(segs)
-}
-
-/// Every concrete location `segments` addresses in `root`, as (path, value). Errors name
-/// the first missing part.
-pub fn resolve<'a>(
-    root: &'a Value,
-    segments: &[PathSeg],
-) -> Result<Vec<(String, &'a Value)>, String> {
-    let mut out = Vec::new();
-    resolve_into(root, segments, String::new(), &mut out)?;
-    Ok(out)
-}
-
-fn resolve_into<'a>(
-    v: &'a Value,
-    segments: &[PathSeg],
-    at: String,
-    out: &mut Vec<(String, &'a Value)>,
-) -> Result<(), String> {
-    let Some((seg, rest)) = segments.split_first() else {
-        out.push((at, v));
-        return Ok(());
-    };
-    let shown = if at.is_empty() {
-        "the base scene".to_string()
-    } else {
-        format!("`{}`", crate::json::quote(&at))
-    };
-    match seg {
-        PathSeg::Key(k) => {
-            let o = v
-                .as_object()
-                .ok_or_else(|| format!("{shown} is {}, not an object", type_name(v)))?;
-            let child = o.get(k).ok_or_else(|| {
-                format!(
-                    "{shown} has no field `{}` (write the field into `base` to sweep it; it has: {})",
-                    crate::json::quote(k),
-                    crate::json::shorten(&o.keys().cloned().collect::<Vec<_>>().join(", "), 400)
-                )
-            })?;
-            resolve_into(child, rest, join(&at, k), out)
-        }
-        PathSeg::Index(n) => {
-            let a = v
-                .as_array()
-                .ok_or_else(|| format!("{shown} is {}, not an array", type_name(v)))?;
-            let child = a
-                .get(*n)
-                .ok_or_else(|| format!("{shown} has {} elements, no index {n}", a.len()))?;
-            resolve_into(child, rest, format!("{at}[{n}]"), out)
-        }
-        PathSeg::All => {
-            let a = v
-                .as_array()
-                .ok_or_else(|| format!("{shown} is {}, not an array", type_name(v)))?;
-            if a.is_empty() {
-                return Err(format!("{shown} is an empty array"));
-            }
-            for (k, child) in a.iter().enumerate() {
-                resolve_into(child, rest, format!("{at}[{k}]"), out)?;
-            }
-            Ok(())
-        }
-    }
-}
-
-/// Sets every location `segments` addresses in `root` to `value` (the locations exist:
-/// checked against the base at parse time).
-pub fn set_path(root: &mut Value, segments: &[PathSeg], value: &Value) {
-    let Some((seg, rest)) = segments.split_first() else {
-        *root = value.clone();
-        return;
-    };
-    match seg {
-        PathSeg::Key(k) => {
-            if let Some(child) = root.get_mut(k.as_str()) {
-                set_path(child, rest, value);
-            }
-        }
-        PathSeg::Index(n) => {
-            if let Some(child) = root.get_mut(*n) {
-                set_path(child, rest, value);
-            }
-        }
-        PathSeg::All => {
-            if let Some(arr) = root.as_array_mut() {
-                for child in arr {
-                    set_path(child, rest, value);
-                }
-            }
-        }
-    }
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 
 use serde_json::{json, Value};
 
-use super::runner::{BatchSimulator, Job, Outcome};
+use super::runner::{BatchSimulator, Outcome, VariantJob};
 use crate::backend::{BackendInfo, LoadEvaluator};
 use crate::rotor::Scene;
 use crate::stability::{analyse_points, geometric_grid, thresholds, RotorDescription};
@@ -91,7 +91,7 @@ impl BatchSimulator for StabilitySimulator {
         v
     }
 
-    fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+    fn run_batch(&mut self, jobs: &[VariantJob], done: &mut dyn FnMut(usize, Outcome)) {
         let mut rotors = Vec::new();
         let mut index = Vec::new();
         for (k, job) in jobs.iter().enumerate() {

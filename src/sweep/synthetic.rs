@@ -21,7 +21,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::reduce::{BearingSignals, Signals};
-use super::runner::{BatchSimulator, Job, Outcome};
+use super::runner::{BatchSimulator, Outcome, VariantJob};
 
 fn d_spin() -> f64 {
     100.0
@@ -234,13 +234,13 @@ impl BatchSimulator for SyntheticSimulator {
         serde_json::json!({"simulator": "synthetic (analytic signals, no dynamics)"})
     }
 
-    fn run_batch(&mut self, jobs: &[Job], done: &mut dyn FnMut(usize, Outcome)) {
+    fn run_batch(&mut self, jobs: &[VariantJob], done: &mut dyn FnMut(usize, Outcome)) {
         self.run_batch_cancellable(jobs, &std::sync::atomic::AtomicBool::new(false), done)
     }
 
     fn run_batch_cancellable(
         &mut self,
-        jobs: &[Job],
+        jobs: &[VariantJob],
         cancel: &std::sync::atomic::AtomicBool,
         done: &mut dyn FnMut(usize, Outcome),
     ) {

@@ -3,7 +3,6 @@
 //! exactly once with the lease's completion, the `worker` process loop, and the
 //! service's store on the same tables (`serve --database`).
 
-mod bench;
 mod command;
 mod error;
 mod migrations;
@@ -14,14 +13,13 @@ mod store;
 mod submit;
 mod worker;
 
-pub use bench::{bench_queue, QueueBenchOptions};
 pub use command::{worker_command, WorkerCommandOptions};
 pub use error::PgError;
 pub use migrations::{migrate, Migration, MIGRATIONS};
 pub use monitor::{monitor, run_section, spawn_monitor};
 pub use queue::{
-    BatchStats, Completion, Lease, LeaseState, NewSweep, PgQueue, SweepJob, SweepOptions, SweepRow,
-    VariantRow, DEFAULT_BATCH_VARIANTS, RESULTS_LOCK_CLASS,
+    BatchStats, Completion, Lease, LeaseState, PgQueue, QueueRow, QueuedSweep, SweepJob,
+    SweepOptions, VariantRow, DEFAULT_BATCH_VARIANTS, RESULTS_LOCK_CLASS,
 };
 pub use result::result_document;
 pub use store::{PgStore, RETRY_FOR};

@@ -15,6 +15,7 @@ use tokio::sync::watch;
 use super::error::PgError;
 use super::queue::PgQueue;
 use crate::service::{Scheduler, SweepEvent, SweepStatus};
+use crate::sweep::job::Figures;
 use crate::sweep::progress::ProgressSnapshot;
 use crate::sweep::spec::parse_spec;
 
@@ -66,8 +67,8 @@ pub async fn run_section(queue: &PgQueue, id: &str) -> Result<Value, PgError> {
 async fn finish(queue: &PgQueue, id: &str) -> Result<(), PgError> {
     let job = queue.job(id).await?;
     if let Ok(spec) = parse_spec(&job.spec, None) {
-        if !spec.plots.is_empty() {
-            let mut light = Vec::new();
+        let mut figures = Figures::new(&spec);
+        if figures.wanted() {
             let mut next = 0;
             loop {
                 let page = queue.variants(id, next, PAGE).await?;
@@ -75,22 +76,17 @@ async fn finish(queue: &PgQueue, id: &str) -> Result<(), PgError> {
                     break;
                 };
                 for r in page {
-                    if let Ok(mut v) = serde_json::from_str::<Value>(&r.line) {
-                        if let Some(o) = v.as_object_mut() {
-                            o.remove("series");
-                        }
-                        light.push(v);
-                    }
+                    figures.add_line(&r.line);
                 }
                 next = last + 1;
             }
             let c = queue.connection("storing figures").await?;
-            for p in &spec.plots {
-                if let Ok(svg) = crate::sweep::plots::render(&light, p) {
+            for (name, svg) in figures.draw() {
+                if let Ok(svg) = svg {
                     c.execute(
                         "INSERT INTO plots (sweep_id, name, svg) VALUES ($1, $2, $3)
                          ON CONFLICT (sweep_id, name) DO UPDATE SET svg = EXCLUDED.svg",
-                        &[&id, &p.name, &svg],
+                        &[&id, &name, &svg],
                     )
                     .await
                     .map_err(|e| queue.db_error("storing figures", e))?;

@@ -13,7 +13,7 @@ use std::str::FromStr;
 use std::time::Duration;
 
 use deadpool_postgres::{Manager, ManagerConfig, Pool, RecyclingMethod, Runtime};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use serde_json::Value;
 use tokio_postgres::NoTls;
 
@@ -30,31 +30,15 @@ const MAX_ROWS_PER_CLAIM: i64 = 4096;
 /// may be fully leased).
 const CLAIM_CANDIDATES: i64 = 16;
 
-/// Options of a sweep that change how (and on what) it runs.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SweepOptions {
-    /// Which workers may run it: `cpu`, `gpu` or `auto` (any; the first claim decides
-    /// for the whole sweep, so that every variant is computed with the same settings).
-    pub backend: String,
-    /// Film accuracy (relative), as `run --accuracy`; default 1e-6.
-    pub accuracy: f64,
-    /// Every model reduction off, as `run --full-model`.
-    pub full_model: bool,
-}
-
-impl Default for SweepOptions {
-    fn default() -> Self {
-        SweepOptions {
-            backend: "auto".into(),
-            accuracy: 1e-6,
-            full_model: false,
-        }
-    }
-}
+/// Options of a sweep that change how (and on what) it runs: the one options type of
+/// every sweep. Its `backend` says which workers may run it: `cpu`, `gpu` or `auto` (any;
+/// the first claim decides for the whole sweep, so that every variant is computed with
+/// the same settings).
+pub use crate::sweep::SweepOptions;
 
 /// A sweep to enqueue.
 #[derive(Clone, Debug)]
-pub struct NewSweep {
+pub struct QueuedSweep {
     /// Opaque id (unique).
     pub id: String,
     /// The spec's name.
@@ -79,7 +63,7 @@ pub struct NewSweep {
 
 /// A sweep as stored.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SweepRow {
+pub struct QueueRow {
     /// Opaque id.
     pub id: String,
     /// The spec's name.
@@ -321,7 +305,7 @@ impl PgQueue {
     }
 
     /// Enqueues a sweep and its work batches in one transaction.
-    pub async fn submit(&self, s: &NewSweep) -> Result<(), PgError> {
+    pub async fn submit(&self, s: &QueuedSweep) -> Result<(), PgError> {
         self.submit_limited(s, None).await.map(|_| ())
     }
 
@@ -331,7 +315,7 @@ impl PgQueue {
     /// submissions (from any number of servers) never pass the limit.
     pub async fn submit_limited(
         &self,
-        s: &NewSweep,
+        s: &QueuedSweep,
         max_open: Option<u64>,
     ) -> Result<Option<u64>, PgError> {
         if s.batch_variants <= 0 {
@@ -380,7 +364,7 @@ impl PgQueue {
                 &s.kind,
                 &spec,
                 &options,
-                &s.options.backend,
+                &s.options.backend_name(),
                 &s.batch_variants,
                 &total,
                 &done_at_once,
@@ -800,9 +784,9 @@ impl PgQueue {
         Ok(n == 1)
     }
 
-    fn sweep_row(r: &tokio_postgres::Row) -> SweepRow {
+    fn sweep_row(r: &tokio_postgres::Row) -> QueueRow {
         let json = |s: Option<String>| s.and_then(|t| serde_json::from_str::<Value>(&t).ok());
-        SweepRow {
+        QueueRow {
             id: r.get("id"),
             name: r.get("name"),
             kind: r.get("kind"),
@@ -833,7 +817,7 @@ impl PgQueue {
         settings, options, backend_resolved";
 
     /// One sweep, `None` if there is no such id.
-    pub async fn sweep(&self, id: &str) -> Result<Option<SweepRow>, PgError> {
+    pub async fn sweep(&self, id: &str) -> Result<Option<QueueRow>, PgError> {
         const CTX: &str = "reading a sweep";
         let c = self.client(CTX).await?;
         let sql = format!(
@@ -845,7 +829,7 @@ impl PgQueue {
     }
 
     /// Every sweep, oldest first.
-    pub async fn sweeps(&self) -> Result<Vec<SweepRow>, PgError> {
+    pub async fn sweeps(&self) -> Result<Vec<QueueRow>, PgError> {
         const CTX: &str = "listing sweeps";
         let c = self.client(CTX).await?;
         let sql = format!("SELECT {} FROM sweeps s ORDER BY seq", Self::SWEEP_COLUMNS);

@@ -7,7 +7,7 @@ use serde_json::Value;
 use super::error::PgError;
 use super::monitor::run_section;
 use super::queue::PgQueue;
-use crate::sweep::runner::result_skeleton;
+use crate::sweep::job;
 use crate::sweep::spec::parse_spec;
 
 /// Variants read per query while assembling a result.
@@ -38,7 +38,7 @@ pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError
         None => run_section(queue, id).await?,
     };
     let settings = row.settings.clone().unwrap_or(Value::Null);
-    let mut doc = result_skeleton(&spec, &settings, None, row.total, run);
+    let mut doc = job::result_document(&spec, &settings, None, row.total, run);
     let mut variants = Vec::with_capacity(row.total as usize);
     let mut next = 0u64;
     loop {

@@ -18,11 +18,10 @@ use std::time::{Duration, Instant};
 use serde_json::Value;
 
 use super::error::PgError;
-use super::queue::{NewSweep as QueueSweep, PgQueue, SweepOptions, DEFAULT_BATCH_VARIANTS};
-use crate::service::{
-    parse_sweep_doc, NewSweep, ParsedSweep, Store, StoreError, SweepRow, SweepStatus, SweepUpdate,
-};
+use super::queue::{PgQueue, QueuedSweep, SweepOptions, DEFAULT_BATCH_VARIANTS};
+use crate::service::{NewSweep, Store, StoreError, SweepRow, SweepStatus, SweepUpdate};
 use crate::sweep::sink::Committed;
+use crate::sweep::SweepKind;
 
 /// How long opening the store retries transient errors before it fails (a restart of the
 /// database server takes a few seconds).
@@ -242,14 +241,15 @@ impl Store for PgStore {
     }
 
     fn insert_sweep_limited(&self, new: &NewSweep, max_open: u64) -> Result<SweepRow, StoreError> {
-        let parsed = parse_sweep_doc(&new.spec).map_err(|e| StoreError::Backend(e.to_string()))?;
+        // The submission was parsed once by the route: its kind and canonical form come
+        // with it.
         let options: SweepOptions = serde_json::from_value(new.options.clone()).unwrap_or_default();
-        let sweep = match &parsed {
-            ParsedSweep::Runner(spec) => QueueSweep {
+        let sweep = match new.kind {
+            SweepKind::Rotor | SweepKind::Synthetic | SweepKind::Stability => QueuedSweep {
                 id: new.id.clone(),
                 name: new.name.clone(),
-                kind: spec.kind.name().to_string(),
-                spec: spec.canonical.clone(),
+                kind: new.kind.name().to_string(),
+                spec: new.canonical.clone(),
                 options,
                 total: new.total,
                 batch_variants: self.batch_variants,
@@ -257,11 +257,11 @@ impl Store for PgStore {
                 local: false,
                 created_unix_s: Some(new.created_unix_s),
             },
-            ParsedSweep::FrictionMap(_) => QueueSweep {
+            SweepKind::FrictionMap => QueuedSweep {
                 id: new.id.clone(),
                 name: new.name.clone(),
-                kind: "friction_map".into(),
-                spec: new.spec.clone(),
+                kind: new.kind.name().into(),
+                spec: new.canonical.clone(),
                 options,
                 total: new.total,
                 batch_variants: 1,
@@ -334,6 +334,18 @@ impl Store for PgStore {
 
     fn sweep(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
         self.row(id)
+    }
+
+    fn count_queued(&self) -> Result<u64, StoreError> {
+        self.call(|q| async move {
+            const CTX: &str = "counting queued sweeps";
+            let c = q.connection(CTX).await?;
+            let r = c
+                .query_one("SELECT count(*) FROM sweeps WHERE status = 'queued'", &[])
+                .await
+                .map_err(|e| q.db_error(CTX, e))?;
+            Ok(r.get::<_, i64>(0) as u64)
+        })
     }
 
     fn update_sweep(&self, id: &str, change: &SweepUpdate) -> Result<(), StoreError> {
@@ -564,7 +576,8 @@ impl Store for PgStore {
     }
 
     fn runs_elsewhere(&self, row: &SweepRow) -> bool {
-        // Everything but friction maps goes to the workers.
-        !matches!(parse_sweep_doc(&row.spec), Ok(ParsedSweep::FrictionMap(_)))
+        // Everything but friction maps goes to the workers (the stored spec was parsed
+        // at its submission: its kind is enough here).
+        SweepKind::of(&row.spec) != Some(SweepKind::FrictionMap)
     }
 }

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde_json::Value;
 
 use super::error::PgError;
-use super::queue::{NewSweep, PgQueue, SweepOptions};
+use super::queue::{PgQueue, QueuedSweep, SweepOptions};
 use crate::sweep::spec::parse_spec;
 use crate::sweep::Expansion;
 
@@ -38,16 +38,10 @@ pub async fn submit_spec(
     let spec = parse_spec(doc, None).map_err(PgError::Spec)?;
     let exp = Expansion::new(&spec);
     crate::service::sweeps::validate_variants(&spec).map_err(PgError::Spec)?;
-    if !matches!(options.backend.as_str(), "cpu" | "gpu" | "auto") {
-        return Err(PgError::Url(format!(
-            "backend `{}` (expected cpu, gpu or auto)",
-            options.backend
-        )));
-    }
     let id = new_sweep_id();
     let total = exp.count();
     queue
-        .submit(&NewSweep {
+        .submit(&QueuedSweep {
             id: id.clone(),
             name: spec.name.clone().unwrap_or_default(),
             kind: spec.kind.name().to_string(),

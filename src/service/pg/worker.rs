@@ -21,8 +21,8 @@ use crate::backend::{create_backend, BackendKind};
 use crate::bearing::Accuracy;
 use crate::sweep::expand::Expansion;
 use crate::sweep::rotor_sim::{AUTO_BATCH_CPU, AUTO_BATCH_GPU};
-use crate::sweep::runner::{variant_line, BatchSimulator, Job, Outcome};
-use crate::sweep::simulator::{prepare_simulator, SimulatorChoice};
+use crate::sweep::runner::BatchSimulator;
+use crate::sweep::simulator::prepare_simulator;
 use crate::sweep::spec::{parse_spec, SweepSpec};
 
 /// First retry delay after a transient database error.
@@ -105,16 +105,9 @@ pub fn build_simulator(
     options: &SweepOptions,
     backend: BackendKind,
 ) -> Result<(Box<dyn BatchSimulator>, Value), String> {
-    let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
-        format!(
-            "accuracy: {} is not a positive number >= 1e-12",
-            options.accuracy
-        )
-    })?;
-    let choice = SimulatorChoice {
+    let choice = SweepOptions {
         backend,
-        accuracy,
-        full_model: options.full_model,
+        ..*options
     };
     let prepared = prepare_simulator(spec, &choice, &mut |_| {}).map_err(|e| e.to_string())?;
     Ok((prepared.sim, prepared.settings))
@@ -131,39 +124,15 @@ pub fn run_variants(
     ids: &[u64],
     cancel: &AtomicBool,
 ) -> Vec<VariantRow> {
-    let variants: Vec<_> = ids.iter().map(|&id| exp.variant(spec, id)).collect();
-    let jobs: Vec<Job> = variants
-        .iter()
-        .map(|v| Job {
-            id: v.id,
-            scene: v.scene.clone(),
-        })
-        .collect();
-    let mut rows: Vec<Option<VariantRow>> = vec![None; jobs.len()];
-    {
-        let mut on_done = |k: usize, outcome: Outcome| {
-            if k < rows.len() && rows[k].is_none() {
-                let ok = outcome.status == "ok";
-                let line = variant_line(spec, &variants[k], outcome).to_string();
-                rows[k] = Some(VariantRow {
-                    id: variants[k].id,
-                    ok,
-                    line,
-                });
-            }
-        };
-        sim.run_batch_cancellable(&jobs, cancel, &mut on_done);
-        for k in 0..jobs.len() {
-            on_done(
-                k,
-                Outcome::failed(
-                    "internal_error",
-                    "the simulator did not report this variant".into(),
-                ),
-            );
-        }
-    }
-    rows.into_iter().flatten().collect()
+    let mut rows = Vec::with_capacity(ids.len());
+    crate::sweep::job::run_batch(spec, exp, sim, ids, cancel, &mut |v, outcome| {
+        let (ok, line) = crate::sweep::job::finished_line(spec, v, outcome);
+        rows.push(VariantRow { id: v.id, ok, line });
+    });
+    // In the order of `ids`, as the lease lists them.
+    let order: HashMap<u64, usize> = ids.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+    rows.sort_by_key(|r: &VariantRow| order.get(&r.id).copied().unwrap_or(usize::MAX));
+    rows
 }
 
 /// A sweep made ready to run on the compute thread.

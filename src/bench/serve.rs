@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-use super::{router, start, ServeError, ServiceConfig, SqliteStore, Store};
 use crate::cli::{eval_json, run_command, EvalOptions, SweepRunOptions};
+use crate::service::{router, start, ServeError, ServiceConfig, SqliteStore, Store};
 use crate::sweep::runner::BatchSize;
 
 /// Options of `bench serve`.

@@ -12,10 +12,10 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-use super::error::PgError;
-use super::queue::{NewSweep, PgQueue, SweepOptions, VariantRow};
-use super::result::result_document;
-use super::submit::{new_sweep_id, submit_spec};
+use crate::service::pg::{
+    new_sweep_id, result_document, submit_spec, PgError, PgQueue, QueuedSweep, SweepOptions,
+    VariantRow,
+};
 use crate::sweep::merge::deterministic_part;
 
 /// Options of `bench queue`.
@@ -141,7 +141,7 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
     ));
     for &n in &o.workers {
         let opts = SweepOptions {
-            backend: "cpu".into(),
+            backend: crate::backend::BackendKind::Cpu,
             ..SweepOptions::default()
         };
         let batch_rows = i32::try_from(o.batch.clamp(1, 32)).unwrap_or(32);
@@ -187,13 +187,13 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
     // 2. Claim-and-commit overhead of one batch (32 variants of ~1 KB lines each).
     let per = 32u64;
     let line = format!("{{\"pad\":\"{}\"}}", "x".repeat(1000));
-    let sweep = |total: u64, rows: i32| NewSweep {
+    let sweep = |total: u64, rows: i32| QueuedSweep {
         id: new_sweep_id(),
         name: "queue bench".into(),
         kind: "synthetic".into(),
         spec: json!({"kind": "synthetic", "base": {}, "axes": []}),
         options: SweepOptions {
-            backend: "cpu".into(),
+            backend: crate::backend::BackendKind::Cpu,
             ..SweepOptions::default()
         },
         total,
@@ -277,7 +277,7 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
                         })
                         .collect();
                     match q.complete(&lease, &settings, &rows).await {
-                        Ok(super::queue::Completion::Committed { .. }) => {
+                        Ok(crate::service::pg::Completion::Committed { .. }) => {
                             count.fetch_add(1, Ordering::Relaxed);
                         }
                         other => eprintln!("storm: lease {} of {me}: {other:?}", lease.id),
