@@ -60,11 +60,20 @@ fn eval_balance_closes_rise_grows_with_speed_and_loads_are_at_t_eff() {
             (p - out).abs() <= bound,
             "state {k}: heat in {p} W, out {out} W, tolerance {bound} W"
         );
+        // The heat is the film's own friction power at μ(T_eff), not the paper's law
+        // (`power_loss`, still reported beside it with `friction_model: "paper"`).
+        let film_p = f(&l["film"], "power_loss_w");
         assert!(
-            (f(l, "power_loss") - p).abs() <= 1e-12 * p,
-            "state {k}: loads' power {} vs balance {p}",
+            (film_p - p).abs() <= 1e-12 * p,
+            "state {k}: film power {film_p} vs balance {p}"
+        );
+        assert_eq!(l["friction_model"], "paper", "{l}");
+        assert!(
+            (f(l, "power_loss") - p).abs() > 1e-3 * p,
+            "state {k}: the paper's law {} should differ from the film's {p}",
             f(l, "power_loss")
         );
+        assert!(t["heat_source"].as_str().unwrap().contains("film"), "{t}");
         let rise = f(t, "temperature_rise_k");
         assert!(
             rise > last_rise,
@@ -187,10 +196,11 @@ fn friction_map_solves_equilibrium_and_balance_together() {
             (pin - pout).abs() <= bound,
             "speed {k}: in {pin} W, out {pout} W, bound {bound} W"
         );
+        // The balance's heat is the film's friction power at the equilibrium at μ(T_eff).
         assert!(
-            (f(p, "power_loss_w") - pin).abs() <= 1e-9 * pin,
-            "speed {k}: point power {} vs balance {pin}",
-            f(p, "power_loss_w")
+            (f(p, "film_power_loss_w") - pin).abs() <= 1e-9 * pin,
+            "speed {k}: film power {} vs balance {pin}",
+            f(p, "film_power_loss_w")
         );
     }
     // The paper's law (model "sommerfeld") has no eccentricity: refused with a reason.
@@ -313,7 +323,7 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
                 b.side_flow_m3_s * 6e4,
                 b.temperature_rise_k,
                 li.h_min * 1e6,
-                li.power_loss,
+                li.film.power_loss_w,
             ));
         }
         rows.push(row);
@@ -372,7 +382,7 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
     };
     let panels = [
         panel("Minimum film thickness", "h_min (µm)", &|r| r.0),
-        panel("Friction power loss", "power loss (W)", &|r| r.1),
+        panel("Film friction power (the heat)", "power loss (W)", &|r| r.1),
         panel("Side flow", "side flow (L/min)", &|r| r.2),
         panel("Oil temperature rise", "ΔT (K)", &|r| r.3),
     ];

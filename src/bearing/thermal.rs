@@ -96,7 +96,8 @@ pub struct Balance {
     pub temperature_rise_k: f64,
     /// Dynamic viscosity at `T_eff`, Pa·s.
     pub viscosity_pa_s: f64,
-    /// Friction power at `T_eff`, W.
+    /// Friction power at `T_eff` (the heat source: the film's own friction power in every
+    /// caller, [`HEAT_SOURCE`]), W.
     pub power_loss_w: f64,
     /// Side flow at `T_eff`, m³/s.
     pub side_flow_m3_s: f64,
@@ -266,7 +267,9 @@ pub fn state_balance(
     // Side flow of the film itself (short: closed form; finite: its converged field).
     let q = loads.film.side_flow_m3_per_s;
     let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
-        Ok((loads.power_loss * mu / mu_s, q))
+        // The heat is the film's own friction power (Couette over 360° plus the pressure
+        // term, issue 24 item 1), not the paper's friction law (1.91 × Petroff at S < 1).
+        Ok((loads.film.power_loss_w * mu / mu_s, q))
     });
     Some(bal.map(|b| {
         let s = b.viscosity_pa_s / mu_s;
@@ -288,6 +291,12 @@ pub fn state_balance(
     }))
 }
 
+/// What heats the film in every balance (steady and lumped), as outputs name it: the
+/// film's own friction power, not the paper's Sommerfeld-number law (eqs. 10-11), which
+/// stays the loads' `power_loss` with `friction_model: "paper"`.
+pub const HEAT_SOURCE: &str =
+    "the film's own friction power (film.power_loss_w: shear stress over the film), not the paper's law";
+
 /// The balance of one state as written in outputs (`eval`, friction maps).
 pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
     serde_json::json!({
@@ -297,6 +306,7 @@ pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
         "temperature_rise_k": b.temperature_rise_k,
         "effective_viscosity_pa_s": b.viscosity_pa_s,
         "power_loss_w": b.power_loss_w,
+        "heat_source": HEAT_SOURCE,
         "side_flow_m3_s": b.side_flow_m3_s,
         "heat_to_flow_w": b.heat_to_flow_w,
         "heat_to_housing_w": b.heat_to_housing_w,
