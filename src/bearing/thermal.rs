@@ -251,6 +251,31 @@ pub fn solve_balance(
     Ok(finish(b, pqb, evaluations))
 }
 
+/// Largest excursion of a lumped oil temperature from its supply temperature, K, before
+/// a rotor run is stopped (the same bound as the steady balance's [`MAX_RISE_K`]; the
+/// density law `ρ(T)` and the Walther extrapolation mean nothing far beyond it).
+pub const MAX_LUMPED_RISE_K: f64 = MAX_RISE_K;
+
+/// Heat leaving a lumped oil temperature (rotor scenes, docs/thermal.md "Rotor scenes"):
+/// with the effective film temperature `T = supply_c + theta` (°C) and the film's side
+/// flow `q` (m³/s; a negative flow, oil drawn in at the ends by a squeeze, carries no
+/// heat out and counts as 0), returns `(to_flow, to_housing)` in W:
+/// `ρ c q ΔT` with the outlet rise `ΔT = theta / k`, and `H theta`. The state's rate is
+/// `C dθ/dt = P − to_flow − to_housing`, whose rest point is the steady balance
+/// [`solve_balance`] solves (`T = T_eff`).
+pub fn lumped_heat_out(
+    lubricant: &Lubricant,
+    supply_c: f64,
+    settings: &ThermalSettings,
+    theta: f64,
+    q: f64,
+) -> (f64, f64) {
+    let t = supply_c + theta;
+    let to_flow =
+        lubricant.heat_capacity_per_volume(t) * q.max(0.0) * theta / settings.effective_factor;
+    (to_flow, settings.housing_conductance * theta)
+}
+
 /// The balance of one fixed state (`eval`): `loads` were computed with `params.viscosity`
 /// = `μ(T_supply)`. At a fixed journal position every load, the friction torque and the
 /// power scale with `μ` (the pressure and the shear are linear in `μ`; `f`, `S` and the
