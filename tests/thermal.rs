@@ -101,6 +101,77 @@ fn eval_balance_closes_rise_grows_with_speed_and_loads_are_at_t_eff() {
     }
 }
 
+/// Grooves with a supply pressure make the film nonlinear in μ (the held pressure does not
+/// scale, the flow it drives goes as 1/μ): `eval` then solves the film at every trial
+/// viscosity. The loads, flow, power and the finite error estimate equal those of a
+/// plain bearing at μ(T_eff) (1e-9 relative: the same cold solve), the balance closes,
+/// and a higher supply pressure, more flow, gives a lower rise.
+#[test]
+fn pressurised_grooves_solve_the_film_at_each_viscosity() {
+    let grooved = |extra: Value, ps: f64| {
+        let mut b = json!({"radius": 0.02, "length": 0.02, "clearance": 1e-4, "model": "finite",
+                           "finite": {"n_theta": 72, "n_z": 8},
+                           "grooves": [{"angle": 0.0, "width": 20.0, "supply_pressure": ps},
+                                       {"angle": 180.0, "width": 20.0, "supply_pressure": ps}]});
+        b.as_object_mut()
+            .unwrap()
+            .extend(extra.as_object().unwrap().clone());
+        b
+    };
+    let st = json!({"xi": 0.0, "yi": -6e-5, "xj": 0.0, "yj": -6e-5,
+                    "vxi": 0.0, "vyi": 0.0, "vxj": 0.0, "vyj": 0.0, "omega": 1000.0});
+    let lub = json!({"lubricant": "ISO VG 46", "supply_temperature": 40.0});
+    let mut rises = Vec::new();
+    for ps in [1e5, 4e5] {
+        let l = &eval(grooved(lub.clone(), ps), vec![st.clone()])[0];
+        assert_eq!(l["status"], "ok", "{l}");
+        let t = &l["thermal"];
+        let mu = f(t, "effective_viscosity_pa_s");
+        let plain = &eval(grooved(json!({"viscosity": mu}), ps), vec![st.clone()])[0];
+        for key in [
+            "wx",
+            "wy",
+            "mx",
+            "my",
+            "power_loss",
+            "finite_error_estimate",
+        ] {
+            let (a, e) = (f(l, key), f(plain, key));
+            assert!(
+                (a - e).abs() <= 1e-9 * e.abs(),
+                "supply {ps} Pa {key}: thermal {a}, plain at μ(T_eff) {e}"
+            );
+        }
+        for key in ["power_loss_w", "side_flow_m3_per_s"] {
+            let (a, e) = (f(&l["film"], key), f(&plain["film"], key));
+            assert!(
+                (a - e).abs() <= 1e-9 * e.abs(),
+                "supply {ps} Pa film.{key}: thermal {a}, plain at μ(T_eff) {e}"
+            );
+        }
+        // The balance closes at the film's own power and flow at μ(T_eff).
+        let (pin, q) = (f(t, "power_loss_w"), f(t, "side_flow_m3_s"));
+        assert!(
+            (pin - f(&plain["film"], "power_loss_w")).abs() <= 1e-9 * pin,
+            "{t}"
+        );
+        let teff = f(t, "effective_temperature_c");
+        let lubr = Lubricant::iso_vg(46).unwrap();
+        let out = f(t, "heat_to_flow_w") + f(t, "heat_to_housing_w");
+        let bound =
+            (lubr.heat_capacity_per_volume(teff) * q / 0.8 + 0.2 * pin) * f(t, "tolerance_k");
+        assert!(
+            (pin - out).abs() <= bound,
+            "in {pin} W, out {out} W, bound {bound} W"
+        );
+        rises.push(f(t, "temperature_rise_k"));
+    }
+    assert!(
+        rises[1] < rises[0],
+        "rises {rises:?} K at 1e5 and 4e5 Pa supply"
+    );
+}
+
 /// A heat path through the housing takes part of the heat: a lower rise; a higher
 /// effective-temperature factor a higher T_eff at the same flow.
 #[test]

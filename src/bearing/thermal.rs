@@ -279,8 +279,12 @@ pub fn lumped_heat_out(
 /// The balance of one fixed state (`eval`): `loads` were computed with `params.viscosity`
 /// = `μ(T_supply)`. At a fixed journal position every load, the friction torque and the
 /// power scale with `μ` (the pressure and the shear are linear in `μ`; `f`, `S` and the
-/// flow do not change), so the balance needs no further film solutions. Returns the
-/// balance and the loads at `μ(T_eff)`; `None` for a bearing without a lubricant.
+/// flow do not change), so the balance needs no further film solutions. Grooves with a
+/// supply pressure break that linearity (the held pressure does not scale with `μ`, and
+/// the flow it drives scales with `1/μ`): for those bearings (finite film) every balance
+/// step solves the film at its trial `μ` (a cold finite solve), and the loads returned
+/// are solved at `μ(T_eff)`. Returns the balance and the loads at `μ(T_eff)`; `None` for a
+/// bearing without a lubricant.
 pub fn state_balance(
     params: &BearingParams,
     state: &BearingState,
@@ -288,7 +292,28 @@ pub fn state_balance(
 ) -> Option<Result<(Balance, Loads), ThermalError>> {
     let (lub, supply) = (params.lubricant?, params.supply_temperature?);
     let mu_s = params.viscosity;
-    let _ = state;
+    if params.supply_rate() > 0.0 {
+        let solve = |mu: f64| {
+            let pm = BearingParams {
+                viscosity: mu,
+                ..*params
+            };
+            super::finite::finite_solution(&pm, state, &pm.finite, false)
+                .map(|s| s.loads)
+                .map_err(|e| e.to_string())
+        };
+        let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
+            solve(mu).map(|l| (l.film.power_loss_w, l.film.side_flow_m3_per_s))
+        });
+        return Some(bal.and_then(|b| {
+            solve(b.viscosity_pa_s)
+                .map(|l| (b, l))
+                .map_err(|reason| ThermalError::Film {
+                    celsius: b.effective_temperature_c,
+                    reason,
+                })
+        }));
+    }
     // Side flow of the film itself (short: closed form; finite: its converged field).
     let q = loads.film.side_flow_m3_per_s;
     let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
