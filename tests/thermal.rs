@@ -502,6 +502,78 @@ fn lumped_temperature_gpu_matches_cpu() {
     }
 }
 
+/// A centred, unloaded journal has no side flow (`Q = ε δ ω r B = 0`) and, adiabatic, no
+/// heat path: its lumped temperature grows without bound, and the run stops with a load
+/// failure naming the bearing and the runaway once it is 1000 K above the supply (never
+/// a NaN or a hang).
+#[test]
+fn thermal_runaway_stops_the_run_with_a_reason() {
+    use bearing_sweep::backend::{CpuBackend, LoadEvaluator};
+    use bearing_sweep::rotor::{load_scene, simulate_batch, SimStatus};
+    let mut scene = run_up_scene(1000.0, 1e-3, 0.0, 2.0, 1e-3);
+    scene["gravity"] = json!([0.0, 0.0, 0.0]);
+    let scenes = load_scene(&scene.to_string()).unwrap();
+    let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let r = simulate_batch(&scenes, &mut ev, &mut |_, _| {}).remove(0);
+    match &r.status {
+        SimStatus::LoadFailure {
+            bearing, reason, ..
+        } => {
+            assert!(*bearing < 2 && reason.contains("runaway"), "{reason}");
+        }
+        other => panic!(
+            "expected a runaway load failure, got {other:?}: T {:?}",
+            r.samples.bearings[0]
+                .thermal
+                .as_ref()
+                .map(|t| t.temperature_c.last().copied())
+        ),
+    }
+    let th = r.samples.bearings[0].thermal.as_ref().unwrap();
+    assert!(th
+        .temperature_c
+        .iter()
+        .all(|t| t.is_finite() && *t <= 40.0 + 1000.0 + 1e-6));
+}
+
+/// The finite film (two pressurised axial grooves) carries the lumped temperature too:
+/// each stage's film runs at μ(T) (the per-stage bearing parameters reach the finite
+/// solver), the oil warms from the supply temperature, and the heat flows at the last
+/// sample are the film's (power positive, flow carrying heat out).
+#[test]
+fn finite_film_scene_carries_the_temperature() {
+    let mut scene = run_up_scene(500.0, 0.05, 0.0, 0.004, 5e-4);
+    scene["rotor"] = json!({"mass": 3.0, "inertia": [0.03, 0.03, 0.02]});
+    for b in scene["bearings"].as_array_mut().unwrap() {
+        let m = b.as_object_mut().unwrap();
+        m.insert("model".into(), json!("finite"));
+        m.insert("finite".into(), json!({"n_theta": 72, "n_z": 8}));
+        m.insert(
+            "grooves".into(),
+            json!([{"angle": 0.0, "width": 20.0, "supply_pressure": 1e5},
+                   {"angle": 180.0, "width": 20.0, "supply_pressure": 1e5}]),
+        );
+    }
+    scene["integrator"]["rtol"] = json!(1e-6);
+    scene["integrator"]["atol"] = json!(1e-6);
+    let r = run(&scene);
+    let lub = Lubricant::iso_vg(46).unwrap();
+    for (b, series) in r.samples.bearings.iter().enumerate() {
+        let th = series.thermal.as_ref().unwrap();
+        let (first, last) = (th.temperature_c[0], *th.temperature_c.last().unwrap());
+        assert_eq!(first, 40.0);
+        assert!(
+            last > 40.01,
+            "bearing {b}: {last} °C after {} s",
+            r.samples.t.last().unwrap()
+        );
+        for (&t, &mu) in th.temperature_c.iter().zip(&th.viscosity_pa_s) {
+            assert!((mu - lub.dynamic_viscosity(t)).abs() <= 1e-15);
+        }
+        assert!(*th.power_w.last().unwrap() > 0.0 && *th.heat_to_flow_w.last().unwrap() > 0.0);
+    }
+}
+
 /// Energy bookkeeping of the lumped temperature: the heat generated minus the heat
 /// removed, integrated over the run, equals `C ΔT`, with a housing path too. The
 /// integral is Simpson's rule over the samples, whose own error is estimated from the

@@ -804,7 +804,19 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                             continue;
                         }
                     };
-                    if let Some((_, rate)) = Self::thermal_of(geom, y, l) {
+                    if let Some((x, rate)) = Self::thermal_of(geom, y, l) {
+                        let rise = x.temperature_c - geom.params.supply_temperature.unwrap_or(0.0);
+                        if rise.abs() > crate::bearing::thermal::MAX_LUMPED_RISE_K {
+                            // Runaway: the viscosity law means nothing there.
+                            fault.get_or_insert(RotorFault::Load {
+                                bearing: b,
+                                reason: format!(
+                                    "lumped oil temperature {:.1} °C is more than {} K from the supply temperature (thermal runaway: more friction power than the side flow and housing remove)",
+                                    x.temperature_c,
+                                    crate::bearing::thermal::MAX_LUMPED_RISE_K
+                                ),
+                            });
+                        }
                         dy[DIM + geom.thermal.unwrap_or(0)] = rate;
                     }
                     let (mut fi, mut fj) = l.end_forces(geom.params.length);
