@@ -96,7 +96,8 @@ pub struct Balance {
     pub temperature_rise_k: f64,
     /// Dynamic viscosity at `T_eff`, Pa·s.
     pub viscosity_pa_s: f64,
-    /// Friction power at `T_eff`, W.
+    /// Friction power at `T_eff` (the heat source: the film's own friction power in every
+    /// caller, [`HEAT_SOURCE`]), W.
     pub power_loss_w: f64,
     /// Side flow at `T_eff`, m³/s.
     pub side_flow_m3_s: f64,
@@ -250,11 +251,40 @@ pub fn solve_balance(
     Ok(finish(b, pqb, evaluations))
 }
 
+/// Largest excursion of a lumped oil temperature from its supply temperature, K, before
+/// a rotor run is stopped (the same bound as the steady balance's [`MAX_RISE_K`]; the
+/// density law `ρ(T)` and the Walther extrapolation mean nothing far beyond it).
+pub const MAX_LUMPED_RISE_K: f64 = MAX_RISE_K;
+
+/// Heat leaving a lumped oil temperature (rotor scenes, docs/thermal.md "Rotor scenes"):
+/// with the effective film temperature `T = supply_c + theta` (°C) and the film's side
+/// flow `q` (m³/s; a negative flow, oil drawn in at the ends by a squeeze, carries no
+/// heat out and counts as 0), returns `(to_flow, to_housing)` in W:
+/// `ρ c q ΔT` with the outlet rise `ΔT = theta / k`, and `H theta`. The state's rate is
+/// `C dθ/dt = P − to_flow − to_housing`, whose rest point is the steady balance
+/// [`solve_balance`] solves (`T = T_eff`).
+pub fn lumped_heat_out(
+    lubricant: &Lubricant,
+    supply_c: f64,
+    settings: &ThermalSettings,
+    theta: f64,
+    q: f64,
+) -> (f64, f64) {
+    let t = supply_c + theta;
+    let to_flow =
+        lubricant.heat_capacity_per_volume(t) * q.max(0.0) * theta / settings.effective_factor;
+    (to_flow, settings.housing_conductance * theta)
+}
+
 /// The balance of one fixed state (`eval`): `loads` were computed with `params.viscosity`
 /// = `μ(T_supply)`. At a fixed journal position every load, the friction torque and the
 /// power scale with `μ` (the pressure and the shear are linear in `μ`; `f`, `S` and the
-/// flow do not change), so the balance needs no further film solutions. Returns the
-/// balance and the loads at `μ(T_eff)`; `None` for a bearing without a lubricant.
+/// flow do not change), so the balance needs no further film solutions. Grooves with a
+/// supply pressure break that linearity (the held pressure does not scale with `μ`, and
+/// the flow it drives scales with `1/μ`): for those bearings (finite film) every balance
+/// step solves the film at its trial `μ` (a cold finite solve), and the loads returned
+/// are solved at `μ(T_eff)`. Returns the balance and the loads at `μ(T_eff)`; `None` for a
+/// bearing without a lubricant.
 pub fn state_balance(
     params: &BearingParams,
     state: &BearingState,
@@ -262,11 +292,34 @@ pub fn state_balance(
 ) -> Option<Result<(Balance, Loads), ThermalError>> {
     let (lub, supply) = (params.lubricant?, params.supply_temperature?);
     let mu_s = params.viscosity;
-    let _ = state;
+    if params.supply_rate() > 0.0 {
+        let solve = |mu: f64| {
+            let pm = BearingParams {
+                viscosity: mu,
+                ..*params
+            };
+            super::finite::finite_solution(&pm, state, &pm.finite, false)
+                .map(|s| s.loads)
+                .map_err(|e| e.to_string())
+        };
+        let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
+            solve(mu).map(|l| (l.film.power_loss_w, l.film.side_flow_m3_per_s))
+        });
+        return Some(bal.and_then(|b| {
+            solve(b.viscosity_pa_s)
+                .map(|l| (b, l))
+                .map_err(|reason| ThermalError::Film {
+                    celsius: b.effective_temperature_c,
+                    reason,
+                })
+        }));
+    }
     // Side flow of the film itself (short: closed form; finite: its converged field).
     let q = loads.film.side_flow_m3_per_s;
     let bal = solve_balance(&lub, supply, &params.thermal, |mu| {
-        Ok((loads.power_loss * mu / mu_s, q))
+        // The heat is the film's own friction power (Couette over 360° plus the pressure
+        // term, issue 24 item 1), not the paper's friction law (1.91 × Petroff at S < 1).
+        Ok((loads.film.power_loss_w * mu / mu_s, q))
     });
     Some(bal.map(|b| {
         let s = b.viscosity_pa_s / mu_s;
@@ -288,6 +341,12 @@ pub fn state_balance(
     }))
 }
 
+/// What heats the film in every balance (steady and lumped), as outputs name it: the
+/// film's own friction power, not the paper's Sommerfeld-number law (eqs. 10-11), which
+/// stays the loads' `power_loss` with `friction_model: "paper"`.
+pub const HEAT_SOURCE: &str =
+    "the film's own friction power (film.power_loss_w: shear stress over the film), not the paper's law";
+
 /// The balance of one state as written in outputs (`eval`, friction maps).
 pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
     serde_json::json!({
@@ -297,6 +356,7 @@ pub fn balance_json(b: &Balance, bearing: &BearingParams) -> serde_json::Value {
         "temperature_rise_k": b.temperature_rise_k,
         "effective_viscosity_pa_s": b.viscosity_pa_s,
         "power_loss_w": b.power_loss_w,
+        "heat_source": HEAT_SOURCE,
         "side_flow_m3_s": b.side_flow_m3_s,
         "heat_to_flow_w": b.heat_to_flow_w,
         "heat_to_housing_w": b.heat_to_housing_w,

@@ -263,7 +263,8 @@ pub fn coefficients_json_with(
                 let st = aligned_state(eq.x, eq.y, w);
                 let l = crate::bearing::film_flow::bearing_loads(&pm, &st, &rule)
                     .map_err(|e| e.to_string())?;
-                Ok((l.power_loss, l.film.side_flow_m3_per_s))
+                // Heat: the film's own friction power (not the paper's law).
+                Ok((l.film.power_loss_w, l.film.side_flow_m3_per_s))
             })
             .map_err(|e| {
                 CliError::input(

@@ -346,18 +346,15 @@ fn load_json(k: usize, r: &LoadResult, bearing: &BearingParams, state: &BearingS
                 let used = crate::backend::effective_model(bearing, state);
                 m.insert("film_model".into(), json!(used.name()));
                 if used == crate::bearing::FilmModel::Finite {
-                    let est = crate::bearing::finite::richardson_estimate(
-                        bearing,
-                        state,
-                        &bearing.finite,
-                        l,
-                    );
-                    // The estimate was made at the supply viscosity: loads scale with μ.
-                    let scale = thermal.map_or(1.0, |b| b.viscosity_pa_s / bearing.viscosity);
-                    m.insert(
-                        "finite_error_estimate".into(),
-                        json!(est.map(|e| e * scale)),
-                    );
+                    // A relative estimate of the loads `l`, i.e. at μ(T_eff) with a
+                    // lubricant: the coarse solve runs at that viscosity too.
+                    let at = thermal.map_or(*bearing, |b| BearingParams {
+                        viscosity: b.viscosity_pa_s,
+                        ..*bearing
+                    });
+                    let est =
+                        crate::bearing::finite::richardson_estimate(&at, state, &bearing.finite, l);
+                    m.insert("finite_error_estimate".into(), json!(est));
                 }
             }
             if let Some(b) = thermal {

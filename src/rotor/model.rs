@@ -7,13 +7,18 @@
 //! every accepted step, so it cannot drift), body angular velocity rad/s, and the work
 //! done on the rotor by all applied loads, J (a quadrature: `f` does not depend on it).
 //! Axial motion is constrained (`z_G = 0`); the axial force is the constraint's.
+//!
+//! A scene whose bearings name a lubricant (bearing model) carries one more component
+//! per such bearing after these 12: its lumped effective oil temperature above the
+//! supply temperature, K ([`RotorModel::state_dim`], docs/thermal.md "Rotor scenes").
 
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
 use super::scene::{ModelKind, Scene, SpinMode};
 use crate::bearing::{friction, BearingParams, BearingState};
 
-/// State dimension.
+/// State dimension of the rigid rotor (scenes without a lubricant; thermal bearings add
+/// one component each after these, [`RotorModel::state_dim`]).
 pub const DIM: usize = 12;
 /// Components `f` depends on (all but the work quadrature).
 pub const JAC_DIM: usize = 11;
@@ -55,6 +60,9 @@ pub(crate) struct BearingGeom {
     pub p_j: V3,
     /// Mid-plane axial coordinate from `G` along the shaft, m.
     pub axial: f64,
+    /// Index of this bearing's lumped oil temperature among the thermal components
+    /// (state component `DIM + index`); `None` without a lubricant or with ideal joints.
+    pub thermal: Option<usize>,
 }
 
 /// Kinematics of one state.
@@ -97,6 +105,17 @@ pub struct RotorModel {
 }
 
 impl RotorModel {
+    /// Components of this scene's integrator state: [`DIM`] plus one lumped oil
+    /// temperature per thermal bearing.
+    pub fn state_dim(&self) -> usize {
+        DIM + self.thermal_count()
+    }
+
+    /// Bearings carrying a lumped oil temperature state.
+    pub fn thermal_count(&self) -> usize {
+        self.bearings.iter().filter(|b| b.thermal.is_some()).count()
+    }
+
     /// Compiles a (validated) scene.
     pub fn new(scene: &Scene) -> Self {
         let r = &scene.rotor;
@@ -108,14 +127,27 @@ impl RotorModel {
         // The inverse of R D Rᵀ in closed form (positive moments: scene validation).
         let inertia_inv = rc * Matrix3::from_diagonal(&principal.map(f64::recip)) * rc.transpose();
         let u = r.static_unbalance;
+        let mut n_thermal = 0;
         let bearings: Vec<BearingGeom> = scene
             .bearings
             .iter()
-            .map(|b| BearingGeom {
-                params: b.params(),
-                p_i: Vector3::new(-u[0], -u[1], b.axial_position - 0.5 * b.length),
-                p_j: Vector3::new(-u[0], -u[1], b.axial_position + 0.5 * b.length),
-                axial: b.axial_position,
+            .map(|b| {
+                let params = b.params();
+                // A lumped oil temperature for each film bearing with a lubricant.
+                let thermal = (scene.model == ModelKind::Bearing
+                    && params.lubricant.is_some()
+                    && params.supply_temperature.is_some())
+                .then(|| {
+                    n_thermal += 1;
+                    n_thermal - 1
+                });
+                BearingGeom {
+                    params,
+                    p_i: Vector3::new(-u[0], -u[1], b.axial_position - 0.5 * b.length),
+                    p_j: Vector3::new(-u[0], -u[1], b.axial_position + 0.5 * b.length),
+                    axial: b.axial_position,
+                    thermal,
+                }
             })
             .collect();
         let clearance = bearings

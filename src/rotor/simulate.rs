@@ -153,6 +153,41 @@ pub struct BearingSeries {
     pub mz: Vec<f64>,
     /// Friction coefficient (MODEL.md section 5); `null` where infinite or undefined.
     pub friction_coefficient: Vec<Option<f64>>,
+    /// The lumped oil temperature and its heat flows (bearings with a lubricant only;
+    /// absent otherwise, docs/thermal.md "Rotor scenes").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<ThermalSeries>,
+}
+
+/// The lumped oil temperature of one bearing and its heat flows, one entry per sample.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ThermalSeries {
+    /// Effective film temperature (the state), °C.
+    pub temperature_c: Vec<f64>,
+    /// Film viscosity at that temperature, Pa·s.
+    pub viscosity_pa_s: Vec<f64>,
+    /// Heat generated: the film's own friction power (`film.power_loss_w`), W.
+    pub power_w: Vec<f64>,
+    /// Heat carried out by the side flow, `ρ c Q (T − T_supply) / k`, W.
+    pub heat_to_flow_w: Vec<f64>,
+    /// Heat through the housing, `H (T − T_supply)`, W.
+    pub heat_to_housing_w: Vec<f64>,
+}
+
+/// One bearing's lumped oil temperature values at one sample time (the columns of
+/// [`ThermalSeries`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ThermalSample {
+    /// Effective film temperature, °C.
+    pub temperature_c: f64,
+    /// Film viscosity, Pa·s.
+    pub viscosity_pa_s: f64,
+    /// Film friction power, W.
+    pub power_w: f64,
+    /// Heat to the side flow, W.
+    pub heat_to_flow_w: f64,
+    /// Heat through the housing, W.
+    pub heat_to_housing_w: f64,
 }
 
 /// Uniform samples of one simulation, decimated to a bounded count (docs/cli.md "Limits"):
@@ -238,6 +273,17 @@ impl TimeSeries {
                 f(v);
             }
             g(&mut b.friction_coefficient);
+            if let Some(th) = &mut b.thermal {
+                for v in [
+                    &mut th.temperature_c,
+                    &mut th.viscosity_pa_s,
+                    &mut th.power_w,
+                    &mut th.heat_to_flow_w,
+                    &mut th.heat_to_housing_w,
+                ] {
+                    f(v);
+                }
+            }
         }
     }
 
@@ -327,6 +373,8 @@ pub struct BearingSample {
     pub mz: f64,
     /// Friction coefficient; `None` where infinite or undefined.
     pub friction_coefficient: Option<f64>,
+    /// The lumped oil temperature (bearings with a lubricant only).
+    pub thermal: Option<ThermalSample>,
 }
 
 /// One output sample of a simulation (the columns of [`TimeSeries`]), handed to a
@@ -410,6 +458,14 @@ impl SampleObserver for SeriesStore {
             bs.wy.push(b.wy);
             bs.mz.push(b.mz);
             bs.friction_coefficient.push(b.friction_coefficient);
+            if let Some(x) = b.thermal {
+                let th = bs.thermal.get_or_insert_with(ThermalSeries::default);
+                th.temperature_c.push(x.temperature_c);
+                th.viscosity_pa_s.push(x.viscosity_pa_s);
+                th.power_w.push(x.power_w);
+                th.heat_to_flow_w.push(x.heat_to_flow_w);
+                th.heat_to_housing_w.push(x.heat_to_housing_w);
+            }
         }
         self.decimator.after_push(s, self.cap);
     }
@@ -478,6 +534,24 @@ pub struct SimStats {
     pub stiff_switch_s: Option<f64>,
 }
 
+/// The lumped oil temperature of one bearing over a run (bearings with a lubricant, docs/thermal.md
+/// "Rotor scenes"): taken from every sample time, whatever the decimation or observer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OilTemperature {
+    /// Index into the scene's bearings.
+    pub bearing: usize,
+    /// Oil supply temperature (the state's start), °C.
+    pub supply_temperature_c: f64,
+    /// Effective film temperature at the last sample, °C.
+    pub final_temperature_c: f64,
+    /// Highest effective film temperature over the run's samples, °C.
+    pub max_temperature_c: f64,
+    /// Time of that maximum (the first of equals), s.
+    pub max_at_s: f64,
+    /// Film friction power at the last sample, W.
+    pub final_power_w: f64,
+}
+
 /// One simulation's outcome.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SimResult {
@@ -499,12 +573,28 @@ pub struct SimResult {
     /// Model reductions applied and declined (docs/cli.md "Model reductions").
     #[serde(default)]
     pub model_reductions: ReductionReport,
+    /// Per bearing with a lumped oil temperature: final and highest temperature (absent
+    /// without a lubricant).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub oil_temperature: Vec<OilTemperature>,
 }
 
 /// The rotor batch as a lockstep system.
 struct RotorBatch<'a, 'p, O: SampleObserver> {
     models: Vec<RotorModel>,
     params: Vec<BearingParams>,
+    /// State dimension of this batch: [`DIM`] plus the lumped oil temperatures (every
+    /// variant of a batch has the same count).
+    dim: usize,
+    /// Thermal batches: the bearings of one call, each at the viscosity of its lumped
+    /// temperature (`params`, then one extra entry per repeated variant of the call).
+    stage_params: Vec<BearingParams>,
+    /// Thermal batches: the call in which each of `params` was last set in `stage_params`.
+    stamp: Vec<u64>,
+    /// Calls of [`RotorBatch::film_pass`] so far.
+    calls: u64,
+    /// Each variant's lumped oil temperatures over its samples so far.
+    oil: Vec<Vec<OilTemperature>>,
     offsets: Vec<usize>,
     evaluator: &'a mut LoadEvaluator,
     requests: Vec<LoadRequest>,
@@ -539,18 +629,45 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
     fn film_pass(&mut self, ids: &[usize], ys: &[f64]) {
         self.requests.clear();
         self.ends.clear();
+        let d = self.dim;
+        let thermal = d > DIM;
+        self.calls += 1;
+        if thermal {
+            self.stage_params.truncate(self.params.len());
+        }
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
             if m.kind != ModelKind::Bearing {
                 continue;
             }
-            let kin = m.kin(&ys[k * DIM..(k + 1) * DIM]);
+            let y = &ys[k * d..(k + 1) * d];
+            let kin = m.kin(y);
             for (b, geom) in m.bearings.iter().enumerate() {
                 let e = m.end_kin(&kin, geom);
                 let mut state = m.bearing_state(&kin, &e);
                 self.tallies[id].observe(&self.reductions[id], &geom.params, &mut state);
+                let mut index = self.offsets[id] + b;
+                if let (Some(j), Some(lub), Some(supply)) = (
+                    geom.thermal,
+                    geom.params.lubricant,
+                    geom.params.supply_temperature,
+                ) {
+                    // The film at the viscosity of this entry's lumped temperature; a
+                    // variant's first entry of the call keeps its own slot (stable
+                    // warm-start keys of the finite film), repeats get extra ones.
+                    let mu = lub.dynamic_viscosity(supply + y[DIM + j]);
+                    if self.stamp[index] == self.calls {
+                        let mut p = self.params[index];
+                        p.viscosity = mu;
+                        self.stage_params.push(p);
+                        index = self.stage_params.len() - 1;
+                    } else {
+                        self.stamp[index] = self.calls;
+                        self.stage_params[index].viscosity = mu;
+                    }
+                }
                 self.requests.push(LoadRequest {
-                    bearing: (self.offsets[id] + b) as u32,
+                    bearing: index as u32,
                     state,
                 });
                 self.ends.push(e);
@@ -558,9 +675,48 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
         }
         self.results.clear();
         if !self.requests.is_empty() {
+            let params = if thermal {
+                &self.stage_params
+            } else {
+                &self.params
+            };
             self.evaluator
-                .evaluate(&self.params, &self.requests, &mut self.results);
+                .evaluate(params, &self.requests, &mut self.results);
         }
+    }
+
+    /// The lumped temperature of thermal bearing `geom` in state `y` and its heat flows
+    /// with film loads `l`: `(sample, dθ/dt)`. `None` for a bearing without one.
+    fn thermal_of(
+        geom: &super::model::BearingGeom,
+        y: &[f64],
+        l: &crate::bearing::Loads,
+    ) -> Option<(ThermalSample, f64)> {
+        let (j, lub, supply) = (
+            geom.thermal?,
+            geom.params.lubricant?,
+            geom.params.supply_temperature?,
+        );
+        let th = &geom.params.thermal;
+        let theta = y[DIM + j];
+        let p = l.film.power_loss_w;
+        let (to_flow, to_housing) = crate::bearing::thermal::lumped_heat_out(
+            &lub,
+            supply,
+            th,
+            theta,
+            l.film.side_flow_m3_per_s,
+        );
+        Some((
+            ThermalSample {
+                temperature_c: supply + theta,
+                viscosity_pa_s: lub.dynamic_viscosity(supply + theta),
+                power_w: p,
+                heat_to_flow_w: to_flow,
+                heat_to_housing_w: to_housing,
+            },
+            (p - to_flow - to_housing) / th.thermal_capacity,
+        ))
     }
 }
 
@@ -581,19 +737,29 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     type Fault = RotorFault;
 
     fn dim(&self) -> usize {
-        DIM
+        self.dim
     }
 
     fn jacobian_dim(&self) -> usize {
-        JAC_DIM
+        // Thermal batches keep the work quadrature at its place (component 11) with the
+        // temperatures after it, so `f` depends on all components but that one: it gets
+        // a Jacobian column (exactly zero) rather than a different layout.
+        if self.dim > DIM {
+            self.dim
+        } else {
+            JAC_DIM
+        }
     }
 
     fn scales(&self, id: usize, out: &mut [f64]) {
-        out.copy_from_slice(&self.models[id].scales);
+        out[..DIM].copy_from_slice(&self.models[id].scales);
+        // Lumped temperatures: unit 1 K (atol × 1 K absolute, rtol of the rise).
+        out[DIM..].fill(1.0);
     }
 
     fn stiffness_scales(&self, id: usize, out: &mut [f64]) {
-        out.copy_from_slice(&self.models[id].natural_scales);
+        out[..DIM].copy_from_slice(&self.models[id].natural_scales);
+        out[DIM..].fill(1.0);
     }
 
     fn eval(
@@ -614,10 +780,11 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         }
         self.film_pass(ids, ys);
         let mut cursor = 0;
+        let d = self.dim;
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
-            let y = &ys[k * DIM..(k + 1) * DIM];
-            let dy = &mut dys[k * DIM..(k + 1) * DIM];
+            let y = &ys[k * d..(k + 1) * d];
+            let dy = &mut dys[k * d..(k + 1) * d];
             if m.kind == ModelKind::Ideal {
                 m.ideal_derivative(y, dy, &mut self.ideal_loads);
             } else {
@@ -637,6 +804,21 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                             continue;
                         }
                     };
+                    if let Some((x, rate)) = Self::thermal_of(geom, y, l) {
+                        let rise = x.temperature_c - geom.params.supply_temperature.unwrap_or(0.0);
+                        if rise.abs() > crate::bearing::thermal::MAX_LUMPED_RISE_K {
+                            // Runaway: the viscosity law means nothing there.
+                            fault.get_or_insert(RotorFault::Load {
+                                bearing: b,
+                                reason: format!(
+                                    "lumped oil temperature {:.1} °C is more than {} K from the supply temperature (thermal runaway: more friction power than the side flow and housing remove)",
+                                    x.temperature_c,
+                                    crate::bearing::thermal::MAX_LUMPED_RISE_K
+                                ),
+                            });
+                        }
+                        dy[DIM + geom.thermal.unwrap_or(0)] = rate;
+                    }
                     let (mut fi, mut fj) = l.end_forces(geom.params.length);
                     if l.h_min < m.threshold {
                         match m.contact {
@@ -676,7 +858,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                     dy.fill(0.0);
                     continue;
                 }
-                m.rigid_derivative(y, &kin, f, tau, power, dy);
+                m.rigid_derivative(y, &kin, f, tau, power, &mut dy[..DIM]);
             }
             if !dy.iter().all(|v| v.is_finite()) {
                 faults[k] = Some(RotorFault::NonFinite);
@@ -697,9 +879,10 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         self.film_pass(ids, ys);
         let mut cursor = 0;
         let mut scratch = [0.0; DIM];
+        let d = self.dim;
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
-            let y = &ys[k * DIM..(k + 1) * DIM];
+            let y = &ys[k * d..(k + 1) * d];
             let g = m.g_position(y);
             let kin = m.kin(y);
             self.row.clear();
@@ -741,6 +924,12 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                         // no loads (never NaN), friction unknown.
                         Err(_) => (0.0, 0.0, 0.0, None),
                     };
+                    // The lumped temperature; its heat flows zero where the film has
+                    // no loads (as the loads above).
+                    let thermal = match res {
+                        Ok(l) => Self::thermal_of(geom, y, l).map(|(s, _)| s),
+                        Err(_) => Self::thermal_of(geom, y, &zero_loads()).map(|(s, _)| s),
+                    };
                     self.row.push(BearingSample {
                         xi: st.xi,
                         yi: st.yi,
@@ -752,7 +941,28 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                         wy,
                         mz,
                         friction_coefficient,
+                        thermal,
                     });
+                    if let (Some(x), Some(j)) = (thermal, geom.thermal) {
+                        let oil = &mut self.oil[id];
+                        if oil.len() <= j {
+                            oil.push(OilTemperature {
+                                bearing: b,
+                                supply_temperature_c: geom.params.supply_temperature.unwrap_or(0.0),
+                                final_temperature_c: x.temperature_c,
+                                max_temperature_c: x.temperature_c,
+                                max_at_s: ts[k],
+                                final_power_w: x.power_w,
+                            });
+                        }
+                        let o = &mut oil[j];
+                        o.final_temperature_c = x.temperature_c;
+                        o.final_power_w = x.power_w;
+                        if x.temperature_c > o.max_temperature_c {
+                            o.max_temperature_c = x.temperature_c;
+                            o.max_at_s = ts[k];
+                        }
+                    }
                 }
             }
             let sample = Sample {
@@ -826,6 +1036,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             friction_dev,
         );
         let result = SimResult {
+            oil_temperature: std::mem::take(&mut self.oil[id]),
             name: self.names[id].clone(),
             model: m.kind,
             method: self.method,
@@ -855,6 +1066,23 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                 ..result
             }
         });
+    }
+}
+
+/// Loads of no film (a sample outside the film's domain): zero power and flow.
+fn zero_loads() -> crate::bearing::Loads {
+    crate::bearing::Loads {
+        wx: 0.0,
+        wy: 0.0,
+        mx: 0.0,
+        my: 0.0,
+        mz: 0.0,
+        friction_coefficient: None,
+        sommerfeld: None,
+        h_min: 0.0,
+        power_loss: 0.0,
+        friction_model: Default::default(),
+        film: Default::default(),
     }
 }
 
@@ -910,9 +1138,23 @@ pub fn simulate_batch(
     stored(scenes, evaluator, progress, true, None, cap)
 }
 
-/// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing).
+/// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing,
+/// five more per bearing with a lumped oil temperature).
 pub fn numbers_per_sample(scene: &Scene) -> usize {
-    6 + 10 * scene.bearings.len()
+    6 + 10 * scene.bearings.len() + 5 * thermal_bearings(scene)
+}
+
+/// Bearings of `scene` with a lumped oil temperature state (a lubricant, bearing model):
+/// the count [`RotorModel::thermal_count`] gives once compiled.
+fn thermal_bearings(scene: &Scene) -> usize {
+    if scene.model != ModelKind::Bearing {
+        return 0;
+    }
+    scene
+        .bearings
+        .iter()
+        .filter(|b| b.lubricant.is_some() && b.supply_temperature.is_some())
+        .count()
 }
 
 /// The per-simulation sample cap when all of `scenes` are in flight at once, from the
@@ -1003,11 +1245,13 @@ fn simulate<O: SampleObserver>(
 ) -> Vec<SimResult> {
     let mut observers: Vec<Option<O>> = observers.into_iter().map(Some).collect();
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
-    let mut groups: BTreeMap<&'static str, (Method, Vec<usize>)> = BTreeMap::new();
+    // One lockstep batch per method and state dimension (the lumped oil temperatures of
+    // thermal scenes add components; scenes without them keep the 12 of the rigid rotor).
+    let mut groups: BTreeMap<(&'static str, usize), (Method, Vec<usize>)> = BTreeMap::new();
     for (i, s) in scenes.iter().enumerate() {
         match s.validate() {
             Ok(()) => groups
-                .entry(s.integrator.method.name())
+                .entry((s.integrator.method.name(), thermal_bearings(s)))
                 .or_insert((s.integrator.method, Vec::new()))
                 .1
                 .push(i),
@@ -1021,6 +1265,7 @@ fn simulate<O: SampleObserver>(
                     samples: TimeSeries::default(),
                     stats: SimStats::default(),
                     model_reductions: ReductionReport::default(),
+                    oil_temperature: Vec::new(),
                 };
                 if let Some(o) = observers[i].as_mut() {
                     progress(i, &r, o);
@@ -1029,21 +1274,33 @@ fn simulate<O: SampleObserver>(
             }
         }
     }
-    for (_, (method, idx)) in groups {
+    for ((_, n_thermal), (method, idx)) in groups {
         let models: Vec<RotorModel> = idx.iter().map(|&i| RotorModel::new(&scenes[i])).collect();
         let mut params = Vec::new();
         let mut offsets = Vec::new();
-        let mut y0 = Vec::with_capacity(idx.len() * DIM);
+        let dim = DIM + n_thermal;
+        let mut y0 = Vec::with_capacity(idx.len() * dim);
         for (m, &i) in models.iter().zip(&idx) {
             offsets.push(params.len());
             params.extend(m.bearings.iter().map(|b| b.params));
             y0.extend_from_slice(&m.initial_state(&scenes[i]));
+            // The oil starts at its supply temperature (a rise of 0 K).
+            y0.extend(std::iter::repeat_n(0.0, n_thermal));
         }
         let settings: Vec<Settings> = idx.iter().map(|&i| settings_of(&scenes[i])).collect();
         let n = idx.len();
         let n_bearings = params.len();
         let mut batch = RotorBatch {
             models,
+            dim,
+            stage_params: if n_thermal > 0 {
+                params.clone()
+            } else {
+                Vec::new()
+            },
+            stamp: vec![0; params.len()],
+            calls: 0,
+            oil: vec![Vec::new(); n],
             params,
             offsets,
             evaluator: &mut *evaluator,

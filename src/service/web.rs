@@ -66,6 +66,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "friction-map-thermal",
         include_str!("../../sweeps/friction-map-thermal.json"),
     ),
+    (
+        "thermal-run-up",
+        include_str!("../../sweeps/thermal-run-up.json"),
+    ),
 ];
 
 /// What an example file is for: `"sweep"` (a spec `POST /api/sweeps` takes: it has `base`

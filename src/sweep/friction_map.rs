@@ -390,9 +390,9 @@ pub fn equilibrium_eccentricity(
 }
 
 /// The effective-temperature balance of the aligned journal carrying `load` (N) at
-/// `omega` (rad/s): every balance step solves the static equilibrium at `μ(T)`; power
-/// from eqs. 10-11 on the film force, side flow the film's own at the equilibrium
-/// ([`crate::bearing::Loads::film`]).
+/// `omega` (rad/s): every balance step solves the static equilibrium at `μ(T)`; heat
+/// from the film's own friction power and side flow the film's own at the equilibrium
+/// ([`crate::bearing::Loads::film`]; the paper's law stays the map's `power_loss_w`).
 pub fn map_balance(
     params: &BearingParams,
     rule: &FilmRule,
@@ -412,9 +412,9 @@ pub fn map_balance(
         };
         let (_, l) = equilibrium_eccentricity(&pm, rule, load, omega)
             .ok_or_else(|| "no film equilibrium under this load".to_string())?;
-        let w = l.wx.hypot(l.wy);
-        let fr = friction(&pm, w, omega);
-        Ok(((fr.mz * omega).abs(), l.film.side_flow_m3_per_s))
+        // Heat: the film's own friction power at the equilibrium (not the paper's law,
+        // 1.91 × Petroff at S < 1).
+        Ok((l.film.power_loss_w, l.film.side_flow_m3_per_s))
     })
 }
 

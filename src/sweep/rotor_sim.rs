@@ -108,6 +108,11 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
         "model_reductions": r.model_reductions,
         "film_events": r.film_events.iter().map(|e| json!({"t_s": e.time, "bearing": e.bearing, "h_min_m": e.h_min})).collect::<Vec<_>>(),
     });
+    // Bearings with a lumped oil temperature (docs/thermal.md "Rotor scenes"): final and
+    // highest temperature; absent otherwise, so records without a lubricant are unchanged.
+    if !r.oil_temperature.is_empty() {
+        extra["oil_temperature"] = json!(r.oil_temperature);
+    }
     // Only when decimated (docs/cli.md "Limits"), so undecimated records are unchanged: the
     // reductions saw every `sample_stride`-th sample.
     if r.samples.sample_stride > 1 {
