@@ -156,6 +156,21 @@ pub struct SolveReport {
     pub accuracy_met: bool,
 }
 
+/// One grid of the accuracy ladder ([`FiniteSolver::ladder`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LadderStep {
+    /// Intervals around the circumference.
+    pub n_theta: usize,
+    /// Intervals along the length.
+    pub n_z: usize,
+    /// Load integrals of this grid's solution (node 0 at the ladder's angle).
+    pub integrals: FilmIntegrals,
+    /// Relaxation node updates on all grids since the ladder started (work).
+    pub updates: u64,
+    /// V-cycles on this grid, estimated iteration error, converged.
+    pub result: (u32, f64, bool),
+}
+
 /// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
 #[derive(Default)]
 pub struct FiniteSolver {
@@ -333,13 +348,9 @@ impl FiniteSolver {
         (integrals_of(field, g), self.report(top, res))
     }
 
-    fn solve_accuracy(
-        &mut self,
-        job: &FiniteJob,
-        g: &FiniteGrid,
-        target: f64,
-        field: &mut Vec<f64>,
-    ) -> (FilmIntegrals, SolveReport) {
+    /// Starts the accuracy ladder: node 0 on the mid-plane's maximum film (max-film
+    /// inlet), the first grid solved by full multigrid to `tol`; returns its step.
+    fn ladder_start(&mut self, job: &FiniteJob, g: &FiniteGrid, tol: f64) -> LadderStep {
         let ladder = accuracy_ladder(job.aspect);
         // With the inlet held on the maximum-film line, node 0 sits on the mid-plane's
         // maximum film: on every grid of the ladder the line is then on the grid (exactly
@@ -355,33 +366,80 @@ impl FiniteSolver {
         };
         self.mg.updates = 0;
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
-        let mut top = self.mg.levels.len() - 1;
-        let mut res = self.fmg(job.aspect, top, g.tolerance);
-        let grid_of = |(nt, nz): (usize, usize)| FiniteGrid {
-            n_theta: nt,
-            n_z: nz,
+        let top = self.mg.levels.len() - 1;
+        let res = self.fmg(job.aspect, top, tol);
+        self.ladder_step(g, top, res)
+    }
+
+    /// Adds the ladder's next grid `nt × nz` on top, starts it from the interpolated
+    /// solution below and iterates it to `tol`.
+    fn ladder_next(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        (nt, nz): (usize, usize),
+        tol: f64,
+    ) -> LadderStep {
+        self.mg.push_finer(job, nt, nz, g, Coarsen::Both);
+        let top = self.mg.levels.len() - 1;
+        let (lo, hi) = self.mg.levels.split_at_mut(top);
+        prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
+        let res = self.mg.iterate(top, job.aspect, tol, MAX_CYCLES);
+        self.ladder_step(g, top, res)
+    }
+
+    fn ladder_step(&self, g: &FiniteGrid, top: usize, res: (u32, f64, bool)) -> LadderStep {
+        let lvl = &self.mg.levels[top];
+        let grid = FiniteGrid {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
             accuracy: None,
             ..*g
         };
-        let theta0 = self.mg.theta0;
-        let mut values = vec![integrals_at(
-            &self.mg.levels[top].p,
-            &grid_of(ladder[0]),
-            theta0,
-        )];
+        LadderStep {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
+            integrals: integrals_at(&lvl.p, &grid, self.mg.theta0),
+            updates: self.mg.updates,
+            result: res,
+        }
+    }
+
+    /// The first `levels` grids of the accuracy ladder of `job` (see [`accuracy_ladder`]),
+    /// each iterated to the tolerance `tol`, with their load integrals and the work done
+    /// so far (a probe of the ladder's convergence, used by examples and tests; the
+    /// solve itself stops at the requested accuracy).
+    pub fn ladder(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        tol: f64,
+        levels: usize,
+    ) -> Vec<LadderStep> {
+        let ladder = accuracy_ladder(job.aspect);
+        let mut out = vec![self.ladder_start(job, g, tol)];
+        for &dims in ladder.iter().skip(1).take(levels.saturating_sub(1)) {
+            out.push(self.ladder_next(job, g, dims, tol));
+        }
+        out
+    }
+
+    fn solve_accuracy(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        target: f64,
+        field: &mut Vec<f64>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let ladder = accuracy_ladder(job.aspect);
+        let mut steps = vec![self.ladder_start(job, g, g.tolerance)];
+        let mut values = vec![steps[0].integrals];
         let mut estimate = f64::INFINITY;
         let mut met = false;
-        for &(nt, nz) in &ladder[1..] {
-            self.mg.push_finer(job, nt, nz, g, Coarsen::Both);
-            top += 1;
-            let (lo, hi) = self.mg.levels.split_at_mut(top);
-            prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
-            res = self.mg.iterate(top, job.aspect, g.tolerance, MAX_CYCLES);
-            values.push(integrals_at(
-                &self.mg.levels[top].p,
-                &grid_of((nt, nz)),
-                theta0,
-            ));
+        for &dims in &ladder[1..] {
+            let step = self.ladder_next(job, g, dims, g.tolerance);
+            values.push(step.integrals);
+            steps.push(step);
             let est = if g.layout.is_empty() {
                 ladder_estimate(&values)
             } else {
@@ -395,12 +453,14 @@ impl FiniteSolver {
                 }
             }
         }
+        let top = self.mg.levels.len() - 1;
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
-        let mut report = self.report(top, res);
+        let last = steps.last().expect("at least one grid");
+        let mut report = self.report(top, last.result);
         report.error_estimate = estimate;
         report.accuracy_met = met;
-        (*values.last().expect("at least one grid"), report)
+        (last.integrals, report)
     }
 
     /// Solves one state by red-black projected SOR on the fixed grid `g` (the solver
