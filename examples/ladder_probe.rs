@@ -60,14 +60,14 @@ fn main() {
         p.finite.inlet = bearing_sweep::bearing::finite::Inlet::None;
     }
     let g = FiniteGrid::for_bearing(&p);
-    let tols: [f64; 0] = [];
+    let tols = [1e-6, 1e-5, 1e-4];
     for (label, s) in states(&p) {
         let packed: Packed = pack_state(&p, &s).unwrap();
         let job = FiniteJob::new(&p, &packed);
         let lv =
             |ints: &[f64; 4]| finish_loads(&p, &s, ints, packed.rate_scale).load_vector(p.length);
         let mut solver = FiniteSolver::new();
-        let tight = solver.ladder(&job, &g, 1e-10, 7);
+        let tight = solver.ladder(&job, &g, 1e-10, false, 7);
         let v: Vec<[f64; 4]> = tight.iter().map(|t| lv(&t.integrals)).collect();
         let n = v.len();
         let truth: [f64; 4] = std::array::from_fn(|k| (4.0 * v[n - 1][k] - v[n - 2][k]) / 3.0);
@@ -91,7 +91,7 @@ fn main() {
             );
         }
         for &tol in &tols {
-            let steps = solver.ladder(&job, &g, tol, 6);
+            let steps = solver.ladder(&job, &g, tol, true, 6);
             print!("   tol {tol:.0e}: ");
             for (l, st) in steps.iter().enumerate() {
                 print!(
