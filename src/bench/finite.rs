@@ -135,8 +135,10 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
     let mut md = solver_table(&p, &states, &reference);
     md += &format!(
         "\nFinite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
-         third whirling/squeezing), cold start, tolerance 1e-8, projected multigrid; error: \
-         load vector (W_x, W_y, M_x/B, M_y/B) against 1024×128 Richardson-extrapolated. \
+         third whirling/squeezing), cold start, projected multigrid (explicit grids: \
+         tolerance 1e-8; accuracy mode: each grid to 1/50 of the accuracy on the loads); \
+         error: load vector (W_x, W_y, M_x/B, M_y/B) against the accuracy ladder's \
+         1024×128 Richardson-extrapolated (inlet line on the grid). \
          Sweeps: work in sweeps of the final grid.\n\n\
          | backend | setting | states/s | sweeps/state | median error | max error |\n\
          |---|---|---|---|---|---|\n"
