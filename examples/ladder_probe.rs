@@ -3,8 +3,8 @@
 //! Richardson-extrapolated loads against the 1024 × 128 extrapolated reference, and the
 //! work (node updates) and algebraic error of the ladder at several per-grid tolerances.
 //!
-//! `cargo run --release --example ladder_probe`
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
+//! `cargo run --release --example ladder_probe [none]` (`none`: the free inlet).
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
 };
@@ -106,5 +106,4 @@ fn main() {
             println!();
         }
     }
-    let _ = FiniteSettings::default();
 }
