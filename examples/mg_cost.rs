@@ -4,10 +4,14 @@
 //! minimum over `reps` repetitions (the machine is shared), counted work (sweeps of the
 //! grid) and the largest relative difference of the load vectors (same discrete problem).
 //!
-//! Then the default accuracy mode (multigrid ladder) against the 64 × 16 PSOR state (the
-//! default before issue 20): ms/state and node updates/state (machine-independent work).
+//! Then the default accuracy mode (multigrid ladder) and accuracy 1e-4 against the 64 × 16
+//! PSOR state (the default before issue 20): ms/state, node updates/state
+//! (machine-independent work) and the median and largest error of the load vector against
+//! the converged solution ([`FiniteSolver::reference`]: the accuracy ladder's 1024 × 128
+//! Richardson-extrapolated from 512 × 64).
 //!
-//! `cargo run --release --example mg_cost -- [reps]`
+//! `cargo run --release --example mg_cost -- [reps] [accuracy]` (`accuracy`: only the
+//! second table, e.g. under `valgrind --tool=callgrind` for counted instructions).
 use std::time::Instant;
 
 use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
@@ -19,6 +23,7 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(5);
+    let only_accuracy = std::env::args().nth(2).as_deref() == Some("accuracy");
     let (p, states) = bench_states(32);
     let jobs: Vec<_> = states
         .iter()
@@ -29,7 +34,12 @@ fn main() {
         .collect();
     println!("| grid | PSOR sweeps | PSOR ms/state | multigrid work (sweeps) | multigrid ms/state | speed-up | max rel. difference |");
     println!("|---|---|---|---|---|---|---|");
-    for (t, z) in [(32, 8), (64, 16), (128, 32), (256, 64)] {
+    let fixed: &[(u32, u32)] = if only_accuracy {
+        &[]
+    } else {
+        &[(32, 8), (64, 16), (128, 32), (256, 64)]
+    };
+    for &(t, z) in fixed {
         let g = FiniteGrid::from(&FiniteSettings::with_grid(t, z));
         let mut solver = FiniteSolver::new();
         let mut run = |psor: bool| {
@@ -74,36 +84,79 @@ fn main() {
             diff
         );
     }
-    // Default accuracy against the old default (64 × 16 PSOR).
+    // Default accuracy against the old default (64 × 16 PSOR), errors against the
+    // converged solution.
+    let reference: Vec<[f64; 4]> = if only_accuracy {
+        Vec::new()
+    } else {
+        let g = FiniteGrid::for_bearing(&p);
+        jobs.iter()
+            .map(|(job, scale, s)| {
+                let ints = FiniteSolver::new().reference(job, &g);
+                finish_loads(&p, s, &ints, *scale).load_vector(p.length)
+            })
+            .collect()
+    };
     let mut solver = FiniteSolver::new();
     let mut time_it = |g: &FiniteGrid, psor: bool| {
         let mut best = f64::INFINITY;
         let mut updates = 0u64;
+        let mut errs = Vec::new();
         for _ in 0..reps {
             updates = 0;
+            errs.clear();
             let start = Instant::now();
-            for (job, _, _) in &jobs {
-                let (_, r) = if psor {
+            for (k, (job, scale, s)) in jobs.iter().enumerate() {
+                let (ints, r) = if psor {
                     solver.solve_psor(job, g, &mut Vec::new())
                 } else {
                     solver.solve(job, g, &mut Vec::new())
                 };
                 updates += r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1));
+                if let Some(want) = reference.get(k) {
+                    let v = finish_loads(&p, s, &ints, *scale).load_vector(p.length);
+                    let d: f64 = (0..4).map(|i| (v[i] - want[i]).powi(2)).sum::<f64>();
+                    errs.push(d.sqrt() / want.iter().map(|x| x * x).sum::<f64>().sqrt());
+                }
             }
             best = best.min(start.elapsed().as_secs_f64());
         }
+        errs.sort_by(f64::total_cmp);
         let n = jobs.len() as f64;
-        (best / n * 1e3, updates as f64 / n)
+        let (med, max) = if errs.is_empty() {
+            (f64::NAN, f64::NAN)
+        } else {
+            (errs[errs.len() / 2], errs[errs.len() - 1])
+        };
+        (best / n * 1e3, updates as f64 / n, med, max)
     };
     let old = time_it(&FiniteGrid::from(&FiniteSettings::with_grid(64, 16)), true);
-    let acc = time_it(&FiniteGrid::from(&FiniteSettings::default()), false);
     println!();
-    println!("| setting | ms/state | node updates/state |");
-    println!("|---|---|---|");
-    println!("| 64×16 PSOR (old default) | {:.3} | {:.0} |", old.0, old.1);
+    println!("| setting | ms/state | node updates/state | median error | max error |");
+    println!("|---|---|---|---|---|");
     println!(
-        "| accuracy 5e-4 multigrid (default) | {:.3} | {:.0} |",
-        acc.0, acc.1
+        "| 64×16 PSOR (old default) | {:.3} | {:.0} | {:.2e} | {:.2e} |",
+        old.0, old.1, old.2, old.3
     );
-    println!("| ratio | {:.1}× | {:.1}× |", acc.0 / old.0, acc.1 / old.1);
+    for (label, accuracy) in [
+        ("5e-4 (default)", FiniteSettings::default().accuracy),
+        ("1e-4", 1e-4),
+    ] {
+        let acc = time_it(
+            &FiniteGrid::from(&FiniteSettings {
+                accuracy,
+                ..FiniteSettings::default()
+            }),
+            false,
+        );
+        println!(
+            "| accuracy {label} multigrid | {:.3} | {:.0} | {:.2e} | {:.2e} |",
+            acc.0, acc.1, acc.2, acc.3
+        );
+        println!(
+            "| ratio to the old default | {:.1}× | {:.1}× | | |",
+            acc.0 / old.0,
+            acc.1 / old.1
+        );
+    }
 }

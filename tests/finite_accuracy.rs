@@ -273,3 +273,45 @@ fn butenschoen_table_at_default_accuracy() {
     }
     println!("worst: S {:.2} %, β {:.3}°", 100.0 * worst.0, worst.1);
 }
+
+/// Accuracy mode iterates each grid of the ladder only until its load vector's iteration
+/// error is 1/50 of the requested accuracy (issue 20, cost): the loads it returns are
+/// those of the same ladder iterated to 1e-10 (field) within 5 % of the accuracy, on the
+/// same grid, and the work stays ≤ 25 sweeps of the final grid (all grids' node updates
+/// over its node count) at the default accuracy (measured 12-22; 35-75 when every grid was
+/// iterated to 1e-8).
+#[test]
+fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
+    let p = bearing(FiniteSettings::default());
+    let g = FiniteGrid::for_bearing(&p);
+    let accuracy = FiniteSettings::default().accuracy;
+    for (label, s) in states(&p) {
+        let packed = pack_state(&p, &s).unwrap();
+        let job = FiniteJob::new(&p, &packed);
+        let mut solver = FiniteSolver::new();
+        let (ints, report) = solver.solve(&job, &g, &mut Vec::new());
+        assert!(report.accuracy_met, "{label}: {report:?}");
+        let tight = solver.ladder(&job, &g, 1e-10, false, usize::MAX);
+        let same = tight
+            .iter()
+            .find(|t| t.n_theta == report.n_theta as usize)
+            .expect("the grid is on the ladder");
+        let d = rel(&ints, &same.integrals);
+        let updates = report.sweeps as u64 * (report.n_theta as u64 * (report.n_z as u64 - 1));
+        println!(
+            "{label}: {}x{}, {updates} updates, loads {d:.1e} from the tightly iterated ones",
+            report.n_theta, report.n_z
+        );
+        assert!(
+            d <= 0.05 * accuracy,
+            "{label}: accuracy-mode loads {d:.2e} from the tightly iterated ladder's, expected \
+             ≤ 5 % of the accuracy {accuracy}"
+        );
+        assert!(
+            report.sweeps <= 25,
+            "{label}: {} sweeps of the final grid ({updates} node updates) at the default \
+             accuracy, expected ≤ 25",
+            report.sweeps
+        );
+    }
+}

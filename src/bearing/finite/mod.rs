@@ -22,5 +22,5 @@ pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
     ladder_estimate, richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
-    SolveReport,
+    LadderStep, SolveReport,
 };

@@ -641,13 +641,13 @@ impl Hierarchy {
     }
 
     /// V-cycles on the top level `l` (own right-hand side) until the estimated iteration
-    /// error of the field is below `tol` of its maximum, at most `max_cycles`; returns
-    /// (cycles, estimated error, converged).
+    /// error is below the tolerance of `stop`, at most `max_cycles`; returns (cycles,
+    /// estimated error, converged).
     pub fn iterate(
         &mut self,
         l: usize,
         aspect: f64,
-        tol: f64,
+        stop: Stop,
         max_cycles: u32,
     ) -> (u32, f64, bool) {
         for (n, lvl) in self.levels.iter_mut().enumerate() {
@@ -664,23 +664,50 @@ impl Hierarchy {
             }
         }
         if l == 0 || self.levels[l].coarsen.is_none() {
-            self.updates += self.levels[l].solve_coarsest(aspect, tol);
+            self.updates += self.levels[l].solve_coarsest(aspect, stop.tolerance());
             return (1, 0.0, true);
         }
         let mut prev = Vec::new();
+        let mut prev_loads = self.levels[l].loads(self.theta0);
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {
-            prev.clear();
-            prev.extend_from_slice(&self.levels[l].p);
+            if let Stop::Field(_) = stop {
+                prev.clear();
+                prev.extend_from_slice(&self.levels[l].p);
+            }
             self.vcycle(l, aspect);
             let p = &self.levels[l].p;
-            let mut change = 0.0_f64;
-            let mut max_p = 0.0_f64;
-            for (a, b) in p.iter().zip(&prev) {
-                change = change.max((a - b).abs());
-                max_p = max_p.max(*a);
-            }
+            // The change of this cycle, relative: of the field over its maximum, or of
+            // the load integrals over their norm.
+            let change = match stop {
+                Stop::Field(_) => {
+                    let mut change = 0.0_f64;
+                    let mut max_p = 0.0_f64;
+                    for (a, b) in p.iter().zip(&prev) {
+                        change = change.max((a - b).abs());
+                        max_p = max_p.max(*a);
+                    }
+                    if max_p > 0.0 {
+                        change / max_p
+                    } else {
+                        0.0
+                    }
+                }
+                Stop::Loads(_) => {
+                    let now = self.levels[l].loads(self.theta0);
+                    let d = (0..4)
+                        .map(|k| (now[k] - prev_loads[k]).powi(2))
+                        .sum::<f64>();
+                    let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    prev_loads = now;
+                    if norm > 0.0 {
+                        d.sqrt() / norm
+                    } else {
+                        0.0
+                    }
+                }
+            };
             // Contraction per cycle: measured, at least 0.1 (a typical multigrid
             // factor), and 0.5 until measured.
             let rho = if last_change.is_finite() && last_change > 0.0 {
@@ -689,16 +716,32 @@ impl Hierarchy {
                 0.5
             };
             last_change = change;
-            err = if max_p > 0.0 {
-                change * rho / (1.0 - rho) / max_p
-            } else {
-                0.0
-            };
-            if change == 0.0 || err <= tol {
+            err = change * rho / (1.0 - rho);
+            if change == 0.0 || err <= stop.tolerance() {
                 return (cycle, err, true);
             }
         }
         (max_cycles, err, false)
+    }
+}
+
+/// When the V-cycles on a grid stop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Stop {
+    /// Estimated iteration error of the field over its maximum below this (explicit
+    /// grids: `finite.tolerance`).
+    Field(f64),
+    /// Estimated iteration error of the load integrals over their norm below this (the
+    /// accuracy ladder: a fraction of the requested accuracy, see
+    /// [`super::solver::ALGEBRAIC_FRACTION`]).
+    Loads(f64),
+}
+
+impl Stop {
+    fn tolerance(self) -> f64 {
+        match self {
+            Stop::Field(t) | Stop::Loads(t) => t,
+        }
     }
 }
 
@@ -708,6 +751,11 @@ impl Level {
     /// the inverse diagonal in force when solved (0 at held nodes).
     pub(crate) fn operator(&self) -> (&[f64], &[f64], &[f64], &[f64]) {
         (&self.ae, &self.an, &self.f_own, &self.inv_d)
+    }
+
+    /// Load integrals of the iterate, node 0 at angle `theta0`.
+    fn loads(&self, theta0: f64) -> [f64; 4] {
+        super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
     }
 
     /// Copies a warm-start field of this grid's length in (held nodes set to their value).

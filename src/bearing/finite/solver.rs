@@ -20,7 +20,7 @@
 
 use std::f64::consts::PI;
 
-use super::multigrid::{prolong_solution, Coarsen, Hierarchy};
+use super::multigrid::{prolong_solution, Coarsen, Hierarchy, Stop};
 use super::{FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
@@ -156,6 +156,21 @@ pub struct SolveReport {
     pub accuracy_met: bool,
 }
 
+/// One grid of the accuracy ladder ([`FiniteSolver::ladder`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LadderStep {
+    /// Intervals around the circumference.
+    pub n_theta: usize,
+    /// Intervals along the length.
+    pub n_z: usize,
+    /// Load integrals of this grid's solution (node 0 at the ladder's angle).
+    pub integrals: FilmIntegrals,
+    /// Relaxation node updates on all grids since the ladder started (work).
+    pub updates: u64,
+    /// V-cycles on this grid, estimated iteration error, converged.
+    pub result: (u32, f64, bool),
+}
+
 /// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
 #[derive(Default)]
 pub struct FiniteSolver {
@@ -265,8 +280,9 @@ impl FiniteSolver {
     /// length (finite, nonnegative: a warm start) V-cycles from it.
     ///
     /// Accuracy mode (`g.accuracy = Some(target)`): the grids of [`accuracy_ladder`]
-    /// (both directions doubled per step), each solved to `g.tolerance` starting from the
-    /// previous one's interpolated solution, until the Richardson estimate of the load
+    /// (both directions doubled per step), each iterated from the previous one's
+    /// interpolated solution until the estimated iteration error of its load vector is
+    /// below `max(ALGEBRAIC_FRACTION × target, g.tolerance)`, until the Richardson estimate of the load
     /// vector's relative error ([`ladder_estimate`]) is at most `target`; the loads of
     /// the last grid are returned, with the estimate in the report. `field` is not used
     /// as a start (its grid varies); it receives the last grid's solution.
@@ -284,15 +300,15 @@ impl FiniteSolver {
 
     /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
     /// level, cycles to `tol` on `top`.
-    fn fmg(&mut self, aspect: f64, top: usize, tol: f64) -> (u32, f64, bool) {
-        let mut res = self.mg.iterate(0, aspect, tol, MAX_CYCLES);
+    fn fmg(&mut self, aspect: f64, top: usize, stop: Stop) -> (u32, f64, bool) {
+        let mut res = self.mg.iterate(0, aspect, stop, MAX_CYCLES);
         for l in 1..=top {
             let (lo, hi) = self.mg.levels.split_at_mut(l);
             let how = hi[0].coarsen.expect("a finer level has a coarsening");
             prolong_solution(&mut hi[0], &lo[l - 1], how);
             res = self
                 .mg
-                .iterate(l, aspect, tol, if l == top { MAX_CYCLES } else { 1 });
+                .iterate(l, aspect, stop, if l == top { MAX_CYCLES } else { 1 });
         }
         res
     }
@@ -324,22 +340,19 @@ impl FiniteSolver {
         let top = self.mg.levels.len() - 1;
         let res = if warm {
             self.mg.levels[top].load_field(field);
-            self.mg.iterate(top, job.aspect, g.tolerance, MAX_CYCLES)
+            self.mg
+                .iterate(top, job.aspect, Stop::Field(g.tolerance), MAX_CYCLES)
         } else {
-            self.fmg(job.aspect, top, g.tolerance)
+            self.fmg(job.aspect, top, Stop::Field(g.tolerance))
         };
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
         (integrals_of(field, g), self.report(top, res))
     }
 
-    fn solve_accuracy(
-        &mut self,
-        job: &FiniteJob,
-        g: &FiniteGrid,
-        target: f64,
-        field: &mut Vec<f64>,
-    ) -> (FilmIntegrals, SolveReport) {
+    /// Starts the accuracy ladder: node 0 on the mid-plane's maximum film (max-film
+    /// inlet), the first grid solved by full multigrid to `tol`; returns its step.
+    fn ladder_start(&mut self, job: &FiniteJob, g: &FiniteGrid, stop: Stop) -> LadderStep {
         let ladder = accuracy_ladder(job.aspect);
         // With the inlet held on the maximum-film line, node 0 sits on the mid-plane's
         // maximum film: on every grid of the ladder the line is then on the grid (exactly
@@ -355,33 +368,105 @@ impl FiniteSolver {
         };
         self.mg.updates = 0;
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
-        let mut top = self.mg.levels.len() - 1;
-        let mut res = self.fmg(job.aspect, top, g.tolerance);
-        let grid_of = |(nt, nz): (usize, usize)| FiniteGrid {
-            n_theta: nt,
-            n_z: nz,
+        let top = self.mg.levels.len() - 1;
+        let res = self.fmg(job.aspect, top, stop);
+        self.ladder_step(g, top, res)
+    }
+
+    /// Adds the ladder's next grid `nt × nz` on top, starts it from the interpolated
+    /// solution below and iterates it to `tol`.
+    fn ladder_next(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        (nt, nz): (usize, usize),
+        stop: Stop,
+    ) -> LadderStep {
+        self.mg.push_finer(job, nt, nz, g, Coarsen::Both);
+        let top = self.mg.levels.len() - 1;
+        let (lo, hi) = self.mg.levels.split_at_mut(top);
+        prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
+        let res = self.mg.iterate(top, job.aspect, stop, MAX_CYCLES);
+        self.ladder_step(g, top, res)
+    }
+
+    fn ladder_step(&self, g: &FiniteGrid, top: usize, res: (u32, f64, bool)) -> LadderStep {
+        let lvl = &self.mg.levels[top];
+        let grid = FiniteGrid {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
             accuracy: None,
             ..*g
         };
-        let theta0 = self.mg.theta0;
-        let mut values = vec![integrals_at(
-            &self.mg.levels[top].p,
-            &grid_of(ladder[0]),
-            theta0,
-        )];
+        LadderStep {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
+            integrals: integrals_at(&lvl.p, &grid, self.mg.theta0),
+            updates: self.mg.updates,
+            result: res,
+        }
+    }
+
+    /// The first `levels` grids of the accuracy ladder of `job` (see [`accuracy_ladder`]),
+    /// each iterated until the estimated iteration error is below `tol` (of the load
+    /// vector over its norm when `on_loads`, as the accuracy mode does, else of the field
+    /// over its maximum), with their load integrals and the work done so far (a probe of
+    /// the ladder's convergence for examples and tests; the solve itself stops at the
+    /// requested accuracy).
+    pub fn ladder(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        tol: f64,
+        on_loads: bool,
+        levels: usize,
+    ) -> Vec<LadderStep> {
+        let stop = if on_loads {
+            Stop::Loads(tol)
+        } else {
+            Stop::Field(tol)
+        };
+        let ladder = accuracy_ladder(job.aspect);
+        let mut out = vec![self.ladder_start(job, g, stop)];
+        for &dims in ladder.iter().skip(1).take(levels.saturating_sub(1)) {
+            out.push(self.ladder_next(job, g, dims, stop));
+        }
+        out
+    }
+
+    /// The converged reference of a state for benchmarks and probes: the ladder's two
+    /// finest grids (up to 1024 intervals around), iterated to 1e-10, Richardson-
+    /// extrapolated `(4 v_h − v_2h)/3` (good to ~1e-5 on the states of
+    /// tests/finite_accuracy.rs, whose ladder converges at second order). The inlet line is
+    /// on the grid at every level (unlike a fixed grid's snapped column, an irregular
+    /// first-order error in tilted states).
+    pub fn reference(&mut self, job: &FiniteJob, g: &FiniteGrid) -> FilmIntegrals {
+        let steps = self.ladder(job, g, 1e-10, false, usize::MAX);
+        let n = steps.len();
+        if n < 2 {
+            return steps[n - 1].integrals;
+        }
+        let (f, c) = (&steps[n - 1].integrals, &steps[n - 2].integrals);
+        std::array::from_fn(|k| (4.0 * f[k] - c[k]) / 3.0)
+    }
+
+    fn solve_accuracy(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        target: f64,
+        field: &mut Vec<f64>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let ladder = accuracy_ladder(job.aspect);
+        let stop = Stop::Loads((ALGEBRAIC_FRACTION * target).max(g.tolerance));
+        let mut steps = vec![self.ladder_start(job, g, stop)];
+        let mut values = vec![steps[0].integrals];
         let mut estimate = f64::INFINITY;
         let mut met = false;
-        for &(nt, nz) in &ladder[1..] {
-            self.mg.push_finer(job, nt, nz, g, Coarsen::Both);
-            top += 1;
-            let (lo, hi) = self.mg.levels.split_at_mut(top);
-            prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
-            res = self.mg.iterate(top, job.aspect, g.tolerance, MAX_CYCLES);
-            values.push(integrals_at(
-                &self.mg.levels[top].p,
-                &grid_of((nt, nz)),
-                theta0,
-            ));
+        for &dims in &ladder[1..] {
+            let step = self.ladder_next(job, g, dims, stop);
+            values.push(step.integrals);
+            steps.push(step);
             let est = if g.layout.is_empty() {
                 ladder_estimate(&values)
             } else {
@@ -395,12 +480,14 @@ impl FiniteSolver {
                 }
             }
         }
+        let top = self.mg.levels.len() - 1;
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
-        let mut report = self.report(top, res);
+        let last = steps.last().expect("at least one grid");
+        let mut report = self.report(top, last.result);
         report.error_estimate = estimate;
         report.accuracy_met = met;
-        (*values.last().expect("at least one grid"), report)
+        (last.integrals, report)
     }
 
     /// Solves one state by red-black projected SOR on the fixed grid `g` (the solver
@@ -484,6 +571,14 @@ impl FiniteSolver {
         (integrals_of(p, g), report)
     }
 }
+
+/// Accuracy mode: each grid of the ladder is iterated until the estimated iteration
+/// error of its load vector is below this fraction of the requested accuracy (or
+/// `finite.tolerance`, if larger). Iterating further buys nothing: the grid's own
+/// discretisation error is at least the accuracy (all grids but the last) or about it
+/// (the last), so 2 % changes the reported loads and the Richardson estimate by ≤ 2 % of
+/// the accuracy (measured: examples/ladder_probe.rs; issue 20 lever (a)).
+pub(crate) const ALGEBRAIC_FRACTION: f64 = 0.02;
 
 /// V-cycle limit of one grid (a cycle contracts the error ~10×; far beyond need).
 const MAX_CYCLES: u32 = 200;
@@ -575,7 +670,11 @@ pub(crate) fn integrals_of(p: &[f64], g: &FiniteGrid) -> FilmIntegrals {
 
 /// [`integrals_of`] for a grid whose node 0 is at angle `theta0`.
 fn integrals_at(p: &[f64], g: &FiniteGrid, theta0: f64) -> FilmIntegrals {
-    let (nt, nz) = (g.n_theta, g.n_z);
+    integrals_on(p, g.n_theta, g.n_z, theta0)
+}
+
+/// [`integrals_at`] on an `nt × nz` grid.
+pub(super) fn integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> FilmIntegrals {
     let dt = 2.0 * PI / nt as f64;
     let dz = 1.0 / nz as f64;
     let mut acc = [0.0; 4];
