@@ -372,7 +372,7 @@ impl LoadEvaluator {
                     self.finite.push(FiniteSlot {
                         request: k,
                         rate_scale: p.rate_scale,
-                        job: FiniteJob::new(b, &p),
+                        job: FiniteJob::of_state(b, &p, req.state.omega),
                         grid: FiniteGrid::for_bearing(b),
                         key: (req.bearing, *n),
                     });
