@@ -569,3 +569,100 @@ fn rotor_whirl_carries_the_film_history() {
         "history effect {models:.3e} vs step error {steps:.3e}"
     );
 }
+
+/// Coefficients and equilibria through the existing finite-film paths with the setting
+/// (steady JFO films): fed on the maximum-film line the steady JFO film is the
+/// Swift–Stieber film state by state (whirling and squeezed states included), so the
+/// static equilibrium and the linearised K and C of the paper bearing at 450 rad/s agree
+/// with Swift–Stieber's within their reported errors; with two axial grooves (0°, 180°)
+/// the JFO equilibrium and coefficients exist and are finite.
+#[test]
+fn coefficients_and_equilibria_with_jfo() {
+    use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
+    use bearing_sweep::bearing::Accuracy;
+    use bearing_sweep::stability::{
+        bearing_equilibria, coefficients_batch, equilibrium_state, CoefficientJob, DiffOptions,
+    };
+    let (b, _) = create_backend(BackendKind::Cpu, Accuracy::default()).unwrap();
+    let mut ev = LoadEvaluator::new(b);
+    let paper = |cav: Cavitation| BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            tolerance: 1e-10,
+            ..grid(64, 16, cav)
+        },
+        ..BearingParams::paper_table2()
+    };
+    let two_grooves = |p: BearingParams| {
+        with_grooves(
+            p,
+            &[
+                Groove {
+                    angle: 0.0,
+                    ..side_groove(0.0)
+                },
+                side_groove(0.0),
+            ],
+        )
+    };
+    let w = 450.0;
+    let params = [
+        paper(Cavitation::Reynolds),
+        paper(Cavitation::Jfo),
+        two_grooves(paper(Cavitation::Reynolds)),
+        two_grooves(paper(Cavitation::Jfo)),
+    ];
+    let cases: Vec<(BearingParams, f64, [f64; 2])> =
+        params.iter().map(|&p| (p, w, [0.0, -14.53])).collect();
+    let eqs: Vec<_> = bearing_equilibria(&mut ev, &cases)
+        .into_iter()
+        .map(|e| e.expect("an equilibrium"))
+        .collect();
+    let jobs: Vec<CoefficientJob> = eqs
+        .iter()
+        .zip(&params)
+        .map(|(e, &p)| CoefficientJob {
+            params: p,
+            state: equilibrium_state(e, w),
+        })
+        .collect();
+    let c: Vec<_> = coefficients_batch(&mut ev, &jobs, &DiffOptions::default())
+        .into_iter()
+        .map(|c| c.expect("coefficients"))
+        .collect();
+    for i in 0..2 {
+        for j in 0..2 {
+            for (name, a, b, ea, eb) in [
+                (
+                    "K",
+                    c[1].stiffness[i][j],
+                    c[0].stiffness[i][j],
+                    c[1].stiffness_error[i][j],
+                    c[0].stiffness_error[i][j],
+                ),
+                (
+                    "C",
+                    c[1].damping[i][j],
+                    c[0].damping[i][j],
+                    c[1].damping_error[i][j],
+                    c[0].damping_error[i][j],
+                ),
+            ] {
+                assert!(
+                    (a - b).abs() <= ea + eb + 1e-9 * b.abs(),
+                    "{name}[{i}][{j}]: JFO {a:.6e} vs SS {b:.6e} (errors {ea:.1e}, {eb:.1e})"
+                );
+                for k in [2, 3] {
+                    let v = if name == "K" {
+                        c[k].stiffness[i][j]
+                    } else {
+                        c[k].damping[i][j]
+                    };
+                    assert!(v.is_finite(), "grooved {k}: {name}[{i}][{j}] = {v}");
+                }
+            }
+        }
+    }
+    let (k2, k3) = (c[2].stiffness[0][0], c[3].stiffness[0][0]);
+    eprintln!("two grooves: K_xx SS {k2:.4e}, JFO {k3:.4e}");
+}
