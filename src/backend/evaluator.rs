@@ -213,6 +213,8 @@ pub struct LoadEvaluator {
     warm_start: bool,
     /// Reasons the backend declined finite-film work, each reported once.
     finite_fallbacks: std::collections::HashSet<String>,
+    /// JFO film fractions carried through a time-stepped run (issue 27).
+    film_history: super::finite::FilmHistory,
 }
 
 impl LoadEvaluator {
@@ -252,7 +254,29 @@ impl LoadEvaluator {
             warm: std::collections::HashMap::new(),
             warm_start: true,
             finite_fallbacks: std::collections::HashSet::new(),
+            film_history: Default::default(),
         }
+    }
+
+    /// Times of the next [`LoadEvaluator::evaluate`] call's requests (one per request, s)
+    /// and whether they are integrator stages (`true`) or output samples: JFO bearings on
+    /// an explicit grid are then solved as a time step from the film fraction committed
+    /// for their bearing index (issue 27; docs/jfo.md). Applies to the next call only;
+    /// without it JFO films are steady. No effect on other films.
+    pub fn set_times(&mut self, times: &[f64], stages: bool) {
+        self.film_history.set_times(times, stages);
+    }
+
+    /// An accepted step: the latest stage film fraction of JFO bearing `bearing` becomes
+    /// its committed history (no-op for other bearings).
+    pub fn commit_film_history(&mut self, bearing: u32) {
+        self.film_history.commit(bearing);
+    }
+
+    /// Forgets the committed JFO film fractions (a new run whose bearing indices
+    /// restart).
+    pub fn clear_film_history(&mut self) {
+        self.film_history.clear();
     }
 
     /// Finite-film warm start on or off (default on): a finite solve starts from the
@@ -270,6 +294,7 @@ impl LoadEvaluator {
     /// a new evaluator would (an evaluator reused across unrelated requests).
     pub fn forget_fields(&mut self) {
         self.warm.clear();
+        self.film_history.clear();
     }
 
     /// The reductions in force.
@@ -372,7 +397,7 @@ impl LoadEvaluator {
                     self.finite.push(FiniteSlot {
                         request: k,
                         rate_scale: p.rate_scale,
-                        job: FiniteJob::new(b, &p),
+                        job: FiniteJob::of_state(b, &p, req.state.omega),
                         grid: FiniteGrid::for_bearing(b),
                         key: (req.bearing, *n),
                     });
@@ -407,6 +432,7 @@ impl LoadEvaluator {
         if !self.finite.is_empty() {
             self.evaluate_finite(bearings, requests, out);
         }
+        self.film_history.end_call();
         if self.packed.is_empty() {
             return;
         }
@@ -535,7 +561,20 @@ impl LoadEvaluator {
                 .collect();
             self.stats.finite_states += jobs.len() as u64;
             self.stats.integrated += jobs.len() as u64;
-            if let Err(e) =
+            let timed: Vec<(u32, usize, f64)> = group
+                .iter()
+                .map(|s| (s.key.0, s.request, s.rate_scale))
+                .collect();
+            if self.film_history.solve_group(
+                &timed,
+                &jobs,
+                &grid,
+                &mut fields,
+                &mut ints,
+                &mut reports,
+            ) {
+                // JFO with its film history (CPU; issue 27).
+            } else if let Err(e) =
                 self.backend
                     .integrate_finite(&jobs, &grid, &mut fields, &mut ints, &mut reports)
             {
@@ -584,7 +623,8 @@ impl LoadEvaluator {
                         .finite_or_fault()
                         .map(|mut l| {
                             // Film friction and flow from the returned field (issue 24).
-                            crate::bearing::finite::apply_finite_flow(
+                            self.film_history.apply_flow(
+                                n,
                                 &mut l,
                                 params,
                                 &req.state,

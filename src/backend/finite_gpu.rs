@@ -84,6 +84,13 @@ impl FinitePipeline {
                     .into(),
             ));
         }
+        if grid.cavitation == crate::bearing::finite::Cavitation::Jfo {
+            return Err(BackendError::Device(
+                "the WGSL finite-film kernel solves Swift-Stieber cavitation; \
+                 `cavitation: jfo` runs on the CPU"
+                    .into(),
+            ));
+        }
         let interior = grid.n_theta * (grid.n_z.max(1) - 1);
         if interior > FINITE_MAX_NODES {
             return Err(BackendError::Device(format!(

@@ -259,6 +259,20 @@ impl BearingParams {
                 reason: e.reason,
             });
         }
+        if self.finite.cavitation == super::finite::Cavitation::Jfo
+            && self.finite.inlet == super::finite::Inlet::None
+            && self.film_layout().is_empty()
+        {
+            // Issue 27: without a supply the mass-conserving film has no steady state
+            // (any liquid content carried round the ring at P = 0 is one).
+            return Err(ParamError {
+                field: "finite.cavitation",
+                value: 1.0,
+                reason:
+                    "\"jfo\" needs a film supply: \"inlet\": \"max_film\", grooves or arcs \
+                         (with \"inlet\": \"none\" and neither, a mass-conserving film has no feed)",
+            });
+        }
         if self.model != FilmModel::Finite {
             let (field, count) = if self.grooves.is_empty() {
                 ("arcs", self.arcs.as_slice().len())

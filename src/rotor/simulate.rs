@@ -622,11 +622,26 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     /// Once set, every evaluation faults at once so the batch ends within a few cheap
     /// rounds (the caller discards those results).
     cancel: Option<&'a AtomicBool>,
+    /// Variants with a step accepted since the last film pass: their JFO bearings'
+    /// film fractions are committed before the next one (issue 27).
+    accepted: std::cell::RefCell<Vec<usize>>,
+    /// Time of each request of a film pass.
+    times: Vec<f64>,
 }
 
 impl<O: SampleObserver> RotorBatch<'_, '_, O> {
     /// Film loads of every bearing-model entry, in one evaluator call.
-    fn film_pass(&mut self, ids: &[usize], ys: &[f64]) {
+    /// `ts`: the entries' times; `stages`: integrator stages (JFO film fractions become
+    /// commit candidates) or output samples.
+    fn film_pass(&mut self, ids: &[usize], ts: &[f64], ys: &[f64], stages: bool) {
+        // Accepted steps since the last pass: commit their bearings' film fractions (the
+        // last stage evaluated, the step's end for dopri5).
+        for id in self.accepted.get_mut().drain(..) {
+            for b in 0..self.models[id].bearings.len() {
+                self.evaluator
+                    .commit_film_history((self.offsets[id] + b) as u32);
+            }
+        }
         self.requests.clear();
         self.ends.clear();
         let d = self.dim;
@@ -635,6 +650,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
         if thermal {
             self.stage_params.truncate(self.params.len());
         }
+        self.times.clear();
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
             if m.kind != ModelKind::Bearing {
@@ -670,6 +686,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                     bearing: index as u32,
                     state,
                 });
+                self.times.push(ts[k]);
                 self.ends.push(e);
             }
         }
@@ -680,6 +697,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
             } else {
                 &self.params
             };
+            self.evaluator.set_times(&self.times, stages);
             self.evaluator
                 .evaluate(params, &self.requests, &mut self.results);
         }
@@ -765,7 +783,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     fn eval(
         &mut self,
         ids: &[usize],
-        _ts: &[f64],
+        ts: &[f64],
         ys: &[f64],
         dys: &mut [f64],
         faults: &mut [Option<RotorFault>],
@@ -778,7 +796,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             }));
             return;
         }
-        self.film_pass(ids, ys);
+        self.film_pass(ids, ts, ys, true);
         let mut cursor = 0;
         let d = self.dim;
         for (k, &id) in ids.iter().enumerate() {
@@ -867,7 +885,9 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         }
     }
 
-    fn project(&self, _id: usize, y: &mut [f64]) {
+    fn project(&self, id: usize, y: &mut [f64]) {
+        // Called once per accepted step (issue 27: commits the JFO film history).
+        self.accepted.borrow_mut().push(id);
         let q = &mut y[super::model::Q..super::model::Q + 4];
         let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
         if n > 0.0 && n.is_finite() {
@@ -876,7 +896,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     }
 
     fn record(&mut self, ids: &[usize], ts: &[f64], ys: &[f64]) {
-        self.film_pass(ids, ys);
+        self.film_pass(ids, ts, ys, false);
         let mut cursor = 0;
         let mut scratch = [0.0; DIM];
         let d = self.dim;
@@ -1330,8 +1350,12 @@ fn simulate<O: SampleObserver>(
             keep_samples,
             progress: &mut *progress,
             cancel,
+            accepted: Default::default(),
+            times: Vec::new(),
         };
         batch.below = vec![false; n_bearings];
+        // Bearing indices restart per batch: no JFO film history carries over.
+        batch.evaluator.clear_film_history();
         run_batch(method, &mut batch, &y0, &settings);
     }
     out.into_iter()

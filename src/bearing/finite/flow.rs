@@ -229,6 +229,13 @@ pub fn apply_finite_flow(
     report: &SolveReport,
     field: &[f64],
 ) {
+    if g.cavitation == super::Cavitation::Jfo {
+        // Mass-conserving cavitation (issue 27): flows and shear over the film fraction.
+        super::jfo::apply_jfo_flow(
+            loads, params, state, rate_scale, job, g, report, field, None,
+        );
+        return;
+    }
     if rate_scale <= 0.0 {
         return;
     }

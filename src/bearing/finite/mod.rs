@@ -5,6 +5,7 @@
 
 mod error_map;
 mod flow;
+mod jfo;
 mod map;
 mod multigrid;
 mod settings;
@@ -17,8 +18,10 @@ pub use error_map::{
 pub use flow::{
     apply_finite_flow, film_flow_of, flow_integrals, solution_grid, solution_theta0, FlowIntegrals,
 };
+pub(crate) use jfo::apply_jfo_flow;
+pub use jfo::{jfo_flow_integrals, JfoHistory, JfoSolver};
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
-pub use settings::{FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
+pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
     ladder_estimate, richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,

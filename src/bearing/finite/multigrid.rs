@@ -331,6 +331,7 @@ impl Level {
             max_film_inlet: false,
             accuracy: None,
             layout: FilmLayout::default(),
+            cavitation: super::Cavitation::Reynolds,
         };
         let omega = g.relaxation(aspect);
         let mut updates = 0;

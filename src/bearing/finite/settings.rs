@@ -48,6 +48,37 @@ pub enum Inlet {
     MaxFilm,
 }
 
+/// Cavitation model of the finite film (JSON `"finite": {"cavitation": ...}`; issue 27).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Cavitation {
+    /// Swift–Stieber (Reynolds) condition: `p ≥ 0` as a complementarity problem; not
+    /// mass-conserving at film reformation. Default (unchanged since issue 16).
+    #[default]
+    Reynolds,
+    /// Jakobsson–Floberg–Olsson, mass-conserving: pressure `p ≥ 0` and film fraction
+    /// `φ ∈ [0, 1]` with `p (1 − φ) = 0`, the cavitated zone transporting `φ h` with the
+    /// surface (Elrod–Adams), solved by [`super::jfo`]. Needs a film supply (the
+    /// `max_film` inlet, grooves or arcs).
+    Jfo,
+}
+
+impl Cavitation {
+    /// Name written into outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Cavitation::Reynolds => "reynolds",
+            Cavitation::Jfo => "jfo",
+        }
+    }
+
+    /// Whether this is the default (serialisation skips it, so outputs that echo the
+    /// settings stay as they were).
+    pub fn is_reynolds(&self) -> bool {
+        *self == Cavitation::Reynolds
+    }
+}
+
 /// Accuracy, grid and tolerance of the finite-length film (JSON `"finite"` in a bearing's
 /// object). Every field has a default.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,6 +112,10 @@ pub struct FiniteSettings {
     /// (docs/grooves.md).
     #[serde(default)]
     pub inlet: Inlet,
+    /// Cavitation model: `"reynolds"` (Swift–Stieber, default) or `"jfo"` (mass-conserving,
+    /// see [`Cavitation`] and docs/jfo.md).
+    #[serde(default, skip_serializing_if = "Cavitation::is_reynolds")]
+    pub cavitation: Cavitation,
 }
 
 /// Default of [`FiniteSettings::accuracy`]: chosen so that the default run's load vector
@@ -110,6 +145,7 @@ impl Default for FiniteSettings {
             tolerance: default_tolerance(),
             auto_tolerance: default_auto_tolerance(),
             inlet: Inlet::MaxFilm,
+            cavitation: Cavitation::Reynolds,
         }
     }
 }

@@ -21,7 +21,7 @@
 use std::f64::consts::PI;
 
 use super::multigrid::{prolong_solution, Coarsen, Hierarchy, Stop};
-use super::{FiniteSettings, Inlet};
+use super::{Cavitation, FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
     Packed, PackedState, StateFault,
@@ -45,6 +45,9 @@ pub struct FiniteGrid {
     /// Grooves and gaps between arcs: the film's held bands (docs/grooves.md); empty for
     /// the plain 360° bearing.
     pub layout: FilmLayout,
+    /// Cavitation model (issue 27): Swift–Stieber, or JFO ([`super::jfo`]), whose field
+    /// holds the pressure and then the film fraction (twice the length).
+    pub cavitation: Cavitation,
 }
 
 impl From<&FiniteSettings> for FiniteGrid {
@@ -61,6 +64,7 @@ impl From<&FiniteSettings> for FiniteGrid {
                 Some(s.accuracy)
             },
             layout: FilmLayout::default(),
+            cavitation: s.cavitation,
         }
     }
 }
@@ -82,8 +86,14 @@ impl FiniteGrid {
 impl FiniteGrid {
     /// Length of a field vector: `n_theta × (n_z + 1)` nodes, row-major in ζ (rows 0 and
     /// `n_z` are the end faces, always 0).
+    /// With JFO cavitation the field is the pressure followed by the film fraction, twice
+    /// that length.
     pub fn field_len(&self) -> usize {
-        self.n_theta * (self.n_z + 1)
+        let n = self.n_theta * (self.n_z + 1);
+        match self.cavitation {
+            Cavitation::Reynolds => n,
+            Cavitation::Jfo => 2 * n,
+        }
     }
 
     /// Over-relaxation factor: optimal SOR for the constant-film operator, whose slowest
@@ -115,6 +125,11 @@ pub struct FiniteJob {
     /// Nondimensional pressure per pascal, `δ² / (μ ρ B²)` with `ρ` the rate scale, 1/Pa:
     /// a groove's held `P` is its supply pressure times this (0: no supply pressure).
     pub supply: f64,
+    /// Spin over the rate scale, `ω0/ρ` (dimensionless): the Couette part of the rate
+    /// vectors, which the JFO model transports the film fraction with (issue 27). `None`
+    /// when the job was built without the state's spin ([`FiniteJob::new`]); the
+    /// Swift–Stieber solvers do not need it, a JFO solve of such a job returns NaN loads.
+    pub spin: Option<f64>,
 }
 
 impl FiniteJob {
@@ -130,6 +145,17 @@ impl FiniteJob {
             state: packed.state,
             aspect: params.length / params.radius,
             supply,
+            spin: None,
+        }
+    }
+
+    /// The job of a packed state of bearing `params` whose spin is `omega` (rad/s):
+    /// [`FiniteJob::new`] with [`FiniteJob::spin`] set (what the JFO model needs).
+    pub fn of_state(params: &BearingParams, packed: &Packed, omega: f64) -> FiniteJob {
+        let spin = (packed.rate_scale > 0.0).then(|| omega / packed.rate_scale);
+        FiniteJob {
+            spin,
+            ..FiniteJob::new(params, packed)
         }
     }
 }
@@ -183,6 +209,8 @@ pub struct FiniteSolver {
     hold: Vec<f64>,
     cos: Vec<f64>,
     sin: Vec<f64>,
+    /// Scratch of the JFO solver (issue 27).
+    jfo: super::jfo::JfoSolver,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -292,6 +320,13 @@ impl FiniteSolver {
         g: &FiniteGrid,
         field: &mut Vec<f64>,
     ) -> (FilmIntegrals, SolveReport) {
+        if g.cavitation == Cavitation::Jfo {
+            // Mass-conserving cavitation (issue 27), steady: its own solver.
+            let mut jfo = std::mem::take(&mut self.jfo);
+            let out = jfo.solve(self, job, g, field, None);
+            self.jfo = jfo;
+            return out;
+        }
         match g.accuracy {
             Some(target) => self.solve_accuracy(job, g, target, field),
             None => self.solve_fixed(job, g, field),
@@ -741,7 +776,7 @@ pub fn finite_solution(
     estimate: bool,
 ) -> Result<FiniteSolution, StateFault> {
     let packed = pack_state(params, state)?;
-    let job = FiniteJob::new(params, &packed);
+    let job = FiniteJob::of_state(params, &packed, state.omega);
     let grid = FiniteGrid::for_bearing(&BearingParams {
         finite: *settings,
         ..*params
@@ -761,7 +796,9 @@ pub fn finite_solution(
         state,
         packed.rate_scale,
         &job,
-        &settings.into(),
+        // The solve's own grid: with grooves or arcs their held bands (issue 27 found
+        // `settings.into()` here, which drops them).
+        &grid,
         &report,
         &field,
     );

@@ -1,0 +1,756 @@
+//! Mass-conserving (Jakobsson–Floberg–Olsson) cavitation of the finite film (issue 27;
+//! docs/jfo.md): pressure `P ≥ 0` and film fraction `φ ∈ [0, 1]` (the share of the gap
+//! filled with liquid) with `P (1 − φ) = 0`, the cavitated zone transporting the liquid
+//! `φ h` with the surfaces at constant flow (Elrod–Adams; the "p-θ" complementarity
+//! formulation of Giacopini, Fowell, Dini and Strozzi, J. Tribol. 132, 2010).
+//!
+//! **Equation.** In the nondimensional form of [`super::solver`] (`ζ = z/B`, `H = h/δ`,
+//! `p = μ ρ B²/δ² · P`, `λ = (B/r0)²`, `τ = ρ t`, spin `s = ω0/ρ`):
+//!
+//! ```text
+//! λ ∂θ(H³ ∂θP) + ∂ζ(H³ ∂ζP) = 6 s ∂θ(φ H) + 12 ∂τ(φ H),
+//! P ≥ 0,  0 ≤ φ ≤ 1,  P (1 − φ) = 0,   P = 0 at ζ = 0, 1.
+//! ```
+//!
+//! With `φ ≡ 1` it is the Reynolds equation of [`super::solver`]; in the cavitated zone
+//! (`P = 0`) it is the transport `6 s ∂θ(φH) + 12 ∂τ(φH) = 0`.
+//!
+//! **Discretisation** (same node grid, `H³` face coefficients `a` and diagonal `d` as the
+//! Swift–Stieber solver; `(L P)_k = Σ_nb a (P_nb − P_k)`). The Couette flux through the
+//! east face of node `i` is upwinded, `F_{i+½} = c_{i+½} φ_up` with
+//! `c_{i+½} = 6 s Ĝ_{i+½}/Δθ`, `φ_up = φ_i` for `s ≥ 0` (`φ_{i+1}` for `s < 0`) and
+//! `Ĝ = 1 + κ (H_{i+½} − 1)`, `κ = (Δθ/2)/sin(Δθ/2)`: since `H − 1` is a combination of
+//! `cos θ, sin θ`, `Ĝ_{i+½} − Ĝ_{i−½} = Δθ ∂θH(θ_i)` exactly, so with `φ ≡ 1` the discrete
+//! equation is the Swift–Stieber solver's term for term (its right-hand side evaluates
+//! `∂θH` at the node). The squeeze term at the node is
+//! `12 φ_k ∂τH_k + 12 H_k (φ_k − φ°_k)/Δτ`: steady states (no history, `1/Δτ = 0`) keep
+//! the journal velocity's squeeze `12 ∂τH` as the Reynolds model does, applied to the
+//! liquid share `φ`; a time step from the previous film fraction `φ°` (backward Euler,
+//! [`JfoHistory`]) adds the storage of the liquid content. Per free node:
+//!
+//! ```text
+//! d P_k + c_φ φ_k = q_k,
+//! c_φ = c_out + 12 ∂τH_k + 12 H_k/Δτ,   c_out = c_{i+½} (s ≥ 0) or −c_{i−½} (s < 0),
+//! q_k = Σ_nb a P_nb + c_in φ_up,in + 12 H_k φ°_k/Δτ
+//! ```
+//!
+//! (`c_in φ_up,in` the Couette inflow from the upwind neighbour). Held nodes (the
+//! `max_film` inlet line, grooves, gaps between arcs) are flooded supply: `P` held,
+//! `φ = 1`.
+//!
+//! **Solver.** Gauss–Seidel on the universal variable: each node, in the direction of the
+//! surface motion (rows in turn), takes the unique root of the monotone node equation:
+//! `P = (q − c_φ)/d` with `φ = 1` if positive (over-relaxed by the Swift–Stieber solver's
+//! SOR factor), else `P = 0`, `φ = q/c_φ` clipped to `[0, 1]`. A cold start begins from
+//! the Swift–Stieber multigrid solution on the same grid (`φ = 1`); the accuracy ladder
+//! (no explicit grid) solves each grid of [`super::accuracy_ladder`] from the bilinear
+//! interpolation of the coarser one's `(P, φ)` and stops on the same Richardson estimate.
+//! Stopping: the change of `max(|ΔP|/max P, |Δφ|)` per sweep times `ρ/(1 − ρ)` (`ρ` the
+//! measured contraction over five sweeps, at least `ω − 1`) below the tolerance.
+//!
+//! **Flows** ([`jfo_flow_integrals`]): the JFO equation holds at every free node, in the
+//! cavitated zone too, so the inflow from the held nodes equals the side flow plus the
+//! storage of the liquid content up to the converged residual (an exact discrete
+//! identity: the Couette fluxes of a row telescope around the ring, the Poiseuille fluxes
+//! to the end faces). Friction: the cavitated zone carries Couette shear over the liquid
+//! share `φ` of the gap only (`∬ φ/H`); the pressure term is that of the full film.
+
+use std::f64::consts::PI;
+
+use super::flow::{film_flow_of, solution_grid, FlowIntegrals};
+use super::solver::{
+    accuracy_ladder, banded_estimate, film, ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver,
+    SolveReport,
+};
+use super::Cavitation;
+use crate::bearing::film_flow::{couette_torque, friction_outputs};
+use crate::bearing::{BearingParams, BearingState, FilmIntegrals, Loads};
+
+/// The film fraction of the previous time and the time step, for a time-dependent JFO
+/// solve (issue 27 item 3: the film content carried through a rotor run).
+#[derive(Clone, Copy, Debug)]
+pub struct JfoHistory<'a> {
+    /// Film fraction `φ°` on the solve's fixed grid (`n_theta × (n_z + 1)` nodes), the
+    /// journal's previous accepted state.
+    pub phi: &'a [f64],
+    /// Time step in units of the rate scale, `Δτ = ρ Δt` (> 0; infinite: steady).
+    pub dtau: f64,
+}
+
+/// Scratch space of the JFO solver (one grid's operator and iterate), reused.
+#[derive(Default)]
+pub struct JfoSolver {
+    lvl: JfoLevel,
+}
+
+/// Sweep cap of the coarsest ladder grids and of any grid: far above a converging
+/// solve's need (the count grows like the grid size, ~1000 at 512 × 64).
+fn max_sweeps(g: &FiniteGrid, nt: usize, nz: usize) -> u32 {
+    FiniteGrid {
+        n_theta: nt,
+        n_z: nz,
+        ..*g
+    }
+    .max_sweeps()
+}
+
+/// One grid's JFO operator and iterate.
+#[derive(Default)]
+struct JfoLevel {
+    nt: usize,
+    nz: usize,
+    theta0: f64,
+    /// Spin over the rate scale.
+    s: f64,
+    /// East and north Poiseuille face coefficients and the diagonal (as the
+    /// Swift–Stieber solver's).
+    ae: Vec<f64>,
+    an: Vec<f64>,
+    d: Vec<f64>,
+    /// Couette flux coefficient of the east face, `6 s Ĝ_{i+½}/Δθ` (signed).
+    ce: Vec<f64>,
+    /// Squeeze `12 ∂τH` at the node.
+    sq: Vec<f64>,
+    /// Storage coefficient `12 H/Δτ` (0 when steady).
+    st: Vec<f64>,
+    /// Held pressure, or negative where the node is free.
+    held: Vec<f64>,
+    /// Pressure, film fraction, previous film fraction.
+    p: Vec<f64>,
+    phi: Vec<f64>,
+    phi_old: Vec<f64>,
+    /// Node updates since the solve started.
+    updates: u64,
+}
+
+impl JfoLevel {
+    fn len(&self) -> usize {
+        self.nt * (self.nz + 1)
+    }
+
+    /// Discretises `job` on the `nt × nz` grid whose node 0 is at `theta0`; `inv_dtau`
+    /// is `1/Δτ` (0: steady). Leaves `p`, `phi` and `phi_old` at their lengths (values
+    /// unchanged if they had the length, else 0, 1, 1).
+    #[allow(clippy::too_many_arguments)]
+    fn setup(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        nt: usize,
+        nz: usize,
+        theta0: f64,
+        spin: f64,
+        inv_dtau: f64,
+    ) {
+        self.nt = nt;
+        self.nz = nz;
+        self.theta0 = theta0;
+        self.s = spin;
+        let n = self.len();
+        for v in [
+            &mut self.ae,
+            &mut self.an,
+            &mut self.d,
+            &mut self.ce,
+            &mut self.sq,
+            &mut self.st,
+        ] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        self.held.clear();
+        self.held.resize(n, -1.0);
+        if self.p.len() != n {
+            self.p.clear();
+            self.p.resize(n, 0.0);
+        }
+        for v in [&mut self.phi, &mut self.phi_old] {
+            if v.len() != n {
+                v.clear();
+                v.resize(n, 1.0);
+            }
+        }
+        let dt = 2.0 * PI / nt as f64;
+        let dz = 1.0 / nz as f64;
+        let ct = job.aspect * job.aspect / (dt * dt);
+        let cz = 1.0 / (dz * dz);
+        // Ĝ = 1 + κ (H − 1) makes the face differences the node's exact ∂θH (module docs).
+        let kappa = 0.5 * dt / (0.5 * dt).sin();
+        let e = &job.state.ecc;
+        let r = &job.state.rate;
+        let trig: Vec<(f64, f64)> = (0..2 * nt)
+            .map(|k| {
+                let th = theta0 + 0.5 * dt * k as f64;
+                (th.cos(), th.sin())
+            })
+            .collect();
+        let held = g.layout.held_nodes(nt, nz, theta0);
+        for j in 0..=nz {
+            let zeta = j as f64 * dz;
+            let zh = (j as f64 + 0.5) * dz;
+            let a = r[0] + (r[2] - r[0]) * zeta;
+            let b = r[1] + (r[3] - r[1]) * zeta;
+            let ex = e[0] + (e[2] - e[0]) * zeta;
+            let ey = e[1] + (e[3] - e[1]) * zeta;
+            for i in 0..nt {
+                let k = j * nt + i;
+                let (cf, sf) = trig[2 * i + 1];
+                let (cn, sn) = trig[2 * i];
+                let hf = film(e, zeta, cf, sf);
+                self.ae[k] = ct * hf * hf * hf * held.east[k];
+                if j < nz {
+                    let hn = film(e, zh, cn, sn);
+                    self.an[k] = cz * hn * hn * hn * held.north[k];
+                }
+                self.ce[k] = 6.0 * spin * (1.0 + kappa * (hf - 1.0)) / dt;
+                let rhs = 6.0 * (a * sn - b * cn);
+                // Squeeze: the right-hand side less its Couette part 6 s ∂θH.
+                self.sq[k] = rhs - 6.0 * spin * (ex * sn - ey * cn);
+                self.st[k] = 12.0 * film(e, zeta, cn, sn) * inv_dtau;
+            }
+        }
+        for j in 1..nz {
+            for i in 0..nt {
+                let k = j * nt + i;
+                let im = if i == 0 { nt - 1 } else { i - 1 };
+                self.d[k] = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
+                if held.held_pa[k] >= 0.0 {
+                    self.held[k] = held.held_pa[k] * job.supply;
+                }
+            }
+            if g.max_film_inlet {
+                // The column nearest the maximum film, angle arg(−ε(ζ)): flooded, P = 0
+                // (the rule of the Swift–Stieber solvers).
+                let zeta = j as f64 * dz;
+                let ex = e[0] + (e[2] - e[0]) * zeta;
+                let ey = e[1] + (e[3] - e[1]) * zeta;
+                if ex != 0.0 || ey != 0.0 {
+                    let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                    let i = (th / dt).round() as usize % nt;
+                    self.held[j * nt + i] = 0.0;
+                }
+            }
+        }
+        // End rows: ambient, flooded (their φ is not used by the interior equations).
+        for row in [0, nz] {
+            for i in 0..nt {
+                self.p[row * nt + i] = 0.0;
+                self.phi[row * nt + i] = 1.0;
+            }
+        }
+        for k in 0..n {
+            if self.held[k] >= 0.0 {
+                self.p[k] = self.held[k];
+                self.phi[k] = 1.0;
+            }
+        }
+    }
+
+    /// The node equation's coefficients `(c_φ, q, d)` at interior node `k` (row `j`,
+    /// column `i`) for the current iterate (module docs).
+    #[inline]
+    fn node(&self, j: usize, i: usize) -> (f64, f64) {
+        let nt = self.nt;
+        let row = j * nt;
+        let k = row + i;
+        let ip = if i + 1 == nt { row } else { k + 1 };
+        let im = if i == 0 { row + nt - 1 } else { k - 1 };
+        let p = &self.p;
+        let sum = self.ae[k] * p[ip]
+            + self.ae[im] * p[im]
+            + self.an[k] * p[k + nt]
+            + self.an[k - nt] * p[k - nt];
+        let (c_out, inflow) = if self.s >= 0.0 {
+            (self.ce[k], self.ce[im] * self.phi[im])
+        } else {
+            (-self.ce[im], -self.ce[k] * self.phi[ip])
+        };
+        let c_phi = c_out + self.sq[k] + self.st[k];
+        (c_phi, sum + inflow + self.st[k] * self.phi_old[k])
+    }
+
+    /// One Gauss–Seidel sweep in the direction of the surface motion; returns
+    /// `(max |ΔP|, max P, max |Δφ|)`.
+    fn sweep(&mut self, omega: f64) -> (f64, f64, f64) {
+        let (nt, nz) = (self.nt, self.nz);
+        let (mut dp, mut pmax, mut dphi) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for j in 1..nz {
+            for n in 0..nt {
+                let i = if self.s >= 0.0 { n } else { nt - 1 - n };
+                let k = j * nt + i;
+                if self.held[k] >= 0.0 {
+                    pmax = pmax.max(self.p[k]);
+                    continue;
+                }
+                let (c_phi, q) = self.node(j, i);
+                let pg = (q - c_phi) / self.d[k];
+                let (old_p, old_phi) = (self.p[k], self.phi[k]);
+                let (np, nphi) = if pg > 0.0 {
+                    ((old_p + omega * (pg - old_p)).max(0.0), 1.0)
+                } else if c_phi > 0.0 {
+                    (0.0, (q / c_phi).clamp(0.0, 1.0))
+                } else {
+                    // No outflow and no inflow (q ≤ c_φ ≤ 0 with q ≥ 0): nothing moves.
+                    (0.0, 1.0)
+                };
+                self.p[k] = np;
+                self.phi[k] = nphi;
+                dp = dp.max((np - old_p).abs());
+                dphi = dphi.max((nphi - old_phi).abs());
+                pmax = pmax.max(np);
+            }
+        }
+        self.updates += (nt * (nz - 1)) as u64;
+        (dp, pmax, dphi)
+    }
+
+    /// Sweeps until the estimated iteration error is below `tol`; returns
+    /// `(iteration error, converged)`.
+    fn iterate(&mut self, aspect: f64, g: &FiniteGrid, tol: f64) -> (f64, bool) {
+        let omega = FiniteGrid {
+            n_theta: self.nt,
+            n_z: self.nz,
+            ..*g
+        }
+        .relaxation(aspect);
+        let cap = max_sweeps(g, self.nt, self.nz);
+        let mut hist = [f64::INFINITY; 6];
+        let mut err = f64::INFINITY;
+        for sweep in 1..=cap {
+            let (dp, pmax, dphi) = self.sweep(omega);
+            let change = if pmax > 0.0 { dp / pmax } else { 0.0 }.max(dphi);
+            hist.rotate_left(1);
+            hist[5] = change;
+            let measured = if hist[0].is_finite() && hist[0] > 0.0 {
+                (hist[5] / hist[0]).powf(0.2)
+            } else {
+                0.0
+            };
+            let rho = measured.max(omega - 1.0).min(0.9999);
+            err = change * rho / (1.0 - rho);
+            if change == 0.0 || (sweep >= 6 && err <= tol) {
+                return (err, true);
+            }
+            if !change.is_finite() {
+                return (err, false);
+            }
+        }
+        (err, false)
+    }
+
+    /// `−⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ)` by the rectangle rule.
+    fn integrals(&self) -> FilmIntegrals {
+        let (nt, nz) = (self.nt, self.nz);
+        let dt = 2.0 * PI / nt as f64;
+        let dz = 1.0 / nz as f64;
+        let mut acc = [0.0; 4];
+        for j in 1..nz {
+            let zeta = j as f64 * dz;
+            let (mut c, mut s) = (0.0, 0.0);
+            for i in 0..nt {
+                let th = self.theta0 + i as f64 * dt;
+                let v = self.p[j * nt + i];
+                c += v * th.cos();
+                s += v * th.sin();
+            }
+            acc[0] += c;
+            acc[1] += s;
+            acc[2] += c * zeta;
+            acc[3] += s * zeta;
+        }
+        acc.map(|v| -v * dt * dz / 3.0)
+    }
+
+    /// Bilinear interpolation of the next coarser grid's `(P, φ)` (`nt/2 × nz/2`, same
+    /// `theta0`) onto this one.
+    fn prolong_from(&mut self, coarse: &[f64], coarse_phi: &[f64], nt: usize, nz: usize) {
+        let (ntc, nzc) = (nt / 2, nz / 2);
+        let n = nt * (nz + 1);
+        self.p.clear();
+        self.p.resize(n, 0.0);
+        self.phi.clear();
+        self.phi.resize(n, 1.0);
+        let at = |f: &[f64], jc: usize, ic: usize| f[jc * ntc + ic % ntc];
+        for j in 0..=nz {
+            for i in 0..nt {
+                let k = j * nt + i;
+                for (dst, src) in [(&mut self.p, coarse), (&mut self.phi, coarse_phi)] {
+                    let (jc, jodd) = (j / 2, j % 2 == 1);
+                    let (ic, iodd) = (i / 2, i % 2 == 1);
+                    let row = |jc: usize| {
+                        if iodd {
+                            0.5 * (at(src, jc, ic) + at(src, jc, ic + 1))
+                        } else {
+                            at(src, jc, ic)
+                        }
+                    };
+                    dst[k] = if jodd {
+                        0.5 * (row(jc) + row((jc + 1).min(nzc)))
+                    } else {
+                        row(jc)
+                    };
+                }
+            }
+        }
+    }
+}
+
+impl JfoSolver {
+    /// A solver with empty scratch space.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Solves the JFO problem of `job` on `g` (whose `cavitation` is ignored: JFO).
+    ///
+    /// Fixed grid: from `field` when it has `g.field_len()` values (pressure then film
+    /// fraction, finite, `P ≥ 0`, `φ ∈ [0, 1]`: a warm start), else from the
+    /// Swift–Stieber multigrid solution (solved with `reynolds`' scratch). With
+    /// `history` (fixed grid only; ignored in accuracy mode) a backward-Euler time step
+    /// of `history.dtau` from its film fraction. Accuracy mode: the ladder of the module
+    /// docs. `field` receives the solution (pressure, then film fraction).
+    pub fn solve(
+        &mut self,
+        reynolds: &mut FiniteSolver,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        field: &mut Vec<f64>,
+        history: Option<&JfoHistory>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let Some(spin) = job.spin.filter(|s| s.is_finite()) else {
+            return ([f64::NAN; 4], SolveReport::default());
+        };
+        let g = FiniteGrid {
+            cavitation: Cavitation::Jfo,
+            ..*g
+        };
+        match g.accuracy {
+            Some(target) => self.solve_ladder(job, &g, target, spin, field),
+            None => self.solve_fixed(reynolds, job, &g, spin, field, history),
+        }
+    }
+
+    fn solve_fixed(
+        &mut self,
+        reynolds: &mut FiniteSolver,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        spin: f64,
+        field: &mut Vec<f64>,
+        history: Option<&JfoHistory>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let (nt, nz) = (g.n_theta, g.n_z);
+        let n = nt * (nz + 1);
+        let lvl = &mut self.lvl;
+        let warm = field.len() == 2 * n
+            && field[..n].iter().all(|v| v.is_finite() && *v >= 0.0)
+            && field[n..].iter().all(|v| (0.0..=1.0).contains(v));
+        let mut sweeps_before = 0u64;
+        if warm {
+            lvl.p.clear();
+            lvl.p.extend_from_slice(&field[..n]);
+            lvl.phi.clear();
+            lvl.phi.extend_from_slice(&field[n..]);
+        } else {
+            // Cold: the Swift–Stieber solution, full film.
+            let rg = FiniteGrid {
+                cavitation: Cavitation::Reynolds,
+                ..*g
+            };
+            let mut p = Vec::new();
+            let (_, rep) = reynolds.solve(job, &rg, &mut p);
+            sweeps_before = rep.sweeps as u64 * (nt * (nz - 1)) as u64;
+            lvl.p = p;
+            lvl.phi.clear();
+            lvl.phi.resize(n, 1.0);
+        }
+        let (phi_old, inv_dtau) = match history {
+            Some(h) if h.phi.len() == n && h.dtau > 0.0 => (Some(h.phi), 1.0 / h.dtau),
+            _ => (None, 0.0),
+        };
+        lvl.phi_old.clear();
+        match phi_old {
+            Some(f) => lvl.phi_old.extend(f.iter().map(|v| {
+                if v.is_finite() {
+                    v.clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
+            })),
+            None => lvl.phi_old.resize(n, 1.0),
+        }
+        lvl.setup(job, g, nt, nz, 0.0, spin, inv_dtau);
+        lvl.updates = sweeps_before;
+        let (err, converged) = lvl.iterate(job.aspect, g, g.tolerance);
+        field.clear();
+        field.extend_from_slice(&lvl.p);
+        field.extend_from_slice(&lvl.phi);
+        let report = SolveReport {
+            sweeps: lvl.updates.div_ceil((nt * (nz - 1)).max(1) as u64) as u32,
+            iteration_error: err,
+            converged,
+            n_theta: nt as u32,
+            n_z: nz as u32,
+            error_estimate: 0.0,
+            accuracy_met: false,
+        };
+        (lvl.integrals(), report)
+    }
+
+    fn solve_ladder(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        target: f64,
+        spin: f64,
+        field: &mut Vec<f64>,
+    ) -> (FilmIntegrals, SolveReport) {
+        let ladder = accuracy_ladder(job.aspect);
+        // The Swift–Stieber ladder's rule: node 0 on the mid-plane's maximum film.
+        let e = &job.state.ecc;
+        let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
+        let theta0 = if g.max_film_inlet && (ex != 0.0 || ey != 0.0) {
+            (-ey).atan2(-ex)
+        } else {
+            0.0
+        };
+        let lvl = &mut self.lvl;
+        lvl.updates = 0;
+        let mut values = Vec::new();
+        let mut estimate = f64::INFINITY;
+        let mut met = false;
+        let mut res = (0.0, false);
+        let (mut cp, mut cphi) = (Vec::new(), Vec::new());
+        for (step, &(nt, nz)) in ladder.iter().enumerate() {
+            if step == 0 {
+                lvl.p.clear();
+                lvl.phi.clear();
+            } else {
+                lvl.prolong_from(&cp, &cphi, nt, nz);
+            }
+            lvl.phi_old.clear();
+            lvl.setup(job, g, nt, nz, theta0, spin, 0.0);
+            res = lvl.iterate(job.aspect, g, g.tolerance);
+            values.push(lvl.integrals());
+            cp.clone_from(&lvl.p);
+            cphi.clone_from(&lvl.phi);
+            let est = if g.layout.is_empty() {
+                ladder_estimate(&values)
+            } else {
+                banded_estimate(&values)
+            };
+            if let Some(e) = est {
+                estimate = e;
+                if e <= target {
+                    met = true;
+                    break;
+                }
+            }
+        }
+        field.clear();
+        field.extend_from_slice(&lvl.p);
+        field.extend_from_slice(&lvl.phi);
+        let report = SolveReport {
+            sweeps: lvl.updates.div_ceil((lvl.nt * (lvl.nz - 1)).max(1) as u64) as u32,
+            iteration_error: res.0,
+            converged: res.1,
+            n_theta: lvl.nt as u32,
+            n_z: lvl.nz as u32,
+            error_estimate: estimate,
+            accuracy_met: met,
+        };
+        (*values.last().expect("at least one grid"), report)
+    }
+}
+
+/// Flow and friction integrals of a converged JFO field (pressure then film fraction on
+/// the `nt × nz` grid whose node 0 is at `theta0`), in the units of
+/// [`super::flow_integrals`], and the liquid share of the Couette shear
+/// `∬ φ/H / ∬ 1/H` (1 for a full film). `history`: the time step the field was solved
+/// with (its storage enters the balance). `None` when the field does not fit the grid or
+/// the job has no spin.
+///
+/// Balance (exact discrete identity): `inlet = side[0] + side[1] + storage − residual`,
+/// with `inlet` the net Couette and Poiseuille outflow of the held (supply) nodes, `side`
+/// the Poiseuille flux through the end faces (with the end half-cells of the pressure
+/// zone's columns, as [`super::flow_integrals`]), `storage` the squeeze and time storage
+/// of the liquid content `Σ (12 φ ∂τH + 12 H (φ − φ°)/Δτ)` over the free nodes, and
+/// `residual` the sum of the free nodes' equation residuals (0 at convergence, in the
+/// cavitated zone too).
+#[allow(clippy::too_many_arguments)]
+pub fn jfo_flow_integrals(
+    job: &FiniteJob,
+    g: &FiniteGrid,
+    nt: usize,
+    nz: usize,
+    theta0: f64,
+    field: &[f64],
+    history: Option<&JfoHistory>,
+) -> Option<(FlowIntegrals, f64)> {
+    let n = nt * (nz + 1);
+    let spin = job.spin.filter(|s| s.is_finite())?;
+    if nt < 2 || nz < 2 || field.len() != 2 * n {
+        return None;
+    }
+    let inv_dtau = match history {
+        Some(h) if h.phi.len() == n && h.dtau > 0.0 => 1.0 / h.dtau,
+        _ => 0.0,
+    };
+    let mut lvl = JfoLevel {
+        p: field[..n].to_vec(),
+        phi: field[n..].to_vec(),
+        phi_old: match history {
+            Some(h) if inv_dtau > 0.0 => h.phi.to_vec(),
+            _ => vec![1.0; n],
+        },
+        ..JfoLevel::default()
+    };
+    lvl.setup(job, g, nt, nz, theta0, spin, inv_dtau);
+    let (p, phi) = (&lvl.p, &lvl.phi);
+    let dt = 2.0 * PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let e = &job.state.ecc;
+    let trig: Vec<(f64, f64)> = (0..2 * nt)
+        .map(|k| {
+            let th = theta0 + 0.5 * dt * k as f64;
+            (th.cos(), th.sin())
+        })
+        .collect();
+    let up = |row: usize, i: usize, phi_row: usize| -> (f64, f64) {
+        // Couette fluxes out of the east face and in through the west face of node i of
+        // `row`, with the film fraction of row `phi_row`.
+        let (ip, im) = ((i + 1) % nt, (i + nt - 1) % nt);
+        let f = |c: usize| phi[phi_row * nt + c];
+        let (ke, kw) = (row * nt + i, row * nt + im);
+        if lvl.s >= 0.0 {
+            (lvl.ce[ke] * f(i), lvl.ce[kw] * f(im))
+        } else {
+            (lvl.ce[ke] * f(ip), lvl.ce[kw] * f(i))
+        }
+    };
+    let mut out = FlowIntegrals::default();
+    let mut abs_residual = 0.0;
+    for (end, (row, inner, face)) in [(0, nt, 0), (nz * nt, (nz - 1) * nt, (nz - 1) * nt)]
+        .into_iter()
+        .enumerate()
+    {
+        let inner_row = inner / nt;
+        for i in 0..nt {
+            let flux = lvl.an[face + i] * (p[inner + i] - p[row + i]);
+            // The half cell carries the adjacent interior row's film fraction.
+            let (fe, fw) = up(row / nt, i, inner_row);
+            let couette = fe - fw;
+            let storage = lvl.sq[row + i] * phi[inner + i];
+            if lvl.held[inner + i] < 0.0 && p[inner + i] > 0.0 {
+                out.side[end] += flux - 0.5 * (couette + storage);
+                out.storage += 0.5 * storage;
+            } else {
+                out.side[end] += flux;
+                out.inlet += 0.5 * couette;
+            }
+        }
+    }
+    let mut loads = [0.0; 4];
+    let (mut liquid, mut full) = (0.0, 0.0);
+    for j in 0..=nz {
+        let zeta = j as f64 * dz;
+        let row = j * nt;
+        // Trapezoid weights in ζ for the shear share.
+        let wz = if j == 0 || j == nz { 0.5 } else { 1.0 };
+        let phi_row = j.clamp(1, nz - 1);
+        for i in 0..nt {
+            let (c, s) = trig[2 * i];
+            let h = film(e, zeta, c, s);
+            liquid += wz * phi[phi_row * nt + i] / h;
+            full += wz / h;
+        }
+        if j == 0 || j == nz {
+            continue;
+        }
+        let (mut lc, mut ls) = (0.0, 0.0);
+        for i in 0..nt {
+            let k = row + i;
+            let ip = row + (i + 1) % nt;
+            let im = row + (i + nt - 1) % nt;
+            let lp = lvl.ae[k] * (p[ip] - p[k]) - lvl.ae[im] * (p[k] - p[im])
+                + lvl.an[k] * (p[k + nt] - p[k])
+                - lvl.an[k - nt] * (p[k] - p[k - nt]);
+            let (fe, fw) = up(j, i, j);
+            let couette = fe - fw;
+            if lvl.held[k] >= 0.0 {
+                out.inlet += couette - lp;
+            } else {
+                let storage = lvl.sq[k] * phi[k] + lvl.st[k] * (phi[k] - lvl.phi_old[k]);
+                let sigma = couette + storage - lp;
+                out.storage += storage;
+                out.residual += sigma;
+                abs_residual += sigma.abs();
+            }
+            let (c, s) = trig[2 * i];
+            let (cf, sf) = trig[2 * i + 1];
+            out.pressure_shear += film(e, zeta, cf, sf) * (p[ip] - p[k]);
+            lc += p[k] * c;
+            ls += p[k] * s;
+        }
+        loads[0] += lc;
+        loads[1] += ls;
+        loads[2] += lc * zeta;
+        loads[3] += ls * zeta;
+    }
+    let area = dt * dz;
+    out.side = out.side.map(|v| v * area);
+    out.inlet *= area;
+    out.storage *= area;
+    out.residual *= area;
+    out.scale = abs_residual * area + out.side[0].abs() + out.side[1].abs();
+    out.pressure_shear *= dz;
+    out.loads = loads.map(|v| -v * area / 3.0);
+    let share = if full > 0.0 { liquid / full } else { 1.0 };
+    Some((out, share))
+}
+
+/// Replaces `loads.film` with the JFO film's friction and flow from its converged
+/// `field` (the JFO counterpart of [`super::apply_finite_flow`]): flows from
+/// [`jfo_flow_integrals`], the Couette torque over the liquid share of the gap.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn apply_jfo_flow(
+    loads: &mut Loads,
+    params: &BearingParams,
+    state: &BearingState,
+    rate_scale: f64,
+    job: &FiniteJob,
+    g: &FiniteGrid,
+    report: &SolveReport,
+    field: &[f64],
+    history: Option<&JfoHistory>,
+) {
+    if rate_scale <= 0.0 {
+        return;
+    }
+    let (nt, nz, theta0) = solution_grid(job, g, report);
+    let Some((ints, share)) = jfo_flow_integrals(job, g, nt, nz, theta0, field, history) else {
+        return;
+    };
+    let w_abs = loads.wx.hypot(loads.wy);
+    let full = film_flow_of(params, state, rate_scale, w_abs, &ints);
+    // Couette shear over the liquid share only: remove (1 − share) of the full film's.
+    let mz = full.friction_torque_nm - (1.0 - share) * couette_torque(params, state);
+    let flow = super::super::film_flow::FilmFlow {
+        side_flow_i_m3_per_s: full.side_flow_i_m3_per_s,
+        side_flow_j_m3_per_s: full.side_flow_j_m3_per_s,
+        side_flow_m3_per_s: full.side_flow_m3_per_s,
+        inlet_flow_m3_per_s: full.inlet_flow_m3_per_s,
+        ..friction_outputs(params, state.omega, mz, w_abs)
+    };
+    let all_finite = [
+        flow.friction_torque_nm,
+        flow.power_loss_w,
+        flow.side_flow_m3_per_s,
+        flow.inlet_flow_m3_per_s,
+    ]
+    .iter()
+    .all(|v| v.is_finite());
+    if all_finite {
+        loads.film = flow;
+    }
+}
