@@ -38,8 +38,8 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
     })
 }
 
-fn campbell_entry(a: &SpeedAnalysis) -> Value {
-    json!({
+fn campbell_entry(a: &SpeedAnalysis, rotor: &RotorDescription) -> Value {
+    let mut entry = json!({
         "speed_rad_s": a.speed_rad_s,
         "eccentricity_ratios": a.linear.bearings.iter().map(|b| b.eccentricity_ratio).collect::<Vec<_>>(),
         "modes": a.modes.iter().map(|m| json!({
@@ -47,6 +47,26 @@ fn campbell_entry(a: &SpeedAnalysis) -> Value {
             "whirl_ratio": m.whirl_ratio, "damping_ratio": m.damping_ratio, "log_dec": m.log_dec,
             "direction": m.direction,
         })).collect::<Vec<_>>(),
+    });
+    if let Some(t) = thermal_json(a, rotor) {
+        entry["thermal"] = t;
+    }
+    entry
+}
+
+/// Per bearing, the effective-temperature balance the analysis at `a` was linearised at
+/// (`null` for a bearing without a lubricant); `None` when no bearing has one (the
+/// output then stays as without temperature).
+fn thermal_json(a: &SpeedAnalysis, rotor: &RotorDescription) -> Option<Value> {
+    let bearings = &a.linear.bearings;
+    bearings.iter().any(|b| b.thermal.is_some()).then(|| {
+        json!(bearings
+            .iter()
+            .zip(&rotor.bearings)
+            .map(|(b, (p, _))| b
+                .thermal
+                .map(|t| crate::bearing::thermal::balance_json(&t, p)))
+            .collect::<Vec<_>>())
     })
 }
 
@@ -127,14 +147,14 @@ pub fn stability_scene_file(
         for (w, r) in speeds.iter().zip(runs) {
             match r {
                 Ok(a) => {
-                    campbell.push(campbell_entry(&a));
+                    campbell.push(campbell_entry(&a, &rotor));
                     ok_runs.push(a);
                 }
                 Err(e) => campbell.push(json!({"speed_rad_s": w, "error": e.to_string()})),
             }
         }
         let lin = &here.linear;
-        let doc = json!({
+        let mut doc = json!({
             "scene": scene.name,
             "speed_rad_s": scene.initial.spin,
             "frame": lin.frame,
@@ -162,6 +182,12 @@ pub fn stability_scene_file(
             "notes": rotor.notes,
             "campbell": campbell,
         });
+        // With lubricants: each bearing's balance at the scene's speed (the campbell
+        // entries carry theirs), beside its coefficients.
+        if let Some(t) = thermal_json(&here, &rotor) {
+            doc["equilibrium"]["thermal"] = t;
+            doc["thermal_note"] = json!("each speed's equilibrium is solved together with every lubricated bearing's effective-temperature balance (docs/thermal.md); coefficients, modes and the threshold search are at the bearings' mu(T_eff)");
+        }
         if let Some(d) = &dir {
             let suffix = if scenes.len() > 1 {
                 format!("-{}", scene.name)

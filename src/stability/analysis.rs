@@ -7,8 +7,10 @@ use serde::Serialize;
 
 use super::linear::{linearise_batch, LinearRotor, RotorDescription};
 use super::modes::{max_growth, modes, Mode};
+use super::thermal::{is_thermal, thermal_rotor};
 use super::StabilityError;
 use crate::backend::LoadEvaluator;
+use crate::bearing::Balance;
 
 /// The linear model and its modes at one speed.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -28,16 +30,43 @@ impl SpeedAnalysis {
     }
 }
 
-/// Linearises and solves every `(rotor, speed)` point.
+/// Linearises and solves every `(rotor, speed)` point. A rotor whose bearings have a
+/// lubricant and a supply temperature is linearised at each such bearing's `μ(T_eff)`,
+/// the balance solved together with the equilibrium at that speed (`thermal_rotor`;
+/// each bearing's `thermal` holds it); other rotors are linearised as given.
 pub fn analyse_points(
     evaluator: &mut LoadEvaluator,
     points: &[(&RotorDescription, f64)],
 ) -> Vec<Result<SpeedAnalysis, StabilityError>> {
-    linearise_batch(evaluator, points)
-        .into_iter()
-        .zip(points)
-        .map(|(lin, (rotor, speed))| {
-            let lin = lin?;
+    // The thermal rotors first (each its own sequence of equilibria), then every point's
+    // linearisation in one lockstep batch as without temperature.
+    type Heated = Result<(RotorDescription, Vec<Option<Balance>>), StabilityError>;
+    let heated: Vec<Option<Heated>> = points
+        .iter()
+        .map(|(r, w)| is_thermal(r).then(|| thermal_rotor(evaluator, r, *w)))
+        .collect();
+    let mut batch: Vec<(&RotorDescription, f64)> = Vec::with_capacity(points.len());
+    for ((r, w), h) in points.iter().zip(&heated) {
+        match h {
+            None => batch.push((*r, *w)),
+            Some(Ok((hot, _))) => batch.push((hot, *w)),
+            Some(Err(_)) => {}
+        }
+    }
+    let mut lins = linearise_batch(evaluator, &batch).into_iter();
+    points
+        .iter()
+        .zip(heated)
+        .map(|((rotor, speed), h)| {
+            let balances = match h {
+                Some(Err(e)) => return Err(e),
+                Some(Ok((_, b))) => b,
+                None => Vec::new(),
+            };
+            let mut lin = lins.next().expect("one linearisation per point")?;
+            for (bp, bal) in lin.bearings.iter_mut().zip(balances) {
+                bp.thermal = bal;
+            }
             let axial: Vec<(f64, f64)> =
                 rotor.bearings.iter().map(|(p, a)| (*a, p.length)).collect();
             Ok(SpeedAnalysis {

@@ -230,6 +230,10 @@ pub struct BearingPoint {
     pub eccentricity_ratio: f64,
     /// The linearised film (4×4, about the bearing mid-plane).
     pub coefficients: BearingCoefficients,
+    /// The effective-temperature balance at this equilibrium (bearings with a lubricant
+    /// and a supply temperature; the coefficients are at its `μ(T_eff)`), else `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<crate::bearing::Balance>,
 }
 
 /// The linear model at one speed.
@@ -317,15 +321,15 @@ fn initial_guess(rotor: &RotorDescription, speed: f64) -> [f64; 4] {
     [sx, sy, -malpha, beta]
 }
 
-/// Linearises each `(rotor, speed)` about its equilibrium, in lockstep: every Newton
-/// iteration of every point is one evaluator call (all bearings' perturbed states), and
-/// one more call gives the final coefficients with their error estimates.
-pub fn linearise_batch(
+/// The rotor's static equilibrium (fixed frame) or synchronous orbit (rotating frame) at
+/// each `(rotor, speed)`, in lockstep: every Newton iteration of every point is one
+/// evaluator call (all bearings' perturbed states). Returns `q` and the Newton iterations.
+pub fn equilibria_batch(
     evaluator: &mut crate::backend::LoadEvaluator,
     points: &[(&RotorDescription, f64)],
-) -> Vec<Result<LinearRotor, StabilityError>> {
+) -> Vec<Result<([f64; 4], u32), StabilityError>> {
     let n = points.len();
-    let mut out: Vec<Option<Result<LinearRotor, StabilityError>>> = vec![None; n];
+    let mut out: Vec<Option<StabilityError>> = vec![None; n];
     let mut q: Vec<[f64; 4]> = points.iter().map(|(r, w)| initial_guess(r, *w)).collect();
     let mut iters = vec![0u32; n];
     let mut converged = vec![false; n];
@@ -337,7 +341,7 @@ pub fn linearise_batch(
         .collect();
     for (k, (r, w)) in points.iter().enumerate() {
         if !w.is_finite() {
-            out[k] = Some(Err(StabilityError::input("speed", "must be finite")));
+            out[k] = Some(StabilityError::input("speed", "must be finite"));
         } else if r.external(*w).0 == [0.0; 4] {
             // Nothing loads the rotor: the centred journal carries no film load.
             converged[k] = true;
@@ -399,14 +403,14 @@ pub fn linearise_batch(
                 }
             }
             if let Some(err) = failed {
-                out[k] = Some(Err(err));
+                out[k] = Some(err);
                 continue;
             }
             let Some(step) = jac.lu().solve(&res) else {
-                out[k] = Some(Err(StabilityError::NoEquilibrium {
+                out[k] = Some(StabilityError::NoEquilibrium {
                     speed_rad_s: w,
                     reason: "singular Jacobian (a degree of freedom without film stiffness)".into(),
-                }));
+                });
                 continue;
             };
             let mut step = -step;
@@ -452,13 +456,42 @@ pub fn linearise_batch(
             if size <= NEWTON_TOL.max(10.0 * noise) * dmin {
                 converged[k] = true;
             } else if iters[k] >= MAX_NEWTON {
-                out[k] = Some(Err(StabilityError::NoEquilibrium {
+                out[k] = Some(StabilityError::NoEquilibrium {
                     speed_rad_s: w,
                     reason: format!(
                         "Newton did not converge in {MAX_NEWTON} iterations (last step {size:.2e} m)"
                     ),
-                }));
+                });
             }
+        }
+    }
+    out.into_iter()
+        .zip(q.into_iter().zip(iters))
+        .map(|(e, qi)| match e {
+            Some(e) => Err(e),
+            None => Ok(qi),
+        })
+        .collect()
+}
+
+/// Linearises each `(rotor, speed)` about its equilibrium, in lockstep: every Newton
+/// iteration of every point is one evaluator call (all bearings' perturbed states), and
+/// one more call gives the final coefficients with their error estimates.
+pub fn linearise_batch(
+    evaluator: &mut crate::backend::LoadEvaluator,
+    points: &[(&RotorDescription, f64)],
+) -> Vec<Result<LinearRotor, StabilityError>> {
+    let n = points.len();
+    let mut out: Vec<Option<Result<LinearRotor, StabilityError>>> = vec![None; n];
+    let mut q = vec![[0.0; 4]; n];
+    let mut iters = vec![0u32; n];
+    for (k, e) in equilibria_batch(evaluator, points).into_iter().enumerate() {
+        match e {
+            Ok((qk, ik)) => {
+                q[k] = qk;
+                iters[k] = ik;
+            }
+            Err(e) => out[k] = Some(Err(e)),
         }
     }
     // Final coefficients (Richardson) at every converged equilibrium, in one call.
@@ -498,6 +531,7 @@ pub fn linearise_batch(
                         state: job.state,
                         eccentricity_ratio: ei.max(ej),
                         coefficients: c,
+                        thermal: None,
                     });
                 }
                 Err(err) => {

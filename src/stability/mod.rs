@@ -10,6 +10,7 @@ mod error;
 mod linear;
 mod modes;
 mod plots;
+mod thermal;
 
 pub use analysis::{
     analyse_points, geometric_grid, thresholds, FailedSpeed, SpeedAnalysis, Threshold,
@@ -25,10 +26,12 @@ pub use equilibrium::{
 };
 pub use error::StabilityError;
 pub use linear::{
-    bearing_state, linearise_batch, BearingPoint, Frame, LinearRotor, RotorDescription, M4,
+    bearing_state, equilibria_batch, linearise_batch, BearingPoint, Frame, LinearRotor,
+    RotorDescription, M4,
 };
 pub use modes::{mac, max_growth, modes, track_modes, Mode, Shape, TRACK_MIN_MAC};
 pub use plots::{campbell_figure, campbell_svg, damping_figure, damping_svg, LOG_DEC_MARGIN};
+pub use thermal::{is_thermal, thermal_rotor, SWEEP_TOLERANCE_FACTOR};
 
 /// An evaluator for finite differences: an f32 backend (rounding ~1e-7 relative, so
 /// differences over steps of ~1e-4 of the clearance would keep ~3 digits) is replaced by
