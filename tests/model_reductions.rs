@@ -475,6 +475,7 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
                 accuracy: 1e-6,
                 out: out.clone(),
                 full_model: full,
+                max_memory: Default::default(),
             },
         )
         .unwrap();

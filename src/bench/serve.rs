@@ -274,6 +274,7 @@ fn sweep_row(
                 accuracy: 1e-6,
                 quiet: true,
                 full_model: false,
+                max_memory: Default::default(),
             },
             &mut |_| {},
         )
