@@ -2,22 +2,22 @@
 
 use std::process::ExitCode;
 
+use bearing_sweep::app::{
+    coefficients_json_with, stability_scene_file, CoefficientFormat, CoefficientOptions,
+    StabilityOptions,
+};
+use bearing_sweep::app::{
+    eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
+    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
+};
+#[cfg(feature = "service")]
+use bearing_sweep::app::{submit_command, SubmitOptions};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bench::backend::{BenchOptions, BenchTarget};
 use bearing_sweep::bench::{
     bench_all, bench_backend, bench_loads, bench_loads_markdown, bench_rotor, bench_rotor_batch,
     BenchAllOptions, BenchLoadsOptions, BenchRotorOptions,
 };
-use bearing_sweep::cli::{
-    coefficients_json_with, stability_scene_file, CoefficientFormat, CoefficientOptions,
-    StabilityOptions,
-};
-use bearing_sweep::cli::{
-    eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
-    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
-};
-#[cfg(feature = "service")]
-use bearing_sweep::cli::{submit_command, SubmitOptions};
 #[cfg(feature = "postgres")]
 use bearing_sweep::service::pg::{worker_command, WorkerCommandOptions};
 #[cfg(feature = "service")]
@@ -547,7 +547,7 @@ fn name_file(file: &str, e: CliError) -> CliError {
 /// `finite`: the model-error map and the finite-film benchmark.
 fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.map {
-        let (md, files) = bearing_sweep::cli::error_map_files(dir, a.map_resolution)?;
+        let (md, files) = bearing_sweep::app::error_map_files(dir, a.map_resolution)?;
         for path in files {
             eprintln!("wrote {}", path.display());
         }
@@ -652,7 +652,7 @@ fn run(a: RunArgs) -> Result<(), CliError> {
     }
     // Implausible values warn before the run (a mistyped unit can cost minutes).
     if let Ok(doc) = serde_json::from_str::<serde_json::Value>(&text) {
-        for w in bearing_sweep::cli::scene_file_warnings(&doc) {
+        for w in bearing_sweep::app::scene_file_warnings(&doc) {
             eprintln!("{w}");
         }
     }
@@ -872,7 +872,7 @@ fn run_bench_backend(
     if sizes.is_empty() || sizes.contains(&0) {
         return Err(CliError::input("--sizes", "batch sizes must be at least 1"));
     }
-    let accuracy = bearing_sweep::cli::accuracy(accuracy)?;
+    let accuracy = bearing_sweep::app::accuracy(accuracy)?;
     let options = BenchOptions {
         sizes,
         accuracy,

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-use crate::cli::{eval_json, run_command, EvalOptions, SweepRunOptions};
+use crate::app::{eval_json, run_command, EvalOptions, SweepRunOptions};
 use crate::service::{router, start, ServeError, ServiceConfig, SqliteStore, Store};
 use crate::sweep::runner::BatchSize;
 

@@ -1219,7 +1219,7 @@ async fn coefficients(
     let text = String::from_utf8(bytes.to_vec())
         .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
     drop(bytes);
-    let out = tokio::task::spawn_blocking(move || crate::cli::coefficients_json(&text))
+    let out = tokio::task::spawn_blocking(move || crate::app::coefficients_json(&text))
         .await
         .map_err(|e| ApiError::internal(format!("coefficients task: {e}")))??;
     Ok(Json(out).into_response())
