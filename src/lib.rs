@@ -3,11 +3,11 @@
 //! The physics contract is `docs/model.md` (the model, its frames, signs and closed forms);
 //! conventions there hold here.
 
+pub mod app;
 pub mod backend;
 pub mod bearing;
 pub mod bench;
 pub mod budget;
-pub mod cli;
 pub mod integrate;
 pub mod json;
 pub mod numerics;

@@ -2,22 +2,22 @@
 
 use std::process::ExitCode;
 
+use bearing_sweep::app::{
+    coefficients_json_with, stability_scene_file, CoefficientFormat, CoefficientOptions,
+    StabilityOptions,
+};
+use bearing_sweep::app::{
+    eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
+    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
+};
+#[cfg(feature = "service")]
+use bearing_sweep::app::{submit_command, SubmitOptions};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::bench::backend::{BenchOptions, BenchTarget};
 use bearing_sweep::bench::{
     bench_all, bench_backend, bench_loads, bench_loads_markdown, bench_rotor, bench_rotor_batch,
     BenchAllOptions, BenchLoadsOptions, BenchRotorOptions,
 };
-use bearing_sweep::cli::{
-    coefficients_json_with, stability_scene_file, CoefficientFormat, CoefficientOptions,
-    StabilityOptions,
-};
-use bearing_sweep::cli::{
-    eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
-    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
-};
-#[cfg(feature = "service")]
-use bearing_sweep::cli::{submit_command, SubmitOptions};
 #[cfg(feature = "postgres")]
 use bearing_sweep::service::pg::{worker_command, WorkerCommandOptions};
 #[cfg(feature = "service")]
@@ -547,7 +547,7 @@ fn name_file(file: &str, e: CliError) -> CliError {
 /// `finite`: the model-error map and the finite-film benchmark.
 fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.map {
-        let (md, files) = bearing_sweep::cli::error_map_files(dir, a.map_resolution)?;
+        let (md, files) = bearing_sweep::app::error_map_files(dir, a.map_resolution)?;
         for path in files {
             eprintln!("wrote {}", path.display());
         }
@@ -640,18 +640,19 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
 fn run(a: RunArgs) -> Result<(), CliError> {
-    if let Some(m) = &a.max_memory {
-        let bytes =
-            bearing_sweep::budget::parse_size(m).map_err(|r| CliError::input("--max-memory", r))?;
-        bearing_sweep::budget::set_max_memory_bytes(bytes);
-    }
+    let max_memory = match &a.max_memory {
+        Some(m) => bearing_sweep::budget::MemoryBudget::new(
+            bearing_sweep::budget::parse_size(m).map_err(|r| CliError::input("--max-memory", r))?,
+        ),
+        None => bearing_sweep::budget::MemoryBudget::default(),
+    };
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
-        return run_sweep_file(a, &text);
+        return run_sweep_file(a, &text, max_memory);
     }
     // Implausible values warn before the run (a mistyped unit can cost minutes).
     if let Ok(doc) = serde_json::from_str::<serde_json::Value>(&text) {
-        for w in bearing_sweep::cli::scene_file_warnings(&doc) {
+        for w in bearing_sweep::app::scene_file_warnings(&doc) {
             eprintln!("{w}");
         }
     }
@@ -669,6 +670,7 @@ fn run(a: RunArgs) -> Result<(), CliError> {
             accuracy: a.accuracy,
             out: a.out,
             full_model: a.full_model,
+            max_memory,
         },
     )?;
     for n in report.notices {
@@ -685,7 +687,11 @@ fn run(a: RunArgs) -> Result<(), CliError> {
 }
 
 /// `run` of a sweep spec: resumable, shardable, streamed.
-fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
+fn run_sweep_file(
+    a: RunArgs,
+    text: &str,
+    max_memory: bearing_sweep::budget::MemoryBudget,
+) -> Result<(), CliError> {
     let opts = SweepRunOptions {
         out: a.out,
         shard: a.shard,
@@ -694,6 +700,7 @@ fn run_sweep_file(a: RunArgs, text: &str) -> Result<(), CliError> {
         accuracy: a.accuracy,
         quiet: a.quiet,
         full_model: a.full_model,
+        max_memory,
     };
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
 }
@@ -717,6 +724,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         max_states_in_flight: a.max_states_in_flight,
         header_timeout: std::time::Duration::from_secs_f64(a.header_timeout_s.clamp(0.1, 3600.0)),
         max_connections_per_client: a.max_connections_per_client,
+        ..Default::default()
     };
     serve_command(config, &mut |n| eprintln!("{n}"))
 }
@@ -864,7 +872,7 @@ fn run_bench_backend(
     if sizes.is_empty() || sizes.contains(&0) {
         return Err(CliError::input("--sizes", "batch sizes must be at least 1"));
     }
-    let accuracy = bearing_sweep::cli::accuracy(accuracy)?;
+    let accuracy = bearing_sweep::app::accuracy(accuracy)?;
     let options = BenchOptions {
         sizes,
         accuracy,

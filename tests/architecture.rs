@@ -16,7 +16,7 @@ const LEVELS: &[&[&str]] = &[
     &["rotor"],
     &["stability"],
     &["sweep"],
-    &["cli"],
+    &["app"],
     &["service"],
     &["bench"],
 ];

@@ -2,9 +2,9 @@
 //! the GPU (`WGPU_ADAPTER_NAME`, `BEARING_SWEEP_GPU_PRECISION`); `eval --backend gpu`
 //! end to end. One test function, because it changes the process environment.
 
+use bearing_sweep::app::{eval_json, EvalOptions};
 use bearing_sweep::backend::{create_backend, BackendError, BackendKind, Precision};
 use bearing_sweep::bearing::Accuracy;
-use bearing_sweep::cli::{eval_json, EvalOptions};
 
 fn set(key: &str, value: Option<&str>) {
     match value {

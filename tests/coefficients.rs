@@ -397,7 +397,7 @@ fn cli_service_function_and_ross_rows_agree_with_the_library() {
     assert!(ok, "{err}");
     let cli: serde_json::Value = serde_json::from_str(&out).unwrap();
     // The service's one-line entry point gives the same document.
-    let lib = bearing_sweep::cli::coefficients_json(FRISWELL).unwrap();
+    let lib = bearing_sweep::app::coefficients_json(FRISWELL).unwrap();
     assert_eq!(cli["stiffness"], lib["stiffness"]);
     assert_eq!(cli["damping"], lib["damping"]);
     // ... and the same as the library's own pieces.

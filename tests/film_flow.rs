@@ -369,7 +369,7 @@ fn finite_pressure_torque_matches_the_load_moment_identity() {
 /// the direct solve.
 #[test]
 fn eval_reports_film_friction_and_flow() {
-    use bearing_sweep::cli::{eval_json, EvalOptions};
+    use bearing_sweep::app::{eval_json, EvalOptions};
     for model in ["short", "finite"] {
         let input = serde_json::json!({
             "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,

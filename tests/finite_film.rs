@@ -751,7 +751,7 @@ fn rotor_scene_runs_with_either_model() {
 /// (against 1024×128 extrapolated): within a factor 3 either way.
 #[test]
 fn eval_reports_model_and_a_truthful_error_estimate() {
-    use bearing_sweep::cli::{eval_json, EvalOptions};
+    use bearing_sweep::app::{eval_json, EvalOptions};
     let input = serde_json::json!({
         "bearing": {"radius": 0.02, "length": 0.02, "clearance": 3e-4, "viscosity": 0.0242,
                     "model": "finite", "finite": {"accuracy": 2e-3, "inlet": "none"}},

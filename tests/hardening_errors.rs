@@ -270,7 +270,7 @@ fn messages_are_short_and_human() {
     assert!(err.contains("-1e308") && !err.contains("00000000"), "{err}");
     let doc = json!({"bearing": {"radius": 0.02, "length": 0.02, "clearance": 1e-300, "viscosity": 0.0242},
                      "states": [{"xi": 1e10, "yi": 0, "xj": 0, "yj": 0, "vxi": 0, "vyi": 0, "vxj": 0, "vyj": 0, "omega": 1}]});
-    let (out, _) = bearing_sweep::cli::eval_json(&doc.to_string(), Default::default()).unwrap();
+    let (out, _) = bearing_sweep::app::eval_json(&doc.to_string(), Default::default()).unwrap();
     let msg = out["loads"][0]["error"].as_str().unwrap();
     assert!(
         msg.contains("through the wall") && !msg.contains("inf") && !msg.contains(" I"),

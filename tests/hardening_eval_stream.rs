@@ -4,7 +4,7 @@
 //! chunk boundaries, with the states before or after the bearing. Memory and time
 //! figures are in BENCHMARKS.md ("Limits and memory").
 
-use bearing_sweep::cli::{eval_json, eval_stream, EvalOptions, EVAL_CHUNK};
+use bearing_sweep::app::{eval_json, eval_stream, EvalOptions, EVAL_CHUNK};
 use serde_json::{json, Value};
 
 const BEARING: &str =
@@ -139,7 +139,7 @@ fn empty_and_bad_documents() {
 /// forgotten), in either order of the requests.
 #[test]
 fn a_pooled_evaluator_answers_as_a_new_one() {
-    use bearing_sweep::cli::{eval_json_pooled, EvaluatorPool};
+    use bearing_sweep::app::{eval_json_pooled, EvaluatorPool};
     let finite = BEARING.replace(
         '}',
         r#", "model": "finite", "finite": {"n_theta": 32, "n_z": 8}}"#,

@@ -224,7 +224,7 @@ fn eval_command_accepts_subnormal_inputs() {
             {"xi": 1e-4, "yi": 0, "xj": 1e-4, "yj": 0, "vxi": 0.1, "vyi": 0, "vxj": 0, "vyj": 0, "omega": 1e-310}
         ]
     });
-    let (out, _) = bearing_sweep::cli::eval_json(&doc.to_string(), Default::default()).unwrap();
+    let (out, _) = bearing_sweep::app::eval_json(&doc.to_string(), Default::default()).unwrap();
     for (k, l) in out["loads"].as_array().unwrap().iter().enumerate() {
         assert_eq!(l["status"], "ok", "index {k}: {l}");
     }

@@ -8,6 +8,7 @@ mod common;
 
 use std::sync::{Arc, Mutex};
 
+use bearing_sweep::app::{run_scene_file, SceneRunOptions};
 use bearing_sweep::backend::BackendKind;
 use bearing_sweep::backend::{
     BackendError, BackendInfo, CpuBackend, EvaluatorOptions, FilmBackend, LoadEvaluator,
@@ -17,7 +18,6 @@ use bearing_sweep::bearing::{
     film_loads, Accuracy, BearingParams, BearingState, FilmIntegrals, FilmRule, Loads, PackedState,
     RuleSettings,
 };
-use bearing_sweep::cli::{run_scene_file, SceneRunOptions};
 use bearing_sweep::rotor::reductions::{
     squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, ReductionSpec,
     SQUEEZE_GAIN,
@@ -475,6 +475,7 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
                 accuracy: 1e-6,
                 out: out.clone(),
                 full_model: full,
+                max_memory: Default::default(),
             },
         )
         .unwrap();

@@ -7,8 +7,8 @@
 
 use std::path::Path;
 
+use bearing_sweep::app::{eval_json, EvalOptions};
 use bearing_sweep::bearing::Accuracy;
-use bearing_sweep::cli::{eval_json, EvalOptions};
 use bearing_sweep::rotor::load_scene;
 use bearing_sweep::sweep::friction_map::{friction_map, FrictionMapSpec};
 use bearing_sweep::sweep::{parse_spec, Expansion, SweepError};

@@ -3,8 +3,8 @@
 
 mod service_support;
 
+use bearing_sweep::app::{eval_json, EvalOptions};
 use bearing_sweep::bearing::{Accuracy, Lubricant};
-use bearing_sweep::cli::{eval_json, EvalOptions};
 use bearing_sweep::sweep::friction_map::{friction_map, FrictionMapSpec};
 use serde_json::{json, Value};
 
@@ -894,7 +894,7 @@ fn design_chart_thicker_oil_thicker_film_more_power() {
 /// their own error estimates), and the rise grows with speed.
 #[test]
 fn coefficients_solve_equilibrium_and_balance_together() {
-    use bearing_sweep::cli::coefficients_json;
+    use bearing_sweep::app::coefficients_json;
     let doc =
         json!({"bearing": lubricated(json!({})), "speeds": [300.0, 3000.0], "load": [0.0, -200.0]});
     let out = coefficients_json(&doc.to_string()).unwrap();

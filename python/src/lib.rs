@@ -12,12 +12,12 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use serde_json::Value;
 
-use bearing_sweep::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest};
-use bearing_sweep::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
-use bearing_sweep::cli::{
+use bearing_sweep::app::{
     coefficients_json_with, merge_command, ross_toml, run_command, stability_scene_file, CliError,
     CoefficientOptions, RossVersion, StabilityOptions, SweepRunOptions, EVAL_CHUNK,
 };
+use bearing_sweep::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest};
+use bearing_sweep::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
 use bearing_sweep::sweep::runner::{BatchSize, Shard};
 
 /// Columns of a state row, in order (as `eval` reads a state object).
@@ -127,7 +127,7 @@ fn eval_states<'py>(
     let doc: Value = serde_json::from_str(bearing)
         .map_err(|e| input_error(py, "bearing", &format!("not valid JSON: {e}")))?;
     let params: BearingParams =
-        bearing_sweep::cli::from_value(&doc, "bearing").map_err(|e| py_error(py, e))?;
+        bearing_sweep::app::from_value(&doc, "bearing").map_err(|e| py_error(py, e))?;
     params.validate().map_err(|e| {
         input_error(
             py,

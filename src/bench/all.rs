@@ -12,9 +12,9 @@ use std::time::Instant;
 use super::backend::{BenchOptions, BenchReport, BenchTarget};
 use super::loads::{bench_loads, bench_loads_markdown, BenchLoadsOptions, BenchLoadsReport};
 use super::{bench_backend, bench_rotor, bench_rotor_batch, BenchRotorOptions};
+use crate::app::CliError;
 use crate::backend::{BackendError, GpuOptions};
 use crate::bearing::Accuracy;
-use crate::cli::CliError;
 use crate::plot::{line_plot_svg, Scale, Series};
 
 /// Viscosity of the stiff rotor variant, Pa·s (83 times the paper's 0.0242; BENCHMARKS.md

@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 use super::backend::{run_bench, BenchOptions, BenchReport};
-use crate::cli::CliError;
+use crate::app::CliError;
 
 /// Runs the backend benchmark; returns the report and its Markdown rendering.
 pub fn bench_backend(options: &BenchOptions) -> Result<(BenchReport, String), CliError> {

@@ -10,6 +10,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::app::CliError;
 use crate::backend::{
     BackendError, CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest,
     LoadResult, Precision,
@@ -18,7 +19,6 @@ use crate::bearing::reference::reference_loads;
 use crate::bearing::{
     baseline_loads, pack_state, Accuracy, BearingParams, BearingState, FilmRule, ACCURACY_LEVELS,
 };
-use crate::cli::CliError;
 use crate::plot::{line_plot_svg, Scale, Series};
 
 /// Options of `bench loads`.

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::app::CliError;
 use crate::backend::{CpuBackend, LoadEvaluator};
 use crate::bearing::Accuracy;
-use crate::cli::CliError;
 use crate::integrate::Method;
 use crate::plot::{line_plot_svg, Scale, Series};
 use crate::rotor::{load_scene, simulate_batch, Scene, SimResult};

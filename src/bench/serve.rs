@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-use crate::cli::{eval_json, run_command, EvalOptions, SweepRunOptions};
+use crate::app::{eval_json, run_command, EvalOptions, SweepRunOptions};
 use crate::service::{router, start, ServeError, ServiceConfig, SqliteStore, Store};
 use crate::sweep::runner::BatchSize;
 
@@ -274,6 +274,7 @@ fn sweep_row(
                 accuracy: 1e-6,
                 quiet: true,
                 full_model: false,
+                max_memory: Default::default(),
             },
             &mut |_| {},
         )

@@ -10,8 +10,8 @@ mod simulate;
 
 pub use model::{RotorModel, DIM, JAC_DIM};
 pub use scene::{
-    load_scene, BearingSpec, ContactSpec, FilmSpec, InitialSpec, IntegratorSpec, ModelKind,
-    RotorSpec, Scene, SceneError, SpinMode,
+    load_scene, load_scene_within, BearingSpec, ContactSpec, FilmSpec, InitialSpec, IntegratorSpec,
+    ModelKind, RotorSpec, Scene, SceneError, SpinMode,
 };
 pub use simulate::simulate_batch_streaming_cancellable;
 pub use simulate::{numbers_per_sample, sample_cap, simulate_batch_capped};

@@ -326,8 +326,14 @@ fn finite(path: &str, vs: &[f64]) -> Result<(), SceneError> {
 }
 
 impl Scene {
-    /// Checks every field; the error names the JSON path (relative to the scene) and why.
+    /// Checks every field within the default memory budget (2 GiB); the error names the
+    /// JSON path (relative to the scene) and why.
     pub fn validate(&self) -> Result<(), SceneError> {
+        self.validate_within(crate::budget::MemoryBudget::default())
+    }
+
+    /// [`Scene::validate`] within the memory budget `budget`.
+    pub fn validate_within(&self, budget: crate::budget::MemoryBudget) -> Result<(), SceneError> {
         let r = &self.rotor;
         positive("rotor.mass", r.mass)?;
         for (k, &i) in r.inertia.iter().enumerate() {
@@ -402,15 +408,16 @@ impl Scene {
         }
         // Samples are decimated to fit the budget (docs/cli.md "Limits"): only a scene whose
         // samples cannot fit even at the floor cap is refused.
-        crate::budget::check(
-            &format!(
-                "keeping {} samples x {} bearings",
-                crate::budget::MIN_SAMPLE_CAP,
-                self.bearings.len()
-            ),
-            self.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP),
-        )
-        .map_err(|r| err("bearings", r))?;
+        budget
+            .check(
+                &format!(
+                    "keeping {} samples x {} bearings",
+                    crate::budget::MIN_SAMPLE_CAP,
+                    self.bearings.len()
+                ),
+                self.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP),
+            )
+            .map_err(|r| err("bearings", r))?;
         if let Some(h) = g.fixed_step {
             positive("integrator.fixed_step", h)?;
         }
@@ -490,7 +497,16 @@ impl Scene {
 /// Loads a scene file: one scene object, or `{"scenes": [...]}`. A scene with
 /// `compare_ideal: true` yields two: itself (model `bearing`) and `<name>-ideal`.
 /// Errors name the JSON path (`scenes[2].bearings[1].clearance: must be positive`).
+/// Checked within the default memory budget (2 GiB).
 pub fn load_scene(json: &str) -> Result<Vec<Scene>, SceneError> {
+    load_scene_within(json, crate::budget::MemoryBudget::default())
+}
+
+/// [`load_scene`] within the memory budget `budget`.
+pub fn load_scene_within(
+    json: &str,
+    budget: crate::budget::MemoryBudget,
+) -> Result<Vec<Scene>, SceneError> {
     let doc = crate::json::parse_json(json).map_err(|e| err(e.path, e.reason))?;
     let (items, prefix): (Vec<&serde_json::Value>, bool) = match doc.get("scenes") {
         Some(serde_json::Value::Array(list)) if doc.as_object().is_some_and(|o| o.len() == 1) => {
@@ -522,13 +538,15 @@ pub fn load_scene(json: &str) -> Result<Vec<Scene>, SceneError> {
             };
             err(crate::json::join_path(&base, &at), reason)
         })?;
-        scene.validate().map_err(|e| err(path(&e.path), e.reason))?;
+        scene
+            .validate_within(budget)
+            .map_err(|e| err(path(&e.path), e.reason))?;
         if scene.compare_ideal {
             let mut ideal = scene.clone();
             ideal.model = ModelKind::Ideal;
             ideal.compare_ideal = false;
             ideal.name = format!("{}-ideal", scene.name);
-            ideal.validate().map_err(|e| {
+            ideal.validate_within(budget).map_err(|e| {
                 err(
                     path(&e.path),
                     format!("{} (in the ideal-joint comparison)", e.reason),

@@ -1154,7 +1154,7 @@ pub fn simulate_batch(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    let cap = sample_cap(scenes);
+    let cap = sample_cap(scenes, crate::budget::MemoryBudget::default());
     stored(scenes, evaluator, progress, true, None, cap)
 }
 
@@ -1178,10 +1178,10 @@ fn thermal_bearings(scene: &Scene) -> usize {
 }
 
 /// The per-simulation sample cap when all of `scenes` are in flight at once, from the
-/// memory budget ([`crate::budget::sample_cap`]).
-pub fn sample_cap(scenes: &[Scene]) -> usize {
+/// memory budget `budget` ([`crate::budget::MemoryBudget::sample_cap`]).
+pub fn sample_cap(scenes: &[Scene], budget: crate::budget::MemoryBudget) -> usize {
     let numbers = scenes.iter().map(numbers_per_sample).max().unwrap_or(6);
-    crate::budget::sample_cap(scenes.len(), numbers)
+    budget.sample_cap(scenes.len(), numbers)
 }
 
 /// [`simulate_batch`] keeping at most `cap` samples per simulation (rounded up to an
@@ -1203,14 +1203,14 @@ pub fn simulate_batch_streaming(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    let cap = sample_cap(scenes);
+    let cap = sample_cap(scenes, crate::budget::MemoryBudget::default());
     stored(scenes, evaluator, progress, false, None, cap)
 }
 
 /// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
 /// running end at once with a `cancelled` load failure (to be discarded by the caller).
 /// At most `cap` samples are kept per simulation (the caller knows how many variants are
-/// in flight across threads: [`crate::budget::sample_cap`]).
+/// in flight across threads: [`crate::budget::MemoryBudget::sample_cap`]).
 pub fn simulate_batch_streaming_cancellable(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,

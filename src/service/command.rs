@@ -1,7 +1,7 @@
 //! `bearing-sweep serve`: a thin wrapper over [`super::serve_blocking`].
 
 use super::{serve_blocking, ServeError, ServiceConfig};
-use crate::cli::{CliError, TOKEN_ENV};
+use crate::app::{CliError, TOKEN_ENV};
 
 /// Runs the service until SIGTERM or Ctrl-C; notices go to `notice` (never the token).
 pub fn serve_command(

@@ -7,7 +7,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use super::store::StoreError;
-use crate::cli::CliError;
+use crate::app::CliError;
 use crate::sweep::SweepError;
 
 /// `Retry-After` of a 503 for an unreachable store, s (a database restart takes a few).

@@ -1,6 +1,6 @@
 //! `POST /api/eval` with coalescing: requests that arrive within a short window are
 //! grouped by bearing and accuracy, their states concatenated into one `eval` input, run
-//! as one backend call ([`crate::cli::eval_json`], the library function behind `eval`),
+//! as one backend call ([`crate::app::eval_json`], the library function behind `eval`),
 //! and the loads split back so each caller gets exactly its own. A merged call that
 //! fails (one caller's bad state) is retried per request, so every error names the
 //! caller's own JSON path.
@@ -14,8 +14,8 @@ use serde_json::{Map, Value};
 use tokio::sync::{mpsc, oneshot};
 
 use super::error::ApiError;
+use crate::app::{eval_json_pooled, EvalOptions, EvaluatorPool};
 use crate::backend::BackendKind;
-use crate::cli::{eval_json_pooled, EvalOptions, EvaluatorPool};
 
 /// Queued requests before new ones wait (back-pressure on the HTTP handlers).
 const QUEUE: usize = 4096;

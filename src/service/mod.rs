@@ -70,6 +70,9 @@ pub struct ServiceConfig {
     /// Most connections open at once from one client address (default 512; more are
     /// closed at once).
     pub max_connections_per_client: usize,
+    /// Memory budget of one sweep (default 2 GiB, as `run`'s): specs estimated above it
+    /// are refused with 422 naming the field; rotor samples are capped by it.
+    pub max_memory: crate::budget::MemoryBudget,
 }
 
 impl Default for ServiceConfig {
@@ -89,6 +92,7 @@ impl Default for ServiceConfig {
             max_states_in_flight: 1 << 16,
             header_timeout: Duration::from_secs(10),
             max_connections_per_client: 512,
+            max_memory: crate::budget::MemoryBudget::default(),
         }
     }
 }
@@ -172,7 +176,7 @@ pub struct Running {
 /// called inside a tokio runtime).
 pub fn start(config: ServiceConfig, store: Arc<dyn Store>) -> Result<Running, ServeError> {
     check_config(&config)?;
-    let scheduler = Scheduler::new(store.clone(), config.max_running)?;
+    let scheduler = Scheduler::new(store.clone(), config.max_running, config.max_memory)?;
     tokio::spawn(scheduler.clone().run());
     let coalescer = Coalescer::start(config.eval_window, config.eval_backend);
     let (tx, rx) = tokio::sync::watch::channel(false);

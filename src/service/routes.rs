@@ -475,10 +475,11 @@ async fn submit_sweep(
     drop(bytes);
     let max_variants = st.config.max_variants;
     let max_queued = st.config.max_queued;
+    let max_memory = st.config.max_memory;
     let store = st.store.clone();
     let scheduler = st.scheduler.clone();
     let created = blocking(move || {
-        let (parsed, total) = check_submission(&doc, max_variants)?;
+        let (parsed, total) = check_submission(&doc, max_variants, max_memory)?;
         // Counted and inserted in one transaction (429 at the limit).
         let options = serde_json::to_value(options).unwrap_or_default();
         let new = NewSweep::submitted(sweep_id(), doc, &parsed, total, options);
@@ -1218,7 +1219,7 @@ async fn coefficients(
     let text = String::from_utf8(bytes.to_vec())
         .map_err(|_| ApiError::bad_request("$", "the body is not UTF-8"))?;
     drop(bytes);
-    let out = tokio::task::spawn_blocking(move || crate::cli::coefficients_json(&text))
+    let out = tokio::task::spawn_blocking(move || crate::app::coefficients_json(&text))
         .await
         .map_err(|e| ApiError::internal(format!("coefficients task: {e}")))??;
     Ok(Json(out).into_response())

@@ -21,6 +21,7 @@ use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
 use crate::sweep::runner::{run_variants, BatchSize, RunnerOptions};
 use crate::sweep::simulator::prepare_simulator;
 use crate::sweep::sink::VariantSink;
+use crate::sweep::SweepOptions;
 
 /// Events buffered per sweep for slow SSE readers (older ones are skipped).
 const EVENT_BUFFER: usize = 1024;
@@ -160,6 +161,8 @@ pub struct Scheduler {
     /// Parsed specs by sweep id: a spec is parsed once in this process (at submission, or
     /// at its first use after a restart), not again on every run or GET of its result.
     specs: Mutex<SpecCache>,
+    /// Memory budget each sweep is parsed and run within (`ServiceConfig::max_memory`).
+    max_memory: crate::budget::MemoryBudget,
     /// Metrics counters.
     pub counters: SchedulerCounters,
 }
@@ -178,6 +181,7 @@ impl Scheduler {
     pub fn new(
         store: Arc<dyn Store>,
         max_running: usize,
+        max_memory: crate::budget::MemoryBudget,
     ) -> Result<Arc<Self>, super::store::StoreError> {
         for s in store.list_sweeps()? {
             if s.status == SweepStatus::Running {
@@ -198,6 +202,7 @@ impl Scheduler {
             draining: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
             specs: Mutex::new(SpecCache::new(SPEC_CACHE, SPEC_CACHE_BYTES)),
+            max_memory,
             counters: SchedulerCounters::default(),
         }))
     }
@@ -276,7 +281,7 @@ impl Scheduler {
         {
             return Ok(p);
         }
-        let parsed = Arc::new(parse_sweep_doc(&row.spec)?);
+        let parsed = Arc::new(parse_sweep_doc(&row.spec, self.max_memory)?);
         self.remember_spec(&row.id, parsed.clone());
         Ok(parsed)
     }
@@ -422,7 +427,10 @@ impl Scheduler {
             Err(e) => return failed(e.to_string()),
         };
         let choice = match parse_options(&row.options) {
-            Ok(c) => c,
+            Ok(c) => SweepOptions {
+                max_memory: self.max_memory,
+                ..c
+            },
             Err(e) => return failed(e.to_string()),
         };
         let spec = match &*parsed {
@@ -479,7 +487,7 @@ impl Scheduler {
         let progress = Progress::silent(job.progress.clone());
         let report = run_variants(
             spec,
-            prepared.validator,
+            &*prepared.validator,
             prepared.sim.as_mut(),
             &mut sink,
             &opts,
@@ -649,7 +657,7 @@ mod tests {
             let values: Vec<f64> = (0..n).map(|k| k as f64).collect();
             let doc = json!({"kind": "synthetic", "base": {"spin": 1.0},
                              "axes": [{"path": "spin", "values": values}]});
-            Arc::new(parse_sweep_doc(&doc).unwrap())
+            Arc::new(parse_sweep_doc(&doc, Default::default()).unwrap())
         };
         let w = spec_weight(&spec(10));
         let canonical = match &*spec(10) {
@@ -698,13 +706,13 @@ mod tests {
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0, 70.0]}]});
         for id in ["boom", "fine"] {
-            let parsed = parse_sweep_doc(&spec).unwrap();
+            let parsed = parse_sweep_doc(&spec, Default::default()).unwrap();
             let mut new = NewSweep::submitted(id.into(), spec.clone(), &parsed, 3, json!({}));
             new.name = id.into();
             assert_eq!(parsed.count(), 3);
             store.insert_sweep(&new).unwrap();
         }
-        let sched = Scheduler::new(store.clone(), 1).unwrap();
+        let sched = Scheduler::new(store.clone(), 1, Default::default()).unwrap();
         tokio::spawn(sched.clone().run());
         let start = std::time::Instant::now();
         let status = |id: &str| store.sweep(id).unwrap().unwrap();
@@ -737,12 +745,12 @@ mod tests {
         ));
         let spec = json!({"kind": "synthetic", "base": {"spin": 100.0},
                           "axes": [{"path": "spin", "values": [50.0, 60.0]}]});
-        let parsed = parse_sweep_doc(&spec).unwrap();
+        let parsed = parse_sweep_doc(&spec, Default::default()).unwrap();
         let mut new = NewSweep::submitted("full".into(), spec, &parsed, 2, json!({}));
         new.name = "full".into();
         assert_eq!(parsed.count(), 2);
         store.insert_sweep(&new).unwrap();
-        let sched = Scheduler::new(store.clone(), 1).unwrap();
+        let sched = Scheduler::new(store.clone(), 1, Default::default()).unwrap();
         let events = sched.job("full").events.subscribe();
         tokio::spawn(sched.clone().run());
         let start = std::time::Instant::now();

@@ -6,26 +6,32 @@ use serde_json::Value;
 
 use super::error::ApiError;
 use crate::backend::BackendKind;
+use crate::budget::MemoryBudget;
 use crate::sweep::{Expansion, RequestedAccuracy, SweepError, SweepOptions, SweepSpec};
 
 pub use crate::sweep::job::ParsedSweep;
 
-/// Parses a spec document as `run` does, refusing a `base` given as a file name.
-pub fn parse_sweep_doc(doc: &Value) -> Result<ParsedSweep, SweepError> {
+/// Parses a spec document as `run` does within the memory budget `budget`, refusing a
+/// `base` given as a file name.
+pub fn parse_sweep_doc(doc: &Value, budget: MemoryBudget) -> Result<ParsedSweep, SweepError> {
     if doc.get("base").is_some_and(Value::is_string) {
         return Err(SweepError::spec(
             "base",
             "a file name is not accepted by the service (no request reaches its filesystem); put the scene object inline",
         ));
     }
-    crate::sweep::job::parse_sweep(doc, None)
+    crate::sweep::job::parse_sweep_within(doc, None, budget)
 }
 
 /// A submission checked as `POST /api/sweeps` and `POST /api/validate` check it: parsed,
 /// within the service's `max_variants`, and (a runner sweep) every variant valid. Returns
 /// the parsed sweep and its variant count.
-pub fn check_submission(doc: &Value, max_variants: u64) -> Result<(ParsedSweep, u64), ApiError> {
-    let parsed = parse_sweep_doc(doc)?;
+pub fn check_submission(
+    doc: &Value,
+    max_variants: u64,
+    budget: MemoryBudget,
+) -> Result<(ParsedSweep, u64), ApiError> {
+    let parsed = parse_sweep_doc(doc, budget)?;
     let total = parsed.count();
     if total > max_variants {
         return Err(ApiError::invalid(
@@ -34,16 +40,16 @@ pub fn check_submission(doc: &Value, max_variants: u64) -> Result<(ParsedSweep, 
         ));
     }
     if let ParsedSweep::Runner(spec) = &parsed {
-        validate_variants(spec)?;
+        validate_variants(spec, budget)?;
     }
     Ok((parsed, total))
 }
 
 /// Checks every variant of a runner sweep (so a bad variant gets 422 before anything is
 /// stored).
-pub fn validate_variants(spec: &SweepSpec) -> Result<(), SweepError> {
-    let validator = crate::sweep::simulator::scene_validator(spec.kind);
-    Expansion::new(spec).validate_all(spec, validator)
+pub fn validate_variants(spec: &SweepSpec, budget: MemoryBudget) -> Result<(), SweepError> {
+    let validator = crate::sweep::simulator::scene_validator_within(spec.kind, budget);
+    Expansion::new(spec).validate_all(spec, &*validator)
 }
 
 /// Run options from the query parameters (`backend`, `accuracy`, `full_model`) with
@@ -80,6 +86,7 @@ pub fn options_from_query(
         backend,
         accuracy,
         full_model,
+        ..SweepOptions::default()
     })
 }
 

@@ -175,9 +175,10 @@ async fn validate(
     let doc: Value = serde_json::from_slice(&bytes)
         .map_err(|e| ApiError::bad_request("$", format!("not valid JSON: {e}")))?;
     let max_variants = st.config.max_variants;
+    let max_memory = st.config.max_memory;
     // Expanding and checking every variant is CPU work: off the async threads.
     tokio::task::spawn_blocking(move || {
-        let (parsed, total) = super::sweeps::check_submission(&doc, max_variants)?;
+        let (parsed, total) = super::sweeps::check_submission(&doc, max_variants, max_memory)?;
         let kind = parsed.kind().name();
         Ok(Json(
             json!({"valid": true, "kind": kind, "name": parsed.name(), "variants": total}),
@@ -258,7 +259,10 @@ async fn variant_series(
                 count.saturating_sub(1)
             )));
         }
-        let choice = super::sweeps::parse_options(&row.options)?;
+        let choice = crate::sweep::SweepOptions {
+            max_memory: st.config.max_memory,
+            ..super::sweeps::parse_options(&row.options)?
+        };
         use crate::sweep::reduce::SeriesGroup;
         spec.reductions.keep = [
             SeriesGroup::Orbit,

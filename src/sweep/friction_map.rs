@@ -214,7 +214,11 @@ pub struct FrictionMapDoc {
 
 /// The numbers of a typed [`NumbersDoc`] at `at`: a list of at least one, or 1 to
 /// [`MAX_VARIANTS`] spaced values (logspace bounds positive) within the memory budget.
-pub fn numbers_from_doc(d: &NumbersDoc, at: &str) -> Result<Vec<f64>, SweepError> {
+pub fn numbers_from_doc(
+    d: &NumbersDoc,
+    at: &str,
+    budget: crate::budget::MemoryBudget,
+) -> Result<Vec<f64>, SweepError> {
     let (k, r) = match d {
         NumbersDoc::List(a) => {
             if a.is_empty() {
@@ -240,11 +244,12 @@ pub fn numbers_from_doc(d: &NumbersDoc, at: &str) -> Result<Vec<f64>, SweepError
         ));
     }
     // Every value makes at least one point of the map: check before building them.
-    crate::budget::check(
-        &format!("{n} values (one map point each at least)"),
-        n as f64 * crate::budget::BYTES_PER_MAP_POINT as f64,
-    )
-    .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
+    budget
+        .check(
+            &format!("{n} values (one map point each at least)"),
+            n as f64 * crate::budget::BYTES_PER_MAP_POINT as f64,
+        )
+        .map_err(|r| SweepError::spec(format!("{p}[2]"), r))?;
     let values = if k == "logspace" {
         for (i, x) in [(0, a), (1, b)] {
             if x <= 0.0 {
@@ -275,8 +280,17 @@ pub fn numbers_from_doc(d: &NumbersDoc, at: &str) -> Result<Vec<f64>, SweepError
 }
 
 impl FrictionMapSpec {
-    /// Parses and checks a `kind: "friction_map"` document.
+    /// Parses and checks a `kind: "friction_map"` document within the default memory
+    /// budget (2 GiB).
     pub fn parse(doc: &Value) -> Result<Self, SweepError> {
+        Self::parse_within(doc, crate::budget::MemoryBudget::default())
+    }
+
+    /// [`FrictionMapSpec::parse`] within the memory budget `budget`.
+    pub fn parse_within(
+        doc: &Value,
+        budget: crate::budget::MemoryBudget,
+    ) -> Result<Self, SweepError> {
         let d: FrictionMapDoc = from_value(doc, "")?;
         let b = d
             .bearing
@@ -296,19 +310,22 @@ impl FrictionMapSpec {
                 .as_ref()
                 .ok_or_else(|| SweepError::spec("load", "missing (loads in N)"))?,
             "load",
+            budget,
         )?;
         let speed = numbers_from_doc(
             d.speed
                 .as_ref()
                 .ok_or_else(|| SweepError::spec("speed", "missing (speeds in rad/s)"))?,
             "speed",
+            budget,
         )?;
         let points = load.len() as f64 * speed.len() as f64;
-        crate::budget::check(
-            &format!("a map of {} loads x {} speeds", load.len(), speed.len()),
-            points * crate::budget::BYTES_PER_MAP_POINT as f64,
-        )
-        .map_err(|r| SweepError::spec("speed", r))?;
+        budget
+            .check(
+                &format!("a map of {} loads x {} speeds", load.len(), speed.len()),
+                points * crate::budget::BYTES_PER_MAP_POINT as f64,
+            )
+            .map_err(|r| SweepError::spec("speed", r))?;
         for (k, &w) in load.iter().enumerate() {
             if w < 0.0 {
                 return Err(SweepError::spec(

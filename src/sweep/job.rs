@@ -56,9 +56,19 @@ impl ParsedSweep {
 /// Parses a sweep document of any kind (dispatching on [`SweepKind::of`]); `spec_dir`
 /// resolves a `base` given as a file name.
 pub fn parse_sweep(doc: &Value, spec_dir: Option<&Path>) -> Result<ParsedSweep, SweepError> {
+    parse_sweep_within(doc, spec_dir, crate::budget::MemoryBudget::default())
+}
+
+/// [`parse_sweep`] within the memory budget `budget` (a friction map's size is checked
+/// against it as it is parsed).
+pub fn parse_sweep_within(
+    doc: &Value,
+    spec_dir: Option<&Path>,
+    budget: crate::budget::MemoryBudget,
+) -> Result<ParsedSweep, SweepError> {
     match SweepKind::of(doc) {
         Some(SweepKind::FrictionMap) => Ok(ParsedSweep::FrictionMap(Box::new(
-            FrictionMapSpec::parse(doc)?,
+            FrictionMapSpec::parse_within(doc, budget)?,
         ))),
         _ => Ok(ParsedSweep::Runner(Box::new(parse_spec(doc, spec_dir)?))),
     }

@@ -7,6 +7,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::backend::BackendKind;
 use crate::bearing::Accuracy;
+use crate::budget::MemoryBudget;
 
 /// A requested film accuracy (relative): a positive number not tighter than 1e-12. It is
 /// kept as given (stored and echoed so); [`RequestedAccuracy::level`] is the calibrated
@@ -72,6 +73,11 @@ pub struct SweepOptions {
     pub accuracy: RequestedAccuracy,
     /// Every model reduction off (`--full-model`, `?full_model`); default false.
     pub full_model: bool,
+    /// The memory budget the spec is checked against and rotor samples are capped by
+    /// (`run --max-memory`, the service's `ServiceConfig::max_memory`); default 2 GiB.
+    /// Not stored with a queued sweep: whoever runs it passes its own.
+    #[serde(skip)]
+    pub max_memory: MemoryBudget,
 }
 
 impl Default for SweepOptions {
@@ -80,6 +86,7 @@ impl Default for SweepOptions {
             backend: BackendKind::Auto,
             accuracy: RequestedAccuracy::default(),
             full_model: false,
+            max_memory: MemoryBudget::default(),
         }
     }
 }

@@ -9,6 +9,7 @@ use super::runner::{BatchSimulator, Outcome, Reduced, VariantJob};
 use super::stream::{streams, RunReducer};
 use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
 use crate::bearing::Accuracy;
+use crate::budget::MemoryBudget;
 use crate::rotor::reductions::{evaluator_report, ReductionSpec};
 use std::sync::atomic::AtomicBool;
 
@@ -17,14 +18,20 @@ use crate::rotor::{Scene, SimResult};
 
 /// Variants per batch for `--batch-size auto` on the CPU: enough variants for every
 /// thread's lockstep sub-batch, few enough that the running variants' sampled series
-/// (at most [`crate::budget::sample_cap`] samples each, decimated beyond) leave
+/// (at most [`crate::budget::MemoryBudget::sample_cap`] samples each, decimated beyond) leave
 /// each a cap of thousands of samples (2^14 under the default 2 GiB budget).
 pub const AUTO_BATCH_CPU: usize = 256;
 /// ... on a GPU: thousands of states per dispatch amortise its launch cost.
 pub const AUTO_BATCH_GPU: usize = 4096;
 
-/// Checks one variant's scene: `Err((JSON path, reason))`.
+/// Checks one variant's scene within the default memory budget: `Err((JSON path,
+/// reason))`.
 pub fn validate_scene(v: &Value) -> Result<(), (String, String)> {
+    validate_scene_within(v, MemoryBudget::default())
+}
+
+/// [`validate_scene`] within the memory budget `budget`.
+pub fn validate_scene_within(v: &Value, budget: MemoryBudget) -> Result<(), (String, String)> {
     let scene: Scene = crate::json::deserialize_at(v)?;
     if scene.compare_ideal {
         return Err((
@@ -32,7 +39,9 @@ pub fn validate_scene(v: &Value) -> Result<(), (String, String)> {
             "not used in sweeps (one variant is one simulation): sweep an axis {\"path\": \"model\", \"values\": [\"bearing\", \"ideal\"]} instead".into(),
         ));
     }
-    scene.validate().map_err(|e| (e.path, e.reason))
+    scene
+        .validate_within(budget)
+        .map_err(|e| (e.path, e.reason))
 }
 
 /// The status name of a simulation (`"ok"` when it reached `t_end`).
@@ -147,6 +156,8 @@ pub struct RotorSimulator {
     /// The spec's reductions: with a window of fixed length each variant is reduced as it
     /// runs and keeps only what they need ([`super::stream`]).
     reductions: Option<ReductionOptions>,
+    /// The memory budget the batch's sample caps come from (default 2 GiB).
+    max_memory: MemoryBudget,
 }
 
 impl RotorSimulator {
@@ -172,7 +183,13 @@ impl RotorSimulator {
             workers,
             full_model: false,
             reductions: None,
+            max_memory: MemoryBudget::default(),
         }
+    }
+
+    /// The memory budget the batch's sample caps come from (`run --max-memory`).
+    pub fn set_max_memory(&mut self, budget: MemoryBudget) {
+        self.max_memory = budget;
     }
 
     /// `--full-model`: every variant's scene gets every reduction off.
@@ -270,7 +287,7 @@ impl BatchSimulator for RotorSimulator {
             }
         }
         // The whole batch is in flight at once (across threads): it shares the budget.
-        let cap = crate::rotor::sample_cap(&scenes);
+        let cap = crate::rotor::sample_cap(&scenes, self.max_memory);
         let opts = self.reductions.as_ref();
         if self.workers.len() <= 1 || scenes.len() <= 1 {
             let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);

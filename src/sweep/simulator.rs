@@ -5,7 +5,7 @@
 use serde_json::{json, Value};
 
 use super::expand::SceneValidator;
-use super::rotor_sim::{validate_scene, RotorSimulator};
+use super::rotor_sim::{validate_scene, validate_scene_within, RotorSimulator};
 use super::runner::BatchSimulator;
 use super::synthetic::{self, SyntheticSimulator};
 use super::{SweepError, SweepKind, SweepOptions, SweepSpec};
@@ -13,6 +13,7 @@ use crate::backend::{
     chosen_cpu, create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator,
 };
 use crate::bearing::Accuracy;
+use crate::budget::MemoryBudget;
 use crate::rotor::reductions::{evaluator_options, ReductionSpec};
 
 /// Why no simulator could be built.
@@ -31,13 +32,25 @@ pub struct PreparedSimulator {
     /// The simulator.
     pub sim: Box<dyn BatchSimulator>,
     /// Its scene validator (every variant is checked with it).
-    pub validator: &'static SceneValidator,
+    pub validator: Box<SceneValidator>,
     /// Settings that change results (recorded in the result and the stream header).
     pub settings: Value,
 }
 
-/// The scene validator of a sweep kind: every variant of a spec is checked with it (one
-/// place, so `run`, the service and the workers agree on what a valid variant is).
+/// The scene validator of a sweep kind within the memory budget `budget`: every variant of
+/// a spec is checked with it (one place, so `run`, the service and the workers agree on
+/// what a valid variant is).
+pub fn scene_validator_within(kind: SweepKind, budget: MemoryBudget) -> Box<SceneValidator> {
+    match kind {
+        SweepKind::Synthetic => Box::new(move |v| synthetic::validate_within(v, budget)),
+        SweepKind::Rotor | SweepKind::Stability => {
+            Box::new(move |v| validate_scene_within(v, budget))
+        }
+        SweepKind::FrictionMap => Box::new(no_scenes),
+    }
+}
+
+/// [`scene_validator_within`] the default memory budget (2 GiB).
 pub fn scene_validator(kind: SweepKind) -> &'static SceneValidator {
     match kind {
         SweepKind::Synthetic => &synthetic::validate,
@@ -68,11 +81,12 @@ pub fn prepare_simulator(
         ))),
         SweepKind::Synthetic => Ok(PreparedSimulator {
             sim: Box::new(SyntheticSimulator),
-            validator: scene_validator(spec.kind),
+            validator: scene_validator_within(spec.kind, choice.max_memory),
             settings: json!({"simulator": "synthetic"}),
         }),
         SweepKind::Stability => {
-            super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
+            let validator = scene_validator_within(spec.kind, choice.max_memory);
+            super::Expansion::new(spec).validate_all(spec, &*validator)?;
             // The coefficients are differences of film loads: always the tightest level
             // (docs/cli.md "Coefficients and stability").
             let tight = Accuracy::new(1e-12).expect("a calibrated level");
@@ -94,12 +108,13 @@ pub fn prepare_simulator(
             let settings = sim.settings(tight.rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
-                validator: scene_validator(spec.kind),
+                validator,
                 settings,
             })
         }
         SweepKind::Rotor => {
-            super::Expansion::new(spec).validate_all(spec, scene_validator(spec.kind))?;
+            let validator = scene_validator_within(spec.kind, choice.max_memory);
+            super::Expansion::new(spec).validate_all(spec, &*validator)?;
             let threads = rayon::current_num_threads();
             let (backend, n) = if choice.backend == BackendKind::Auto
                 && threads >= SHORT_FILM_SWEEP_CPU_THREADS
@@ -140,10 +155,11 @@ pub fn prepare_simulator(
             );
             sim.set_full_model(choice.full_model);
             sim.set_reductions(&spec.reductions);
+            sim.set_max_memory(choice.max_memory);
             let settings = sim.settings(choice.accuracy.level().rtol());
             Ok(PreparedSimulator {
                 sim: Box::new(sim),
-                validator: scene_validator(spec.kind),
+                validator,
                 settings,
             })
         }

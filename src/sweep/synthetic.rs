@@ -117,8 +117,17 @@ pub struct SynthScene {
     pub bearings: Vec<SynthBearing>,
 }
 
-/// Validates a synthetic scene: `Err((json path, reason))`.
+/// Validates a synthetic scene within the default memory budget: `Err((json path,
+/// reason))`.
 pub fn validate(scene: &Value) -> Result<(), (String, String)> {
+    validate_within(scene, crate::budget::MemoryBudget::default())
+}
+
+/// [`validate`] within the memory budget `budget`.
+pub fn validate_within(
+    scene: &Value,
+    budget: crate::budget::MemoryBudget,
+) -> Result<(), (String, String)> {
     let s: SynthScene = crate::json::deserialize_at(scene)?;
     let pos = |path: String, x: f64| {
         if x.is_finite() && x > 0.0 {
@@ -140,19 +149,20 @@ pub fn validate(scene: &Value) -> Result<(), (String, String)> {
     }
     // Numbers per sample: t, spin, x_g, y_g and ten per bearing.
     let numbers = 4.0 + 10.0 * s.bearings.len() as f64;
-    crate::budget::check(
-        &format!(
-            "{} samples x {} bearings in each of {} variants in flight",
-            s.samples,
-            s.bearings.len(),
-            crate::budget::SYNTHETIC_IN_FLIGHT
-        ),
-        s.samples as f64
-            * numbers
-            * (crate::budget::BYTES_PER_SYNTHETIC_NUMBER * crate::budget::SYNTHETIC_IN_FLIGHT)
-                as f64,
-    )
-    .map_err(|r| ("samples".to_string(), r))?;
+    budget
+        .check(
+            &format!(
+                "{} samples x {} bearings in each of {} variants in flight",
+                s.samples,
+                s.bearings.len(),
+                crate::budget::SYNTHETIC_IN_FLIGHT
+            ),
+            s.samples as f64
+                * numbers
+                * (crate::budget::BYTES_PER_SYNTHETIC_NUMBER * crate::budget::SYNTHETIC_IN_FLIGHT)
+                    as f64,
+        )
+        .map_err(|r| ("samples".to_string(), r))?;
     for (k, b) in s.bearings.iter().enumerate() {
         pos(format!("bearings[{k}].clearance"), b.clearance)?;
         if !(0.0..1.0).contains(&b.eccentricity) {

@@ -683,7 +683,7 @@ pub mod suite {
         // Reference: each state alone through the library function behind `eval`.
         let expected: Vec<Value> = (0..64)
             .map(|k| {
-                bearing_sweep::cli::eval_json(&doc(k).to_string(), Default::default())
+                bearing_sweep::app::eval_json(&doc(k).to_string(), Default::default())
                     .unwrap()
                     .0["loads"][0]
                     .clone()

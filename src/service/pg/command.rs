@@ -5,8 +5,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::{run_worker, PgQueue, WorkerOptions};
+use crate::app::CliError;
 use crate::backend::BackendKind;
-use crate::cli::CliError;
 
 /// Options of `worker`.
 #[derive(Clone, Debug)]

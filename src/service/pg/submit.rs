@@ -37,7 +37,7 @@ pub async fn submit_spec(
 ) -> Result<(String, u64), PgError> {
     let spec = parse_spec(doc, None).map_err(PgError::Spec)?;
     let exp = Expansion::new(&spec);
-    crate::service::sweeps::validate_variants(&spec).map_err(PgError::Spec)?;
+    crate::service::sweeps::validate_variants(&spec, options.max_memory).map_err(PgError::Spec)?;
     let id = new_sweep_id();
     let total = exp.count();
     queue

@@ -30,6 +30,8 @@ pub struct SweepRunOptions {
     pub quiet: bool,
     /// Every model reduction off (`--full-model`).
     pub full_model: bool,
+    /// Memory budget (`--max-memory`; default 2 GiB).
+    pub max_memory: crate::budget::MemoryBudget,
 }
 
 /// Whether a `run` input is a sweep spec (an object with `base` or `kind`) rather than a
@@ -86,7 +88,7 @@ pub fn run_command(
                     "a friction map is not sharded (it runs no dynamics and takes milliseconds)",
                 ));
             }
-            let spec = FrictionMapSpec::parse(&doc)?;
+            let spec = FrictionMapSpec::parse_within(&doc, opts.max_memory)?;
             if let Some(b) = doc.get("bearing") {
                 for w in super::warnings::bearing_warnings("bearing", b) {
                     notice(w);
@@ -129,6 +131,7 @@ pub fn run_command(
                 backend: opts.backend,
                 accuracy: requested,
                 full_model: opts.full_model,
+                max_memory: opts.max_memory,
             };
             let mut prepared = prepare_simulator(&spec, &choice, notice).map_err(|e| match e {
                 SetupError::Sweep(e) => CliError::Sweep(e),
@@ -143,7 +146,7 @@ pub fn run_command(
             };
             let summary = run_sweep(
                 &spec,
-                prepared.validator,
+                &*prepared.validator,
                 prepared.sim.as_mut(),
                 &run_opts,
                 notice,

@@ -9,7 +9,9 @@ use super::CliError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
 use crate::plot::Scale;
 use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
-use crate::rotor::{load_scene, simulate_batch, ModelKind, Scene, SimResult};
+use crate::rotor::{
+    load_scene_within, sample_cap, simulate_batch_capped, ModelKind, Scene, SimResult,
+};
 
 /// Options of `run` beyond the scene file.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +24,9 @@ pub struct SceneRunOptions {
     pub out: PathBuf,
     /// Every model reduction off (`--full-model`).
     pub full_model: bool,
+    /// Memory budget (`--max-memory`; default 2 GiB): the scenes' samples are checked
+    /// against it and capped by it.
+    pub max_memory: crate::budget::MemoryBudget,
 }
 
 /// What `run` wrote, for the terminal.
@@ -63,7 +68,8 @@ pub fn run_scene_file(
     text: &str,
     opts: &SceneRunOptions,
 ) -> Result<RunReport, CliError> {
-    let mut scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
+    let mut scenes =
+        load_scene_within(text, opts.max_memory).map_err(|e| CliError::input(e.path, e.reason))?;
     let accuracy = super::accuracy(opts.accuracy)?;
     // Every scene's samples are kept for result.json and the figures, decimated to the
     // cap that the budget leaves each (docs/cli.md "Limits"): only what cannot fit even at the
@@ -72,15 +78,16 @@ pub fn run_scene_file(
         .iter()
         .map(|s| s.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP))
         .sum();
-    crate::budget::check(
-        &format!(
-            "keeping at least {} samples of each of {} simulations",
-            crate::budget::MIN_SAMPLE_CAP,
-            scenes.len()
-        ),
-        total,
-    )
-    .map_err(|r| CliError::input("scenes", r))?;
+    opts.max_memory
+        .check(
+            &format!(
+                "keeping at least {} samples of each of {} simulations",
+                crate::budget::MIN_SAMPLE_CAP,
+                scenes.len()
+            ),
+            total,
+        )
+        .map_err(|r| CliError::input("scenes", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
     let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
@@ -92,22 +99,29 @@ pub fn run_scene_file(
     let eval_options = evaluator_options(scenes.iter().map(|s| &s.reductions));
     let mut evaluator = LoadEvaluator::with_options(backend, eval_options);
     let mut lines = Vec::new();
-    let results = simulate_batch(&scenes, &mut evaluator, &mut |_, r: &SimResult| {
-        lines.push(format!(
-            "{}: {} ({} model, {}; {} steps, {} rejected, {} film-load evaluations, {:.3} s)",
-            r.name,
-            r.status,
-            match r.model {
-                ModelKind::Bearing => "bearing",
-                ModelKind::Ideal => "ideal-joint",
-            },
-            r.method.name(),
-            r.stats.steps,
-            r.stats.rejected,
-            r.stats.load_evaluations,
-            r.stats.wall_time_s
-        ));
-    });
+    // Every scene is in flight at once: they share the budget.
+    let cap = sample_cap(&scenes, opts.max_memory);
+    let results = simulate_batch_capped(
+        &scenes,
+        &mut evaluator,
+        &mut |_, r: &SimResult| {
+            lines.push(format!(
+                "{}: {} ({} model, {}; {} steps, {} rejected, {} film-load evaluations, {:.3} s)",
+                r.name,
+                r.status,
+                match r.model {
+                    ModelKind::Bearing => "bearing",
+                    ModelKind::Ideal => "ideal-joint",
+                },
+                r.method.name(),
+                r.stats.steps,
+                r.stats.rejected,
+                r.stats.load_evaluations,
+                r.stats.wall_time_s
+            ));
+        },
+        cap,
+    );
     notices.extend(evaluator.take_notices());
     let stem = Path::new(path)
         .file_stem()
