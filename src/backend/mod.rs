@@ -12,6 +12,7 @@ mod gpu;
 #[path = "gpu_absent.rs"]
 mod gpu;
 mod gpu_kernel;
+mod shared;
 mod states;
 
 pub use cpu::CpuBackend;
@@ -24,6 +25,7 @@ pub use gpu_kernel::{
     kernel_source, relative_difference, GpuOptions, GpuTiming, FINITE_MAX_NODES, FINITE_WGSL,
     KERNEL_WGSL,
 };
+pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
 
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
