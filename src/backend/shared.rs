@@ -176,7 +176,15 @@ impl Dispatcher {
                 q.busy = true;
                 drop(q);
                 let t = Instant::now();
+                // Should the backend panic, the batch's other requesters get an error
+                // instead of waiting for ever.
+                let guard = PanicGuard {
+                    dispatcher: self,
+                    generation: mine,
+                    joined,
+                };
                 let r = self.lock_backend().integrate(&batch, &mut results);
+                std::mem::forget(guard);
                 let busy = t.elapsed().as_secs_f64();
                 q = self.lock_queue();
                 q.busy = false;
@@ -202,6 +210,31 @@ impl Dispatcher {
             }
             q = self.ready.wait(q).unwrap_or_else(|p| p.into_inner());
         }
+    }
+}
+
+/// Armed while a dispatch runs: dropped only when the backend panicked, it frees the
+/// queue and answers the batch with an error.
+struct PanicGuard<'a> {
+    dispatcher: &'a Dispatcher,
+    generation: u64,
+    joined: usize,
+}
+
+impl Drop for PanicGuard<'_> {
+    fn drop(&mut self) {
+        let mut q = self.dispatcher.lock_queue();
+        q.busy = false;
+        // The panicking requester never collects its share.
+        let others = self.joined.saturating_sub(1);
+        if others > 0 {
+            q.done.push((
+                self.generation,
+                Err(BackendError::Device("the backend panicked".into())),
+                others,
+            ));
+        }
+        self.dispatcher.ready.notify_all();
     }
 }
 

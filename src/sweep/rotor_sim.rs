@@ -8,7 +8,7 @@ use super::reduce::{BearingSignals, ReductionOptions, Signals};
 use super::runner::{BatchSimulator, Job, Outcome, Reduced};
 use super::stream::{streams, RunReducer};
 use crate::backend::{
-    BackendInfo, CpuBackend, DispatchStats, Dispatcher, EvalStats, EvaluatorOptions, LoadEvaluator,
+    BackendInfo, CpuBackend, DispatchStats, Dispatcher, EvalStats, LoadEvaluator,
 };
 use crate::bearing::{Accuracy, FilmModel};
 use crate::rotor::reductions::{evaluator_report, ReductionSpec};
@@ -130,19 +130,20 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
 
 /// The rotor integrator as a batch simulator.
 ///
-/// The batch is split into one sub-batch per thread of rayon's pool (dealt round-robin,
-/// identical variants kept together so that their film states are integrated once), each
-/// advancing in lockstep on its own evaluator: the parallelism is across variants. On
-/// the CPU each sub-batch has a single-threaded CPU evaluator (a film call carries only a
-/// few hundred states, too few to spread over threads). On a GPU every sub-batch's
-/// evaluator holds a handle on one [`Dispatcher`], which merges the stage requests that
-/// wait while a dispatch is in flight into the next one: the device evaluates one merged
-/// request while the other threads advance their integrators. Results do not depend on
-/// the split (each variant has its own step-size control and every state's loads are
-/// computed alone; on a GPU the sub-batches send every call to the device, whatever its
-/// size, so that no call's size decides between the CPU and GPU kernels). Sweeps with
-/// finite-film or `auto` bearings on a GPU keep one lockstep batch on one evaluator: their
-/// finite-film calls are not merged, and large ones fill the device by themselves.
+/// The batch is split into sub-batches (dealt round-robin, identical variants kept
+/// together so that their film states are integrated once), each advancing in lockstep
+/// on one evaluator: the parallelism is across variants. On the CPU there is one
+/// sub-batch per thread of rayon's pool, each with a single-threaded CPU evaluator (a film
+/// call carries only a few hundred states, too few to spread over threads). On a GPU the
+/// sub-batches have a fixed size ([`GPU_GROUP_VARIANTS`]) and the threads take them in
+/// turn; every thread's evaluator holds a handle on one [`Dispatcher`], which merges the
+/// stage requests that wait while a dispatch is in flight into the next one: the device
+/// evaluates one merged request while the other threads advance their integrators.
+/// Results do not depend on the split or the thread count (each variant has its own
+/// step-size control, every state's loads are computed alone, and a GPU sub-batch's calls,
+/// hence their small-batch CPU routing, do not depend on the thread count). Sweeps with
+/// finite-film or `auto` bearings on a GPU keep one lockstep batch on one evaluator:
+/// their finite-film calls are not merged, and large ones fill the device by themselves.
 pub struct RotorSimulator {
     evaluator: LoadEvaluator,
     info: BackendInfo,
@@ -177,15 +178,8 @@ impl RotorSimulator {
             (evaluator, workers, None)
         } else if info.name == "gpu" {
             let dispatcher = Dispatcher::new(evaluator.into_backend());
-            // Every call to the device: the small-batch CPU routing would make a variant's
-            // loads depend on how many variants share its sub-batch (CPU and GPU kernels
-            // agree to ~1e-13, enough to tip a step-size decision).
-            let group = EvaluatorOptions {
-                cpu_below: 0,
-                ..options
-            };
             let workers = (0..threads)
-                .map(|_| LoadEvaluator::with_options(dispatcher.handle(), group))
+                .map(|_| LoadEvaluator::with_options(dispatcher.handle(), options))
                 .collect();
             let whole = LoadEvaluator::with_options(dispatcher.handle(), options);
             (whole, workers, Some(dispatcher))
@@ -261,31 +255,13 @@ impl BatchSimulator for RotorSimulator {
         if let Some(r) = self.gpu_report() {
             v["gpu_dispatch"] = json!(r);
         }
-        // The GPU sub-batches' options (every call to the device) once they ran.
-        let grouped = matches!(self.workers.first(),
-            Some(w) if self.dispatcher.is_some() && w.stats().calls > 0);
-        let options = match self.workers.first() {
-            Some(w) if grouped => w.options(),
-            _ => self.evaluator.options(),
-        };
-        let mut report = evaluator_report(
-            &options,
+        v["model_reductions"] = serde_json::to_value(evaluator_report(
+            &self.evaluator.options(),
             &self.eval_stats(),
             self.info.name == "gpu",
             self.full_model,
-        );
-        if grouped && !self.full_model {
-            for e in report
-                .declined
-                .iter_mut()
-                .filter(|e| e.name == "small_batch_cpu")
-            {
-                e.why = "the GPU sub-batches send every call to the device (results \
-                         independent of the number of host threads)"
-                    .into();
-            }
-        }
-        v["model_reductions"] = serde_json::to_value(report).unwrap_or(Value::Null);
+        ))
+        .unwrap_or(Value::Null);
         // Why this backend runs (not a setting: `auto` and an explicit request resolving
         // to the same backend give the same numbers; the resolved backend is in settings).
         if let Some(c) = self.evaluator.choice() {
@@ -343,21 +319,36 @@ impl BatchSimulator for RotorSimulator {
         let states_before = self.worker_states();
         let bearings: usize = scenes.iter().map(|s| s.bearings.len()).sum();
         let per_variant = bearings.max(1) as f64 / scenes.len().max(1) as f64;
-        let buckets = deal(scenes, &index, jobs, self.workers.len());
+        // On the CPU one sub-batch per thread; on a GPU sub-batches of a fixed size
+        // whatever the thread count, taken by the threads from a shared counter.
+        let groups = if self.dispatcher.is_some() {
+            scenes.len().div_ceil(GPU_GROUP_VARIANTS)
+        } else {
+            self.workers.len()
+        };
+        let buckets = deal(scenes, &index, jobs, groups);
+        let next = std::sync::atomic::AtomicUsize::new(0);
         let (tx, rx) = std::sync::mpsc::channel::<(usize, Outcome)>();
         let thread_s: f64 = std::thread::scope(|scope| {
             let mut handles = Vec::new();
-            for (evaluator, (ids, chunk)) in self.workers.iter_mut().zip(&buckets) {
-                if chunk.is_empty() {
-                    continue;
-                }
+            for evaluator in self.workers.iter_mut().take(groups) {
                 let tx = tx.clone();
+                let (buckets, next) = (&buckets, &next);
                 handles.push(scope.spawn(move || {
                     let t = std::time::Instant::now();
-                    // The receiver lives until every worker is done.
-                    simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
-                        let _ = tx.send((ids[i], o));
-                    });
+                    loop {
+                        let g = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some((ids, chunk)) = buckets.get(g) else {
+                            break;
+                        };
+                        if chunk.is_empty() {
+                            continue;
+                        }
+                        // The receiver lives until every worker is done.
+                        simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
+                            let _ = tx.send((ids[i], o));
+                        });
+                    }
                     t.elapsed().as_secs_f64()
                 }));
             }
@@ -386,6 +377,13 @@ impl BatchSimulator for RotorSimulator {
         n
     }
 }
+
+/// Variants per sub-batch on a GPU: a fixed size, so that every call a sub-batch makes
+/// (and with it the evaluator's small-batch CPU routing, [`crate::backend::EvaluatorOptions::cpu_below`])
+/// is the same whatever the thread count, which keeps results independent of it. 256
+/// variants of the paper rotor make 512-state calls, merged over 16 threads into
+/// dispatches of up to ~8 000 states; a 4 096-variant batch gives 16 sub-batches.
+pub const GPU_GROUP_VARIANTS: usize = 256;
 
 /// Deals `scenes` (with their job indices `index` into `jobs`) into `t` sub-batches:
 /// round-robin, so that neighbouring variants (often alike in cost, e.g. along the
