@@ -5,7 +5,9 @@
 # carried); OUTDIR to $OUT or /tmp/h200-gpu. Run it once with the new binary and once
 # with the old one (same machine, same script) for the baseline. Total ~1-2 minutes.
 # If the Vulkan loader is missing: for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
+# SIDE, TEND and SIZES shrink it for a dry run on a small machine (defaults: the H100 runs).
 set -u
+SIDE=${SIDE:-64}; TEND=${TEND:-0.1}; SIZES=${SIZES:-100000,1000000}
 B=${1:-target/release/bearing-sweep}
 O=${2:-${OUT:-/tmp/h200-gpu}}
 mkdir -p "$O"
@@ -15,11 +17,12 @@ export BEARING_SWEEP_CACHE_DIR=$(mktemp -d)
 W=$(mktemp -d)
 { nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv; lscpu | grep -E '^CPU\(s\)|Model name'; $B --version; } > "$O/machine.txt" 2>&1
 # The 4 096-variant short-film sweep of reports/h100/run-bench-and-sweeps.sh.
-python3 - "$W" <<'PY'
+python3 - "$W" "$SIDE" "$TEND" <<'PY'
 import json, sys
 d = json.load(open('sweeps/clearance-viscosity.json'))
-d['axes'][0]['logspace'][2] = 64; d['axes'][1]['logspace'][2] = 64
-d['base']['integrator']['t_end'] = 0.1
+n = int(sys.argv[2])
+d['axes'][0]['logspace'][2] = n; d['axes'][1]['logspace'][2] = n
+d['base']['integrator']['t_end'] = float(sys.argv[3])
 json.dump(d, open(sys.argv[1] + '/cv4096.json', 'w'))
 PY
 cat > "$W/cmp.py" <<'PY'
@@ -64,6 +67,6 @@ report $W/a16 | tee -a "$O/sweeps.txt"
 cat $BEARING_SWEEP_CACHE_DIR/*.json > "$O/calibration.json" 2>/dev/null
 # 4. Film loads alone at 1e6 states, 16 threads (goal: GPU end to end >= 2e7 states/s;
 #    kernel GFLOP/s against the 34 TFLOP/s FP64 peak).
-timeout 120 $B bench backend --threads 16 --sizes 100000,1000000 --min-time 1 --max-reps 5 > "$O/backend.md" 2>&1
+timeout 120 $B bench backend --threads 16 --sizes $SIZES --min-time 1 --max-reps 5 > "$O/backend.md" 2>&1
 grep "^| \(cpu\|gpu\)" "$O/backend.md"
 ls "$O"
