@@ -317,6 +317,12 @@ impl LoadEvaluator {
         self.backend.as_ref()
     }
 
+    /// The backend, giving up the evaluator (its scratch buffers, counters and warm
+    /// starts are dropped).
+    pub fn into_backend(self) -> Box<dyn FilmBackend> {
+        self.backend
+    }
+
     /// Notices raised so far (fallbacks), oldest first; draining them clears the list.
     pub fn take_notices(&mut self) -> Vec<String> {
         std::mem::take(&mut self.notices)

@@ -652,19 +652,26 @@ impl GpuBackend {
                 .readback
                 .get_mapped_range(0..out_bytes)
                 .map_err(|e| self.fail(format!("mapping the results: {e}")))?;
-            match self.precision {
-                Precision::F64 => out.extend(view.chunks_exact(32).map(|c| {
-                    let f = |k: usize| {
-                        f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().expect("8 bytes"))
-                    };
-                    [f(0), f(1), f(2), f(3)]
-                })),
-                Precision::F32 => out.extend(view.chunks_exact(16).map(|c| {
-                    let f = |k: usize| {
-                        f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes")) as f64
-                    };
-                    [f(0), f(1), f(2), f(3)]
-                })),
+            // The device writes little-endian f64: on a little-endian host the mapped
+            // bytes are the integrals already (one copy), when aligned as mapped ranges are.
+            let direct = cfg!(target_endian = "little") && self.precision == Precision::F64;
+            match bytemuck::try_cast_slice::<u8, [f64; 4]>(&view[..]) {
+                Ok(v) if direct => out.extend_from_slice(v),
+                _ => match self.precision {
+                    Precision::F64 => out.extend(view.chunks_exact(32).map(|c| {
+                        let f = |k: usize| {
+                            f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+                        };
+                        [f(0), f(1), f(2), f(3)]
+                    })),
+                    Precision::F32 => out.extend(view.chunks_exact(16).map(|c| {
+                        let f = |k: usize| {
+                            f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes"))
+                                as f64
+                        };
+                        [f(0), f(1), f(2), f(3)]
+                    })),
+                },
             }
         }
         bufs.readback.unmap();

@@ -1,6 +1,7 @@
 //! Batched film-load evaluation: one interface over the CPU and GPU kernels, and the
 //! evaluator that validates, packs, dispatches, falls back and finishes loads.
 
+mod calibrate;
 mod cpu;
 mod evaluator;
 mod finite;
@@ -12,8 +13,10 @@ mod gpu;
 #[path = "gpu_absent.rs"]
 mod gpu;
 mod gpu_kernel;
+mod shared;
 mod states;
 
+pub use calibrate::{cache_file, Calibration};
 pub use cpu::CpuBackend;
 pub use evaluator::{
     EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
@@ -24,6 +27,7 @@ pub use gpu_kernel::{
     kernel_source, relative_difference, GpuOptions, GpuTiming, FINITE_MAX_NODES, FINITE_WGSL,
     KERNEL_WGSL,
 };
+pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
 
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
@@ -263,12 +267,31 @@ pub fn choose_backend(
         }
         _ => {}
     }
-    let mut g = match GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o)) {
+    let g = match open_gpu(kind, accuracy)? {
+        Ok(g) => g,
+        Err(reason) => return Ok(cpu(reason)),
+    };
+    let device = g.info().device;
+    let reason = match (kind, states_per_call) {
+        (BackendKind::Gpu, _) => "requested".to_string(),
+        (_, Some(n)) => format!("hardware adapter `{device}`, {n} bearing states per call"),
+        (_, None) => format!("hardware adapter `{device}`"),
+    };
+    Ok(chosen_gpu(kind, accuracy, g, reason))
+}
+
+/// The GPU backend for a `kind` request, or for `auto` the reason to take the CPU
+/// instead (no adapter, a failing one, or a software rasteriser).
+fn open_gpu(
+    kind: BackendKind,
+    accuracy: Accuracy,
+) -> Result<Result<GpuBackend, String>, BackendError> {
+    let g = match GpuOptions::from_env().and_then(|o| GpuBackend::new(accuracy, o)) {
         Ok(g) => g,
         Err(BackendError::NoAdapter(why)) if kind == BackendKind::Auto => {
-            return Ok(cpu(format!("no GPU adapter ({why})")))
+            return Ok(Err(format!("no GPU adapter ({why})")))
         }
-        Err(e) if kind == BackendKind::Auto => return Ok(cpu(e.to_string())),
+        Err(e) if kind == BackendKind::Auto => return Ok(Err(e.to_string())),
         Err(e) => return Err(e),
     };
     let device = g.info().device;
@@ -276,15 +299,21 @@ pub fn choose_backend(
         // The adapter's short name in the notice line; its full description (driver and
         // versions) in the final parenthesis, which the line leaves out.
         let short = device.split(" (").next().unwrap_or(&device);
-        return Ok(cpu(format!(
+        return Ok(Err(format!(
             "the GPU adapter `{short}` is a software rasteriser (`{device}`; use --backend gpu to run on it)"
         )));
     }
-    let reason = match (kind, states_per_call) {
-        (BackendKind::Gpu, _) => "requested".to_string(),
-        (_, Some(n)) => format!("hardware adapter `{device}`, {n} bearing states per call"),
-        (_, None) => format!("hardware adapter `{device}`"),
-    };
+    Ok(Ok(g))
+}
+
+/// `g` as the choice for a `kind` request with `reason`, and its notices (for `auto`
+/// first its one-line choice).
+fn chosen_gpu(
+    kind: BackendKind,
+    accuracy: Accuracy,
+    mut g: GpuBackend,
+    reason: String,
+) -> (Box<dyn FilmBackend>, Vec<String>) {
     let choice = BackendChoice {
         requested: kind,
         backend: "gpu".into(),
@@ -302,13 +331,67 @@ pub fn choose_backend(
             accuracy.rtol()
         ));
     }
-    Ok((
+    (
         Box::new(Chosen {
             backend: Box::new(g),
             choice,
         }),
         notices,
-    ))
+    )
+}
+
+/// `auto` takes the GPU for a rotor sweep only when its predicted film-load cost per
+/// variant-stage is below this fraction of the CPU's: the model leaves out the host work
+/// that the GPU path adds (packing, merging, waiting for a dispatch's stragglers).
+const SWEEP_GPU_MARGIN: f64 = 0.5;
+
+/// Creates the backend of `kind` for a short-film rotor sweep at `accuracy` with
+/// `bearings` bearings per variant, `variants` variants per lockstep batch and `threads`
+/// host threads. `cpu` and `gpu` are as [`choose_backend`]; `auto` opens a hardware
+/// adapter (else the CPU, as [`choose_backend`]) and decides from a [`Calibration`] of
+/// it (cached per device: [`cache_file`]): the GPU when its film loads per variant-stage
+/// are predicted at most [`SWEEP_GPU_MARGIN`] of the CPU's on `threads` threads. The
+/// choice's reason gives both figures and what was measured.
+/// `BEARING_SWEEP_CALIBRATION=off` skips the calibration (a hardware adapter is taken),
+/// `=refresh` measures anew.
+pub fn choose_sweep_backend(
+    kind: BackendKind,
+    accuracy: Accuracy,
+    bearings: usize,
+    variants: usize,
+    threads: usize,
+) -> Result<(Box<dyn FilmBackend>, Vec<String>), BackendError> {
+    let off = std::env::var("BEARING_SWEEP_CALIBRATION").is_ok_and(|v| v == "off");
+    if kind != BackendKind::Auto || off {
+        return choose_backend(kind, accuracy, None);
+    }
+    let mut g = match open_gpu(kind, accuracy)? {
+        Ok(g) => g,
+        Err(reason) => return Ok(chosen_cpu(kind, accuracy, reason)),
+    };
+    let cal = match Calibration::cached(&mut g, accuracy) {
+        Ok(c) if c.is_usable() => c,
+        Ok(c) => {
+            return Ok(chosen_cpu(
+                kind,
+                accuracy,
+                format!("the GPU calibration is unusable ({})", c.summary()),
+            ))
+        }
+        Err(e) => {
+            return Ok(chosen_cpu(
+                kind,
+                accuracy,
+                format!("the GPU failed its calibration ({e})"),
+            ))
+        }
+    };
+    let (gpu, reason) = cal.sweep_prefers_gpu(bearings, variants, threads, SWEEP_GPU_MARGIN);
+    if gpu {
+        Ok(chosen_gpu(kind, accuracy, g, reason))
+    } else {
+        Ok(chosen_cpu(kind, accuracy, reason))
+    }
 }
 
 /// A backend with the reason it was chosen; everything else is the inner backend's

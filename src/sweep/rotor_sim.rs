@@ -7,11 +7,14 @@ use serde_json::{json, Value};
 use super::reduce::{BearingSignals, ReductionOptions, Signals};
 use super::runner::{BatchSimulator, Outcome, Reduced, VariantJob};
 use super::stream::{streams, RunReducer};
-use crate::backend::{BackendInfo, CpuBackend, EvalStats, LoadEvaluator};
-use crate::bearing::Accuracy;
+use crate::backend::{
+    BackendInfo, CpuBackend, DispatchStats, Dispatcher, EvalStats, LoadEvaluator,
+};
+use crate::bearing::{Accuracy, FilmModel};
 use crate::budget::MemoryBudget;
 use crate::rotor::reductions::{evaluator_report, ReductionSpec};
 use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use crate::rotor::{simulate_batch_observed, simulate_batch_streaming_cancellable};
 use crate::rotor::{Scene, SimResult};
@@ -141,17 +144,28 @@ pub fn outcome_of(r: &SimResult, scene: &Scene) -> Outcome {
 
 /// The rotor integrator as a batch simulator.
 ///
-/// On a GPU the whole batch advances in lockstep on one evaluator: every stage is one
-/// dispatch carrying all active variants' bearings. On the CPU the batch is split into
-/// one sub-batch per thread (dealt round-robin), each advancing in lockstep on its own
-/// single-threaded CPU evaluator: a film call carries only a few hundred states, too few
-/// to spread over threads, so the parallelism is across variants. Results do not depend
-/// on the split (each variant has its own step-size control and every state's loads are
-/// computed alone).
+/// The batch is split into sub-batches (dealt round-robin, identical variants kept
+/// together so that their film states are integrated once), each advancing in lockstep
+/// on one evaluator: the parallelism is across variants. On the CPU there is one
+/// sub-batch per thread of rayon's pool, each with a single-threaded CPU evaluator (a film
+/// call carries only a few hundred states, too few to spread over threads). On a GPU the
+/// sub-batches have a fixed size ([`GPU_GROUP_VARIANTS`]) and the threads take them in
+/// turn; every thread's evaluator holds a handle on one [`Dispatcher`], which merges the
+/// stage requests that wait while a dispatch is in flight into the next one: the device
+/// evaluates one merged request while the other threads advance their integrators.
+/// Results do not depend on the split or the thread count (each variant has its own
+/// step-size control, every state's loads are computed alone, and a GPU sub-batch's calls,
+/// hence their small-batch CPU routing, do not depend on the thread count). Sweeps with
+/// finite-film or `auto` bearings on a GPU keep one lockstep batch on one evaluator:
+/// their finite-film calls are not merged, and large ones fill the device by themselves.
 pub struct RotorSimulator {
     evaluator: LoadEvaluator,
     info: BackendInfo,
     workers: Vec<LoadEvaluator>,
+    /// The GPU backend behind its merge queue (GPU backends only).
+    dispatcher: Option<Arc<Dispatcher>>,
+    /// Host-side counters of the GPU sub-batches ([`RotorSimulator::gpu_report`]).
+    gpu_host: GpuHostCounters,
     full_model: bool,
     /// The spec's reductions: with a window of fixed length each variant is reduced as it
     /// runs and keeps only what they need ([`super::stream`]).
@@ -162,25 +176,38 @@ pub struct RotorSimulator {
 
 impl RotorSimulator {
     /// Simulates on `evaluator`'s backend; a CPU backend gets one single-threaded CPU
-    /// evaluator per thread of rayon's pool (`RAYON_NUM_THREADS`) at `accuracy`.
+    /// evaluator per thread of rayon's pool (`RAYON_NUM_THREADS`) at `accuracy`, a GPU
+    /// backend one evaluator per thread on a shared [`Dispatcher`].
     pub fn new(evaluator: LoadEvaluator, accuracy: Accuracy) -> Self {
         let info = evaluator.info();
-        let workers = if info.name == "cpu" {
-            (0..rayon::current_num_threads().max(1))
+        let threads = rayon::current_num_threads().max(1);
+        let options = evaluator.options();
+        let (evaluator, workers, dispatcher) = if info.name == "cpu" {
+            let workers = (0..threads)
                 .map(|_| {
                     LoadEvaluator::with_options(
                         Box::new(CpuBackend::new(accuracy, Some(1))),
-                        evaluator.options(),
+                        options,
                     )
                 })
-                .collect()
+                .collect();
+            (evaluator, workers, None)
+        } else if info.name == "gpu" {
+            let dispatcher = Dispatcher::new(evaluator.into_backend());
+            let workers = (0..threads)
+                .map(|_| LoadEvaluator::with_options(dispatcher.handle(), options))
+                .collect();
+            let whole = LoadEvaluator::with_options(dispatcher.handle(), options);
+            (whole, workers, Some(dispatcher))
         } else {
-            Vec::new()
+            (evaluator, Vec::new(), None)
         };
         RotorSimulator {
             evaluator,
             info,
             workers,
+            dispatcher,
+            gpu_host: GpuHostCounters::default(),
             full_model: false,
             reductions: None,
             max_memory: MemoryBudget::default(),
@@ -247,6 +274,9 @@ impl BatchSimulator for RotorSimulator {
         if !self.workers.is_empty() {
             v["variant_threads"] = json!(self.workers.len());
         }
+        if let Some(r) = self.gpu_report() {
+            v["gpu_dispatch"] = json!(r);
+        }
         v["model_reductions"] = serde_json::to_value(evaluator_report(
             &self.evaluator.options(),
             &self.eval_stats(),
@@ -289,41 +319,76 @@ impl BatchSimulator for RotorSimulator {
         // The whole batch is in flight at once (across threads): it shares the budget.
         let cap = crate::rotor::sample_cap(&scenes, self.max_memory);
         let opts = self.reductions.as_ref();
-        if self.workers.len() <= 1 || scenes.len() <= 1 {
-            let evaluator = self.workers.first_mut().unwrap_or(&mut self.evaluator);
-            simulate_chunk(&scenes, evaluator, opts, cancel, cap, &mut |i, o| {
-                done(index[i], o)
-            });
+        // On a GPU, finite-film (or `auto`) bearings keep the whole batch on one
+        // evaluator (see the type's documentation).
+        let whole = self.dispatcher.is_some()
+            && scenes
+                .iter()
+                .any(|s| s.bearings.iter().any(|b| b.model != FilmModel::Short));
+        if whole || self.workers.is_empty() {
+            simulate_chunk(
+                &scenes,
+                &mut self.evaluator,
+                opts,
+                cancel,
+                cap,
+                &mut |i, o| done(index[i], o),
+            );
             return;
         }
-        // Round-robin over the threads: neighbouring variants (often alike in cost, e.g.
-        // along the fastest grid axis) go to different threads.
-        let t = self.workers.len();
-        let mut buckets: Vec<(Vec<usize>, Vec<Scene>)> = vec![(Vec::new(), Vec::new()); t];
-        for (k, scene) in scenes.into_iter().enumerate() {
-            buckets[k % t].0.push(index[k]);
-            buckets[k % t].1.push(scene);
-        }
+        let before = self.dispatcher.as_ref().map(|d| d.stats().request_wait_s);
+        let started = std::time::Instant::now();
+        let states_before = self.worker_states();
+        let bearings: usize = scenes.iter().map(|s| s.bearings.len()).sum();
+        let per_variant = bearings.max(1) as f64 / scenes.len().max(1) as f64;
+        // On the CPU one sub-batch per thread; on a GPU sub-batches of a fixed size
+        // whatever the thread count, taken by the threads from a shared counter.
+        let groups = if self.dispatcher.is_some() {
+            scenes.len().div_ceil(GPU_GROUP_VARIANTS)
+        } else {
+            self.workers.len()
+        };
+        let buckets = deal(scenes, &index, jobs, groups);
+        let next = std::sync::atomic::AtomicUsize::new(0);
         let (tx, rx) = std::sync::mpsc::channel::<(usize, Outcome)>();
-        std::thread::scope(|scope| {
-            for (evaluator, (ids, chunk)) in self.workers.iter_mut().zip(&buckets) {
-                if chunk.is_empty() {
-                    continue;
-                }
+        let thread_s: f64 = std::thread::scope(|scope| {
+            let mut handles = Vec::new();
+            for evaluator in self.workers.iter_mut().take(groups) {
                 let tx = tx.clone();
-                scope.spawn(move || {
-                    // The receiver lives until every worker is done.
-                    simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
-                        let _ = tx.send((ids[i], o));
-                    });
-                });
+                let (buckets, next) = (&buckets, &next);
+                handles.push(scope.spawn(move || {
+                    let t = std::time::Instant::now();
+                    loop {
+                        let g = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some((ids, chunk)) = buckets.get(g) else {
+                            break;
+                        };
+                        if chunk.is_empty() {
+                            continue;
+                        }
+                        // The receiver lives until every worker is done.
+                        simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
+                            let _ = tx.send((ids[i], o));
+                        });
+                    }
+                    t.elapsed().as_secs_f64()
+                }));
             }
             drop(tx);
             // Stream outcomes as workers finish variants.
             for (k, outcome) in rx {
                 done(k, outcome);
             }
+            handles.into_iter().map(|h| h.join().unwrap_or(0.0)).sum()
         });
+        let states = self.worker_states() - states_before;
+        if let (Some(d), Some(w0)) = (&self.dispatcher, before) {
+            let h = &mut self.gpu_host;
+            h.thread_s += thread_s;
+            h.wait_s += d.stats().request_wait_s - w0;
+            h.wall_s += started.elapsed().as_secs_f64();
+            h.variant_stages += states as f64 / per_variant;
+        }
     }
 
     fn take_notices(&mut self) -> Vec<String> {
@@ -332,6 +397,100 @@ impl BatchSimulator for RotorSimulator {
             n.extend(w.take_notices());
         }
         n
+    }
+}
+
+/// Variants per sub-batch on a GPU: a fixed size, so that every call a sub-batch makes
+/// (and with it the evaluator's small-batch CPU routing, [`crate::backend::EvaluatorOptions::cpu_below`])
+/// is the same whatever the thread count, which keeps results independent of it. 256
+/// variants of the paper rotor make 512-state calls, merged over 16 threads into
+/// dispatches of up to ~8 000 states; a 4 096-variant batch gives 16 sub-batches.
+pub const GPU_GROUP_VARIANTS: usize = 256;
+
+/// Deals `scenes` (with their job indices `index` into `jobs`) into `t` sub-batches:
+/// round-robin, so that neighbouring variants (often alike in cost, e.g. along the
+/// fastest grid axis) go to different threads, except that a variant identical to an
+/// earlier one joins that one's sub-batch (its film states are then integrated once).
+fn deal(
+    scenes: Vec<Scene>,
+    index: &[usize],
+    jobs: &[Job],
+    t: usize,
+) -> Vec<(Vec<usize>, Vec<Scene>)> {
+    let mut buckets: Vec<(Vec<usize>, Vec<Scene>)> = vec![(Vec::new(), Vec::new()); t];
+    let mut seen: std::collections::HashMap<String, usize> = Default::default();
+    let mut next = 0;
+    for (k, scene) in scenes.into_iter().enumerate() {
+        let key = jobs[index[k]].scene.to_string();
+        let b = *seen.entry(key).or_insert_with(|| {
+            next += 1;
+            (next - 1) % t
+        });
+        buckets[b].0.push(index[k]);
+        buckets[b].1.push(scene);
+    }
+    buckets
+}
+
+/// Host-side counters of the GPU sub-batches.
+#[derive(Clone, Copy, Debug, Default)]
+struct GpuHostCounters {
+    /// Seconds the worker threads ran, summed over threads.
+    thread_s: f64,
+    /// Of which inside the dispatcher (waiting for loads or dispatching them).
+    wait_s: f64,
+    /// Wall seconds of the sub-batched batches.
+    wall_s: f64,
+    /// Variant-stages run (bearing states / bearings per variant).
+    variant_stages: f64,
+}
+
+/// What the GPU path measured: the dispatcher's counters and the host's share
+/// (`run.simulator.gpu_dispatch` in result.json; docs/cli.md "Backends").
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct GpuReport {
+    /// The dispatcher's counters.
+    #[serde(flatten)]
+    pub dispatch: DispatchStats,
+    /// Mean states per dispatch.
+    pub states_per_dispatch: f64,
+    /// Fraction of the dispatcher's span with no dispatch in flight.
+    pub device_idle_fraction: f64,
+    /// Seconds of host work (worker-thread time outside the dispatcher), summed.
+    pub host_s: f64,
+    /// Variant-stages the worker threads ran.
+    pub variant_stages: f64,
+    /// Host microseconds per variant-stage (integrator, kinematics, samples, packing and
+    /// finishing loads: everything but the dispatch), on one thread.
+    pub host_us_per_variant_stage: f64,
+    /// Wall seconds of the sub-batched batches.
+    pub wall_s: f64,
+}
+
+impl RotorSimulator {
+    /// What the GPU path measured so far; `None` on the CPU.
+    pub fn gpu_report(&self) -> Option<GpuReport> {
+        let d = self.dispatcher.as_ref()?.stats();
+        let h = self.gpu_host;
+        let host_s = (h.thread_s - h.wait_s).max(0.0);
+        Some(GpuReport {
+            dispatch: d,
+            states_per_dispatch: d.states as f64 / d.dispatches.max(1) as f64,
+            device_idle_fraction: d.device_idle_fraction(),
+            host_s,
+            variant_stages: h.variant_stages,
+            host_us_per_variant_stage: if h.variant_stages > 0.0 {
+                1e6 * host_s / h.variant_stages
+            } else {
+                0.0
+            },
+            wall_s: h.wall_s,
+        })
+    }
+
+    /// States requested by the worker evaluators so far.
+    fn worker_states(&self) -> u64 {
+        self.workers.iter().map(|w| w.stats().states).sum()
     }
 }
 

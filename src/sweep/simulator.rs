@@ -10,7 +10,8 @@ use super::runner::BatchSimulator;
 use super::synthetic::{self, SyntheticSimulator};
 use super::{SweepError, SweepKind, SweepOptions, SweepSpec};
 use crate::backend::{
-    chosen_cpu, create_backend, BackendError, BackendKind, EvaluatorOptions, LoadEvaluator,
+    choose_sweep_backend, create_backend, BackendError, BackendKind, EvaluatorOptions,
+    LoadEvaluator,
 };
 use crate::bearing::Accuracy;
 use crate::budget::MemoryBudget;
@@ -116,20 +117,24 @@ pub fn prepare_simulator(
             let validator = scene_validator_within(spec.kind, choice.max_memory);
             super::Expansion::new(spec).validate_all(spec, &*validator)?;
             let threads = rayon::current_num_threads();
-            let (backend, n) = if choice.backend == BackendKind::Auto
-                && threads >= SHORT_FILM_SWEEP_CPU_THREADS
-                && short_film_only(spec)
-            {
-                let (b, notices) = chosen_cpu(
+            let (backend, n) = if choice.backend == BackendKind::Auto && short_film_only(spec) {
+                // `auto` from a calibration of the device and host (backend::Calibration).
+                let bearings = spec
+                    .base
+                    .get("bearings")
+                    .and_then(Value::as_array)
+                    .map_or(1, Vec::len);
+                let variants = super::Expansion::new(spec)
+                    .count()
+                    .min(super::rotor_sim::AUTO_BATCH_GPU as u64)
+                    as usize;
+                let (b, notices) = choose_sweep_backend(
                     BackendKind::Auto,
                     choice.accuracy.level(),
-                    format!(
-                        "a short-film rotor sweep is as fast on the CPU from \
-                         {SHORT_FILM_SWEEP_CPU_THREADS} threads (here {threads}; beside a GPU \
-                         its integrators run on one thread, beside the CPU backend on all; \
-                         BENCHMARKS.md \"GPU backend\")"
-                    ),
-                );
+                    bearings,
+                    variants,
+                    threads,
+                )?;
                 (b, (!notices.is_empty()).then(|| notices.join("\n")))
             } else {
                 create_backend(choice.backend, choice.accuracy.level())?
@@ -165,15 +170,6 @@ pub fn prepare_simulator(
         }
     }
 }
-
-/// Host threads from which `auto` runs a short-film rotor sweep on the CPU even where a
-/// hardware GPU exists. With a GPU the lockstep integrators of a batch run on one host
-/// thread and every stage waits for a dispatch; with the CPU backend the batch is split
-/// over all threads. Measured on an H100 host (4096 variants of the paper rotor, 0.1 s):
-/// GPU 34.5 s, CPU on 2 threads 34.9 s, 4 threads 21.2 s, 16 threads 11.3 s
-/// (BENCHMARKS.md "GPU backend"). Finite-film sweeps, whose loads dominate, keep the GPU
-/// (5.6 s against 10.6 s on 16 threads).
-pub const SHORT_FILM_SWEEP_CPU_THREADS: usize = 2;
 
 /// Whether every variant of a rotor sweep uses the short film: no bearing of the base
 /// scene names another model and no axis sets a bearing's `model` (or a whole bearing).
