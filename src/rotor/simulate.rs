@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
 use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
-use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
+use crate::backend::{BearingPlan, LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
 use crate::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
 
@@ -505,6 +505,10 @@ pub struct SimResult {
 struct RotorBatch<'a, 'p, O: SampleObserver> {
     models: Vec<RotorModel>,
     params: Vec<BearingParams>,
+    /// `params` validated once for the whole run, and which bearings' loads carry the
+    /// film friction and flow outputs: none, as nothing here reads them (skipping them
+    /// saves ~21 % of a run's instructions; BENCHMARKS.md "Issue 28, third pass").
+    plan: BearingPlan,
     offsets: Vec<usize>,
     evaluator: &'a mut LoadEvaluator,
     requests: Vec<LoadRequest>,
@@ -558,8 +562,12 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
         }
         self.results.clear();
         if !self.requests.is_empty() {
-            self.evaluator
-                .evaluate(&self.params, &self.requests, &mut self.results);
+            self.evaluator.evaluate_planned(
+                &self.params,
+                &self.plan,
+                &self.requests,
+                &mut self.results,
+            );
         }
     }
 }
@@ -1044,6 +1052,7 @@ fn simulate<O: SampleObserver>(
         let n_bearings = params.len();
         let mut batch = RotorBatch {
             models,
+            plan: BearingPlan::new(&params, false),
             params,
             offsets,
             evaluator: &mut *evaluator,
