@@ -8,8 +8,8 @@ use rayon::prelude::*;
 use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{
-    finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads, Packed,
-    PackedState, StateFault,
+    finish_loads_with, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads,
+    Packed, PackedState, StateFault,
 };
 
 /// Calls of at least this many states pack and finish their states on rayon's pool
@@ -34,6 +34,39 @@ pub struct LoadRequest {
 
 /// Loads, or why a state has none.
 pub type LoadResult = Result<Loads, StateFault>;
+
+/// What a caller with a fixed bearing list settles once instead of on every call
+/// ([`LoadEvaluator::evaluate_planned`]): each bearing's validation and whether its loads
+/// carry the film friction and flow outputs. Entries are indexed as the bearing list the
+/// plan was made from, which every planned call must pass unchanged.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BearingPlan {
+    /// [`BearingParams::validate`] of each bearing, as the fault a state in it gets.
+    pub valid: Vec<Result<(), StateFault>>,
+    /// Whether loads of states in that bearing fill [`Loads::film`] (the film friction and
+    /// flow); `false` leaves it at [`crate::bearing::FilmFlow::default`] and changes no
+    /// other output. One flag per bearing, so that a scene whose bearing needs its film
+    /// power (a thermal balance) can keep it while the others skip it.
+    pub film_outputs: Vec<bool>,
+}
+
+impl BearingPlan {
+    /// Validates every bearing once; `film_outputs` for all of them.
+    pub fn new(bearings: &[BearingParams], film_outputs: bool) -> Self {
+        BearingPlan {
+            valid: bearings.iter().map(validity).collect(),
+            film_outputs: vec![film_outputs; bearings.len()],
+        }
+    }
+}
+
+/// A bearing's validation as the fault its states get.
+fn validity(b: &BearingParams) -> Result<(), StateFault> {
+    b.validate().map_err(|e| StateFault::InvalidBearing {
+        field: e.field,
+        reason: e.reason,
+    })
+}
 
 /// Counters over the evaluator's lifetime.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -341,6 +374,31 @@ impl LoadEvaluator {
         requests: &[LoadRequest],
         out: &mut Vec<LoadResult>,
     ) {
+        self.evaluate_planned_or_not(bearings, None, requests, out);
+    }
+
+    /// [`LoadEvaluator::evaluate`] for a caller that made `plan` from this same
+    /// `bearings` list ([`BearingPlan::new`]): the bearings are not validated again (states
+    /// still are), and loads carry the film outputs only where the plan asks. Every other
+    /// output is bit for bit that of `evaluate`.
+    pub fn evaluate_planned(
+        &mut self,
+        bearings: &[BearingParams],
+        plan: &BearingPlan,
+        requests: &[LoadRequest],
+        out: &mut Vec<LoadResult>,
+    ) {
+        debug_assert_eq!(plan.valid.len(), bearings.len(), "plan of another list");
+        self.evaluate_planned_or_not(bearings, Some(plan), requests, out);
+    }
+
+    fn evaluate_planned_or_not(
+        &mut self,
+        bearings: &[BearingParams],
+        plan: Option<&BearingPlan>,
+        requests: &[LoadRequest],
+        out: &mut Vec<LoadResult>,
+    ) {
         out.clear();
         self.packed.clear();
         self.slots.clear();
@@ -353,25 +411,34 @@ impl LoadEvaluator {
         // every variant's bearings on every call, and once most variants have ended
         // (a sweep's slowest variant alone) validating all of them cost more than the
         // loads (5 % of `sweeps/clearance-viscosity.json`; BENCHMARKS.md "Issue 28").
-        self.bearing_used.clear();
-        self.bearing_used.resize(bearings.len(), false);
-        for req in requests {
-            if let Some(u) = self.bearing_used.get_mut(req.bearing as usize) {
-                *u = true;
-            }
-        }
-        self.bearing_ok.clear();
-        self.bearing_ok
-            .extend(bearings.iter().zip(&self.bearing_used).map(|(b, &used)| {
-                if !used {
-                    return Ok(());
+        // A planned call's bearings were validated once, when its plan was made.
+        let bearing_ok: &[Result<(), StateFault>] = match plan {
+            Some(p) => &p.valid,
+            None => {
+                self.bearing_used.clear();
+                self.bearing_used.resize(bearings.len(), false);
+                for req in requests {
+                    if let Some(u) = self.bearing_used.get_mut(req.bearing as usize) {
+                        *u = true;
+                    }
                 }
-                b.validate().map_err(|e| StateFault::InvalidBearing {
-                    field: e.field,
-                    reason: e.reason,
-                })
-            }));
-        let bearing_ok = &self.bearing_ok;
+                self.bearing_ok.clear();
+                self.bearing_ok
+                    .extend(bearings.iter().zip(&self.bearing_used).map(|(b, &used)| {
+                        if used {
+                            validity(b)
+                        } else {
+                            Ok(())
+                        }
+                    }));
+                &self.bearing_ok
+            }
+        };
+        // Film friction and flow wanted for this bearing (every one without a plan).
+        let film_flags = plan.map(|p| p.film_outputs.as_slice());
+        let film_of = move |bearing: u32| -> bool {
+            film_flags.map_or(true, |f| f.get(bearing as usize).copied().unwrap_or(true))
+        };
         let prepare = |req: &LoadRequest| -> Prepared {
             let ok = bearing_ok.get(req.bearing as usize).copied().unwrap_or(Err(
                 StateFault::InvalidBearing {
@@ -429,14 +496,20 @@ impl LoadEvaluator {
                 }
                 // A film without pressure: its final loads.
                 Ok((_, _)) => out.push(
-                    finish_loads(&bearings[req.bearing as usize], &req.state, &[0.0; 4], 0.0)
-                        .finite_or_fault(),
+                    finish_loads_with(
+                        &bearings[req.bearing as usize],
+                        &req.state,
+                        &[0.0; 4],
+                        0.0,
+                        film_of(req.bearing),
+                    )
+                    .finite_or_fault(),
                 ),
                 Err(fault) => out.push(Err(fault)),
             }
         }
         if !self.finite.is_empty() {
-            self.evaluate_finite(bearings, requests, out);
+            self.evaluate_finite(bearings, requests, out, film_of);
         }
         self.film_history.end_call();
         if self.packed.is_empty() {
@@ -506,11 +579,12 @@ impl LoadEvaluator {
                 return Err(StateFault::BackendNonFinite);
             }
             let req = &requests[k];
-            finish_loads(
+            finish_loads_with(
                 &bearings[req.bearing as usize],
                 &req.state,
                 &integrals[n],
                 scale,
+                film_of(req.bearing),
             )
             .finite_or_fault()
         };
@@ -532,6 +606,7 @@ impl LoadEvaluator {
         bearings: &[BearingParams],
         requests: &[LoadRequest],
         out: &mut [LoadResult],
+        film_of: impl Fn(u32) -> bool,
     ) {
         let slots = std::mem::take(&mut self.finite);
         let mut grids: Vec<FiniteGrid> = Vec::new();
@@ -625,10 +700,14 @@ impl LoadEvaluator {
                 let req = &requests[slot.request];
                 out[slot.request] = if ints[n].iter().all(|x| x.is_finite()) {
                     let params = &bearings[req.bearing as usize];
-                    finish_loads(params, &req.state, &ints[n], slot.rate_scale)
+                    let film = film_of(req.bearing);
+                    finish_loads_with(params, &req.state, &ints[n], slot.rate_scale, film)
                         .finite_or_fault()
                         .map(|mut l| {
                             // Film friction and flow from the returned field (issue 24).
+                            if !film {
+                                return l;
+                            }
                             self.film_history.apply_flow(
                                 n,
                                 &mut l,

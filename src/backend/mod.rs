@@ -19,7 +19,8 @@ mod states;
 pub use calibrate::{cache_file, Calibration};
 pub use cpu::CpuBackend;
 pub use evaluator::{
-    EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
+    BearingPlan, EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult,
+    DEFAULT_CPU_BELOW,
 };
 pub use finite::effective_model;
 pub use gpu::GpuBackend;

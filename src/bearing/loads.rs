@@ -70,6 +70,12 @@ impl Loads {
             ("film.side_flow_m3_per_s", self.film.side_flow_m3_per_s),
             ("film.inlet_flow_m3_per_s", self.film.inlet_flow_m3_per_s),
         ];
+        // `x − x` is 0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
+        // when all are finite: one branch for the common case (every load of a rotor run),
+        // the search for the field to name only for a failing load.
+        if fields.iter().fold(0.0, |s, &(_, v)| s + (v - v)) == 0.0 {
+            return Ok(self);
+        }
         match fields.iter().find(|(_, v)| !v.is_finite()) {
             Some(&(quantity, _)) => Err(StateFault::Overflow { quantity }),
             None => Ok(self),
@@ -151,12 +157,31 @@ pub fn finish_loads(
     integrals: &FilmIntegrals,
     rate_scale: f64,
 ) -> Loads {
+    finish_loads_with(params, state, integrals, rate_scale, true)
+}
+
+/// [`finish_loads`], with the film friction and flow outputs ([`Loads::film`]) computed
+/// only if `film_outputs`; without them `film` is [`FilmFlow::default`] (zeros, `null`
+/// coefficients) and every other field is bit for bit the same. For callers that never
+/// read `film` (the rotor's stage evaluations, where those closed forms were ~21 % of
+/// the instructions: BENCHMARKS.md "Issue 28, third pass").
+pub fn finish_loads_with(
+    params: &BearingParams,
+    state: &BearingState,
+    integrals: &FilmIntegrals,
+    rate_scale: f64,
+    film_outputs: bool,
+) -> Loads {
     let f = params.force_scale() * rate_scale;
     let (wx, wy) = (f * integrals[0], f * integrals[1]);
     let mx = -f * params.length * integrals[3];
     let my = f * params.length * integrals[2];
     let fr = friction(params, wx.hypot(wy), state.omega);
-    let film = short_film_flow(params, state, [wx, wy], [mx, my]);
+    let film = if film_outputs {
+        short_film_flow(params, state, [wx, wy], [mx, my])
+    } else {
+        FilmFlow::default()
+    };
     Loads {
         wx,
         wy,

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
 use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
-use crate::backend::{LoadEvaluator, LoadRequest, LoadResult};
+use crate::backend::{BearingPlan, LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
 use crate::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
 
@@ -595,6 +595,10 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     calls: u64,
     /// Each variant's lumped oil temperatures over its samples so far.
     oil: Vec<Vec<OilTemperature>>,
+    /// `params` validated once for the whole run, and which bearings' loads carry the
+    /// film friction and flow outputs: none, as nothing here reads them (skipping them
+    /// saves ~21 % of a run's instructions; BENCHMARKS.md "Issue 28, third pass").
+    plan: BearingPlan,
     offsets: Vec<usize>,
     evaluator: &'a mut LoadEvaluator,
     requests: Vec<LoadRequest>,
@@ -692,14 +696,21 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
         }
         self.results.clear();
         if !self.requests.is_empty() {
-            let params = if thermal {
-                &self.stage_params
-            } else {
-                &self.params
-            };
             self.evaluator.set_times(&self.times, stages);
-            self.evaluator
-                .evaluate(params, &self.requests, &mut self.results);
+            if thermal {
+                // Thermal batches: the viscosity follows each entry's lumped temperature
+                // and the heat input is the film's own friction power, so these calls
+                // validate their (changing) bearings and fill the film outputs.
+                self.evaluator
+                    .evaluate(&self.stage_params, &self.requests, &mut self.results);
+            } else {
+                self.evaluator.evaluate_planned(
+                    &self.params,
+                    &self.plan,
+                    &self.requests,
+                    &mut self.results,
+                );
+            }
         }
     }
 
@@ -1321,6 +1332,7 @@ fn simulate<O: SampleObserver>(
             stamp: vec![0; params.len()],
             calls: 0,
             oil: vec![Vec::new(); n],
+            plan: BearingPlan::new(&params, false),
             params,
             offsets,
             evaluator: &mut *evaluator,
