@@ -414,7 +414,7 @@ pub const GPU_GROUP_VARIANTS: usize = 256;
 fn deal(
     scenes: Vec<Scene>,
     index: &[usize],
-    jobs: &[Job],
+    jobs: &[VariantJob],
     t: usize,
 ) -> Vec<(Vec<usize>, Vec<Scene>)> {
     let mut buckets: Vec<(Vec<usize>, Vec<Scene>)> = vec![(Vec::new(), Vec::new()); t];
