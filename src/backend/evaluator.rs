@@ -437,7 +437,7 @@ impl LoadEvaluator {
         // Film friction and flow wanted for this bearing (every one without a plan).
         let film_flags = plan.map(|p| p.film_outputs.as_slice());
         let film_of = move |bearing: u32| -> bool {
-            film_flags.map_or(true, |f| f.get(bearing as usize).copied().unwrap_or(true))
+            film_flags.is_none_or(|f| f.get(bearing as usize).copied().unwrap_or(true))
         };
         let prepare = |req: &LoadRequest| -> Prepared {
             let ok = bearing_ok.get(req.bearing as usize).copied().unwrap_or(Err(

@@ -70,10 +70,10 @@ impl Loads {
             ("film.side_flow_m3_per_s", self.film.side_flow_m3_per_s),
             ("film.inlet_flow_m3_per_s", self.film.inlet_flow_m3_per_s),
         ];
-        // `x − x` is 0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
+        // `0 · x` is ±0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
         // when all are finite: one branch for the common case (every load of a rotor run),
         // the search for the field to name only for a failing load.
-        if fields.iter().fold(0.0, |s, &(_, v)| s + (v - v)) == 0.0 {
+        if fields.iter().fold(0.0, |s, &(_, v)| s + 0.0 * v) == 0.0 {
             return Ok(self);
         }
         match fields.iter().find(|(_, v)| !v.is_finite()) {
