@@ -197,7 +197,7 @@ fn threshold_rises_with_the_thermal_balance() {
 /// each bearing's balance; a bad lubricant name names its JSON path.
 #[test]
 fn stability_cli_reports_the_balance_and_names_bad_lubricants() {
-    use bearing_sweep::cli::{stability_scene_file, StabilityOptions};
+    use bearing_sweep::app::{stability_scene_file, StabilityOptions};
     let opts = StabilityOptions {
         backend: BackendKind::Cpu,
         accuracy: 1e-12,
