@@ -145,7 +145,10 @@ fn butenschoen_friction_variable_and_side_flow_at_default_accuracy() {
 
 #[test]
 fn finite_mass_balance_closes_aligned_tilted_and_squeezed() {
-    let p = bearing(0.5, FiniteSettings::default());
+    // An explicit grid iterated to 1e-11: the discrete field's own conservation. (Accuracy
+    // mode stops iterating at accuracy / 50 on the loads, so its balance closes to that
+    // level only: `accuracy_mode_balance_closes_within_the_accuracy` below.)
+    let p = bearing(0.5, fixed(128, 32));
     let c = p.clearance;
     let states = [
         aligned(&p, 0.6),
@@ -413,16 +416,66 @@ fn eval_reports_film_friction_and_flow() {
                 1e-9,
             );
         }
-        // Steady, aligned: inlet = side flow (finite: to the solver's tolerance).
+        // Steady, aligned: inlet = side flow. Short film: exactly (closed forms). Finite
+        // film in accuracy mode (here 2e-3): each ladder grid is iterated until its *load
+        // vector's* iteration error is accuracy / 50 (docs/finite-film.md); the flows,
+        // boundary gradients of the field, converge more slowly (1.9e-4 measured), so
+        // they are held to a quarter of the requested accuracy. Conservation of the
+        // converged discrete field itself: `finite_mass_balance_closes_...` below.
+        let tol = if model == "finite" { 2e-3 / 4.0 } else { 1e-6 };
         check(
             &format!("{model} inlet/side"),
             0,
             want.film.inlet_flow_m3_per_s,
             want.film.side_flow_m3_per_s,
-            1e-6,
+            tol,
         );
         let bad = &out["loads"][1];
         assert_eq!(bad["status"], "through_wall", "{model}: {bad}");
         assert!(bad["film"].is_null() && bad["friction_model"].is_null());
+    }
+}
+
+/// Accuracy mode (the default 5e-4): the film's mass balance closes within the requested
+/// accuracy of the flow scale, on the states of the conservation test. Accuracy mode stops
+/// iterating each grid when the *loads'* iteration error is 2 % of the accuracy (issue 20,
+/// cost); the flows are boundary gradients of the field and converge more slowly (3.9e-4
+/// of the flow scale measured on the tilted state), so they carry an iteration error of up
+/// to about the accuracy (docs/finite-film.md "Friction and flow"). An explicit grid
+/// closes the balance to its tolerance (the test above).
+#[test]
+fn accuracy_mode_balance_closes_within_the_accuracy() {
+    let p = bearing(0.5, FiniteSettings::default());
+    let c = p.clearance;
+    let states = [
+        aligned(&p, 0.6),
+        BearingState {
+            xi: 0.3 * c,
+            yi: -0.2 * c,
+            xj: 0.7 * c,
+            yj: 0.1 * c,
+            omega: 1.0,
+            ..BearingState::default()
+        },
+        BearingState {
+            xi: 0.5 * c,
+            xj: 0.5 * c,
+            vxi: 0.2 * c,
+            vxj: 0.2 * c,
+            omega: 1.0,
+            ..BearingState::default()
+        },
+    ];
+    for (k, s) in states.iter().enumerate() {
+        let (_, f, _, _) = solve_with_flow(&p, s);
+        let balance = f.inlet - f.side[0] - f.side[1] - f.storage;
+        let tol = p.finite.accuracy * f.scale;
+        assert!(
+            balance.abs() <= tol,
+            "state {k}: inlet {:e} − side {:e} − storage {:e} = {balance:e}, tolerance {tol:e}",
+            f.inlet,
+            f.side[0] + f.side[1],
+            f.storage
+        );
     }
 }

@@ -944,10 +944,11 @@ fn page_urls_zoom_export_and_parallel_coordinates_in_chromium() {
     b.screenshot(&shots.join("desktop-parallel.png"), false);
 
     // 4. The queue at 1280 px with a running sweep: no sideways scroll; rate, ETA and
-    // Cancel in view.
+    // Cancel in view. (t_end 60 s: ~15 s of work here; at 5 s the sweep now ends in ~1.5 s,
+    // before the page shows it running.)
     let mut long = small_spec();
     long["name"] = json!("web test: a long-running sweep with a long name to cut");
-    long["base"]["integrator"]["t_end"] = json!(5.0);
+    long["base"]["integrator"]["t_end"] = json!(60.0);
     let (s, running) = post_json(&format!("{base}/api/sweeps"), &long.to_string());
     assert_eq!(s, 201, "{running}");
     let rid = running["id"].as_str().unwrap().to_string();

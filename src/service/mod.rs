@@ -2,6 +2,7 @@
 //! scheduler running sweeps through the same runner as `run`, and coalesced film-load
 //! evaluation.
 
+mod bodies;
 mod command;
 pub mod csv;
 mod error;

@@ -47,7 +47,8 @@ const KEEP_ALIVE: Duration = Duration::from_secs(15);
     paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
           list_plots, get_plot, sweep_events, cancel_sweep, eval, coefficients, healthz),
     components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList,
-        crate::sweep::spec::SpecDocument, crate::sweep::spec::SweepSpecDoc, crate::sweep::friction_map::FrictionMapDoc)),
+        crate::sweep::spec::SpecDocument, crate::sweep::spec::SweepSpecDoc, crate::sweep::friction_map::FrictionMapDoc,
+        super::bodies::EvalBody, super::bodies::BearingBody)),
     modifiers(&BearerAuth)
 )]
 pub struct ApiDoc;
@@ -1134,7 +1135,7 @@ async fn sweep_events(
 /// Concurrent requests are coalesced into shared backend calls.
 #[utoipa::path(post, path = "/api/eval",
     params(("accuracy" = Option<f64>, Query, minimum = 1e-12, description = "Relative accuracy (as `eval --accuracy`; default 1e-6)")),
-    request_body(content = serde_json::Value, description = "`{\"bearing\": {...}, \"states\": [...]}` as for `eval`", content_type = "application/json"),
+    request_body(content = super::bodies::EvalBody, description = "A bearing and its states, as an `eval` file (docs/cli.md \"eval\")", content_type = "application/json"),
     responses((status = 200, description = "`eval`'s output: per state `status`, `wx, wy` (N), `mx, my, mz` (N·m), `friction_coefficient`, `sommerfeld`, `h_min` (m), `power_loss` (W), `friction_model` (`paper`: the law of `mz`, `friction_coefficient`, `power_loss`) and `film`: `{friction_torque_nm, power_loss_w, friction_coefficient, friction_variable, side_flow_i_m3_per_s, side_flow_j_m3_per_s, side_flow_m3_per_s, inlet_flow_m3_per_s}` from the shear stress over the film and its flows (docs/outputs.md)", body = serde_json::Value),
               (status = 400, description = "Not JSON", body = ErrorBody),
               (status = 401, description = "Token required", body = ErrorBody),

@@ -117,6 +117,7 @@ mod tests {
             backend: BackendKind::Cpu,
             accuracy: RequestedAccuracy::new(1e-5).unwrap(),
             full_model: true,
+            max_memory: MemoryBudget::default(),
         };
         let v = serde_json::to_value(o).unwrap();
         assert_eq!(
