@@ -323,6 +323,8 @@ fn run_sweep(
         accuracy,
         quiet: !progress,
         full_model,
+        // The CLI's default budget (`run --max-memory`, 2 GiB).
+        max_memory: Default::default(),
     };
     let (spec_file, text) = (spec_file.to_string(), text.to_string());
     let r = py.detach(move || {
