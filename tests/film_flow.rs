@@ -149,47 +149,7 @@ fn finite_mass_balance_closes_aligned_tilted_and_squeezed() {
     // mode stops iterating at accuracy / 50 on the loads, so its balance closes to that
     // level only: `accuracy_mode_balance_closes_within_the_accuracy` below.)
     let p = bearing(0.5, fixed(128, 32));
-    let c = p.clearance;
-    let states = [
-        aligned(&p, 0.6),
-        // Tilted in and out of the eccentricity's plane.
-        BearingState {
-            xi: 0.3 * c,
-            yi: -0.2 * c,
-            xj: 0.7 * c,
-            yj: 0.1 * c,
-            omega: 1.0,
-            ..BearingState::default()
-        },
-        // Squeezed toward the wall and whirling.
-        BearingState {
-            xi: 0.5 * c,
-            xj: 0.5 * c,
-            vxi: 0.2 * c,
-            vxj: 0.2 * c,
-            vyi: 0.1 * c,
-            vyj: 0.1 * c,
-            omega: 1.0,
-            ..BearingState::default()
-        },
-        // Pure squeeze, tilted.
-        BearingState {
-            xi: 0.2 * c,
-            xj: 0.4 * c,
-            vxi: -0.3 * c,
-            vxj: 0.2 * c,
-            ..BearingState::default()
-        },
-        // Spin backwards.
-        BearingState {
-            xi: -0.4 * c,
-            yi: 0.4 * c,
-            xj: -0.4 * c,
-            yj: 0.4 * c,
-            omega: -3.0,
-            ..BearingState::default()
-        },
-    ];
+    let states = balance_states(&p);
     for (k, s) in states.iter().enumerate() {
         let (l, f, ints, _) = solve_with_flow(&p, s);
         eprintln!(
@@ -446,26 +406,7 @@ fn eval_reports_film_friction_and_flow() {
 #[test]
 fn accuracy_mode_balance_closes_within_the_accuracy() {
     let p = bearing(0.5, FiniteSettings::default());
-    let c = p.clearance;
-    let states = [
-        aligned(&p, 0.6),
-        BearingState {
-            xi: 0.3 * c,
-            yi: -0.2 * c,
-            xj: 0.7 * c,
-            yj: 0.1 * c,
-            omega: 1.0,
-            ..BearingState::default()
-        },
-        BearingState {
-            xi: 0.5 * c,
-            xj: 0.5 * c,
-            vxi: 0.2 * c,
-            vxj: 0.2 * c,
-            omega: 1.0,
-            ..BearingState::default()
-        },
-    ];
+    let states = balance_states(&p);
     for (k, s) in states.iter().enumerate() {
         let (_, f, _, _) = solve_with_flow(&p, s);
         let balance = f.inlet - f.side[0] - f.side[1] - f.storage;
@@ -478,4 +419,50 @@ fn accuracy_mode_balance_closes_within_the_accuracy() {
             f.storage
         );
     }
+}
+
+/// The states of the mass-balance tests: aligned, tilted in and out of the eccentricity's
+/// plane, squeezed and whirling, pure squeeze tilted, spin backwards.
+fn balance_states(p: &BearingParams) -> [BearingState; 5] {
+    let c = p.clearance;
+    [
+        aligned(&p, 0.6),
+        // Tilted in and out of the eccentricity's plane.
+        BearingState {
+            xi: 0.3 * c,
+            yi: -0.2 * c,
+            xj: 0.7 * c,
+            yj: 0.1 * c,
+            omega: 1.0,
+            ..BearingState::default()
+        },
+        // Squeezed toward the wall and whirling.
+        BearingState {
+            xi: 0.5 * c,
+            xj: 0.5 * c,
+            vxi: 0.2 * c,
+            vxj: 0.2 * c,
+            vyi: 0.1 * c,
+            vyj: 0.1 * c,
+            omega: 1.0,
+            ..BearingState::default()
+        },
+        // Pure squeeze, tilted.
+        BearingState {
+            xi: 0.2 * c,
+            xj: 0.4 * c,
+            vxi: -0.3 * c,
+            vxj: 0.2 * c,
+            ..BearingState::default()
+        },
+        // Spin backwards.
+        BearingState {
+            xi: -0.4 * c,
+            yi: 0.4 * c,
+            xj: -0.4 * c,
+            yj: 0.4 * c,
+            omega: -3.0,
+            ..BearingState::default()
+        },
+    ]
 }
