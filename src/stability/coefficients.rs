@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use super::StabilityError;
 use crate::backend::{effective_model, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::finite_solution;
+use crate::bearing::finite::{finite_solution, Cavitation};
 use crate::bearing::{BearingParams, BearingState, FilmModel, Loads};
 
 /// Names of the coordinates, in matrix order.
@@ -186,17 +186,25 @@ fn levels(richardson: bool) -> &'static [f64] {
 /// every perturbed state: a grid change between differenced states would be a jump of
 /// the order of the accuracy over a step of ~1e-3 δ). `None` for the short film.
 pub fn difference_grid(params: &BearingParams, state: &BearingState) -> Option<[u32; 2]> {
-    grid_and_estimate(params, state).map(|g| g.0)
+    grid_and_estimate(params, state, false).map(|g| g.0)
 }
 
 /// [`difference_grid`] with the relative discretisation error estimate of the loads
-/// there (accuracy mode; 0 on an explicit grid).
-fn grid_and_estimate(params: &BearingParams, state: &BearingState) -> Option<([u32; 2], f64)> {
+/// there (accuracy mode; 0 on an explicit grid, and on a held grid unless `estimate`).
+fn grid_and_estimate(
+    params: &BearingParams,
+    state: &BearingState,
+    estimate: bool,
+) -> Option<([u32; 2], f64)> {
     if effective_model(params, state) != FilmModel::Finite {
         return None;
     }
     if let Some((t, z)) = params.finite.fixed_grid() {
         return Some(([t, z], 0.0));
+    }
+    if let (Some(held), false) = (params.finite.held_grid, estimate) {
+        // Held already (a Newton iteration): no solve needed to choose it.
+        return Some((held, 0.0));
     }
     let r = finite_solution(params, state, &params.finite, false)
         .ok()?
@@ -222,12 +230,22 @@ pub fn load_noise(params: &BearingParams) -> f64 {
     }
 }
 
-/// `params` with the finite film pinned to `grid` (unchanged for `None`).
+/// `params` with the finite film held on `grid` (unchanged for `None` or an explicit
+/// grid): in accuracy mode the ladder's grid with node 0 on each state's own maximum
+/// film ([`crate::bearing::finite::FiniteSettings::held_grid`]), so that the loads are
+/// smooth in the state. Issue 20 found the explicit grid pinned here before: its inlet
+/// column snaps to the nearest grid angle, which jumps between nearby states (K_yy off
+/// by 51 %, Newton stalled at a residual of the accuracy's order). JFO cavitation keeps
+/// the explicit grid (its ladder has no held mode).
 pub fn pin_grid(params: &BearingParams, grid: Option<[u32; 2]>) -> BearingParams {
     let mut p = *params;
     if let Some([t, z]) = grid {
-        p.finite.n_theta = Some(t);
-        p.finite.n_z = Some(z);
+        if p.finite.cavitation == Cavitation::Jfo {
+            p.finite.n_theta = Some(t);
+            p.finite.n_z = Some(z);
+        } else {
+            p.finite = p.finite.held([t, z]);
+        }
     }
     p
 }
@@ -247,7 +265,7 @@ pub fn coefficients_batch(
     // `jobs.len() + k`).
     let chosen: Vec<Option<([u32; 2], f64)>> = jobs
         .par_iter()
-        .map(|j| grid_and_estimate(&j.params, &j.state))
+        .map(|j| grid_and_estimate(&j.params, &j.state, options.richardson))
         .collect();
     let grids: Vec<Option<[u32; 2]>> = chosen.iter().map(|c| c.map(|g| g.0)).collect();
     let mut params: Vec<BearingParams> = jobs
@@ -262,7 +280,9 @@ pub fn coefficients_batch(
             if !options.richardson || g.is_none() {
                 return None;
             }
-            p.finite.coarse().map(|c| BearingParams { finite: c, ..*p })
+            p.finite
+                .half_grid()
+                .map(|c| BearingParams { finite: c, ..*p })
         })
         .collect();
     if let Some(&first) = params.first() {

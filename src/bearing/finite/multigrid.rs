@@ -755,7 +755,7 @@ impl Level {
     }
 
     /// Load integrals of the iterate, node 0 at angle `theta0`.
-    fn loads(&self, theta0: f64) -> [f64; 4] {
+    pub(crate) fn loads(&self, theta0: f64) -> [f64; 4] {
         super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
     }
 
