@@ -471,7 +471,12 @@ impl LoadEvaluator {
                         request: k,
                         rate_scale: p.rate_scale,
                         job: FiniteJob::of_state(b, &p, req.state.omega),
-                        grid: FiniteGrid::for_bearing(b),
+                        grid: FiniteGrid {
+                            // Accuracy mode: the field to the tolerance where its film
+                            // friction and flow are wanted (issue 20).
+                            polish: film_of(req.bearing),
+                            ..FiniteGrid::for_bearing(b)
+                        },
                         key: (req.bearing, *n),
                     });
                     *n += 1;

@@ -16,8 +16,8 @@ use rayon::prelude::*;
 
 use super::StabilityError;
 use crate::backend::{effective_model, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::{finite_solution, Cavitation};
-use crate::bearing::{BearingParams, BearingState, FilmModel, Loads};
+use crate::bearing::finite::{Cavitation, FiniteGrid, FiniteJob, FiniteSolver, SolveReport};
+use crate::bearing::{pack_state, BearingParams, BearingState, FilmModel, Loads};
 
 /// Names of the coordinates, in matrix order.
 pub const ORDER: [&str; 4] = ["x", "y", "tilt_x", "tilt_y"];
@@ -206,9 +206,16 @@ fn grid_and_estimate(
         // Held already (a Newton iteration): no solve needed to choose it.
         return Some((held, 0.0));
     }
-    let r = finite_solution(params, state, &params.finite, false)
-        .ok()?
-        .report;
+    // The solve alone (no film friction and flow: only the grid and estimate are used).
+    let packed = pack_state(params, state).ok()?;
+    let r = if packed.rate_scale > 0.0 {
+        let job = FiniteJob::of_state(params, &packed, state.omega);
+        FiniteSolver::new()
+            .solve(&job, &FiniteGrid::for_bearing(params), &mut Vec::new())
+            .1
+    } else {
+        SolveReport::default()
+    };
     // A state without film pressure (no spin, no squeeze) has no grid choice: the
     // explicit default.
     Some(if r.n_theta > 0 {

@@ -332,6 +332,7 @@ impl Level {
             accuracy: None,
             layout: FilmLayout::default(),
             cavitation: super::Cavitation::Reynolds,
+            polish: false,
         };
         let omega = g.relaxation(aspect);
         let mut updates = 0;
