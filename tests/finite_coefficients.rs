@@ -11,8 +11,8 @@ use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::finite::FiniteSettings;
 use bearing_sweep::bearing::{Accuracy, BearingParams, FilmModel};
 use bearing_sweep::stability::{
-    aligned_state, bearing_equilibria, coefficients_batch, equilibrium_state, CoefficientJob,
-    DiffOptions,
+    aligned_state, bearing_equilibria, coefficients_batch, equilibrium_state, pin_grid,
+    CoefficientJob, DiffOptions,
 };
 
 fn evaluator() -> LoadEvaluator {
@@ -142,8 +142,9 @@ fn smooth_in_speed(p: BearingParams, speeds: Vec<f64>) {
         .map(|c| c.unwrap())
         .collect();
     // The errors are small, so that "within the reported errors" says something (the
-    // 51 % of the old pinned grid would pass any smoothness test): each at most 20 times
-    // the accuracy of the block's largest entry (1 % at the default).
+    // 51 % of the old pinned grid would pass any smoothness test): each at most 40 times
+    // the accuracy of the block's largest entry (2 % at the default; C's reported errors,
+    // up to 4× its grid-to-grid change where that is erratic, reach 1.1 %).
     for (n, ck) in c.iter().enumerate() {
         for (name, m, e) in [
             ("K", ck.stiffness, ck.stiffness_error),
@@ -155,13 +156,13 @@ fn smooth_in_speed(p: BearingParams, speeds: Vec<f64>) {
             for i in 0..2 {
                 for j in 0..2 {
                     assert!(
-                        e[i][j] <= 20.0 * p.finite.accuracy * big,
+                        e[i][j] <= 40.0 * p.finite.accuracy * big,
                         "{name}[{i}][{j}] at {} rad/s: reported error {:.3e} of {:.3e}, \
                          bound {:.3e}",
                         speeds[n],
                         e[i][j],
                         m[i][j],
-                        20.0 * p.finite.accuracy * big
+                        40.0 * p.finite.accuracy * big
                     );
                 }
             }
@@ -208,6 +209,68 @@ fn smooth_in_speed(p: BearingParams, speeds: Vec<f64>) {
                         speeds[n]
                     );
                 }
+            }
+        }
+    }
+}
+
+/// The reported coefficient errors at the default accuracy against a converged reference
+/// (the held 1024 × 128 and 512 × 64 grids, Richardson-extrapolated), on two equilibrium-
+/// like states of the paper bearing: for the x-y block of K, the norm of the reported
+/// errors is within a factor 3 of the norm of the true errors, both ways (per entry a
+/// true error may cross zero between grids, so the block norm is checked). Measured
+/// (examples/coef_convergence.rs): 1.6 and 1.05 here. The damping block converges
+/// erratically under refinement (successive-grid ratios 0.02-3.5), so its reference is
+/// not converged to the level needed and its ratio (0.6-20 measured) is printed, not
+/// checked (docs/finite-film.md "Coefficients").
+#[test]
+fn reported_stiffness_error_is_honest_against_a_converged_reference() {
+    let mut ev = evaluator();
+    let p = paper(FiniteSettings::default().accuracy);
+    let d = p.clearance;
+    let states = [(0.517_f64, -0.6_f64, 500.0), (0.3, 0.9, 450.0)];
+    let mut jobs = Vec::new();
+    for &(eps, angle, w) in &states {
+        let state = aligned_state(eps * d * angle.cos(), eps * d * angle.sin(), w);
+        jobs.push(CoefficientJob { params: p, state });
+        jobs.push(CoefficientJob {
+            params: pin_grid(&p, Some([1024, 128])),
+            state,
+        });
+    }
+    let c: Vec<_> = coefficients_batch(&mut ev, &jobs, &DiffOptions::default())
+        .into_iter()
+        .map(|c| c.unwrap())
+        .collect();
+    for (n, &(eps, _, w)) in states.iter().enumerate() {
+        let (dflt, fine) = (&c[2 * n], &c[2 * n + 1]);
+        assert_eq!(dflt.grid, Some([512, 64]), "state {n}: the default's grid");
+        let norm = |f: &dyn Fn(usize, usize) -> f64| {
+            (0..2)
+                .flat_map(|i| (0..2).map(move |j| (i, j)))
+                .map(|(i, j)| f(i, j).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        for (name, m, e, mf) in [
+            ("K", dflt.stiffness, dflt.stiffness_error, fine.stiffness),
+            ("C", dflt.damping, dflt.damping_error, fine.damping),
+        ] {
+            let reference = |i: usize, j: usize| (4.0 * mf[i][j] - m[i][j]) / 3.0;
+            let truth = norm(&|i, j| m[i][j] - reference(i, j));
+            let reported = norm(&|i, j| e[i][j]);
+            let ratio = reported / truth;
+            println!(
+                "ε {eps}, {w} rad/s, {name}: reported {reported:.3e}, true {truth:.3e}, \
+                 ratio {ratio:.2} (relative to the block: {:.2e})",
+                truth / norm(&|i, j| reference(i, j))
+            );
+            if name == "K" {
+                assert!(
+                    (1.0 / 3.0..=3.0).contains(&ratio),
+                    "ε {eps}: K block error reported {reported:.3e}, true {truth:.3e}: \
+                     ratio {ratio:.2} outside [1/3, 3]"
+                );
             }
         }
     }
