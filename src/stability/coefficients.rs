@@ -197,6 +197,14 @@ fn levels(richardson: bool) -> &'static [f64] {
     }
 }
 
+/// Step-size levels on a held ladder grid (finite film, accuracy mode) with Richardson:
+/// `h, h/2`, one Richardson level. Its step error, O(h⁴) ~ 1e-12 relative at the default
+/// step, is far below the grid's discretisation error (≥ 1e-4), and the estimate
+/// `|D(h/2) − D(h)|/3` (the error of `D(h/2)`, O(h²) ~ 1e-7) bounds it; a third level
+/// would cost 16 more film solves per grid and amplify the solver's noise at `h/4`
+/// (issue 20's cost).
+const HELD_LEVELS: &[f64] = &[1.0, 0.5];
+
 /// The finite-film grid `[n_theta, n_z]` a job's loads are differenced on: the explicit
 /// grid, or in accuracy mode the grid the solver chooses at the job's own state (held for
 /// every perturbed state: a grid change between differenced states would be a jump of
@@ -281,9 +289,7 @@ pub fn coefficients_batch(
     jobs: &[CoefficientJob],
     options: &DiffOptions,
 ) -> Vec<Result<BearingCoefficients, StabilityError>> {
-    let lv = levels(options.richardson);
     let nc = options.coordinates.clamp(1, 8);
-    let per_job = 1 + nc * lv.len() * 2;
     // Finite film: one grid per job (see `difference_grid`), and with Richardson the
     // same differences on the half grid for the discretisation error (bearing index
     // `jobs.len() + k`).
@@ -297,6 +303,18 @@ pub fn coefficients_batch(
         .zip(&grids)
         .map(|(j, g)| pin_grid(&j.params, *g))
         .collect();
+    // Step levels and film evaluations per grid of each job.
+    let lvs: Vec<&[f64]> = params
+        .iter()
+        .map(|p| {
+            if options.richardson && p.finite.held_grid.is_some() {
+                HELD_LEVELS
+            } else {
+                levels(options.richardson)
+            }
+        })
+        .collect();
+    let per: Vec<usize> = lvs.iter().map(|lv| 1 + nc * lv.len() * 2).collect();
     let coarse: Vec<Option<BearingParams>> = params
         .iter()
         .zip(&grids)
@@ -327,7 +345,7 @@ pub fn coefficients_batch(
         params.extend(coarse.iter().map(|c| c.unwrap_or(first)));
         params.extend(quarter.iter().map(|c| c.unwrap_or(first)));
     }
-    let mut requests = Vec::with_capacity(jobs.len() * per_job);
+    let mut requests = Vec::with_capacity(per.iter().sum::<usize>() * 3);
     let mut steps = Vec::with_capacity(jobs.len());
     // Start of each job's fine and coarse chunks in the requests.
     let mut starts: Vec<(usize, Option<usize>, Option<usize>)> = Vec::with_capacity(jobs.len());
@@ -335,6 +353,7 @@ pub fn coefficients_batch(
         let st = steps_of(job, options.relative_step);
         steps.push(st);
         let fine_start = requests.len();
+        let lv = lvs[k];
         push_differences(&mut requests, k as u32, job, &st, lv, nc);
         let coarse_start = coarse[k].map(|_| {
             let at = requests.len();
@@ -354,6 +373,7 @@ pub fn coefficients_batch(
         .enumerate()
         .map(|(k, job)| {
             let (fs, cs, qs) = starts[k];
+            let (lv, per_job) = (lvs[k], per[k]);
             let mut out = differentiate(
                 k,
                 job,
@@ -566,7 +586,13 @@ fn differentiate(
                 magnitude = magnitude.max(p.abs()).max(m.abs());
                 d[l] = (p - m) / (2.0 * f * unit);
             }
-            let (value, error) = if richardson {
+            let (value, error) = if richardson && lv.len() == 2 {
+                // One Richardson level (held ladder grids, `HELD_LEVELS`): the error of
+                // D(h/2) bounds that of the extrapolate, plus rounding at h/2.
+                let value = (4.0 * d[1] - d[0]) / 3.0;
+                let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.5 * unit);
+                (value, (d[1] - d[0]).abs() / 3.0 + rounding)
+            } else if richardson {
                 // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
                 // estimate is the change of the last level (conservative: the
                 // returned value is one level better), plus rounding of the
