@@ -630,7 +630,11 @@ impl LoadEvaluator {
                 .map(|s| {
                     let f = if self.warm_start {
                         match self.warm.remove(&s.key) {
-                            Some((mut f, angle)) if f.len() == grid.field_len() => {
+                            // Not on a held ladder grid (accuracy mode, n_theta > 0):
+                            // its solve starts from the ladder, not from a field.
+                            Some((mut f, angle))
+                                if f.len() == grid.field_len() && grid.accuracy.is_none() =>
+                            {
                                 rotate_field(&mut f, &grid, mid_angle(&s.job) - angle);
                                 f
                             }
