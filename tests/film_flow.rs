@@ -492,7 +492,7 @@ fn polish_only_where_film_outputs_are_requested() {
             state: *s,
         })
         .collect();
-    let mut run = |film: bool| {
+    let run = |film: bool| {
         let (b, _) = create_backend(BackendKind::Cpu, Accuracy::default()).unwrap();
         let mut ev = LoadEvaluator::new(b);
         ev.set_warm_start(false);
