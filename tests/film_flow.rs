@@ -81,7 +81,12 @@ const BUTENSCHOEN: [(f64, f64, f64, f64); 9] = [
 fn solve_with_flow(p: &BearingParams, s: &BearingState) -> (Loads, FlowIntegrals, [f64; 4], f64) {
     let packed = pack_state(p, s).unwrap();
     let job = FiniteJob::new(p, &packed);
-    let g = FiniteGrid::from(&p.finite);
+    // Flows wanted: accuracy mode iterates its last grid's field to the tolerance, as
+    // the evaluator does where film outputs are requested (issue 20).
+    let g = FiniteGrid {
+        polish: true,
+        ..FiniteGrid::from(&p.finite)
+    };
     let mut field = Vec::new();
     let (ints, report) = FiniteSolver::new().solve(&job, &g, &mut field);
     let (nt, nz, theta0) = solution_grid(&job, &g, &report);
@@ -146,8 +151,8 @@ fn butenschoen_friction_variable_and_side_flow_at_default_accuracy() {
 #[test]
 fn finite_mass_balance_closes_aligned_tilted_and_squeezed() {
     // An explicit grid iterated to 1e-11: the discrete field's own conservation. (Accuracy
-    // mode stops iterating at accuracy / 50 on the loads, so its balance closes to that
-    // level only: `accuracy_mode_balance_closes_within_the_accuracy` below.)
+    // mode, its last grid polished where flows are wanted:
+    // `accuracy_mode_balance_closes_when_flows_are_wanted` below.)
     let p = bearing(0.5, fixed(128, 32));
     let states = balance_states(&p);
     for (k, s) in states.iter().enumerate() {
@@ -377,12 +382,12 @@ fn eval_reports_film_friction_and_flow() {
             );
         }
         // Steady, aligned: inlet = side flow. Short film: exactly (closed forms). Finite
-        // film in accuracy mode (here 2e-3): each ladder grid is iterated until its *load
-        // vector's* iteration error is accuracy / 50 (docs/finite-film.md); the flows,
-        // boundary gradients of the field, converge more slowly (1.9e-4 measured), so
-        // they are held to a quarter of the requested accuracy. Conservation of the
-        // converged discrete field itself: `finite_mass_balance_closes_...` below.
-        let tol = if model == "finite" { 2e-3 / 4.0 } else { 1e-6 };
+        // film in accuracy mode (here 2e-3): eval wants the film outputs, so the ladder's
+        // last grid is iterated to the field tolerance (1e-8; issue 20, "flows when
+        // asked"), and the balance closes as on an explicit grid. (Before that polish
+        // the flows carried the ladder's accuracy/50 stop: 1.9e-4 measured, held to
+        // accuracy/4.)
+        let tol = 1e-6;
         check(
             &format!("{model} inlet/side"),
             0,
@@ -396,21 +401,21 @@ fn eval_reports_film_friction_and_flow() {
     }
 }
 
-/// Accuracy mode (the default 5e-4): the film's mass balance closes within the requested
-/// accuracy of the flow scale, on the states of the conservation test. Accuracy mode stops
-/// iterating each grid when the *loads'* iteration error is 2 % of the accuracy (issue 20,
-/// cost); the flows are boundary gradients of the field and converge more slowly (3.9e-4
-/// of the flow scale measured on the tilted state), so they carry an iteration error of up
-/// to about the accuracy (docs/finite-film.md "Friction and flow"). An explicit grid
-/// closes the balance to its tolerance (the test above).
+/// Accuracy mode (the default 5e-4) where flows are wanted: the film's mass balance closes
+/// to 1e-6 of the flow scale on the states of the conservation test, as on an explicit
+/// grid. Accuracy mode stops iterating each grid when the *loads'* iteration error is 2 %
+/// of the accuracy (issue 20, cost); the flows are boundary gradients of the field and
+/// converge more slowly (3.9e-4 of the flow scale measured on the tilted state at that
+/// stop), so where film outputs are requested the last grid's field is iterated on to
+/// `finite.tolerance` (`FiniteGrid::polish`; docs/finite-film.md "Friction and flow").
 #[test]
-fn accuracy_mode_balance_closes_within_the_accuracy() {
+fn accuracy_mode_balance_closes_when_flows_are_wanted() {
     let p = bearing(0.5, FiniteSettings::default());
     let states = balance_states(&p);
     for (k, s) in states.iter().enumerate() {
         let (_, f, _, _) = solve_with_flow(&p, s);
         let balance = f.inlet - f.side[0] - f.side[1] - f.storage;
-        let tol = p.finite.accuracy * f.scale;
+        let tol = 1e-6 * f.scale;
         assert!(
             balance.abs() <= tol,
             "state {k}: inlet {:e} − side {:e} − storage {:e} = {balance:e}, tolerance {tol:e}",
@@ -465,4 +470,73 @@ fn balance_states(p: &BearingParams) -> [BearingState; 5] {
             ..BearingState::default()
         },
     ]
+}
+
+/// The polish costs nothing where film outputs are not requested (rotor stages): through
+/// the evaluator with `film_outputs` off, accuracy-mode loads are bit for bit the
+/// unpolished solve's, and the work is that of the ladder alone; with film outputs on,
+/// the same states take more sweeps (the last grid iterated to the field tolerance) and
+/// their loads move by about the ladder's per-grid stop, 2 % of the accuracy (an
+/// estimate: 3 % measured on the tilted state; bound 10 %).
+#[test]
+fn polish_only_where_film_outputs_are_requested() {
+    use bearing_sweep::backend::{
+        create_backend, BackendKind, BearingPlan, LoadEvaluator, LoadRequest,
+    };
+    let p = bearing(0.5, FiniteSettings::default());
+    let states = balance_states(&p);
+    let requests: Vec<LoadRequest> = states
+        .iter()
+        .map(|s| LoadRequest {
+            bearing: 0,
+            state: *s,
+        })
+        .collect();
+    let run = |film: bool| {
+        let (b, _) = create_backend(BackendKind::Cpu, Accuracy::default()).unwrap();
+        let mut ev = LoadEvaluator::new(b);
+        ev.set_warm_start(false);
+        let plan = BearingPlan::new(&[p], film);
+        let mut out = Vec::new();
+        ev.evaluate_planned(&[p], &plan, &requests, &mut out);
+        let loads: Vec<Loads> = out.into_iter().map(|r| r.unwrap()).collect();
+        (loads, ev.stats().finite_sweeps)
+    };
+    let (off, sweeps_off) = run(false);
+    let (on, sweeps_on) = run(true);
+    for (k, s) in states.iter().enumerate() {
+        let packed = pack_state(&p, s).unwrap();
+        let job = FiniteJob::of_state(&p, &packed, s.omega);
+        let (ints, _) =
+            FiniteSolver::new().solve(&job, &FiniteGrid::from(&p.finite), &mut Vec::new());
+        let want = bearing_sweep::bearing::finish_loads(&p, s, &ints, packed.rate_scale);
+        assert_eq!(
+            off[k].load_vector(p.length),
+            want.load_vector(p.length),
+            "state {k}: film outputs off must be the unpolished solve"
+        );
+        let (a, b) = (on[k].load_vector(p.length), off[k].load_vector(p.length));
+        let norm = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let diff = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        eprintln!(
+            "state {k}: polish moved the loads by {:.2e} relative",
+            diff / norm
+        );
+        assert!(
+            diff <= 0.1 * p.finite.accuracy * norm,
+            "state {k}: polish moved the loads by {:.2e} relative, bound {:.2e}",
+            diff / norm,
+            0.1 * p.finite.accuracy
+        );
+    }
+    eprintln!("sweeps: film outputs off {sweeps_off}, on {sweeps_on}");
+    assert!(
+        sweeps_on > sweeps_off,
+        "polish did no work: {sweeps_on} vs {sweeps_off}"
+    );
 }

@@ -471,7 +471,12 @@ impl LoadEvaluator {
                         request: k,
                         rate_scale: p.rate_scale,
                         job: FiniteJob::of_state(b, &p, req.state.omega),
-                        grid: FiniteGrid::for_bearing(b),
+                        grid: FiniteGrid {
+                            // Accuracy mode: the field to the tolerance where its film
+                            // friction and flow are wanted (issue 20).
+                            polish: film_of(req.bearing),
+                            ..FiniteGrid::for_bearing(b)
+                        },
                         key: (req.bearing, *n),
                     });
                     *n += 1;
@@ -625,7 +630,11 @@ impl LoadEvaluator {
                 .map(|s| {
                     let f = if self.warm_start {
                         match self.warm.remove(&s.key) {
-                            Some((mut f, angle)) if f.len() == grid.field_len() => {
+                            // Not on a held ladder grid (accuracy mode, n_theta > 0):
+                            // its solve starts from the ladder, not from a field.
+                            Some((mut f, angle))
+                                if f.len() == grid.field_len() && grid.accuracy.is_none() =>
+                            {
                                 rotate_field(&mut f, &grid, mid_angle(&s.job) - angle);
                                 f
                             }

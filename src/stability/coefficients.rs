@@ -16,8 +16,8 @@ use rayon::prelude::*;
 
 use super::StabilityError;
 use crate::backend::{effective_model, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::finite_solution;
-use crate::bearing::{BearingParams, BearingState, FilmModel, Loads};
+use crate::bearing::finite::{Cavitation, FiniteGrid, FiniteJob, FiniteSolver, SolveReport};
+use crate::bearing::{pack_state, BearingParams, BearingState, FilmModel, Loads};
 
 /// Names of the coordinates, in matrix order.
 pub const ORDER: [&str; 4] = ["x", "y", "tilt_x", "tilt_y"];
@@ -32,6 +32,10 @@ pub struct DiffOptions {
     /// Three step sizes `h, h/2, h/4` with two Richardson levels and an error estimate
     /// (true, default), or `h` alone (Newton iterations; no error estimate).
     pub richardson: bool,
+    /// Coordinates differenced: 8 (positions `x, y, tilt_x, tilt_y` and their rates,
+    /// default) or 2 (`x, y` only: the x-y stiffness block, the rest zero; a bearing's
+    /// static equilibrium needs no more, issue 20's cost).
+    pub coordinates: usize,
 }
 
 impl Default for DiffOptions {
@@ -39,6 +43,7 @@ impl Default for DiffOptions {
         DiffOptions {
             relative_step: 1e-3,
             richardson: true,
+            coordinates: 8,
         }
     }
 }
@@ -49,6 +54,17 @@ impl DiffOptions {
         DiffOptions {
             relative_step: 1e-4,
             richardson: false,
+            coordinates: 8,
+        }
+    }
+
+    /// [`DiffOptions::newton`] for an aligned journal's position alone (`x, y`): the
+    /// Jacobian of a bearing's static equilibrium, 5 film evaluations per iteration
+    /// instead of 17.
+    pub fn newton_positions() -> Self {
+        DiffOptions {
+            coordinates: 2,
+            ..DiffOptions::newton()
         }
     }
 }
@@ -83,9 +99,9 @@ pub struct BearingCoefficients {
     /// `C[i][j] = −∂L_i/∂q̇_j`; N·s/m, N·s/rad, N·m·s/m, N·m·s/rad.
     pub damping: [[f64; 4]; 4],
     /// Error estimate of each stiffness coefficient (same units; zero without
-    /// Richardson): the difference-step error plus, for the finite film, the
-    /// discretisation error bound `|K_h − K_2h|` from the same differences on the half
-    /// grid.
+    /// Richardson): the difference-step error plus, for the finite film, the grid's
+    /// discretisation error from the same differences on the half (and, in accuracy
+    /// mode, quarter) grid (see `add_grid_error`).
     pub stiffness_error: [[f64; 4]; 4],
     /// Error estimate of each damping coefficient (as `stiffness_error`).
     pub damping_error: [[f64; 4]; 4],
@@ -181,26 +197,49 @@ fn levels(richardson: bool) -> &'static [f64] {
     }
 }
 
+/// Step-size levels on a held ladder grid (finite film, accuracy mode) with Richardson:
+/// `h, h/2`, one Richardson level. Its step error, O(h⁴) ~ 1e-12 relative at the default
+/// step, is far below the grid's discretisation error (≥ 1e-4), and the estimate
+/// `|D(h/2) − D(h)|/3` (the error of `D(h/2)`, O(h²) ~ 1e-7) bounds it; a third level
+/// would cost 16 more film solves per grid and amplify the solver's noise at `h/4`
+/// (issue 20's cost).
+const HELD_LEVELS: &[f64] = &[1.0, 0.5];
+
 /// The finite-film grid `[n_theta, n_z]` a job's loads are differenced on: the explicit
 /// grid, or in accuracy mode the grid the solver chooses at the job's own state (held for
 /// every perturbed state: a grid change between differenced states would be a jump of
 /// the order of the accuracy over a step of ~1e-3 δ). `None` for the short film.
 pub fn difference_grid(params: &BearingParams, state: &BearingState) -> Option<[u32; 2]> {
-    grid_and_estimate(params, state).map(|g| g.0)
+    grid_and_estimate(params, state, false).map(|g| g.0)
 }
 
 /// [`difference_grid`] with the relative discretisation error estimate of the loads
-/// there (accuracy mode; 0 on an explicit grid).
-fn grid_and_estimate(params: &BearingParams, state: &BearingState) -> Option<([u32; 2], f64)> {
+/// there (accuracy mode; 0 on an explicit grid, and on a held grid unless `estimate`).
+fn grid_and_estimate(
+    params: &BearingParams,
+    state: &BearingState,
+    estimate: bool,
+) -> Option<([u32; 2], f64)> {
     if effective_model(params, state) != FilmModel::Finite {
         return None;
     }
     if let Some((t, z)) = params.finite.fixed_grid() {
         return Some(([t, z], 0.0));
     }
-    let r = finite_solution(params, state, &params.finite, false)
-        .ok()?
-        .report;
+    if let (Some(held), false) = (params.finite.held_grid, estimate) {
+        // Held already (a Newton iteration): no solve needed to choose it.
+        return Some((held, 0.0));
+    }
+    // The solve alone (no film friction and flow: only the grid and estimate are used).
+    let packed = pack_state(params, state).ok()?;
+    let r = if packed.rate_scale > 0.0 {
+        let job = FiniteJob::of_state(params, &packed, state.omega);
+        FiniteSolver::new()
+            .solve(&job, &FiniteGrid::for_bearing(params), &mut Vec::new())
+            .1
+    } else {
+        SolveReport::default()
+    };
     // A state without film pressure (no spin, no squeeze) has no grid choice: the
     // explicit default.
     Some(if r.n_theta > 0 {
@@ -222,12 +261,22 @@ pub fn load_noise(params: &BearingParams) -> f64 {
     }
 }
 
-/// `params` with the finite film pinned to `grid` (unchanged for `None`).
+/// `params` with the finite film held on `grid` (unchanged for `None` or an explicit
+/// grid): in accuracy mode the ladder's grid with node 0 on each state's own maximum
+/// film ([`crate::bearing::finite::FiniteSettings::held_grid`]), so that the loads are
+/// smooth in the state. Issue 20 found the explicit grid pinned here before: its inlet
+/// column snaps to the nearest grid angle, which jumps between nearby states (K_yy off
+/// by 51 %, Newton stalled at a residual of the accuracy's order). JFO cavitation keeps
+/// the explicit grid (its ladder has no held mode).
 pub fn pin_grid(params: &BearingParams, grid: Option<[u32; 2]>) -> BearingParams {
     let mut p = *params;
     if let Some([t, z]) = grid {
-        p.finite.n_theta = Some(t);
-        p.finite.n_z = Some(z);
+        if p.finite.cavitation == Cavitation::Jfo {
+            p.finite.n_theta = Some(t);
+            p.finite.n_z = Some(z);
+        } else {
+            p.finite = p.finite.held([t, z]);
+        }
     }
     p
 }
@@ -240,14 +289,13 @@ pub fn coefficients_batch(
     jobs: &[CoefficientJob],
     options: &DiffOptions,
 ) -> Vec<Result<BearingCoefficients, StabilityError>> {
-    let lv = levels(options.richardson);
-    let per_job = 1 + 8 * lv.len() * 2;
+    let nc = options.coordinates.clamp(1, 8);
     // Finite film: one grid per job (see `difference_grid`), and with Richardson the
     // same differences on the half grid for the discretisation error (bearing index
     // `jobs.len() + k`).
     let chosen: Vec<Option<([u32; 2], f64)>> = jobs
         .par_iter()
-        .map(|j| grid_and_estimate(&j.params, &j.state))
+        .map(|j| grid_and_estimate(&j.params, &j.state, options.richardson))
         .collect();
     let grids: Vec<Option<[u32; 2]>> = chosen.iter().map(|c| c.map(|g| g.0)).collect();
     let mut params: Vec<BearingParams> = jobs
@@ -255,6 +303,18 @@ pub fn coefficients_batch(
         .zip(&grids)
         .map(|(j, g)| pin_grid(&j.params, *g))
         .collect();
+    // Step levels and film evaluations per grid of each job.
+    let lvs: Vec<&[f64]> = params
+        .iter()
+        .map(|p| {
+            if options.richardson && p.finite.held_grid.is_some() {
+                HELD_LEVELS
+            } else {
+                levels(options.richardson)
+            }
+        })
+        .collect();
+    let per: Vec<usize> = lvs.iter().map(|lv| 1 + nc * lv.len() * 2).collect();
     let coarse: Vec<Option<BearingParams>> = params
         .iter()
         .zip(&grids)
@@ -262,35 +322,58 @@ pub fn coefficients_batch(
             if !options.richardson || g.is_none() {
                 return None;
             }
-            p.finite.coarse().map(|c| BearingParams { finite: c, ..*p })
+            p.finite
+                .half_grid()
+                .map(|c| BearingParams { finite: c, ..*p })
+        })
+        .collect();
+    // The quarter grid (the half grid's half) of held ladder grids: the observed
+    // contraction of the coefficients' grid convergence (bearing index
+    // `2 jobs.len() + k`; 1/16 of the fine grid's work).
+    let quarter: Vec<Option<BearingParams>> = coarse
+        .iter()
+        .map(|c| {
+            let c = c.as_ref()?;
+            c.finite.held_grid?;
+            c.finite
+                .half_grid()
+                .map(|q| BearingParams { finite: q, ..*c })
         })
         .collect();
     if let Some(&first) = params.first() {
-        // Jobs without a half grid get a placeholder (no request uses it).
+        // Jobs without a half or quarter grid get a placeholder (no request uses it).
         params.extend(coarse.iter().map(|c| c.unwrap_or(first)));
+        params.extend(quarter.iter().map(|c| c.unwrap_or(first)));
     }
-    let mut requests = Vec::with_capacity(jobs.len() * per_job);
+    let mut requests = Vec::with_capacity(per.iter().sum::<usize>() * 3);
     let mut steps = Vec::with_capacity(jobs.len());
     // Start of each job's fine and coarse chunks in the requests.
-    let mut starts: Vec<(usize, Option<usize>)> = Vec::with_capacity(jobs.len());
+    let mut starts: Vec<(usize, Option<usize>, Option<usize>)> = Vec::with_capacity(jobs.len());
     for (k, job) in jobs.iter().enumerate() {
         let st = steps_of(job, options.relative_step);
         steps.push(st);
         let fine_start = requests.len();
-        push_differences(&mut requests, k as u32, job, &st, lv);
+        let lv = lvs[k];
+        push_differences(&mut requests, k as u32, job, &st, lv, nc);
         let coarse_start = coarse[k].map(|_| {
             let at = requests.len();
-            push_differences(&mut requests, (jobs.len() + k) as u32, job, &st, lv);
+            push_differences(&mut requests, (jobs.len() + k) as u32, job, &st, lv, nc);
             at
         });
-        starts.push((fine_start, coarse_start));
+        let quarter_start = quarter[k].map(|_| {
+            let at = requests.len();
+            push_differences(&mut requests, (2 * jobs.len() + k) as u32, job, &st, lv, nc);
+            at
+        });
+        starts.push((fine_start, coarse_start, quarter_start));
     }
     let mut results = Vec::new();
     evaluator.evaluate(&params, &requests, &mut results);
     jobs.iter()
         .enumerate()
         .map(|(k, job)| {
-            let (fs, cs) = starts[k];
+            let (fs, cs, qs) = starts[k];
+            let (lv, per_job) = (lvs[k], per[k]);
             let mut out = differentiate(
                 k,
                 job,
@@ -298,6 +381,7 @@ pub fn coefficients_batch(
                 &steps[k],
                 lv,
                 options.richardson,
+                nc,
             )?;
             out.grid = grids[k];
             if let Some(cs) = cs {
@@ -308,30 +392,99 @@ pub fn coefficients_batch(
                     &steps[k],
                     lv,
                     options.richardson,
+                    nc,
                 )?;
-                // The fine grid's discretisation error, bounded by |K_h − K_2h|: a
-                // coefficient is a difference of loads whose free boundaries move by
-                // sub-cell amounts, so its grid convergence is less regular than the
-                // loads' (measured: |K_h − K_2h|/3, the second-order value, was 2× short
-                // at 128 × 16); |K_h − K_2h| is the geometric tail at a contraction 1/2.
-                // Coarse grids converge irregularly (|K_h − K_2h| was measured 3× short
-                // at 128 × 16, where K_2h is 64 × 8): a coefficient also carries at least
-                // the loads' relative discretisation error, taken ×3 (measured ≤ 2×).
+                let q = match qs {
+                    Some(qs) => Some(differentiate(
+                        k,
+                        job,
+                        &results[qs..qs + per_job],
+                        &steps[k],
+                        lv,
+                        options.richardson,
+                        nc,
+                    )?),
+                    None => None,
+                };
                 let est = chosen[k].map_or(0.0, |g| g.1);
-                for i in 0..4 {
-                    for j in 0..4 {
-                        out.stiffness_error[i][j] += (out.stiffness[i][j] - c.stiffness[i][j])
-                            .abs()
-                            .max(3.0 * est * out.stiffness[i][j].abs());
-                        out.damping_error[i][j] += (out.damping[i][j] - c.damping[i][j])
-                            .abs()
-                            .max(3.0 * est * out.damping[i][j].abs());
-                    }
-                }
+                add_grid_error(
+                    &mut out.stiffness_error,
+                    &out.stiffness,
+                    &c.stiffness,
+                    q.as_ref().map(|q| &q.stiffness),
+                    est,
+                );
+                add_grid_error(
+                    &mut out.damping_error,
+                    &out.damping,
+                    &c.damping,
+                    q.as_ref().map(|q| &q.damping),
+                    est,
+                );
             }
             Ok(out)
         })
         .collect()
+}
+
+/// Adds the discretisation error of the coefficients `fine` (grid h) to `error`, from the
+/// same coefficients on the half grid (`half`, 2h) and, on held ladder grids, the quarter
+/// grid (`quarter`, 4h), per 2 × 2 sub-block of like units (x-y and tilt rows and
+/// columns), with Frobenius norms `n₂ = |K_h − K_2h|`, `n₁ = |K_2h − K_4h|`:
+///
+/// - with the quarter grid, the geometric tail of [`crate::bearing::finite::ladder_estimate`]:
+///   `ρ = clamp(n₂/n₁, 1/4, 0.8)`, each entry `ρ/(1 − ρ) · max(|ΔK_ij|, m |K_ij|/|K|)`
+///   with `m = max(n₂, n₁/4)` (an entry whose grid error crosses zero gets at least the
+///   block's relative error; a lucky small `n₂` after a large `n₁` is not believed).
+///   Measured (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128
+///   extrapolated reference): K converges at second order on the held grid (observed
+///   `n₂/n₁` 0.21-0.28 from 256 × 32 on at ε ≤ 0.7), where this is within 0.6-1.6 of
+///   the true error; C converges erratically (`n₂/n₁` 0.02-3.5), where it is 0.06-20
+///   (docs/finite-film.md "Coefficients").
+/// - without (explicit grids, or a half grid below the ladder's first), the bound of
+///   before: `max(|ΔK_ij|, 3 est |K_ij|)` with `est` the loads' relative estimate
+///   (measured: `|ΔK|` was up to 3× short on coarse grids, the loads' error ≤ 2×).
+fn add_grid_error(
+    error: &mut [[f64; 4]; 4],
+    fine: &[[f64; 4]; 4],
+    half: &[[f64; 4]; 4],
+    quarter: Option<&[[f64; 4]; 4]>,
+    est: f64,
+) {
+    for bi in [0, 2] {
+        for bj in [0, 2] {
+            let cells = [(bi, bj), (bi, bj + 1), (bi + 1, bj), (bi + 1, bj + 1)];
+            let norm = |f: &dyn Fn(usize, usize) -> f64| {
+                cells
+                    .iter()
+                    .map(|&(i, j)| f(i, j).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            };
+            let n2 = norm(&|i, j| fine[i][j] - half[i][j]);
+            let size = norm(&|i, j| fine[i][j]);
+            for &(i, j) in &cells {
+                let d2 = (fine[i][j] - half[i][j]).abs();
+                error[i][j] += match quarter {
+                    Some(q) => {
+                        let n1 = norm(&|i, j| half[i][j] - q[i][j]);
+                        let rho = if n1 > 0.0 {
+                            (n2 / n1).clamp(0.25, 0.8)
+                        } else {
+                            0.25
+                        };
+                        let share = if size > 0.0 {
+                            n2.max(0.25 * n1) * fine[i][j].abs() / size
+                        } else {
+                            0.0
+                        };
+                        rho / (1.0 - rho) * d2.max(share)
+                    }
+                    None => d2.max(3.0 * est * fine[i][j].abs()),
+                };
+            }
+        }
+    }
 }
 
 /// The state of `job` and its perturbations for the differences, on bearing `b`.
@@ -341,13 +494,14 @@ fn push_differences(
     job: &CoefficientJob,
     st: &Steps,
     lv: &[f64],
+    nc: usize,
 ) {
     requests.push(LoadRequest {
         bearing: b,
         state: job.state,
     });
     let len = job.params.length;
-    for c in 0..8 {
+    for c in 0..nc {
         let unit = match c {
             0 | 1 => st.position_m,
             2 | 3 => st.tilt_rad,
@@ -381,6 +535,7 @@ fn differentiate(
     st: &Steps,
     lv: &[f64],
     richardson: bool,
+    nc: usize,
 ) -> Result<BearingCoefficients, StabilityError> {
     let len = job.params.length;
     let mut mids = Vec::with_capacity(chunk.len());
@@ -415,7 +570,7 @@ fn differentiate(
         steps: st,
         grid: None,
     };
-    for c in 0..8 {
+    for c in 0..nc {
         let unit = match c {
             0 | 1 => st.position_m,
             2 | 3 => st.tilt_rad,
@@ -431,7 +586,13 @@ fn differentiate(
                 magnitude = magnitude.max(p.abs()).max(m.abs());
                 d[l] = (p - m) / (2.0 * f * unit);
             }
-            let (value, error) = if richardson {
+            let (value, error) = if richardson && lv.len() == 2 {
+                // One Richardson level (held ladder grids, `HELD_LEVELS`): the error of
+                // D(h/2) bounds that of the extrapolate, plus rounding at h/2.
+                let value = (4.0 * d[1] - d[0]) / 3.0;
+                let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.5 * unit);
+                (value, (d[1] - d[0]).abs() / 3.0 + rounding)
+            } else if richardson {
                 // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
                 // estimate is the change of the last level (conservative: the
                 // returned value is one level better), plus rounding of the

@@ -132,7 +132,8 @@ pub fn bearing_equilibria(
                 state: aligned_state(pos[k][0], pos[k][1], cases[k].1),
             })
             .collect();
-        let coeffs = coefficients_batch(evaluator, &jobs, &DiffOptions::newton());
+        // Only K's x-y block enters the step below.
+        let coeffs = coefficients_batch(evaluator, &jobs, &DiffOptions::newton_positions());
         for (&k, c) in active.iter().zip(coeffs) {
             let (params, omega, load) = cases[k];
             let c = match c {

@@ -332,6 +332,7 @@ impl Level {
             accuracy: None,
             layout: FilmLayout::default(),
             cavitation: super::Cavitation::Reynolds,
+            polish: false,
         };
         let omega = g.relaxation(aspect);
         let mut updates = 0;
@@ -755,7 +756,7 @@ impl Level {
     }
 
     /// Load integrals of the iterate, node 0 at angle `theta0`.
-    fn loads(&self, theta0: f64) -> [f64; 4] {
+    pub(crate) fn loads(&self, theta0: f64) -> [f64; 4] {
         super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
     }
 

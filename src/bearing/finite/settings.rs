@@ -116,6 +116,16 @@ pub struct FiniteSettings {
     /// see [`Cavitation`] and docs/jfo.md).
     #[serde(default, skip_serializing_if = "Cavitation::is_reynolds")]
     pub cavitation: Cavitation,
+    /// Internal, not JSON (issue 20): in accuracy mode, a grid `[n_theta, n_z]` of the
+    /// accuracy ladder held for every evaluation of one linearisation or equilibrium
+    /// (the stability tools set it, see [`FiniteSettings::held`]). Each state is then
+    /// solved on the ladder up to this grid, node 0 on its own mid-plane maximum film as
+    /// in accuracy mode (so the loads are smooth in the state: no snapped inlet column,
+    /// no grid change between states), and the held grid is iterated until its load
+    /// vector's estimated iteration error is below `tolerance`. `None` (default): the
+    /// grid is chosen per state.
+    #[serde(skip)]
+    pub held_grid: Option<[u32; 2]>,
 }
 
 /// Default of [`FiniteSettings::accuracy`]: chosen so that the default run's load vector
@@ -146,6 +156,7 @@ impl Default for FiniteSettings {
             auto_tolerance: default_auto_tolerance(),
             inlet: Inlet::MaxFilm,
             cavitation: Cavitation::Reynolds,
+            held_grid: None,
         }
     }
 }
@@ -230,6 +241,35 @@ impl FiniteSettings {
             (None, None) => None,
             (t, z) => Some((t.unwrap_or(DEFAULT_N_THETA), z.unwrap_or(DEFAULT_N_Z))),
         }
+    }
+
+    /// Accuracy mode with the ladder grid `[n_theta, n_z]` held (see
+    /// [`FiniteSettings::held_grid`]); explicit grids are returned unchanged (they are
+    /// held already).
+    pub fn held(&self, grid: [u32; 2]) -> FiniteSettings {
+        if self.fixed_grid().is_some() {
+            return *self;
+        }
+        FiniteSettings {
+            held_grid: Some(grid),
+            ..*self
+        }
+    }
+
+    /// The half grid (both directions halved) of an explicit or held grid, the coarse
+    /// grid of a Richardson estimate; `None` in plain accuracy mode or below the minimum
+    /// (explicit: 8 × 2; held: 16 × 2, the ladder's smallest).
+    pub fn half_grid(&self) -> Option<FiniteSettings> {
+        if let Some([t, z]) = self.held_grid.filter(|_| self.fixed_grid().is_none()) {
+            let halvable = t.is_multiple_of(2) && z.is_multiple_of(2);
+            // The ladder's smallest grid has 16 intervals around and 2 along
+            // (`super::accuracy_ladder`).
+            return (halvable && t / 2 >= 16 && z / 2 >= 2).then_some(FiniteSettings {
+                held_grid: Some([t / 2, z / 2]),
+                ..*self
+            });
+        }
+        self.coarse()
     }
 
     /// The explicit grid with half the intervals in both directions (the coarse grid of
