@@ -8,7 +8,7 @@ use bearing_sweep::app::{
 };
 use bearing_sweep::app::{
     eval_file, is_sweep_spec, merge_command, print_text, read_input, run_command, run_scene_file,
-    CliError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
+    AppError, EvalOptions, SceneRunOptions, StdoutWriter, SweepRunOptions,
 };
 #[cfg(feature = "service")]
 use bearing_sweep::app::{submit_command, SubmitOptions};
@@ -527,9 +527,9 @@ fn main() -> ExitCode {
 /// A JSON syntax error or a duplicate key in the input file `file` names the file (the
 /// JSON path alone does not say which file a command was reading); other input errors
 /// name their JSON path as before.
-fn name_file(file: &str, e: CliError) -> CliError {
+fn name_file(file: &str, e: AppError) -> AppError {
     match e {
-        CliError::Input { path, reason }
+        AppError::Input { path, reason }
             if reason.starts_with("not valid JSON") || reason.starts_with("duplicate key") =>
         {
             let name = if file == "-" { "standard input" } else { file };
@@ -538,14 +538,14 @@ fn name_file(file: &str, e: CliError) -> CliError {
             } else {
                 format!("{name}: {path}")
             };
-            CliError::Input { path, reason }
+            AppError::Input { path, reason }
         }
         other => other,
     }
 }
 
 /// `finite`: the model-error map and the finite-film benchmark.
-fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
+fn finite_cmd(a: FiniteArgs) -> Result<(), AppError> {
     if let Some(dir) = &a.map {
         let (md, files) = bearing_sweep::app::error_map_files(dir, a.map_resolution)?;
         for path in files {
@@ -564,7 +564,7 @@ fn finite_cmd(a: FiniteArgs) -> Result<(), CliError> {
         );
     }
     if a.map.is_none() && !a.bench {
-        return Err(CliError::input("finite", "give --map DIR and/or --bench"));
+        return Err(AppError::input("finite", "give --map DIR and/or --bench"));
     }
     Ok(())
 }
@@ -577,11 +577,11 @@ fn print_lines(lines: Vec<String>) {
 }
 
 /// `coefficients`: linearised K and C, JSON (or ROSS CSV) on stdout.
-fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
+fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), AppError> {
     let format: CoefficientFormat = a
         .format
         .parse()
-        .map_err(|r| CliError::input("--format", r))?;
+        .map_err(|r| AppError::input("--format", r))?;
     let text = read_input(&a.file)?;
     let (out, notices) = coefficients_json_with(
         &text,
@@ -600,7 +600,7 @@ fn coefficients_cmd(a: CoefficientsArgs) -> Result<(), CliError> {
 }
 
 /// `stability`: modes, threshold and Campbell diagram of a scene.
-fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
+fn stability_cmd(a: StabilityArgs) -> Result<(), AppError> {
     let text = read_input(&a.file)?;
     let (out, files, notices) = stability_scene_file(
         &a.file,
@@ -622,7 +622,7 @@ fn stability_cmd(a: StabilityArgs) -> Result<(), CliError> {
 }
 
 /// `eval`: film loads of the states in a file, JSON on stdout.
-fn eval(a: EvalArgs) -> Result<(), CliError> {
+fn eval(a: EvalArgs) -> Result<(), AppError> {
     let mut out = StdoutWriter::new();
     let notices = eval_file(
         &a.file,
@@ -639,10 +639,10 @@ fn eval(a: EvalArgs) -> Result<(), CliError> {
 }
 
 /// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
-fn run(a: RunArgs) -> Result<(), CliError> {
+fn run(a: RunArgs) -> Result<(), AppError> {
     let max_memory = match &a.max_memory {
         Some(m) => bearing_sweep::budget::MemoryBudget::new(
-            bearing_sweep::budget::parse_size(m).map_err(|r| CliError::input("--max-memory", r))?,
+            bearing_sweep::budget::parse_size(m).map_err(|r| AppError::input("--max-memory", r))?,
         ),
         None => bearing_sweep::budget::MemoryBudget::default(),
     };
@@ -657,7 +657,7 @@ fn run(a: RunArgs) -> Result<(), CliError> {
         }
     }
     if a.shard.is_some() {
-        return Err(CliError::input(
+        return Err(AppError::input(
             "--shard",
             "only sweep specs are sharded (this file is a scene: wrap it as {\"base\": \"FILE\"})",
         ));
@@ -691,7 +691,7 @@ fn run_sweep_file(
     a: RunArgs,
     text: &str,
     max_memory: bearing_sweep::budget::MemoryBudget,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let opts = SweepRunOptions {
         out: a.out,
         shard: a.shard,
@@ -707,7 +707,7 @@ fn run_sweep_file(
 
 #[cfg(feature = "service")]
 /// `serve`: the sweep service until SIGTERM / Ctrl-C.
-fn serve(a: ServeArgs) -> Result<(), CliError> {
+fn serve(a: ServeArgs) -> Result<(), AppError> {
     let config = bearing_sweep::service::ServiceConfig {
         bind: a.bind,
         data: a.data,
@@ -720,7 +720,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
         eval_backend: a.eval_backend,
         database: a.database,
         max_request_bytes: bearing_sweep::budget::parse_size(&a.max_request_memory)
-            .map_err(|e| CliError::input("--max-request-memory", e))?,
+            .map_err(|e| AppError::input("--max-request-memory", e))?,
         max_states_in_flight: a.max_states_in_flight,
         header_timeout: std::time::Duration::from_secs_f64(a.header_timeout_s.clamp(0.1, 3600.0)),
         max_connections_per_client: a.max_connections_per_client,
@@ -731,7 +731,7 @@ fn serve(a: ServeArgs) -> Result<(), CliError> {
 
 #[cfg(feature = "service")]
 /// `submit`: a sweep spec to a running service.
-fn submit(a: SubmitArgs) -> Result<(), CliError> {
+fn submit(a: SubmitArgs) -> Result<(), AppError> {
     let text = read_input(&a.spec)?;
     let lines = submit_command(
         &text,
@@ -752,7 +752,7 @@ fn submit(a: SubmitArgs) -> Result<(), CliError> {
 
 #[cfg(feature = "postgres")]
 /// `worker`: pulls work from a PostgreSQL queue until stopped.
-fn worker(a: WorkerArgs) -> Result<(), CliError> {
+fn worker(a: WorkerArgs) -> Result<(), AppError> {
     worker_command(&WorkerCommandOptions {
         database: a.database,
         backend: a.backend,
@@ -767,7 +767,7 @@ fn worker(a: WorkerArgs) -> Result<(), CliError> {
 
 #[cfg(feature = "service")]
 /// `bench serve`: load generator for the service.
-fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
+fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), AppError> {
     let md = bearing_sweep::bench::bench_serve(&bearing_sweep::bench::LoadOptions {
         server: a.server,
         clients: a.clients,
@@ -777,15 +777,15 @@ fn bench_serve_cmd(a: BenchServeArgs) -> Result<(), CliError> {
         sweep: a.sweep,
         sweep_repeats: a.sweep_repeats,
     })
-    .map_err(|e| CliError::input("bench serve", e.to_string()))?;
+    .map_err(|e| AppError::input("bench serve", e.to_string()))?;
     print!("{md}");
     Ok(())
 }
 
 #[cfg(feature = "postgres")]
 /// `bench queue`: figures of the PostgreSQL queue.
-fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
-    let exe = std::env::current_exe().map_err(|source| CliError::Io {
+fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), AppError> {
+    let exe = std::env::current_exe().map_err(|source| AppError::Io {
         path: "current executable".into(),
         source,
     })?;
@@ -800,13 +800,13 @@ fn bench_queue_cmd(a: BenchQueueArgs) -> Result<(), CliError> {
         storm_s: a.storm_seconds.max(0.1),
         scratch: a.out,
     })
-    .map_err(|e| CliError::input("--database", e.to_string()))?;
+    .map_err(|e| AppError::input("--database", e.to_string()))?;
     print!("{md}");
     Ok(())
 }
 
 /// `bench all`: every benchmark into one folder with an index.
-fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
+fn bench_all_cmd(a: BenchAllArgs) -> Result<(), AppError> {
     let opts = if a.full {
         BenchAllOptions::full(a.out)
     } else {
@@ -819,7 +819,7 @@ fn bench_all_cmd(a: BenchAllArgs) -> Result<(), CliError> {
 }
 
 /// `bench loads`: work-precision of the load quadrature.
-fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
+fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), AppError> {
     let report = bench_loads(&BenchLoadsOptions {
         threads: a.threads,
         states: a.states,
@@ -832,7 +832,7 @@ fn bench_loads_cmd(a: BenchLoadsArgs) -> Result<(), CliError> {
 }
 
 /// `bench rotor --batch`: lockstep batches against one-by-one runs.
-fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
+fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), AppError> {
     print_text(bearing_sweep::bench::ROTOR_BATCH_TABLE_HEADER)?;
     a.batch.iter().try_for_each(|&n| {
         bench_rotor_batch(n, a.t_end, a.threads).and_then(|row| print_text(&row))
@@ -840,7 +840,7 @@ fn bench_rotor_batch_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
 }
 
 /// `bench rotor`: work-precision of the integrators on the paper example.
-fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), CliError> {
+fn bench_rotor_cmd(a: BenchRotorArgs) -> Result<(), AppError> {
     let r = bench_rotor(&BenchRotorOptions {
         t_end: a.t_end,
         accuracy: a.accuracy,
@@ -865,12 +865,12 @@ fn run_bench_backend(
     min_time: f64,
     max_reps: usize,
     json: Option<String>,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let target: BenchTarget = backend
         .parse()
-        .map_err(|r| CliError::input("--backend", r))?;
+        .map_err(|r| AppError::input("--backend", r))?;
     if sizes.is_empty() || sizes.contains(&0) {
-        return Err(CliError::input("--sizes", "batch sizes must be at least 1"));
+        return Err(AppError::input("--sizes", "batch sizes must be at least 1"));
     }
     let accuracy = bearing_sweep::app::accuracy(accuracy)?;
     let options = BenchOptions {
@@ -888,7 +888,7 @@ fn run_bench_backend(
     print_text(&format!("{md}\n"))?;
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
-        std::fs::write(&path, text).map_err(|source| CliError::Io { path, source })?;
+        std::fs::write(&path, text).map_err(|source| AppError::Io { path, source })?;
     }
     Ok(())
 }

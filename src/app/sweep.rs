@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::CliError;
+use super::AppError;
 use crate::backend::BackendKind;
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
 use crate::sweep::merge::merge;
@@ -69,21 +69,21 @@ pub fn run_command(
     text: &str,
     opts: &SweepRunOptions,
     notice: &mut dyn FnMut(String),
-) -> Result<Vec<String>, CliError> {
+) -> Result<Vec<String>, AppError> {
     let doc: Value =
-        crate::json::parse_json(text).map_err(|e| CliError::input(e.path, e.reason))?;
+        crate::json::parse_json(text).map_err(|e| AppError::input(e.path, e.reason))?;
     let spec_path = Path::new(spec_file);
     let out = result_path(&opts.out, spec_file, opts.shard);
     let requested =
-        RequestedAccuracy::new(opts.accuracy).map_err(|r| CliError::input("--accuracy", r))?;
+        RequestedAccuracy::new(opts.accuracy).map_err(|r| AppError::input("--accuracy", r))?;
     let accuracy = requested.level();
     let mkdir = |dir: &Path| {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Sweep(SweepError::io(dir, e)))
+        std::fs::create_dir_all(dir).map_err(|e| AppError::Sweep(SweepError::io(dir, e)))
     };
     match SweepKind::of(&doc) {
         Some(SweepKind::FrictionMap) => {
             if opts.shard.is_some() {
-                return Err(CliError::input(
+                return Err(AppError::input(
                     "--shard",
                     "a friction map is not sharded (it runs no dynamics and takes milliseconds)",
                 ));
@@ -114,7 +114,7 @@ pub fn run_command(
                 Ok(svg) => {
                     let svg_path = dir.join("friction-map.svg");
                     std::fs::write(&svg_path, svg)
-                        .map_err(|e| CliError::Sweep(SweepError::io(&svg_path, e)))?;
+                        .map_err(|e| AppError::Sweep(SweepError::io(&svg_path, e)))?;
                     lines.push(format!("plot: {}", svg_path.display()));
                 }
                 Err(e) => lines.push(format!("no plot: {e}")),
@@ -134,8 +134,8 @@ pub fn run_command(
                 max_memory: opts.max_memory,
             };
             let mut prepared = prepare_simulator(&spec, &choice, notice).map_err(|e| match e {
-                SetupError::Sweep(e) => CliError::Sweep(e),
-                SetupError::Backend(e) => CliError::Backend(e),
+                SetupError::Sweep(e) => AppError::Sweep(e),
+                SetupError::Backend(e) => AppError::Backend(e),
             })?;
             let run_opts = RunOptions {
                 out: out.clone(),
@@ -168,7 +168,7 @@ pub fn run_command(
 }
 
 /// Merges shard results into `out`.
-pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, CliError> {
+pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, AppError> {
     let paths: Vec<PathBuf> = shards.iter().map(PathBuf::from).collect();
     let (doc, plots) = merge(Path::new(out), &paths)?;
     let mut lines = vec![format!(
