@@ -692,15 +692,21 @@ fn run_sweep_file(
     text: &str,
     max_memory: bearing_sweep::budget::MemoryBudget,
 ) -> Result<(), AppError> {
+    let accuracy = bearing_sweep::sweep::RequestedAccuracy::new(a.accuracy)
+        .map_err(|r| AppError::input("--accuracy", r))?;
     let opts = SweepRunOptions {
         out: a.out,
-        shard: a.shard,
-        batch: a.batch_size,
-        backend: a.backend,
-        accuracy: a.accuracy,
         quiet: a.quiet,
-        full_model: a.full_model,
-        max_memory,
+        runner: bearing_sweep::sweep::runner::RunnerOptions {
+            shard: a.shard,
+            batch: a.batch_size,
+        },
+        sweep: bearing_sweep::sweep::SweepOptions {
+            backend: a.backend,
+            accuracy,
+            full_model: a.full_model,
+            max_memory,
+        },
     };
     run_command(&a.file, text, &opts, &mut |n| eprintln!("{n}")).map(print_lines)
 }

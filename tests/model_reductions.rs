@@ -523,7 +523,7 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
 fn identical_sweep_variants_share_integrals_and_report_it() {
     use bearing_sweep::sweep::parse_spec;
     use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
-    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions as SweepOptions};
+    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions, RunnerOptions};
     let dir = std::env::temp_dir().join(format!("bs-reductions-sweep-{}", std::process::id()));
     let spec = serde_json::json!({
         "kind": "rotor",
@@ -559,11 +559,13 @@ fn identical_sweep_variants_share_integrals_and_report_it() {
         sim.set_full_model(full);
         let out = dir.join(name).join("result.json");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
-        let opts = SweepOptions {
-            out: out.clone(),
-            shard: None,
-            batch: BatchSize::Fixed(4),
+        let opts = RunOptions {
+            result: out.clone(),
             progress: false,
+            runner: RunnerOptions {
+                shard: None,
+                batch: BatchSize::Fixed(4),
+            },
             settings: sim.settings(1e-6),
         };
         run_sweep(&spec, &validate_scene, &mut sim, &opts, &mut |_| {}).unwrap();

@@ -18,7 +18,8 @@ use bearing_sweep::app::{
 };
 use bearing_sweep::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest};
 use bearing_sweep::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
-use bearing_sweep::sweep::runner::{BatchSize, Shard};
+use bearing_sweep::sweep::runner::{BatchSize, RunnerOptions, Shard};
+use bearing_sweep::sweep::{RequestedAccuracy, SweepOptions};
 
 /// Columns of a state row, in order (as `eval` reads a state object).
 const STATE_FIELDS: [&str; 9] = ["xi", "yi", "xj", "yj", "vxi", "vyi", "vxj", "vyj", "omega"];
@@ -315,16 +316,22 @@ fn run_sweep(
             Some(s)
         }
     };
+    let accuracy = RequestedAccuracy::new(accuracy)
+        .map_err(|reason| py_error(py, AppError::input("--accuracy", reason)))?;
     let opts = SweepRunOptions {
         out,
-        shard,
-        batch: BatchSize::Auto,
-        backend: kind,
-        accuracy,
         quiet: !progress,
-        full_model,
-        // The CLI's default budget (`run --max-memory`, 2 GiB).
-        max_memory: Default::default(),
+        runner: RunnerOptions {
+            shard,
+            batch: BatchSize::Auto,
+        },
+        sweep: SweepOptions {
+            backend: kind,
+            accuracy,
+            full_model,
+            // The CLI's default budget (`run --max-memory`, 2 GiB).
+            max_memory: Default::default(),
+        },
     };
     let (spec_file, text) = (spec_file.to_string(), text.to_string());
     let r = py.detach(move || {
