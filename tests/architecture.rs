@@ -236,3 +236,85 @@ fn main_parses_arguments_only() {
         "main.rs has {n} lines (at most {MAX_LINES})"
     );
 }
+
+/// Issue 21: a sweep's spec is parsed once per sweep on each path through the service,
+/// never per call. These are the only calls into the spec parsers in `src/service`
+/// (outside its unit tests), each with the reason it runs once: a new call (say, in a
+/// route or in `pg::result_document`) fails here and must keep the parsed spec instead.
+#[test]
+fn the_service_parses_a_spec_once_per_sweep() {
+    const ALLOWED: &[(&str, usize, &str)] = &[
+        (
+            "service/sweeps.rs",
+            2,
+            "parse_sweep_doc (the service's parser) and check_submission, once per POST",
+        ),
+        (
+            "service/scheduler.rs",
+            1,
+            "spec_of: parsed once per sweep id, kept bounded",
+        ),
+        (
+            "service/pg/submit.rs",
+            1,
+            "parse_queued: the library caller parses once",
+        ),
+        (
+            "service/pg/worker.rs",
+            1,
+            "the compute thread's simulator cache",
+        ),
+        (
+            "service/pg/monitor.rs",
+            1,
+            "finish: once, when the sweep is done",
+        ),
+    ];
+    const PARSERS: &[&str] = &[
+        "parse_spec(",
+        "parse_sweep_doc(",
+        "parse_sweep_within(",
+        "parse_sweep(",
+    ];
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src.join("service"), &mut files);
+    files.sort();
+    let mut found: BTreeMap<String, usize> = BTreeMap::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).expect("source file is readable");
+        // Unit tests parse what they like.
+        let code = text.split("#[cfg(test)]").next().unwrap_or("");
+        let rel = file
+            .strip_prefix(&src)
+            .unwrap_or(file)
+            .display()
+            .to_string();
+        for line in code.lines() {
+            let t = line.trim_start();
+            if t.starts_with("//") {
+                continue;
+            }
+            for p in PARSERS {
+                let mut rest = t;
+                while let Some(i) = rest.find(p) {
+                    let before = rest[..i].chars().last();
+                    let defines = rest[..i].trim_end().ends_with("fn");
+                    rest = &rest[i + p.len()..];
+                    if before.is_some_and(|c| c.is_alphanumeric() || c == '_') || defines {
+                        continue;
+                    }
+                    *found.entry(rel.clone()).or_default() += 1;
+                }
+            }
+        }
+    }
+    let allowed: BTreeMap<String, usize> = ALLOWED
+        .iter()
+        .map(|(f, n, _)| (f.to_string(), *n))
+        .collect();
+    assert_eq!(
+        found, allowed,
+        "spec parser calls in src/service (file: count) differ from the allowed ones"
+    );
+}
