@@ -121,6 +121,7 @@ pub fn run_scene_file(
             ));
         },
         cap,
+        opts.max_memory,
     );
     notices.extend(evaluator.take_notices());
     let stem = Path::new(path)
