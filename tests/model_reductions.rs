@@ -18,8 +18,8 @@ use bearing_sweep::bearing::{
     film_loads, Accuracy, BearingParams, BearingState, FilmIntegrals, FilmRule, Loads, PackedState,
     RuleSettings,
 };
-use bearing_sweep::rotor::reductions::{
-    squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, ReductionSpec,
+use bearing_sweep::rotor::simplifications::{
+    squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, SimplificationSpec,
     SQUEEZE_GAIN,
 };
 use bearing_sweep::rotor::{load_scene, simulate_batch, Scene};
@@ -375,7 +375,7 @@ fn squeeze_drop_follows_its_bound() {
     }
     let mut full = tight.clone();
     full.name = "full".into();
-    full.reductions = ReductionSpec::full();
+    full.reductions = SimplificationSpec::full();
     let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), Some(1))));
     let r = simulate_batch(&[loose, tight, full], &mut ev, &mut |_, _| {});
     let v: Vec<serde_json::Value> = r
@@ -418,10 +418,10 @@ fn dropped_evaluations_stay_within_the_bound() {
     for k in 0..400 {
         let rho = 10f64.powf(rng.range(-5.0, -1.0));
         let s = state_with_rho(&mut rng, &p, 0.9, 0.2, rho);
-        let mut spec = ReductionSpec::default();
+        let mut spec = SimplificationSpec::default();
         spec.squeeze_drop.enabled = true;
         spec.squeeze_drop.bound = bound;
-        let mut tally = bearing_sweep::rotor::reductions::ReductionTally::default();
+        let mut tally = bearing_sweep::rotor::simplifications::SimplificationTally::default();
         let mut reduced = s;
         tally.observe(&spec, &p, &mut reduced);
         let est = squeeze_error_estimate(&p, &s);

@@ -8,7 +8,7 @@ use std::io::Write;
 use super::AppError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
 use crate::plot::Scale;
-use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
+use crate::rotor::simplifications::{evaluator_options, evaluator_report, SimplificationSpec};
 use crate::rotor::{
     load_scene_within, sample_cap, simulate_batch_capped, ModelKind, Scene, SimResult,
 };
@@ -56,7 +56,7 @@ struct RunDoc<'a> {
     backend_choice: Option<crate::backend::BackendChoice>,
     clearance_convention: Vec<&'static str>,
     film_accuracy: f64,
-    model_reductions: crate::rotor::reductions::ReductionReport,
+    model_reductions: crate::rotor::simplifications::SimplificationReport,
     name: &'a str,
     results: &'a [SimResult],
     units: &'static str,
@@ -93,7 +93,7 @@ pub fn run_scene_file(
     let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
     if opts.full_model {
         for s in &mut scenes {
-            s.reductions = ReductionSpec::full();
+            s.reductions = SimplificationSpec::full();
         }
     }
     let eval_options = evaluator_options(scenes.iter().map(|s| &s.reductions));

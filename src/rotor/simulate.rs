@@ -8,8 +8,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use serde::{Deserialize, Serialize};
 
 use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
-use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
+use super::simplifications::{
+    variant_report, SimplificationReport, SimplificationSpec, SimplificationTally,
+};
 use crate::backend::{BearingPlan, LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
 use crate::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
@@ -572,7 +574,7 @@ pub struct SimResult {
     pub stats: SimStats,
     /// Model reductions applied and declined (docs/cli.md "Model reductions").
     #[serde(default)]
-    pub model_reductions: ReductionReport,
+    pub model_reductions: SimplificationReport,
     /// Per bearing with a lumped oil temperature: final and highest temperature (absent
     /// without a lubricant).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -616,8 +618,8 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     below: Vec<bool>,
     scenes: Vec<usize>,
     names: Vec<String>,
-    reductions: Vec<ReductionSpec>,
-    tallies: Vec<ReductionTally>,
+    reductions: Vec<SimplificationSpec>,
+    tallies: Vec<SimplificationTally>,
     held: Vec<bool>,
     method: Method,
     out: &'a mut [Option<SimResult>],
@@ -1317,7 +1319,7 @@ fn simulate<O: SampleObserver>(
                     film_events: Vec::new(),
                     samples: TimeSeries::default(),
                     stats: SimStats::default(),
-                    model_reductions: ReductionReport::default(),
+                    model_reductions: SimplificationReport::default(),
                     oil_temperature: Vec::new(),
                 };
                 if let Some(o) = observers[i].as_mut() {
@@ -1374,7 +1376,7 @@ fn simulate<O: SampleObserver>(
             scenes: idx.clone(),
             names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
             reductions: idx.iter().map(|&i| scenes[i].reductions).collect(),
-            tallies: vec![ReductionTally::default(); n],
+            tallies: vec![SimplificationTally::default(); n],
             held: idx
                 .iter()
                 .map(|&i| scenes[i].spin == super::scene::SpinMode::Held)

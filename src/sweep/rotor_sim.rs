@@ -12,7 +12,7 @@ use crate::backend::{
 };
 use crate::bearing::{Accuracy, FilmModel};
 use crate::budget::MemoryBudget;
-use crate::rotor::reductions::{evaluator_report, ReductionSpec};
+use crate::rotor::simplifications::{evaluator_report, SimplificationSpec};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
@@ -308,7 +308,7 @@ impl BatchSimulator for RotorSimulator {
             match serde_json::from_value::<Scene>(job.scene.clone()) {
                 Ok(mut s) => {
                     if self.full_model {
-                        s.reductions = ReductionSpec::full();
+                        s.reductions = SimplificationSpec::full();
                     }
                     scenes.push(s);
                     index.push(k);
