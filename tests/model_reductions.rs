@@ -686,3 +686,21 @@ fn gpu_small_batches_run_on_the_cpu() {
         );
     }
 }
+
+/// Issue 21 renamed the Rust type of the scene's `reductions` block
+/// (`rotor::simplifications::SimplificationSpec`); the message a wrong type gets still
+/// names it as before, word for word.
+#[test]
+fn a_wrong_reductions_block_is_refused_in_the_old_words() {
+    let mut scene: serde_json::Value =
+        serde_json::from_str(include_str!("../sweeps/paper-example.json")).unwrap();
+    scene["reductions"] = serde_json::json!(5);
+    let e = load_scene(&scene.to_string()).unwrap_err();
+    assert_eq!(
+        (e.path.as_str(), e.reason.as_str()),
+        (
+            "reductions",
+            "invalid type: integer `5`, expected struct ReductionSpec"
+        )
+    );
+}

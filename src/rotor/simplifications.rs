@@ -136,7 +136,7 @@ impl Default for ConstantFrictionSpec {
 /// The scene's `reductions` block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 // The name serde's messages quote (`expected struct ReductionSpec`) stays as it was.
-#[serde(deny_unknown_fields, rename = "ReductionSpec")]
+#[serde(deny_unknown_fields, expecting = "struct ReductionSpec")]
 pub struct SimplificationSpec {
     /// Integrate identical kernel inputs once per evaluator call (exact). Default true.
     #[serde(default = "yes")]
