@@ -95,7 +95,10 @@ fn a_scene_keeping_too_many_samples_is_refused() {
 /// Where [`run_spec`] ran `tag`: its output root.
 fn out_of(tag: &str) -> std::path::PathBuf {
     std::env::temp_dir()
-        .join(format!("bearing-sweep-hardening-limits-{}-{tag}", std::process::id()))
+        .join(format!(
+            "bearing-sweep-hardening-limits-{}-{tag}",
+            std::process::id()
+        ))
         .join("out")
 }
 
