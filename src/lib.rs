@@ -8,6 +8,7 @@ pub mod backend;
 pub mod bearing;
 pub mod bench;
 pub mod budget;
+pub mod cli;
 pub mod integrate;
 pub mod json;
 pub mod numerics;

@@ -91,3 +91,50 @@ fn a_scene_keeping_too_many_samples_is_refused() {
     let (ok, err) = run_spec("bad-flag", &scene, &["--max-memory", "lots"]);
     assert!(!ok && err.contains("--max-memory:"), "{err}");
 }
+
+/// Where [`run_spec`] ran `tag`: its output root.
+fn out_of(tag: &str) -> std::path::PathBuf {
+    std::env::temp_dir()
+        .join(format!(
+            "bearing-sweep-hardening-limits-{}-{tag}",
+            std::process::id()
+        ))
+        .join("out")
+}
+
+/// Issue 21: the rotor simulator validates each scene within the run's memory budget, not
+/// the 2 GiB default. A scene whose samples need more than 2 GiB even at the 4096-sample
+/// floor (3300 bearings: 4096 samples x 33 006 numbers x 16 B = 2.16 GB) is refused by
+/// default before anything runs, naming `bearings` and the budget; under `--max-memory 8G`
+/// it is admitted and then simulated (its step limit of 2 ends it at once), not failed as
+/// an invalid variant for the 2 GiB cap. Both as a sweep variant and as a scene file.
+#[test]
+fn the_simulator_checks_scenes_within_the_runs_budget() {
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("sweeps/paper-example.json").unwrap())
+            .unwrap();
+    scene.as_object_mut().unwrap().remove("compare_ideal");
+    let pair = scene["bearings"].as_array().unwrap().clone();
+    scene["bearings"] = json!((0..3300).map(|k| pair[k % 2].clone()).collect::<Vec<_>>());
+    // 5001 samples at 1e-4 s over 0.5 s (more than the floor); two steps, then it stops.
+    scene["integrator"]["max_steps"] = json!(2);
+    let sweep = json!({"base": scene, "axes": [{"path": "rotor.mass", "values": [1.0]}]});
+    let (ok, err) = run_spec("budget-default", &sweep, &["--backend", "cpu"]);
+    assert!(
+        !ok && err.contains("bearings: keeping 4096 samples x 3300 bearings")
+            && err.contains("over the memory budget of 2.0 GiB"),
+        "{err}"
+    );
+    let big = ["--backend", "cpu", "--max-memory", "8G"];
+    let (ok, err) = run_spec("budget-8g", &sweep, &big);
+    assert!(ok, "{err}");
+    let result = read(&out_of("budget-8g").join("s").join("result.json"));
+    let v = &result["variants"][0];
+    assert_eq!(v["status"], "max_steps", "{}", v["message"]);
+    // The scene file: admitted at 8G, simulated, not reported as an invalid scene.
+    let (ok, err) = run_spec("budget-8g-scene", &scene, &big);
+    assert!(ok, "{err}");
+    let result = read(&out_of("budget-8g-scene").join("s").join("result.json"));
+    let status = &result["results"][0]["status"];
+    assert_eq!(status["kind"], "max_steps", "{status}");
+}

@@ -18,8 +18,8 @@ use bearing_sweep::bearing::{
     film_loads, Accuracy, BearingParams, BearingState, FilmIntegrals, FilmRule, Loads, PackedState,
     RuleSettings,
 };
-use bearing_sweep::rotor::reductions::{
-    squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, ReductionSpec,
+use bearing_sweep::rotor::simplifications::{
+    squeeze_error_estimate, squeeze_ratio, tilt_measure, without_squeeze, SimplificationSpec,
     SQUEEZE_GAIN,
 };
 use bearing_sweep::rotor::{load_scene, simulate_batch, Scene};
@@ -375,7 +375,7 @@ fn squeeze_drop_follows_its_bound() {
     }
     let mut full = tight.clone();
     full.name = "full".into();
-    full.reductions = ReductionSpec::full();
+    full.reductions = SimplificationSpec::full();
     let mut ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), Some(1))));
     let r = simulate_batch(&[loose, tight, full], &mut ev, &mut |_, _| {});
     let v: Vec<serde_json::Value> = r
@@ -418,10 +418,10 @@ fn dropped_evaluations_stay_within_the_bound() {
     for k in 0..400 {
         let rho = 10f64.powf(rng.range(-5.0, -1.0));
         let s = state_with_rho(&mut rng, &p, 0.9, 0.2, rho);
-        let mut spec = ReductionSpec::default();
+        let mut spec = SimplificationSpec::default();
         spec.squeeze_drop.enabled = true;
         spec.squeeze_drop.bound = bound;
-        let mut tally = bearing_sweep::rotor::reductions::ReductionTally::default();
+        let mut tally = bearing_sweep::rotor::simplifications::SimplificationTally::default();
         let mut reduced = s;
         tally.observe(&spec, &p, &mut reduced);
         let est = squeeze_error_estimate(&p, &s);
@@ -523,7 +523,7 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
 fn identical_sweep_variants_share_integrals_and_report_it() {
     use bearing_sweep::sweep::parse_spec;
     use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
-    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions as SweepOptions};
+    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions, RunnerOptions};
     let dir = std::env::temp_dir().join(format!("bs-reductions-sweep-{}", std::process::id()));
     let spec = serde_json::json!({
         "kind": "rotor",
@@ -559,11 +559,13 @@ fn identical_sweep_variants_share_integrals_and_report_it() {
         sim.set_full_model(full);
         let out = dir.join(name).join("result.json");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
-        let opts = SweepOptions {
-            out: out.clone(),
-            shard: None,
-            batch: BatchSize::Fixed(4),
+        let opts = RunOptions {
+            result: out.clone(),
             progress: false,
+            runner: RunnerOptions {
+                shard: None,
+                batch: BatchSize::Fixed(4),
+            },
             settings: sim.settings(1e-6),
         };
         run_sweep(&spec, &validate_scene, &mut sim, &opts, &mut |_| {}).unwrap();
@@ -683,4 +685,22 @@ fn gpu_small_batches_run_on_the_cpu() {
             0.0,
         );
     }
+}
+
+/// Issue 21 renamed the Rust type of the scene's `reductions` block
+/// (`rotor::simplifications::SimplificationSpec`); the message a wrong type gets still
+/// names it as before, word for word.
+#[test]
+fn a_wrong_reductions_block_is_refused_in_the_old_words() {
+    let mut scene: serde_json::Value =
+        serde_json::from_str(include_str!("../sweeps/paper-example.json")).unwrap();
+    scene["reductions"] = serde_json::json!(5);
+    let e = load_scene(&scene.to_string()).unwrap_err();
+    assert_eq!(
+        (e.path.as_str(), e.reason.as_str()),
+        (
+            "reductions",
+            "invalid type: integer `5`, expected struct ReductionSpec"
+        )
+    );
 }

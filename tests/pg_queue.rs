@@ -8,18 +8,21 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use bearing_sweep::service::pg::{
-    submit_spec, Completion, Lease, LeaseState, PgError, PgQueue, SweepOptions, VariantRow,
-    MIGRATIONS, RESULTS_LOCK_CLASS,
+    parse_queued, result_document, submit_spec, Completion, Lease, LeaseState, PgError, PgQueue,
+    SweepOptions, VariantRow, MIGRATIONS, RESULTS_LOCK_CLASS,
 };
+use bearing_sweep::sweep::SweepSpec;
 use pg_support::PgCluster;
 use serde_json::{json, Value};
 
-/// A synthetic sweep of `n` variants (no dynamics: milliseconds).
-fn spec(n: usize) -> Value {
-    json!({"kind": "synthetic", "name": "queue test",
+/// A synthetic sweep of `n` variants (no dynamics: milliseconds), parsed once as the
+/// queue's callers parse it.
+fn spec(n: usize) -> SweepSpec {
+    parse_queued(&json!({"kind": "synthetic", "name": "queue test",
            "base": {"spin": 100.0, "duration": 0.1, "samples": 101, "bearings": [{"whirl": 1e-6}]},
            "axes": [{"path": "spin", "linspace": [80.0, 120.0, n]}],
-           "reductions": {"window": {"revolutions": 2}}})
+           "reductions": {"window": {"revolutions": 2}}}))
+    .unwrap()
 }
 
 fn rows(lease: &Lease) -> Vec<VariantRow> {
@@ -219,6 +222,49 @@ async fn racing_claimers_never_claim_a_live_batch_twice() {
     let m = stored(&q, &id).await;
     assert_eq!(m.len() as u64, n);
     assert!(m.values().all(|&k| k == 1));
+}
+
+/// Issue 21: the result document is assembled from the spec its caller parsed once (it
+/// is not parsed again per call), checked to be the stored one: the sweep's own spec gives
+/// the stored lines in id order, another spec is refused by name.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_result_document_takes_the_parsed_spec_and_checks_it() {
+    let Some(pg) = PgCluster::start_or_skip("result document") else {
+        return;
+    };
+    let q = queue(&pg).await;
+    let (own, other) = (spec(6), spec(7));
+    let (id, total) = submit_spec(&q, &own, SweepOptions::default(), 4)
+        .await
+        .unwrap();
+    assert_eq!(total, 6);
+    // Not done yet: refused, saying so.
+    match result_document(&q, &id, &own).await {
+        Err(PgError::Sweep { reason, .. }) => {
+            assert!(reason.contains("only when the sweep is done"), "{reason}")
+        }
+        other => panic!("expected the not-done refusal, got {other:?}"),
+    }
+    while let Some(lease) = q.claim("A", "cpu", 4, LONG).await.unwrap() {
+        q.complete(&lease, &settings(), &rows(&lease))
+            .await
+            .unwrap();
+    }
+    let doc = result_document(&q, &id, &own).await.unwrap();
+    let ids: Vec<u64> = doc["variants"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, (0..6).collect::<Vec<u64>>());
+    assert_eq!(doc["settings"], settings());
+    match result_document(&q, &id, &other).await {
+        Err(PgError::Sweep { reason, .. }) => {
+            assert!(reason.contains("not the one stored"), "{reason}")
+        }
+        other => panic!("expected the spec mismatch refusal, got {other:?}"),
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -12,8 +12,11 @@ use std::collections::BTreeMap;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use bearing_sweep::service::pg::{result_document, submit_spec, PgQueue, SweepOptions};
+use bearing_sweep::service::pg::{
+    parse_queued, result_document, submit_spec, PgQueue, SweepOptions,
+};
 use bearing_sweep::sweep::merge::deterministic_part;
+use bearing_sweep::sweep::SweepSpec;
 use cli_support::{bin, read, scratch, write};
 use pg_support::PgCluster;
 use serde_json::{json, Value};
@@ -110,7 +113,13 @@ async fn stored(q: &PgQueue, id: &str) -> BTreeMap<u64, usize> {
 
 /// The stored result equals `run`'s (everything but the `run` section); every variant
 /// stored exactly once.
-async fn check_against_run(q: &PgQueue, id: &str, reference: &Value, total: usize) {
+async fn check_against_run(
+    q: &PgQueue,
+    id: &str,
+    spec: &SweepSpec,
+    reference: &Value,
+    total: usize,
+) {
     let m = stored(q, id).await;
     let missing: Vec<u64> = (0..total as u64).filter(|i| !m.contains_key(i)).collect();
     assert!(missing.is_empty(), "variants missing: {missing:?}");
@@ -125,7 +134,7 @@ async fn check_against_run(q: &PgQueue, id: &str, reference: &Value, total: usiz
         "variants stored: actual {}, expected {total}",
         m.len()
     );
-    let doc = result_document(q, id).await.unwrap();
+    let doc = result_document(q, id, spec).await.unwrap();
     let (got, want) = (deterministic_part(&doc), deterministic_part(reference));
     if got != want {
         for key in want.as_object().unwrap().keys() {
@@ -170,11 +179,12 @@ async fn three_workers_on_500_variants_give_runs_result() {
     let reference = run_reference("three", &s);
     let q = PgQueue::new(&pg.url(), 4).unwrap();
     q.migrate().await.unwrap();
+    let parsed = parse_queued(&s).unwrap();
     let opts = SweepOptions {
         backend: bearing_sweep::backend::BackendKind::Cpu,
         ..SweepOptions::default()
     };
-    let (id, total) = submit_spec(&q, &s, opts, 8).await.unwrap();
+    let (id, total) = submit_spec(&q, &parsed, opts, 8).await.unwrap();
     assert_eq!(total, 500);
     let logs = scratch("pg-workers", "three-logs");
     let mut children: Vec<(String, Child)> = (0..3)
@@ -193,7 +203,7 @@ async fn three_workers_on_500_variants_give_runs_result() {
     wait_all(&mut children, Duration::from_secs(120), &logs);
     let row = q.sweep(&id).await.unwrap().unwrap();
     assert_eq!(row.status, "done", "{row:?}");
-    check_against_run(&q, &id, &reference, 500).await;
+    check_against_run(&q, &id, &parsed, &reference, 500).await;
     let stats = q.batch_stats(&id).await.unwrap();
     // 4 ms x 500 variants is 2 s of work in batches of 16: every worker gets some.
     assert_eq!(stats.workers, 3, "workers that stored results: {stats:?}");
@@ -213,7 +223,8 @@ async fn a_worker_killed_mid_batch_loses_its_lease_and_the_batch_runs_elsewhere(
     let reference = run_reference("sigkill", &s);
     let q = PgQueue::new(&pg.url(), 4).unwrap();
     q.migrate().await.unwrap();
-    let (id, total) = submit_spec(&q, &s, SweepOptions::default(), 10)
+    let parsed = parse_queued(&s).unwrap();
+    let (id, total) = submit_spec(&q, &parsed, SweepOptions::default(), 10)
         .await
         .unwrap();
     let logs = scratch("pg-workers", "sigkill-logs");
@@ -261,7 +272,7 @@ async fn a_worker_killed_mid_batch_loses_its_lease_and_the_batch_runs_elsewhere(
         .collect();
     wait_all(&mut children, Duration::from_secs(120), &logs);
     wait_done(&q, &id, Duration::from_secs(5)).await;
-    check_against_run(&q, &id, &reference, total as usize).await;
+    check_against_run(&q, &id, &parsed, &reference, total as usize).await;
     // The batch the victim held was claimed again after its lease expired and stored by
     // another worker.
     let r = client
@@ -303,7 +314,8 @@ async fn workers_reconnect_after_postgres_restarts_mid_sweep() {
     let reference = run_reference("restart", &s);
     let q = PgQueue::new(&pg.url(), 4).unwrap();
     q.migrate().await.unwrap();
-    let (id, total) = submit_spec(&q, &s, SweepOptions::default(), 10)
+    let parsed = parse_queued(&s).unwrap();
+    let (id, total) = submit_spec(&q, &parsed, SweepOptions::default(), 10)
         .await
         .unwrap();
     let logs = scratch("pg-workers", "restart-logs");
@@ -337,7 +349,7 @@ async fn workers_reconnect_after_postgres_restarts_mid_sweep() {
     wait_all(&mut children, Duration::from_secs(120), &logs);
     // This process's pool reconnects as well.
     wait_done(&q, &id, Duration::from_secs(10)).await;
-    check_against_run(&q, &id, &reference, total as usize).await;
+    check_against_run(&q, &id, &parsed, &reference, total as usize).await;
     let retried: usize = ["w1", "w2"]
         .iter()
         .map(|n| {

@@ -5,6 +5,7 @@
 
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::Accuracy;
+use bearing_sweep::budget::MemoryBudget;
 use bearing_sweep::rotor::{load_scene, simulate_batch_capped, Scene, SimResult};
 use bearing_sweep::sweep::reduce::{reduce, ReductionOptions};
 use bearing_sweep::sweep::rotor_sim::signals_of;
@@ -18,7 +19,14 @@ fn cpu() -> LoadEvaluator {
 }
 
 fn run(scene: &Scene, cap: usize) -> SimResult {
-    simulate_batch_capped(std::slice::from_ref(scene), &mut cpu(), &mut |_, _| {}, cap).remove(0)
+    simulate_batch_capped(
+        std::slice::from_ref(scene),
+        &mut cpu(),
+        &mut |_, _| {},
+        cap,
+        MemoryBudget::default(),
+    )
+    .remove(0)
 }
 
 /// Every numeric leaf of `a` with its path and its relative difference from `b`'s,

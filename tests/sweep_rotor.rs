@@ -11,7 +11,7 @@ use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::sweep::parse_spec;
 use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
-use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions};
+use bearing_sweep::sweep::runner::{run_sweep, RunOptions, RunnerOptions};
 use serde_json::{json, Value};
 
 mod cli_support;
@@ -294,10 +294,9 @@ fn gpu_and_cpu_sweeps_agree() {
         let out = dir.join(name).join("result.json");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
         let opts = RunOptions {
-            out: out.clone(),
-            shard: None,
-            batch: BatchSize::Auto,
+            result: out.clone(),
             progress: false,
+            runner: RunnerOptions::default(),
             settings: sim.settings(accuracy.rtol()),
         };
         run_sweep(&spec, &validate_scene, &mut sim, &opts, &mut |_| {}).unwrap();

@@ -391,7 +391,7 @@ fn oil_temperature_summary_in_runs_and_sweeps() {
     use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
     use bearing_sweep::sweep::parse_spec;
     use bearing_sweep::sweep::rotor_sim::{validate_scene, RotorSimulator};
-    use bearing_sweep::sweep::runner::{run_sweep, BatchSize, RunOptions};
+    use bearing_sweep::sweep::runner::{run_sweep, RunOptions, RunnerOptions};
     let mut base = run_up_scene(1000.0, 2.0, 0.0, 0.05, 1e-3);
     let r = run(&base);
     assert_eq!(r.oil_temperature.len(), 2);
@@ -418,10 +418,9 @@ fn oil_temperature_summary_in_runs_and_sweeps() {
     let backend = create_backend(BackendKind::Cpu, accuracy).unwrap().0;
     let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
     let opts = RunOptions {
-        out: out.clone(),
-        shard: None,
-        batch: BatchSize::Auto,
+        result: out.clone(),
         progress: false,
+        runner: RunnerOptions::default(),
         settings: sim.settings(accuracy.rtol()),
     };
     run_sweep(&spec, &validate_scene, &mut sim, &opts, &mut |_| {}).unwrap();

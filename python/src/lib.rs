@@ -13,12 +13,13 @@ use pyo3::types::PyBytes;
 use serde_json::Value;
 
 use bearing_sweep::app::{
-    coefficients_json_with, merge_command, ross_toml, run_command, stability_scene_file, CliError,
+    coefficients_json_with, merge_command, ross_toml, run_command, stability_scene_file, AppError,
     CoefficientOptions, RossVersion, StabilityOptions, SweepRunOptions, EVAL_CHUNK,
 };
 use bearing_sweep::backend::{choose_backend, BackendKind, LoadEvaluator, LoadRequest};
 use bearing_sweep::bearing::{Accuracy, BearingParams, BearingState, FilmModel};
-use bearing_sweep::sweep::runner::{BatchSize, Shard};
+use bearing_sweep::sweep::runner::{BatchSize, RunnerOptions, Shard};
+use bearing_sweep::sweep::{RequestedAccuracy, SweepOptions};
 
 /// Columns of a state row, in order (as `eval` reads a state object).
 const STATE_FIELDS: [&str; 9] = ["xi", "yi", "xj", "yj", "vxi", "vyi", "vxj", "vyj", "omega"];
@@ -38,13 +39,13 @@ const LOAD_FIELDS: [&str; 9] = [
 ];
 
 /// An error of the core as a Python exception: input errors carry their JSON path.
-fn py_error(py: Python<'_>, e: CliError) -> PyErr {
+fn py_error(py: Python<'_>, e: AppError) -> PyErr {
     let (path, reason) = match &e {
-        CliError::Input { path, reason } => (path.clone(), reason.clone()),
-        CliError::Sweep(bearing_sweep::sweep::SweepError::Spec { path, reason }) => {
+        AppError::Input { path, reason } => (path.clone(), reason.clone()),
+        AppError::Sweep(bearing_sweep::sweep::SweepError::Spec { path, reason }) => {
             (path.clone(), reason.clone())
         }
-        CliError::Sweep(bearing_sweep::sweep::SweepError::Variant {
+        AppError::Sweep(bearing_sweep::sweep::SweepError::Variant {
             id,
             assignment,
             path,
@@ -53,7 +54,7 @@ fn py_error(py: Python<'_>, e: CliError) -> PyErr {
             path.clone(),
             format!("variant {id} ({assignment}): {reason}"),
         ),
-        CliError::Io { .. } | CliError::Sweep(bearing_sweep::sweep::SweepError::Io { .. }) => {
+        AppError::Io { .. } | AppError::Sweep(bearing_sweep::sweep::SweepError::Io { .. }) => {
             return PyOSError::new_err(e.to_string())
         }
         _ => return PyRuntimeError::new_err(e.to_string()),
@@ -165,7 +166,7 @@ fn eval_states<'py>(
         reqs.push(LoadRequest { bearing: 0, state });
     }
     let finite_model = params.model != FilmModel::Short;
-    let computed = py.detach(move || -> Result<_, CliError> {
+    let computed = py.detach(move || -> Result<_, AppError> {
         // As `eval`: the backend is chosen knowing the first chunk's size.
         let (backend, notices) = choose_backend(kind, accuracy, Some(n.min(EVAL_CHUNK)))?;
         let mut ev = LoadEvaluator::new(backend);
@@ -315,16 +316,22 @@ fn run_sweep(
             Some(s)
         }
     };
+    let accuracy = RequestedAccuracy::new(accuracy)
+        .map_err(|reason| py_error(py, AppError::input("--accuracy", reason)))?;
     let opts = SweepRunOptions {
         out,
-        shard,
-        batch: BatchSize::Auto,
-        backend: kind,
-        accuracy,
         quiet: !progress,
-        full_model,
-        // The CLI's default budget (`run --max-memory`, 2 GiB).
-        max_memory: Default::default(),
+        runner: RunnerOptions {
+            shard,
+            batch: BatchSize::Auto,
+        },
+        sweep: SweepOptions {
+            backend: kind,
+            accuracy,
+            full_model,
+            // The CLI's default budget (`run --max-memory`, 2 GiB).
+            max_memory: Default::default(),
+        },
     };
     let (spec_file, text) = (spec_file.to_string(), text.to_string());
     let r = py.detach(move || {

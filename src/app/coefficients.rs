@@ -4,7 +4,7 @@
 
 use serde_json::{json, Map, Value};
 
-use super::{from_value, CliError};
+use super::{from_value, AppError};
 use crate::backend::{create_backend, BackendKind};
 use crate::bearing::{BearingParams, BearingState};
 use crate::stability::{
@@ -31,23 +31,23 @@ impl Default for CoefficientOptions {
 }
 
 /// The service's entry point: `coefficients` on the CPU at accuracy 1e-12.
-pub fn coefficients_json(input: &str) -> Result<Value, CliError> {
+pub fn coefficients_json(input: &str) -> Result<Value, AppError> {
     coefficients_json_with(input, CoefficientOptions::default()).map(|(v, _)| v)
 }
 
-fn stability_error(e: StabilityError) -> CliError {
+fn stability_error(e: StabilityError) -> AppError {
     match e {
-        StabilityError::Input { path, reason } => CliError::input(path, reason),
-        other => CliError::input("$", other.to_string()),
+        StabilityError::Input { path, reason } => AppError::input(path, reason),
+        other => AppError::input("$", other.to_string()),
     }
 }
 
-fn finite_number(v: &Value, path: &str) -> Result<f64, CliError> {
+fn finite_number(v: &Value, path: &str) -> Result<f64, AppError> {
     let x = v
         .as_f64()
-        .ok_or_else(|| CliError::input(path, format!("expected a number, got {v}")))?;
+        .ok_or_else(|| AppError::input(path, format!("expected a number, got {v}")))?;
     if !x.is_finite() {
-        return Err(CliError::input(path, "must be finite"));
+        return Err(AppError::input(path, "must be finite"));
     }
     Ok(x)
 }
@@ -138,18 +138,18 @@ pub const ROSS_COLUMNS: [&str; 9] = [
 pub fn coefficients_json_with(
     input: &str,
     options: CoefficientOptions,
-) -> Result<(Value, Vec<String>), CliError> {
+) -> Result<(Value, Vec<String>), AppError> {
     let doc: Value = serde_json::from_str(input)
-        .map_err(|e| CliError::input("$", format!("not valid JSON: {e}")))?;
+        .map_err(|e| AppError::input("$", format!("not valid JSON: {e}")))?;
     let obj = doc
         .as_object()
-        .ok_or_else(|| CliError::input("$", "expected an object"))?;
+        .ok_or_else(|| AppError::input("$", "expected an object"))?;
     const FIELDS: [&str; 5] = ["bearing", "speed", "speeds", "load", "state"];
     for key in obj.keys() {
         if !FIELDS.contains(&key.as_str()) {
             let hint = crate::json::did_you_mean(key, &FIELDS)
                 .map_or(String::new(), |n| format!("; did you mean `{n}`?"));
-            return Err(CliError::input(
+            return Err(AppError::input(
                 key.clone(),
                 format!("unknown field (expected `bearing` with `speed` or `speeds` and `load`, or `bearing` and `state`){hint}"),
             ));
@@ -157,11 +157,11 @@ pub fn coefficients_json_with(
     }
     let params: BearingParams = from_value(
         obj.get("bearing")
-            .ok_or_else(|| CliError::input("bearing", "missing"))?,
+            .ok_or_else(|| AppError::input("bearing", "missing"))?,
         "bearing",
     )?;
     params.validate().map_err(|e| {
-        CliError::input(
+        AppError::input(
             format!("bearing.{}", e.field),
             format!("{} ({})", e.reason, e.value),
         )
@@ -186,7 +186,7 @@ pub fn coefficients_json_with(
     if let Some(st) = obj.get("state") {
         for key in ["speed", "speeds", "load"] {
             if obj.contains_key(key) {
-                return Err(CliError::input(
+                return Err(AppError::input(
                     key,
                     "not with `state` (the state fixes position, velocity and spin)",
                 ));
@@ -199,7 +199,7 @@ pub fn coefficients_json_with(
             &DiffOptions::default(),
         )
         .remove(0)
-        .map_err(|e| CliError::input("state", e.to_string()))?;
+        .map_err(|e| AppError::input("state", e.to_string()))?;
         let p = point_json(&params, state.omega, None, None, &state, &c);
         out.extend(p.as_object().cloned().unwrap_or_default());
         out.insert("ross".into(), json!([ross_row(state.omega, &c)]));
@@ -208,7 +208,7 @@ pub fn coefficients_json_with(
         return Ok((Value::Object(out), notices));
     }
     let load_v = obj.get("load").ok_or_else(|| {
-        CliError::input(
+        AppError::input(
             "load",
             "missing (the static load on the journal [W_x, W_y], N)",
         )
@@ -216,7 +216,7 @@ pub fn coefficients_json_with(
     let arr = load_v
         .as_array()
         .filter(|a| a.len() == 2)
-        .ok_or_else(|| CliError::input("load", "expected [W_x, W_y] (N)"))?;
+        .ok_or_else(|| AppError::input("load", "expected [W_x, W_y] (N)"))?;
     let load = [
         finite_number(&arr[0], "load[0]")?,
         finite_number(&arr[1], "load[1]")?,
@@ -231,18 +231,18 @@ pub fn coefficients_json_with(
             true,
         ),
         (None, Some(_)) => {
-            return Err(CliError::input(
+            return Err(AppError::input(
                 "speeds",
                 "expected a non-empty array of rad/s",
             ))
         }
         (Some(_), Some(_)) => {
-            return Err(CliError::input(
+            return Err(AppError::input(
                 "speeds",
                 "give `speed` or `speeds`, not both",
             ))
         }
-        (None, None) => return Err(CliError::input("speed", "missing (rad/s)")),
+        (None, None) => return Err(AppError::input("speed", "missing (rad/s)")),
     };
     // With a lubricant: per speed, the equilibrium and the effective-temperature balance
     // solved together (each balance step an equilibrium at μ(T); docs/thermal.md); the
@@ -267,7 +267,7 @@ pub fn coefficients_json_with(
                 Ok((l.film.power_loss_w, l.film.side_flow_m3_per_s))
             })
             .map_err(|e| {
-                CliError::input(
+                AppError::input(
                     if list {
                         format!("speeds[{k}]")
                     } else {
@@ -291,7 +291,7 @@ pub fn coefficients_json_with(
     for (k, e) in eqs.into_iter().enumerate() {
         let eq = e.map_err(|e| match e {
             StabilityError::Input { .. } => stability_error(e),
-            other => CliError::input(
+            other => AppError::input(
                 if list {
                     format!("speeds[{k}]")
                 } else {
@@ -316,7 +316,7 @@ pub fn coefficients_json_with(
     let mut rows = Vec::new();
     for (k, c) in coeffs.into_iter().enumerate() {
         let c = c.map_err(|e| {
-            CliError::input(
+            AppError::input(
                 if list {
                     format!("speeds[{k}]")
                 } else {

@@ -10,7 +10,7 @@ use std::io::Write;
 use serde::de::{DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::{json, Map, Value};
 
-use super::CliError;
+use super::AppError;
 use crate::backend::{
     choose_backend, BackendKind, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
 };
@@ -42,7 +42,7 @@ impl Default for EvalOptions {
 
 /// Runs `eval` on a whole input document; returns the output document and notices for
 /// stderr (the command line streams with [`eval_stream`]).
-pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String>), CliError> {
+pub fn eval_json(input: &str, options: EvalOptions) -> Result<(Value, Vec<String>), AppError> {
     eval_json_pooled(input, options, None)
 }
 
@@ -54,11 +54,11 @@ pub fn eval_json_pooled(
     input: &str,
     options: EvalOptions,
     pool: Option<&EvaluatorPool>,
-) -> Result<(Value, Vec<String>), CliError> {
+) -> Result<(Value, Vec<String>), AppError> {
     let mut bytes = Vec::new();
     let notices = eval_stream_in(input.as_bytes(), &mut bytes, options, pool)?;
     let out = serde_json::from_slice(&bytes)
-        .map_err(|e| CliError::input("$", format!("internal: output not JSON: {e}")))?;
+        .map_err(|e| AppError::input("$", format!("internal: output not JSON: {e}")))?;
     Ok((out, notices))
 }
 
@@ -110,7 +110,7 @@ pub fn eval_stream<R: std::io::Read, W: Write>(
     input: R,
     out: &mut W,
     options: EvalOptions,
-) -> Result<Vec<String>, CliError> {
+) -> Result<Vec<String>, AppError> {
     eval_stream_in(input, out, options, None)
 }
 
@@ -119,9 +119,9 @@ fn eval_stream_in<R: std::io::Read, W: Write>(
     out: &mut W,
     options: EvalOptions,
     pool: Option<&EvaluatorPool>,
-) -> Result<Vec<String>, CliError> {
+) -> Result<Vec<String>, AppError> {
     let accuracy = Accuracy::new(options.accuracy).ok_or_else(|| {
-        CliError::input(
+        AppError::input(
             "--accuracy",
             crate::sweep::options::refusal(crate::json::num(options.accuracy)),
         )
@@ -151,10 +151,10 @@ fn eval_stream_in<R: std::io::Read, W: Write>(
     }
     parsed.map_err(|e| {
         let e = crate::json::split_error(e);
-        CliError::input(e.path, e.reason)
+        AppError::input(e.path, e.reason)
     })?;
     if run.bearing.is_none() {
-        return Err(CliError::input("bearing", "missing"));
+        return Err(AppError::input("bearing", "missing"));
     }
     run.finish()?;
     let mut notices = std::mem::take(&mut run.notices);
@@ -172,8 +172,8 @@ pub fn eval_file<W: Write>(
     path: &str,
     out: &mut W,
     options: EvalOptions,
-) -> Result<Vec<String>, CliError> {
-    let io = |source| CliError::Io {
+) -> Result<Vec<String>, AppError> {
+    let io = |source| AppError::Io {
         path: path.to_string(),
         source,
     };
@@ -205,7 +205,7 @@ struct Run<'w, W: Write> {
     /// The output document after the loads, once the header is written.
     tail: Option<String>,
     /// An error raised inside the parser's callbacks (I/O, bearing), reported as is.
-    error: Option<CliError>,
+    error: Option<AppError>,
     notices: Vec<String>,
 }
 
@@ -213,14 +213,14 @@ struct Run<'w, W: Write> {
 const LOADS_MARK: &str = "\"loads\": []";
 
 impl<W: Write> Run<'_, W> {
-    fn write(&mut self, text: &str) -> Result<(), CliError> {
+    fn write(&mut self, text: &str) -> Result<(), AppError> {
         self.out
             .write_all(text.as_bytes())
-            .map_err(CliError::Stdout)
+            .map_err(AppError::Stdout)
     }
 
     /// Writes the header (everything before the first load) once the bearing is known.
-    fn header(&mut self) -> Result<(), CliError> {
+    fn header(&mut self) -> Result<(), AppError> {
         if self.tail.is_some() {
             return Ok(());
         }
@@ -270,7 +270,7 @@ impl<W: Write> Run<'_, W> {
     }
 
     /// Evaluates and writes the pending states.
-    fn flush(&mut self) -> Result<(), CliError> {
+    fn flush(&mut self) -> Result<(), AppError> {
         let Some(bearing) = self.bearing else {
             return Ok(());
         };
@@ -302,13 +302,13 @@ impl<W: Write> Run<'_, W> {
     }
 
     /// Closes the loads array and writes the rest of the document.
-    fn finish(&mut self) -> Result<(), CliError> {
+    fn finish(&mut self) -> Result<(), AppError> {
         self.flush()?;
         self.header()?;
         let close = if self.written == 0 { "]" } else { "\n  ]" };
         let tail = self.tail.take().unwrap_or_default();
         self.write(&format!("{close}{tail}\n"))?;
-        self.out.flush().map_err(CliError::Stdout)
+        self.out.flush().map_err(AppError::Stdout)
     }
 }
 
@@ -459,7 +459,7 @@ impl<'de, W: Write> Visitor<'de> for Document<'_, '_, W> {
 }
 
 /// Keeps a callback error (I/O) to report as is; the parser only needs to stop.
-fn stop<E: serde::de::Error, W: Write>(run: &mut Run<'_, W>, e: CliError) -> E {
+fn stop<E: serde::de::Error, W: Write>(run: &mut Run<'_, W>, e: AppError) -> E {
     run.error = Some(e);
     E::custom("stopped")
 }

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::CliError;
+use super::AppError;
 use crate::bearing::finite as fin;
 
 /// Smallest aspect ratio L/D of the map.
@@ -32,15 +32,15 @@ pub fn error_map_grid(resolution: usize) -> (Vec<f64>, Vec<f64>) {
 /// Computes the error map, writes `finite-error-map.svg` (fine grid) and
 /// `finite-error-map.md` (reference grid) into `dir` (created), and returns the markdown
 /// table with the files written.
-pub fn error_map_files(dir: &Path, resolution: usize) -> Result<(String, Vec<PathBuf>), CliError> {
+pub fn error_map_files(dir: &Path, resolution: usize) -> Result<(String, Vec<PathBuf>), AppError> {
     let io = |path: &Path, e: std::io::Error| {
-        CliError::input("--map", format!("{}: {e}", path.display()))
+        AppError::input("--map", format!("{}: {e}", path.display()))
     };
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     let settings = fin::error_map_settings();
     let (aspects, eccs) = error_map_grid(resolution);
     let fine = fin::compute_error_map(&aspects, &eccs, &settings);
-    let svg = fin::error_map_svg(&fine).map_err(|e| CliError::input("--map", e))?;
+    let svg = fin::error_map_svg(&fine).map_err(|e| AppError::input("--map", e))?;
     let table = fin::compute_error_map(&fin::ERROR_MAP_ASPECTS, &fin::ERROR_MAP_ECC, &settings);
     let md = fin::error_map_markdown(&table);
     let mut files = Vec::new();

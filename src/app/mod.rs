@@ -30,9 +30,10 @@ pub use submit::{submit_command, SubmitOptions, TOKEN_ENV};
 pub use sweep::{is_sweep_spec, merge_command, run_command, SweepRunOptions};
 pub use warnings::{bearing_warnings, scene_file_warnings, sweep_warnings};
 
-/// A command failure shown to the user (exit status 2).
+/// A use case's failure, shown to the user: the CLI prints it and exits with status 2, the
+/// service maps it to its `ApiError`, the benchmarks pass it up.
 #[derive(Debug, thiserror::Error)]
-pub enum CliError {
+pub enum AppError {
     /// Input JSON that cannot be used: the path inside the document and why.
     #[error("{path}: {reason}")]
     Input {
@@ -60,17 +61,17 @@ pub enum CliError {
     Stdout(std::io::Error),
 }
 
-impl CliError {
+impl AppError {
     /// Standard output was closed by its reader (`… | head`): the command stops quietly.
     pub fn is_broken_pipe(&self) -> bool {
-        matches!(self, CliError::Stdout(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
+        matches!(self, AppError::Stdout(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
     }
 
     /// An input error at `path`.
     pub fn input(path: impl Into<String>, reason: impl Into<String>) -> Self {
         // Paths and reasons may quote user input: keep them short (a 100 MB string must
         // not come back in the message).
-        CliError::Input {
+        AppError::Input {
             path: crate::json::shorten(&path.into(), crate::json::MAX_ECHO_CHARS * 2),
             reason: crate::json::shorten(&reason.into(), crate::json::MAX_MESSAGE_CHARS),
         }
@@ -79,12 +80,12 @@ impl CliError {
 
 /// The calibrated film accuracy level for `--accuracy rtol`, or the refusal naming the
 /// flag (the wording is [`crate::sweep::options::refusal`], one for every command).
-pub fn accuracy(rtol: f64) -> Result<crate::bearing::Accuracy, CliError> {
-    crate::sweep::options::accuracy_level(rtol).map_err(|r| CliError::input("--accuracy", r))
+pub fn accuracy(rtol: f64) -> Result<crate::bearing::Accuracy, AppError> {
+    crate::sweep::options::accuracy_level(rtol).map_err(|r| AppError::input("--accuracy", r))
 }
 
 /// Reads a whole file, `-` meaning standard input.
-pub fn read_input(path: &str) -> Result<String, CliError> {
+pub fn read_input(path: &str) -> Result<String, AppError> {
     use std::io::Read;
     let mut text = String::new();
     let result = if path == "-" {
@@ -92,7 +93,7 @@ pub fn read_input(path: &str) -> Result<String, CliError> {
     } else {
         std::fs::read_to_string(path).map(|t| text = t)
     };
-    result.map_err(|source| CliError::Io {
+    result.map_err(|source| AppError::Io {
         path: path.to_string(),
         source,
     })?;
@@ -103,7 +104,7 @@ pub fn read_input(path: &str) -> Result<String, CliError> {
 pub fn from_value<T: serde::de::DeserializeOwned>(
     value: &serde_json::Value,
     path: &str,
-) -> Result<T, CliError> {
+) -> Result<T, AppError> {
     crate::json::deserialize_at(value)
-        .map_err(|(at, reason)| CliError::input(crate::json::join_path(path, &at), reason))
+        .map_err(|(at, reason)| AppError::input(crate::json::join_path(path, &at), reason))
 }

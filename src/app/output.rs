@@ -1,9 +1,9 @@
 //! Standard output with every write checked: a closed pipe (`… | head`) or a full disk
-//! (`… > /dev/full`) becomes a [`CliError::Stdout`] instead of a panic in `println!`.
+//! (`… > /dev/full`) becomes a [`AppError::Stdout`] instead of a panic in `println!`.
 
 use std::io::{BufWriter, Write};
 
-use super::CliError;
+use super::AppError;
 
 /// Buffered, checked standard output for the data a command prints.
 pub struct StdoutWriter {
@@ -25,21 +25,21 @@ impl StdoutWriter {
     }
 
     /// Writes `text` as is.
-    pub fn text(&mut self, text: &str) -> Result<(), CliError> {
+    pub fn text(&mut self, text: &str) -> Result<(), AppError> {
         self.inner
             .write_all(text.as_bytes())
-            .map_err(CliError::Stdout)
+            .map_err(AppError::Stdout)
     }
 
     /// Writes `line` and a newline.
-    pub fn line(&mut self, line: &str) -> Result<(), CliError> {
+    pub fn line(&mut self, line: &str) -> Result<(), AppError> {
         self.text(line)?;
         self.text("\n")
     }
 
     /// Flushes; call it once at the end (a dropped writer's flush error would be lost).
-    pub fn finish(mut self) -> Result<(), CliError> {
-        self.inner.flush().map_err(CliError::Stdout)
+    pub fn finish(mut self) -> Result<(), AppError> {
+        self.inner.flush().map_err(AppError::Stdout)
     }
 }
 
@@ -54,14 +54,14 @@ impl Write for StdoutWriter {
 }
 
 /// Prints `text` and flushes, checked.
-pub fn print_text(text: &str) -> Result<(), CliError> {
+pub fn print_text(text: &str) -> Result<(), AppError> {
     let mut out = StdoutWriter::new();
     out.text(text)?;
     out.finish()
 }
 
 /// Prints each line and flushes, checked.
-pub fn print_lines<I: IntoIterator<Item = S>, S: AsRef<str>>(lines: I) -> Result<(), CliError> {
+pub fn print_lines<I: IntoIterator<Item = S>, S: AsRef<str>>(lines: I) -> Result<(), AppError> {
     let mut out = StdoutWriter::new();
     for l in lines {
         out.line(l.as_ref())?;

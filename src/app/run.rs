@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use std::io::Write;
 
-use super::CliError;
+use super::AppError;
 use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
 use crate::plot::Scale;
-use crate::rotor::reductions::{evaluator_options, evaluator_report, ReductionSpec};
+use crate::rotor::simplifications::{evaluator_options, evaluator_report, SimplificationSpec};
 use crate::rotor::{
     load_scene_within, sample_cap, simulate_batch_capped, ModelKind, Scene, SimResult,
 };
@@ -42,8 +42,8 @@ pub struct RunReport {
     pub notices: Vec<String>,
 }
 
-fn write(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|source| CliError::Io {
+fn write(path: &Path, text: &str) -> Result<(), AppError> {
+    std::fs::write(path, text).map_err(|source| AppError::Io {
         path: path.display().to_string(),
         source,
     })
@@ -56,7 +56,7 @@ struct RunDoc<'a> {
     backend_choice: Option<crate::backend::BackendChoice>,
     clearance_convention: Vec<&'static str>,
     film_accuracy: f64,
-    model_reductions: crate::rotor::reductions::ReductionReport,
+    model_reductions: crate::rotor::simplifications::SimplificationReport,
     name: &'a str,
     results: &'a [SimResult],
     units: &'static str,
@@ -67,9 +67,9 @@ pub fn run_scene_file(
     path: &str,
     text: &str,
     opts: &SceneRunOptions,
-) -> Result<RunReport, CliError> {
+) -> Result<RunReport, AppError> {
     let mut scenes =
-        load_scene_within(text, opts.max_memory).map_err(|e| CliError::input(e.path, e.reason))?;
+        load_scene_within(text, opts.max_memory).map_err(|e| AppError::input(e.path, e.reason))?;
     let accuracy = super::accuracy(opts.accuracy)?;
     // Every scene's samples are kept for result.json and the figures, decimated to the
     // cap that the budget leaves each (docs/cli.md "Limits"): only what cannot fit even at the
@@ -87,13 +87,13 @@ pub fn run_scene_file(
             ),
             total,
         )
-        .map_err(|r| CliError::input("scenes", r))?;
+        .map_err(|r| AppError::input("scenes", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
     let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
     if opts.full_model {
         for s in &mut scenes {
-            s.reductions = ReductionSpec::full();
+            s.reductions = SimplificationSpec::full();
         }
     }
     let eval_options = evaluator_options(scenes.iter().map(|s| &s.reductions));
@@ -121,6 +121,7 @@ pub fn run_scene_file(
             ));
         },
         cap,
+        opts.max_memory,
     );
     notices.extend(evaluator.take_notices());
     let stem = Path::new(path)
@@ -129,7 +130,7 @@ pub fn run_scene_file(
         .filter(|s| !s.is_empty() && *s != "-")
         .unwrap_or("run");
     let dir = opts.out.join(stem);
-    std::fs::create_dir_all(&dir).map_err(|source| CliError::Io {
+    std::fs::create_dir_all(&dir).map_err(|source| AppError::Io {
         path: dir.display().to_string(),
         source,
     })?;
@@ -155,7 +156,7 @@ pub fn run_scene_file(
     };
     let mut files = Vec::new();
     let result_path = dir.join("result.json");
-    let io = |source| CliError::Io {
+    let io = |source| AppError::Io {
         path: result_path.display().to_string(),
         source,
     };

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::CliError;
+use super::AppError;
 use crate::backend::{create_backend, BackendKind};
 use crate::rotor::{load_scene, ModelKind};
 use crate::stability::{
@@ -31,8 +31,8 @@ pub struct StabilityOptions {
 /// Grid points of the default speed list.
 pub const DEFAULT_SPEEDS: usize = 41;
 
-fn write(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|source| CliError::Io {
+fn write(path: &Path, text: &str) -> Result<(), AppError> {
+    std::fs::write(path, text).map_err(|source| AppError::Io {
         path: path.display().to_string(),
         source,
     })
@@ -76,21 +76,21 @@ pub fn stability_scene_file(
     path: &str,
     text: &str,
     opts: &StabilityOptions,
-) -> Result<(Value, Vec<PathBuf>, Vec<String>), CliError> {
-    let scenes = load_scene(text).map_err(|e| CliError::input(e.path, e.reason))?;
+) -> Result<(Value, Vec<PathBuf>, Vec<String>), AppError> {
+    let scenes = load_scene(text).map_err(|e| AppError::input(e.path, e.reason))?;
     let scenes: Vec<_> = scenes
         .into_iter()
         .filter(|s| s.model == ModelKind::Bearing)
         .collect();
     if scenes.is_empty() {
-        return Err(CliError::input(
+        return Err(AppError::input(
             "model",
             "no scene with the film model (\"bearing\") to linearise",
         ));
     }
     for (k, w) in opts.speeds.iter().enumerate() {
         if !(w.is_finite() && *w > 0.0) {
-            return Err(CliError::input(
+            return Err(AppError::input(
                 format!("--speeds[{k}]"),
                 format!("{w}: must be a positive speed (rad/s)"),
             ));
@@ -107,7 +107,7 @@ pub fn stability_scene_file(
         .unwrap_or_else(|| "scene".into());
     let dir = opts.out.as_ref().map(|o| o.join(&stem));
     if let Some(d) = &dir {
-        std::fs::create_dir_all(d).map_err(|source| CliError::Io {
+        std::fs::create_dir_all(d).map_err(|source| AppError::Io {
             path: d.display().to_string(),
             source,
         })?;
@@ -116,10 +116,10 @@ pub fn stability_scene_file(
     let mut results = Vec::new();
     for (si, scene) in scenes.iter().enumerate() {
         let rotor = RotorDescription::from_scene(scene)
-            .map_err(|e| CliError::input(format!("scenes[{si}]"), e.to_string()))?;
+            .map_err(|e| AppError::input(format!("scenes[{si}]"), e.to_string()))?;
         let spin = scene.initial.spin.abs();
         if spin == 0.0 {
-            return Err(CliError::input(
+            return Err(AppError::input(
                 "initial.spin",
                 "0: the film carries no load without spin; nothing to linearise",
             ));
@@ -134,7 +134,7 @@ pub fn stability_scene_file(
         let here = analyse_points(&mut ev, &[(&rotor, scene.initial.spin)])
             .remove(0)
             .map_err(|e| {
-                CliError::input(
+                AppError::input(
                     "initial.spin",
                     format!("at {} rad/s: {e}", scene.initial.spin),
                 )

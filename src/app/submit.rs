@@ -7,7 +7,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
 
-use super::CliError;
+use super::AppError;
 use crate::backend::BackendKind;
 use crate::sweep::options::backend_name;
 
@@ -63,19 +63,19 @@ fn agent() -> ureq::Agent {
         .into()
 }
 
-/// An answer's JSON (or the service's error as a CLI error naming the path).
+/// An answer's JSON (or the service's error as an `AppError` naming the path).
 fn answer(
     resp: Result<ureq::http::Response<ureq::Body>, ureq::Error>,
     server: &str,
-) -> Result<Value, CliError> {
-    let mut resp = resp.map_err(|e| CliError::input("--server", format!("{server}: {e}")))?;
+) -> Result<Value, AppError> {
+    let mut resp = resp.map_err(|e| AppError::input("--server", format!("{server}: {e}")))?;
     let status = resp.status();
     let text = resp
         .body_mut()
         .with_config()
         .limit(MAX_ANSWER)
         .read_to_string()
-        .map_err(|e| CliError::input("--server", format!("{server}: reading the answer: {e}")))?;
+        .map_err(|e| AppError::input("--server", format!("{server}: reading the answer: {e}")))?;
     let v: Value = serde_json::from_str(&text).unwrap_or(Value::String(text));
     if status.is_success() {
         return Ok(v);
@@ -85,11 +85,11 @@ fn answer(
         .as_str()
         .map(str::to_string)
         .unwrap_or_else(|| format!("HTTP {status}: {v}"));
-    Err(CliError::input(path, message))
+    Err(AppError::input(path, message))
 }
 
 /// Submits `text` (a sweep spec) and returns the lines to print on stdout.
-pub fn submit_command(text: &str, opts: &SubmitOptions) -> Result<Vec<String>, CliError> {
+pub fn submit_command(text: &str, opts: &SubmitOptions) -> Result<Vec<String>, AppError> {
     let base = opts.server.trim_end_matches('/');
     let token = opts
         .token
@@ -150,6 +150,6 @@ pub fn submit_command(text: &str, opts: &SubmitOptions) -> Result<Vec<String>, C
         ));
         Ok(lines)
     } else {
-        Err(CliError::input("$", format!("sweep {id} ended {status}")))
+        Err(AppError::input("$", format!("sweep {id} ended {status}")))
     }
 }

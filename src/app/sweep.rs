@@ -4,34 +4,29 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::CliError;
-use crate::backend::BackendKind;
+use super::AppError;
 use crate::sweep::friction_map::{friction_map, FrictionMapSpec};
 use crate::sweep::merge::merge;
-use crate::sweep::runner::{run_sweep, write_result, BatchSize, RunOptions, Shard};
+use crate::sweep::runner::{run_sweep, write_result, RunOptions, RunnerOptions, Shard};
 use crate::sweep::simulator::{prepare_simulator, SetupError};
 use crate::sweep::spec::parse_spec;
-use crate::sweep::{RequestedAccuracy, SweepError, SweepKind, SweepOptions};
+use crate::sweep::{SweepError, SweepKind, SweepOptions};
 
-/// Options of `run` for a sweep spec.
+/// Options of `run` for a sweep spec: where the result goes, the progress bar, how the
+/// runner walks the variants and what the sweep computes with.
 #[derive(Clone, Debug)]
 pub struct SweepRunOptions {
-    /// Output root: results go to `out/<spec stem>/` (a shard: `.../shard-K-of-N/`).
+    /// Output root (`--out`, no default here; the CLI's is `results`): results go to
+    /// `out/<spec stem>/` (a shard: `.../shard-K-of-N/`).
     pub out: PathBuf,
-    /// Run only this shard.
-    pub shard: Option<Shard>,
-    /// Variants per batch.
-    pub batch: BatchSize,
-    /// Backend for the film loads.
-    pub backend: BackendKind,
-    /// Film accuracy.
-    pub accuracy: f64,
-    /// No progress bar.
+    /// No progress bar (`--quiet`); default false.
     pub quiet: bool,
-    /// Every model reduction off (`--full-model`).
-    pub full_model: bool,
-    /// Memory budget (`--max-memory`; default 2 GiB).
-    pub max_memory: crate::budget::MemoryBudget,
+    /// Shard and batch size (`--shard`, `--batch-size`); default: every variant, automatic
+    /// batches.
+    pub runner: RunnerOptions,
+    /// Backend, accuracy, full model and memory budget (`--backend`, `--accuracy`,
+    /// `--full-model`, `--max-memory`); default [`SweepOptions::default`].
+    pub sweep: SweepOptions,
 }
 
 /// Whether a `run` input is a sweep spec (an object with `base` or `kind`) rather than a
@@ -69,26 +64,25 @@ pub fn run_command(
     text: &str,
     opts: &SweepRunOptions,
     notice: &mut dyn FnMut(String),
-) -> Result<Vec<String>, CliError> {
+) -> Result<Vec<String>, AppError> {
     let doc: Value =
-        crate::json::parse_json(text).map_err(|e| CliError::input(e.path, e.reason))?;
+        crate::json::parse_json(text).map_err(|e| AppError::input(e.path, e.reason))?;
     let spec_path = Path::new(spec_file);
-    let out = result_path(&opts.out, spec_file, opts.shard);
-    let requested =
-        RequestedAccuracy::new(opts.accuracy).map_err(|r| CliError::input("--accuracy", r))?;
-    let accuracy = requested.level();
+    let shard = opts.runner.shard;
+    let out = result_path(&opts.out, spec_file, shard);
+    let accuracy = opts.sweep.accuracy.level();
     let mkdir = |dir: &Path| {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Sweep(SweepError::io(dir, e)))
+        std::fs::create_dir_all(dir).map_err(|e| AppError::Sweep(SweepError::io(dir, e)))
     };
     match SweepKind::of(&doc) {
         Some(SweepKind::FrictionMap) => {
-            if opts.shard.is_some() {
-                return Err(CliError::input(
+            if shard.is_some() {
+                return Err(AppError::input(
                     "--shard",
                     "a friction map is not sharded (it runs no dynamics and takes milliseconds)",
                 ));
             }
-            let spec = FrictionMapSpec::parse_within(&doc, opts.max_memory)?;
+            let spec = FrictionMapSpec::parse_within(&doc, opts.sweep.max_memory)?;
             if let Some(b) = doc.get("bearing") {
                 for w in super::warnings::bearing_warnings("bearing", b) {
                     notice(w);
@@ -114,7 +108,7 @@ pub fn run_command(
                 Ok(svg) => {
                     let svg_path = dir.join("friction-map.svg");
                     std::fs::write(&svg_path, svg)
-                        .map_err(|e| CliError::Sweep(SweepError::io(&svg_path, e)))?;
+                        .map_err(|e| AppError::Sweep(SweepError::io(&svg_path, e)))?;
                     lines.push(format!("plot: {}", svg_path.display()));
                 }
                 Err(e) => lines.push(format!("no plot: {e}")),
@@ -127,21 +121,15 @@ pub fn run_command(
             for w in super::warnings::sweep_warnings(&doc, &spec.base) {
                 notice(w);
             }
-            let choice = SweepOptions {
-                backend: opts.backend,
-                accuracy: requested,
-                full_model: opts.full_model,
-                max_memory: opts.max_memory,
-            };
-            let mut prepared = prepare_simulator(&spec, &choice, notice).map_err(|e| match e {
-                SetupError::Sweep(e) => CliError::Sweep(e),
-                SetupError::Backend(e) => CliError::Backend(e),
-            })?;
+            let mut prepared =
+                prepare_simulator(&spec, &opts.sweep, notice).map_err(|e| match e {
+                    SetupError::Sweep(e) => AppError::Sweep(e),
+                    SetupError::Backend(e) => AppError::Backend(e),
+                })?;
             let run_opts = RunOptions {
-                out: out.clone(),
-                shard: opts.shard,
-                batch: opts.batch,
+                result: out.clone(),
                 progress: !opts.quiet,
+                runner: opts.runner,
                 settings: prepared.settings.clone(),
             };
             let summary = run_sweep(
@@ -168,7 +156,7 @@ pub fn run_command(
 }
 
 /// Merges shard results into `out`.
-pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, CliError> {
+pub fn merge_command(out: &str, shards: &[String]) -> Result<Vec<String>, AppError> {
     let paths: Vec<PathBuf> = shards.iter().map(PathBuf::from).collect();
     let (doc, plots) = merge(Path::new(out), &paths)?;
     let mut lines = vec![format!(

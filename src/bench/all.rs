@@ -12,7 +12,7 @@ use std::time::Instant;
 use super::backend::{BenchOptions, BenchReport, BenchTarget};
 use super::loads::{bench_loads, bench_loads_markdown, BenchLoadsOptions, BenchLoadsReport};
 use super::{bench_backend, bench_rotor, bench_rotor_batch, BenchRotorOptions};
-use crate::app::CliError;
+use crate::app::AppError;
 use crate::backend::{BackendError, GpuOptions};
 use crate::bearing::Accuracy;
 use crate::plot::{line_plot_svg, Scale, Series};
@@ -108,14 +108,14 @@ pub struct BenchAllReport {
     pub wall_s: f64,
 }
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> CliError + '_ {
-    move |source| CliError::Io {
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> AppError + '_ {
+    move |source| AppError::Io {
         path: path.display().to_string(),
         source,
     }
 }
 
-fn write(path: PathBuf, text: &str, files: &mut Vec<PathBuf>) -> Result<(), CliError> {
+fn write(path: PathBuf, text: &str, files: &mut Vec<PathBuf>) -> Result<(), AppError> {
     std::fs::write(&path, text).map_err(io(&path))?;
     files.push(path);
     Ok(())
@@ -147,7 +147,7 @@ fn load_average() -> String {
         .unwrap_or_else(|| "n/a".into())
 }
 
-fn backend_svg(report: &BenchReport) -> Result<String, CliError> {
+fn backend_svg(report: &BenchReport) -> Result<String, AppError> {
     let curve = |name: &str, kernel: bool| -> Vec<(f64, f64)> {
         report
             .rows
@@ -181,7 +181,7 @@ fn backend_svg(report: &BenchReport) -> Result<String, CliError> {
         Scale::Log,
         Scale::Log,
     )
-    .map_err(|e| CliError::input("plot", e))
+    .map_err(|e| AppError::input("plot", e))
 }
 
 /// Runs the backend benchmark on both backends, or on the CPU alone with a note when no
@@ -189,9 +189,9 @@ fn backend_svg(report: &BenchReport) -> Result<String, CliError> {
 fn run_backend(
     opts: &BenchOptions,
     notes: &mut Vec<String>,
-) -> Result<(BenchReport, String), CliError> {
+) -> Result<(BenchReport, String), AppError> {
     match bench_backend(opts) {
-        Err(CliError::Backend(e @ BackendError::NoAdapter(_)))
+        Err(AppError::Backend(e @ BackendError::NoAdapter(_)))
             if opts.target != BenchTarget::Cpu =>
         {
             notes.push(format!("backend benchmark: GPU skipped ({e})"));
@@ -246,7 +246,7 @@ fn loads_headlines(r: &BenchLoadsReport, s: &mut String) {
 }
 
 /// Runs everything and writes `OUT/index.md` with the files of each benchmark.
-pub fn bench_all(opts: &BenchAllOptions) -> Result<BenchAllReport, CliError> {
+pub fn bench_all(opts: &BenchAllOptions) -> Result<BenchAllReport, AppError> {
     let start = Instant::now();
     let machine_before = machine_description();
     std::fs::create_dir_all(&opts.out).map_err(io(&opts.out))?;
@@ -292,7 +292,7 @@ pub fn bench_all(opts: &BenchAllOptions) -> Result<BenchAllReport, CliError> {
         &mut files,
     )?;
     let json = serde_json::to_string_pretty(&backend)
-        .map_err(|e| CliError::input("report", e.to_string()))?;
+        .map_err(|e| AppError::input("report", e.to_string()))?;
     write(backend_out.join("bench-backend.json"), &json, &mut files)?;
     write(
         backend_out.join("bench-backend.svg"),

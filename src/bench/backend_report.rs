@@ -4,10 +4,10 @@
 use std::fmt::Write;
 
 use super::backend::{run_bench, BenchOptions, BenchReport};
-use crate::app::CliError;
+use crate::app::AppError;
 
 /// Runs the backend benchmark; returns the report and its Markdown rendering.
-pub fn bench_backend(options: &BenchOptions) -> Result<(BenchReport, String), CliError> {
+pub fn bench_backend(options: &BenchOptions) -> Result<(BenchReport, String), AppError> {
     let report = run_bench(options)?;
     let md = render(&report, options);
     Ok((report, md))

@@ -10,7 +10,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::app::CliError;
+use crate::app::AppError;
 use crate::backend::{
     BackendError, CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest,
     LoadResult, Precision,
@@ -469,8 +469,8 @@ pub fn bench_loads_markdown(report: &BenchLoadsReport) -> String {
     md
 }
 
-fn write(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|source| CliError::Io {
+fn write(path: &Path, text: &str) -> Result<(), AppError> {
+    std::fs::write(path, text).map_err(|source| AppError::Io {
         path: path.display().to_string(),
         source,
     })
@@ -478,12 +478,12 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
 
 /// Runs the benchmark and writes `bench-loads.json`, `bench-loads.md` and
 /// `bench-loads.svg` into `opts.out`.
-pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliError> {
+pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, AppError> {
     if opts.states == 0 {
-        return Err(CliError::input("--states", "must be at least 1"));
+        return Err(AppError::input("--states", "must be at least 1"));
     }
     if !(opts.min_time_s.is_finite() && opts.min_time_s >= 0.0) {
-        return Err(CliError::input(
+        return Err(AppError::input(
             "--min-time",
             format!(
                 "must be a non-negative number of seconds ({})",
@@ -492,12 +492,12 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
         ));
     }
     if let Some(&n) = opts.baseline_grids.iter().find(|&&n| n == 0) {
-        return Err(CliError::input(
+        return Err(AppError::input(
             "--grids",
             format!("grid size {n} must be at least 1"),
         ));
     }
-    std::fs::create_dir_all(&opts.out).map_err(|source| CliError::Io {
+    std::fs::create_dir_all(&opts.out).map_err(|source| AppError::Io {
         path: opts.out.display().to_string(),
         source,
     })?;
@@ -514,7 +514,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads.unwrap_or(0))
         .build()
-        .map_err(|e| CliError::input("--threads", e.to_string()))?;
+        .map_err(|e| AppError::input("--threads", e.to_string()))?;
     let mut rows: Vec<BenchRow> = ACCURACY_LEVELS
         .iter()
         .map(|&level| rule_row(&params, &states, &reference, level, opts))
@@ -544,7 +544,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
         notes,
     };
     let json = serde_json::to_string_pretty(&report)
-        .map_err(|e| CliError::input("report", e.to_string()))?;
+        .map_err(|e| AppError::input("report", e.to_string()))?;
     write(&opts.out.join("bench-loads.json"), &json)?;
     write(
         &opts.out.join("bench-loads.md"),
@@ -604,7 +604,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, CliErro
         Scale::Log,
         Scale::Log,
     )
-    .map_err(|e| CliError::input("plot", e))?;
+    .map_err(|e| AppError::input("plot", e))?;
     write(&opts.out.join("bench-loads.svg"), &svg)?;
     Ok(report)
 }

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use serde_json::{json, Value};
 
 use crate::service::pg::{
-    new_sweep_id, result_document, submit_spec, PgError, PgQueue, QueuedSweep, SweepOptions,
-    VariantRow,
+    new_sweep_id, parse_queued, result_document, submit_spec, PgError, PgQueue, QueuedSweep,
+    SweepOptions, VariantRow,
 };
 use crate::sweep::merge::deterministic_part;
 
@@ -136,6 +136,8 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
     // 1. Worker processes on a rotor sweep, against `run`.
     let spec = rotor_spec(o.grid);
     let (reference, run_rate) = run_reference(&o.exe, &o.scratch, &spec)?;
+    // Parsed once for every submission and result below.
+    let parsed = parse_queued(&spec)?;
     md.push_str(&format!(
         "| worker processes | variants | batch | wall (s) | variants/s | vs `run` ({run_rate:.1} variants/s) | result vs `run` |\n| --- | --- | --- | --- | --- | --- | --- |\n"
     ));
@@ -145,7 +147,7 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
             ..SweepOptions::default()
         };
         let batch_rows = i32::try_from(o.batch.clamp(1, 32)).unwrap_or(32);
-        let (id, total) = submit_spec(&q, &spec, opts, batch_rows).await?;
+        let (id, total) = submit_spec(&q, &parsed, opts, batch_rows).await?;
         let mut children = Vec::new();
         for k in 0..n {
             let child = Command::new(&o.exe)
@@ -172,7 +174,7 @@ async fn bench_async(o: &QueueBenchOptions) -> Result<String, PgError> {
             )));
         }
         let wall = row.finished_unix_s.unwrap_or(0.0) - row.started_unix_s.unwrap_or(0.0);
-        let doc = result_document(&q, &id).await?;
+        let doc = result_document(&q, &id, &parsed).await?;
         let same = deterministic_part(&doc) == deterministic_part(&reference);
         md.push_str(&format!(
             "| {n} | {total} | {} | {wall:.2} | {:.1} | {:.2}x | {} |\n",

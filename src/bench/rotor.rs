@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::app::CliError;
+use crate::app::AppError;
 use crate::backend::{CpuBackend, LoadEvaluator};
 use crate::bearing::Accuracy;
 use crate::integrate::Method;
@@ -64,10 +64,10 @@ pub struct BenchRotorReport {
     pub files: Vec<PathBuf>,
 }
 
-fn base_scene(t_end: f64) -> Result<Scene, CliError> {
+fn base_scene(t_end: f64) -> Result<Scene, AppError> {
     let text = include_str!("../../sweeps/paper-example.json");
     let mut s = load_scene(text)
-        .map_err(|e| CliError::input(e.path, e.reason))?
+        .map_err(|e| AppError::input(e.path, e.reason))?
         .remove(0);
     s.integrator.t_end = t_end;
     Ok(s)
@@ -93,13 +93,13 @@ fn distance(a: &SimResult, b: &SimResult) -> (f64, f64) {
 }
 
 /// Runs the study and writes `<prefix>-work-precision-time.svg` and `<prefix>-work-precision-loads.svg` (prefix `rotor`, or `rotor-stiff` with a viscosity override).
-pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliError> {
+pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, AppError> {
     let accuracy = Accuracy::new(opts.accuracy)
-        .ok_or_else(|| CliError::input("--accuracy", "not a calibrated level"))?;
+        .ok_or_else(|| AppError::input("--accuracy", "not a calibrated level"))?;
     let mut base = base_scene(opts.t_end)?;
     if let Some(mu) = opts.viscosity {
         if !(mu.is_finite() && mu > 0.0) {
-            return Err(CliError::input(
+            return Err(AppError::input(
                 "--viscosity",
                 format!("must be positive ({mu})"),
             ));
@@ -188,7 +188,7 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
             r.status
         ));
     }
-    std::fs::create_dir_all(&opts.out).map_err(|source| CliError::Io {
+    std::fs::create_dir_all(&opts.out).map_err(|source| AppError::Io {
         path: opts.out.display().to_string(),
         source,
     })?;
@@ -235,9 +235,9 @@ pub fn bench_rotor(opts: &BenchRotorOptions) -> Result<BenchRotorReport, CliErro
             Scale::Log,
             Scale::Log,
         )
-        .map_err(|e| CliError::input("plot", e))?;
+        .map_err(|e| AppError::input("plot", e))?;
         let p: PathBuf = Path::new(&opts.out).join(&file);
-        std::fs::write(&p, svg).map_err(|source| CliError::Io {
+        std::fs::write(&p, svg).map_err(|source| AppError::Io {
             path: p.display().to_string(),
             source,
         })?;
@@ -265,7 +265,7 @@ pub const ROTOR_BATCH_TABLE_HEADER: &str = "| variants | threads | finished | ev
 /// Lockstep batch against one-by-one runs: `n` paper-rotor variants (spins spread over
 /// 60-140 rad/s, dopri5 at the default tolerance, 1e-6 loads) on the CPU backend with
 /// `threads` threads. Returns a markdown table row set.
-pub fn bench_rotor_batch(n: usize, t_end: f64, threads: Option<usize>) -> Result<String, CliError> {
+pub fn bench_rotor_batch(n: usize, t_end: f64, threads: Option<usize>) -> Result<String, AppError> {
     let base = base_scene(t_end)?;
     let accuracy = Accuracy::default();
     let scenes: Vec<Scene> = (0..n)

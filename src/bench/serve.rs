@@ -12,7 +12,6 @@ use serde_json::{json, Value};
 
 use crate::app::{eval_json, run_command, EvalOptions, SweepRunOptions};
 use crate::service::{router, start, ServeError, ServiceConfig, SqliteStore, Store};
-use crate::sweep::runner::BatchSize;
 
 /// Options of `bench serve`.
 #[derive(Clone, Debug)]
@@ -268,13 +267,13 @@ fn sweep_row(
             &text,
             &SweepRunOptions {
                 out: scratch.join(format!("run-{rep}")),
-                shard: None,
-                batch: BatchSize::Auto,
-                backend: crate::backend::BackendKind::Cpu,
-                accuracy: 1e-6,
                 quiet: true,
-                full_model: false,
-                max_memory: Default::default(),
+                runner: Default::default(),
+                // The default accuracy (1e-6) and budget (2 GiB), on the CPU.
+                sweep: crate::sweep::SweepOptions {
+                    backend: crate::backend::BackendKind::Cpu,
+                    ..Default::default()
+                },
             },
             &mut |_| {},
         )

@@ -4,8 +4,8 @@
 //! about `G`), and lockstep batched simulation ([`simulate_batch`] → [`SimResult`]).
 
 mod model;
-pub mod reductions;
 mod scene;
+pub mod simplifications;
 mod simulate;
 
 pub use model::{RotorModel, DIM, JAC_DIM};

@@ -283,7 +283,7 @@ pub struct Scene {
     /// Model reductions (docs/cli.md "Model reductions"). Default: the exact ones on, the
     /// approximations off.
     #[serde(default)]
-    pub reductions: super::reductions::ReductionSpec,
+    pub reductions: super::simplifications::SimplificationSpec,
 }
 
 fn default_name() -> String {

@@ -8,8 +8,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use serde::{Deserialize, Serialize};
 
 use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
-use super::reductions::{variant_report, ReductionReport, ReductionSpec, ReductionTally};
 use super::scene::{ModelKind, Scene, SceneError};
+use super::simplifications::{
+    variant_report, SimplificationReport, SimplificationSpec, SimplificationTally,
+};
 use crate::backend::{BearingPlan, LoadEvaluator, LoadRequest, LoadResult};
 use crate::bearing::{BearingParams, StateFault};
 use crate::integrate::{run_batch, BatchSystem, Method, Settings, Stats, Status};
@@ -572,7 +574,7 @@ pub struct SimResult {
     pub stats: SimStats,
     /// Model reductions applied and declined (docs/cli.md "Model reductions").
     #[serde(default)]
-    pub model_reductions: ReductionReport,
+    pub model_reductions: SimplificationReport,
     /// Per bearing with a lumped oil temperature: final and highest temperature (absent
     /// without a lubricant).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -616,8 +618,8 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     below: Vec<bool>,
     scenes: Vec<usize>,
     names: Vec<String>,
-    reductions: Vec<ReductionSpec>,
-    tallies: Vec<ReductionTally>,
+    reductions: Vec<SimplificationSpec>,
+    tallies: Vec<SimplificationTally>,
     held: Vec<bool>,
     method: Method,
     out: &'a mut [Option<SimResult>],
@@ -1165,8 +1167,9 @@ pub fn simulate_batch(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    let cap = sample_cap(scenes, crate::budget::MemoryBudget::default());
-    stored(scenes, evaluator, progress, true, None, cap)
+    let budget = crate::budget::MemoryBudget::default();
+    let cap = sample_cap(scenes, budget);
+    stored(scenes, evaluator, progress, true, None, cap, budget)
 }
 
 /// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing,
@@ -1196,14 +1199,16 @@ pub fn sample_cap(scenes: &[Scene], budget: crate::budget::MemoryBudget) -> usiz
 }
 
 /// [`simulate_batch`] keeping at most `cap` samples per simulation (rounded up to an
-/// even number, at least 2): the decimating store of [`TimeSeries`].
+/// even number, at least 2): the decimating store of [`TimeSeries`]. Each scene is
+/// validated within the run's memory budget `budget` (the one `cap` comes from).
 pub fn simulate_batch_capped(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
     cap: usize,
+    budget: crate::budget::MemoryBudget,
 ) -> Vec<SimResult> {
-    stored(scenes, evaluator, progress, true, None, cap)
+    stored(scenes, evaluator, progress, true, None, cap, budget)
 }
 
 /// [`simulate_batch`] for large sweeps: each result's samples go to `progress` only and
@@ -1214,36 +1219,51 @@ pub fn simulate_batch_streaming(
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
 ) -> Vec<SimResult> {
-    let cap = sample_cap(scenes, crate::budget::MemoryBudget::default());
-    stored(scenes, evaluator, progress, false, None, cap)
+    let budget = crate::budget::MemoryBudget::default();
+    let cap = sample_cap(scenes, budget);
+    stored(scenes, evaluator, progress, false, None, cap, budget)
 }
 
 /// [`simulate_batch_streaming`] that stops once `cancel` is set: the variants still
 /// running end at once with a `cancelled` load failure (to be discarded by the caller).
 /// At most `cap` samples are kept per simulation (the caller knows how many variants are
-/// in flight across threads: [`crate::budget::MemoryBudget::sample_cap`]).
+/// in flight across threads: [`crate::budget::MemoryBudget::sample_cap`]); each scene is
+/// validated within the run's memory budget `budget`.
 pub fn simulate_batch_streaming_cancellable(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     progress: &mut dyn FnMut(usize, &SimResult),
     cancel: &AtomicBool,
     cap: usize,
+    budget: crate::budget::MemoryBudget,
 ) -> Vec<SimResult> {
-    stored(scenes, evaluator, progress, false, Some(cancel), cap)
+    stored(
+        scenes,
+        evaluator,
+        progress,
+        false,
+        Some(cancel),
+        cap,
+        budget,
+    )
 }
 
 /// Simulates every scene like [`simulate_batch_streaming_cancellable`], handing each
 /// sample to the scene's observer (`observers[i]` for `scenes[i]`) instead of storing
 /// it: memory holds what the observers keep. `progress(i, &result, &mut observer)` is
-/// called as each variant ends, its `samples` empty.
+/// called as each variant ends, its `samples` empty. Each scene is validated within the
+/// run's memory budget `budget`.
 pub fn simulate_batch_observed<O: SampleObserver>(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     observers: Vec<O>,
     progress: &mut dyn FnMut(usize, &SimResult, &mut O),
     cancel: Option<&AtomicBool>,
+    budget: crate::budget::MemoryBudget,
 ) {
-    simulate(scenes, evaluator, observers, progress, false, cancel);
+    simulate(
+        scenes, evaluator, observers, progress, false, cancel, budget,
+    );
 }
 
 /// The decimating store behind every [`SimResult`] with samples.
@@ -1254,6 +1274,7 @@ fn stored(
     keep_samples: bool,
     cancel: Option<&AtomicBool>,
     cap: usize,
+    budget: crate::budget::MemoryBudget,
 ) -> Vec<SimResult> {
     let observers = vec![SeriesStore::new(cap); scenes.len()];
     simulate(
@@ -1263,6 +1284,7 @@ fn stored(
         &mut |i, r, _| progress(i, r),
         keep_samples,
         cancel,
+        budget,
     )
 }
 
@@ -1273,6 +1295,7 @@ fn simulate<O: SampleObserver>(
     progress: &mut dyn FnMut(usize, &SimResult, &mut O),
     keep_samples: bool,
     cancel: Option<&AtomicBool>,
+    budget: crate::budget::MemoryBudget,
 ) -> Vec<SimResult> {
     let mut observers: Vec<Option<O>> = observers.into_iter().map(Some).collect();
     let mut out: Vec<Option<SimResult>> = vec![None; scenes.len()];
@@ -1280,7 +1303,8 @@ fn simulate<O: SampleObserver>(
     // thermal scenes add components; scenes without them keep the 12 of the rigid rotor).
     let mut groups: BTreeMap<(&'static str, usize), (Method, Vec<usize>)> = BTreeMap::new();
     for (i, s) in scenes.iter().enumerate() {
-        match s.validate() {
+        // At the run's budget: a scene admitted under `--max-memory` is not failed here.
+        match s.validate_within(budget) {
             Ok(()) => groups
                 .entry((s.integrator.method.name(), thermal_bearings(s)))
                 .or_insert((s.integrator.method, Vec::new()))
@@ -1295,7 +1319,7 @@ fn simulate<O: SampleObserver>(
                     film_events: Vec::new(),
                     samples: TimeSeries::default(),
                     stats: SimStats::default(),
-                    model_reductions: ReductionReport::default(),
+                    model_reductions: SimplificationReport::default(),
                     oil_temperature: Vec::new(),
                 };
                 if let Some(o) = observers[i].as_mut() {
@@ -1352,7 +1376,7 @@ fn simulate<O: SampleObserver>(
             scenes: idx.clone(),
             names: idx.iter().map(|&i| scenes[i].name.clone()).collect(),
             reductions: idx.iter().map(|&i| scenes[i].reductions).collect(),
-            tallies: vec![ReductionTally::default(); n],
+            tallies: vec![SimplificationTally::default(); n],
             held: idx
                 .iter()
                 .map(|&i| scenes[i].spin == super::scene::SpinMode::Held)

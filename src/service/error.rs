@@ -7,7 +7,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use super::store::StoreError;
-use crate::app::CliError;
+use crate::app::AppError;
 use crate::sweep::SweepError;
 
 /// `Retry-After` of a 503 for an unreachable store, s (a database restart takes a few).
@@ -145,11 +145,11 @@ impl From<SweepError> for ApiError {
     }
 }
 
-impl From<CliError> for ApiError {
-    fn from(e: CliError) -> Self {
+impl From<AppError> for ApiError {
+    fn from(e: AppError) -> Self {
         match e {
-            CliError::Input { path, reason } => ApiError::invalid(path, reason),
-            CliError::Sweep(s) => s.into(),
+            AppError::Input { path, reason } => ApiError::invalid(path, reason),
+            AppError::Sweep(s) => s.into(),
             other => ApiError::internal(other.to_string()),
         }
     }

@@ -18,7 +18,7 @@ use super::sweeps::{parse_options, parse_sweep_doc, ParsedSweep};
 use crate::sweep::friction_map::friction_map;
 use crate::sweep::job::Figures;
 use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
-use crate::sweep::runner::{run_variants, BatchSize, RunnerOptions};
+use crate::sweep::runner::{run_variants, RunnerOptions};
 use crate::sweep::simulator::prepare_simulator;
 use crate::sweep::sink::VariantSink;
 use crate::sweep::SweepOptions;
@@ -479,11 +479,8 @@ impl Scheduler {
                 let _ = events.send(SweepEvent::Variant { id, ok, progress });
             }),
         );
-        let opts = RunnerOptions {
-            shard: None,
-            batch: BatchSize::Auto,
-            settings: prepared.settings.clone(),
-        };
+        // Every variant, in the simulator's batches.
+        let opts = RunnerOptions::default();
         let progress = Progress::silent(job.progress.clone());
         let report = run_variants(
             spec,
@@ -491,6 +488,7 @@ impl Scheduler {
             prepared.sim.as_mut(),
             &mut sink,
             &opts,
+            &prepared.settings,
             &progress,
             &job.cancel,
             &mut |n| notices.push(n),

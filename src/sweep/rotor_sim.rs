@@ -12,7 +12,7 @@ use crate::backend::{
 };
 use crate::bearing::{Accuracy, FilmModel};
 use crate::budget::MemoryBudget;
-use crate::rotor::reductions::{evaluator_report, ReductionSpec};
+use crate::rotor::simplifications::{evaluator_report, SimplificationSpec};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
@@ -308,7 +308,7 @@ impl BatchSimulator for RotorSimulator {
             match serde_json::from_value::<Scene>(job.scene.clone()) {
                 Ok(mut s) => {
                     if self.full_model {
-                        s.reductions = ReductionSpec::full();
+                        s.reductions = SimplificationSpec::full();
                     }
                     scenes.push(s);
                     index.push(k);
@@ -317,7 +317,8 @@ impl BatchSimulator for RotorSimulator {
             }
         }
         // The whole batch is in flight at once (across threads): it shares the budget.
-        let cap = crate::rotor::sample_cap(&scenes, self.max_memory);
+        let budget = self.max_memory;
+        let cap = crate::rotor::sample_cap(&scenes, budget);
         let opts = self.reductions.as_ref();
         // On a GPU, finite-film (or `auto`) bearings keep the whole batch on one
         // evaluator (see the type's documentation).
@@ -331,7 +332,7 @@ impl BatchSimulator for RotorSimulator {
                 &mut self.evaluator,
                 opts,
                 cancel,
-                cap,
+                (cap, budget),
                 &mut |i, o| done(index[i], o),
             );
             return;
@@ -367,9 +368,16 @@ impl BatchSimulator for RotorSimulator {
                             continue;
                         }
                         // The receiver lives until every worker is done.
-                        simulate_chunk(chunk, evaluator, opts, cancel, cap, &mut |i, o| {
-                            let _ = tx.send((ids[i], o));
-                        });
+                        simulate_chunk(
+                            chunk,
+                            evaluator,
+                            opts,
+                            cancel,
+                            (cap, budget),
+                            &mut |i, o| {
+                                let _ = tx.send((ids[i], o));
+                            },
+                        );
                     }
                     t.elapsed().as_secs_f64()
                 }));
@@ -496,13 +504,14 @@ impl RotorSimulator {
 
 /// Simulates `scenes` on one evaluator, reporting `done(i, outcome)` as each ends: reduced
 /// as they run under `opts` (a window of fixed length), else from their stored samples
-/// (at most `cap` each).
+/// (at most `cap` each). Scenes are validated within `budget`, the run's memory budget
+/// (`cap` comes from it).
 fn simulate_chunk(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
     opts: Option<&ReductionOptions>,
     cancel: &AtomicBool,
-    cap: usize,
+    (cap, budget): (usize, MemoryBudget),
     done: &mut dyn FnMut(usize, Outcome),
 ) {
     match opts {
@@ -512,6 +521,7 @@ fn simulate_chunk(
             scenes.iter().map(|s| RunReducer::new(s, opts)).collect(),
             &mut |i, r, reducer| done(i, outcome_reduced(r, &scenes[i], reducer, opts)),
             Some(cancel),
+            budget,
         ),
         None => {
             let results = simulate_batch_streaming_cancellable(
@@ -520,6 +530,7 @@ fn simulate_chunk(
                 &mut |i, r| done(i, outcome_of(r, &scenes[i])),
                 cancel,
                 cap,
+                budget,
             );
             // The runner has what it needs; free the batch's series at once.
             drop(results);

@@ -189,19 +189,18 @@ impl std::str::FromStr for BatchSize {
     }
 }
 
-/// How to run.
+/// How [`run_sweep`] runs into the result.jsonl folder: the runner's walk, the settings
+/// recorded with the results, and the folder sink's own two options.
 #[derive(Clone, Debug)]
 pub struct RunOptions {
-    /// Result file; the stream is the same path with extension `jsonl`.
-    pub out: PathBuf,
-    /// Only this shard.
-    pub shard: Option<Shard>,
-    /// Variants per batch.
-    pub batch: BatchSize,
-    /// Draw a progress bar (only on a terminal).
+    /// Result file (no default); the stream is the same path with extension `jsonl`.
+    pub result: PathBuf,
+    /// Draw a progress bar (only on a terminal); default for `run`: on unless `--quiet`.
     pub progress: bool,
-    /// Settings that change results (backend kind, accuracy, ...): recorded in the result
-    /// and checked on resume and merge.
+    /// How the runner walks the variants (shard, batch size).
+    pub runner: RunnerOptions,
+    /// Settings that change results (backend kind, accuracy, ...), as the prepared
+    /// simulator gives them: recorded in the result and checked on resume and merge.
     pub settings: Value,
 }
 
@@ -242,15 +241,23 @@ pub fn header(spec: &SweepSpec, settings: &Value, shard: Option<Shard>, total: u
            "shard": shard.map(Shard::to_json), "count": total})
 }
 
-/// How the runner runs, whatever the sink.
-#[derive(Clone, Debug)]
+/// How the runner walks the variants, whatever the sink: the `run` flags `--shard` and
+/// `--batch-size`; the service runs every variant (`shard: None`) in automatic batches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RunnerOptions {
-    /// Only this shard.
+    /// Only this shard; default `None` (every variant).
     pub shard: Option<Shard>,
-    /// Variants per batch.
+    /// Variants per batch; default [`BatchSize::Auto`] (the simulator's choice).
     pub batch: BatchSize,
-    /// Settings that change results (see [`RunOptions::settings`]).
-    pub settings: Value,
+}
+
+impl Default for RunnerOptions {
+    fn default() -> Self {
+        RunnerOptions {
+            shard: None,
+            batch: BatchSize::Auto,
+        }
+    }
 }
 
 /// What [`run_variants`] did.
@@ -272,7 +279,8 @@ pub struct VariantsReport {
     pub run: Value,
 }
 
-/// Runs the sweep's variants (this shard's) into `sink`: expands, validates every
+/// Runs the sweep's variants (this shard's) into `sink`, recording `settings` (see
+/// [`RunOptions::settings`]): expands, validates every
 /// variant, resumes from what the sink already holds, runs the rest in batches and
 /// commits each finished variant before reporting it to `progress`. `cancel` is checked
 /// between batches and inside the simulator: the running variants stop, are not
@@ -284,20 +292,23 @@ pub fn run_variants(
     sim: &mut dyn BatchSimulator,
     sink: &mut dyn VariantSink,
     opts: &RunnerOptions,
+    settings: &Value,
     progress: &Progress,
     cancel: &AtomicBool,
     notice: &mut dyn FnMut(String),
 ) -> Result<VariantsReport, SweepError> {
     Expansion::new(spec).validate_all(spec, validator)?;
-    run_validated_variants(spec, sim, sink, opts, progress, cancel, notice)
+    run_validated_variants(spec, sim, sink, opts, settings, progress, cancel, notice)
 }
 
 /// [`run_variants`] for a spec whose variants were validated already.
+#[allow(clippy::too_many_arguments)]
 fn run_validated_variants(
     spec: &SweepSpec,
     sim: &mut dyn BatchSimulator,
     sink: &mut dyn VariantSink,
     opts: &RunnerOptions,
+    settings: &Value,
     progress: &Progress,
     cancel: &AtomicBool,
     notice: &mut dyn FnMut(String),
@@ -307,7 +318,7 @@ fn run_validated_variants(
     let total = exp.count();
     let owns = |id: u64| opts.shard.is_none_or(|s| s.owns(id));
     let mine: Vec<u64> = (0..total).filter(|&id| owns(id)).collect();
-    let mut committed = sink.open(&header(spec, &opts.settings, opts.shard, total))?;
+    let mut committed = sink.open(&header(spec, settings, opts.shard, total))?;
     if let Some(id) = committed.keys().find(|&&id| !owns(id) || id >= total) {
         return Err(SweepError::Output(format!(
             "the stored variants include {id}, which is not in this run"
@@ -454,7 +465,7 @@ fn split_doc(doc: &Value) -> Result<(String, String), SweepError> {
     ))
 }
 
-/// Runs the sweep (this shard of it) into the folder of `opts.out`, resuming from an
+/// Runs the sweep (this shard of it) into the folder of `opts.result`, resuming from an
 /// existing stream, then writes the result and the plots. The output folder is locked
 /// for the run.
 pub fn run_sweep(
@@ -491,14 +502,17 @@ pub fn run_sweep_with(
     Expansion::new(spec).validate_all(spec, validator)?;
     // Fail before any work on an output that cannot be written (a directory in the way,
     // another run holding the folder).
-    let mut sink = FolderSink::new(&opts.out)?;
-    let runner_opts = RunnerOptions {
-        shard: opts.shard,
-        batch: opts.batch,
-        settings: opts.settings.clone(),
-    };
-    let report =
-        run_validated_variants(spec, sim, &mut sink, &runner_opts, progress, cancel, notice)?;
+    let mut sink = FolderSink::new(&opts.result)?;
+    let report = run_validated_variants(
+        spec,
+        sim,
+        &mut sink,
+        &opts.runner,
+        &opts.settings,
+        progress,
+        cancel,
+        notice,
+    )?;
     let stream = sink.stream().to_path_buf();
     if report.cancelled {
         return Err(SweepError::Output(format!(
@@ -507,12 +521,12 @@ pub fn run_sweep_with(
             stream.display()
         )));
     }
-    let doc =
-        super::job::result_document(spec, &opts.settings, opts.shard, report.total, report.run);
+    let shard = opts.runner.shard;
+    let doc = super::job::result_document(spec, &opts.settings, shard, report.total, report.run);
     // Figures only of a complete result.
-    let want_plots = opts.shard.is_none() && !spec.plots.is_empty();
+    let want_plots = shard.is_none() && !spec.plots.is_empty();
     let mut figures = super::job::Figures::new(spec);
-    write_file_atomically(&opts.out, &mut |w| {
+    write_file_atomically(&opts.result, &mut |w| {
         write_result_doc(w, &doc, &mut sink, &mut |line| {
             if want_plots {
                 figures.add_line(line);
@@ -521,7 +535,7 @@ pub fn run_sweep_with(
     })?;
     drop(sink);
     let plots = if want_plots {
-        write_figures(figures.draw(), &opts.out)
+        write_figures(figures.draw(), &opts.result)
     } else {
         Vec::new()
     };
@@ -531,7 +545,7 @@ pub fn run_sweep_with(
         skipped: report.skipped,
         ran: report.ran,
         not_ok: report.not_ok,
-        result: opts.out.clone(),
+        result: opts.result.clone(),
         stream,
         plots,
     })

@@ -15,7 +15,7 @@ use crate::backend::{
 };
 use crate::bearing::Accuracy;
 use crate::budget::MemoryBudget;
-use crate::rotor::reductions::{evaluator_options, ReductionSpec};
+use crate::rotor::simplifications::{evaluator_options, SimplificationSpec};
 
 /// Why no simulator could be built.
 #[derive(Debug, thiserror::Error)]
@@ -144,7 +144,7 @@ pub fn prepare_simulator(
             }
             // Evaluator-level reductions from the base scene (one evaluator serves every
             // variant).
-            let base: ReductionSpec = spec
+            let base: SimplificationSpec = spec
                 .base
                 .get("reductions")
                 .and_then(|v| serde_json::from_value(v.clone()).ok())

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::{run_worker, PgQueue, WorkerOptions};
-use crate::app::CliError;
+use crate::app::AppError;
 use crate::backend::BackendKind;
 
 /// Options of `worker`.
@@ -27,11 +27,11 @@ pub struct WorkerCommandOptions {
     pub id: Option<String>,
 }
 
-fn seconds(field: &str, v: f64) -> Result<Duration, CliError> {
+fn seconds(field: &str, v: f64) -> Result<Duration, AppError> {
     if v.is_finite() && v > 0.0 && v < 1e9 {
         Ok(Duration::from_secs_f64(v))
     } else {
-        Err(CliError::input(
+        Err(AppError::input(
             field,
             format!("{v} is not a positive number of seconds"),
         ))
@@ -39,14 +39,14 @@ fn seconds(field: &str, v: f64) -> Result<Duration, CliError> {
 }
 
 /// Runs a worker; returns the summary lines.
-pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, CliError> {
+pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, AppError> {
     let lease_ttl = seconds("--lease-ttl", o.lease_ttl_s)?;
     let heartbeat = match o.heartbeat_s {
         Some(h) => seconds("--heartbeat", h)?,
         None => lease_ttl / 3,
     };
     if heartbeat >= lease_ttl {
-        return Err(CliError::input(
+        return Err(AppError::input(
             "--heartbeat",
             format!(
                 "{} s is not shorter than the lease ({} s): the lease would expire between heartbeats",
@@ -56,14 +56,14 @@ pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, CliError>
         ));
     }
     if o.batch == Some(0) {
-        return Err(CliError::input("--batch", "must be at least 1"));
+        return Err(AppError::input("--batch", "must be at least 1"));
     }
     let exit_when_idle = o
         .exit_when_idle_s
         .map(|s| seconds("--exit-when-idle", s))
         .transpose()?;
     let queue =
-        PgQueue::new(&o.database, 4).map_err(|e| CliError::input("--database", e.to_string()))?;
+        PgQueue::new(&o.database, 4).map_err(|e| AppError::input("--database", e.to_string()))?;
     let opts = WorkerOptions {
         backend: o.backend,
         batch: o.batch,
@@ -77,7 +77,7 @@ pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, CliError>
         .worker_threads(2)
         .enable_all()
         .build()
-        .map_err(|e| CliError::Io {
+        .map_err(|e| AppError::Io {
             path: "tokio runtime".into(),
             source: e,
         })?;
@@ -92,7 +92,7 @@ pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, CliError>
         eprintln!("worker: pulling work from {}", queue.target());
         run_worker(queue, opts, stop_rx, log).await
     });
-    let s = summary.map_err(|e| CliError::input("--database", e.to_string()))?;
+    let s = summary.map_err(|e| AppError::input("--database", e.to_string()))?;
     Ok(vec![format!(
         "worker {} ({}): {} batches, {} variants stored; {} leases lost to other workers, {} dropped for stopped sweeps; {} database retries",
         s.id, s.backend, s.batches, s.variants, s.lost, s.stopped, s.retries

@@ -23,7 +23,7 @@ pub use queue::{
 };
 pub use result::result_document;
 pub use store::{PgStore, RETRY_FOR};
-pub use submit::{new_sweep_id, submit_spec};
+pub use submit::{new_sweep_id, parse_queued, submit_spec};
 pub use worker::{
     build_simulator, default_worker_id, resolve_backend, run_variants, run_worker, WorkerOptions,
     WorkerSummary,

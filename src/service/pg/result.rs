@@ -8,17 +8,30 @@ use super::error::PgError;
 use super::monitor::run_section;
 use super::queue::PgQueue;
 use crate::sweep::job;
-use crate::sweep::spec::parse_spec;
+use crate::sweep::spec::SweepSpec;
 
 /// Variants read per query while assembling a result.
 const PAGE: u64 = 1000;
 
-/// The complete result of sweep `id` (status `done`), variants in id order.
-pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError> {
+/// The complete result of sweep `id` (status `done`), variants in id order. `spec` is the
+/// sweep's parsed spec, as the caller parsed it once ([`super::parse_queued`]) to submit
+/// it: it is not parsed again here, only checked to be the stored one (the canonical
+/// text compared in the database).
+pub async fn result_document(
+    queue: &PgQueue,
+    id: &str,
+    spec: &SweepSpec,
+) -> Result<Value, PgError> {
     let row = queue
         .sweep(id)
         .await?
         .ok_or_else(|| PgError::NotFound(id.to_string()))?;
+    if !is_stored_spec(queue, id, spec).await? {
+        return Err(PgError::Sweep {
+            id: id.to_string(),
+            reason: "the spec given is not the one stored with the sweep".into(),
+        });
+    }
     if row.status != "done" {
         return Err(PgError::Sweep {
             id: id.to_string(),
@@ -28,17 +41,12 @@ pub async fn result_document(queue: &PgQueue, id: &str) -> Result<Value, PgError
             ),
         });
     }
-    let job = queue.job(id).await?;
-    let spec = parse_spec(&job.spec, None).map_err(|e| PgError::Sweep {
-        id: id.to_string(),
-        reason: format!("the stored spec does not parse: {e}"),
-    })?;
     let run = match &row_run(queue, id).await? {
         Some(r) => r.clone(),
         None => run_section(queue, id).await?,
     };
     let settings = row.settings.clone().unwrap_or(Value::Null);
-    let mut doc = job::result_document(&spec, &settings, None, row.total, run);
+    let mut doc = job::result_document(spec, &settings, None, row.total, run);
     let mut variants = Vec::with_capacity(row.total as usize);
     let mut next = 0u64;
     loop {
@@ -78,4 +86,16 @@ async fn row_run(queue: &PgQueue, id: &str) -> Result<Option<Value>, PgError> {
         .map_err(|e| queue.db_error("reading the run section", e))?;
     Ok(r.and_then(|r| r.get::<_, Option<String>>(0))
         .and_then(|t| serde_json::from_str(&t).ok()))
+}
+
+/// Whether `spec` is the canonical spec stored with sweep `id` (as [`super::submit_spec`]
+/// and the service's store write it: its compact JSON text).
+async fn is_stored_spec(queue: &PgQueue, id: &str, spec: &SweepSpec) -> Result<bool, PgError> {
+    let text = serde_json::to_string(&spec.canonical).unwrap_or_default();
+    let c = queue.connection("reading the sweep's spec").await?;
+    let r = c
+        .query_opt("SELECT spec = $2 FROM sweeps WHERE id = $1", &[&id, &text])
+        .await
+        .map_err(|e| queue.db_error("reading the sweep's spec", e))?;
+    Ok(r.is_some_and(|r| r.get::<_, bool>(0)))
 }

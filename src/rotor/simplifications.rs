@@ -1,5 +1,8 @@
-//! Model reductions: what a scene may skip, the bound each one is held to, and the report
-//! of what every run applied and declined (docs/cli.md "Model reductions").
+//! Model simplifications, the user's "model reductions" (docs/cli.md "Model reductions";
+//! the scene's `reductions` block and the `model_reductions` reports keep their JSON
+//! names): what a scene may skip, the bound each one is held to, and the report of what
+//! every run applied and declined. In Rust "reductions" are only the signal reductions of
+//! a sweep (`sweep::reduce`).
 //!
 //! Exact reductions (on by default): identical kernel inputs integrated once per call and
 //! tiny calls run on the CPU instead of a GPU round trip ([`crate::backend::EvaluatorOptions`]),
@@ -132,8 +135,9 @@ impl Default for ConstantFrictionSpec {
 
 /// The scene's `reductions` block.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ReductionSpec {
+// The name serde's messages quote (`expected struct ReductionSpec`) stays as it was.
+#[serde(deny_unknown_fields, expecting = "struct ReductionSpec")]
+pub struct SimplificationSpec {
     /// Integrate identical kernel inputs once per evaluator call (exact). Default true.
     #[serde(default = "yes")]
     pub dedupe: bool,
@@ -159,9 +163,9 @@ fn default_cpu_below() -> usize {
     DEFAULT_CPU_BELOW
 }
 
-impl Default for ReductionSpec {
+impl Default for SimplificationSpec {
     fn default() -> Self {
-        ReductionSpec {
+        SimplificationSpec {
             dedupe: true,
             small_batch_cpu_below: DEFAULT_CPU_BELOW,
             squeeze_drop: SqueezeDropSpec::default(),
@@ -171,10 +175,10 @@ impl Default for ReductionSpec {
     }
 }
 
-impl ReductionSpec {
+impl SimplificationSpec {
     /// Everything off (`--full-model`).
     pub fn full() -> Self {
-        ReductionSpec {
+        SimplificationSpec {
             dedupe: false,
             small_batch_cpu_below: 0,
             squeeze_drop: SqueezeDropSpec {
@@ -227,7 +231,7 @@ impl ReductionSpec {
 /// Evaluator options for a set of scenes sharing one evaluator: dedupe only if every scene
 /// allows it, the smallest crossover.
 pub fn evaluator_options<'a>(
-    specs: impl IntoIterator<Item = &'a ReductionSpec>,
+    specs: impl IntoIterator<Item = &'a SimplificationSpec>,
 ) -> EvaluatorOptions {
     let mut o = EvaluatorOptions::default();
     for s in specs {
@@ -310,7 +314,7 @@ pub fn tilt_measure(params: &BearingParams, s: &BearingState) -> f64 {
 
 /// Per-variant tallies, accumulated as the film is evaluated.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ReductionTally {
+pub struct SimplificationTally {
     /// Film states evaluated.
     pub states: u64,
     /// States evaluated without squeeze.
@@ -341,11 +345,11 @@ pub struct ReductionTally {
     pub short_error_extrapolated: bool,
 }
 
-impl ReductionTally {
+impl SimplificationTally {
     /// Applies the squeeze drop to `state` where allowed and tallies the checks.
     pub fn observe(
         &mut self,
-        spec: &ReductionSpec,
+        spec: &SimplificationSpec,
         params: &BearingParams,
         state: &mut BearingState,
     ) {
@@ -389,7 +393,7 @@ impl ReductionTally {
 
 /// One reduction's line in a report.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ReductionEntry {
+pub struct SimplificationEntry {
     /// Reduction name.
     pub name: String,
     /// `"exact"` or `"bounded"`.
@@ -415,23 +419,23 @@ pub struct ReductionEntry {
 
 /// What a run applied and declined.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct ReductionReport {
+pub struct SimplificationReport {
     /// `--full-model` was given.
     pub full_model: bool,
     /// Applied reductions.
-    pub applied: Vec<ReductionEntry>,
+    pub applied: Vec<SimplificationEntry>,
     /// Declined reductions.
-    pub declined: Vec<ReductionEntry>,
+    pub declined: Vec<SimplificationEntry>,
     /// The film model's own error: how far the short-bearing film may be from the
     /// finite-length Reynolds equation at the eccentricity this run reached (from the
     /// model-error map, docs/finite-film.md). Not a reduction `--full-model` turns off:
     /// the bearing's `"model"` chooses the film.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub film_model_error: Option<ReductionEntry>,
+    pub film_model_error: Option<SimplificationEntry>,
 }
 
-fn entry(name: &str, kind: &str, why: impl Into<String>) -> ReductionEntry {
-    ReductionEntry {
+fn entry(name: &str, kind: &str, why: impl Into<String>) -> SimplificationEntry {
+    SimplificationEntry {
         name: name.into(),
         kind: kind.into(),
         applied_to: None,
@@ -447,13 +451,13 @@ fn entry(name: &str, kind: &str, why: impl Into<String>) -> ReductionEntry {
 /// deviation of the exact friction coefficient from its value at the end of the settling
 /// window (held spin), `None` where the check does not apply.
 pub fn variant_report(
-    spec: &ReductionSpec,
+    spec: &SimplificationSpec,
     full_model: bool,
-    tally: &ReductionTally,
+    tally: &SimplificationTally,
     held_spin: bool,
     friction_dev: Option<f64>,
-) -> ReductionReport {
-    let mut r = ReductionReport {
+) -> SimplificationReport {
+    let mut r = SimplificationReport {
         full_model,
         ..Default::default()
     };
@@ -542,11 +546,11 @@ pub fn variant_report(
     r
 }
 
-impl ReductionReport {
+impl SimplificationReport {
     /// The short-bearing film as a model reduction of the full Reynolds equation: the
     /// error it exposes the run to, from the model-error map at each bearing's `B/D` and
     /// the eccentricity the run reached (docs/finite-film.md "Model-error map").
-    fn push_short_model(&mut self, tally: &ReductionTally) {
+    fn push_short_model(&mut self, tally: &SimplificationTally) {
         if tally.short_states + tally.finite_states == 0 {
             return;
         }
@@ -588,8 +592,8 @@ pub fn evaluator_report(
     stats: &EvalStats,
     gpu: bool,
     full_model: bool,
-) -> ReductionReport {
-    let mut r = ReductionReport {
+) -> SimplificationReport {
+    let mut r = SimplificationReport {
         full_model,
         ..Default::default()
     };
