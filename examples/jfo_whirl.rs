@@ -4,7 +4,8 @@
 //! fed either on the maximum-film line (default inlet) or by two ambient axial grooves
 //! at 0° and 180° (20° wide), `"reynolds"` against `"jfo"` (film fraction carried through
 //! the run). Per run: largest orbit radius and smallest h_min of bearing 0, finite
-//! states evaluated, wall time (one evaluator, rayon over the two bearings' states).
+//! states evaluated and their mean work in sweeps of the grid (counted, noise-free),
+//! wall time (one evaluator, rayon over the two bearings' states).
 //!
 //! Second table: bearing 0's film friction power, side flow and inlet flow averaged over
 //! the second half of the run (trapezoid over the samples). JFO: the samples' own `film`
@@ -28,8 +29,8 @@ fn main() {
             .unwrap_or(d)
     };
     let (t_end, rtol) = (arg(1, 0.5), arg(2, 1e-6));
-    println!("| feed | cavitation | max orbit radius / δ | min h_min µm | finite states | wall s | states/s |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| feed | cavitation | max orbit radius / δ | min h_min µm | finite states | sweeps/state | wall s | states/s |");
+    println!("|---|---|---|---|---|---|---|---|");
     let mut flows = Vec::new();
     let rule = FilmRule::new(Accuracy::new(1e-9).unwrap().settings());
     for grooves in [false, true] {
@@ -68,6 +69,7 @@ fn main() {
                 .fold(0.0, f64::max);
             let h_min = b0.h_min.iter().cloned().fold(f64::INFINITY, f64::min);
             let n = ev.stats().finite_states;
+            let sweeps = ev.stats().finite_sweeps as f64 / n as f64;
             // Bearing 0's film power and flows per sample: (power W, side m³/s, inlet m³/s).
             let t = &r.samples.t;
             let per_sample: Vec<[f64; 3]> = match &b0.film {
@@ -116,7 +118,7 @@ fn main() {
             }
             flows.push((grooves, cav, acc.map(|v| v / span)));
             println!(
-                "| {} | {cav} | {:.4} | {:.2} | {n} | {wall:.1} | {:.0} |",
+                "| {} | {cav} | {:.4} | {:.2} | {n} | {sweeps:.1} | {wall:.1} | {:.0} |",
                 if grooves {
                     "grooves 0°, 180°"
                 } else {
