@@ -22,16 +22,24 @@
 //! `Ĝ = 1 + κ (H_{i+½} − 1)`, `κ = (Δθ/2)/sin(Δθ/2)`: since `H − 1` is a combination of
 //! `cos θ, sin θ`, `Ĝ_{i+½} − Ĝ_{i−½} = Δθ ∂θH(θ_i)` exactly, so with `φ ≡ 1` the discrete
 //! equation is the Swift–Stieber solver's term for term (its right-hand side evaluates
-//! `∂θH` at the node). The squeeze term at the node is
-//! `12 φ_k ∂τH_k + 12 H_k (φ_k − φ°_k)/Δτ`: steady states (no history, `1/Δτ = 0`) keep
-//! the journal velocity's squeeze `12 ∂τH` as the Reynolds model does, applied to the
-//! liquid share `φ`; a time step from the previous film fraction `φ°` (backward Euler,
-//! [`JfoHistory`]) adds the storage of the liquid content. Per free node:
+//! `∂θH` at the node). The storage term `12 ∂τ(φH)` at the node is `cs_k φ_k + c0_k`:
+//!
+//! - steady (no history, `1/Δτ = 0`): `12 φ_k ∂τH_k`, the journal velocity's squeeze as
+//!   in the Reynolds model, applied to the liquid share `φ` (`cs = 12 ∂τH`, `c0 = 0`);
+//! - a time step from the previous film fraction `φ°` and gap `H°` ([`JfoHistory`] with
+//!   `prev_ecc`): the liquid is the gap less the void `V = (1 − φ) H`, the gap changing at
+//!   its exact rate and the void by backward Euler, `12 ∂τH − 12 (V − V°)/Δτ`
+//!   (`cs = 12 H/Δτ`, `c0 = 12 ∂τH − 12 H/Δτ + 12 H° (1 − φ°)/Δτ`): in a full film the
+//!   Reynolds squeeze exactly, and conservative over steps (the void telescopes);
+//! - without `prev_ecc`, the product rule `12 φ ∂τH + 12 H (φ − φ°)/Δτ`
+//!   (`cs = 12 ∂τH + 12 H/Δτ`, `c0 = −12 H φ°/Δτ`), conservative only to `O(Δτ)`.
+//!
+//! Per free node:
 //!
 //! ```text
 //! d P_k + c_φ φ_k = q_k,
-//! c_φ = c_out + 12 ∂τH_k + 12 H_k/Δτ,   c_out = c_{i+½} (s ≥ 0) or −c_{i−½} (s < 0),
-//! q_k = Σ_nb a P_nb + c_in φ_up,in + 12 H_k φ°_k/Δτ
+//! c_φ = c_out + cs_k,   c_out = c_{i+½} (s ≥ 0) or −c_{i−½} (s < 0),
+//! q_k = Σ_nb a P_nb + c_in φ_up,in − c0_k
 //! ```
 //!
 //! (`c_in φ_up,in` the Couette inflow from the upwind neighbour). Held nodes (the
@@ -605,7 +613,8 @@ impl JfoSolver {
 /// with `inlet` the net Couette and Poiseuille outflow of the held (supply) nodes, `side`
 /// the Poiseuille flux through the end faces (with the end half-cells of the pressure
 /// zone's columns, as [`super::flow_integrals`]), `storage` the squeeze and time storage
-/// of the liquid content `Σ (12 φ ∂τH + 12 H (φ − φ°)/Δτ)` over the free nodes, and
+/// of the liquid content `Σ 12 ∂τ(φH)` over the free nodes (in the solve's form, module
+/// docs), and
 /// `residual` the sum of the free nodes' equation residuals (0 at convergence, in the
 /// cavitated zone too).
 #[allow(clippy::too_many_arguments)]
