@@ -72,8 +72,11 @@ pub(crate) struct FilmHistory {
     candidates: std::collections::HashMap<u32, Committed>,
     /// Per state of the group last solved: the history it was solved with (φ°, Δτ, the
     /// previous eccentricities).
-    used: Vec<Option<(Vec<f64>, f64, [f64; 4])>>,
+    used: Vec<Option<Used>>,
 }
+
+/// The history a state was solved with: film fraction, `Δτ`, the previous eccentricities.
+type Used = (Vec<f64>, f64, [f64; 4]);
 
 /// A bearing's film at one time: time, film fraction, packed eccentricities (its gap, so
 /// that the next step conserves the liquid content exactly, `JfoHistory::prev_ecc`).
