@@ -67,12 +67,20 @@ pub(crate) struct FilmHistory {
     /// step; not output samples).
     candidates_on: bool,
     /// Per bearing index: time and film fraction committed at the last accepted step.
-    committed: std::collections::HashMap<u32, (f64, Vec<f64>)>,
+    committed: std::collections::HashMap<u32, Committed>,
     /// Per bearing index: time and film fraction of its latest stage evaluation.
-    candidates: std::collections::HashMap<u32, (f64, Vec<f64>)>,
-    /// Per state of the group last solved: the history it was solved with (φ°, Δτ).
-    used: Vec<Option<(Vec<f64>, f64)>>,
+    candidates: std::collections::HashMap<u32, Committed>,
+    /// Per state of the group last solved: the history it was solved with (φ°, Δτ, the
+    /// previous eccentricities).
+    used: Vec<Option<Used>>,
 }
+
+/// The history a state was solved with: film fraction, `Δτ`, the previous eccentricities.
+type Used = (Vec<f64>, f64, [f64; 4]);
+
+/// A bearing's film at one time: time, film fraction, packed eccentricities (its gap, so
+/// that the next step conserves the liquid content exactly, `JfoHistory::prev_ecc`).
+type Committed = (f64, Vec<f64>, [f64; 4]);
 
 impl FilmHistory {
     /// Times of the next call's requests (one per request), and whether its solves are
@@ -123,8 +131,8 @@ impl FilmHistory {
         let committed = &self.committed;
         self.used.extend(states.iter().map(|&(b, req, scale)| {
             let t = *times.get(req)?;
-            let (th, phi) = committed.get(&b)?;
-            (phi.len() == n && t > *th).then(|| (phi.clone(), scale * (t - th)))
+            let (th, phi, ecc) = committed.get(&b)?;
+            (phi.len() == n && t > *th).then(|| (phi.clone(), scale * (t - th), *ecc))
         }));
         out.clear();
         out.resize(jobs.len(), [0.0; 4]);
@@ -136,9 +144,11 @@ impl FilmHistory {
             .for_each_init(
                 || (FiniteSolver::new(), JfoSolver::new()),
                 |(reynolds, jfo), ((o, r), ((job, field), used))| {
-                    let h = used
-                        .as_ref()
-                        .map(|(phi, dtau)| JfoHistory { phi, dtau: *dtau });
+                    let h = used.as_ref().map(|(phi, dtau, ecc)| JfoHistory {
+                        phi,
+                        dtau: *dtau,
+                        prev_ecc: Some(*ecc),
+                    });
                     let (ints, rep) = jfo.solve(reynolds, job, grid, field, h.as_ref());
                     *o = ints;
                     *r = rep;
@@ -147,7 +157,8 @@ impl FilmHistory {
         if self.candidates_on {
             for (k, &(b, req, _)) in states.iter().enumerate() {
                 if let (Some(&t), true) = (times.get(req), fields[k].len() == 2 * n) {
-                    self.candidates.insert(b, (t, fields[k][n..].to_vec()));
+                    let ecc = jobs[k].state.ecc;
+                    self.candidates.insert(b, (t, fields[k][n..].to_vec(), ecc));
                 }
             }
         }
@@ -171,8 +182,12 @@ impl FilmHistory {
         field: &[f64],
     ) {
         match self.used.get(k) {
-            Some(Some((phi, dtau))) => {
-                let h = JfoHistory { phi, dtau: *dtau };
+            Some(Some((phi, dtau, ecc))) => {
+                let h = JfoHistory {
+                    phi,
+                    dtau: *dtau,
+                    prev_ecc: Some(*ecc),
+                };
                 apply_jfo_flow(
                     loads,
                     params,

@@ -20,4 +20,4 @@ pub use simulate::{
     SimResult, SimStats, SimStatus, TimeSeries,
 };
 pub use simulate::{simulate_batch_observed, BearingSample, Sample, SampleObserver, SeriesStore};
-pub use simulate::{ThermalSample, ThermalSeries};
+pub use simulate::{FilmSample, FilmSeries, ThermalSample, ThermalSeries};

@@ -159,6 +159,40 @@ pub struct BearingSeries {
     /// absent otherwise, docs/thermal.md "Rotor scenes").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<ThermalSeries>,
+    /// The film's own friction and flows along the run: finite-film bearings with JFO
+    /// cavitation only (whose film carries its history; absent otherwise, docs/jfo.md
+    /// "Flow and power loss along a whirl orbit").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub film: Option<FilmSeries>,
+}
+
+/// A JFO film's own friction and flows (`Loads::film`, with the film fraction carried
+/// through the run), one entry per sample.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FilmSeries {
+    /// Friction torque of the film on the journal (Couette shear over the liquid share,
+    /// plus the pressure term), N·m.
+    pub friction_torque_nm: Vec<f64>,
+    /// Power loss `|M ω|`, W.
+    pub power_loss_w: Vec<f64>,
+    /// Side flow out of both end faces, m³/s.
+    pub side_flow_m3_per_s: Vec<f64>,
+    /// Net flow out of the supply (held) nodes into the film, m³/s.
+    pub inlet_flow_m3_per_s: Vec<f64>,
+}
+
+/// One JFO bearing's film friction and flows at one sample time (the columns of
+/// [`FilmSeries`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FilmSample {
+    /// Friction torque, N·m.
+    pub friction_torque_nm: f64,
+    /// Power loss, W.
+    pub power_loss_w: f64,
+    /// Side flow, m³/s.
+    pub side_flow_m3_per_s: f64,
+    /// Inlet flow, m³/s.
+    pub inlet_flow_m3_per_s: f64,
 }
 
 /// The lumped oil temperature of one bearing and its heat flows, one entry per sample.
@@ -286,6 +320,16 @@ impl TimeSeries {
                     f(v);
                 }
             }
+            if let Some(fl) = &mut b.film {
+                for v in [
+                    &mut fl.friction_torque_nm,
+                    &mut fl.power_loss_w,
+                    &mut fl.side_flow_m3_per_s,
+                    &mut fl.inlet_flow_m3_per_s,
+                ] {
+                    f(v);
+                }
+            }
         }
     }
 
@@ -377,6 +421,8 @@ pub struct BearingSample {
     pub friction_coefficient: Option<f64>,
     /// The lumped oil temperature (bearings with a lubricant only).
     pub thermal: Option<ThermalSample>,
+    /// The film's own friction and flows (finite-film bearings with JFO cavitation only).
+    pub film: Option<FilmSample>,
 }
 
 /// One output sample of a simulation (the columns of [`TimeSeries`]), handed to a
@@ -467,6 +513,13 @@ impl SampleObserver for SeriesStore {
                 th.power_w.push(x.power_w);
                 th.heat_to_flow_w.push(x.heat_to_flow_w);
                 th.heat_to_housing_w.push(x.heat_to_housing_w);
+            }
+            if let Some(x) = b.film {
+                let fl = bs.film.get_or_insert_with(FilmSeries::default);
+                fl.friction_torque_nm.push(x.friction_torque_nm);
+                fl.power_loss_w.push(x.power_loss_w);
+                fl.side_flow_m3_per_s.push(x.side_flow_m3_per_s);
+                fl.inlet_flow_m3_per_s.push(x.inlet_flow_m3_per_s);
             }
         }
         self.decimator.after_push(s, self.cap);
@@ -601,6 +654,9 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     /// film friction and flow outputs: none, as nothing here reads them (skipping them
     /// saves ~21 % of a run's instructions; BENCHMARKS.md "Issue 28, third pass").
     plan: BearingPlan,
+    /// The plan of output samples: as `plan`, with the film outputs of JFO finite-film
+    /// bearings (their samples carry the film's own friction and flows, issue 27).
+    sample_plan: BearingPlan,
     offsets: Vec<usize>,
     evaluator: &'a mut LoadEvaluator,
     requests: Vec<LoadRequest>,
@@ -706,9 +762,14 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                 self.evaluator
                     .evaluate(&self.stage_params, &self.requests, &mut self.results);
             } else {
+                let plan = if stages {
+                    &self.plan
+                } else {
+                    &self.sample_plan
+                };
                 self.evaluator.evaluate_planned(
                     &self.params,
-                    &self.plan,
+                    plan,
                     &self.requests,
                     &mut self.results,
                 );
@@ -749,6 +810,13 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
             (p - to_flow - to_housing) / th.thermal_capacity,
         ))
     }
+}
+
+/// A finite-film bearing with JFO cavitation: its samples carry the film's own friction
+/// and flows ([`FilmSeries`]).
+fn is_jfo(p: &BearingParams) -> bool {
+    p.model == crate::bearing::FilmModel::Finite
+        && p.finite.cavitation == crate::bearing::finite::Cavitation::Jfo
 }
 
 fn fault_of(bearing: usize, f: &StateFault) -> RotorFault {
@@ -975,6 +1043,15 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                         mz,
                         friction_coefficient,
                         thermal,
+                        film: match res {
+                            Ok(l) if is_jfo(&geom.params) => Some(FilmSample {
+                                friction_torque_nm: l.film.friction_torque_nm,
+                                power_loss_w: l.film.power_loss_w,
+                                side_flow_m3_per_s: l.film.side_flow_m3_per_s,
+                                inlet_flow_m3_per_s: l.film.inlet_flow_m3_per_s,
+                            }),
+                            _ => None,
+                        },
                     });
                     if let (Some(x), Some(j)) = (thermal, geom.thermal) {
                         let oil = &mut self.oil[id];
@@ -1173,9 +1250,22 @@ pub fn simulate_batch(
 }
 
 /// Numbers kept per sample of `scene` (t, x_g, y_g, spin, energy, work; ten per bearing,
-/// five more per bearing with a lumped oil temperature).
+/// five more per bearing with a lumped oil temperature, four more per JFO finite-film
+/// bearing: its film friction and flows).
 pub fn numbers_per_sample(scene: &Scene) -> usize {
-    6 + 10 * scene.bearings.len() + 5 * thermal_bearings(scene)
+    let jfo = if scene.model == ModelKind::Bearing {
+        scene
+            .bearings
+            .iter()
+            .filter(|b| {
+                b.model == crate::bearing::FilmModel::Finite
+                    && b.finite.cavitation == crate::bearing::finite::Cavitation::Jfo
+            })
+            .count()
+    } else {
+        0
+    };
+    6 + 10 * scene.bearings.len() + 5 * thermal_bearings(scene) + 4 * jfo
 }
 
 /// Bearings of `scene` with a lumped oil temperature state (a lubricant, bearing model):
@@ -1357,6 +1447,11 @@ fn simulate<O: SampleObserver>(
             calls: 0,
             oil: vec![Vec::new(); n],
             plan: BearingPlan::new(&params, false),
+            sample_plan: {
+                let mut p = BearingPlan::new(&params, false);
+                p.film_outputs = params.iter().map(is_jfo).collect();
+                p
+            },
             params,
             offsets,
             evaluator: &mut *evaluator,

@@ -22,16 +22,24 @@
 //! `Ĝ = 1 + κ (H_{i+½} − 1)`, `κ = (Δθ/2)/sin(Δθ/2)`: since `H − 1` is a combination of
 //! `cos θ, sin θ`, `Ĝ_{i+½} − Ĝ_{i−½} = Δθ ∂θH(θ_i)` exactly, so with `φ ≡ 1` the discrete
 //! equation is the Swift–Stieber solver's term for term (its right-hand side evaluates
-//! `∂θH` at the node). The squeeze term at the node is
-//! `12 φ_k ∂τH_k + 12 H_k (φ_k − φ°_k)/Δτ`: steady states (no history, `1/Δτ = 0`) keep
-//! the journal velocity's squeeze `12 ∂τH` as the Reynolds model does, applied to the
-//! liquid share `φ`; a time step from the previous film fraction `φ°` (backward Euler,
-//! [`JfoHistory`]) adds the storage of the liquid content. Per free node:
+//! `∂θH` at the node). The storage term `12 ∂τ(φH)` at the node is `cs_k φ_k + c0_k`:
+//!
+//! - steady (no history, `1/Δτ = 0`): `12 φ_k ∂τH_k`, the journal velocity's squeeze as
+//!   in the Reynolds model, applied to the liquid share `φ` (`cs = 12 ∂τH`, `c0 = 0`);
+//! - a time step from the previous film fraction `φ°` and gap `H°` ([`JfoHistory`] with
+//!   `prev_ecc`): the liquid is the gap less the void `V = (1 − φ) H`, the gap changing at
+//!   its exact rate and the void by backward Euler, `12 ∂τH − 12 (V − V°)/Δτ`
+//!   (`cs = 12 H/Δτ`, `c0 = 12 ∂τH − 12 H/Δτ + 12 H° (1 − φ°)/Δτ`): in a full film the
+//!   Reynolds squeeze exactly, and conservative over steps (the void telescopes);
+//! - without `prev_ecc`, the product rule `12 φ ∂τH + 12 H (φ − φ°)/Δτ`
+//!   (`cs = 12 ∂τH + 12 H/Δτ`, `c0 = −12 H φ°/Δτ`), conservative only to `O(Δτ)`.
+//!
+//! Per free node:
 //!
 //! ```text
 //! d P_k + c_φ φ_k = q_k,
-//! c_φ = c_out + 12 ∂τH_k + 12 H_k/Δτ,   c_out = c_{i+½} (s ≥ 0) or −c_{i−½} (s < 0),
-//! q_k = Σ_nb a P_nb + c_in φ_up,in + 12 H_k φ°_k/Δτ
+//! c_φ = c_out + cs_k,   c_out = c_{i+½} (s ≥ 0) or −c_{i−½} (s < 0),
+//! q_k = Σ_nb a P_nb + c_in φ_up,in − c0_k
 //! ```
 //!
 //! (`c_in φ_up,in` the Couette inflow from the upwind neighbour). Held nodes (the
@@ -75,6 +83,12 @@ pub struct JfoHistory<'a> {
     pub phi: &'a [f64],
     /// Time step in units of the rate scale, `Δτ = ρ Δt` (> 0; infinite: steady).
     pub dtau: f64,
+    /// Packed eccentricities (`PackedState::ecc`) of the previous state, whose gap `H°`
+    /// held the liquid `φ° H°`: the step then conserves the liquid content exactly
+    /// (`12 ∂τH − 12 (V − V°)/Δτ` with the void `V = (1 − φ) H`, module docs). `None`:
+    /// the product-rule form `12 φ ∂τH + 12 H (φ − φ°)/Δτ`, consistent but conservative
+    /// over time only to `O(Δτ)`.
+    pub prev_ecc: Option<[f64; 4]>,
 }
 
 /// Scratch space of the JFO solver (one grid's operator and iterate), reused.
@@ -113,6 +127,10 @@ struct JfoLevel {
     sq: Vec<f64>,
     /// Storage coefficient `12 H/Δτ` (0 when steady).
     st: Vec<f64>,
+    /// The node's storage of liquid is `cs φ + c0` (steady: `cs = 12 ∂τH`, `c0 = 0`;
+    /// see [`JfoHistory`] for the time-stepped forms).
+    cs: Vec<f64>,
+    c0: Vec<f64>,
     /// Held pressure, or negative where the node is free.
     held: Vec<f64>,
     /// Pressure, film fraction, previous film fraction.
@@ -129,7 +147,9 @@ impl JfoLevel {
     }
 
     /// Discretises `job` on the `nt × nz` grid whose node 0 is at `theta0`; `inv_dtau`
-    /// is `1/Δτ` (0: steady). Leaves `p`, `phi` and `phi_old` at their lengths (values
+    /// is `1/Δτ` (0: steady), `prev_ecc` the previous state's eccentricities (the
+    /// conservative time step, [`JfoHistory::prev_ecc`]); `phi_old` must be set before.
+    /// Leaves `p`, `phi` and `phi_old` at their lengths (values
     /// unchanged if they had the length, else 0, 1, 1).
     #[allow(clippy::too_many_arguments)]
     fn setup(
@@ -141,6 +161,7 @@ impl JfoLevel {
         theta0: f64,
         spin: f64,
         inv_dtau: f64,
+        prev_ecc: Option<&[f64; 4]>,
     ) {
         self.nt = nt;
         self.nz = nz;
@@ -154,6 +175,8 @@ impl JfoLevel {
             &mut self.ce,
             &mut self.sq,
             &mut self.st,
+            &mut self.cs,
+            &mut self.c0,
         ] {
             v.clear();
             v.resize(n, 0.0);
@@ -206,7 +229,21 @@ impl JfoLevel {
                 let rhs = 6.0 * (a * sn - b * cn);
                 // Squeeze: the right-hand side less its Couette part 6 s ∂θH.
                 self.sq[k] = rhs - 6.0 * spin * (ex * sn - ey * cn);
-                self.st[k] = 12.0 * film(e, zeta, cn, sn) * inv_dtau;
+                let h = film(e, zeta, cn, sn);
+                self.st[k] = 12.0 * h * inv_dtau;
+                let phi_old = self.phi_old[k];
+                (self.cs[k], self.c0[k]) = match prev_ecc {
+                    _ if inv_dtau == 0.0 => (self.sq[k], 0.0),
+                    // Liquid φH = H − V: the gap's own change at its exact rate, the
+                    // void V = (1 − φ)H by backward Euler (conservative over steps).
+                    Some(eo) => (
+                        self.st[k],
+                        self.sq[k] - self.st[k]
+                            + 12.0 * film(eo, zeta, cn, sn) * inv_dtau * (1.0 - phi_old),
+                    ),
+                    // Product rule: 12 φ ∂τH + 12 H (φ − φ°)/Δτ.
+                    None => (self.sq[k] + self.st[k], -self.st[k] * phi_old),
+                };
             }
         }
         for j in 1..nz {
@@ -265,8 +302,8 @@ impl JfoLevel {
         } else {
             (-self.ce[im], -self.ce[k] * self.phi[ip])
         };
-        let c_phi = c_out + self.sq[k] + self.st[k];
-        (c_phi, sum + inflow + self.st[k] * self.phi_old[k])
+        let c_phi = c_out + self.cs[k];
+        (c_phi, sum + inflow - self.c0[k])
     }
 
     /// One Gauss–Seidel sweep in the direction of the surface motion; returns
@@ -464,9 +501,11 @@ impl JfoSolver {
             lvl.phi.clear();
             lvl.phi.resize(n, 1.0);
         }
-        let (phi_old, inv_dtau) = match history {
-            Some(h) if h.phi.len() == n && h.dtau > 0.0 => (Some(h.phi), 1.0 / h.dtau),
-            _ => (None, 0.0),
+        let (phi_old, inv_dtau, prev_ecc) = match history {
+            Some(h) if h.phi.len() == n && h.dtau > 0.0 => {
+                (Some(h.phi), 1.0 / h.dtau, h.prev_ecc.as_ref())
+            }
+            _ => (None, 0.0, None),
         };
         lvl.phi_old.clear();
         match phi_old {
@@ -479,7 +518,7 @@ impl JfoSolver {
             })),
             None => lvl.phi_old.resize(n, 1.0),
         }
-        lvl.setup(job, g, nt, nz, 0.0, spin, inv_dtau);
+        lvl.setup(job, g, nt, nz, 0.0, spin, inv_dtau, prev_ecc);
         lvl.updates = sweeps_before;
         let (err, converged) = lvl.iterate(job.aspect, g, g.tolerance);
         field.clear();
@@ -529,7 +568,7 @@ impl JfoSolver {
                 lvl.prolong_from(&cp, &cphi, nt, nz);
             }
             lvl.phi_old.clear();
-            lvl.setup(job, g, nt, nz, theta0, spin, 0.0);
+            lvl.setup(job, g, nt, nz, theta0, spin, 0.0, None);
             res = lvl.iterate(job.aspect, g, g.tolerance);
             values.push(lvl.integrals());
             cp.clone_from(&lvl.p);
@@ -574,7 +613,8 @@ impl JfoSolver {
 /// with `inlet` the net Couette and Poiseuille outflow of the held (supply) nodes, `side`
 /// the Poiseuille flux through the end faces (with the end half-cells of the pressure
 /// zone's columns, as [`super::flow_integrals`]), `storage` the squeeze and time storage
-/// of the liquid content `Σ (12 φ ∂τH + 12 H (φ − φ°)/Δτ)` over the free nodes, and
+/// of the liquid content `Σ 12 ∂τ(φH)` over the free nodes (in the solve's form, module
+/// docs), and
 /// `residual` the sum of the free nodes' equation residuals (0 at convergence, in the
 /// cavitated zone too).
 #[allow(clippy::too_many_arguments)]
@@ -605,7 +645,16 @@ pub fn jfo_flow_integrals(
         },
         ..JfoLevel::default()
     };
-    lvl.setup(job, g, nt, nz, theta0, spin, inv_dtau);
+    lvl.setup(
+        job,
+        g,
+        nt,
+        nz,
+        theta0,
+        spin,
+        inv_dtau,
+        history.and_then(|h| h.prev_ecc.as_ref()),
+    );
     let (p, phi) = (&lvl.p, &lvl.phi);
     let dt = 2.0 * PI / nt as f64;
     let dz = 1.0 / nz as f64;
@@ -680,7 +729,7 @@ pub fn jfo_flow_integrals(
             if lvl.held[k] >= 0.0 {
                 out.inlet += couette - lp;
             } else {
-                let storage = lvl.sq[k] * phi[k] + lvl.st[k] * (phi[k] - lvl.phi_old[k]);
+                let storage = lvl.cs[k] * phi[k] + lvl.c0[k];
                 let sigma = couette + storage - lp;
                 out.storage += storage;
                 out.residual += sigma;
@@ -707,6 +756,138 @@ pub fn jfo_flow_integrals(
     out.loads = loads.map(|v| -v * area / 3.0);
     let share = if full > 0.0 { liquid / full } else { 1.0 };
     Some((out, share))
+}
+
+/// The liquid balance of the free interior nodes of a converged JFO field (the nodes
+/// whose equations the solver satisfies), in the units of [`jfo_flow_integrals`] (each
+/// term times the cell area `Δθ Δζ`): see [`jfo_balance`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JfoBalance {
+    /// Net flow from the held (supply) nodes into the free nodes: their Poiseuille flow
+    /// and Couette inflow less the Couette outflow into them.
+    pub supply: f64,
+    /// Poiseuille flow from the first and last interior rows through the faces to the end
+    /// rows (out of the film).
+    pub ends: f64,
+    /// Storage rate `Σ (cs φ + c0)`: `12 ∂τ(φH)` in the solve's (steady or time-step)
+    /// form.
+    pub storage: f64,
+    /// Sum of the free nodes' equation residuals (`supply = ends + storage − residual`
+    /// exactly).
+    pub residual: f64,
+    /// Liquid content `Σ 12 φ H` of the free nodes (its change over steps is the time
+    /// integral of `storage`, exactly with [`JfoHistory::prev_ecc`] up to the gap's own
+    /// rectangle rule `Σ 12 (Δτ ∂τH − ΔH)`, which vanishes over a whirl period).
+    pub content: f64,
+}
+
+/// The liquid balance ([`JfoBalance`]) of a converged JFO `field` on the `nt × nz` grid
+/// whose node 0 is at `theta0`, solved with `history`. `None` when the field does not fit
+/// the grid or the job has no spin.
+#[allow(clippy::too_many_arguments)]
+pub fn jfo_balance(
+    job: &FiniteJob,
+    g: &FiniteGrid,
+    nt: usize,
+    nz: usize,
+    theta0: f64,
+    field: &[f64],
+    history: Option<&JfoHistory>,
+) -> Option<JfoBalance> {
+    let n = nt * (nz + 1);
+    let spin = job.spin.filter(|s| s.is_finite())?;
+    if nt < 2 || nz < 2 || field.len() != 2 * n {
+        return None;
+    }
+    let inv_dtau = match history {
+        Some(h) if h.phi.len() == n && h.dtau > 0.0 => 1.0 / h.dtau,
+        _ => 0.0,
+    };
+    let mut lvl = JfoLevel {
+        p: field[..n].to_vec(),
+        phi: field[n..].to_vec(),
+        phi_old: match history {
+            Some(h) if inv_dtau > 0.0 => h.phi.to_vec(),
+            _ => vec![1.0; n],
+        },
+        ..JfoLevel::default()
+    };
+    lvl.setup(
+        job,
+        g,
+        nt,
+        nz,
+        theta0,
+        spin,
+        inv_dtau,
+        history.and_then(|h| h.prev_ecc.as_ref()),
+    );
+    let (p, phi) = (&lvl.p, &lvl.phi);
+    let dt = 2.0 * PI / nt as f64;
+    let e = &job.state.ecc;
+    let mut b = JfoBalance::default();
+    for j in 1..nz {
+        let zeta = j as f64 / nz as f64;
+        for i in 0..nt {
+            let k = j * nt + i;
+            if lvl.held[k] >= 0.0 {
+                continue;
+            }
+            let row = j * nt;
+            let ip = row + (i + 1) % nt;
+            let im = row + (i + nt - 1) % nt;
+            // Neighbours with their face coefficients: east, west, north, south.
+            let nbs = [
+                (ip, lvl.ae[k]),
+                (im, lvl.ae[im]),
+                (k + nt, lvl.an[k]),
+                (k - nt, lvl.an[k - nt]),
+            ];
+            let mut lp = 0.0;
+            for (m, (nb, a)) in nbs.into_iter().enumerate() {
+                let flux_in = a * (p[nb] - p[k]);
+                lp += flux_in;
+                let end_row = nb < nt || nb >= nz * nt;
+                if m >= 2 && end_row {
+                    b.ends -= flux_in;
+                } else if lvl.held[nb] >= 0.0 {
+                    b.supply += flux_in;
+                }
+            }
+            // Couette: out through the east face, in through the west (s ≥ 0; mirrored
+            // for s < 0), with the upwind film fraction.
+            let (out, inflow, down, up) = if lvl.s >= 0.0 {
+                (lvl.ce[k] * phi[k], lvl.ce[im] * phi[im], ip, im)
+            } else {
+                (-lvl.ce[im] * phi[k], -lvl.ce[k] * phi[ip], im, ip)
+            };
+            if lvl.held[up] >= 0.0 {
+                b.supply += inflow;
+            }
+            if lvl.held[down] >= 0.0 {
+                b.supply -= out;
+            }
+            let storage = lvl.cs[k] * phi[k] + lvl.c0[k];
+            b.storage += storage;
+            b.residual += out - inflow + storage - lp;
+            let (c, s) = (
+                (theta0 + i as f64 * dt).cos(),
+                (theta0 + i as f64 * dt).sin(),
+            );
+            b.content += 12.0 * phi[k] * film(e, zeta, c, s);
+        }
+    }
+    let area = dt / nz as f64;
+    for v in [
+        &mut b.supply,
+        &mut b.ends,
+        &mut b.storage,
+        &mut b.residual,
+        &mut b.content,
+    ] {
+        *v *= area;
+    }
+    Some(b)
 }
 
 /// Replaces `loads.film` with the JFO film's friction and flow from its converged

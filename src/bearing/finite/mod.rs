@@ -19,7 +19,7 @@ pub use flow::{
     apply_finite_flow, film_flow_of, flow_integrals, solution_grid, solution_theta0, FlowIntegrals,
 };
 pub(crate) use jfo::apply_jfo_flow;
-pub use jfo::{jfo_flow_integrals, JfoHistory, JfoSolver};
+pub use jfo::{jfo_balance, jfo_flow_integrals, JfoBalance, JfoHistory, JfoSolver};
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
