@@ -684,7 +684,7 @@ mod tests {
             eb.alpha
         );
         assert!(
-            (eb.beta.abs() - 3.050_430_199_247_410).abs() < 1e-12,
+            (eb.beta.abs() - 3.050_430_199_247_41).abs() < 1e-12,
             "beta {}",
             eb.beta
         );
