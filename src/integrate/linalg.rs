@@ -49,17 +49,20 @@ impl RealLu {
                 continue;
             }
             if p != k {
-                for j in 0..n {
-                    a.swap(k * n + j, p * n + j);
-                }
+                let (top, bottom) = a.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
             }
             let inv = 1.0 / a[k * n + k];
-            for i in k + 1..n {
-                let l = a[i * n + k] * inv;
-                a[i * n + k] = l;
+            // Row slices instead of indices (no bounds checks in the inner loop; the same
+            // operations in the same order).
+            let (top, bottom) = a.split_at_mut((k + 1) * n);
+            let pivot_row = &top[k * n + k + 1..];
+            for row in bottom.chunks_exact_mut(n) {
+                let l = row[k] * inv;
+                row[k] = l;
                 if l != 0.0 {
-                    for j in k + 1..n {
-                        a[i * n + j] -= l * a[k * n + j];
+                    for (x, &u) in row[k + 1..].iter_mut().zip(pivot_row) {
+                        *x -= l * u;
                     }
                 }
             }
@@ -74,18 +77,20 @@ impl RealLu {
             b.swap(k, self.piv[k]);
         }
         for i in 1..n {
-            let mut s = b[i];
-            for j in 0..i {
-                s -= a[i * n + j] * b[j];
+            let (done, rest) = b.split_at_mut(i);
+            let mut s = rest[0];
+            for (&l, &x) in a[i * n..i * n + i].iter().zip(done.iter()) {
+                s -= l * x;
             }
-            b[i] = s;
+            rest[0] = s;
         }
         for i in (0..n).rev() {
-            let mut s = b[i];
-            for j in i + 1..n {
-                s -= a[i * n + j] * b[j];
+            let (head, tail) = b.split_at_mut(i + 1);
+            let mut s = head[i];
+            for (&u, &x) in a[i * n + i + 1..(i + 1) * n].iter().zip(tail.iter()) {
+                s -= u * x;
             }
-            b[i] = s / a[i * n + i];
+            head[i] = s / a[i * n + i];
         }
     }
 }
@@ -136,25 +141,35 @@ impl ComplexLu {
                 continue;
             }
             if p != k {
-                for j in 0..n {
-                    re.swap(k * n + j, p * n + j);
-                    im.swap(k * n + j, p * n + j);
-                }
+                let (top, bottom) = re.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
+                let (top, bottom) = im.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
             }
             // 1 / pivot.
             let (pr, pi) = (re[k * n + k], im[k * n + k]);
             let den = pr * pr + pi * pi;
             let (ir, ii) = (pr / den, -pi / den);
-            for i in k + 1..n {
-                let (ar, ai) = (re[i * n + k], im[i * n + k]);
+            let (re_top, re_bottom) = re.split_at_mut((k + 1) * n);
+            let (im_top, im_bottom) = im.split_at_mut((k + 1) * n);
+            let (pr_row, pi_row) = (&re_top[k * n + k + 1..], &im_top[k * n + k + 1..]);
+            for (row_r, row_i) in re_bottom
+                .chunks_exact_mut(n)
+                .zip(im_bottom.chunks_exact_mut(n))
+            {
+                let (ar, ai) = (row_r[k], row_i[k]);
                 let (lr, li) = (ar * ir - ai * ii, ar * ii + ai * ir);
-                re[i * n + k] = lr;
-                im[i * n + k] = li;
+                row_r[k] = lr;
+                row_i[k] = li;
                 if lr != 0.0 || li != 0.0 {
-                    for j in k + 1..n {
-                        let (ur, ui) = (re[k * n + j], im[k * n + j]);
-                        re[i * n + j] -= lr * ur - li * ui;
-                        im[i * n + j] -= lr * ui + li * ur;
+                    let pivot = pr_row.iter().zip(pi_row);
+                    for ((xr, xi), (&ur, &ui)) in row_r[k + 1..]
+                        .iter_mut()
+                        .zip(row_i[k + 1..].iter_mut())
+                        .zip(pivot)
+                    {
+                        *xr -= lr * ur - li * ui;
+                        *xi -= lr * ui + li * ur;
                     }
                 }
             }
@@ -170,26 +185,32 @@ impl ComplexLu {
             bi.swap(k, self.piv[k]);
         }
         for i in 1..n {
-            let (mut sr, mut si) = (br[i], bi[i]);
-            for j in 0..i {
-                let (lr, li) = (re[i * n + j], im[i * n + j]);
-                sr -= lr * br[j] - li * bi[j];
-                si -= lr * bi[j] + li * br[j];
+            let (done_r, rest_r) = br.split_at_mut(i);
+            let (done_i, rest_i) = bi.split_at_mut(i);
+            let (mut sr, mut si) = (rest_r[0], rest_i[0]);
+            let row = re[i * n..i * n + i].iter().zip(&im[i * n..i * n + i]);
+            for ((&lr, &li), (&xr, &xi)) in row.zip(done_r.iter().zip(done_i.iter())) {
+                sr -= lr * xr - li * xi;
+                si -= lr * xi + li * xr;
             }
-            br[i] = sr;
-            bi[i] = si;
+            rest_r[0] = sr;
+            rest_i[0] = si;
         }
         for i in (0..n).rev() {
-            let (mut sr, mut si) = (br[i], bi[i]);
-            for j in i + 1..n {
-                let (ur, ui) = (re[i * n + j], im[i * n + j]);
-                sr -= ur * br[j] - ui * bi[j];
-                si -= ur * bi[j] + ui * br[j];
+            let (head_r, tail_r) = br.split_at_mut(i + 1);
+            let (head_i, tail_i) = bi.split_at_mut(i + 1);
+            let (mut sr, mut si) = (head_r[i], head_i[i]);
+            let row = re[i * n + i + 1..(i + 1) * n]
+                .iter()
+                .zip(&im[i * n + i + 1..(i + 1) * n]);
+            for ((&ur, &ui), (&xr, &xi)) in row.zip(tail_r.iter().zip(tail_i.iter())) {
+                sr -= ur * xr - ui * xi;
+                si -= ur * xi + ui * xr;
             }
             let (pr, pi) = (re[i * n + i], im[i * n + i]);
             let den = pr * pr + pi * pi;
-            br[i] = (sr * pr + si * pi) / den;
-            bi[i] = (si * pr - sr * pi) / den;
+            head_r[i] = (sr * pr + si * pi) / den;
+            head_i[i] = (si * pr - sr * pi) / den;
         }
     }
 }
