@@ -7,7 +7,7 @@
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
-//! Jacobians are reused while Newton converges fast (contraction <= 1e-3).
+//! Jacobians are reused while Newton converges fast (contraction <= 0.1).
 
 // Index loops mirror the tableau's subscripts.
 #![allow(clippy::needless_range_loop)]
