@@ -246,20 +246,24 @@ fn main() {
     let loads: u64 = rs.iter().map(|r| r.stats.load_evaluations).sum();
     let steps: Vec<u64> = rs.iter().map(|r| r.stats.steps).collect();
     let finished = rs.iter().filter(|r| r.status.is_finished()).count();
+    let jacobians: u64 = rs.iter().map(|r| r.stats.jacobians).sum();
+    let lus: u64 = rs.iter().map(|r| r.stats.factorizations).sum();
     println!(
         "workload {name} ({} variants, method {method}): wall {wall:.3} s, {finished} finished, \
-         {loads} load evaluations, steps max {} sum {}",
+         {loads} load evaluations, steps max {} sum {}, {jacobians} jacobians, {lus} LUs",
         scenes.len(),
         steps.iter().max().unwrap_or(&0),
         steps.iter().sum::<u64>()
     );
     for r in &rs {
         println!(
-            "  {}: {} steps, {} rejected, {} load evaluations, method {}{}",
+            "  {}: {} steps, {} rejected, {} load evaluations, {} jacobians, {} LUs, method {}{}",
             r.name,
             r.stats.steps,
             r.stats.rejected,
             r.stats.load_evaluations,
+            r.stats.jacobians,
+            r.stats.factorizations,
             r.method.name(),
             r.stats.stiff_switch_s.map_or(String::new(), |t| format!(
                 ", switched to radau5 at {t:.4e} s"

@@ -557,3 +557,58 @@ fn auto_on_a_non_stiff_batch_is_dopri5_step_for_step() {
         assert_eq!(runs[0].1[id], runs[1].1[id], "variant {id}: samples differ");
     }
 }
+
+#[test]
+fn auto_hands_over_a_mildly_stiff_variant_and_keeps_oscillators_on_dopri5() {
+    // Prothero-Robinson with p = 20: dopri5 at rtol 1e-6 follows cos t with steps of
+    // h |λ| = 20 h ≈ 1 (accuracy-limited, not stability-limited: Hairer's 3.25 would never
+    // flag it), the film rotors' situation. auto hands it to radau5 after 15 such steps,
+    // and the samples stay within the tolerance's reach of cos t.
+    let ps = vec![20.0];
+    let set: Vec<Settings> = ps
+        .iter()
+        .map(|_| settings(Method::Auto, 2.0, 0.01, 1e-6, None))
+        .collect();
+    let mut auto = Ode::new(1, ps.clone(), prothero);
+    let out = run_batch(Method::Auto, &mut auto, &[1.0], &set);
+    assert_eq!(out[0].0, Status::Finished);
+    let t_switch = out[0]
+        .1
+        .stiff_switch_time
+        .expect("the mildly stiff variant switched");
+    assert!(t_switch > 0.0 && t_switch < 1.0, "switched at {t_switch}");
+    let err = auto.samples[0]
+        .iter()
+        .map(|(t, y)| (y[0] - t.cos()).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        err < 1e-5,
+        "auto max error {err:.2e} against cos t, tolerance 1e-5"
+    );
+    // Lightly damped oscillators ([`spring`]: ζ = 0.1, ω = 2π and 7.5, 2 and 2.4 periods
+    // over 2 s, amplitudes still above e^-1.5) at rtol 1e-5 and 1e-6: dopri5 follows them
+    // with h |λ| below the threshold, so auto is dopri5 step for step.
+    let ws = vec![2.0 * std::f64::consts::PI, 7.5];
+    let y0: Vec<f64> = ws.iter().flat_map(|_| [1.0, 0.0]).collect();
+    for tol in [1e-5, 1e-6] {
+        let mut runs = Vec::new();
+        for method in [Method::Dopri5, Method::Auto] {
+            let mut sys = Ode::new(2, ws.clone(), spring);
+            let set: Vec<Settings> = ws
+                .iter()
+                .map(|_| settings(method, 2.0, 0.013, tol, None))
+                .collect();
+            let out = run_batch(method, &mut sys, &y0, &set);
+            runs.push((out, sys.samples));
+        }
+        for id in 0..ws.len() {
+            assert_eq!(
+                runs[1].0[id].1.stiff_switch_time, None,
+                "rtol {tol:e}, ω = {}: an oscillator that must be followed was handed over",
+                ws[id]
+            );
+            assert_eq!(runs[0].0[id].1.steps, runs[1].0[id].1.steps, "variant {id}");
+            assert_eq!(runs[0].1[id], runs[1].1[id], "variant {id}: samples differ");
+        }
+    }
+}

@@ -1,23 +1,26 @@
 //! Radau IIA of order 5 (3 stages, L-stable) in lockstep, after Hairer and Wanner's
-//! RADAU5: simplified Newton on the real `3n x 3n` system `I - h A (x) J`, the embedded
+//! RADAU5: simplified Newton on `I - h A (x) J`, solved as RADAU5 does in the eigenbasis of
+//! `A^-1` (one real `n x n` system `(gamma/h I - J)` and one complex one
+//! `((alpha - i beta)/h I - J)` instead of the real `3n x 3n` one: the same Newton
+//! iterates up to rounding at about a fifth of the factorisation work), the embedded
 //! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians by forward differences
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
-//! Jacobians are reused while Newton converges fast (contraction <= 1e-3).
+//! Jacobians are reused while Newton converges fast (contraction <= 0.1).
 
 // Index loops mirror the tableau's subscripts.
 #![allow(clippy::needless_range_loop)]
 
 use std::time::Instant;
 
-use nalgebra::{DMatrix, Matrix3};
+use nalgebra::Matrix3;
 
 use super::common::{
     admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
 };
-use super::linalg::Lu;
+use super::linalg::{ComplexLu, RealLu};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 const SQ6: f64 = 2.449_489_742_783_178;
@@ -45,8 +48,25 @@ const EZ: [f64; 3] = [
 ];
 /// Newton iterations allowed per step.
 const MAX_NEWTON: usize = 7;
-/// Newton contraction above which the Jacobian is recomputed after the step.
-const THETA_JAC: f64 = 1e-3;
+/// Newton contraction above which the Jacobian is recomputed after the step: Hairer's
+/// choice for Jacobians that are expensive next to a Newton iteration (his default 1e-3
+/// is for cheap ones). A rotor's Jacobian costs 13 right-hand sides, an iteration 3; with
+/// 1e-3 nearly every step formed one (3 884 Jacobians in 3 997 steps on issue 28's grid9
+/// workload), with 0.1 two in five, for 1.6-1.7x fewer right-hand sides at the same error
+/// (BENCHMARKS.md "Issue 28, fourth pass").
+const THETA_JAC: f64 = 0.1;
+/// Newton stops when its estimated remaining error is below this fraction of the local
+/// error tolerance (the error norm's unit): Hairer's cap on `fnewt`. (His tolerance
+/// transformation `rtol' = 0.1 rtol^(2/3)` makes his stopping level about 3 % of the
+/// user's tolerance at rtol 1e-6 to 1e-3 as well; this used `min(0.03, √rtol)` of the
+/// untransformed tolerance, 0.1 % at rtol 1e-6, which cost ~1 extra iteration per step.)
+const NEWTON_FRACTION: f64 = 0.03;
+
+/// The Newton stopping level in the error norm's unit: [`NEWTON_FRACTION`], raised to
+/// `10 ε / rtol` where rounding would not let the iteration get there.
+fn newton_tolerance(rtol: f64) -> f64 {
+    (10.0 * f64::EPSILON / rtol).max(NEWTON_FRACTION)
+}
 /// Keep the step (and the LU) when the proposed growth factor is within [1, 1.2].
 const KEEP_H_MAX: f64 = 1.2;
 const FAC_MIN: f64 = 0.2;
@@ -60,9 +80,90 @@ fn jacobian_delta(v: f64, scale: f64) -> f64 {
 const FAULT_SHRINK: f64 = 0.25;
 const NEWTON_SHRINK: f64 = 0.5;
 
-/// The real eigenvalue `mu` of `A^-1` (= 3 + 3^(2/3) - 3^(1/3)).
+/// The real eigenvalue `mu` of `A^-1` (= 3 + 3^(2/3) - 3^(1/3)); [`eigenbasis`]'s `gamma`
+/// (unit test).
+#[cfg(test)]
 fn mu_real() -> f64 {
     3.0 + 3f64.powf(2.0 / 3.0) - 3f64.powf(1.0 / 3.0)
+}
+
+/// The eigenbasis of `A^-1` in which the Newton system decouples (Hairer-Wanner IV.8):
+/// `T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, beta], [0, -beta, alpha]]`, `T`'s columns the
+/// real eigenvector and the real and imaginary parts of a complex one.
+#[derive(Clone, Copy, Debug)]
+struct Eigenbasis {
+    t: [[f64; 3]; 3],
+    ti: [[f64; 3]; 3],
+    gamma: f64,
+    alpha: f64,
+    beta: f64,
+}
+
+/// Complex product.
+fn cmul(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+}
+
+/// A null vector of the rank-2 complex `3 x 3` matrix with rows `r`: the (bilinear) cross
+/// product of the pair of rows that gives the largest one.
+fn null_vector(r: [[(f64, f64); 3]; 3]) -> [(f64, f64); 3] {
+    let cross = |a: [(f64, f64); 3], b: [(f64, f64); 3]| {
+        let sub = |x: (f64, f64), y: (f64, f64)| (x.0 - y.0, x.1 - y.1);
+        [
+            sub(cmul(a[1], b[2]), cmul(a[2], b[1])),
+            sub(cmul(a[2], b[0]), cmul(a[0], b[2])),
+            sub(cmul(a[0], b[1]), cmul(a[1], b[0])),
+        ]
+    };
+    let size = |v: &[(f64, f64); 3]| v.iter().map(|c| c.0 * c.0 + c.1 * c.1).sum::<f64>();
+    [cross(r[0], r[1]), cross(r[0], r[2]), cross(r[1], r[2])]
+        .into_iter()
+        .max_by(|a, b| size(a).total_cmp(&size(b)))
+        .expect("three candidates")
+}
+
+fn eigenbasis() -> Eigenbasis {
+    let m = Matrix3::from_fn(|i, j| A[i][j])
+        .try_inverse()
+        .expect("the Radau IIA matrix is invertible");
+    // Eigenvalues of A (Hairer-Wanner IV.8, RADAU5's constants): the real one
+    // (6 + 81^(1/3) - 9^(1/3)) / 30 and the pair (12 - 81^(1/3) + 9^(1/3)) / 60
+    // ± i √3 (81^(1/3) + 9^(1/3)) / 60; those of A^-1 are their reciprocals.
+    let (c81, c9) = (81f64.cbrt(), 9f64.cbrt());
+    let gamma = 30.0 / (6.0 + c81 - c9);
+    let (ar, ai) = ((12.0 - c81 + c9) / 60.0, 3f64.sqrt() * (c81 + c9) / 60.0);
+    let norm = ar * ar + ai * ai;
+    // 1 / (ar + i ai) = (ar - i ai) / norm: the eigenvector of A^-1 for ar/norm - i ai/norm.
+    let sigma = (ar / norm, -ai / norm);
+    let rows = |shift: (f64, f64)| {
+        let mut r = [[(0.0, 0.0); 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                r[i][j] = (m[(i, j)], 0.0);
+            }
+            r[i][i] = (m[(i, i)] - shift.0, -shift.1);
+        }
+        r
+    };
+    let v1 = null_vector(rows((gamma, 0.0)));
+    let v2 = null_vector(rows(sigma));
+    let tm = Matrix3::from_fn(|i, j| match j {
+        0 => v1[i].0,
+        1 => v2[i].0,
+        _ => v2[i].1,
+    });
+    let tim = tm
+        .try_inverse()
+        .expect("eigenvectors of distinct eigenvalues");
+    // T^-1 A^-1 T's 2 x 2 block: [[alpha, beta], [-beta, alpha]] (unit test).
+    let lam = tim * m * tm;
+    Eigenbasis {
+        t: std::array::from_fn(|i| std::array::from_fn(|j| tm[(i, j)])),
+        ti: std::array::from_fn(|i| std::array::from_fn(|j| tim[(i, j)])),
+        gamma,
+        alpha: lam[(1, 1)],
+        beta: lam[(1, 2)],
+    }
 }
 
 /// Inverse of `V[i][j] = c_i^(j+1)`: maps stage values `z_i` to the coefficients of the
@@ -131,18 +232,20 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let d = sys.dim();
     let jd = sys.jacobian_dim().min(d);
     let d3 = 3 * d;
-    let mu = mu_real();
+    let eb = eigenbasis();
     let vinv = collocation_inverse();
     let mut f0 = vec![0.0; n * d];
-    let mut jac: Vec<DMatrix<f64>> = vec![DMatrix::zeros(d, d); n];
+    // Row-major d x d per variant.
+    let mut jac: Vec<Vec<f64>> = vec![vec![0.0; d * d]; n];
     let mut z = vec![0.0; n * d3];
     let mut dense = vec![0.0; n * d3];
     let mut scale = vec![1.0; n * d];
     for id in 0..n {
         sys.scales(id, &mut scale[id * d..(id + 1) * d]);
     }
-    let mut lu_m: Vec<Lu> = vec![Lu::default(); n];
-    let mut lu_e: Vec<Lu> = vec![Lu::default(); n];
+    // gamma/h I - J (also the error estimate's matrix) and (alpha - i beta)/h I - J.
+    let mut lu_r: Vec<RealLu> = vec![RealLu::default(); n];
+    let mut lu_c: Vec<ComplexLu> = vec![ComplexLu::default(); n];
     let mut vars: Vec<Var> = (0..n)
         .map(|_| Var {
             need_f0: true,
@@ -161,6 +264,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
         .collect();
     let mut hs = vec![0.0; n];
     let mut dz = vec![0.0; d3];
+    let mut dw = vec![0.0; d3];
     let mut errv = vec![0.0; d];
     let mut ynew = vec![0.0; d];
     let mut buf = Packed::new();
@@ -231,7 +335,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
                 let del = buf.ys[e * d + col] - y[id * d + col];
                 for p in 0..d {
-                    jac[id][(p, col)] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                    jac[id][p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
                 }
             }
             if retry.is_empty() {
@@ -263,7 +367,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
                 let del = buf.ys[e * d + col] - y[id * d + col];
                 for p in 0..d {
-                    jac[id][(p, col)] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
+                    jac[id][p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
                 }
             }
         }
@@ -288,9 +392,8 @@ pub(crate) fn continue_from<S: BatchSystem>(
             hs[id] = h;
             let v = &mut vars[id];
             if v.need_lu || h != v.h_lu {
-                let ha = Matrix3::from_fn(|i, j| h * A[i][j]);
-                lu_m[id].factor(DMatrix::identity(d3, d3) - ha.kronecker(&jac[id]));
-                lu_e[id].factor(DMatrix::from_diagonal_element(d, d, mu / h) - &jac[id]);
+                lu_r[id].factor_shifted(eb.gamma / h, &jac[id], d);
+                lu_c[id].factor_shifted(eb.alpha / h, -eb.beta / h, &jac[id], d);
                 tracks[id].stats.factorizations += 1;
                 v.need_lu = false;
                 v.h_lu = h;
@@ -309,7 +412,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             } else {
                 zb.fill(0.0);
             }
-            v.newton = if lu_m[id].singular || lu_e[id].singular {
+            v.newton = if lu_r[id].singular || lu_c[id].singular {
                 Newton::Failed
             } else {
                 Newton::Iterating
@@ -351,16 +454,35 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
                 let fs = &buf.dys[e * d..(e + 3) * d];
                 let zb = &mut z[id * d3..(id + 1) * d3];
-                for i in 0..3 {
+                // (I - h A (x) J) dZ = -Z + h (A (x) I) F in the eigenbasis: with
+                // W = (T^-1 (x) I) Z and G = (T^-1 (x) I) F, (Lambda/h (x) I - I (x) J) dW =
+                // G - (Lambda/h (x) I) W, one real and one complex n x n system; dZ = T dW.
+                let ti = &eb.ti;
+                let (gh, ah, bh) = (eb.gamma / h, eb.alpha / h, eb.beta / h);
+                {
+                    let (w1, rest) = dw.split_at_mut(d);
+                    let (w2, w3) = rest.split_at_mut(d);
                     for p in 0..d {
-                        let mut acc = 0.0;
-                        for j in 0..3 {
-                            acc += A[i][j] * fs[j * d + p];
-                        }
-                        dz[i * d + p] = -zb[i * d + p] + h * acc;
+                        let zs = [zb[p], zb[d + p], zb[2 * d + p]];
+                        let f = [fs[p], fs[d + p], fs[2 * d + p]];
+                        let tr = |row: &[f64; 3], v: &[f64; 3]| {
+                            row[0] * v[0] + row[1] * v[1] + row[2] * v[2]
+                        };
+                        let (wz1, wz2, wz3) = (tr(&ti[0], &zs), tr(&ti[1], &zs), tr(&ti[2], &zs));
+                        w1[p] = tr(&ti[0], &f) - gh * wz1;
+                        w2[p] = tr(&ti[1], &f) - (ah * wz2 + bh * wz3);
+                        w3[p] = tr(&ti[2], &f) - (ah * wz3 - bh * wz2);
+                    }
+                    lu_r[id].solve(w1);
+                    lu_c[id].solve(w2, w3);
+                }
+                let t = &eb.t;
+                for p in 0..d {
+                    let w = [dw[p], dw[d + p], dw[2 * d + p]];
+                    for i in 0..3 {
+                        dz[i * d + p] = t[i][0] * w[0] + t[i][1] * w[1] + t[i][2] * w[2];
                     }
                 }
-                lu_m[id].solve(&mut dz);
                 let mut sum = 0.0;
                 for i in 0..3 {
                     for p in 0..d {
@@ -369,7 +491,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     }
                 }
                 let norm = (sum / d3 as f64).sqrt();
-                let tol = (10.0 * f64::EPSILON / s.rtol).max(0.03f64.min(s.rtol.sqrt()));
+                let tol = newton_tolerance(s.rtol);
                 v.iters = iter + 1;
                 if !norm.is_finite() {
                     v.newton = Newton::Failed;
@@ -455,7 +577,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 let ze = (EZ[0] * zb[p] + EZ[1] * zb[d + p] + EZ[2] * zb[2 * d + p]) / h;
                 errv[p] = f0[id * d + p] + ze;
             }
-            lu_e[id].solve(&mut errv);
+            lu_r[id].solve(&mut errv);
             let norm = if fixed {
                 0.0
             } else {
@@ -526,5 +648,45 @@ pub(crate) fn continue_from<S: BatchSystem>(
         active.retain(|&id| matches!(tracks[id].status, Status::Running));
         rec.flush_records(sys);
         notify(sys, tracks, &mut ended);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eigenbasis_diagonalises_the_inverse_radau_matrix() {
+        let eb = eigenbasis();
+        let m = Matrix3::from_fn(|i, j| A[i][j]).try_inverse().unwrap();
+        let t = Matrix3::from_fn(|i, j| eb.t[i][j]);
+        let ti = Matrix3::from_fn(|i, j| eb.ti[i][j]);
+        let lam = Matrix3::new(
+            eb.gamma, 0.0, 0.0, 0.0, eb.alpha, eb.beta, 0.0, -eb.beta, eb.alpha,
+        );
+        let res = (m * t - t * lam).abs().max();
+        assert!(
+            res < 1e-12,
+            "|A^-1 T - T Lambda| = {res:.3e}, tolerance 1e-12"
+        );
+        let inv = (ti * t - Matrix3::identity()).abs().max();
+        assert!(inv < 1e-13, "|T^-1 T - I| = {inv:.3e}, tolerance 1e-13");
+        assert!(
+            (eb.gamma - mu_real()).abs() < 1e-13,
+            "gamma {} against 3 + 3^(2/3) - 3^(1/3) = {}",
+            eb.gamma,
+            mu_real()
+        );
+        // Hairer-Wanner IV.8: A^-1's complex pair is 2.6811 ± 3.0504 i.
+        assert!(
+            (eb.alpha - 2.681_082_873_627_752).abs() < 1e-12,
+            "alpha {}",
+            eb.alpha
+        );
+        assert!(
+            (eb.beta.abs() - 3.050_430_199_247_41).abs() < 1e-12,
+            "beta {}",
+            eb.beta
+        );
     }
 }
