@@ -13,13 +13,15 @@ use std::time::{Duration, Instant};
 
 use wgpu::util::DeviceExt;
 
-use super::gpu_kernel::{kernel_source, GpuOptions, GpuTiming};
+use super::gpu_kernel::{
+    kernel_source_lanes, GpuOptions, GpuTiming, HARDWARE_DEFAULT_LANES, KERNEL_WORKGROUP_SIZE,
+};
 use super::{relative_difference, BackendError, BackendInfo, CpuBackend, FilmBackend, Precision};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings};
 
 /// Invocations per workgroup (`@workgroup_size` in the shader).
-const WORKGROUP_SIZE: u32 = 64;
+const WORKGROUP_SIZE: u32 = KERNEL_WORKGROUP_SIZE;
 
 /// Most states per dispatch by default: 2^20 keeps the f64 input at 64 MiB, under the
 /// 128 MiB storage-binding size that every Vulkan driver offers.
@@ -68,6 +70,10 @@ pub struct GpuBackend {
     last: GpuTiming,
     notice: Option<String>,
     software: bool,
+    /// Invocations per state of the short-film kernel.
+    lanes: u32,
+    /// Most workgroups along one dispatch dimension (the device's limit).
+    max_groups_x: u32,
     /// The finite-film kernel, compiled on first use (f64 devices only).
     finite: Option<super::finite_gpu::FinitePipeline>,
 }
@@ -264,10 +270,15 @@ impl GpuBackend {
             }));
         }
         let rule = FilmRule::new(settings);
+        let software = info.device_type == wgpu::DeviceType::Cpu;
+        let lanes = options
+            .lanes
+            .unwrap_or(if software { 1 } else { HARDWARE_DEFAULT_LANES });
+        let source = kernel_source_lanes(precision, lanes)?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("film.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(kernel_source(precision).into()),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("film kernel"),
@@ -307,8 +318,10 @@ impl GpuBackend {
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size)
             / in_stride) as usize;
+        // Workgroups run along x and y (the shader folds them into one index).
+        let max_groups_x = limits.max_compute_workgroups_per_dimension.max(1);
         let by_dispatch =
-            limits.max_compute_workgroups_per_dimension as usize * WORKGROUP_SIZE as usize;
+            max_groups_x as usize * max_groups_x as usize * (WORKGROUP_SIZE / lanes) as usize;
         let max_chunk = options
             .max_chunk
             .unwrap_or(DEFAULT_MAX_CHUNK)
@@ -356,7 +369,9 @@ impl GpuBackend {
             scratch_f32: Vec::new(),
             last: GpuTiming::default(),
             notice: None,
-            software: info.device_type == wgpu::DeviceType::Cpu,
+            software,
+            lanes,
+            max_groups_x,
             finite: None,
         };
         backend.self_check()?;
@@ -403,6 +418,11 @@ impl GpuBackend {
     /// Whether the adapter is a software rasteriser on the CPU (lavapipe's llvmpipe).
     pub fn is_software(&self) -> bool {
         self.software
+    }
+
+    /// Invocations per state of the short-film kernel ([`GpuOptions::lanes`]).
+    pub fn lanes(&self) -> u32 {
+        self.lanes
     }
 
     /// Most states per dispatch.
@@ -613,7 +633,9 @@ impl GpuBackend {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &bufs.bind_group, &[]);
-            pass.dispatch_workgroups((n as u32).div_ceil(WORKGROUP_SIZE), 1, 1);
+            let groups = (n as u32).div_ceil(WORKGROUP_SIZE / self.lanes);
+            let x = groups.clamp(1, self.max_groups_x);
+            pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
         }
         if let Some(t) = &self.timestamps {
             enc.resolve_query_set(&t.set, 0..2, &t.resolve, 0);

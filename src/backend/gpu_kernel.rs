@@ -59,6 +59,42 @@ pub fn kernel_source(precision: Precision) -> String {
     }
 }
 
+/// The shader's lane-count line, swapped by [`kernel_source_lanes`].
+const LANES_LINE: &str = "const LANES: u32 = 1u;\n";
+
+/// Invocations per workgroup of the short-film kernel (`WG_SIZE` in the shader): the
+/// largest lane count.
+pub const KERNEL_WORKGROUP_SIZE: u32 = 64;
+
+/// Lanes per state on a hardware GPU unless told otherwise ([`GpuOptions::lanes`]): the
+/// rotor sweep's dispatches (~1 500 states) leave most of a data-centre GPU idle with one
+/// invocation per state, so its latency is one state's serial quadrature; 16 lanes cut that
+/// to the root search plus ~2 slices while 1 500 states still fill ~24 000 invocations.
+pub const HARDWARE_DEFAULT_LANES: u32 = 16;
+
+/// Checks a lane count: a power of two from 1 to [`KERNEL_WORKGROUP_SIZE`].
+pub fn check_lanes(lanes: u32) -> Result<u32, BackendError> {
+    if lanes.is_power_of_two() && lanes <= KERNEL_WORKGROUP_SIZE {
+        Ok(lanes)
+    } else {
+        Err(BackendError::NoAdapter(format!(
+            "{lanes} lanes per state (expected a power of two from 1 to {KERNEL_WORKGROUP_SIZE})"
+        )))
+    }
+}
+
+/// The kernel source for `precision` with `lanes` invocations per state (a power of two
+/// up to [`KERNEL_WORKGROUP_SIZE`]; 1 is the shipped source).
+pub fn kernel_source_lanes(precision: Precision, lanes: u32) -> Result<String, BackendError> {
+    let lanes = check_lanes(lanes)?;
+    let src = kernel_source(precision);
+    assert!(
+        src.contains(LANES_LINE),
+        "film.wgsl declares `{LANES_LINE}`"
+    );
+    Ok(src.replacen(LANES_LINE, &format!("const LANES: u32 = {lanes}u;\n"), 1))
+}
+
 /// How to build a [`GpuBackend`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct GpuOptions {
@@ -72,6 +108,13 @@ pub struct GpuOptions {
     /// Time the kernel separately from the transfers (an extra wait per chunk; uses
     /// timestamp queries where the adapter has them).
     pub profile: bool,
+    /// Invocations per state of the short-film kernel (a power of two up to 64): `None`
+    /// picks 1 on a software rasteriser (lavapipe: its SIMD lanes gain nothing from
+    /// sharing a state) and [`HARDWARE_DEFAULT_LANES`] on a hardware GPU. Results differ
+    /// between lane counts by rounding only (the slices' sum is associated differently);
+    /// a backend keeps its count for every dispatch, so merged dispatches stay
+    /// reproducible.
+    pub lanes: Option<u32>,
 }
 
 impl Default for GpuOptions {
@@ -81,6 +124,7 @@ impl Default for GpuOptions {
             max_chunk: None,
             timeout: DEFAULT_TIMEOUT,
             profile: false,
+            lanes: None,
         }
     }
 }
@@ -99,6 +143,22 @@ impl GpuOptions {
                         "BEARING_SWEEP_GPU_PRECISION=`{other}` (expected f32, f64 or auto)"
                     )))
                 }
+            };
+        }
+        if let Ok(l) = std::env::var("BEARING_SWEEP_GPU_LANES") {
+            let l = l.trim();
+            o.lanes = match l {
+                "" | "auto" => None,
+                _ => Some(
+                    l.parse::<u32>()
+                        .map_err(|_| {
+                            BackendError::NoAdapter(format!(
+                                "BEARING_SWEEP_GPU_LANES=`{l}` (expected auto or a power of \
+                                 two from 1 to {KERNEL_WORKGROUP_SIZE})"
+                            ))
+                        })
+                        .and_then(check_lanes)?,
+                ),
             };
         }
         Ok(o)

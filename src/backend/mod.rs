@@ -25,8 +25,8 @@ pub use evaluator::{
 pub use finite::effective_model;
 pub use gpu::GpuBackend;
 pub use gpu_kernel::{
-    kernel_source, relative_difference, GpuOptions, GpuTiming, FINITE_MAX_NODES, FINITE_WGSL,
-    KERNEL_WGSL,
+    check_lanes, kernel_source, kernel_source_lanes, relative_difference, GpuOptions, GpuTiming,
+    FINITE_MAX_NODES, FINITE_WGSL, HARDWARE_DEFAULT_LANES, KERNEL_WGSL, KERNEL_WORKGROUP_SIZE,
 };
 pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
