@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
 use super::gpu_kernel::{
-    kernel_source_lanes, GpuOptions, GpuTiming, HARDWARE_DEFAULT_LANES, KERNEL_WORKGROUP_SIZE,
+    kernel_source_lanes, GpuOptions, GpuTiming, HARDWARE_DEFAULT_LANES, HARDWARE_DEFAULT_SLOTS,
+    KERNEL_WORKGROUP_SIZE, MAX_SLOTS,
 };
 use super::{relative_difference, BackendError, BackendInfo, CpuBackend, FilmBackend, Precision};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
@@ -74,6 +75,8 @@ pub struct GpuBackend {
     lanes: u32,
     /// Most workgroups along one dispatch dimension (the device's limit).
     max_groups_x: u32,
+    /// Dispatch slots a shared dispatcher should keep in flight ([`GpuOptions::slots`]).
+    slots: usize,
     /// The finite-film kernel, compiled on first use (f64 devices only).
     finite: Option<super::finite_gpu::FinitePipeline>,
 }
@@ -307,12 +310,7 @@ impl GpuBackend {
             contents: &table_bytes,
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("params"),
-            size: std::mem::size_of::<Params>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = params_buffer(&device);
         let in_stride = in_stride(precision) as u64;
         let by_binding = (limits
             .max_storage_buffer_binding_size
@@ -372,6 +370,10 @@ impl GpuBackend {
             software,
             lanes,
             max_groups_x,
+            slots: options
+                .slots
+                .unwrap_or(if software { 1 } else { HARDWARE_DEFAULT_SLOTS })
+                .clamp(1, MAX_SLOTS),
             finite: None,
         };
         backend.self_check()?;
@@ -423,6 +425,41 @@ impl GpuBackend {
     /// Invocations per state of the short-film kernel ([`GpuOptions::lanes`]).
     pub fn lanes(&self) -> u32 {
         self.lanes
+    }
+
+    /// Another backend on the same device, pipeline and rule table, with buffers of its
+    /// own (for a second dispatch in flight beside this one): identical integrals, no
+    /// profiling, the same fault state (a failure of either stops both).
+    pub fn sibling_backend(&self) -> GpuBackend {
+        GpuBackend {
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            pipeline: self.pipeline.clone(),
+            params: params_buffer(&self.device),
+            table: self.table.clone(),
+            buffers: None,
+            timestamps: None,
+            settings: self.settings,
+            precision: self.precision,
+            device_name: self.device_name.clone(),
+            max_chunk: self.max_chunk,
+            timeout: self.timeout,
+            profile: false,
+            fault: self.fault.clone(),
+            scratch_f32: Vec::new(),
+            last: GpuTiming::default(),
+            notice: None,
+            software: self.software,
+            lanes: self.lanes,
+            max_groups_x: self.max_groups_x,
+            slots: self.slots,
+            finite: None,
+        }
+    }
+
+    /// Dispatch slots a shared dispatcher keeps in flight ([`GpuOptions::slots`]).
+    pub fn slots(&self) -> usize {
+        self.slots
     }
 
     /// Most states per dispatch.
@@ -717,6 +754,16 @@ impl GpuBackend {
     }
 }
 
+/// The uniform buffer of one slot's `Params`.
+fn params_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("params"),
+        size: std::mem::size_of::<Params>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 /// Bytes per packed state in the shader's input array.
 fn in_stride(p: Precision) -> usize {
     match p {
@@ -744,6 +791,14 @@ impl FilmBackend for GpuBackend {
 
     fn settings(&self) -> RuleSettings {
         self.settings
+    }
+
+    fn dispatch_slots(&self) -> usize {
+        self.slots
+    }
+
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        Some(Box::new(self.sibling_backend()))
     }
 
     fn integrate(

@@ -72,6 +72,13 @@ pub const KERNEL_WORKGROUP_SIZE: u32 = 64;
 /// to the root search plus ~2 slices while 1 500 states still fill ~24 000 invocations.
 pub const HARDWARE_DEFAULT_LANES: u32 = 16;
 
+/// Dispatch slots on a hardware GPU unless told otherwise ([`GpuOptions::slots`]): two,
+/// so that one merged batch's upload, submission and read-back overlap another's kernel.
+pub const HARDWARE_DEFAULT_SLOTS: usize = 2;
+
+/// Most dispatch slots accepted ([`GpuOptions::slots`]): each holds its own buffers.
+pub const MAX_SLOTS: usize = 8;
+
 /// Checks a lane count: a power of two from 1 to [`KERNEL_WORKGROUP_SIZE`].
 pub fn check_lanes(lanes: u32) -> Result<u32, BackendError> {
     if lanes.is_power_of_two() && lanes <= KERNEL_WORKGROUP_SIZE {
@@ -115,6 +122,11 @@ pub struct GpuOptions {
     /// a backend keeps its count for every dispatch, so merged dispatches stay
     /// reproducible.
     pub lanes: Option<u32>,
+    /// Dispatches a shared dispatcher keeps in flight at once (1 to 8), each slot with its
+    /// own buffers on the device: `None` picks 1 on a software rasteriser (it computes on
+    /// the host's cores, which the host threads need) and [`HARDWARE_DEFAULT_SLOTS`] on a
+    /// hardware GPU.
+    pub slots: Option<usize>,
 }
 
 impl Default for GpuOptions {
@@ -125,6 +137,7 @@ impl Default for GpuOptions {
             timeout: DEFAULT_TIMEOUT,
             profile: false,
             lanes: None,
+            slots: None,
         }
     }
 }
@@ -159,6 +172,20 @@ impl GpuOptions {
                         })
                         .and_then(check_lanes)?,
                 ),
+            };
+        }
+        if let Ok(v) = std::env::var("BEARING_SWEEP_GPU_SLOTS") {
+            let v = v.trim();
+            o.slots = match v {
+                "" | "auto" => None,
+                _ => match v.parse::<usize>() {
+                    Ok(n) if (1..=MAX_SLOTS).contains(&n) => Some(n),
+                    _ => {
+                        return Err(BackendError::NoAdapter(format!(
+                            "BEARING_SWEEP_GPU_SLOTS=`{v}` (expected auto or 1 to {MAX_SLOTS})"
+                        )))
+                    }
+                },
             };
         }
         Ok(o)

@@ -26,7 +26,8 @@ pub use finite::effective_model;
 pub use gpu::GpuBackend;
 pub use gpu_kernel::{
     check_lanes, kernel_source, kernel_source_lanes, relative_difference, GpuOptions, GpuTiming,
-    FINITE_MAX_NODES, FINITE_WGSL, HARDWARE_DEFAULT_LANES, KERNEL_WGSL, KERNEL_WORKGROUP_SIZE,
+    FINITE_MAX_NODES, FINITE_WGSL, HARDWARE_DEFAULT_LANES, HARDWARE_DEFAULT_SLOTS, KERNEL_WGSL,
+    KERNEL_WORKGROUP_SIZE,
 };
 pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
@@ -128,6 +129,19 @@ pub trait FilmBackend: Send {
 
     /// Why this backend runs, when [`choose_backend`] created it.
     fn choice(&self) -> Option<BackendChoice> {
+        None
+    }
+
+    /// Dispatches a [`Dispatcher`] should keep in flight at once on this backend (it asks
+    /// [`FilmBackend::sibling`] for the others): 1 unless the backend says otherwise.
+    fn dispatch_slots(&self) -> usize {
+        1
+    }
+
+    /// Another backend on the same device with buffers of its own, for a second dispatch
+    /// in flight beside this one; the same settings, and integrals identical state for
+    /// state. `None` (the default): the backend has no such sibling.
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
         None
     }
 }
@@ -429,6 +443,12 @@ impl FilmBackend for Chosen {
     }
     fn choice(&self) -> Option<BackendChoice> {
         Some(self.choice.clone())
+    }
+    fn dispatch_slots(&self) -> usize {
+        self.backend.dispatch_slots()
+    }
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        self.backend.sibling()
     }
 }
 
