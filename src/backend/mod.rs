@@ -20,7 +20,7 @@ pub use calibrate::{cache_file, Calibration};
 pub use cpu::CpuBackend;
 pub use evaluator::{
     BearingPlan, EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult,
-    DEFAULT_CPU_BELOW,
+    DEFAULT_CPU_BELOW, PARALLEL_HOST_STATES,
 };
 pub use finite::effective_model;
 pub use gpu::GpuBackend;

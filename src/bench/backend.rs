@@ -146,6 +146,48 @@ pub struct BenchReport {
     pub crossover_kernel: Option<usize>,
     /// Notices (GPU missing, fallbacks).
     pub notices: Vec<String>,
+    /// The evaluator's host path alone at each size (a kernel that returns at once).
+    pub host_path: Vec<HostRow>,
+}
+
+/// The host path of one evaluator call without a kernel: validate, pack, deduplicate,
+/// finish the loads (rayon's pool for calls of at least `PARALLEL_HOST_STATES`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct HostRow {
+    /// States per call.
+    pub size: usize,
+    /// Repetitions timed.
+    pub reps: usize,
+    /// Median call, s.
+    pub host_s: f64,
+    /// `1e6 * host_s / size`.
+    pub us_per_state: f64,
+}
+
+/// A kernel that answers at once (zero integrals: a film without pressure), so that an
+/// evaluator call over it times the host path alone.
+struct NullKernel(RuleSettings);
+
+impl FilmBackend for NullKernel {
+    fn info(&self) -> crate::backend::BackendInfo {
+        crate::backend::BackendInfo {
+            name: "null".into(),
+            device: "none (host path alone)".into(),
+            precision: Precision::F64,
+        }
+    }
+    fn settings(&self) -> RuleSettings {
+        self.0
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<crate::bearing::FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        out.clear();
+        out.resize(states.len(), [0.0; 4]);
+        Ok(())
+    }
 }
 
 // Flops of the WGSL kernel's pieces, counted by hand from shaders/film.wgsl: add, sub,
@@ -259,7 +301,27 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
         crossover_end_to_end: None,
         crossover_kernel: None,
         notices: Vec::new(),
+        host_path: Vec::new(),
     };
+    {
+        let mut evaluator = LoadEvaluator::new(Box::new(NullKernel(settings)));
+        let mut out = Vec::new();
+        for &size in &options.sizes {
+            let requests = &all_requests[..size];
+            evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+            let (host_s, reps) = time_reps(options.min_time_s, options.max_reps, || {
+                let t = Instant::now();
+                evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+                t.elapsed().as_secs_f64()
+            });
+            report.host_path.push(HostRow {
+                size,
+                reps,
+                host_s,
+                us_per_state: 1e6 * host_s / size as f64,
+            });
+        }
+    }
     let mut runs: Vec<(Box<dyn FilmBackend>, Option<GpuBackend>)> = Vec::new();
     let mut lanes = None;
     if options.target != BenchTarget::Gpu {

@@ -83,6 +83,23 @@ fn render(r: &BenchReport, o: &BenchOptions) -> String {
             row.max_rel_error
         );
     }
+    let host: Vec<String> = r
+        .host_path
+        .iter()
+        .map(|h| {
+            format!(
+                "{} states: {:.3} µs/state ({} reps)",
+                h.size, h.us_per_state, h.reps
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "\nHost path alone (validate, pack, deduplicate, finish; a kernel that returns at once, \
+         rayon's {} thread(s)): {}.",
+        rayon::current_num_threads(),
+        host.join("; ")
+    );
     let f = &r.flops;
     let _ = writeln!(
         s,
