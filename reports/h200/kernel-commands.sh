@@ -10,9 +10,10 @@
 # bounded by `timeout`). An older binary ignores BEARING_SWEEP_GPU_LANES/SLOTS: run it
 # with the same script for the baseline (its rows then all show the old kernel).
 # If the Vulkan loader is missing: for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
-# SIDE, TEND shrink the sweep for a dry run on a small machine (defaults: 64, 0.1 s).
+# SIDE, TEND, SIZES shrink it for a dry run on a small machine (defaults: 64, 0.1 s,
+# 1450,100000,1000000).
 set -u
-SIDE=${SIDE:-64}; TEND=${TEND:-0.1}
+SIDE=${SIDE:-64}; TEND=${TEND:-0.1}; SIZES=${SIZES:-1450,100000,1000000}
 B=${1:-target/release/bearing-sweep}
 O=${2:-${OUT:-/tmp/h200-kernel}/raw/kernel}
 mkdir -p "$O"
@@ -69,7 +70,7 @@ run cpu16 $B run $W/cv4096.json --backend cpu --out $W/cpu16 | tee -a "$O/sweeps
 report $W/cpu16 | tee -a "$O/sweeps.txt"
 # 2. The GPU: lanes per state x dispatch slots. L1-S1 is the old kernel's organisation
 #    (one invocation per state, one dispatch in flight); L16-S2 is the new default.
-for cfg in 1:1 16:1 1:2 16:2 32:2 4:2; do
+for cfg in 1:1 16:1 1:2 16:2 32:2 4:2 16:4; do
   L=${cfg%:*}; S=${cfg#*:}; n=gpu-L$L-S$S
   BEARING_SWEEP_GPU_LANES=$L BEARING_SWEEP_GPU_SLOTS=$S run $n $B run $W/cv4096.json --backend gpu --out $W/$n | tee -a "$O/sweeps.txt"
   report $W/$n | tee -a "$O/sweeps.txt"
@@ -79,10 +80,10 @@ done
 #    (throughput; goal 2e7 states/s end to end, kernel >= 10 % of the 34 TFLOP/s FP64 peak).
 export BEARING_SWEEP_PEAK_GFLOPS=34000
 echo "## bench backend, default lanes (CPU and GPU)" >> "$O/backend.md"
-timeout 90 $B bench backend --backend both --threads 16 --sizes 1450,100000,1000000 --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
+timeout 90 $B bench backend --backend both --threads 16 --sizes $SIZES --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
 for L in 1 4 32; do
   echo "## bench backend, BEARING_SWEEP_GPU_LANES=$L" >> "$O/backend.md"
-  BEARING_SWEEP_GPU_LANES=$L timeout 60 $B bench backend --backend gpu --threads 16 --sizes 1450,100000,1000000 --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
+  BEARING_SWEEP_GPU_LANES=$L timeout 60 $B bench backend --backend gpu --threads 16 --sizes $SIZES --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
 done
 grep -E "^## |^- .gpu|^\| (cpu|gpu)" "$O/backend.md"
 ls "$O"
