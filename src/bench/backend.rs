@@ -106,7 +106,9 @@ pub struct BenchRow {
     pub kernel_timer: &'static str,
     /// `size / kernel_s`.
     pub kernel_states_per_s: f64,
-    /// Counted flops of the batch over `kernel_s`, GFLOP/s.
+    /// Counted flops of the batch over `kernel_s`, GFLOP/s: the rule's flops, once per
+    /// state (with several lanes per state every lane repeats the state's root search and
+    /// panel walk; those repeats are not counted, so this stays the useful rate).
     pub kernel_gflops: f64,
     /// `kernel_gflops` over [`BenchOptions::peak_gflops`], when given.
     pub peak_fraction: Option<f64>,
