@@ -408,9 +408,10 @@ fn two_slots_keep_two_dispatches_in_flight_and_each_requester_gets_its_own_state
     );
 }
 
-/// Slots and lanes on the real GPU backend: a sweep with two slots on three threads gives
-/// the same result as one slot on one thread at the same lane count (slots change which
-/// states share a dispatch, never a state's integrals).
+/// Slots, waits and merges on the real GPU backend: a sweep with two slots, spinning waits
+/// and a merge policy on three threads gives the same result as one slot on one thread at
+/// the same lane count (they change which states share a dispatch, never a state's
+/// integrals).
 #[test]
 fn gpu_sweep_results_do_not_depend_on_slots_or_threads() {
     let require = std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1");
@@ -440,6 +441,15 @@ fn gpu_sweep_results_do_not_depend_on_slots_or_threads() {
             .env("RAYON_NUM_THREADS", threads)
             .env("BEARING_SWEEP_GPU_SLOTS", slots)
             .env("BEARING_SWEEP_GPU_LANES", "8")
+            // The second run also spins on its dispatches and lingers for merges.
+            .env(
+                "BEARING_SWEEP_GPU_WAIT",
+                if slots == "2" { "spin" } else { "block" },
+            )
+            .env(
+                "BEARING_SWEEP_GPU_MERGE",
+                if slots == "2" { "3:200" } else { "off" },
+            )
             .output()
             .unwrap();
         assert!(
@@ -457,4 +467,63 @@ fn gpu_sweep_results_do_not_depend_on_slots_or_threads() {
         serde_json::to_string(&docs[1]).unwrap(),
         "two slots on 3 threads differ from one slot on 1 thread"
     );
+}
+
+/// The CPU kernel posing as a GPU with a merge policy: wait up to 0.2 s for 3 requests.
+struct Merging(CpuBackend);
+
+impl FilmBackend for Merging {
+    fn info(&self) -> BackendInfo {
+        BackendInfo {
+            name: "gpu".into(),
+            device: "merging stand-in".into(),
+            precision: Precision::F64,
+        }
+    }
+    fn settings(&self) -> RuleSettings {
+        self.0.settings()
+    }
+    fn merge_policy(&self) -> Option<(usize, Duration)> {
+        Some((3, Duration::from_millis(200)))
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        self.0.integrate(states, out)
+    }
+}
+
+#[test]
+fn a_merge_policy_waits_for_the_active_requesters() {
+    // Three threads, two rounds each. In the first round the requesters become active one
+    // by one (one may linger in vain for a requester already served: 0.2 s); in the second
+    // every thread counts as active, so the first of them waits for the other two and the
+    // round is one dispatch. Without the policy an instant backend is free for every
+    // request (up to six dispatches).
+    let threads = 3;
+    let (bearing, requests) = bench_states(3 * 31, 0.95, 41);
+    let d = Dispatcher::new(Box::new(Merging(CpuBackend::new(
+        Accuracy::default(),
+        Some(1),
+    ))));
+    let mut all = Vec::new();
+    for _round in 0..2 {
+        let (got, notices) = evaluate_from_threads(&d, &bearing, &requests, threads);
+        assert!(notices.is_empty(), "{notices:?}");
+        all.push(got);
+    }
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), Some(1))));
+    let mut want = Vec::new();
+    cpu.evaluate(std::slice::from_ref(&bearing), &requests, &mut want);
+    for got in &all {
+        assert_eq!(got, &want, "merged results differ from the CPU kernel");
+    }
+    let s = d.stats();
+    assert_eq!(s.requests, 2 * threads as u64);
+    assert_eq!(s.states as usize, 2 * requests.len());
+    assert!(s.lingered >= 1, "{s:?}");
+    // Round 2 is a single dispatch of three requests: at most 3 + 1 dispatches in all.
+    assert!(s.dispatches <= 4, "{s:?}");
 }

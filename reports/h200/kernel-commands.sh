@@ -1,14 +1,14 @@
 #!/bin/bash
 # Issue 26 items 2-3 on a hardware GPU (written for the H200 host: 16 cores, no network, no
-# Rust): the short-film kernel with LANES invocations per state and the dispatcher with
-# SLOTS dispatches in flight, against the 16-thread CPU on the 4 096-variant sweep, and
+# Rust): the short-film kernel with LANES invocations per state, the dispatcher's slots,
+# fence wait and merge policy, against the 16-thread CPU on the 4 096-variant sweep, and
 # `bench backend` (latency at a sweep-sized dispatch, throughput at 1e5 and 1e6 states,
 # % of the FP64 peak).
 # Run from the repository root:  bash reports/h200/kernel-commands.sh [BINARY] [OUTDIR]
 # BINARY defaults to target/release/bearing-sweep; OUTDIR to $OUT/raw/kernel. Three files
 # come back: machine.txt, sweeps.txt, backend.md. Device time ~1.5-2 minutes (each command
-# bounded by `timeout`). An older binary ignores BEARING_SWEEP_GPU_LANES/SLOTS: run it
-# with the same script for the baseline (its rows then all show the old kernel).
+# bounded by `timeout`). An older binary ignores the BEARING_SWEEP_GPU_* variables below:
+# run it with the same script for the baseline (its rows then all show the old kernel).
 # If the Vulkan loader is missing: for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
 # SIDE, TEND, SIZES shrink it for a dry run on a small machine (defaults: 64, 0.1 s,
 # 1450,100000,1000000).
@@ -58,7 +58,7 @@ s = r['run']['simulator']
 print('  ', sys.argv[1].split('/')[-1], 'simulation_wall_s', r['run']['simulation_wall_s'], 'backend', s.get('name'), 'threads', s.get('variant_threads'))
 g = s.get('gpu_dispatch')
 if g:
-    keys = ['dispatches', 'states_per_dispatch', 'slots', 'max_in_flight', 'device_busy_s', 'span_s', 'device_idle_fraction', 'host_us_per_variant_stage', 'wall_s']
+    keys = ['dispatches', 'states_per_dispatch', 'slots', 'max_in_flight', 'lingered', 'device_busy_s', 'span_s', 'device_idle_fraction', 'host_us_per_variant_stage', 'wall_s']
     print('   gpu_dispatch', {k: g.get(k) for k in keys})
     if g.get('dispatches'): print('   ms per dispatch (busy / dispatches)', 1e3 * g['device_busy_s'] / g['dispatches'])
 PY
@@ -68,11 +68,14 @@ export RAYON_NUM_THREADS=16
 # 1. The CPU on 16 threads: the goal's reference (GPU >= 3x this).
 run cpu16 $B run $W/cv4096.json --backend cpu --out $W/cpu16 | tee -a "$O/sweeps.txt"
 report $W/cpu16 | tee -a "$O/sweeps.txt"
-# 2. The GPU: lanes per state x dispatch slots. L1-S1 is the old kernel's organisation
-#    (one invocation per state, one dispatch in flight); L16-S2 is the new default.
-for cfg in 1:1 16:1 1:2 16:2 32:2 4:2 16:4; do
-  L=${cfg%:*}; S=${cfg#*:}; n=gpu-L$L-S$S
-  BEARING_SWEEP_GPU_LANES=$L BEARING_SWEEP_GPU_SLOTS=$S run $n $B run $W/cv4096.json --backend gpu --out $W/$n | tee -a "$O/sweeps.txt"
+# 2. The GPU: lanes per state, dispatch slots, wait (block on the fence or spin) and merge
+#    policy (off, or wait up to T µs for M requests). L1 S1 block off is the old kernel's
+#    organisation; L4 S1 block off is the new default. The early run (raw/kernel-early/)
+#    showed 2 slots hurting and lanes barely mattering: ~0.24 ms fixed cost per dispatch.
+for cfg in 1:1:block:off 4:1:block:off 16:1:block:off 4:1:spin:off 4:1:block:12:200 4:1:block:16:400 4:1:spin:16:400; do
+  IFS=: read L S WAIT M T <<< "$cfg"; MERGE=$M${T:+:$T}; n=gpu-L$L-S$S-$WAIT-merge${MERGE/:/x}
+  BEARING_SWEEP_GPU_LANES=$L BEARING_SWEEP_GPU_SLOTS=$S BEARING_SWEEP_GPU_WAIT=$WAIT BEARING_SWEEP_GPU_MERGE=$MERGE \
+    run $n $B run $W/cv4096.json --backend gpu --out $W/$n | tee -a "$O/sweeps.txt"
   report $W/$n | tee -a "$O/sweeps.txt"
   python3 $W/cmp.py $W/$n $W/cpu16 | tee -a "$O/sweeps.txt"
 done
@@ -81,7 +84,7 @@ done
 export BEARING_SWEEP_PEAK_GFLOPS=34000
 echo "## bench backend, default lanes (CPU and GPU)" >> "$O/backend.md"
 timeout 90 $B bench backend --backend both --threads 16 --sizes $SIZES --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
-for L in 1 4 32; do
+for L in 1 16; do
   echo "## bench backend, BEARING_SWEEP_GPU_LANES=$L" >> "$O/backend.md"
   BEARING_SWEEP_GPU_LANES=$L timeout 60 $B bench backend --backend gpu --threads 16 --sizes $SIZES --min-time 0.5 --max-reps 5 >> "$O/backend.md" 2>&1
 done

@@ -77,6 +77,10 @@ pub struct GpuBackend {
     max_groups_x: u32,
     /// Dispatch slots a shared dispatcher should keep in flight ([`GpuOptions::slots`]).
     slots: usize,
+    /// Poll in a loop instead of blocking on the fence ([`GpuOptions::spin_wait`]).
+    spin_wait: bool,
+    /// A shared dispatcher's merge policy ([`GpuOptions::merge`]).
+    merge: Option<(usize, Duration)>,
     /// The finite-film kernel, compiled on first use (f64 devices only).
     finite: Option<super::finite_gpu::FinitePipeline>,
 }
@@ -374,6 +378,8 @@ impl GpuBackend {
                 .slots
                 .unwrap_or(if software { 1 } else { HARDWARE_DEFAULT_SLOTS })
                 .clamp(1, MAX_SLOTS),
+            spin_wait: options.spin_wait.unwrap_or(false),
+            merge: options.merge,
             finite: None,
         };
         backend.self_check()?;
@@ -453,6 +459,8 @@ impl GpuBackend {
             lanes: self.lanes,
             max_groups_x: self.max_groups_x,
             slots: self.slots,
+            spin_wait: self.spin_wait,
+            merge: self.merge,
             finite: None,
         }
     }
@@ -592,10 +600,17 @@ impl GpuBackend {
                 *g = Some(r);
             }
         });
-        let poll = self.device.poll(wgpu::PollType::Wait {
-            submission_index: Some(submission),
-            timeout: Some(self.timeout),
-        });
+        let poll = if self.spin_wait {
+            self.spin_until(&done, self.timeout)
+        } else {
+            self.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(submission),
+                    timeout: Some(self.timeout),
+                })
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
         if let Err(e) = poll {
             return Err(self.fail(format!(
                 "waiting for the kernel (timeout {:?}): {e}",
@@ -614,6 +629,28 @@ impl GpuBackend {
             Some(Ok(())) => Ok(()),
             Some(Err(e)) => Err(self.fail(format!("reading the results back: {e}"))),
             None => Err(self.fail("results never became readable".into())),
+        }
+    }
+
+    /// Polls the device without blocking until `done` holds a result (the map callback ran)
+    /// or `timeout` passes.
+    fn spin_until(
+        &self,
+        done: &Mutex<Option<Result<(), wgpu::BufferAsyncError>>>,
+        timeout: Duration,
+    ) -> Result<(), String> {
+        let start = Instant::now();
+        loop {
+            self.device
+                .poll(wgpu::PollType::Poll)
+                .map_err(|e| e.to_string())?;
+            if done.lock().map(|g| g.is_some()).unwrap_or(true) {
+                return Ok(());
+            }
+            if start.elapsed() > timeout {
+                return Err("timed out".into());
+            }
+            std::hint::spin_loop();
         }
     }
 
@@ -799,6 +836,10 @@ impl FilmBackend for GpuBackend {
 
     fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
         Some(Box::new(self.sibling_backend()))
+    }
+
+    fn merge_policy(&self) -> Option<(usize, Duration)> {
+        self.merge
     }
 
     fn integrate(

@@ -66,15 +66,19 @@ const LANES_LINE: &str = "const LANES: u32 = 1u;\n";
 /// largest lane count.
 pub const KERNEL_WORKGROUP_SIZE: u32 = 64;
 
-/// Lanes per state on a hardware GPU unless told otherwise ([`GpuOptions::lanes`]): the
-/// rotor sweep's dispatches (~1 500 states) leave most of a data-centre GPU idle with one
-/// invocation per state, so its latency is one state's serial quadrature; 16 lanes cut that
-/// to the root search plus ~2 slices while 1 500 states still fill ~24 000 invocations.
-pub const HARDWARE_DEFAULT_LANES: u32 = 16;
+/// Lanes per state on a hardware GPU unless told otherwise ([`GpuOptions::lanes`]). On the
+/// H200 (reports/h200/raw/kernel-early/, BENCHMARKS.md "Issue 26, kernel pass") the kernel
+/// alone at 1 450 states (a sweep's dispatch) took 0.58 ms with 1 lane, 0.24 ms with 4 and
+/// 0.13 ms with 16, at 1e6 states it did 1.4e8, 1.07e8 and 5.4e7 states/s; the sweep's
+/// dispatches cost ~0.23-0.25 ms whatever the lanes (fixed overhead). 4 keeps three
+/// quarters of the large-batch rate and most of the small-batch gain.
+pub const HARDWARE_DEFAULT_LANES: u32 = 4;
 
-/// Dispatch slots on a hardware GPU unless told otherwise ([`GpuOptions::slots`]): two,
-/// so that one merged batch's upload, submission and read-back overlap another's kernel.
-pub const HARDWARE_DEFAULT_SLOTS: usize = 2;
+/// Dispatch slots on a hardware GPU unless told otherwise ([`GpuOptions::slots`]): one. A
+/// second slot on the H200 did not overlap the round trips (still ~0.24 ms per dispatch)
+/// and split the merged batches (30 000 dispatches of ~970 states instead of 20 000 of
+/// ~1 460): the 4 096-variant sweep took 7.7 s instead of 5.5-5.8 s.
+pub const HARDWARE_DEFAULT_SLOTS: usize = 1;
 
 /// Most dispatch slots accepted ([`GpuOptions::slots`]): each holds its own buffers.
 pub const MAX_SLOTS: usize = 8;
@@ -116,17 +120,28 @@ pub struct GpuOptions {
     /// timestamp queries where the adapter has them).
     pub profile: bool,
     /// Invocations per state of the short-film kernel (a power of two up to 64): `None`
-    /// picks 1 on a software rasteriser (lavapipe: its SIMD lanes gain nothing from
-    /// sharing a state) and [`HARDWARE_DEFAULT_LANES`] on a hardware GPU. Results differ
+    /// picks 1 on a software rasteriser (lavapipe: every lane repeats the state's root
+    /// search on the same cores) and [`HARDWARE_DEFAULT_LANES`] on a hardware GPU. Results differ
     /// between lane counts by rounding only (the slices' sum is associated differently);
     /// a backend keeps its count for every dispatch, so merged dispatches stay
     /// reproducible.
     pub lanes: Option<u32>,
     /// Dispatches a shared dispatcher keeps in flight at once (1 to 8), each slot with its
     /// own buffers on the device: `None` picks 1 on a software rasteriser (it computes on
-    /// the host's cores, which the host threads need) and [`HARDWARE_DEFAULT_SLOTS`] on a
-    /// hardware GPU.
+    /// the host's cores, which the host threads need) and [`HARDWARE_DEFAULT_SLOTS`] (also
+    /// 1) on a hardware GPU.
     pub slots: Option<usize>,
+    /// Wait for a dispatch by polling the device in a loop (one host core busy while a
+    /// dispatch is in flight) instead of blocking on its fence: `None` or `Some(false)`
+    /// block. An experiment against the fence's wake-up latency on hardware GPUs
+    /// (`BEARING_SWEEP_GPU_WAIT=spin`).
+    pub spin_wait: Option<bool>,
+    /// Merge policy of a shared dispatcher: `Some((m, linger))` lets the requester that
+    /// finds the device free wait up to `linger` until `m` requests (at most as many as
+    /// joined the previous dispatch) have joined its batch, so that fewer, larger
+    /// dispatches pay the round trip's fixed cost; `None` (default) dispatches at once.
+    /// An experiment (`BEARING_SWEEP_GPU_MERGE=m:microseconds`).
+    pub merge: Option<(usize, Duration)>,
 }
 
 impl Default for GpuOptions {
@@ -138,6 +153,8 @@ impl Default for GpuOptions {
             profile: false,
             lanes: None,
             slots: None,
+            spin_wait: None,
+            merge: None,
         }
     }
 }
@@ -172,6 +189,42 @@ impl GpuOptions {
                         })
                         .and_then(check_lanes)?,
                 ),
+            };
+        }
+        if let Ok(v) = std::env::var("BEARING_SWEEP_GPU_WAIT") {
+            o.spin_wait = match v.trim() {
+                "" | "block" => None,
+                "spin" => Some(true),
+                other => {
+                    return Err(BackendError::NoAdapter(format!(
+                        "BEARING_SWEEP_GPU_WAIT=`{other}` (expected block or spin)"
+                    )))
+                }
+            };
+        }
+        if let Ok(v) = std::env::var("BEARING_SWEEP_GPU_MERGE") {
+            let v = v.trim();
+            o.merge = match v {
+                "" | "off" => None,
+                _ => {
+                    let parsed = v.split_once(':').and_then(|(m, us)| {
+                        Some((
+                            m.trim().parse::<usize>().ok()?,
+                            us.trim().parse::<u64>().ok()?,
+                        ))
+                    });
+                    match parsed {
+                        Some((m, us)) if m >= 1 && us <= 1_000_000 => {
+                            Some((m, Duration::from_micros(us)))
+                        }
+                        _ => {
+                            return Err(BackendError::NoAdapter(format!(
+                                "BEARING_SWEEP_GPU_MERGE=`{v}` (expected off or \
+                                 REQUESTS:MICROSECONDS, e.g. 12:200, at most 1 s)"
+                            )))
+                        }
+                    }
+                }
             };
         }
         if let Ok(v) = std::env::var("BEARING_SWEEP_GPU_SLOTS") {

@@ -144,6 +144,13 @@ pub trait FilmBackend: Send {
     fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
         None
     }
+
+    /// How a [`Dispatcher`] merges requests on this backend: `Some((m, linger))` waits up
+    /// to `linger` for `m` requests before a dispatch; `None` (the default) dispatches as
+    /// soon as the device is free.
+    fn merge_policy(&self) -> Option<(usize, std::time::Duration)> {
+        None
+    }
 }
 
 /// Below this requested accuracy an f32 kernel cannot keep its promise (its rounding
@@ -449,6 +456,9 @@ impl FilmBackend for Chosen {
     }
     fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
         self.backend.sibling()
+    }
+    fn merge_policy(&self) -> Option<(usize, std::time::Duration)> {
+        self.backend.merge_policy()
     }
 }
 

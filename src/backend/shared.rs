@@ -12,11 +12,15 @@
 //! result does not depend on which requests it was merged with nor on the slot.
 
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use super::{BackendChoice, BackendError, BackendInfo, FilmBackend};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{FilmIntegrals, PackedState, RuleSettings};
+
+/// Under a merge policy, a handle counts as active while its last request is at most this
+/// many lingers old.
+const ACTIVE_WINDOW: u32 = 10;
 
 /// Counters of a [`Dispatcher`] over its lifetime (or since [`Dispatcher::reset_stats`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -38,6 +42,8 @@ pub struct DispatchStats {
     pub slots: usize,
     /// Most dispatches that were in flight at once.
     pub max_in_flight: usize,
+    /// Dispatches that waited for more requests to join ([`FilmBackend::merge_policy`]).
+    pub lingered: u64,
 }
 
 impl DispatchStats {
@@ -66,6 +72,11 @@ struct Queue {
     free: Vec<usize>,
     /// Since when at least one dispatch has been in flight.
     busy_since: Option<Instant>,
+    /// When the batch being filled found a slot free (the merge policy's linger start).
+    free_since: Option<Instant>,
+    /// Each handle's last request (the merge policy counts the handles active within
+    /// [`ACTIVE_WINDOW`] lingers).
+    last_seen: Vec<Option<Instant>>,
     /// Results of dispatched batches that some requesters have not collected yet:
     /// (batch number, result, requesters still to collect).
     done: Vec<(u64, Result<Vec<FilmIntegrals>, BackendError>, usize)>,
@@ -80,6 +91,8 @@ struct Queue {
 pub struct Dispatcher {
     /// The dispatch slots: the backend first, then its siblings.
     backends: Vec<Mutex<Box<dyn FilmBackend>>>,
+    /// Requests to wait for, and for how long at most, before a dispatch.
+    merge: Option<(usize, Duration)>,
     info: BackendInfo,
     settings: RuleSettings,
     choice: Option<BackendChoice>,
@@ -102,6 +115,7 @@ impl Dispatcher {
         let info = backend.info();
         let settings = backend.settings();
         let choice = backend.choice();
+        let merge = backend.merge_policy();
         backends.insert(0, Mutex::new(backend));
         let slots = backends.len();
         Arc::new(Dispatcher {
@@ -109,6 +123,7 @@ impl Dispatcher {
             settings,
             choice,
             backends,
+            merge,
             queue: Mutex::new(Queue {
                 filling: Vec::new(),
                 generation: 0,
@@ -117,6 +132,8 @@ impl Dispatcher {
                 // Popped from the back: slot 0 first.
                 free: (0..slots).rev().collect(),
                 busy_since: None,
+                free_since: None,
+                last_seen: Vec::new(),
                 done: Vec::new(),
                 spare_states: Vec::new(),
                 spare_results: Vec::new(),
@@ -132,8 +149,14 @@ impl Dispatcher {
 
     /// A backend handle whose `integrate` goes through the queue.
     pub fn handle(self: &Arc<Self>) -> Box<dyn FilmBackend> {
+        let id = {
+            let mut q = self.lock_queue();
+            q.last_seen.push(None);
+            q.last_seen.len() - 1
+        };
         Box::new(SharedBackend {
             dispatcher: self.clone(),
+            id,
         })
     }
 
@@ -183,6 +206,7 @@ impl Dispatcher {
     /// meanwhile.
     fn integrate(
         &self,
+        id: usize,
         states: &[PackedState],
         out: &mut Vec<FilmIntegrals>,
     ) -> Result<(), BackendError> {
@@ -194,7 +218,14 @@ impl Dispatcher {
         let offset = q.filling.len();
         q.filling.extend_from_slice(states);
         q.joined += 1;
+        if let Some(t) = q.last_seen.get_mut(id) {
+            *t = Some(start);
+        }
         let mine = q.generation;
+        if self.merge.is_some() {
+            // A requester may be lingering for this batch to fill.
+            self.ready.notify_all();
+        }
         loop {
             if let Some(pos) = q.done.iter().position(|d| d.0 == mine) {
                 let entry = &mut q.done[pos];
@@ -220,7 +251,33 @@ impl Dispatcher {
             }
             if q.in_flight < self.backends.len() && q.generation == mine {
                 // This request's batch is next and a slot is free: dispatch it for
-                // everyone in it.
+                // everyone in it (under a merge policy, once enough requests joined or
+                // the linger ran out).
+                if let Some((m, linger)) = self.merge {
+                    let now = Instant::now();
+                    let deadline = *q.free_since.get_or_insert(now) + linger;
+                    // Wait for at most the handles that requested recently (threads
+                    // that ran out of work stop counting after a few lingers).
+                    let window = linger * ACTIVE_WINDOW;
+                    let active = q
+                        .last_seen
+                        .iter()
+                        .flatten()
+                        .filter(|t| now.saturating_duration_since(**t) <= window)
+                        .count();
+                    let target = m.min(active.max(1));
+                    if q.joined < target && now < deadline {
+                        q = self
+                            .ready
+                            .wait_timeout(q, deadline - now)
+                            .unwrap_or_else(|p| p.into_inner())
+                            .0;
+                        continue;
+                    }
+                    if q.free_since.take().is_some_and(|t| t < now) {
+                        q.stats.lingered += 1;
+                    }
+                }
                 let slot = q.free.pop().expect("a free slot when fewer are in flight");
                 let spare = q.spare_states.pop().unwrap_or_default();
                 let mut batch = std::mem::replace(&mut q.filling, spare);
@@ -298,6 +355,8 @@ impl Drop for PanicGuard<'_> {
 /// A handle on a [`Dispatcher`]: a [`FilmBackend`] to give each thread's evaluator.
 pub struct SharedBackend {
     dispatcher: Arc<Dispatcher>,
+    /// Index of this handle's last request time in the queue.
+    id: usize,
 }
 
 impl FilmBackend for SharedBackend {
@@ -314,7 +373,7 @@ impl FilmBackend for SharedBackend {
         states: &[PackedState],
         out: &mut Vec<FilmIntegrals>,
     ) -> Result<(), BackendError> {
-        self.dispatcher.integrate(states, out)
+        self.dispatcher.integrate(self.id, states, out)
     }
 
     /// Finite-film calls are not merged: they take the first slot's backend in turn.
