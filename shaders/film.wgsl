@@ -1,5 +1,8 @@
 // Film-load kernel: the default rule of src/bearing/rule.rs (`FilmRule::integrate`) for
-// packed, nondimensional states, one invocation per state.
+// packed, nondimensional states, LANES invocations per state (one by default): each state's
+// Gauss slices are dealt round-robin over its lanes and the lanes' sums added by a tree in
+// workgroup memory, so that a state's latency is its root search plus ~slices/LANES slices
+// instead of all of them (issue 26 item 3).
 //
 // Inputs are the host's `PackedState` (eccentricity vectors over radial clearance and
 // rate vectors scaled to order one at both end faces); outputs are the four film
@@ -23,6 +26,13 @@ const DROP_TOL: real = 1e-13;
 // The poles |eps(s)| = 1 are kept at least this far outside [0, 1] under rounding.
 const POLE_PAD: real = 1e-14;
 // END PRECISION
+
+// Invocations per state, a power of two dividing WG_SIZE. The host swaps this line for
+// the lane count it runs (`kernel_source_lanes`); with 1 every state is summed by one
+// invocation in the order of rule.rs.
+const LANES: u32 = 1u;
+// Invocations per workgroup (`WORKGROUP_SIZE` in gpu.rs).
+const WG_SIZE: u32 = 64u;
 
 // Sentinel for "no pole on this side": far beyond any panel length (finite, so that no
 // infinity literal is needed; 1e30 is representable in f32 too).
@@ -472,7 +482,10 @@ fn panel_end(sing: Sing, s: real) -> real {
     return min(end, 1.0);
 }
 
-fn integrate(st: PackedState) -> vec4<real> {
+// One invocation's whole state (LANES = 1): the panels and their nodes in two nested loops,
+// the loop of rule.rs. On lavapipe this form runs ~15-25 % faster than the lane walk below
+// with one lane (BENCHMARKS.md "Issue 26, kernel pass"); both sum in the same order.
+fn integrate_serial(st: PackedState) -> vec4<real> {
     let e0 = st.ecc.xy;
     let e1 = st.ecc.zw - st.ecc.xy;
     let r0 = st.rate.xy;
@@ -509,11 +522,96 @@ fn integrate(st: PackedState) -> vec4<real> {
     return acc;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= params.count {
-        return;
+// This lane's share of the state's integrals: slices g = lane, lane + LANES, ... in the
+// order (panel, node) of the serial rule, the panels walked as `FilmRule::integrate` walks
+// them (every lane walks them; only the slice evaluations are divided).
+fn integrate(st: PackedState, lane: u32) -> vec4<real> {
+    let e0 = st.ecc.xy;
+    let e1 = st.ecc.zw - st.ecc.xy;
+    let r0 = st.rate.xy;
+    let r1 = st.rate.zw - st.rate.xy;
+    if all(e1 == vec2<real>(0.0, 0.0)) && all(r1 == vec2<real>(0.0, 0.0)) {
+        if lane != 0u {
+            return vec4<real>(0.0, 0.0, 0.0, 0.0);
+        }
+        // Aligned: constant slice loads; integral of s(1-s) is 1/6, of s^2(1-s) is 1/12.
+        let f = slice_integrals(e0.x, e0.y, r0.x, r0.y);
+        return vec4<real>(f.x / 6.0, f.y / 6.0, f.x / 12.0, f.y / 12.0);
     }
-    out[i] = integrate(states[i]);
+    let sing = singularities(st);
+    let nodes = params.nodes;
+    var acc = vec4<real>(0.0, 0.0, 0.0, 0.0);
+    // The current panel is number `begun - 1`, spanning [s, end).
+    var s: real = 0.0;
+    var end: real = 0.0;
+    var begun = 0u;
+    var more = true;
+    var g = lane;
+    loop {
+        let want = g / nodes;
+        // Begin panels until panel `want` is current; `begun <= max_panels` cannot bind
+        // (the last panel ends at 1): it guarantees termination even if a comparison
+        // misbehaves.
+        while more && begun <= want {
+            s = end;
+            if s < 1.0 && begun <= params.max_panels {
+                begun = begun + 1u;
+                end = 1.0;
+                if begun < params.max_panels {
+                    end = panel_end(sing, s);
+                }
+            } else {
+                more = false;
+            }
+        }
+        if !more {
+            break;
+        }
+        let len = end - s;
+        let k = g - want * nodes;
+        let x = table[T_NODES + k];
+        let w = table[T_NODES + nodes + k];
+        let z = s + len * x;
+        let f = slice_integrals(e0.x + e1.x * z, e0.y + e1.y * z, r0.x + r1.x * z, r0.y + r1.y * z);
+        let wg = w * len * z * (1.0 - z);
+        acc = acc + vec4<real>(wg * f.x, wg * f.y, wg * z * f.x, wg * z * f.y);
+        g = g + LANES;
+    }
+    return acc;
+}
+
+// The lanes' partial sums of one workgroup.
+var<workgroup> partial: array<vec4<real>, WG_SIZE>;
+
+// Workgroups run along x, then y (a dispatch may need more than the 65 535 per dimension).
+@compute @workgroup_size(WG_SIZE)
+fn main(
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let group = wid.x + wid.y * groups.x;
+    let lane = lid % LANES;
+    let i = group * (WG_SIZE / LANES) + lid / LANES;
+    if LANES == 1u {
+        if i < params.count {
+            out[i] = integrate_serial(states[i]);
+        }
+    } else {
+        var acc = vec4<real>(0.0, 0.0, 0.0, 0.0);
+        if i < params.count {
+            acc = integrate(states[i], lane);
+        }
+        partial[lid] = acc;
+        workgroupBarrier();
+        for (var stride = LANES / 2u; stride > 0u; stride = stride / 2u) {
+            if lane < stride {
+                partial[lid] = partial[lid] + partial[lid + stride];
+            }
+            workgroupBarrier();
+        }
+        if lane == 0u && i < params.count {
+            out[i] = partial[lid];
+        }
+    }
 }

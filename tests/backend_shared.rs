@@ -308,3 +308,222 @@ fn a_panicking_backend_releases_the_other_requesters() {
     assert!(out.iter().all(|r| r.is_ok()));
     assert_eq!(calls.lock().unwrap().len(), 3);
 }
+
+/// The CPU kernel posing as a GPU with a sibling per extra slot: its first call holds until
+/// a second call has run at the same time (on a sibling), so the dispatcher must keep two
+/// in flight; every call is counted.
+struct Twin {
+    inner: CpuBackend,
+    active: Arc<std::sync::atomic::AtomicUsize>,
+    /// Most calls seen running at once.
+    peak: Arc<std::sync::atomic::AtomicUsize>,
+    calls: Arc<std::sync::atomic::AtomicUsize>,
+    slots: usize,
+}
+
+impl FilmBackend for Twin {
+    fn info(&self) -> BackendInfo {
+        BackendInfo {
+            name: "gpu".into(),
+            device: "twin stand-in".into(),
+            precision: Precision::F64,
+        }
+    }
+    fn settings(&self) -> RuleSettings {
+        self.inner.settings()
+    }
+    fn dispatch_slots(&self) -> usize {
+        self.slots
+    }
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        Some(Box::new(Twin {
+            inner: CpuBackend::new(Accuracy::default(), Some(1)),
+            active: self.active.clone(),
+            peak: self.peak.clone(),
+            calls: self.calls.clone(),
+            slots: self.slots,
+        }))
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        use std::sync::atomic::Ordering::SeqCst;
+        let first = self.calls.fetch_add(1, SeqCst) == 0;
+        let now = self.active.fetch_add(1, SeqCst) + 1;
+        self.peak.fetch_max(now, SeqCst);
+        if first {
+            // Bounded, so that a dispatcher that never overlaps fails instead of hanging.
+            let start = Instant::now();
+            while self.peak.load(SeqCst) < 2 {
+                assert!(
+                    start.elapsed() < Duration::from_secs(60),
+                    "no second dispatch ran beside the first"
+                );
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
+        let r = self.inner.integrate(states, out);
+        self.active.fetch_sub(1, SeqCst);
+        r
+    }
+}
+
+#[test]
+fn two_slots_keep_two_dispatches_in_flight_and_each_requester_gets_its_own_states() {
+    let threads = 4;
+    let (bearing, requests) = bench_states(4 * 53, 0.95, 17);
+    let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let d = Dispatcher::new(Box::new(Twin {
+        inner: CpuBackend::new(Accuracy::default(), Some(1)),
+        active: Arc::new(std::sync::atomic::AtomicUsize::new(0)),
+        peak: Arc::new(std::sync::atomic::AtomicUsize::new(0)),
+        calls: calls.clone(),
+        slots: 2,
+    }));
+    assert_eq!(d.slots(), 2);
+    let (got, notices) = evaluate_from_threads(&d, &bearing, &requests, threads);
+    assert!(notices.is_empty(), "{notices:?}");
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), Some(1))));
+    let mut want = Vec::new();
+    cpu.evaluate(std::slice::from_ref(&bearing), &requests, &mut want);
+    assert_eq!(
+        got, want,
+        "results through two slots differ from the CPU kernel"
+    );
+    let s = d.stats();
+    assert_eq!(s.slots, 2);
+    assert_eq!(s.max_in_flight, 2, "{s:?}");
+    assert_eq!(s.requests, threads as u64);
+    assert_eq!(
+        s.dispatches as usize,
+        calls.load(std::sync::atomic::Ordering::SeqCst)
+    );
+    assert_eq!(s.states as usize, requests.len());
+    // Busy is the time with at least one dispatch in flight: never more than the span.
+    assert!(
+        s.device_busy_s > 0.0 && s.device_busy_s <= s.span_s,
+        "{s:?}"
+    );
+}
+
+/// Slots, waits and merges on the real GPU backend: a sweep with two slots, spinning waits
+/// and a merge policy on three threads gives the same result as one slot on one thread at
+/// the same lane count (they change which states share a dispatch, never a state's
+/// integrals).
+#[test]
+fn gpu_sweep_results_do_not_depend_on_slots_or_threads() {
+    let require = std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1");
+    if let Err(e) = create_backend(BackendKind::Gpu, Accuracy::default()) {
+        assert!(
+            !require,
+            "BEARING_SWEEP_REQUIRE_GPU=1 but no GPU backend: {e}"
+        );
+        eprintln!("skipped: no GPU backend ({e})");
+        return;
+    }
+    let dir = scratch("backend-shared", "slots");
+    let p = write(&dir, "cv.json", &gpu_spec());
+    let mut docs = Vec::new();
+    for (threads, slots) in [("1", "1"), ("3", "2")] {
+        let root = dir.join(format!("t{threads}s{slots}"));
+        let out = bin()
+            .args([
+                "run",
+                p.to_str().unwrap(),
+                "--backend",
+                "gpu",
+                "--out",
+                root.to_str().unwrap(),
+                "--quiet",
+            ])
+            .env("RAYON_NUM_THREADS", threads)
+            .env("BEARING_SWEEP_GPU_SLOTS", slots)
+            .env("BEARING_SWEEP_GPU_LANES", "8")
+            // The second run also spins on its dispatches and lingers for merges.
+            .env(
+                "BEARING_SWEEP_GPU_WAIT",
+                if slots == "2" { "spin" } else { "block" },
+            )
+            .env(
+                "BEARING_SWEEP_GPU_MERGE",
+                if slots == "2" { "3:200" } else { "off" },
+            )
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let d = read(&root.join("cv/result.json"));
+        let g = &d["run"]["simulator"]["gpu_dispatch"];
+        assert_eq!(g["slots"], json!(slots.parse::<u64>().unwrap()), "{g}");
+        docs.push(deterministic(d));
+    }
+    assert_eq!(
+        serde_json::to_string(&docs[0]).unwrap(),
+        serde_json::to_string(&docs[1]).unwrap(),
+        "two slots on 3 threads differ from one slot on 1 thread"
+    );
+}
+
+/// The CPU kernel posing as a GPU with a merge policy: wait up to 0.2 s for 3 requests.
+struct Merging(CpuBackend);
+
+impl FilmBackend for Merging {
+    fn info(&self) -> BackendInfo {
+        BackendInfo {
+            name: "gpu".into(),
+            device: "merging stand-in".into(),
+            precision: Precision::F64,
+        }
+    }
+    fn settings(&self) -> RuleSettings {
+        self.0.settings()
+    }
+    fn merge_policy(&self) -> Option<(usize, Duration)> {
+        Some((3, Duration::from_millis(200)))
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        self.0.integrate(states, out)
+    }
+}
+
+#[test]
+fn a_merge_policy_waits_for_the_active_requesters() {
+    // Three threads, two rounds each. In the first round the requesters become active one
+    // by one (one may linger in vain for a requester already served: 0.2 s); in the second
+    // every thread counts as active, so the first of them waits for the other two and the
+    // round is one dispatch. Without the policy an instant backend is free for every
+    // request (up to six dispatches).
+    let threads = 3;
+    let (bearing, requests) = bench_states(3 * 31, 0.95, 41);
+    let d = Dispatcher::new(Box::new(Merging(CpuBackend::new(
+        Accuracy::default(),
+        Some(1),
+    ))));
+    let mut all = Vec::new();
+    for _round in 0..2 {
+        let (got, notices) = evaluate_from_threads(&d, &bearing, &requests, threads);
+        assert!(notices.is_empty(), "{notices:?}");
+        all.push(got);
+    }
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), Some(1))));
+    let mut want = Vec::new();
+    cpu.evaluate(std::slice::from_ref(&bearing), &requests, &mut want);
+    for got in &all {
+        assert_eq!(got, &want, "merged results differ from the CPU kernel");
+    }
+    let s = d.stats();
+    assert_eq!(s.requests, 2 * threads as u64);
+    assert_eq!(s.states as usize, 2 * requests.len());
+    assert!(s.lingered >= 1, "{s:?}");
+    // Round 2 is a single dispatch of three requests: at most 3 + 1 dispatches in all.
+    assert!(s.dispatches <= 4, "{s:?}");
+}

@@ -222,6 +222,56 @@ fn key_of(p: &PackedState) -> [u64; 8] {
     k
 }
 
+/// FxHash of a key (as [`KeyHasher`] hashes it in the map).
+fn key_hash(k: &[u64; 8]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = KeyHasher::default();
+    k.hash(&mut h);
+    h.finish()
+}
+
+/// For a large call: `first[k]` = the first request whose film state has the same key as
+/// request k's (k itself when none before it; every request without a film state maps to
+/// itself). The same answer as inserting the keys into a map in request order, found in
+/// parallel: keys hashed on rayon's pool, (hash, index) pairs sorted, runs of equal hashes
+/// compared in full (a hash collision of different keys stays apart).
+fn first_occurrences(prepared: &[Prepared], first: &mut Vec<usize>, order: &mut Vec<(u64, usize)>) {
+    let film = |p: &Prepared| -> Option<[u64; 8]> {
+        match p {
+            Ok((p, false)) if p.rate_scale > 0.0 => Some(key_of(&p.state)),
+            _ => None,
+        }
+    };
+    order.clear();
+    order.par_extend(
+        prepared
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, p)| film(p).map(|key| (key_hash(&key), k))),
+    );
+    // Ties in the hash sort by index: each run lists its requests in request order.
+    order.par_sort_unstable();
+    first.clear();
+    first.extend(0..prepared.len());
+    let key = |k: usize| film(&prepared[k]).expect("film state");
+    let mut start = 0;
+    while start < order.len() {
+        let mut end = start + 1;
+        while end < order.len() && order[end].0 == order[start].0 {
+            end += 1;
+        }
+        // Within a run (almost always of one key), each request maps to the earliest
+        // request of the run with an equal key.
+        for j in start + 1..end {
+            let kj = key(order[j].1);
+            if let Some(i) = (start..j).find(|&i| key(order[i].1) == kj) {
+                first[order[j].1] = first[order[i].1];
+            }
+        }
+        start = end;
+    }
+}
+
 /// Batched load evaluation over any backend, with its scratch buffers kept between calls.
 pub struct LoadEvaluator {
     backend: Box<dyn FilmBackend>,
@@ -235,6 +285,11 @@ pub struct LoadEvaluator {
     bearing_used: Vec<bool>,
     prepared: Vec<Prepared>,
     seen: KeyMap,
+    /// Large calls' deduplication ([`first_occurrences`]): first equal request, the
+    /// sorted (hash, request) pairs, and each first occurrence's packed index.
+    first: Vec<usize>,
+    order: Vec<(u64, usize)>,
+    packed_at: Vec<usize>,
     integrals: Vec<FilmIntegrals>,
     bad: Vec<bool>,
     notices: Vec<String>,
@@ -279,6 +334,9 @@ impl LoadEvaluator {
             bearing_used: Vec::new(),
             prepared: Vec::new(),
             seen: KeyMap::default(),
+            first: Vec::new(),
+            order: Vec::new(),
+            packed_at: Vec::new(),
             integrals: Vec::new(),
             bad: Vec::new(),
             notices: Vec::new(),
@@ -461,6 +519,13 @@ impl LoadEvaluator {
         } else {
             self.prepared.extend(requests.iter().map(prepare));
         }
+        // Large calls find their duplicates in parallel (the map below is serial).
+        let parallel_dedupe = self.options.dedupe && requests.len() >= PARALLEL_HOST_STATES;
+        if parallel_dedupe {
+            first_occurrences(&self.prepared, &mut self.first, &mut self.order);
+            self.packed_at.clear();
+            self.packed_at.resize(requests.len(), 0);
+        }
         for (k, req) in requests.iter().enumerate() {
             match self.prepared[k] {
                 Ok((p, true)) => {
@@ -484,7 +549,16 @@ impl LoadEvaluator {
                 Ok((p, _)) if p.rate_scale > 0.0 => {
                     // Placeholder, overwritten below once the integrals are in.
                     out.push(Err(StateFault::BackendNonFinite));
-                    let n = if self.options.dedupe {
+                    let n = if parallel_dedupe {
+                        let f = self.first[k];
+                        if f == k {
+                            self.packed_at[k] = self.packed.len();
+                            self.packed.push(p.state);
+                        } else {
+                            self.stats.deduplicated += 1;
+                        }
+                        self.packed_at[f]
+                    } else if self.options.dedupe {
                         let next = self.packed.len();
                         let n = *self.seen.entry(key_of(&p.state)).or_insert(next);
                         if n == next {

@@ -13,13 +13,16 @@ use std::time::{Duration, Instant};
 
 use wgpu::util::DeviceExt;
 
-use super::gpu_kernel::{kernel_source, GpuOptions, GpuTiming};
+use super::gpu_kernel::{
+    kernel_source_lanes, GpuOptions, GpuTiming, HARDWARE_DEFAULT_LANES, HARDWARE_DEFAULT_SLOTS,
+    KERNEL_WORKGROUP_SIZE, MAX_SLOTS,
+};
 use super::{relative_difference, BackendError, BackendInfo, CpuBackend, FilmBackend, Precision};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, FilmRule, PackedState, RuleSettings};
 
 /// Invocations per workgroup (`@workgroup_size` in the shader).
-const WORKGROUP_SIZE: u32 = 64;
+const WORKGROUP_SIZE: u32 = KERNEL_WORKGROUP_SIZE;
 
 /// Most states per dispatch by default: 2^20 keeps the f64 input at 64 MiB, under the
 /// 128 MiB storage-binding size that every Vulkan driver offers.
@@ -68,6 +71,16 @@ pub struct GpuBackend {
     last: GpuTiming,
     notice: Option<String>,
     software: bool,
+    /// Invocations per state of the short-film kernel.
+    lanes: u32,
+    /// Most workgroups along one dispatch dimension (the device's limit).
+    max_groups_x: u32,
+    /// Dispatch slots a shared dispatcher should keep in flight ([`GpuOptions::slots`]).
+    slots: usize,
+    /// Poll in a loop instead of blocking on the fence ([`GpuOptions::spin_wait`]).
+    spin_wait: bool,
+    /// A shared dispatcher's merge policy ([`GpuOptions::merge`]).
+    merge: Option<(usize, Duration)>,
     /// The finite-film kernel, compiled on first use (f64 devices only).
     finite: Option<super::finite_gpu::FinitePipeline>,
 }
@@ -264,10 +277,15 @@ impl GpuBackend {
             }));
         }
         let rule = FilmRule::new(settings);
+        let software = info.device_type == wgpu::DeviceType::Cpu;
+        let lanes = options
+            .lanes
+            .unwrap_or(if software { 1 } else { HARDWARE_DEFAULT_LANES });
+        let source = kernel_source_lanes(precision, lanes)?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("film.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(kernel_source(precision).into()),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("film kernel"),
@@ -296,19 +314,16 @@ impl GpuBackend {
             contents: &table_bytes,
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("params"),
-            size: std::mem::size_of::<Params>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = params_buffer(&device);
         let in_stride = in_stride(precision) as u64;
         let by_binding = (limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size)
             / in_stride) as usize;
+        // Workgroups run along x and y (the shader folds them into one index).
+        let max_groups_x = limits.max_compute_workgroups_per_dimension.max(1);
         let by_dispatch =
-            limits.max_compute_workgroups_per_dimension as usize * WORKGROUP_SIZE as usize;
+            max_groups_x as usize * max_groups_x as usize * (WORKGROUP_SIZE / lanes) as usize;
         let max_chunk = options
             .max_chunk
             .unwrap_or(DEFAULT_MAX_CHUNK)
@@ -356,7 +371,15 @@ impl GpuBackend {
             scratch_f32: Vec::new(),
             last: GpuTiming::default(),
             notice: None,
-            software: info.device_type == wgpu::DeviceType::Cpu,
+            software,
+            lanes,
+            max_groups_x,
+            slots: options
+                .slots
+                .unwrap_or(if software { 1 } else { HARDWARE_DEFAULT_SLOTS })
+                .clamp(1, MAX_SLOTS),
+            spin_wait: options.spin_wait.unwrap_or(false),
+            merge: options.merge,
             finite: None,
         };
         backend.self_check()?;
@@ -403,6 +426,48 @@ impl GpuBackend {
     /// Whether the adapter is a software rasteriser on the CPU (lavapipe's llvmpipe).
     pub fn is_software(&self) -> bool {
         self.software
+    }
+
+    /// Invocations per state of the short-film kernel ([`GpuOptions::lanes`]).
+    pub fn lanes(&self) -> u32 {
+        self.lanes
+    }
+
+    /// Another backend on the same device, pipeline and rule table, with buffers of its
+    /// own (for a second dispatch in flight beside this one): identical integrals, no
+    /// profiling, the same fault state (a failure of either stops both).
+    pub fn sibling_backend(&self) -> GpuBackend {
+        GpuBackend {
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            pipeline: self.pipeline.clone(),
+            params: params_buffer(&self.device),
+            table: self.table.clone(),
+            buffers: None,
+            timestamps: None,
+            settings: self.settings,
+            precision: self.precision,
+            device_name: self.device_name.clone(),
+            max_chunk: self.max_chunk,
+            timeout: self.timeout,
+            profile: false,
+            fault: self.fault.clone(),
+            scratch_f32: Vec::new(),
+            last: GpuTiming::default(),
+            notice: None,
+            software: self.software,
+            lanes: self.lanes,
+            max_groups_x: self.max_groups_x,
+            slots: self.slots,
+            spin_wait: self.spin_wait,
+            merge: self.merge,
+            finite: None,
+        }
+    }
+
+    /// Dispatch slots a shared dispatcher keeps in flight ([`GpuOptions::slots`]).
+    pub fn slots(&self) -> usize {
+        self.slots
     }
 
     /// Most states per dispatch.
@@ -535,10 +600,17 @@ impl GpuBackend {
                 *g = Some(r);
             }
         });
-        let poll = self.device.poll(wgpu::PollType::Wait {
-            submission_index: Some(submission),
-            timeout: Some(self.timeout),
-        });
+        let poll = if self.spin_wait {
+            self.spin_until(&done, self.timeout)
+        } else {
+            self.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(submission),
+                    timeout: Some(self.timeout),
+                })
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
         if let Err(e) = poll {
             return Err(self.fail(format!(
                 "waiting for the kernel (timeout {:?}): {e}",
@@ -557,6 +629,28 @@ impl GpuBackend {
             Some(Ok(())) => Ok(()),
             Some(Err(e)) => Err(self.fail(format!("reading the results back: {e}"))),
             None => Err(self.fail("results never became readable".into())),
+        }
+    }
+
+    /// Polls the device without blocking until `done` holds a result (the map callback ran)
+    /// or `timeout` passes.
+    fn spin_until(
+        &self,
+        done: &Mutex<Option<Result<(), wgpu::BufferAsyncError>>>,
+        timeout: Duration,
+    ) -> Result<(), String> {
+        let start = Instant::now();
+        loop {
+            self.device
+                .poll(wgpu::PollType::Poll)
+                .map_err(|e| e.to_string())?;
+            if done.lock().map(|g| g.is_some()).unwrap_or(true) {
+                return Ok(());
+            }
+            if start.elapsed() > timeout {
+                return Err("timed out".into());
+            }
+            std::hint::spin_loop();
         }
     }
 
@@ -613,7 +707,9 @@ impl GpuBackend {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &bufs.bind_group, &[]);
-            pass.dispatch_workgroups((n as u32).div_ceil(WORKGROUP_SIZE), 1, 1);
+            let groups = (n as u32).div_ceil(WORKGROUP_SIZE / self.lanes);
+            let x = groups.clamp(1, self.max_groups_x);
+            pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
         }
         if let Some(t) = &self.timestamps {
             enc.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
@@ -695,6 +791,16 @@ impl GpuBackend {
     }
 }
 
+/// The uniform buffer of one slot's `Params`.
+fn params_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("params"),
+        size: std::mem::size_of::<Params>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 /// Bytes per packed state in the shader's input array.
 fn in_stride(p: Precision) -> usize {
     match p {
@@ -722,6 +828,18 @@ impl FilmBackend for GpuBackend {
 
     fn settings(&self) -> RuleSettings {
         self.settings
+    }
+
+    fn dispatch_slots(&self) -> usize {
+        self.slots
+    }
+
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        Some(Box::new(self.sibling_backend()))
+    }
+
+    fn merge_policy(&self) -> Option<(usize, Duration)> {
+        self.merge
     }
 
     fn integrate(

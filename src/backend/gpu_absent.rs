@@ -43,6 +43,16 @@ impl GpuBackend {
         match *self {}
     }
 
+    /// Invocations per state of the short-film kernel.
+    pub fn lanes(&self) -> u32 {
+        match *self {}
+    }
+
+    /// Dispatch slots a shared dispatcher keeps in flight.
+    pub fn slots(&self) -> usize {
+        match *self {}
+    }
+
     /// Timing of the last call.
     pub fn last_timing(&self) -> GpuTiming {
         match *self {}

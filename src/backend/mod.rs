@@ -20,13 +20,14 @@ pub use calibrate::{cache_file, Calibration};
 pub use cpu::CpuBackend;
 pub use evaluator::{
     BearingPlan, EvalStats, EvaluatorOptions, LoadEvaluator, LoadRequest, LoadResult,
-    DEFAULT_CPU_BELOW,
+    DEFAULT_CPU_BELOW, PARALLEL_HOST_STATES,
 };
 pub use finite::effective_model;
 pub use gpu::GpuBackend;
 pub use gpu_kernel::{
-    kernel_source, relative_difference, GpuOptions, GpuTiming, FINITE_MAX_NODES, FINITE_WGSL,
-    KERNEL_WGSL,
+    check_lanes, kernel_source, kernel_source_lanes, relative_difference, GpuOptions, GpuTiming,
+    FINITE_MAX_NODES, FINITE_WGSL, HARDWARE_DEFAULT_LANES, HARDWARE_DEFAULT_SLOTS, KERNEL_WGSL,
+    KERNEL_WORKGROUP_SIZE,
 };
 pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
@@ -128,6 +129,26 @@ pub trait FilmBackend: Send {
 
     /// Why this backend runs, when [`choose_backend`] created it.
     fn choice(&self) -> Option<BackendChoice> {
+        None
+    }
+
+    /// Dispatches a [`Dispatcher`] should keep in flight at once on this backend (it asks
+    /// [`FilmBackend::sibling`] for the others): 1 unless the backend says otherwise.
+    fn dispatch_slots(&self) -> usize {
+        1
+    }
+
+    /// Another backend on the same device with buffers of its own, for a second dispatch
+    /// in flight beside this one; the same settings, and integrals identical state for
+    /// state. `None` (the default): the backend has no such sibling.
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        None
+    }
+
+    /// How a [`Dispatcher`] merges requests on this backend: `Some((m, linger))` waits up
+    /// to `linger` for `m` requests before a dispatch; `None` (the default) dispatches as
+    /// soon as the device is free.
+    fn merge_policy(&self) -> Option<(usize, std::time::Duration)> {
         None
     }
 }
@@ -429,6 +450,15 @@ impl FilmBackend for Chosen {
     }
     fn choice(&self) -> Option<BackendChoice> {
         Some(self.choice.clone())
+    }
+    fn dispatch_slots(&self) -> usize {
+        self.backend.dispatch_slots()
+    }
+    fn sibling(&self) -> Option<Box<dyn FilmBackend>> {
+        self.backend.sibling()
+    }
+    fn merge_policy(&self) -> Option<(usize, std::time::Duration)> {
+        self.backend.merge_policy()
     }
 }
 

@@ -54,8 +54,12 @@ pub struct BenchOptions {
     pub max_reps: usize,
     /// Largest end eccentricity ratio of the random states.
     pub max_ratio: f64,
-    /// GPU options (precision, chunk size).
+    /// GPU options (precision, chunk size, lanes per state).
     pub gpu: GpuOptions,
+    /// The device's FP64 (or, for an f32 kernel, FP32) vector peak, GFLOP/s, for the
+    /// achieved fraction of peak (`None`: not reported). The H200's and H100's FP64 vector
+    /// peak is 34 000 GFLOP/s (NVIDIA's data sheets).
+    pub peak_gflops: Option<f64>,
 }
 
 impl Default for BenchOptions {
@@ -69,6 +73,7 @@ impl Default for BenchOptions {
             max_reps: 50,
             max_ratio: 0.95,
             gpu: GpuOptions::default(),
+            peak_gflops: None,
         }
     }
 }
@@ -80,6 +85,8 @@ pub struct BenchRow {
     pub backend: String,
     /// Device description.
     pub device: String,
+    /// Invocations per state of the GPU kernel (`None` on the CPU).
+    pub lanes: Option<u32>,
     /// Kernel precision.
     pub precision: Precision,
     /// States per call.
@@ -99,8 +106,15 @@ pub struct BenchRow {
     pub kernel_timer: &'static str,
     /// `size / kernel_s`.
     pub kernel_states_per_s: f64,
-    /// Counted flops of the batch over `kernel_s`, GFLOP/s.
+    /// Counted flops of the batch over `kernel_s`, GFLOP/s: the rule's flops, once per
+    /// state (with several lanes per state every lane repeats the state's root search and
+    /// panel walk; those repeats are not counted, so this stays the useful rate).
     pub kernel_gflops: f64,
+    /// `kernel_gflops` over [`BenchOptions::peak_gflops`], when given.
+    pub peak_fraction: Option<f64>,
+    /// Microseconds per state of the round trip beyond the kernel (validate, pack,
+    /// deduplicate, upload, launch, read back, finish): `(end_to_end_s - kernel_s) / size`.
+    pub host_us_per_state: f64,
     /// Largest relative error of the load vector against the single-thread CPU kernel
     /// over the batch (at most 4096 states compared).
     pub max_rel_error: f64,
@@ -134,6 +148,48 @@ pub struct BenchReport {
     pub crossover_kernel: Option<usize>,
     /// Notices (GPU missing, fallbacks).
     pub notices: Vec<String>,
+    /// The evaluator's host path alone at each size (a kernel that returns at once).
+    pub host_path: Vec<HostRow>,
+}
+
+/// The host path of one evaluator call without a kernel: validate, pack, deduplicate,
+/// finish the loads (rayon's pool for calls of at least `PARALLEL_HOST_STATES`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct HostRow {
+    /// States per call.
+    pub size: usize,
+    /// Repetitions timed.
+    pub reps: usize,
+    /// Median call, s.
+    pub host_s: f64,
+    /// `1e6 * host_s / size`.
+    pub us_per_state: f64,
+}
+
+/// A kernel that answers at once (zero integrals: a film without pressure), so that an
+/// evaluator call over it times the host path alone.
+struct NullKernel(RuleSettings);
+
+impl FilmBackend for NullKernel {
+    fn info(&self) -> crate::backend::BackendInfo {
+        crate::backend::BackendInfo {
+            name: "null".into(),
+            device: "none (host path alone)".into(),
+            precision: Precision::F64,
+        }
+    }
+    fn settings(&self) -> RuleSettings {
+        self.0
+    }
+    fn integrate(
+        &mut self,
+        states: &[PackedState],
+        out: &mut Vec<crate::bearing::FilmIntegrals>,
+    ) -> Result<(), BackendError> {
+        out.clear();
+        out.resize(states.len(), [0.0; 4]);
+        Ok(())
+    }
 }
 
 // Flops of the WGSL kernel's pieces, counted by hand from shaders/film.wgsl: add, sub,
@@ -247,8 +303,29 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
         crossover_end_to_end: None,
         crossover_kernel: None,
         notices: Vec::new(),
+        host_path: Vec::new(),
     };
+    {
+        let mut evaluator = LoadEvaluator::new(Box::new(NullKernel(settings)));
+        let mut out = Vec::new();
+        for &size in &options.sizes {
+            let requests = &all_requests[..size];
+            evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+            let (host_s, reps) = time_reps(options.min_time_s, options.max_reps, || {
+                let t = Instant::now();
+                evaluator.evaluate(std::slice::from_ref(&params), requests, &mut out);
+                t.elapsed().as_secs_f64()
+            });
+            report.host_path.push(HostRow {
+                size,
+                reps,
+                host_s,
+                us_per_state: 1e6 * host_s / size as f64,
+            });
+        }
+    }
     let mut runs: Vec<(Box<dyn FilmBackend>, Option<GpuBackend>)> = Vec::new();
+    let mut lanes = None;
     if options.target != BenchTarget::Gpu {
         runs.push((
             Box::new(CpuBackend::with_settings(
@@ -267,6 +344,7 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
                 ..options.gpu.clone()
             },
         )?;
+        lanes = Some(plain.lanes());
         runs.push((Box::new(plain), Some(profiled)));
     }
     for (backend, mut profiled) in runs {
@@ -335,9 +413,11 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
                     (t, timer)
                 }
             };
+            let kernel_gflops = batch_flops / kernel_s * 1e-9;
             report.rows.push(BenchRow {
                 backend: info.name.clone(),
                 device: info.device.clone(),
+                lanes: if profiled.is_some() { lanes } else { None },
                 precision: info.precision,
                 size,
                 reps,
@@ -346,7 +426,12 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
                 kernel_s,
                 kernel_timer,
                 kernel_states_per_s: packed.len() as f64 / kernel_s,
-                kernel_gflops: batch_flops / kernel_s * 1e-9,
+                kernel_gflops,
+                peak_fraction: options
+                    .peak_gflops
+                    .filter(|p| *p > 0.0)
+                    .map(|p| kernel_gflops / p),
+                host_us_per_state: 1e6 * (e2e - kernel_s) / size as f64,
                 max_rel_error,
             });
         }
