@@ -23,6 +23,7 @@ use bearing_sweep::rotor::simplifications::{
     SQUEEZE_GAIN,
 };
 use bearing_sweep::rotor::{load_scene, simulate_batch, Scene};
+use bearing_sweep::sweep::SweepOptions;
 use common::*;
 
 fn lv(l: &Loads, b: f64) -> [f64; 4] {
@@ -471,11 +472,12 @@ fn run_reports_reductions_and_full_model_turns_them_off() {
             "s.json",
             &text,
             &SceneRunOptions {
-                backend: BackendKind::Cpu,
-                accuracy: 1e-6,
                 out: out.clone(),
-                full_model: full,
-                max_memory: Default::default(),
+                options: SweepOptions {
+                    backend: BackendKind::Cpu,
+                    full_model: full,
+                    ..Default::default()
+                },
             },
         )
         .unwrap();

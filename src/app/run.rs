@@ -6,27 +6,24 @@ use std::path::{Path, PathBuf};
 use std::io::Write;
 
 use super::AppError;
-use crate::backend::{choose_backend, BackendKind, LoadEvaluator};
+use crate::backend::{choose_backend, LoadEvaluator};
 use crate::plot::Scale;
 use crate::rotor::simplifications::{evaluator_options, evaluator_report, SimplificationSpec};
 use crate::rotor::{
     load_scene_within, sample_cap, simulate_batch_capped, ModelKind, Scene, SimResult,
 };
+use crate::sweep::SweepOptions;
 
-/// Options of `run` beyond the scene file.
+/// Options of `run` beyond the scene file: where results go, and what the scenes compute
+/// with (the same [`SweepOptions`] a sweep takes, so no field is declared twice).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneRunOptions {
-    /// Backend for the film loads.
-    pub backend: BackendKind,
-    /// Relative accuracy of the film loads (a calibrated level, see `eval`).
-    pub accuracy: f64,
     /// Output root; results go to `out/<file stem>/`.
     pub out: PathBuf,
-    /// Every model reduction off (`--full-model`).
-    pub full_model: bool,
-    /// Memory budget (`--max-memory`; default 2 GiB): the scenes' samples are checked
-    /// against it and capped by it.
-    pub max_memory: crate::budget::MemoryBudget,
+    /// Backend, film accuracy, full model and memory budget (`--backend`, `--accuracy`,
+    /// `--full-model`, `--max-memory`; the budget checks and caps the scenes' samples);
+    /// default [`SweepOptions::default`].
+    pub options: SweepOptions,
 }
 
 /// What `run` wrote, for the terminal.
@@ -68,9 +65,9 @@ pub fn run_scene_file(
     text: &str,
     opts: &SceneRunOptions,
 ) -> Result<RunReport, AppError> {
-    let mut scenes =
-        load_scene_within(text, opts.max_memory).map_err(|e| AppError::input(e.path, e.reason))?;
-    let accuracy = super::accuracy(opts.accuracy)?;
+    let mut scenes = load_scene_within(text, opts.options.max_memory)
+        .map_err(|e| AppError::input(e.path, e.reason))?;
+    let accuracy = opts.options.accuracy.level();
     // Every scene's samples are kept for result.json and the figures, decimated to the
     // cap that the budget leaves each (docs/cli.md "Limits"): only what cannot fit even at the
     // floor cap is refused.
@@ -78,7 +75,8 @@ pub fn run_scene_file(
         .iter()
         .map(|s| s.sample_memory_bytes(crate::budget::MIN_SAMPLE_CAP))
         .sum();
-    opts.max_memory
+    opts.options
+        .max_memory
         .check(
             &format!(
                 "keeping at least {} samples of each of {} simulations",
@@ -90,8 +88,9 @@ pub fn run_scene_file(
         .map_err(|r| AppError::input("scenes", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
-    let (backend, mut notices) = choose_backend(opts.backend, accuracy, Some(states_per_call))?;
-    if opts.full_model {
+    let (backend, mut notices) =
+        choose_backend(opts.options.backend, accuracy, Some(states_per_call))?;
+    if opts.options.full_model {
         for s in &mut scenes {
             s.reductions = SimplificationSpec::full();
         }
@@ -100,7 +99,7 @@ pub fn run_scene_file(
     let mut evaluator = LoadEvaluator::with_options(backend, eval_options);
     let mut lines = Vec::new();
     // Every scene is in flight at once: they share the budget.
-    let cap = sample_cap(&scenes, opts.max_memory);
+    let cap = sample_cap(&scenes, opts.options.max_memory);
     let results = simulate_batch_capped(
         &scenes,
         &mut evaluator,
@@ -121,7 +120,7 @@ pub fn run_scene_file(
             ));
         },
         cap,
-        opts.max_memory,
+        opts.options.max_memory,
     );
     notices.extend(evaluator.take_notices());
     let stem = Path::new(path)
@@ -148,7 +147,7 @@ pub fn run_scene_file(
             &eval_options,
             &evaluator.stats(),
             evaluator.info().name == "gpu",
-            opts.full_model,
+            opts.options.full_model,
         ),
         name: stem,
         results: &results,

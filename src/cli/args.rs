@@ -319,6 +319,10 @@ pub(crate) struct WorkerArgs {
     /// Worker id in leases and results (default host/pid/nonce).
     #[arg(long)]
     pub(crate) id: Option<String>,
+    /// Memory budget each claimed sweep is checked against and its rotor samples capped
+    /// by, e.g. 512M, 8G (default 2G, as `run --max-memory`).
+    #[arg(long)]
+    pub(crate) max_memory: Option<String>,
 }
 
 #[cfg(feature = "postgres")]

@@ -197,14 +197,19 @@ fn eval(a: EvalArgs) -> Result<(), AppError> {
     out.finish()
 }
 
-/// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
-fn run_cmd(a: RunArgs) -> Result<(), AppError> {
-    let max_memory = match &a.max_memory {
+/// `--max-memory` (e.g. 512M, 8G) as a budget; absent: the 2 GiB default.
+fn max_memory_flag(flag: Option<&str>) -> Result<crate::budget::MemoryBudget, AppError> {
+    Ok(match flag {
         Some(m) => crate::budget::MemoryBudget::new(
             crate::budget::parse_size(m).map_err(|r| AppError::input("--max-memory", r))?,
         ),
         None => crate::budget::MemoryBudget::default(),
-    };
+    })
+}
+
+/// `run`: a sweep spec goes to the sweep runner, anything else is a scene file.
+fn run_cmd(a: RunArgs) -> Result<(), AppError> {
+    let max_memory = max_memory_flag(a.max_memory.as_deref())?;
     let text = read_input(&a.file)?;
     if is_sweep_spec(&text) {
         return run_sweep_file(a, &text, max_memory);
@@ -225,11 +230,14 @@ fn run_cmd(a: RunArgs) -> Result<(), AppError> {
         &a.file,
         &text,
         &SceneRunOptions {
-            backend: a.backend,
-            accuracy: a.accuracy,
             out: a.out,
-            full_model: a.full_model,
-            max_memory,
+            options: crate::sweep::SweepOptions {
+                backend: a.backend,
+                accuracy: crate::sweep::RequestedAccuracy::new(a.accuracy)
+                    .map_err(|r| AppError::input("--accuracy", r))?,
+                full_model: a.full_model,
+                max_memory,
+            },
         },
     )?;
     for n in report.notices {
@@ -318,6 +326,7 @@ fn submit(a: SubmitArgs) -> Result<(), AppError> {
 #[cfg(feature = "postgres")]
 /// `worker`: pulls work from a PostgreSQL queue until stopped.
 fn worker(a: WorkerArgs) -> Result<(), AppError> {
+    let max_memory = max_memory_flag(a.max_memory.as_deref())?;
     worker_command(&WorkerCommandOptions {
         database: a.database,
         backend: a.backend,
@@ -326,6 +335,7 @@ fn worker(a: WorkerArgs) -> Result<(), AppError> {
         heartbeat_s: a.heartbeat,
         exit_when_idle_s: a.exit_when_idle,
         id: a.id,
+        max_memory,
     })
     .map(print_lines)
 }

@@ -25,6 +25,8 @@ pub struct WorkerCommandOptions {
     pub exit_when_idle_s: Option<f64>,
     /// Worker id (default host/pid/nonce).
     pub id: Option<String>,
+    /// Memory budget each claimed sweep runs within (`--max-memory`; default 2 GiB).
+    pub max_memory: crate::budget::MemoryBudget,
 }
 
 fn seconds(field: &str, v: f64) -> Result<Duration, AppError> {
@@ -71,6 +73,7 @@ pub fn worker_command(o: &WorkerCommandOptions) -> Result<Vec<String>, AppError>
         heartbeat,
         exit_when_idle,
         id: o.id.clone(),
+        max_memory: o.max_memory,
         ..WorkerOptions::default()
     };
     let rt = tokio::runtime::Builder::new_multi_thread()

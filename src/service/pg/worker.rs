@@ -51,6 +51,10 @@ pub struct WorkerOptions {
     pub exit_when_idle: Option<Duration>,
     /// Worker id in leases and results (default `host/pid/nonce`).
     pub id: Option<String>,
+    /// Memory budget each claimed sweep is parsed and run within (`worker --max-memory`;
+    /// default 2 GiB, as `run`): a queued sweep does not carry one, the worker that runs
+    /// it brings its own.
+    pub max_memory: crate::budget::MemoryBudget,
 }
 
 impl Default for WorkerOptions {
@@ -64,6 +68,7 @@ impl Default for WorkerOptions {
             idle_poll: Duration::from_millis(500),
             exit_when_idle: None,
             id: None,
+            max_memory: crate::budget::MemoryBudget::default(),
         }
     }
 }
@@ -153,7 +158,11 @@ struct ComputeRequest {
 }
 
 /// The compute thread: owns the simulators (most recent sweeps), answers each request.
-fn compute_thread(backend: BackendKind, rx: std::sync::mpsc::Receiver<ComputeRequest>) {
+fn compute_thread(
+    backend: BackendKind,
+    max_memory: crate::budget::MemoryBudget,
+    rx: std::sync::mpsc::Receiver<ComputeRequest>,
+) {
     let mut cache: HashMap<String, (u64, Prepared)> = HashMap::new();
     for (tick, req) in rx.into_iter().enumerate() {
         let tick = tick as u64 + 1;
@@ -161,7 +170,12 @@ fn compute_thread(backend: BackendKind, rx: std::sync::mpsc::Receiver<ComputeReq
             if !cache.contains_key(&req.job.id) {
                 let spec = parse_spec(&req.job.spec, None)
                     .map_err(|e| format!("the stored spec does not parse: {e}"))?;
-                let (sim, settings) = build_simulator(&spec, &req.job.options, backend)?;
+                // The worker's budget, not the default the stored options deserialise to.
+                let options = SweepOptions {
+                    max_memory,
+                    ..req.job.options
+                };
+                let (sim, settings) = build_simulator(&spec, &options, backend)?;
                 if cache.len() >= SIM_CACHE {
                     if let Some(old) = cache
                         .iter()
@@ -266,6 +280,7 @@ pub async fn run_worker(
     log: Arc<dyn Fn(String) + Send + Sync>,
 ) -> Result<WorkerSummary, PgError> {
     let (backend, notice) = resolve_backend(opts.backend)?;
+    let max_memory = opts.max_memory;
     if let Some(n) = notice {
         log(n);
     }
@@ -292,7 +307,7 @@ pub async fn run_worker(
     let (tx, rx) = std::sync::mpsc::channel::<ComputeRequest>();
     let compute = std::thread::Builder::new()
         .name("bearing-sweep-compute".into())
-        .spawn(move || compute_thread(backend, rx))
+        .spawn(move || compute_thread(backend, max_memory, rx))
         .map_err(|e| PgError::Sweep {
             id: "-".into(),
             reason: format!("cannot start the compute thread: {e}"),
