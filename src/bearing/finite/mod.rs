@@ -20,6 +20,9 @@ pub use flow::{
 };
 pub(crate) use jfo::apply_jfo_flow;
 pub use jfo::{jfo_flow_integrals, JfoHistory, JfoSolver};
+// For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
+pub(crate) use multigrid::{coarser, Coarsen};
+pub(crate) use solver::ALGEBRAIC_FRACTION;
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 pub use solver::{
