@@ -13,8 +13,8 @@
 //! Richardson estimate, `d₂ ρ/(1 − ρ)` with `ρ ≤ 0.8`, moves by at most ~8× it (`d₂`
 //! changes by ≤ 2 stop tolerances, times ≤ 4) — the test allows 10×.
 
-use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
 use bearing_sweep::backend::{CpuBackend, Precision};
+use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
 use bearing_sweep::bearing::finite::{
     FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet, SolveReport,
 };
@@ -196,8 +196,7 @@ fn multigrid_kernel_matches_cpu_on_large_explicit_grids() {
             let want = cpu(&jobs, &grid);
             let mut fields = vec![Vec::new(); jobs.len()];
             let (got, reports) = gpu(&mut backend, &jobs, &grid, &mut fields);
-            for (k, ((w, _, wf), (g, r))) in want.iter().zip(got.iter().zip(&reports)).enumerate()
-            {
+            for (k, ((w, _, wf), (g, r))) in want.iter().zip(got.iter().zip(&reports)).enumerate() {
                 let name = format!("{nt}×{nz} {label}, {}", st[k].0);
                 check(&name, k, rel(g, w), 0.0, 20.0 * tol);
                 assert!(r.converged, "{name}: {r:?}");
@@ -255,10 +254,13 @@ fn accuracy_mode_on_gpu_matches_cpu() {
             })
         },
     ));
-    cases.push(("grooves, accuracy 2e-3".into(), grooved(FiniteSettings {
-        accuracy: 2e-3,
-        ..s
-    })));
+    cases.push((
+        "grooves, accuracy 2e-3".into(),
+        grooved(FiniteSettings {
+            accuracy: 2e-3,
+            ..s
+        }),
+    ));
     for (label, p) in &cases {
         let st = states(p);
         let (jobs, grid) = jobs(p, &st);
@@ -322,7 +324,13 @@ fn evaluator_runs_accuracy_mode_and_large_grids_on_the_gpu() {
         for (k, (x, y)) in a.iter().zip(&b).enumerate() {
             let (x, y) = (x.as_ref().unwrap(), y.as_ref().unwrap());
             let (vx, vy) = (x.load_vector(p.length), y.load_vector(p.length));
-            check(&format!("{finite:?} {}", st[k].0), k, rel(&vx, &vy), 0.0, tol);
+            check(
+                &format!("{finite:?} {}", st[k].0),
+                k,
+                rel(&vx, &vy),
+                0.0,
+                tol,
+            );
             let (fx, fy) = (x.film.side_flow_m3_per_s, y.film.side_flow_m3_per_s);
             check(
                 &format!("{} side flow", st[k].0),
@@ -337,27 +345,4 @@ fn evaluator_runs_accuracy_mode_and_large_grids_on_the_gpu() {
     }
     assert_eq!(gpu_ev.stats().cpu_recomputed, 0);
     let _ = FilmLayout::default();
-}
-
-#[test]
-fn zz_debug() {
-    let Some(mut backend) = gpu_f64() else { return };
-    for (nt, nz) in [(64u32, 128u32), (512, 128)] {
-    let p = paper(FiniteSettings { n_theta: Some(nt), n_z: Some(nz), tolerance: 1e-8, ..FiniteSettings::default() });
-    let st = states(&p);
-    let (jobs, grid) = jobs(&p, &st[..1]);
-    let want = cpu(&jobs, &grid);
-    let mut fields = vec![Vec::new(); jobs.len()];
-    let (got, reports) = gpu(&mut backend, &jobs, &grid, &mut fields);
-    eprintln!("{nt}x{nz} cpu {:?} {:?}", want[0].0, want[0].1);
-    eprintln!("{nt}x{nz} gpu {:?} {:?}", got[0], reports[0]);
-    }
-}
-#[test]
-fn zz_limits() {
-    let inst = wgpu::Instance::default();
-    for a in pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all())) {
-        let l = a.limits();
-        eprintln!("{:?} binding {} buffer {} storage/stage {}", a.get_info().name, l.max_storage_buffer_binding_size, l.max_buffer_size, l.max_storage_buffers_per_shader_stage);
-    }
 }

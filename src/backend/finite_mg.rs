@@ -5,11 +5,17 @@
 //!
 //! One workgroup per state, every level of its hierarchy in a storage buffer. States are
 //! grouped by their hierarchy (grid sizes and coarsenings depend on the aspect `B/r0`);
-//! each group is dispatched in chunks bounded by a scratch budget. In accuracy mode a
-//! first pass runs the ladder up to [`FIRST_PASS_NODES`] per grid (the default accuracy's
-//! 512 × 64 at B/D = 0.5); the few states whose estimate is still above the accuracy there
-//! are solved again with the whole ladder (the solve is deterministic, so the result is
-//! the same as one pass with the whole ladder; it costs those states their first pass).
+//! each group is dispatched in chunks bounded by a scratch budget.
+//!
+//! **Verified range.** The kernel runs grids of at most [`DEVICE_MAX_NODES`] nodes (512 × 64
+//! at B/D = 0.5, 256 × 64, 1024 × 32). Beyond it, with the max-film inlet, lavapipe returned
+//! wrong loads (512 × 128, 1024 × 96, 1024 × 128 at tolerance 1e-8: the top grid's V-cycles
+//! stop with a zero change after ~15 cycles; 1024 × 64 and the free inlet were right; not
+//! diagnosed). So an explicit grid beyond it is declined (the evaluator recomputes it on the
+//! CPU with a notice), and in accuracy mode the ladder runs on the device up to that grid;
+//! the states whose estimate is still above the accuracy there (those that need
+//! 1024 × 128 at B/D = 0.5) are solved from scratch by the CPU solver here (the same
+//! deterministic ladder, so the same result as a CPU run).
 
 use std::f64::consts::PI;
 use std::sync::{Arc, Mutex};
@@ -48,9 +54,10 @@ const SCRATCH_BUDGET: u64 = 2 << 30;
 /// States per dispatch at most (bounds one dispatch's run time under the device timeout
 /// on a software device).
 const MAX_SLOTS: usize = 4096;
-/// Accuracy mode, first pass: the ladder's grids up to this many nodes (512 × 65 at
-/// B/D = 0.5; the next grid, 1024 × 129, would quadruple every slot's memory).
-pub const FIRST_PASS_NODES: usize = 40_000;
+/// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Verified
+/// range" (512 × 65 = 33 280 at B/D = 0.5; the next ladder grid, 1024 × 129, would also
+/// quadruple every slot's memory).
+pub const DEVICE_MAX_NODES: usize = 40_000;
 
 /// The uniform block (`Params`).
 #[repr(C)]
@@ -185,38 +192,50 @@ impl MultigridPipeline {
             };
             member_of.push(g);
         }
+        if grid.accuracy.is_none() && grid.n_theta * (grid.n_z + 1) > DEVICE_MAX_NODES {
+            return Err(BackendError::Device(format!(
+                "finite grid {}×{} is beyond the multigrid kernel's verified range \
+                 ({DEVICE_MAX_NODES} nodes)",
+                grid.n_theta, grid.n_z
+            )));
+        }
+        let mut on_cpu = Vec::new();
         for (g, (dims, top0)) in keys.iter().enumerate() {
             let members: Vec<usize> = (0..jobs.len()).filter(|&k| member_of[k] == g).collect();
-            // First pass: accuracy mode up to FIRST_PASS_NODES per grid (at least the
-            // first grid and two more, for an estimate).
-            let n_levels = if grid.accuracy.is_some() {
-                let mut n = dims.len();
-                while n > top0 + 3 && full(&dims[n - 1]) > FIRST_PASS_NODES {
-                    n -= 1;
-                }
-                n
-            } else {
-                dims.len()
-            };
+            // The levels within the verified range (accuracy mode: the ladder up to there).
+            let mut n_levels = dims.len();
+            while n_levels > 0 && full(&dims[n_levels - 1]) > DEVICE_MAX_NODES {
+                n_levels -= 1;
+            }
+            if n_levels <= *top0 {
+                on_cpu.extend(members);
+                continue;
+            }
             let group = Group {
                 dims,
                 top0: *top0,
                 n_levels,
                 members,
             };
-            let redo = self.dispatch_group(
+            on_cpu.extend(self.dispatch_group(
                 device, queue, timeout, jobs, grid, &group, fields, out, reports,
-            )?;
-            if !redo.is_empty() {
-                let again = Group {
-                    n_levels: dims.len(),
-                    members: redo,
-                    ..group
-                };
-                let left = self.dispatch_group(
-                    device, queue, timeout, jobs, grid, &again, fields, out, reports,
-                )?;
-                debug_assert!(left.is_empty(), "the whole ladder leaves nothing to redo");
+            )?);
+        }
+        if !on_cpu.is_empty() {
+            // Beyond the device's grids: the CPU solver, from scratch (as a CPU run).
+            use rayon::prelude::*;
+            let solved: Vec<(usize, FilmIntegrals, SolveReport, Vec<f64>)> = on_cpu
+                .par_iter()
+                .map_init(crate::bearing::finite::FiniteSolver::new, |solver, &k| {
+                    let mut f = Vec::new();
+                    let (v, r) = solver.solve(&jobs[k], grid, &mut f);
+                    (k, v, r, f)
+                })
+                .collect();
+            for (k, v, r, f) in solved {
+                out[k] = v;
+                reports[k] = r;
+                fields[k] = f;
             }
         }
         Ok(())
@@ -516,7 +535,8 @@ impl MultigridPipeline {
             layout: &layout,
             entries: &entries,
         });
-        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut enc =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("finite film multigrid"),
