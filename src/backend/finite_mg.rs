@@ -192,10 +192,11 @@ impl MultigridPipeline {
             };
             member_of.push(g);
         }
-        if grid.accuracy.is_none() && grid.n_theta * (grid.n_z + 1) > DEVICE_MAX_NODES {
+        let max_nodes = device_max_nodes();
+        if grid.accuracy.is_none() && grid.n_theta * (grid.n_z + 1) > max_nodes {
             return Err(BackendError::Device(format!(
                 "finite grid {}×{} is beyond the multigrid kernel's verified range \
-                 ({DEVICE_MAX_NODES} nodes)",
+                 ({max_nodes} nodes)",
                 grid.n_theta, grid.n_z
             )));
         }
@@ -204,7 +205,7 @@ impl MultigridPipeline {
             let members: Vec<usize> = (0..jobs.len()).filter(|&k| member_of[k] == g).collect();
             // The levels within the verified range (accuracy mode: the ladder up to there).
             let mut n_levels = dims.len();
-            while n_levels > 0 && full(&dims[n_levels - 1]) > DEVICE_MAX_NODES {
+            while n_levels > 0 && full(&dims[n_levels - 1]) > max_nodes {
                 n_levels -= 1;
             }
             if n_levels <= *top0 {
