@@ -56,8 +56,18 @@ const SCRATCH_BUDGET: u64 = 2 << 30;
 const MAX_SLOTS: usize = 4096;
 /// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Verified
 /// range" (512 × 65 = 33 280 at B/D = 0.5; the next ladder grid, 1024 × 129, would also
-/// quadruple every slot's memory).
+/// quadruple every slot's memory). The environment variable
+/// `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a node count) overrides it, to check the range on
+/// another device (an unparsable value keeps the default).
 pub const DEVICE_MAX_NODES: usize = 40_000;
+
+/// The verified range in force ([`DEVICE_MAX_NODES`] or its override).
+fn device_max_nodes() -> usize {
+    std::env::var("BEARING_SWEEP_FINITE_GPU_MAX_NODES")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(DEVICE_MAX_NODES)
+}
 
 /// The uniform block (`Params`).
 #[repr(C)]
