@@ -319,7 +319,7 @@ impl MultigridPipeline {
             return Err(BackendError::Device(format!(
                 "the finite-film multigrid needs {} MiB per state, more than the device's \
                  buffer limit",
-                stride * 8 >> 20
+                (stride * 8) >> 20
             )));
         }
         let trig_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
