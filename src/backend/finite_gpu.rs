@@ -1,6 +1,8 @@
 //! Host side of `shaders/finite.wgsl`: the finite-length film on the GPU backend's device,
 //! one workgroup per state, f64 only (the kernel is an iterative solver whose tolerance
-//! reaches 1e-8 and below; f32 would stop at ~1e-6).
+//! reaches 1e-8 and below; f32 would stop at ~1e-6). Explicit grids within the workgroup
+//! memory run this PSOR kernel; larger grids and accuracy mode run the projected
+//! multigrid kernel of [`super::finite_mg`].
 
 use std::f64::consts::PI;
 use std::sync::{Arc, Mutex};
@@ -38,6 +40,8 @@ struct Params {
 /// The compiled finite-film pipeline on one device.
 pub(crate) struct FinitePipeline {
     pipeline: wgpu::ComputePipeline,
+    /// The multigrid kernel (larger grids, accuracy mode), built on first use.
+    multigrid: Mutex<Option<Arc<super::finite_mg::MultigridPipeline>>>,
 }
 
 impl FinitePipeline {
@@ -61,7 +65,10 @@ impl FinitePipeline {
                 "the finite-film kernel does not build: {e}"
             )));
         }
-        Ok(FinitePipeline { pipeline })
+        Ok(FinitePipeline {
+            pipeline,
+            multigrid: Mutex::new(None),
+        })
     }
 
     /// Solves `jobs` on `grid`; `fields[k]` of the grid's length is job k's warm start.
@@ -77,27 +84,27 @@ impl FinitePipeline {
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
-        if grid.accuracy.is_some() {
-            return Err(BackendError::Device(
-                "the WGSL finite-film kernel solves explicit grids (finite.n_theta, finite.n_z); \
-                 the accuracy-driven grid choice runs on the CPU"
-                    .into(),
-            ));
-        }
         if grid.cavitation == crate::bearing::finite::Cavitation::Jfo {
             return Err(BackendError::Device(
-                "the WGSL finite-film kernel solves Swift-Stieber cavitation; \
+                "the WGSL finite-film kernels solve Swift-Stieber cavitation; \
                  `cavitation: jfo` runs on the CPU"
                     .into(),
             ));
         }
         let interior = grid.n_theta * (grid.n_z.max(1) - 1);
-        if interior > FINITE_MAX_NODES {
-            return Err(BackendError::Device(format!(
-                "finite grid {}×{} has {interior} interior nodes, more than the GPU kernel's \
-                 workgroup memory holds ({FINITE_MAX_NODES})",
-                grid.n_theta, grid.n_z
-            )));
+        if grid.accuracy.is_some() || interior > FINITE_MAX_NODES {
+            // Accuracy mode and grids beyond the workgroup memory: projected multigrid.
+            let mg = {
+                let mut slot = self
+                    .multigrid
+                    .lock()
+                    .map_err(|_| BackendError::Device("finite-film pipeline lock".into()))?;
+                if slot.is_none() {
+                    *slot = Some(Arc::new(super::finite_mg::MultigridPipeline::new(device)?));
+                }
+                slot.clone().expect("built above")
+            };
+            return mg.run(device, queue, timeout, jobs, grid, fields, out, reports);
         }
         out.clear();
         reports.clear();

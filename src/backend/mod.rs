@@ -8,6 +8,8 @@ mod finite;
 #[cfg(feature = "gpu")]
 mod finite_gpu;
 #[cfg(feature = "gpu")]
+mod finite_mg;
+#[cfg(feature = "gpu")]
 mod gpu;
 #[cfg(not(feature = "gpu"))]
 #[path = "gpu_absent.rs"]

@@ -174,24 +174,34 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
             Ok(g) => {
                 let name = g.info().device;
                 let mut ev = LoadEvaluator::new(Box::new(g));
-                for gr in grids {
-                    if (gr.0 * (gr.1 - 1)) as usize > crate::backend::FINITE_MAX_NODES {
-                        md += &format!(
-                            "| gpu | {}×{} | — (beyond the kernel's workgroup memory: CPU fallback) | | | |\n",
-                            gr.0, gr.1
-                        );
-                        continue;
-                    }
-                    let r = run_grid(
-                        &mut ev,
-                        &p,
-                        &states,
-                        &reference,
-                        FiniteSettings::with_grid(gr.0, gr.1),
-                        reps,
-                    );
+                // Explicit grids within the workgroup memory run the PSOR kernel
+                // (shaders/finite.wgsl), larger ones and accuracy mode the projected
+                // multigrid kernel (shaders/finite_mg.wgsl).
+                let mut gpu_settings: Vec<(FiniteSettings, usize, &str)> = grids
+                    .iter()
+                    .map(|&(t, z)| {
+                        let kernel = if (t * (z - 1)) as usize > crate::backend::FINITE_MAX_NODES {
+                            "multigrid kernel"
+                        } else {
+                            "PSOR kernel"
+                        };
+                        (FiniteSettings::with_grid(t, z), reps, kernel)
+                    })
+                    .collect();
+                for accuracy in [FiniteSettings::default().accuracy, 1e-4] {
+                    gpu_settings.push((
+                        FiniteSettings {
+                            accuracy,
+                            ..FiniteSettings::default()
+                        },
+                        1,
+                        "multigrid kernel",
+                    ));
+                }
+                for (g, reps, kernel) in gpu_settings {
+                    let r = run_grid(&mut ev, &p, &states, &reference, g, reps);
                     md += &format!(
-                        "| gpu ({name}, PSOR kernel) | {} | {:.0} | {:.0} | {:.2e} | {:.2e} |\n",
+                        "| gpu ({name}, {kernel}) | {} | {:.0} | {:.0} | {:.2e} | {:.2e} |\n",
                         r.label, r.states_per_s, r.sweeps, r.error_median, r.error_max
                     );
                 }

@@ -1,0 +1,1051 @@
+// Finite-length Reynolds film by projected full-approximation multigrid (issue 20 item 2,
+// issue 26 item 3): the algorithm of src/bearing/finite/multigrid.rs and the accuracy
+// ladder of src/bearing/finite/solver.rs, on the device. Driver: src/backend/finite_mg.rs;
+// docs/finite-film.md "Backends".
+//
+// One workgroup per bearing state ("slot"), looping over the levels of its grid hierarchy
+// with workgroup barriers; every level's fields live in a storage buffer (`scr`, one
+// region per slot), so the grid is not bounded by workgroup memory. Per level the slot
+// holds 8 arrays of n_theta × (n_z + 1) f64 (end rows included): the east and north face
+// coefficients, the inverse diagonal as the solved grid and as a correction grid, the
+// right-hand side in use, the iterate, the injected fine iterate u0 and the residual.
+//
+// The same discrete problem, smoother, FAS coarse problem, truncated correction,
+// coarsest-grid projected SOR, stopping rules, full-multigrid start and ladder (grids,
+// per-grid stop on the loads, Richardson estimate, stop at the requested accuracy) as the
+// CPU. Red-black Gauss-Seidel within a colour is order-independent, so the smoothing is
+// the CPU's exactly; the truncated correction tests its neighbours' signs on the field
+// before the correction (the CPU walks the nodes in order and sees the already corrected
+// ones), which changes the path of the iteration where a correction empties a node, not
+// its fixed point: the loads agree to the iteration tolerance.
+//
+// No trigonometric function is evaluated in f64: the host supplies cos and sin at every
+// half grid step of every level (`trig`), cos/sin of the state's node-0 angle (rotation by
+// the angle-addition formulas), the coarsest grid's SOR factor and the inlet columns.
+
+const WG: u32 = 256u;
+// Levels of a hierarchy (coarse levels of the first grid plus the ladder's grids).
+const MAX_LEVELS: u32 = 24u;
+// Ladder grids (src/bearing/finite/solver.rs accuracy_ladder: at most 7 below 1024 around).
+const MAX_RUNGS: u32 = 12u;
+const NO_INLET: u32 = 0xffffffffu;
+// Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
+// theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
+const JOB_STRIDE: u32 = 16u;
+// Per result (stride 12 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// n_z, error estimate, accuracy met, status (1: done; 2: the dispatch's grids were not
+// enough for the accuracy, the host solves it again with the full ladder).
+const OUT_STRIDE: u32 = 12u;
+// Arrays of a level (offsets in units of the level's node count).
+const A_AE: u32 = 0u;
+const A_AN: u32 = 1u;
+const A_INV: u32 = 2u;
+const A_INVF: u32 = 3u;
+const A_F: u32 = 4u;
+const A_P: u32 = 5u;
+const A_BASE: u32 = 6u;
+const A_R: u32 = 7u;
+// Smoothing sweeps before / after the coarse-grid correction (multigrid.rs NU_PRE, NU_POST).
+const NU_PRE: u32 = 2u;
+const NU_POST: u32 = 1u;
+// Sweep limit of the coarsest-grid projected SOR (multigrid.rs COARSEST_SWEEPS).
+const COARSEST_SWEEPS: u32 = 4000u;
+// Coarsest-grid tolerance inside a V-cycle (multigrid.rs Hierarchy::vcycle).
+const COARSEST_TOL: f64 = 1e-12;
+// Coarsenings (levels' `coarsen`): none (coarsest), both directions, θ only, ζ only.
+const C_NONE: u32 = 0u;
+const C_BOTH: u32 = 1u;
+const C_THETA: u32 = 2u;
+const PI: f64 = 3.141592653589793;
+
+struct Params {
+    // States in this dispatch (one workgroup each).
+    count: u32,
+    // Levels set up in this dispatch: the first grid's hierarchy (0..=top0) and, in
+    // accuracy mode, the ladder's further grids (one level each).
+    n_levels: u32,
+    top0: u32,
+    // 0: fixed grid (stop on the field, warm start allowed); 1: accuracy ladder.
+    mode: u32,
+    // f64 per slot in `scr`, u32 per state in `inlets`, f64 per state in `fields`.
+    stride: u32,
+    inlet_stride: u32,
+    field_stride: u32,
+    // 1: grooves or arcs (geo table in use; the banded ladder estimate).
+    banded: u32,
+    // 1: the full ladder has grids beyond this dispatch's (status 2 when not met).
+    more: u32,
+    // V-cycle limit of a grid (solver.rs MAX_CYCLES).
+    max_cycles: u32,
+    pad0: u32,
+    pad1: u32,
+    // Fixed grid: tolerance on the field; ladder: on the loads (max(accuracy/50, tol)).
+    tolerance: f64,
+    // Ladder: requested accuracy.
+    accuracy: f64,
+    // Per level: n_theta, n_z, coarsening to the level below, offset in the slot.
+    lv: array<vec4<u32>, MAX_LEVELS>,
+    // Per level: offset in `trig`, in `geo`, in a state's `inlets`, unused.
+    lw: array<vec4<u32>, MAX_LEVELS>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Per level: cos and sin of k Δθ/2, k = 0 .. 2 n_theta − 1, interleaved.
+@group(0) @binding(1) var<storage, read> trig: array<f64>;
+@group(0) @binding(2) var<storage, read> jobs: array<f64>;
+// Per state: warm start in (fixed grids), solution of the last grid out.
+@group(0) @binding(3) var<storage, read_write> fields: array<f64>;
+@group(0) @binding(4) var<storage, read_write> results: array<f64>;
+// Per state and level: the held inlet column of each row (NO_INLET: none).
+@group(0) @binding(5) var<storage, read> inlets: array<u32>;
+// Per level (grooves and arcs only): east factor, north factor, held pressure in Pa
+// (negative: free) per node.
+@group(0) @binding(6) var<storage, read> geo: array<f64>;
+// Per slot: the levels' arrays.
+@group(0) @binding(7) var<storage, read_write> scr: array<f64>;
+
+var<workgroup> red: array<f64, 1024>;
+var<workgroup> wu: array<f64, 4>;
+// Correction candidates that the truncated correction would empty (prolong_correction).
+const CAND_CAP: u32 = 512u;
+var<workgroup> cand: array<u32, CAND_CAP>;
+var<workgroup> cand_zero: array<u32, CAND_CAP>;
+var<workgroup> ncand: atomic<u32>;
+var<workgroup> wn: u32;
+
+var<private> lid: u32;
+var<private> sb: u32;
+var<private> jb: u32;
+var<private> ib: u32;
+var<private> ecc: array<f64, 4>;
+var<private> rate: array<f64, 4>;
+var<private> aspect2: f64;
+var<private> supply: f64;
+var<private> omega0: f64;
+var<private> cos0: f64;
+var<private> sin0: f64;
+// Relaxation node updates (work), uniform across the workgroup.
+var<private> updates: f64;
+
+fn nt_of(l: u32) -> u32 {
+    return params.lv[l].x;
+}
+fn nz_of(l: u32) -> u32 {
+    return params.lv[l].y;
+}
+fn full_of(l: u32) -> u32 {
+    return params.lv[l].x * (params.lv[l].y + 1u);
+}
+fn interior_of(l: u32) -> u32 {
+    return params.lv[l].x * (max(params.lv[l].y, 1u) - 1u);
+}
+// Index of node k of array a of level l in `scr`.
+fn at(l: u32, a: u32, k: u32) -> u32 {
+    return sb + params.lv[l].w + a * full_of(l) + k;
+}
+
+// cos, sin of half step h of level l, rotated by the state's node-0 angle.
+fn trig_at(l: u32, h: u32) -> vec2<f64> {
+    let o = params.lw[l].x + 2u * h;
+    let c = trig[o];
+    let s = trig[o + 1u];
+    return vec2<f64>(cos0 * c - sin0 * s, sin0 * c + cos0 * s);
+}
+
+// H = h/δ at axial fraction zeta and angle (c, s) (solver.rs `film`).
+fn film(zeta: f64, c: f64, s: f64) -> f64 {
+    let ex = ecc[0] + (ecc[2] - ecc[0]) * zeta;
+    let ey = ecc[1] + (ecc[3] - ecc[1]) * zeta;
+    return 1.0 - ex * c - ey * s;
+}
+
+// The level's own right-hand side f = −rhs at node k (row j, column i).
+fn f_own(l: u32, j: u32, i: u32) -> f64 {
+    let zeta = f64(j) * (1.0 / f64(nz_of(l)));
+    let a = rate[0] + (rate[2] - rate[0]) * zeta;
+    let b = rate[1] + (rate[3] - rate[1]) * zeta;
+    let t = trig_at(l, 2u * i);
+    return -6.0 * (a * t.y - b * t.x);
+}
+
+// Held value of node k of level l (grooves' supply pressure; 0 at the inlet line).
+fn hold_of(l: u32, k: u32) -> f64 {
+    if params.banded == 0u {
+        return 0.0;
+    }
+    let h = geo[params.lw[l].y + 3u * k + 2u];
+    if h >= 0.0 {
+        return h * supply;
+    }
+    return 0.0;
+}
+
+// Diagonal of node (j, i) of level l: the sum of its four face coefficients.
+fn diag(l: u32, j: u32, i: u32) -> f64 {
+    let nt = nt_of(l);
+    let k = j * nt + i;
+    let im = select(i - 1u, nt - 1u, i == 0u);
+    return scr[at(l, A_AE, k)] + scr[at(l, A_AE, j * nt + im)] + scr[at(l, A_AN, k)]
+        + scr[at(l, A_AN, k - nt)];
+}
+
+// Σ a_nb u_nb of array a at interior node (j, i) of level l.
+fn neighbours(l: u32, a: u32, j: u32, i: u32) -> f64 {
+    let nt = nt_of(l);
+    let row = j * nt;
+    let k = row + i;
+    let ip = select(k + 1u, row, i + 1u == nt);
+    let im = select(k - 1u, row + nt - 1u, i == 0u);
+    return scr[at(l, A_AE, k)] * scr[at(l, a, ip)] + scr[at(l, A_AE, im)] * scr[at(l, a, im)]
+        + scr[at(l, A_AN, k)] * scr[at(l, a, k + nt)]
+        + scr[at(l, A_AN, k - nt)] * scr[at(l, a, k - nt)];
+}
+
+// Max-reduction of (a, b) over the workgroup; uniform results.
+fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
+    red[lid] = a;
+    red[WG + lid] = b;
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if lid < s {
+            red[lid] = max(red[lid], red[lid + s]);
+            red[WG + lid] = max(red[WG + lid], red[WG + lid + s]);
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        wu[0] = red[0];
+        wu[1] = red[WG];
+    }
+    let x = workgroupUniformLoad(&wu[0]);
+    let y = workgroupUniformLoad(&wu[1]);
+    workgroupBarrier();
+    return vec2<f64>(x, y);
+}
+
+// Sum-reduction of four values; uniform results.
+fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
+    for (var q = 0u; q < 4u; q++) {
+        red[q * WG + lid] = v[q];
+    }
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if lid < s {
+            for (var q = 0u; q < 4u; q++) {
+                red[q * WG + lid] += red[q * WG + lid + s];
+            }
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        for (var q = 0u; q < 4u; q++) {
+            wu[q] = red[q * WG];
+        }
+    }
+    var out: array<f64, 4>;
+    out[0] = workgroupUniformLoad(&wu[0]);
+    out[1] = workgroupUniformLoad(&wu[1]);
+    out[2] = workgroupUniformLoad(&wu[2]);
+    out[3] = workgroupUniformLoad(&wu[3]);
+    workgroupBarrier();
+    return out;
+}
+
+// Discretises the state's equation on level l (multigrid.rs Level::setup): face
+// coefficients, own right-hand side, holds; iterate, u0 and residual zero.
+fn setup(l: u32) {
+    let nt = nt_of(l);
+    let nz = nz_of(l);
+    let n = full_of(l);
+    let dt = 2.0 * PI / f64(nt);
+    let dz = 1.0 / f64(nz);
+    let ct = aspect2 / (dt * dt);
+    let cz = 1.0 / (dz * dz);
+    let gb = params.lw[l].y;
+    for (var k = lid; k < n; k += WG) {
+        let j = k / nt;
+        let i = k % nt;
+        let zeta = f64(j) * dz;
+        let zh = (f64(j) + 0.5) * dz;
+        let tf = trig_at(l, 2u * i + 1u);
+        let tn = trig_at(l, 2u * i);
+        var east: f64 = 1.0;
+        var north: f64 = 1.0;
+        if params.banded != 0u {
+            east = geo[gb + 3u * k];
+            north = geo[gb + 3u * k + 1u];
+        }
+        let hf = film(zeta, tf.x, tf.y);
+        scr[at(l, A_AE, k)] = ct * hf * hf * hf * east;
+        var an: f64 = 0.0;
+        if j < nz {
+            let hn = film(zh, tn.x, tn.y);
+            an = cz * hn * hn * hn * north;
+        }
+        scr[at(l, A_AN, k)] = an;
+        scr[at(l, A_F, k)] = f_own(l, j, i);
+        scr[at(l, A_INV, k)] = 0.0;
+        scr[at(l, A_INVF, k)] = 0.0;
+        scr[at(l, A_P, k)] = 0.0;
+        scr[at(l, A_BASE, k)] = 0.0;
+        scr[at(l, A_R, k)] = 0.0;
+    }
+    workgroupBarrier();
+    let interior = interior_of(l);
+    let io = ib + params.lw[l].z;
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        let d = diag(l, j, i);
+        scr[at(l, A_INVF, k)] = 1.0 / d;
+        var held = false;
+        if params.banded != 0u {
+            held = geo[gb + 3u * k + 2u] >= 0.0;
+        }
+        if inlets[io + j] == i {
+            held = true;
+        }
+        scr[at(l, A_INV, k)] = select(1.0 / d, 0.0, held);
+    }
+    workgroupBarrier();
+}
+
+// One red-black projected SOR sweep of level l with factor omega (1: Gauss-Seidel);
+// `top`: the solved grid (holds applied) or a correction grid (frozen nodes skipped).
+// Returns the largest change and value when `want` (else zeros, no reduction).
+fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
+    let nt = nt_of(l);
+    let nz = nz_of(l);
+    let half = nt / 2u;
+    let cnt = half * (nz - 1u);
+    let ia = select(A_INVF, A_INV, top);
+    var my_dp: f64 = 0.0;
+    var my_p: f64 = 0.0;
+    for (var colour = 0u; colour < 2u; colour++) {
+        for (var m = lid; m < cnt; m += WG) {
+            let j = 1u + m / half;
+            let i = 2u * (m % half) + ((colour + j) % 2u);
+            let k = j * nt + i;
+            let ik = scr[at(l, ia, k)];
+            let old = scr[at(l, A_P, k)];
+            if ik == 0.0 {
+                if top {
+                    let h = hold_of(l, k);
+                    scr[at(l, A_P, k)] = h;
+                    my_dp = max(my_dp, abs(h - old));
+                    my_p = max(my_p, h);
+                }
+                continue;
+            }
+            let s = neighbours(l, A_P, j, i);
+            let new_p = max(old + omega * ((s + scr[at(l, A_F, k)]) * ik - old), 0.0);
+            scr[at(l, A_P, k)] = new_p;
+            my_dp = max(my_dp, abs(new_p - old));
+            my_p = max(my_p, new_p);
+        }
+        workgroupBarrier();
+    }
+    if want {
+        return reduce_max2(my_dp, my_p);
+    }
+    return vec2<f64>(0.0, 0.0);
+}
+
+// r = f − A p at the interior of level l, zero at held nodes and where the constraint is
+// active (multigrid.rs Level::residual).
+fn residual(l: u32, top: bool) {
+    let nt = nt_of(l);
+    let interior = interior_of(l);
+    let ia = select(A_INVF, A_INV, top);
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        var r: f64 = 0.0;
+        if scr[at(l, ia, k)] != 0.0 {
+            let row = j * nt;
+            let ip = select(k + 1u, row, i + 1u == nt);
+            let im = select(k - 1u, row + nt - 1u, i == 0u);
+            let pk = scr[at(l, A_P, k)];
+            let v = scr[at(l, A_F, k)] - diag(l, j, i) * pk
+                + scr[at(l, A_AE, k)] * scr[at(l, A_P, ip)]
+                + scr[at(l, A_AE, im)] * scr[at(l, A_P, im)]
+                + scr[at(l, A_AN, k)] * scr[at(l, A_P, k + nt)]
+                + scr[at(l, A_AN, k - nt)] * scr[at(l, A_P, k - nt)];
+            if !(pk <= 0.0 && v < 0.0) {
+                r = v;
+            }
+        }
+        scr[at(l, A_R, k)] = r;
+    }
+    workgroupBarrier();
+}
+
+// Strides of level l's coarsening in (θ, ζ).
+fn strides(l: u32) -> vec2<u32> {
+    let c = params.lv[l].z;
+    if c == C_BOTH {
+        return vec2<u32>(2u, 2u);
+    }
+    if c == C_THETA {
+        return vec2<u32>(2u, 1u);
+    }
+    return vec2<u32>(1u, 2u);
+}
+
+// The FAS coarse problem of fine level l on level l − 1: u0 = injection of the iterate
+// (also the coarse start), f_H = A_H u0 + R r (full weighting), zero at frozen nodes.
+fn restrict_fas(l: u32) {
+    let c = l - 1u;
+    let st = strides(l);
+    let fnt = nt_of(l);
+    let cnt = nt_of(c);
+    let cnz = nz_of(c);
+    let nc = full_of(c);
+    for (var kc = lid; kc < nc; kc += WG) {
+        let jc = kc / cnt;
+        let ic = kc % cnt;
+        let v = scr[at(l, A_P, jc * st.y * fnt + ic * st.x)];
+        scr[at(c, A_BASE, kc)] = v;
+        scr[at(c, A_P, kc)] = v;
+    }
+    workgroupBarrier();
+    for (var kc = lid; kc < nc; kc += WG) {
+        let jc = kc / cnt;
+        let ic = kc % cnt;
+        var out: f64 = 0.0;
+        if jc >= 1u && jc < cnz && scr[at(c, A_INVF, kc)] != 0.0 {
+            let jf = jc * st.y;
+            let i0 = ic * st.x;
+            var rr: f64;
+            if st.y == 2u {
+                rr = 0.25 * along(l, jf - 1u, i0, st.x) + 0.5 * along(l, jf, i0, st.x)
+                    + 0.25 * along(l, jf + 1u, i0, st.x);
+            } else {
+                rr = along(l, jf, i0, st.x);
+            }
+            let a = diag(c, jc, ic) * scr[at(c, A_BASE, kc)] - neighbours(c, A_BASE, jc, ic);
+            out = rr + a;
+        }
+        scr[at(c, A_F, kc)] = out;
+    }
+    workgroupBarrier();
+}
+
+// The θ-stencil of the full weighting on fine row j at column i0.
+fn along(l: u32, j: u32, i0: u32, st: u32) -> f64 {
+    let fnt = nt_of(l);
+    let row = j * fnt;
+    if st == 2u {
+        let im = select(i0 - 1u, fnt - 1u, i0 == 0u);
+        let ip = select(i0 + 1u, 0u, i0 + 1u == fnt);
+        return 0.25 * scr[at(l, A_R, row + im)] + 0.5 * scr[at(l, A_R, row + i0)]
+            + 0.25 * scr[at(l, A_R, row + ip)];
+    }
+    return scr[at(l, A_R, row + i0)];
+}
+
+// Coarse-grid correction e = p − u0 of level l − 1 at fine node (j, i) (bilinear).
+fn corr(l: u32, j: u32, i: u32) -> f64 {
+    let c = l - 1u;
+    let st = strides(l);
+    let cnt = nt_of(c);
+    var jc = j;
+    var jo = 0u;
+    if st.y == 2u {
+        jc = j / 2u;
+        jo = j % 2u;
+    }
+    var ic = i;
+    var io = 0u;
+    if st.x == 2u {
+        ic = i / 2u;
+        io = i % 2u;
+    }
+    let ic1 = select(ic + 1u, 0u, ic + 1u == cnt);
+    let k00 = jc * cnt + ic;
+    let k01 = jc * cnt + ic1;
+    let e00 = scr[at(c, A_P, k00)] - scr[at(c, A_BASE, k00)];
+    if jo == 0u && io == 0u {
+        return e00;
+    }
+    let e01 = scr[at(c, A_P, k01)] - scr[at(c, A_BASE, k01)];
+    if jo == 0u {
+        return 0.5 * (e00 + e01);
+    }
+    let k10 = k00 + cnt;
+    let e10 = scr[at(c, A_P, k10)] - scr[at(c, A_BASE, k10)];
+    if io == 0u {
+        return 0.5 * (e00 + e10);
+    }
+    let k11 = k01 + cnt;
+    let e11 = scr[at(c, A_P, k11)] - scr[at(c, A_BASE, k11)];
+    return 0.25 * (e00 + e01 + e10 + e11);
+}
+
+// Whether node k of level l is in the pressure zone before the correction: the node and
+// its four neighbours positive (the end rows count as positive neighbours).
+fn inside_before(l: u32, k: u32) -> bool {
+    let nt = nt_of(l);
+    let nz = nz_of(l);
+    let j = k / nt;
+    let i = k % nt;
+    let row = j * nt;
+    let ip = select(k + 1u, row, i + 1u == nt);
+    let im = select(k - 1u, row + nt - 1u, i == 0u);
+    return scr[at(l, A_P, k)] > 0.0 && scr[at(l, A_P, ip)] > 0.0 && scr[at(l, A_P, im)] > 0.0
+        && (j + 1u == nz || scr[at(l, A_P, k + nt)] > 0.0)
+        && (j == 1u || scr[at(l, A_P, k - nt)] > 0.0);
+}
+
+// Whether sorted candidate list entry `c` (a node index) was emptied, by binary search.
+fn emptied(c: u32, n: u32) -> bool {
+    var lo = 0u;
+    var hi = n;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if cand[mid] < c {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo < n && cand[lo] == c && cand_zero[lo] != 0u;
+}
+
+// p += P(u_H − u0) at the nodes inside the pressure zone (node and four neighbours
+// positive), projected; held nodes set (solved grid). The CPU walks the nodes in order,
+// in place: a node whose earlier neighbour (west, south, or the row's first node for the
+// last column) the correction emptied is not inside any more. Here: every node's new
+// value from the field before the correction (into the residual array, dead here); the
+// candidates that the correction empties (few: at the free boundary) go to a workgroup
+// list that one invocation walks in node order to find which are really emptied and which
+// later neighbours they shut out; then the new field is copied back. Beyond the list's
+// capacity one invocation does the CPU's in-place walk. The same result as the CPU's.
+fn prolong_correction(l: u32, top: bool) {
+    let nt = nt_of(l);
+    let interior = interior_of(l);
+    let ia = select(A_INVF, A_INV, top);
+    if lid == 0u {
+        atomicStore(&ncand, 0u);
+    }
+    workgroupBarrier();
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let pk = scr[at(l, A_P, k)];
+        var v = pk;
+        if scr[at(l, ia, k)] == 0.0 {
+            if top {
+                v = hold_of(l, k);
+            }
+        } else if inside_before(l, k) {
+            v = max(pk + corr(l, k / nt, k % nt), 0.0);
+            if v <= 0.0 {
+                let slot = atomicAdd(&ncand, 1u);
+                if slot < CAND_CAP {
+                    cand[slot] = k;
+                }
+            }
+        }
+        scr[at(l, A_R, k)] = v;
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        wn = atomicLoad(&ncand);
+    }
+    let n = workgroupUniformLoad(&wn);
+    if n > CAND_CAP {
+        // Too many: the CPU's walk, in place, by one invocation.
+        if lid == 0u {
+            let nz = nz_of(l);
+            for (var k = nt; k < nt * nz; k++) {
+                if scr[at(l, ia, k)] == 0.0 {
+                    if top {
+                        scr[at(l, A_P, k)] = hold_of(l, k);
+                    }
+                } else if inside_before(l, k) {
+                    let pk = scr[at(l, A_P, k)];
+                    scr[at(l, A_P, k)] = max(pk + corr(l, k / nt, k % nt), 0.0);
+                }
+            }
+        }
+        workgroupBarrier();
+        return;
+    }
+    if n > 0u && lid == 0u {
+        // Sort the candidates (insertion sort: a handful), then walk them in node order.
+        for (var a = 1u; a < n; a++) {
+            let x = cand[a];
+            var b = a;
+            while b > 0u && cand[b - 1u] > x {
+                cand[b] = cand[b - 1u];
+                b -= 1u;
+            }
+            cand[b] = x;
+        }
+        for (var a = 0u; a < n; a++) {
+            let k = cand[a];
+            let i = k % nt;
+            let j = k / nt;
+            var shut = (i > 0u && emptied(k - 1u, a)) || (j > 1u && emptied(k - nt, a));
+            if i + 1u == nt {
+                shut = shut || emptied(j * nt, a);
+            }
+            cand_zero[a] = select(1u, 0u, shut);
+            if shut {
+                // Not inside any more: unchanged.
+                scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
+            }
+        }
+        // Later neighbours of the emptied nodes are shut out: unchanged.
+        let nz = nz_of(l);
+        for (var a = 0u; a < n; a++) {
+            if cand_zero[a] == 0u {
+                continue;
+            }
+            let z = cand[a];
+            let i = z % nt;
+            let j = z / nt;
+            var later = array<u32, 3>(0u, 0u, 0u);
+            if i + 1u < nt {
+                later[0] = z + 1u;
+            }
+            if j + 1u < nz {
+                later[1] = z + nt;
+            }
+            if i == 0u {
+                later[2] = z + nt - 1u;
+            }
+            for (var q = 0u; q < 3u; q++) {
+                let k = later[q];
+                if k != 0u && !emptied(k, n) && scr[at(l, ia, k)] != 0.0 {
+                    scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
+                }
+            }
+        }
+    }
+    workgroupBarrier();
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        scr[at(l, A_P, k)] = scr[at(l, A_R, k)];
+    }
+    workgroupBarrier();
+}
+
+// p = P p_coarse on level l (the full-multigrid start), held nodes at their value.
+fn prolong_solution(l: u32) {
+    let c = l - 1u;
+    let st = strides(l);
+    let nt = nt_of(l);
+    let cnt = nt_of(c);
+    let interior = interior_of(l);
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        let jc = j / st.y;
+        let jo = j % st.y;
+        let ic = i / st.x;
+        let io = i % st.x;
+        let ic1 = (ic + 1u) % cnt;
+        let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
+        var v: f64;
+        if jo == 0u && io == 0u {
+            v = u00;
+        } else if jo == 0u {
+            v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);
+        } else if io == 0u {
+            v = 0.5 * (u00 + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]);
+        } else {
+            v = 0.25 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]
+                + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]
+                + scr[at(c, A_P, (jc + 1u) * cnt + ic1)]);
+        }
+        if scr[at(l, A_INV, k)] == 0.0 {
+            v = hold_of(l, k);
+        } else {
+            v = max(v, 0.0);
+        }
+        scr[at(l, A_P, k)] = v;
+    }
+    workgroupBarrier();
+}
+
+// Freezes the nodes of level l − 1 (a correction grid of l) whose restriction stencil
+// touches a held or frozen node of l (multigrid.rs `freeze`).
+fn freeze(l: u32, top: bool) {
+    let c = l - 1u;
+    let st = strides(l);
+    let fnt = nt_of(l);
+    let fnz = nz_of(l);
+    let cnt = nt_of(c);
+    let ia = select(A_INVF, A_INV, top);
+    let interior = interior_of(c);
+    for (var m = lid; m < interior; m += WG) {
+        let kc = m + cnt;
+        let jc = kc / cnt;
+        let ic = kc % cnt;
+        let jf = jc * st.y;
+        var jlo = jf;
+        var jhi = jf;
+        if st.y == 2u {
+            jlo = jf - 1u;
+            jhi = jf + 1u;
+        }
+        let i0 = ic * st.x;
+        var held = false;
+        for (var j = max(jlo, 1u); j <= min(jhi, fnz - 1u); j++) {
+            if st.x == 2u {
+                let im = select(i0 - 1u, fnt - 1u, i0 == 0u);
+                let ip = select(i0 + 1u, 0u, i0 + 1u == fnt);
+                held = held || scr[at(l, ia, j * fnt + im)] == 0.0
+                    || scr[at(l, ia, j * fnt + i0)] == 0.0 || scr[at(l, ia, j * fnt + ip)] == 0.0;
+            } else {
+                held = held || scr[at(l, ia, j * fnt + i0)] == 0.0;
+            }
+        }
+        scr[at(c, A_INVF, kc)] = select(1.0 / diag(c, jc, ic), 0.0, held);
+    }
+    workgroupBarrier();
+}
+
+// Load integrals −⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) of level l's iterate.
+fn loads(l: u32) -> array<f64, 4> {
+    let nt = nt_of(l);
+    let nz = nz_of(l);
+    let dt = 2.0 * PI / f64(nt);
+    let dz = 1.0 / f64(nz);
+    let interior = interior_of(l);
+    var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        let v = scr[at(l, A_P, k)];
+        let t = trig_at(l, 2u * i);
+        let zeta = f64(j) * dz;
+        let c = v * t.x;
+        let s = v * t.y;
+        acc[0] += c;
+        acc[1] += s;
+        acc[2] += c * zeta;
+        acc[3] += s * zeta;
+    }
+    let sum = reduce_sum4(acc);
+    var out: array<f64, 4>;
+    for (var q = 0u; q < 4u; q++) {
+        out[q] = -sum[q] * dt * dz / 3.0;
+    }
+    return out;
+}
+
+// x^(1/5) in f64 for x > 0 (f32 start, two Newton steps: no f64 pow on the device).
+fn root5(x: f64) -> f64 {
+    let y0 = f64(pow(f32(x), 0.2));
+    if !(y0 > 0.0) || x <= 0.0 {
+        return 0.0;
+    }
+    var y = y0;
+    for (var n = 0u; n < 2u; n++) {
+        let y4 = y * y * y * y;
+        y = y - (y4 * y - x) / (5.0 * y4);
+    }
+    return y;
+}
+
+// Projected SOR on the coarsest level (0) until the estimated change is below `tol` of
+// the largest value (multigrid.rs Level::solve_coarsest).
+fn solve_coarsest(tol: f64, top: bool) {
+    let omega = omega0;
+    var hist = array<f64, 6>(-1.0, -1.0, -1.0, -1.0, -1.0, -1.0);
+    let floor = min(omega - 1.0, 0.9999);
+    let min_tail = floor / (1.0 - floor);
+    let interior = f64(interior_of(0u));
+    for (var s = 0u; s < COARSEST_SWEEPS; s++) {
+        let r = sweep(0u, omega, top, true);
+        let dp = r.x;
+        let mp = r.y;
+        updates += interior;
+        for (var q = 0u; q < 5u; q++) {
+            hist[q] = hist[q + 1u];
+        }
+        hist[5] = dp;
+        if dp != 0.0 && dp * min_tail > tol * mp {
+            continue;
+        }
+        var measured: f64 = 0.0;
+        if hist[0] > 0.0 {
+            measured = root5(hist[5] / hist[0]);
+        }
+        let rho = min(max(measured, omega - 1.0), 0.9999);
+        if dp == 0.0 || (s >= 5u && dp * rho / (1.0 - rho) <= tol * mp) {
+            break;
+        }
+    }
+}
+
+// One V-cycle on level `top` (its right-hand side set).
+fn vcycle(top: u32) {
+    for (var m = top; m >= 1u; m--) {
+        for (var s = 0u; s < NU_PRE; s++) {
+            sweep(m, 1.0, m == top, false);
+        }
+        updates += f64(NU_PRE * interior_of(m));
+        residual(m, m == top);
+        restrict_fas(m);
+    }
+    solve_coarsest(COARSEST_TOL, false);
+    for (var m = 1u; m <= top; m++) {
+        prolong_correction(m, m == top);
+        for (var s = 0u; s < NU_POST; s++) {
+            sweep(m, 1.0, m == top, false);
+        }
+        updates += f64(NU_POST * interior_of(m));
+    }
+}
+
+struct Outcome {
+    cycles: u32,
+    err: f64,
+    converged: bool,
+}
+
+fn norm4(a: array<f64, 4>) -> f64 {
+    var s: f64 = 0.0;
+    for (var q = 0u; q < 4u; q++) {
+        s += a[q] * a[q];
+    }
+    return sqrt(s);
+}
+
+fn dist4(a: array<f64, 4>, b: array<f64, 4>) -> f64 {
+    var s: f64 = 0.0;
+    for (var q = 0u; q < 4u; q++) {
+        s += (a[q] - b[q]) * (a[q] - b[q]);
+    }
+    return sqrt(s);
+}
+
+// V-cycles on level l (own right-hand side) until the estimated iteration error is below
+// the tolerance (of the field over its maximum in fixed mode, of the loads over their
+// norm on the ladder), at most `max_cycles` (multigrid.rs Hierarchy::iterate).
+fn iterate(l: u32, max_cycles: u32) -> Outcome {
+    let nt = nt_of(l);
+    let n = full_of(l);
+    for (var k = lid; k < n; k += WG) {
+        scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
+    }
+    workgroupBarrier();
+    for (var m = l; m >= 1u; m--) {
+        freeze(m, m == l);
+    }
+    let tol = params.tolerance;
+    if l == 0u {
+        solve_coarsest(tol, true);
+        return Outcome(1u, 0.0, true);
+    }
+    let field_stop = params.mode == 0u;
+    var prev_loads = loads(l);
+    var last_change: f64 = -1.0;
+    var err: f64 = -1.0;
+    let interior = interior_of(l);
+    for (var cycle = 1u; cycle <= max_cycles; cycle++) {
+        if field_stop {
+            for (var m = lid; m < interior; m += WG) {
+                scr[at(l, A_BASE, m + nt)] = scr[at(l, A_P, m + nt)];
+            }
+            workgroupBarrier();
+        }
+        vcycle(l);
+        var change: f64 = 0.0;
+        if field_stop {
+            var dmax: f64 = 0.0;
+            var pmax: f64 = 0.0;
+            for (var m = lid; m < interior; m += WG) {
+                let a = scr[at(l, A_P, m + nt)];
+                dmax = max(dmax, abs(a - scr[at(l, A_BASE, m + nt)]));
+                pmax = max(pmax, a);
+            }
+            let r = reduce_max2(dmax, pmax);
+            if r.y > 0.0 {
+                change = r.x / r.y;
+            }
+        } else {
+            let now = loads(l);
+            let d = dist4(now, prev_loads);
+            let norm = norm4(now);
+            prev_loads = now;
+            if norm > 0.0 {
+                change = d / norm;
+            }
+        }
+        // Contraction per cycle: measured, within [0.1, 0.95]; 0.5 until measured.
+        var rho: f64 = 0.5;
+        if last_change > 0.0 {
+            rho = clamp(change / last_change, 0.1, 0.95);
+        }
+        last_change = change;
+        err = change * rho / (1.0 - rho);
+        if change == 0.0 || err <= tol {
+            return Outcome(cycle, err, true);
+        }
+    }
+    return Outcome(max_cycles, err, false);
+}
+
+// Full multigrid from level 0 to `top`: one V-cycle per intermediate level.
+fn fmg(top: u32) -> Outcome {
+    var res = iterate(0u, params.max_cycles);
+    for (var l = 1u; l <= top; l++) {
+        prolong_solution(l);
+        res = iterate(l, select(1u, params.max_cycles, l == top));
+    }
+    return res;
+}
+
+// Richardson estimate of the last of `n` ladder values (solver.rs ladder_estimate and,
+// with held bands, banded_estimate); negative below three grids.
+fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
+    if n < 3u {
+        return -1.0;
+    }
+    var a: array<f64, 4>;
+    var b: array<f64, 4>;
+    var c: array<f64, 4>;
+    for (var q = 0u; q < 4u; q++) {
+        a[q] = vals[4u * (n - 3u) + q];
+        b[q] = vals[4u * (n - 2u) + q];
+        c[q] = vals[4u * (n - 1u) + q];
+    }
+    let d1 = dist4(b, a);
+    let d2 = dist4(c, b);
+    let norm = norm4(c);
+    if norm == 0.0 {
+        return 0.0;
+    }
+    if params.banded != 0u {
+        return 1.5 * max(d2, 0.25 * d1) / norm;
+    }
+    var rho: f64 = 0.25;
+    if d1 > 0.0 {
+        rho = clamp(d2 / d1, 0.25, 0.8);
+    }
+    return d2 * rho / (1.0 - rho) / norm;
+}
+
+@compute @workgroup_size(256)
+fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let slot = wid.x + wid.y * 65535u;
+    if slot >= params.count {
+        return;
+    }
+    lid = li;
+    sb = slot * params.stride;
+    jb = slot * JOB_STRIDE;
+    ib = slot * params.inlet_stride;
+    for (var q = 0u; q < 4u; q++) {
+        ecc[q] = jobs[jb + q];
+        rate[q] = jobs[jb + 4u + q];
+    }
+    let aspect = jobs[jb + 8u];
+    aspect2 = aspect * aspect;
+    supply = jobs[jb + 9u];
+    cos0 = jobs[jb + 12u];
+    sin0 = jobs[jb + 13u];
+    if li == 0u {
+        wu[0] = jobs[jb + 10u];
+        wu[1] = jobs[jb + 14u];
+    }
+    omega0 = workgroupUniformLoad(&wu[0]);
+    let warm = workgroupUniformLoad(&wu[1]) > 0.5;
+    workgroupBarrier();
+    updates = 0.0;
+
+    let top0 = params.top0;
+    for (var l = 0u; l <= top0; l++) {
+        setup(l);
+    }
+    var top = top0;
+    var res: Outcome;
+    var est: f64 = 0.0;
+    var met = false;
+    var status: f64 = 1.0;
+    if params.mode == 0u {
+        if warm {
+            // Warm start (multigrid.rs Level::load_field): interior free nodes from the
+            // given field, held nodes at their value.
+            let nt = nt_of(top0);
+            let interior = interior_of(top0);
+            let fb = slot * params.field_stride;
+            for (var m = lid; m < interior; m += WG) {
+                let k = m + nt;
+                var v = fields[fb + k];
+                if scr[at(top0, A_INV, k)] == 0.0 {
+                    v = hold_of(top0, k);
+                }
+                scr[at(top0, A_P, k)] = v;
+            }
+            workgroupBarrier();
+            res = iterate(top0, params.max_cycles);
+        } else {
+            res = fmg(top0);
+        }
+    } else {
+        res = fmg(top0);
+        var vals: array<f64, 48>;
+        var nv = 1u;
+        let v0 = loads(top0);
+        for (var q = 0u; q < 4u; q++) {
+            vals[q] = v0[q];
+        }
+        est = -1.0;
+        for (var l = top0 + 1u; l < params.n_levels; l++) {
+            setup(l);
+            prolong_solution(l);
+            res = iterate(l, params.max_cycles);
+            top = l;
+            let v = loads(l);
+            if nv < MAX_RUNGS {
+                for (var q = 0u; q < 4u; q++) {
+                    vals[4u * nv + q] = v[q];
+                }
+                nv += 1u;
+            }
+            let e = estimate(vals, nv);
+            if e >= 0.0 {
+                est = e;
+                if e <= params.accuracy {
+                    met = true;
+                    break;
+                }
+            }
+        }
+        if !met && params.more != 0u {
+            status = 2.0;
+        }
+    }
+
+    // Field of the last grid out, loads, report.
+    let n = full_of(top);
+    let fb = slot * params.field_stride;
+    for (var k = lid; k < n; k += WG) {
+        fields[fb + k] = scr[at(top, A_P, k)];
+    }
+    let ints = loads(top);
+    if lid == 0u {
+        let o = slot * OUT_STRIDE;
+        for (var q = 0u; q < 4u; q++) {
+            results[o + q] = ints[q];
+        }
+        let interior = f64(max(interior_of(top), 1u));
+        results[o + 4u] = ceil(updates / interior);
+        results[o + 5u] = res.err;
+        results[o + 6u] = select(f64(0.0), f64(1.0), res.converged);
+        results[o + 7u] = f64(nt_of(top));
+        results[o + 8u] = f64(nz_of(top));
+        results[o + 9u] = est;
+        results[o + 10u] = select(f64(0.0), f64(1.0), met);
+        results[o + 11u] = status;
+    }
+}

@@ -1,0 +1,616 @@
+//! Host side of `shaders/finite_mg.wgsl`: the finite-length film's projected multigrid on
+//! the GPU backend's device (issue 20 item 2, issue 26 item 3), for explicit grids beyond
+//! the PSOR kernel's workgroup memory and for accuracy mode (the ladder of nested grids
+//! with its Richardson estimate and stop rule, run inside the kernel).
+//!
+//! One workgroup per state, every level of its hierarchy in a storage buffer. States are
+//! grouped by their hierarchy (grid sizes and coarsenings depend on the aspect `B/r0`);
+//! each group is dispatched in chunks bounded by a scratch budget.
+//!
+//! **Verified range.** The kernel runs grids of at most [`DEVICE_MAX_NODES`] nodes (512 × 64
+//! at B/D = 0.5, 256 × 64, 1024 × 32). Beyond it, with the max-film inlet, lavapipe returned
+//! wrong loads (512 × 128, 1024 × 96, 1024 × 128 at tolerance 1e-8: the top grid's V-cycles
+//! stop with a zero change after ~15 cycles; 1024 × 64 and the free inlet were right; not
+//! diagnosed). So an explicit grid beyond it is declined (the evaluator recomputes it on the
+//! CPU with a notice), and in accuracy mode the ladder runs on the device up to that grid;
+//! the states whose estimate is still above the accuracy there (those that need
+//! 1024 × 128 at B/D = 0.5) are solved from scratch by the CPU solver here (the same
+//! deterministic ladder, so the same result as a CPU run).
+
+use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use wgpu::util::DeviceExt;
+
+use super::BackendError;
+use crate::bearing::finite::{
+    accuracy_ladder, coarser, Coarsen, FiniteGrid, FiniteJob, SolveReport, ALGEBRAIC_FRACTION,
+};
+use crate::bearing::FilmIntegrals;
+
+/// The multigrid kernel's WGSL source.
+pub const FINITE_MG_WGSL: &str = include_str!("../../shaders/finite_mg.wgsl");
+
+/// Levels of a hierarchy the kernel's parameter block holds (`MAX_LEVELS`).
+const MAX_LEVELS: usize = 24;
+/// Ladder grids the kernel keeps load vectors of (`MAX_RUNGS`).
+const MAX_RUNGS: usize = 12;
+/// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`).
+const JOB_STRIDE: usize = 16;
+const OUT_STRIDE: usize = 12;
+/// Arrays per level in a slot's scratch (face coefficients ×2, inverse diagonals ×2,
+/// right-hand side, iterate, u0, residual).
+const ARRAYS: usize = 8;
+/// Workgroups per dispatch row (WebGPU's guaranteed per-dimension limit).
+const ROW: u32 = 65_535;
+/// Column value meaning "no inlet on this row" (`NO_INLET`).
+const NO_INLET: u32 = u32::MAX;
+/// V-cycle limit of one grid (src/bearing/finite/solver.rs `MAX_CYCLES`).
+const MAX_CYCLES: u32 = 200;
+/// Device memory for one dispatch's scratch, fields and results, bytes (capped by the
+/// device's buffer limits): 2 GiB holds ~700 states at the default accuracy.
+const SCRATCH_BUDGET: u64 = 2 << 30;
+/// States per dispatch at most (bounds one dispatch's run time under the device timeout
+/// on a software device).
+const MAX_SLOTS: usize = 4096;
+/// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Verified
+/// range" (512 × 65 = 33 280 at B/D = 0.5; the next ladder grid, 1024 × 129, would also
+/// quadruple every slot's memory). The environment variable
+/// `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a node count) overrides it, to check the range on
+/// another device (an unparsable value keeps the default).
+pub const DEVICE_MAX_NODES: usize = 40_000;
+
+/// The verified range in force ([`DEVICE_MAX_NODES`] or its override).
+fn device_max_nodes() -> usize {
+    std::env::var("BEARING_SWEEP_FINITE_GPU_MAX_NODES")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(DEVICE_MAX_NODES)
+}
+
+/// The uniform block (`Params`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    count: u32,
+    n_levels: u32,
+    top0: u32,
+    mode: u32,
+    stride: u32,
+    inlet_stride: u32,
+    field_stride: u32,
+    banded: u32,
+    more: u32,
+    max_cycles: u32,
+    pad0: u32,
+    pad1: u32,
+    tolerance: f64,
+    target: f64,
+    lv: [[u32; 4]; MAX_LEVELS],
+    lw: [[u32; 4]; MAX_LEVELS],
+}
+
+/// One level of a hierarchy: intervals around and along, coarsening to the level below.
+type Dims = (usize, usize, Option<Coarsen>);
+
+/// The hierarchy of a job on `grid`: the first grid's levels (coarsest first) and, in
+/// accuracy mode, the ladder's further grids; `top0` is the first grid's level.
+fn hierarchy(grid: &FiniteGrid, aspect: f64) -> (Vec<Dims>, usize) {
+    let (nt, nz) = match grid.accuracy {
+        Some(_) => accuracy_ladder(aspect)[0],
+        None => (grid.n_theta, grid.n_z),
+    };
+    // As Hierarchy::build: coarsen until `coarser` says the grid is the coarsest.
+    let mut dims: Vec<Dims> = vec![(nt, nz, None)];
+    let (mut a, mut b) = (nt, nz);
+    while let Some((c, d, how)) = coarser(a, b, aspect) {
+        dims.last_mut().expect("nonempty").2 = Some(how);
+        dims.push((c, d, None));
+        a = c;
+        b = d;
+    }
+    dims.reverse();
+    let top0 = dims.len() - 1;
+    if grid.accuracy.is_some() {
+        for &(t, z) in &accuracy_ladder(aspect)[1..] {
+            dims.push((t, z, Some(Coarsen::Both)));
+        }
+    }
+    (dims, top0)
+}
+
+/// Nodes of an `nt × nz` grid with its end rows.
+fn full(d: &Dims) -> usize {
+    d.0 * (d.1 + 1)
+}
+
+/// The compiled multigrid pipeline on one device.
+pub(crate) struct MultigridPipeline {
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// One dispatch group: jobs (indices into the call) sharing a hierarchy.
+struct Group<'a> {
+    dims: &'a [Dims],
+    top0: usize,
+    /// Levels used in this pass (`dims[..n_levels]`).
+    n_levels: usize,
+    members: Vec<usize>,
+}
+
+impl MultigridPipeline {
+    /// Compiles the kernel; a validation error is returned, not raised.
+    pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("finite_mg.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(FINITE_MG_WGSL.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("finite film multigrid kernel"),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "the finite-film multigrid kernel does not build: {e}"
+            )));
+        }
+        Ok(MultigridPipeline { pipeline })
+    }
+
+    /// Solves `jobs` on `grid` (fixed or accuracy mode, Swift–Stieber); `fields[k]` of the
+    /// grid's length is job k's warm start on a fixed grid, and receives its solution.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        out.clear();
+        out.resize(jobs.len(), [f64::NAN; 4]);
+        reports.clear();
+        reports.resize(jobs.len(), SolveReport::default());
+        // Group by hierarchy (first appearance order).
+        let mut keys: Vec<(Vec<Dims>, usize)> = Vec::new();
+        let mut member_of: Vec<usize> = Vec::with_capacity(jobs.len());
+        for job in jobs {
+            let h = hierarchy(grid, job.aspect);
+            if h.0.len() > MAX_LEVELS || h.0.len() - h.1 > MAX_RUNGS {
+                return Err(BackendError::Device(format!(
+                    "the finite-film multigrid kernel holds {MAX_LEVELS} levels; this grid \
+                     needs {}",
+                    h.0.len()
+                )));
+            }
+            let g = match keys.iter().position(|k| *k == h) {
+                Some(g) => g,
+                None => {
+                    keys.push(h);
+                    keys.len() - 1
+                }
+            };
+            member_of.push(g);
+        }
+        let max_nodes = device_max_nodes();
+        if grid.accuracy.is_none() && grid.n_theta * (grid.n_z + 1) > max_nodes {
+            return Err(BackendError::Device(format!(
+                "finite grid {}×{} is beyond the multigrid kernel's verified range \
+                 ({max_nodes} nodes)",
+                grid.n_theta, grid.n_z
+            )));
+        }
+        let mut on_cpu = Vec::new();
+        for (g, (dims, top0)) in keys.iter().enumerate() {
+            let members: Vec<usize> = (0..jobs.len()).filter(|&k| member_of[k] == g).collect();
+            // The levels within the verified range (accuracy mode: the ladder up to there).
+            let mut n_levels = dims.len();
+            while n_levels > 0 && full(&dims[n_levels - 1]) > max_nodes {
+                n_levels -= 1;
+            }
+            if n_levels <= *top0 {
+                on_cpu.extend(members);
+                continue;
+            }
+            let group = Group {
+                dims,
+                top0: *top0,
+                n_levels,
+                members,
+            };
+            on_cpu.extend(self.dispatch_group(
+                device, queue, timeout, jobs, grid, &group, fields, out, reports,
+            )?);
+        }
+        if !on_cpu.is_empty() {
+            // Beyond the device's grids: the CPU solver, from scratch (as a CPU run).
+            use rayon::prelude::*;
+            let solved: Vec<(usize, FilmIntegrals, SolveReport, Vec<f64>)> = on_cpu
+                .par_iter()
+                .map_init(crate::bearing::finite::FiniteSolver::new, |solver, &k| {
+                    let mut f = Vec::new();
+                    let (v, r) = solver.solve(&jobs[k], grid, &mut f);
+                    (k, v, r, f)
+                })
+                .collect();
+            for (k, v, r, f) in solved {
+                out[k] = v;
+                reports[k] = r;
+                fields[k] = f;
+            }
+        }
+        Ok(())
+    }
+
+    /// Dispatches one group in chunks; returns the members that need more grids.
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch_group(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        group: &Group,
+        fields: &mut [Vec<f64>],
+        out: &mut [FilmIntegrals],
+        reports: &mut [SolveReport],
+    ) -> Result<Vec<usize>, BackendError> {
+        let dims = &group.dims[..group.n_levels];
+        let accuracy = grid.accuracy.is_some();
+        // Level table: scratch offsets, trig offsets, geo offsets, inlet offsets.
+        let mut lv = [[0u32; 4]; MAX_LEVELS];
+        let mut lw = [[0u32; 4]; MAX_LEVELS];
+        let (mut so, mut to, mut go, mut io) = (0usize, 0usize, 0usize, 0usize);
+        let mut trig: Vec<f64> = Vec::new();
+        let mut geo: Vec<f64> = Vec::new();
+        let banded = !grid.layout.is_empty();
+        for (l, d) in dims.iter().enumerate() {
+            let coarsen = match d.2 {
+                None => 0,
+                Some(Coarsen::Both) => 1,
+                Some(Coarsen::Theta) => 2,
+                Some(Coarsen::Zeta) => 3,
+            };
+            lv[l] = [d.0 as u32, d.1 as u32, coarsen, so as u32];
+            lw[l] = [to as u32, go as u32, io as u32, 0];
+            so += ARRAYS * full(d);
+            let dt = 2.0 * PI / d.0 as f64;
+            for k in 0..2 * d.0 {
+                let th = 0.5 * dt * k as f64;
+                trig.push(th.cos());
+                trig.push(th.sin());
+            }
+            to += 4 * d.0;
+            if banded {
+                // Grooves and arcs replace the inlet line: node 0 at angle 0.
+                let held = grid.layout.held_nodes(d.0, d.1, 0.0);
+                for k in 0..full(d) {
+                    geo.extend_from_slice(&[held.east[k], held.north[k], held.held_pa[k]]);
+                }
+                go += 3 * full(d);
+            }
+            io += d.1 + 1;
+        }
+        if geo.is_empty() {
+            geo.push(0.0);
+        }
+        let stride = so;
+        let inlet_stride = io;
+        let field_stride = full(&dims[dims.len() - 1]);
+        let limits = device.limits();
+        let cap = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            .min(SCRATCH_BUDGET);
+        let per_slot = ((stride + field_stride) * 8) as u64;
+        let slots = ((cap / per_slot) as usize).clamp(1, MAX_SLOTS);
+        if (stride * 8) as u64 > cap {
+            return Err(BackendError::Device(format!(
+                "the finite-film multigrid needs {} MiB per state, more than the device's \
+                 buffer limit",
+                (stride * 8) >> 20
+            )));
+        }
+        let trig_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg trig"),
+            contents: bytemuck::cast_slice(&trig),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let geo_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg grooves"),
+            contents: bytemuck::cast_slice(&geo),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let stop_tol = match grid.accuracy {
+            Some(target) => (ALGEBRAIC_FRACTION * target).max(grid.tolerance),
+            None => grid.tolerance,
+        };
+        let mut redo = Vec::new();
+        for chunk in group.members.chunks(slots) {
+            let n = chunk.len();
+            let mut job_data = Vec::with_capacity(n * JOB_STRIDE);
+            let mut inlets = vec![NO_INLET; n * inlet_stride];
+            let mut field_data = vec![0.0_f64; n * field_stride];
+            for (s, &k) in chunk.iter().enumerate() {
+                let job = &jobs[k];
+                let e = &job.state.ecc;
+                // Node 0 on the mid-plane's maximum film on the ladder (solver.rs
+                // ladder_start); 0 on explicit grids.
+                let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
+                let theta0 = if accuracy && grid.max_film_inlet && (ex != 0.0 || ey != 0.0) {
+                    (-ey).atan2(-ex)
+                } else {
+                    0.0
+                };
+                let warm = !accuracy
+                    && fields[k].len() == field_stride
+                    && fields[k].iter().all(|v| v.is_finite() && *v >= 0.0);
+                if warm {
+                    field_data[s * field_stride..(s + 1) * field_stride]
+                        .copy_from_slice(&fields[k]);
+                }
+                let coarsest = FiniteGrid {
+                    n_theta: dims[0].0,
+                    n_z: dims[0].1,
+                    accuracy: None,
+                    ..*grid
+                };
+                job_data.extend_from_slice(e);
+                job_data.extend_from_slice(&job.state.rate);
+                job_data.extend_from_slice(&[
+                    job.aspect,
+                    job.supply,
+                    coarsest.relaxation(job.aspect),
+                    theta0,
+                    theta0.cos(),
+                    theta0.sin(),
+                    if warm { 1.0 } else { 0.0 },
+                    0.0,
+                ]);
+                if grid.max_film_inlet {
+                    // The column nearest the maximum film per row (multigrid.rs
+                    // Level::setup), per level.
+                    for (l, d) in dims.iter().enumerate() {
+                        let (nt, nz) = (d.0, d.1);
+                        let dt = 2.0 * PI / nt as f64;
+                        let dz = 1.0 / nz as f64;
+                        for j in 1..nz {
+                            let zeta = j as f64 * dz;
+                            let ex = e[0] + (e[2] - e[0]) * zeta;
+                            let ey = e[1] + (e[3] - e[1]) * zeta;
+                            if ex != 0.0 || ey != 0.0 {
+                                let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                                let i = (th / dt).round() as usize % nt;
+                                inlets[s * inlet_stride + lw[l][2] as usize + j] = i as u32;
+                            }
+                        }
+                    }
+                }
+            }
+            let params = Params {
+                count: n as u32,
+                n_levels: dims.len() as u32,
+                top0: group.top0 as u32,
+                mode: u32::from(accuracy),
+                stride: stride as u32,
+                inlet_stride: inlet_stride as u32,
+                field_stride: field_stride as u32,
+                banded: u32::from(banded),
+                more: u32::from(group.n_levels < group.dims.len()),
+                max_cycles: MAX_CYCLES,
+                pad0: 0,
+                pad1: 0,
+                tolerance: stop_tol,
+                target: grid.accuracy.unwrap_or(0.0),
+                lv,
+                lw,
+            };
+            let vals = self.dispatch(
+                device,
+                queue,
+                timeout,
+                &params,
+                &[&trig_buf, &geo_buf],
+                &job_data,
+                &inlets,
+                &field_data,
+                (n * stride * 8) as u64,
+            )?;
+            let (fv, rv) = vals.split_at(n * field_stride);
+            for (s, &k) in chunk.iter().enumerate() {
+                let r = &rv[s * OUT_STRIDE..(s + 1) * OUT_STRIDE];
+                if r[11] > 1.5 {
+                    redo.push(k);
+                    continue;
+                }
+                let (nt, nz) = (r[7] as usize, r[8] as usize);
+                out[k] = [r[0], r[1], r[2], r[3]];
+                fields[k].clear();
+                fields[k]
+                    .extend_from_slice(&fv[s * field_stride..s * field_stride + nt * (nz + 1)]);
+                reports[k] = SolveReport {
+                    sweeps: r[4] as u32,
+                    iteration_error: r[5],
+                    converged: r[6] > 0.5,
+                    n_theta: nt as u32,
+                    n_z: nz as u32,
+                    error_estimate: if !accuracy {
+                        0.0
+                    } else if r[9] < 0.0 {
+                        f64::INFINITY
+                    } else {
+                        r[9]
+                    },
+                    accuracy_met: r[10] > 0.5,
+                };
+            }
+        }
+        Ok(redo)
+    }
+
+    /// One dispatch: uploads, runs, reads back `fields` followed by the results.
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        params: &Params,
+        shared: &[&wgpu::Buffer; 2],
+        job_data: &[f64],
+        inlets: &[u32],
+        field_data: &[f64],
+        scratch_bytes: u64,
+    ) -> Result<Vec<f64>, BackendError> {
+        let n = params.count as usize;
+        let scope_oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let scope_val = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let init = |label, data: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage,
+            })
+        };
+        let st = wgpu::BufferUsages::STORAGE;
+        let params_buf = init(
+            "finite mg params",
+            bytemuck::bytes_of(params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let jobs_buf = init("finite mg jobs", bytemuck::cast_slice(job_data), st);
+        let fields_buf = init(
+            "finite mg fields",
+            bytemuck::cast_slice(field_data),
+            st | wgpu::BufferUsages::COPY_SRC,
+        );
+        // An empty inlet table (no max-film inlet) still needs a binding.
+        let inl: Vec<u32> = if inlets.is_empty() {
+            vec![NO_INLET]
+        } else {
+            inlets.to_vec()
+        };
+        let inlets_buf = init("finite mg inlets", bytemuck::cast_slice(&inl), st);
+        let results_len = (n * OUT_STRIDE * 8) as u64;
+        let results_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("finite mg results"),
+            size: results_len,
+            usage: st | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let scratch = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("finite mg scratch"),
+            size: scratch_bytes.max(8),
+            usage: st,
+            mapped_at_creation: false,
+        });
+        let fields_len = (field_data.len() * 8) as u64;
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("finite mg readback"),
+            size: fields_len + results_len,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let bufs = [
+            &params_buf,
+            shared[0],
+            &jobs_buf,
+            &fields_buf,
+            &results_buf,
+            &inlets_buf,
+            shared[1],
+            &scratch,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = bufs
+            .iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("finite mg bindings"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let mut enc =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("finite film multigrid"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            let groups = n as u32;
+            pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
+        }
+        enc.copy_buffer_to_buffer(&fields_buf, 0, &readback, 0, fields_len);
+        enc.copy_buffer_to_buffer(&results_buf, 0, &readback, fields_len, results_len);
+        let sub = queue.submit(Some(enc.finish()));
+        let val = pollster::block_on(scope_val.pop());
+        let oom = pollster::block_on(scope_oom.pop());
+        if let Some(e) = oom.or(val) {
+            return Err(BackendError::Device(format!(
+                "dispatching {n} finite-film multigrid states: {e}"
+            )));
+        }
+        let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> =
+            Arc::new(Mutex::new(None));
+        let d = done.clone();
+        readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            if let Ok(mut g) = d.lock() {
+                *g = Some(r);
+            }
+        });
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(sub),
+                timeout: Some(timeout),
+            })
+            .map_err(|e| {
+                BackendError::Device(format!(
+                    "waiting for the finite-film multigrid kernel (timeout {timeout:?}): {e}"
+                ))
+            })?;
+        let mut state = done.lock().ok().and_then(|g| g.clone());
+        if state.is_none() {
+            let _ = device.poll(wgpu::PollType::Poll);
+            state = done.lock().ok().and_then(|g| g.clone());
+        }
+        match state {
+            Some(Ok(())) => {}
+            Some(Err(e)) => {
+                return Err(BackendError::Device(format!(
+                    "reading the finite-film multigrid results back: {e}"
+                )))
+            }
+            None => {
+                return Err(BackendError::Device(
+                    "finite-film multigrid results never became readable".into(),
+                ))
+            }
+        }
+        let vals = {
+            let view = readback.get_mapped_range(..).map_err(|e| {
+                BackendError::Device(format!("mapping the finite-film multigrid results: {e}"))
+            })?;
+            bytemuck::cast_slice::<u8, f64>(&view).to_vec()
+        };
+        readback.unmap();
+        Ok(vals)
+    }
+}
