@@ -57,7 +57,7 @@ f['axes'] = [{'path': 'bearings[*].clearance', 'logspace': [0.0002, 0.0006, 32]}
 for b in f['base']['bearings']:
     b['model'] = 'finite'
     b.pop('finite', None)          # the default accuracy 5e-4
-f['base']['integrator']['t_end'] = 0.00025
+f['base']['integrator']['t_end'] = 0.00025; f['base']['integrator']['sample_interval'] = 2.5e-5  # must not exceed t_end
 json.dump(f, open('/tmp/mg1024.json', 'w'))
 PY
 ( /usr/bin/time -f "cpu16: %e s wall, %M KB" timeout 25 \
