@@ -296,10 +296,11 @@ fn accuracy_mode_on_gpu_matches_cpu() {
 /// fallback notice, and the loads (with their film flows from the returned field) agree
 /// with the CPU backend's.
 #[test]
-fn evaluator_runs_accuracy_mode_and_large_grids_on_the_gpu() {
+fn evaluator_runs_large_grids_on_the_gpu_and_polished_accuracy_mode_on_the_cpu() {
     let Some(backend) = gpu_f64() else { return };
     let mut gpu_ev = LoadEvaluator::new(Box::new(backend));
     let mut cpu_ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let mut accuracy_states = 0u64;
     for finite in [
         FiniteSettings::default(),
         FiniteSettings {
@@ -317,9 +318,13 @@ fn evaluator_runs_accuracy_mode_and_large_grids_on_the_gpu() {
         let (mut a, mut b) = (Vec::new(), Vec::new());
         gpu_ev.evaluate(&[p], &req, &mut a);
         cpu_ev.evaluate(&[p], &req, &mut b);
+        // Accuracy mode through the plain evaluator asks for the film friction and flow, so
+        // its last grid is polished to the tolerance (issue 20), which the kernel does not
+        // do: those states run on the CPU (said once in a notice), equal to the CPU's. The
+        // kernel's own accuracy mode is checked against the CPU in the tests above.
         let tol = match finite.fixed_grid() {
             Some(_) => 20.0 * finite.tolerance,
-            None => 2.0 * finite.accuracy / 50.0,
+            None => 0.0,
         };
         for (k, (x, y)) in a.iter().zip(&b).enumerate() {
             let (x, y) = (x.as_ref().unwrap(), y.as_ref().unwrap());
@@ -341,8 +346,16 @@ fn evaluator_runs_accuracy_mode_and_large_grids_on_the_gpu() {
             );
         }
         let notices = gpu_ev.take_notices();
-        assert!(notices.is_empty(), "no CPU fallback expected: {notices:?}");
+        if finite.fixed_grid().is_some() {
+            assert!(notices.is_empty(), "no CPU fallback expected: {notices:?}");
+        } else {
+            assert!(
+                notices.len() == 1 && notices[0].contains("accuracy ladder only"),
+                "accuracy mode with film outputs: one notice naming why: {notices:?}"
+            );
+            accuracy_states += req.len() as u64;
+        }
     }
-    assert_eq!(gpu_ev.stats().cpu_recomputed, 0);
+    assert_eq!(gpu_ev.stats().cpu_recomputed, accuracy_states);
     let _ = FilmLayout::default();
 }

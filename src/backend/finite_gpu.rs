@@ -91,6 +91,18 @@ impl FinitePipeline {
                     .into(),
             ));
         }
+        if grid.accuracy.is_some() && (grid.polish || grid.n_theta > 0) {
+            // The multigrid kernel runs the ladder with its per-grid stop on the loads; a
+            // held ladder grid (coefficients, equilibria: `FiniteSettings::held_grid`) and
+            // the last grid polished to the tolerance (film outputs requested:
+            // `FiniteGrid::polish`) are not in it.
+            return Err(BackendError::Device(
+                "the WGSL multigrid kernel runs the accuracy ladder only; held ladder grids \
+                 (coefficients, equilibria) and accuracy mode with film friction or flow \
+                 requested run on the CPU"
+                    .into(),
+            ));
+        }
         let interior = grid.n_theta * (grid.n_z.max(1) - 1);
         if grid.accuracy.is_some() || interior > FINITE_MAX_NODES {
             // Accuracy mode and grids beyond the workgroup memory: projected multigrid.
