@@ -20,10 +20,12 @@ pub use flow::{
 };
 pub(crate) use jfo::apply_jfo_flow;
 pub use jfo::{jfo_balance, jfo_flow_integrals, JfoBalance, JfoHistory, JfoSolver};
-// For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
+// For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
+#[cfg(feature = "gpu")]
 pub(crate) use multigrid::{coarser, Coarsen};
 pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
+#[cfg(feature = "gpu")]
 pub(crate) use solver::ALGEBRAIC_FRACTION;
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
