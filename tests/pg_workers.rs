@@ -364,3 +364,85 @@ async fn workers_reconnect_after_postgres_restarts_mid_sweep() {
         "no worker logged a retry: was the server really down?"
     );
 }
+
+/// A worker runs each claimed sweep within its own `--max-memory`, not the 2 GiB default
+/// (a queued sweep stores no budget): two short rotor variants run at the default budget
+/// and are refused under a 1 KiB one (their samples cannot fit), the refusal naming the
+/// budget.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_runs_sweeps_within_its_own_memory_budget() {
+    let Some(pg) = PgCluster::start_or_skip("worker budget") else {
+        return;
+    };
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/sweeps/clearance-viscosity.json"
+    ))
+    .unwrap();
+    let mut s: Value = serde_json::from_str(&text).unwrap();
+    s["axes"] = json!([{"path": "bearings[*].clearance", "values": [0.0003, 0.0004]}]);
+    s["base"]["integrator"]["t_end"] = json!(0.002);
+    s["base"]["integrator"]["sample_interval"] = json!(0.0005);
+    s["plots"] = json!([]);
+    let q = PgQueue::new(&pg.url(), 4).unwrap();
+    q.migrate().await.unwrap();
+    let parsed = parse_queued(&s).unwrap();
+    let opts = SweepOptions {
+        backend: bearing_sweep::backend::BackendKind::Cpu,
+        ..SweepOptions::default()
+    };
+    let logs = scratch("pg-workers", "budget-logs");
+    for (name, budget) in [("tiny", Some("1K")), ("default", None)] {
+        let (id, total) = submit_spec(&q, &parsed, opts, 8).await.unwrap();
+        assert_eq!(total, 2);
+        let mut cmd = bin();
+        cmd.args([
+            "worker",
+            "--database",
+            &pg.url(),
+            "--backend",
+            "cpu",
+            "--exit-when-idle",
+            "2",
+            "--id",
+            name,
+        ]);
+        if let Some(b) = budget {
+            cmd.args(["--max-memory", b]);
+        }
+        let child = cmd
+            .env("RAYON_NUM_THREADS", "1")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(logs.join(format!("{name}.log"))).unwrap())
+            .spawn()
+            .expect("worker starts");
+        let mut children = vec![(name.to_string(), child)];
+        wait_all(&mut children, Duration::from_secs(120), &logs);
+        let row = q.sweep(&id).await.unwrap().unwrap();
+        let lines: Vec<(bool, String)> = q
+            .variants(&id, 0, u64::MAX)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|r| (r.ok, r.line))
+            .collect();
+        if budget.is_some() {
+            let refused_sweep =
+                row.status == "failed" && format!("{row:?}").contains("memory budget");
+            let refused_variants = lines.len() == 2
+                && lines
+                    .iter()
+                    .all(|(ok, l)| !ok && l.contains("memory budget"));
+            assert!(
+                refused_sweep || refused_variants,
+                "a 1 KiB worker budget must refuse the sweep, naming the budget: {row:?} {lines:?}"
+            );
+        } else {
+            assert_eq!(row.status, "done", "{row:?}");
+            assert!(
+                lines.len() == 2 && lines.iter().all(|(ok, _)| *ok),
+                "the default budget runs both variants: {lines:?}"
+            );
+        }
+    }
+}
