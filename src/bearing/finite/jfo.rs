@@ -602,23 +602,11 @@ impl JfoSolver {
     }
 }
 
-/// Flow and friction integrals of a converged JFO field (pressure then film fraction on
-/// the `nt × nz` grid whose node 0 is at `theta0`), in the units of
-/// [`super::flow_integrals`], and the liquid share of the Couette shear
-/// `∬ φ/H / ∬ 1/H` (1 for a full film). `history`: the time step the field was solved
-/// with (its storage enters the balance). `None` when the field does not fit the grid or
-/// the job has no spin.
-///
-/// Balance (exact discrete identity): `inlet = side[0] + side[1] + storage − residual`,
-/// with `inlet` the net Couette and Poiseuille outflow of the held (supply) nodes, `side`
-/// the Poiseuille flux through the end faces (with the end half-cells of the pressure
-/// zone's columns, as [`super::flow_integrals`]), `storage` the squeeze and time storage
-/// of the liquid content `Σ 12 ∂τ(φH)` over the free nodes (in the solve's form, module
-/// docs), and
-/// `residual` the sum of the free nodes' equation residuals (0 at convergence, in the
-/// cavitated zone too).
+/// The `nt × nz` level (node 0 at `theta0`) holding a solved JFO `field` (pressure, then
+/// film fraction) with its coefficients set up as the solve had them under `history`, for
+/// the flow and balance sums; `None` when the field does not fit or the job has no spin.
 #[allow(clippy::too_many_arguments)]
-pub fn jfo_flow_integrals(
+fn solved_level(
     job: &FiniteJob,
     g: &FiniteGrid,
     nt: usize,
@@ -626,7 +614,7 @@ pub fn jfo_flow_integrals(
     theta0: f64,
     field: &[f64],
     history: Option<&JfoHistory>,
-) -> Option<(FlowIntegrals, f64)> {
+) -> Option<JfoLevel> {
     let n = nt * (nz + 1);
     let spin = job.spin.filter(|s| s.is_finite())?;
     if nt < 2 || nz < 2 || field.len() != 2 * n {
@@ -655,6 +643,35 @@ pub fn jfo_flow_integrals(
         inv_dtau,
         history.and_then(|h| h.prev_ecc.as_ref()),
     );
+    Some(lvl)
+}
+
+/// Flow and friction integrals of a converged JFO field (pressure then film fraction on
+/// the `nt × nz` grid whose node 0 is at `theta0`), in the units of
+/// [`super::flow_integrals`], and the liquid share of the Couette shear
+/// `∬ φ/H / ∬ 1/H` (1 for a full film). `history`: the time step the field was solved
+/// with (its storage enters the balance). `None` when the field does not fit the grid or
+/// the job has no spin.
+///
+/// Balance (exact discrete identity): `inlet = side[0] + side[1] + storage − residual`,
+/// with `inlet` the net Couette and Poiseuille outflow of the held (supply) nodes, `side`
+/// the Poiseuille flux through the end faces (with the end half-cells of the pressure
+/// zone's columns, as [`super::flow_integrals`]), `storage` the squeeze and time storage
+/// of the liquid content `Σ 12 ∂τ(φH)` over the free nodes (in the solve's form, module
+/// docs), and
+/// `residual` the sum of the free nodes' equation residuals (0 at convergence, in the
+/// cavitated zone too).
+#[allow(clippy::too_many_arguments)]
+pub fn jfo_flow_integrals(
+    job: &FiniteJob,
+    g: &FiniteGrid,
+    nt: usize,
+    nz: usize,
+    theta0: f64,
+    field: &[f64],
+    history: Option<&JfoHistory>,
+) -> Option<(FlowIntegrals, f64)> {
+    let lvl = solved_level(job, g, nt, nz, theta0, field, history)?;
     let (p, phi) = (&lvl.p, &lvl.phi);
     let dt = 2.0 * PI / nt as f64;
     let dz = 1.0 / nz as f64;
@@ -794,34 +811,7 @@ pub fn jfo_balance(
     field: &[f64],
     history: Option<&JfoHistory>,
 ) -> Option<JfoBalance> {
-    let n = nt * (nz + 1);
-    let spin = job.spin.filter(|s| s.is_finite())?;
-    if nt < 2 || nz < 2 || field.len() != 2 * n {
-        return None;
-    }
-    let inv_dtau = match history {
-        Some(h) if h.phi.len() == n && h.dtau > 0.0 => 1.0 / h.dtau,
-        _ => 0.0,
-    };
-    let mut lvl = JfoLevel {
-        p: field[..n].to_vec(),
-        phi: field[n..].to_vec(),
-        phi_old: match history {
-            Some(h) if inv_dtau > 0.0 => h.phi.to_vec(),
-            _ => vec![1.0; n],
-        },
-        ..JfoLevel::default()
-    };
-    lvl.setup(
-        job,
-        g,
-        nt,
-        nz,
-        theta0,
-        spin,
-        inv_dtau,
-        history.and_then(|h| h.prev_ecc.as_ref()),
-    );
+    let lvl = solved_level(job, g, nt, nz, theta0, field, history)?;
     let (p, phi) = (&lvl.p, &lvl.phi);
     let dt = 2.0 * PI / nt as f64;
     let e = &job.state.ecc;
