@@ -7,54 +7,11 @@ mod pg_support;
 mod service_support;
 
 use std::collections::BTreeSet;
-use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use pg_support::PgCluster;
+use pg_support::{PgCluster, Workers};
 use serde_json::Value;
 use service_support::*;
-
-/// Worker processes, killed when dropped.
-struct Workers(Vec<Child>);
-
-impl Workers {
-    fn start(url: &str, n: usize, batch: usize, dir: &std::path::Path) -> Workers {
-        Workers(
-            (0..n)
-                .map(|k| {
-                    bin()
-                        .args([
-                            "worker",
-                            "--database",
-                            url,
-                            "--batch",
-                            &batch.to_string(),
-                            "--lease-ttl",
-                            "5",
-                            "--heartbeat",
-                            "0.25",
-                            "--id",
-                            &format!("w{k}"),
-                        ])
-                        .env("RAYON_NUM_THREADS", "1")
-                        .stdout(Stdio::null())
-                        .stderr(std::fs::File::create(dir.join(format!("w{k}.log"))).unwrap())
-                        .spawn()
-                        .expect("worker starts")
-                })
-                .collect(),
-        )
-    }
-}
-
-impl Drop for Workers {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
 
 /// Variant ids in an event stream's `variant` events, and its last event.
 fn variant_events(text: &str) -> (Vec<u64>, Option<(String, Value)>) {
@@ -87,7 +44,7 @@ fn every_committed_variant_has_its_event_with_eight_workers() {
     let url = pg.url();
     let server = Server::start(&dir.join("data"), &["--database", &url]);
     let base = server.url.clone();
-    let _workers = Workers::start(&url, 8, 2, &dir);
+    let _workers = Workers::start(&url, 8, 2, 5, &dir);
     for round in 0..2 {
         let id = submit(&base, &synthetic_spec(256, 0), "");
         let a = get(&format!("{base}/api/sweeps/{id}/events"), None);

@@ -7,53 +7,10 @@
 mod pg_support;
 mod service_support;
 
-use std::process::{Child, Stdio};
 use std::time::Duration;
 
-use pg_support::PgCluster;
+use pg_support::{PgCluster, Workers};
 use service_support::*;
-
-/// Worker processes, killed when dropped.
-struct Workers(Vec<Child>);
-
-impl Workers {
-    fn start(url: &str, n: usize, dir: &std::path::Path) -> Workers {
-        Workers(
-            (0..n)
-                .map(|k| {
-                    bin()
-                        .args([
-                            "worker",
-                            "--database",
-                            url,
-                            "--batch",
-                            "4",
-                            "--lease-ttl",
-                            "3",
-                            "--heartbeat",
-                            "0.25",
-                            "--id",
-                            &format!("w{k}"),
-                        ])
-                        .env("RAYON_NUM_THREADS", "1")
-                        .stdout(Stdio::null())
-                        .stderr(std::fs::File::create(dir.join(format!("w{k}.log"))).unwrap())
-                        .spawn()
-                        .expect("worker starts")
-                })
-                .collect(),
-        )
-    }
-}
-
-impl Drop for Workers {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
 
 #[test]
 fn api_suite_on_the_postgres_store() {
@@ -66,7 +23,7 @@ fn api_suite_on_the_postgres_store() {
         &dir.join("data"),
         &["--database", &url, "--eval-window-ms", "20"],
     );
-    let _workers = Workers::start(&url, 2, &dir);
+    let _workers = Workers::start(&url, 2, 4, 3, &dir);
     let base = server.url.clone();
     assert_eq!(get(&format!("{base}/healthz"), None).status, 200);
     suite::bad_input_is_refused_naming_the_field(&base);
@@ -99,7 +56,7 @@ fn server_and_workers_ride_out_a_postgres_restart_mid_sweep() {
     let dir = scratch("pg-restart");
     let url = pg.url();
     let server = Server::start(&dir.join("data"), &["--database", &url]);
-    let _workers = Workers::start(&url, 2, &dir);
+    let _workers = Workers::start(&url, 2, 4, 3, &dir);
     let base = server.url.clone();
     // 60 variants x 50 ms in leases of 4: about 1.5 s with two workers.
     let spec = synthetic_spec(60, 50);

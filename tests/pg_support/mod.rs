@@ -10,7 +10,7 @@
 #![allow(dead_code)] // each test crate uses its own subset
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Duration;
 
@@ -272,5 +272,50 @@ impl Drop for PgCluster {
     fn drop(&mut self) {
         let _ = self.pg_ctl_stop("immediate");
         let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// `worker` processes of the binary under test on one database, each logging to
+/// `dir/w{k}.log`, on one rayon thread each; killed when dropped.
+pub struct Workers(Vec<Child>);
+
+impl Workers {
+    /// Starts `n` workers claiming `batch` variants at a time with leases of
+    /// `lease_ttl_s` seconds (heartbeat every 0.25 s).
+    pub fn start(url: &str, n: usize, batch: usize, lease_ttl_s: u32, dir: &Path) -> Workers {
+        Workers(
+            (0..n)
+                .map(|k| {
+                    Command::new(env!("CARGO_BIN_EXE_bearing-sweep"))
+                        .args([
+                            "worker",
+                            "--database",
+                            url,
+                            "--batch",
+                            &batch.to_string(),
+                            "--lease-ttl",
+                            &lease_ttl_s.to_string(),
+                            "--heartbeat",
+                            "0.25",
+                            "--id",
+                            &format!("w{k}"),
+                        ])
+                        .env("RAYON_NUM_THREADS", "1")
+                        .stdout(Stdio::null())
+                        .stderr(std::fs::File::create(dir.join(format!("w{k}.log"))).unwrap())
+                        .spawn()
+                        .expect("worker starts")
+                })
+                .collect(),
+        )
+    }
+}
+
+impl Drop for Workers {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
     }
 }
