@@ -138,6 +138,16 @@ impl BearingState {
                 return Err(StateFault::NonFinite { field });
             }
         }
+        // Fast path: both ends clearly inside the bore (`x² + y² < (0.99 δ)²`, whose
+        // rounding, a few ulp, cannot reach the 2 % margin), so `hypot` cannot reach 1;
+        // the same verdict as the exact test below, without its two `hypot`s (2 % of a
+        // rotor run's instructions, BENCHMARKS.md "Issue 28, fifth pass").
+        let inside = (0.99 * clearance_m) * (0.99 * clearance_m);
+        if self.xi * self.xi + self.yi * self.yi < inside
+            && self.xj * self.xj + self.yj * self.yj < inside
+        {
+            return Ok(());
+        }
         let (ei, ej) = self.eccentricity_ratios(clearance_m);
         if ei >= 1.0 {
             return Err(StateFault::ThroughWall {

@@ -240,6 +240,8 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let mut z = vec![0.0; n * d3];
     let mut dense = vec![0.0; n * d3];
     let mut scale = vec![1.0; n * d];
+    // Newton's error weights `atol · scale + rtol · |y|` of the step under way.
+    let mut wts = vec![1.0; n * d];
     for id in 0..n {
         sys.scales(id, &mut scale[id * d..(id + 1) * d]);
     }
@@ -419,6 +421,10 @@ pub(crate) fn continue_from<S: BatchSystem>(
             };
             v.iters = 0;
             v.eta = v.eta.max(f64::EPSILON).powf(0.8);
+            // Newton's error weights: the state does not move during the iteration.
+            for p in 0..d {
+                wts[id * d + p] = s.atol * scale[id * d + p] + s.rtol * y[id * d + p].abs();
+            }
             work.push(id);
         }
         // 4. Newton, all variants' three stages in one call per iteration.
@@ -484,10 +490,10 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     }
                 }
                 let mut sum = 0.0;
+                let wb = &wts[id * d..(id + 1) * d];
                 for i in 0..3 {
                     for p in 0..d {
-                        let w = s.atol * scale[id * d + p] + s.rtol * y[id * d + p].abs();
-                        sum += (dz[i * d + p] / w).powi(2);
+                        sum += (dz[i * d + p] / wb[p]).powi(2);
                     }
                 }
                 let norm = (sum / d3 as f64).sqrt();
