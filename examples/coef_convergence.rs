@@ -122,6 +122,28 @@ fn main() {
             }
             println!();
         }
+        // x-y block norms of the reported and the true error per grid, and the
+        // successive-grid ratio of the block's change (what the tests check).
+        for (name, r) in [("K", 0..4), ("C", 4..8)] {
+            print!("  {name} block reported/true:");
+            for (g, (v, e)) in grids.iter().zip(&vals) {
+                let rep: f64 = r.clone().map(|k| e[k] * e[k]).sum::<f64>().sqrt();
+                let tru: f64 = r
+                    .clone()
+                    .map(|k| (v[k] - reference[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                print!(" {}×{} {:.2}", g[0], g[1], rep / tru);
+            }
+            print!("; successive ratios:");
+            for w in vals.windows(3) {
+                let d = |a: &[f64; 8], b: &[f64; 8]| {
+                    r.clone().map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+                };
+                print!(" {:.2}", d(&w[2].0, &w[1].0) / d(&w[1].0, &w[0].0));
+            }
+            println!();
+        }
         let (v, e) = block(&dflt);
         print!("  default:");
         for k in 0..8 {

@@ -250,7 +250,8 @@ const HELD_RATE_LEVELS: &[f64] = &[1.0, 0.5, 0.25];
 /// cause: 1e-8 and 1e-11 agree to 1e-5). The linearised film on the converged active
 /// set (Lund's method) is that same slope, so it would not help. A step that moves the
 /// boundary across several cells averages the kinks: from a relative step of 0.2 on,
-/// C converges at second order (ratios 0.2-0.3, ε 0.3-0.85), and its truncation error
+/// C converges at about second order (ratios 0.16-0.41, mostly 0.2-0.3, at ε 0.3-0.7),
+/// and its truncation error
 /// (the continuum film is smooth in the velocity: D(s) = C + a s² + b s⁴ + ...) is
 /// removed by the two Richardson levels, to ~1e-5 relative. Smaller (0.1) steps are
 /// erratic again at ε ≥ 0.7, larger ones leave more truncation for the same levels.
