@@ -251,11 +251,11 @@ const HELD_RATE_LEVELS: &[f64] = &[1.0, 0.5, 0.25];
 /// set (Lund's method) is that same slope, so it would not help. A step that moves the
 /// boundary across several cells averages the kinks: from a relative step of 0.2 on,
 /// C converges at about second order (ratios 0.16-0.41, mostly 0.2-0.3, at ε 0.3-0.7),
-/// and its truncation error
-/// (the continuum film is smooth in the velocity: D(s) = C + a s² + b s⁴ + ...) is
-/// removed by the two Richardson levels, to ~1e-5 relative. Smaller (0.1) steps are
+/// and its truncation error (the continuum film is smooth in the velocity: D(s) = C +
+/// a s² + b s⁴ + ...) is removed by the two Richardson levels, to ~1e-5 relative. Smaller (0.1) steps are
 /// erratic again at ε ≥ 0.7, larger ones leave more truncation for the same levels.
 const HELD_RATE_FACTOR: f64 = 400.0;
+
 /// The finite-film grid `[n_theta, n_z]` a job's loads are differenced on: the explicit
 /// grid, or in accuracy mode the grid the solver chooses at the job's own state (held for
 /// every perturbed state: a grid change between differenced states would be a jump of
@@ -505,8 +505,8 @@ pub fn coefficients_batch(
 ///   irregular; a lucky small `n₂` after a large `n₁` is not believed). Measured
 ///   (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128 extrapolated
 ///   reference): K and C (the rates differenced as in `HELD_RATE_FACTOR`) converge at
-///   second order on the held grid (observed `n₂/n₁` 0.2-0.3 from 256 × 32 on at
-///   ε ≤ 0.7), where the block norm of this is within 1.0-1.7 of the true error
+///   second order on the held grid (observed `n₂/n₁` 0.16-0.3 from 256 × 32 on at
+///   ε ≤ 0.7), where the block norm of this is within 1.2-1.8 of the true error
 ///   (docs/finite-film.md "Coefficients").
 /// - without (explicit grids, or a half grid below the ladder's first), the bound of
 ///   before: `max(|ΔK_ij|, 3 est |K_ij|)` with `est` the loads' relative estimate
