@@ -3,7 +3,10 @@
 //! with a chosen relative step and held-grid iteration tolerance, so that the step's and
 //! the iteration's shares of C's grid-to-grid scatter can be told apart.
 //!
-//! `cargo run --release --example coef_cause -- EPS ANGLE OMEGA REL_STEP TOL NT...`
+//! `cargo run --release --example coef_cause -- EPS ANGLE OMEGA REL_STEP TOL NT...`: the
+//! state `ε (cos angle, sin angle) δ` at `OMEGA` rad/s, central differences at the
+//! relative step `REL_STEP` (positions and rates alike), the held grids `NT × NT/8`
+//! iterated to `TOL` (BENCHMARKS.md "C's error honest").
 
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::{Accuracy, BearingParams, FilmModel};
@@ -14,8 +17,15 @@ use bearing_sweep::stability::{
 fn main() {
     let a: Vec<f64> = std::env::args()
         .skip(1)
-        .map(|s| s.parse().unwrap())
+        .filter_map(|s| s.parse().ok())
         .collect();
+    if a.len() < 6 {
+        eprintln!(
+            "usage: coef_cause EPS ANGLE OMEGA REL_STEP TOL NT... \
+             (e.g. 0.517 -0.6 500 1e-3 1e-8 128 256 512 1024)"
+        );
+        std::process::exit(2);
+    }
     let (eps, angle, w, rel, tol) = (a[0], a[1], a[2], a[3], a[4]);
     let grids: Vec<u32> = a[5..].iter().map(|&v| v as u32).collect();
     let (b, _) = create_backend(BackendKind::Cpu, Accuracy::default()).unwrap();
