@@ -4,7 +4,8 @@
 //! `coefficients` reports on each grid against the 1024 × 128 / 512 × 64
 //! Richardson-extrapolated reference.
 //!
-//! `cargo run --release --example coef_convergence [finest_n_theta]` (default 1024).
+//! `cargo run --release --example coef_convergence [finest_n_theta [ε angle ω]]` (default
+//! 1024 and four states).
 
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::{Accuracy, BearingParams, FilmModel};
@@ -39,15 +40,25 @@ fn main() {
     };
     let d = p.clearance;
     let names = ["Kxx", "Kxy", "Kyx", "Kyy", "Cxx", "Cxy", "Cyx", "Cyy"];
-    for &(eps, angle, w) in &[
-        (0.517_f64, -0.6_f64, 500.0_f64),
-        (0.3, 0.9, 450.0),
-        (0.7, 0.5, 450.0),
-        (0.85, 2.0, 450.0),
-    ] {
+    // One state from the command line (`ε angle ω`), else the four of BENCHMARKS.md.
+    let args: Vec<f64> = std::env::args()
+        .skip(2)
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    let states: Vec<(f64, f64, f64)> = if args.len() >= 3 {
+        vec![(args[0], args[1], args[2])]
+    } else {
+        vec![
+            (0.517, -0.6, 500.0),
+            (0.3, 0.9, 450.0),
+            (0.7, 0.5, 450.0),
+            (0.85, 2.0, 450.0),
+        ]
+    };
+    for &(eps, angle, w) in &states {
         let state = aligned_state(eps * d * angle.cos(), eps * d * angle.sin(), w);
         let mut grids = Vec::new();
-        let mut nt = 64;
+        let mut nt = 32;
         while nt <= finest {
             grids.push([nt, nt / 8]);
             nt *= 2;
@@ -108,6 +119,28 @@ fn main() {
             print!("      values:");
             for v in &vals {
                 print!(" {:.7e}", v.0[k]);
+            }
+            println!();
+        }
+        // x-y block norms of the reported and the true error per grid, and the
+        // successive-grid ratio of the block's change (what the tests check).
+        for (name, r) in [("K", 0..4), ("C", 4..8)] {
+            print!("  {name} block reported/true:");
+            for (g, (v, e)) in grids.iter().zip(&vals) {
+                let rep: f64 = r.clone().map(|k| e[k] * e[k]).sum::<f64>().sqrt();
+                let tru: f64 = r
+                    .clone()
+                    .map(|k| (v[k] - reference[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                print!(" {}×{} {:.2}", g[0], g[1], rep / tru);
+            }
+            print!("; successive ratios:");
+            for w in vals.windows(3) {
+                let d = |a: &[f64; 8], b: &[f64; 8]| {
+                    r.clone().map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+                };
+                print!(" {:.2}", d(&w[2].0, &w[1].0) / d(&w[1].0, &w[0].0));
             }
             println!();
         }

@@ -78,7 +78,10 @@ pub struct CoefficientJob {
     pub state: BearingState,
 }
 
-/// Steps used for the differences (the largest of the three levels).
+/// Steps used for the differences (the largest of the levels). On a held ladder grid
+/// (finite film, accuracy mode) the rate steps are [`HELD_RATE_FACTOR`] times those
+/// equivalent to the position step (the damping's differences must average over the
+/// discrete cavitation boundary's kinks).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Steps {
     /// Mid-plane displacement step, m.
@@ -188,6 +191,32 @@ fn steps_of(job: &CoefficientJob, relative_step: f64) -> Steps {
     }
 }
 
+/// Step-size levels of one coefficient set: of the positions and tilts (`pos`) and of
+/// their rates (`rate`), the latter on held ladder grids over rate steps
+/// [`HELD_RATE_FACTOR`] times larger (`held`).
+#[derive(Clone, Copy, Debug)]
+struct Levels {
+    pos: &'static [f64],
+    rate: &'static [f64],
+    held: bool,
+}
+
+impl Levels {
+    /// The levels of coordinate `c` (0-3 positions and tilts, 4-7 their rates).
+    fn of(&self, c: usize) -> &'static [f64] {
+        if c < 4 {
+            self.pos
+        } else {
+            self.rate
+        }
+    }
+
+    /// Film evaluations of one coefficient set over `nc` coordinates.
+    fn evaluations(&self, nc: usize) -> usize {
+        1 + (0..nc).map(|c| 2 * self.of(c).len()).sum::<usize>()
+    }
+}
+
 /// Step-size levels: `h, h/2, h/4` (Richardson) or `h`.
 fn levels(richardson: bool) -> &'static [f64] {
     if richardson {
@@ -198,12 +227,34 @@ fn levels(richardson: bool) -> &'static [f64] {
 }
 
 /// Step-size levels on a held ladder grid (finite film, accuracy mode) with Richardson:
-/// `h, h/2`, one Richardson level. Its step error, O(h⁴) ~ 1e-12 relative at the default
-/// step, is far below the grid's discretisation error (≥ 1e-4), and the estimate
-/// `|D(h/2) − D(h)|/3` (the error of `D(h/2)`, O(h²) ~ 1e-7) bounds it; a third level
-/// would cost 16 more film solves per grid and amplify the solver's noise at `h/4`
-/// (issue 20's cost).
+/// `h, h/2`, one Richardson level, for the positions and tilts. Its step error, O(h⁴) ~
+/// 1e-12 relative at the default step, is far below the grid's discretisation error
+/// (≥ 1e-4), and the estimate `|D(h/2) − D(h)|/3` (the error of `D(h/2)`, O(h²) ~ 1e-7)
+/// bounds it; a third level would cost 16 more film solves per grid and amplify the
+/// solver's noise at `h/4` (issue 20's cost).
 const HELD_LEVELS: &[f64] = &[1.0, 0.5];
+
+/// Step-size levels of the rates (velocities, tilt rates) on a held ladder grid: `s, s/2,
+/// s/4` with two Richardson levels, `s` [`HELD_RATE_FACTOR`] times the rate step of the
+/// positions.
+const HELD_RATE_LEVELS: &[f64] = &[1.0, 0.5, 0.25];
+
+/// Largest rate step on a held ladder grid over the rate step equivalent to the position
+/// step (`Steps::velocity_m_s` of [`steps_of`]): 400, i.e. a squeeze velocity `v` with `2v`
+/// up to 0.4 of the smoothness scale times `ω δ` (at most 0.4 of `ω e`). Why (issue 20,
+/// `examples/coef_cause.rs`): the discrete film's cavitated set is a set of nodes, so the
+/// loads are piecewise linear in a squeeze velocity, with a kink wherever a boundary node
+/// switches. At the position-like step (~1e-3) the difference sees the slope of the
+/// piece at hand, which changes erratically with the grid (C's successive-grid ratios
+/// 0.02-3.5 up to 1024 × 128, changes of 0.1-1 %; the iteration tolerance is not the
+/// cause: 1e-8 and 1e-11 agree to 1e-5). The linearised film on the converged active
+/// set (Lund's method) is that same slope, so it would not help. A step that moves the
+/// boundary across several cells averages the kinks: from a relative step of 0.2 on,
+/// C converges at about second order (ratios 0.16-0.41, mostly 0.2-0.3, at ε 0.3-0.7),
+/// and its truncation error (the continuum film is smooth in the velocity: D(s) = C +
+/// a s² + b s⁴ + ...) is removed by the two Richardson levels, to ~1e-5 relative. Smaller (0.1) steps are
+/// erratic again at ε ≥ 0.7, larger ones leave more truncation for the same levels.
+const HELD_RATE_FACTOR: f64 = 400.0;
 
 /// The finite-film grid `[n_theta, n_z]` a job's loads are differenced on: the explicit
 /// grid, or in accuracy mode the grid the solver chooses at the job's own state (held for
@@ -304,17 +355,26 @@ pub fn coefficients_batch(
         .map(|(j, g)| pin_grid(&j.params, *g))
         .collect();
     // Step levels and film evaluations per grid of each job.
-    let lvs: Vec<&[f64]> = params
+    let lvs: Vec<Levels> = params
         .iter()
         .map(|p| {
             if options.richardson && p.finite.held_grid.is_some() {
-                HELD_LEVELS
+                Levels {
+                    pos: HELD_LEVELS,
+                    rate: HELD_RATE_LEVELS,
+                    held: true,
+                }
             } else {
-                levels(options.richardson)
+                let lv = levels(options.richardson);
+                Levels {
+                    pos: lv,
+                    rate: lv,
+                    held: false,
+                }
             }
         })
         .collect();
-    let per: Vec<usize> = lvs.iter().map(|lv| 1 + nc * lv.len() * 2).collect();
+    let per: Vec<usize> = lvs.iter().map(|lv| lv.evaluations(nc)).collect();
     let coarse: Vec<Option<BearingParams>> = params
         .iter()
         .zip(&grids)
@@ -350,10 +410,15 @@ pub fn coefficients_batch(
     // Start of each job's fine and coarse chunks in the requests.
     let mut starts: Vec<(usize, Option<usize>, Option<usize>)> = Vec::with_capacity(jobs.len());
     for (k, job) in jobs.iter().enumerate() {
-        let st = steps_of(job, options.relative_step);
+        let lv = lvs[k];
+        let mut st = steps_of(job, options.relative_step);
+        if lv.held {
+            // The rates' larger steps (see `HELD_RATE_FACTOR`).
+            st.velocity_m_s *= HELD_RATE_FACTOR;
+            st.tilt_rate_rad_s *= HELD_RATE_FACTOR;
+        }
         steps.push(st);
         let fine_start = requests.len();
-        let lv = lvs[k];
         push_differences(&mut requests, k as u32, job, &st, lv, nc);
         let coarse_start = coarse[k].map(|_| {
             let at = requests.len();
@@ -433,13 +498,15 @@ pub fn coefficients_batch(
 /// columns), with Frobenius norms `n₂ = |K_h − K_2h|`, `n₁ = |K_2h − K_4h|`:
 ///
 /// - with the quarter grid, the geometric tail of [`crate::bearing::finite::ladder_estimate`]:
-///   `ρ = clamp(n₂/n₁, 1/4, 0.8)`, each entry `ρ/(1 − ρ) · max(|ΔK_ij|, m |K_ij|/|K|)`
-///   with `m = max(n₂, n₁/4)` (an entry whose grid error crosses zero gets at least the
-///   block's relative error; a lucky small `n₂` after a large `n₁` is not believed).
-///   Measured (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128
-///   extrapolated reference): K converges at second order on the held grid (observed
-///   `n₂/n₁` 0.21-0.28 from 256 × 32 on at ε ≤ 0.7), where this is within 0.6-1.6 of
-///   the true error; C converges erratically (`n₂/n₁` 0.02-3.5), where it is 0.06-20
+///   `ρ = clamp(n₂/n₁, 1/4, 0.8)`, each entry
+///   `ρ/(1 − ρ) · max(|ΔK_ij|, m · max(|K_ij|/|K|, 1/2))` with `m = max(n₂, n₁/4)` (an
+///   entry whose grid error crosses zero gets at least the block's relative error, and
+///   a small entry at least the block's rms share `m/2`, as its own grid error is
+///   irregular; a lucky small `n₂` after a large `n₁` is not believed). Measured
+///   (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128 extrapolated
+///   reference): K and C (the rates differenced as in `HELD_RATE_FACTOR`) converge at
+///   second order on the held grid (observed `n₂/n₁` 0.16-0.3 from 256 × 32 on at
+///   ε ≤ 0.7), where the block norm of this is within 1.2-1.8 of the true error
 ///   (docs/finite-film.md "Coefficients").
 /// - without (explicit grids, or a half grid below the ladder's first), the bound of
 ///   before: `max(|ΔK_ij|, 3 est |K_ij|)` with `est` the loads' relative estimate
@@ -473,8 +540,10 @@ fn add_grid_error(
                         } else {
                             0.25
                         };
+                        // At least the block's rms share `m/2` (a small entry's own grid
+                        // error is irregular: it is not smaller than its block's).
                         let share = if size > 0.0 {
-                            n2.max(0.25 * n1) * fine[i][j].abs() / size
+                            n2.max(0.25 * n1) * (fine[i][j].abs() / size).max(0.5)
                         } else {
                             0.0
                         };
@@ -493,7 +562,7 @@ fn push_differences(
     b: u32,
     job: &CoefficientJob,
     st: &Steps,
-    lv: &[f64],
+    lv: Levels,
     nc: usize,
 ) {
     requests.push(LoadRequest {
@@ -508,7 +577,7 @@ fn push_differences(
             4 | 5 => st.velocity_m_s,
             _ => st.tilt_rate_rad_s,
         };
-        for &f in lv {
+        for &f in lv.of(c) {
             for sign in [1.0, -1.0] {
                 let mut dq = [0.0; 4];
                 let mut dv = [0.0; 4];
@@ -533,7 +602,7 @@ fn differentiate(
     job: &CoefficientJob,
     chunk: &[crate::backend::LoadResult],
     st: &Steps,
-    lv: &[f64],
+    lv: Levels,
     richardson: bool,
     nc: usize,
 ) -> Result<BearingCoefficients, StabilityError> {
@@ -570,6 +639,8 @@ fn differentiate(
         steps: st,
         grid: None,
     };
+    // Start of coordinate `c`'s differences in `mids`.
+    let mut first = 1;
     for c in 0..nc {
         let unit = match c {
             0 | 1 => st.position_m,
@@ -577,21 +648,41 @@ fn differentiate(
             4 | 5 => st.velocity_m_s,
             _ => st.tilt_rate_rad_s,
         };
+        let lvc = lv.of(c);
         for i in 0..4 {
             let mut d = [0.0; 3];
             let mut magnitude: f64 = 0.0;
-            for (l, &f) in lv.iter().enumerate() {
-                let at = 1 + (c * lv.len() + l) * 2;
+            for (l, &f) in lvc.iter().enumerate() {
+                let at = first + l * 2;
                 let (p, m) = (mids[at][i], mids[at + 1][i]);
                 magnitude = magnitude.max(p.abs()).max(m.abs());
                 d[l] = (p - m) / (2.0 * f * unit);
             }
-            let (value, error) = if richardson && lv.len() == 2 {
+            let (value, error) = if richardson && lvc.len() == 2 {
                 // One Richardson level (held ladder grids, `HELD_LEVELS`): the error of
                 // D(h/2) bounds that of the extrapolate, plus rounding at h/2.
                 let value = (4.0 * d[1] - d[0]) / 3.0;
                 let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.5 * unit);
                 (value, (d[1] - d[0]).abs() / 3.0 + rounding)
+            } else if richardson && lv.held {
+                // The rates on a held grid (`HELD_RATE_LEVELS`, large steps): two
+                // Richardson levels, whose last change `r2 − r1` (15 times the error of
+                // r2) would overstate the extrapolate's error, O(s⁶), by a factor of
+                // ~1/q with q = |r2 − r1| / |d1 − d0| the series' observed contraction
+                // per level (measured, ε 0.517, 1024 × 128: q 0.03, |r2 − r1| q / 15 =
+                // 4e-6 of C, the next level's change 3e-6); so the estimate is the last
+                // change contracted once more, plus rounding at s/4.
+                let r1 = (4.0 * d[1] - d[0]) / 3.0;
+                let r2 = (4.0 * d[2] - d[1]) / 3.0;
+                let value = r2 + (r2 - r1) / 15.0;
+                let first_change = (d[1] - d[0]).abs();
+                let q = if first_change > 0.0 {
+                    ((r2 - r1).abs() / first_change).min(1.0)
+                } else {
+                    1.0
+                };
+                let rounding = 64.0 * f64::EPSILON * magnitude / (2.0 * 0.25 * unit);
+                (value, (r2 - r1).abs() * q / 15.0 + rounding)
             } else if richardson {
                 // D(h) = D + a h² + b h⁴ + ...: two Richardson levels. The error
                 // estimate is the change of the last level (conservative: the
@@ -613,6 +704,7 @@ fn differentiate(
                 out.damping_error[i][c - 4] = error;
             }
         }
+        first += 2 * lvc.len();
     }
     Ok(out)
 }
