@@ -176,7 +176,7 @@ pub fn coefficients_json_with(
         "bearing": params,
         "frame": "bearing frame (MODEL.md section 1): x, y across the bore, z along it, spin positive from +x toward +y; q = (x, y) of the journal centre at the mid-plane (m), tilt_x, tilt_y right-handed rotations of the journal axis about x and y (rad); loads = film force on the journal (N) and its moment about the mid-plane centre (N·m)",
         "signs": "K = −∂W/∂q, C = −∂W/∂q̇ (W the film load on the journal): direct stiffness positive",
-        "method": "central differences at steps h, h/2, h/4 with two Richardson levels; *_error = change of the last level plus rounding",
+        "method": "central differences with Richardson extrapolation: steps h, h/2, h/4 (two levels) for the short film and explicit finite grids; on the finite film's held accuracy-mode grid h, h/2 (one level) for positions and tilts, and for the rates steps 400 times larger (s, s/2, s/4, two levels) so that the cavitation boundary's node-to-node kinks average out; *_error = change of the last level plus rounding, plus the finite grid's discretisation error where a grid is held",
         "accuracy": accuracy.rtol(),
         "backend": info,
         "clearance_convention": params.clearance_convention.name(),
