@@ -376,7 +376,7 @@ impl JfoLevel {
         let cap = max_sweeps(g, self.nt, self.nz);
         let mut hist = [f64::INFINITY; 6];
         let mut err = f64::INFINITY;
-        // Rounding floor: once the change has not halved for `window` sweeps (8 halvings
+        // Rounding floor: once the change has not halved for `window` sweeps (~6 halvings
         // at the asymptotic rate ω − 1), the iterate fluctuates at its rounding level and
         // the contraction measured on that noise (≈ 1, capped at 0.9999) would report
         // 1e4 times the noise. The error is then the noise at the SOR rate ω − 1 (the
