@@ -52,9 +52,17 @@
 //! SOR factor), else `P = 0`, `φ = q/c_φ` clipped to `[0, 1]`. A cold start begins from
 //! the Swift–Stieber multigrid solution on the same grid (`φ = 1`); the accuracy ladder
 //! (no explicit grid) solves each grid of [`super::accuracy_ladder`] from the bilinear
-//! interpolation of the coarser one's `(P, φ)` and stops on the same Richardson estimate.
+//! interpolation of the coarser one's `(P, φ)` and stops on the same Richardson estimate
+//! (or, with a held grid, [`FiniteGrid::accuracy`], on reaching it, as the coefficients
+//! need: nearby states on one grid, node 0 on each one's maximum film).
 //! Stopping: the change of `max(|ΔP|/max P, |Δφ|)` per sweep times `ρ/(1 − ρ)` (`ρ` the
-//! measured contraction over five sweeps, at least `ω − 1`) below the tolerance.
+//! measured contraction over five sweeps, at least `ω − 1`) below the tolerance; once the
+//! change has stopped halving (the rounding floor, where the measured `ρ` is noise), the
+//! change times `(ω − 1)/(2 − ω)`. The node equation is formed as `r = q − c_φ` from the
+//! full node's storage directly (`P = r/d`, `φ = 1 + r/c_φ`), not as a difference of the
+//! time step's `O(12 H/Δτ)` terms: that rounding (1e-12 of `P` at `Δτ = 5e-4`, amplified
+//! 1e4× by a contraction measured on it) stalled the solve near an estimated 1e-8 (issue
+//! 27, docs/jfo.md "Iteration error").
 //!
 //! **Flows** ([`jfo_flow_integrals`]): the JFO equation holds at every free node, in the
 //! cavitated zone too, so the inflow from the held nodes equals the side flow plus the
@@ -131,6 +139,10 @@ struct JfoLevel {
     /// see [`JfoHistory`] for the time-stepped forms).
     cs: Vec<f64>,
     c0: Vec<f64>,
+    /// The storage of a full node, `cs + c0`, formed without their cancellation
+    /// (`12 ∂τH + 12 V°/Δτ` with the void `V° = (1 − φ°) H°`; `cs` and `c0` are each
+    /// `O(12 H/Δτ)` and cancel to it in a time step).
+    sf: Vec<f64>,
     /// Held pressure, or negative where the node is free.
     held: Vec<f64>,
     /// Pressure, film fraction, previous film fraction.
@@ -177,6 +189,7 @@ impl JfoLevel {
             &mut self.st,
             &mut self.cs,
             &mut self.c0,
+            &mut self.sf,
         ] {
             v.clear();
             v.resize(n, 0.0);
@@ -232,17 +245,24 @@ impl JfoLevel {
                 let h = film(e, zeta, cn, sn);
                 self.st[k] = 12.0 * h * inv_dtau;
                 let phi_old = self.phi_old[k];
-                (self.cs[k], self.c0[k]) = match prev_ecc {
-                    _ if inv_dtau == 0.0 => (self.sq[k], 0.0),
+                (self.cs[k], self.c0[k], self.sf[k]) = match prev_ecc {
+                    _ if inv_dtau == 0.0 => (self.sq[k], 0.0, self.sq[k]),
                     // Liquid φH = H − V: the gap's own change at its exact rate, the
                     // void V = (1 − φ)H by backward Euler (conservative over steps).
-                    Some(eo) => (
-                        self.st[k],
-                        self.sq[k] - self.st[k]
-                            + 12.0 * film(eo, zeta, cn, sn) * inv_dtau * (1.0 - phi_old),
-                    ),
+                    Some(eo) => {
+                        let void_old = 12.0 * film(eo, zeta, cn, sn) * inv_dtau * (1.0 - phi_old);
+                        (
+                            self.st[k],
+                            self.sq[k] - self.st[k] + void_old,
+                            self.sq[k] + void_old,
+                        )
+                    }
                     // Product rule: 12 φ ∂τH + 12 H (φ − φ°)/Δτ.
-                    None => (self.sq[k] + self.st[k], -self.st[k] * phi_old),
+                    None => (
+                        self.sq[k] + self.st[k],
+                        -self.st[k] * phi_old,
+                        self.sq[k] + self.st[k] * (1.0 - phi_old),
+                    ),
                 };
             }
         }
@@ -283,8 +303,10 @@ impl JfoLevel {
         }
     }
 
-    /// The node equation's coefficients `(c_φ, q, d)` at interior node `k` (row `j`,
-    /// column `i`) for the current iterate (module docs).
+    /// The node equation at interior node `k` (row `j`, column `i`) for the current
+    /// iterate (module docs): `(c_φ, r)` with `r = q − c_φ`, the full branch's residual
+    /// at `P = 0`, formed from the full node's storage `sf` (not as `q − c_φ`, whose
+    /// terms are each `O(12 H/Δτ)` in a time step and would leave their rounding in `P`).
     #[inline]
     fn node(&self, j: usize, i: usize) -> (f64, f64) {
         let nt = self.nt;
@@ -303,7 +325,7 @@ impl JfoLevel {
             (-self.ce[im], -self.ce[k] * self.phi[ip])
         };
         let c_phi = c_out + self.cs[k];
-        (c_phi, sum + inflow - self.c0[k])
+        (c_phi, sum + inflow - c_out - self.sf[k])
     }
 
     /// One Gauss–Seidel sweep in the direction of the surface motion; returns
@@ -319,13 +341,14 @@ impl JfoLevel {
                     pmax = pmax.max(self.p[k]);
                     continue;
                 }
-                let (c_phi, q) = self.node(j, i);
-                let pg = (q - c_phi) / self.d[k];
+                let (c_phi, r) = self.node(j, i);
+                let pg = r / self.d[k];
                 let (old_p, old_phi) = (self.p[k], self.phi[k]);
                 let (np, nphi) = if pg > 0.0 {
                     ((old_p + omega * (pg - old_p)).max(0.0), 1.0)
                 } else if c_phi > 0.0 {
-                    (0.0, (q / c_phi).clamp(0.0, 1.0))
+                    // φ = q/c_φ, as 1 + r/c_φ (no rounding of q − c_φ back into φ).
+                    (0.0, (1.0 + r / c_phi).clamp(0.0, 1.0))
                 } else {
                     // No outflow and no inflow (q ≤ c_φ ≤ 0 with q ≥ 0): nothing moves.
                     (0.0, 1.0)
@@ -353,6 +376,18 @@ impl JfoLevel {
         let cap = max_sweeps(g, self.nt, self.nz);
         let mut hist = [f64::INFINITY; 6];
         let mut err = f64::INFINITY;
+        // Rounding floor: once the change has not halved for `window` sweeps (~6 halvings
+        // at the asymptotic rate ω − 1), the iterate fluctuates at its rounding level and
+        // the contraction measured on that noise (≈ 1, capped at 0.9999) would report
+        // 1e4 times the noise. The error is then the noise at the SOR rate ω − 1 (the
+        // rate of over-relaxation on any active set, whose optimal factor is below the
+        // grid's; at least ½).
+        let window = (4.0 / (2.0 - omega).max(1e-3)).ceil() as u32 + 20;
+        let rho_floor = (omega - 1.0).clamp(0.5, 0.9999);
+        let (mut best, mut best_at) = (f64::INFINITY, 0u32);
+        // The floor's estimate once the change stagnated (what a solve that ends at the
+        // cap reports: the measured contraction is noise there).
+        let mut stalled = None;
         for sweep in 1..=cap {
             let (dp, pmax, dphi) = self.sweep(omega);
             let change = if pmax > 0.0 { dp / pmax } else { 0.0 }.max(dphi);
@@ -368,11 +403,21 @@ impl JfoLevel {
             if change == 0.0 || (sweep >= 6 && err <= tol) {
                 return (err, true);
             }
+            if change < 0.5 * best {
+                (best, best_at) = (change, sweep);
+            } else if sweep >= best_at + window {
+                let noise = hist.iter().fold(0.0_f64, |a, &v| a.max(v));
+                let floor = noise * rho_floor / (1.0 - rho_floor);
+                if floor <= tol {
+                    return (floor, true);
+                }
+                stalled = Some(floor);
+            }
             if !change.is_finite() {
                 return (err, false);
             }
         }
-        (err, false)
+        (stalled.unwrap_or(err), false)
     }
 
     /// `−⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ)` by the rectangle rule.
@@ -545,6 +590,11 @@ impl JfoSolver {
         field: &mut Vec<f64>,
     ) -> (FilmIntegrals, SolveReport) {
         let ladder = accuracy_ladder(job.aspect);
+        // A held grid (`n_theta` set in accuracy mode, [`FiniteGrid::accuracy`]): the
+        // ladder is climbed to it and stops there, whatever the estimate (the
+        // Swift–Stieber `solve_held`; each grid is iterated to the tolerance anyway), so
+        // that nearby states share the grid and its node 0 on their own maximum film.
+        let held_nt = g.n_theta;
         // The Swift–Stieber ladder's rule: node 0 on the mid-plane's maximum film.
         let e = &job.state.ecc;
         let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
@@ -580,10 +630,14 @@ impl JfoSolver {
             };
             if let Some(e) = est {
                 estimate = e;
-                if e <= target {
+                if held_nt == 0 && e <= target {
                     met = true;
                     break;
                 }
+            }
+            if held_nt > 0 && nt >= held_nt {
+                met = estimate <= target;
+                break;
             }
         }
         field.clear();
