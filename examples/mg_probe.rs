@@ -1,0 +1,168 @@
+//! Probe of the projected multigrid's cycle count on explicit grids (issue 20, pass 3):
+//! the states of the finite benchmark, cold starts, one thread; per grid the work in
+//! sweeps of the grid (mean, min, max) and the largest relative difference of the load
+//! vector and of the field from red-black projected SOR iterated to 1e-13 (the same
+//! discrete problem, converged).
+//!
+//! `cargo run --release --example mg_probe -- [n_theta n_z] [none|max] [states]`
+//! (defaults: the grids 64 × 16, 128 × 32, 256 × 64, max-film inlet, 32 states).
+//!
+//! `cargo run --release --example mg_probe -- aniso`: which direction's discretisation
+//! error dominates at 256 × 32 (B/D = 0.5): relative load-vector errors of 256 × 32,
+//! 512 × 32 (θ refined), 256 × 64 (ζ refined) and 512 × 64 against the converged solution
+//! ([`FiniteSolver::reference`]), free inlet (no snapped inlet column on explicit grids),
+//! the states of the finite benchmark.
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet};
+use bearing_sweep::bearing::pack_state;
+use bearing_sweep::bench::finite::bench_states;
+
+fn aniso(n: usize) {
+    let (mut p, states) = bench_states(n);
+    p.finite.inlet = Inlet::None;
+    p.model = bearing_sweep::bearing::FilmModel::Finite;
+    let grids = [
+        (256u32, 32u32),
+        (512, 32),
+        (256, 64),
+        (512, 64),
+        (64, 16),
+        (128, 16),
+        (128, 32),
+        (128, 64),
+    ];
+    println!("| state | 256×32 | 512×32 (θ refined) | 256×64 (ζ refined) | 512×64 | Simpson-ζ 64x16 | S 128x16 | S 128x32 | S 128x64 | S 256x32 |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut worst = [0.0_f64; 9];
+    for (k, s) in states.iter().enumerate() {
+        let packed = pack_state(&p, s).expect("valid state");
+        let job = FiniteJob::new(&p, &packed);
+        let mut solver = FiniteSolver::new();
+        let want = solver.reference(&job, &FiniteGrid::for_bearing(&p));
+        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        print!("| {k} |");
+        for (c, &(t, z)) in grids.iter().enumerate() {
+            let g = FiniteGrid::from(&FiniteSettings {
+                inlet: Inlet::None,
+                tolerance: 1e-11,
+                ..FiniteSettings::with_grid(t, z)
+            });
+            let mut field = Vec::new();
+            let (got, _) = solver.solve(&job, &g, &mut field);
+            let got = if c >= 4 || (c == 0 && false) {
+                simpson(&field, t as usize, z as usize)
+            } else {
+                got
+            };
+            let e = (0..4)
+                .map(|i| (got[i] - want[i]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                / norm;
+            worst[c] = worst[c].max(e);
+            print!(" {e:.2e} |");
+            if c == 0 {
+                let got = simpson(&field, t as usize, z as usize);
+                let e = (0..4)
+                    .map(|i| (got[i] - want[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    / norm;
+                worst[8] = worst[8].max(e);
+            }
+        }
+        print!(" {:.2e} |", worst[8]);
+        println!();
+    }
+    println!(
+        "| largest | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |",
+        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5], worst[6], worst[7], worst[8]
+    );
+}
+
+/// Load integrals with Simpson's rule in ζ (rectangle rule in θ).
+fn simpson(p: &[f64], nt: usize, nz: usize) -> [f64; 4] {
+    let dt = 2.0 * std::f64::consts::PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
+    for j in 1..nz {
+        let zeta = j as f64 * dz;
+        let w = if j % 2 == 1 { 4.0 / 3.0 } else { 2.0 / 3.0 };
+        let (mut c, mut s) = (0.0, 0.0);
+        for i in 0..nt {
+            let th = i as f64 * dt;
+            c += p[j * nt + i] * th.cos();
+            s += p[j * nt + i] * th.sin();
+        }
+        acc[0] += w * c;
+        acc[1] += w * s;
+        acc[2] += w * c * zeta;
+        acc[3] += w * s * zeta;
+    }
+    acc.map(|v| -v * dt * dz / 3.0)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("aniso") {
+        aniso(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(16));
+        return;
+    }
+    let grids: Vec<(u32, u32)> = match (args.first(), args.get(1)) {
+        (Some(a), Some(b)) => vec![(a.parse().expect("n_theta"), b.parse().expect("n_z"))],
+        _ => vec![(64, 16), (128, 32), (256, 64)],
+    };
+    let inlet = match args.get(2).map(String::as_str) {
+        Some("none") => Inlet::None,
+        _ => Inlet::MaxFilm,
+    };
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(32);
+    let (p, states) = bench_states(n);
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::new(&p, &pack_state(&p, s).expect("valid state")))
+        .collect();
+    println!("| grid | inlet | MG sweeps mean (min-max) | max load diff | max field diff |");
+    println!("|---|---|---|---|---|");
+    for (t, z) in grids {
+        let settings = FiniteSettings {
+            inlet,
+            ..FiniteSettings::with_grid(t, z)
+        };
+        let g = FiniteGrid::from(&settings);
+        let tight = FiniteGrid {
+            tolerance: 1e-13,
+            ..g
+        };
+        let mut solver = FiniteSolver::new();
+        let (mut sum, mut lo, mut hi) = (0u64, u32::MAX, 0u32);
+        let (mut dl, mut df) = (0.0_f64, 0.0_f64);
+        for job in &jobs {
+            let mut want = Vec::new();
+            let (wi, _) = solver.solve_psor(job, &tight, &mut want);
+            let mut got = Vec::new();
+            let (gi, r) = solver.solve(job, &g, &mut got);
+            sum += r.sweeps as u64;
+            if std::env::var("PROBE_EACH").is_ok() {
+                eprint!(" {}", r.sweeps);
+            }
+            lo = lo.min(r.sweeps);
+            hi = hi.max(r.sweeps);
+            let norm = wi.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let d = (0..4).map(|k| (gi[k] - wi[k]).powi(2)).sum::<f64>().sqrt();
+            dl = dl.max(d / norm);
+            let fmax = want.iter().fold(0.0_f64, |m, v| m.max(*v));
+            let fd = want
+                .iter()
+                .zip(&got)
+                .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+            df = df.max(fd / fmax);
+        }
+        if std::env::var("PROBE_EACH").is_ok() {
+            eprintln!();
+        }
+        println!(
+            "| {t}×{z} | {inlet:?} | {:.1} ({lo}-{hi}) | {dl:.1e} | {df:.1e} |",
+            sum as f64 / jobs.len() as f64
+        );
+    }
+}
