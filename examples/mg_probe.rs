@@ -12,8 +12,10 @@
 //! 512 × 32 (θ refined), 256 × 64 (ζ refined) and 512 × 64 against the converged solution
 //! ([`FiniteSolver::reference`]), free inlet (no snapped inlet column on explicit grids),
 //! the states of the finite benchmark.
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet};
-use bearing_sweep::bearing::pack_state;
+use bearing_sweep::bearing::finite::{
+    ladder_estimate, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet,
+};
+use bearing_sweep::bearing::{pack_state, BearingParams, BearingState};
 use bearing_sweep::bench::finite::bench_states;
 
 fn aniso(n: usize) {
@@ -101,8 +103,104 @@ fn simpson(p: &[f64], nt: usize, nz: usize) -> [f64; 4] {
     acc.map(|v| -v * dt * dz / 3.0)
 }
 
+/// The 12 states of tests/finite_accuracy.rs turned so that the maximum film is at θ = 0
+/// (a node of every grid, as the accuracy ladder places it): aligned ε 0.1-0.95, tilted in
+/// the plane of the eccentricity, squeezed.
+fn turned_states(p: &BearingParams) -> Vec<BearingState> {
+    let d = p.clearance;
+    let w = 100.0;
+    let mut out = Vec::new();
+    for &(e, tilt, sq) in &[
+        (0.1, 0.0, 0.0),
+        (0.3, 0.0, 0.0),
+        (0.6, 0.0, 0.0),
+        (0.8, 0.0, 0.0),
+        (0.9, 0.0, 0.0),
+        (0.95, 0.0, 0.0),
+        (0.3, 0.2, 0.0),
+        (0.6, 0.2, 0.0),
+        (0.8, 0.1, 0.0),
+        (0.5, 0.0, 0.1),
+        (0.7, 0.0, -0.1),
+        (0.6, 0.15, 0.05),
+    ] {
+        // Eccentricity along −x: the maximum film arg(−ε) is at θ = 0.
+        out.push(BearingState {
+            xi: -(e + tilt) * d,
+            yi: 0.0,
+            xj: -(e - tilt) * d,
+            yj: 0.0,
+            vxi: -sq * d * w,
+            vyi: 0.0,
+            vxj: -sq * d * w,
+            vyj: 0.0,
+            omega: w,
+        });
+    }
+    out
+}
+
+/// Ladder shapes `n_theta/n_z` = 8 (today's at B/D = 0.5), 4 and 2: per grid the largest
+/// true error of the load vector against the converged solution and the range of the
+/// Richardson estimate ([`ladder_estimate`]) over it, max-film inlet on a node.
+fn shapes() {
+    let p = BearingParams {
+        model: bearing_sweep::bearing::FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let states = turned_states(&p);
+    let mut refs = Vec::new();
+    for s in &states {
+        let packed = pack_state(&p, s).expect("valid state");
+        let job = FiniteJob::new(&p, &packed);
+        refs.push((
+            job,
+            FiniteSolver::new().reference(&job, &FiniteGrid::for_bearing(&p)),
+        ));
+    }
+    for r in [8u32, 4, 2] {
+        println!("shape {r}: | grid | nodes | largest true error | estimate / true (min-max) | states with estimate ≤ 5e-4 |");
+        let mut values: Vec<Vec<[f64; 4]>> = vec![Vec::new(); states.len()];
+        let mut nz = (16 / r).max(2);
+        while nz * r <= 1024 && nz <= 256 {
+            let nt = nz * r;
+            let g = FiniteGrid::from(&FiniteSettings {
+                tolerance: 1e-11,
+                ..FiniteSettings::with_grid(nt, nz)
+            });
+            let mut solver = FiniteSolver::new();
+            let (mut worst, mut lo, mut hi, mut met) = (0.0_f64, f64::INFINITY, 0.0_f64, 0);
+            for (k, (job, want)) in refs.iter().enumerate() {
+                let (got, _) = solver.solve(job, &g, &mut Vec::new());
+                let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let e = (0..4)
+                    .map(|i| (got[i] - want[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    / norm;
+                worst = worst.max(e);
+                values[k].push(got);
+                if let Some(est) = ladder_estimate(&values[k]) {
+                    lo = lo.min(est / e);
+                    hi = hi.max(est / e);
+                    met += usize::from(est <= 5e-4);
+                }
+            }
+            println!(
+                "| {nt}×{nz} | {} | {worst:.2e} | {lo:.2} - {hi:.2} | {met} |",
+                nt * (nz - 1)
+            );
+            nz *= 2;
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("shapes") {
+        shapes();
+        return;
+    }
     if args.first().map(String::as_str) == Some("aniso") {
         aniso(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(16));
         return;

@@ -513,7 +513,9 @@ fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
 ///
 /// - Grooves and arcs (held bands): every coarse node whose restriction stencil touches a
 ///   held or frozen fine node.
-/// - The maximum-film inlet line (one node per row): one coarse node per row, the one on
+/// - The maximum-film inlet line (one node per row), on explicit grids (`line`; the
+///   accuracy ladder keeps the stencil rule, see [`Hierarchy::line_freeze`]): one coarse
+///   node per row, the one on
 ///   the line, or, when the line falls between two coarse nodes, the one on the side of
 ///   the smaller right-hand side (upstream: the cavitated side, where the correction is
 ///   zero anyway). Frozen by the stencil rule above instead, the line took two coarse
@@ -521,11 +523,15 @@ fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
 ///   circumference wide on the coarsest ones, right where the pressure rises: the
 ///   correction missed it and the cycle contracted by ~0.5 instead of ~0.25 (issue 20
 ///   pass 3: 128 × 32, max-film inlet, 83 → 42 sweeps on average; examples/mg_probe.rs).
-fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen) {
+fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     let (st, sz) = strides(how);
     let fine_inv = fine.inv();
     let fnt = fine.nt;
-    let fine_inlet = if fine.top {
+    // Without `line` (see `Hierarchy::line_freeze`): no inlet line, the stencil rule for
+    // the inlet's held nodes too.
+    let fine_inlet: &[usize] = if !line {
+        &[]
+    } else if fine.top {
         &fine.inlet_col
     } else {
         &fine.inlet_corr
@@ -535,7 +541,7 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen) {
     // zone (freezing the downstream one pins the correction where the pressure rises).
     for jc in 1..coarse.nz {
         let jf = jc * sz;
-        let fi = fine_inlet[jf];
+        let fi = fine_inlet.get(jf).copied().unwrap_or(usize::MAX);
         coarse.inlet_corr[jc] = if fi == usize::MAX {
             usize::MAX
         } else if st == 1 || fi % 2 == 0 {
@@ -566,7 +572,7 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen) {
             let mut held = coarse.inlet_corr[jc] == ic;
             for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
                 for &i in cols {
-                    held |= fine_inv[j * fnt + i] == 0.0 && fine_inlet[j] != i;
+                    held |= fine_inv[j * fnt + i] == 0.0 && fine_inlet.get(j) != Some(&i);
                 }
             }
             let k = jc * coarse.nt + ic;
@@ -609,6 +615,12 @@ pub(crate) struct Hierarchy {
     pub theta0: f64,
     /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
     pub updates: u64,
+    /// Whether the correction grids freeze one node per row for the max-film inlet line
+    /// (explicit grids, issue 20 pass 3) or, as the WGSL kernel does, every node whose
+    /// stencil touches it (the accuracy ladder, whose loads the GPU's must match to the
+    /// stop tolerance; with node 0 on the maximum film the two rules coincide unless the
+    /// journal is tilted out of the plane of its eccentricity). See [`freeze`].
+    pub line_freeze: bool,
 }
 
 impl Hierarchy {
@@ -713,7 +725,7 @@ impl Hierarchy {
         for m in (1..=l).rev() {
             if let Some(how) = self.levels[m].coarsen {
                 let (lo, hi) = self.levels.split_at_mut(m);
-                freeze(&hi[0], &mut lo[m - 1], how);
+                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
             }
         }
         if l == 0 || self.levels[l].coarsen.is_none() {
