@@ -42,6 +42,7 @@ fn aniso(n: usize) {
         let want = solver.reference(&job, &FiniteGrid::for_bearing(&p));
         let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
         print!("| {k} |");
+        let mut simpson_256 = 0.0;
         for (c, &(t, z)) in grids.iter().enumerate() {
             let g = FiniteGrid::from(&FiniteSettings {
                 inlet: Inlet::None,
@@ -50,7 +51,8 @@ fn aniso(n: usize) {
             });
             let mut field = Vec::new();
             let (got, _) = solver.solve(&job, &g, &mut field);
-            let got = if c >= 4 || (c == 0 && false) {
+            // Columns 4-7: the same fields summed by Simpson's rule in ζ.
+            let got = if c >= 4 {
                 simpson(&field, t as usize, z as usize)
             } else {
                 got
@@ -70,9 +72,10 @@ fn aniso(n: usize) {
                     .sqrt()
                     / norm;
                 worst[8] = worst[8].max(e);
+                simpson_256 = e;
             }
         }
-        print!(" {:.2e} |", worst[8]);
+        print!(" {simpson_256:.2e} |");
         println!();
     }
     println!(
