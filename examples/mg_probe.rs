@@ -7,6 +7,10 @@
 //! `cargo run --release --example mg_probe -- [n_theta n_z] [none|max] [states]`
 //! (defaults: the grids 64 × 16, 128 × 32, 256 × 64, max-film inlet, 32 states).
 //!
+//! `cargo run --release --example mg_probe -- gpu N_THETA N_Z`: the same states on the
+//! multigrid kernel (shaders/finite_mg.wgsl, any f64 adapter, lavapipe here): work per state
+//! on the GPU and the CPU, and the largest relative difference of their load vectors.
+//!
 //! `cargo run --release --example mg_probe -- aniso`: which direction's discretisation
 //! error dominates at 256 × 32 (B/D = 0.5): relative load-vector errors of 256 × 32,
 //! 512 × 32 (θ refined), 256 × 64 (ζ refined) and 512 × 64 against the converged solution
@@ -198,8 +202,60 @@ fn shapes() {
     }
 }
 
+fn gpu(nt: u32, nz: u32) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p, states) = bench_states(32);
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+        .collect();
+    let g = FiniteGrid::from(&FiniteSettings::with_grid(nt, nz));
+    let mut fields = vec![Vec::new(); jobs.len()];
+    let (mut out, mut reports) = (Vec::new(), Vec::new());
+    backend
+        .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+        .expect("the multigrid kernel runs");
+    let mut solver = FiniteSolver::new();
+    let (mut gsum, mut csum, mut diff, mut gmax) = (0u64, 0u64, 0.0_f64, 0u32);
+    for (k, job) in jobs.iter().enumerate() {
+        let (want, r) = solver.solve(job, &g, &mut Vec::new());
+        csum += r.sweeps as u64;
+        gsum += reports[k].sweeps as u64;
+        gmax = gmax.max(reports[k].sweeps);
+        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let d = (0..4)
+            .map(|i| (out[k][i] - want[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        diff = diff.max(d / norm);
+    }
+    let n = jobs.len() as f64;
+    println!(
+        "| {nt}×{nz} | GPU sweeps mean {:.1} (max {gmax}) | CPU {:.1} | max load diff {diff:.1e} |",
+        gsum as f64 / n,
+        csum as f64 / n
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("gpu") {
+        let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
+        let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
+        gpu(nt, nz);
+        return;
+    }
     if args.first().map(String::as_str) == Some("shapes") {
         shapes();
         return;
