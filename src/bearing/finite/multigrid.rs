@@ -616,10 +616,10 @@ pub(crate) struct Hierarchy {
     /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
     pub updates: u64,
     /// Whether the correction grids freeze one node per row for the max-film inlet line
-    /// (explicit grids, issue 20 pass 3) or, as the WGSL kernel does, every node whose
-    /// stencil touches it (the accuracy ladder, whose loads the GPU's must match to the
-    /// stop tolerance; with node 0 on the maximum film the two rules coincide unless the
-    /// journal is tilted out of the plane of its eccentricity). See [`freeze`].
+    /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
+    /// accuracy ladder, unchanged: with node 0 on the maximum film the two rules coincide
+    /// unless the journal is tilted out of the plane of its eccentricity). The WGSL kernel
+    /// (`inlet_line` in shaders/finite_mg.wgsl) follows the same split. See [`freeze`].
     pub line_freeze: bool,
 }
 
