@@ -672,9 +672,38 @@ fn prolong_solution(l: u32) {
     workgroupBarrier();
 }
 
-// Freezes the nodes of level l − 1 (a correction grid of l) whose restriction stencil
-// touches a held or frozen node of l (multigrid.rs `freeze`).
-fn freeze(l: u32, top: bool) {
+// Fixed grids (multigrid.rs `Hierarchy::line_freeze`): the column of level c's row jc that
+// stands for the max-film inlet line of the solved level t (NO_INLET: none): from t's held
+// column down, per coarsening the coincident node or, between two, the one on the side of
+// the smaller right-hand side (upstream). Level t itself: its held column.
+fn inlet_line(c: u32, jc: u32, t: u32) -> u32 {
+    var j = jc;
+    for (var m = c + 1u; m <= t; m++) {
+        j = j * strides(m).y;
+    }
+    var i = inlets[ib + params.lw[t].z + j];
+    for (var m = t; m > c; m--) {
+        if i == NO_INLET {
+            return NO_INLET;
+        }
+        let st = strides(m);
+        if st.x == 2u && i % 2u == 1u {
+            let left = i - 1u;
+            let right = select(i + 1u, 0u, i + 1u == nt_of(m));
+            i = select(right / 2u, left / 2u, f_own(m, j, left) <= f_own(m, j, right));
+        } else {
+            i = i / st.x;
+        }
+        j = j / st.y;
+    }
+    return i;
+}
+
+// Freezes the nodes of level l − 1 (a correction grid of l, solved level t) whose
+// restriction stencil touches a held or frozen node of l; on fixed grids the inlet line
+// freezes one node per row instead, `inlet_line` (multigrid.rs `freeze`).
+fn freeze(l: u32, top: bool, t: u32) {
+    let line = params.mode == 0u;
     let c = l - 1u;
     let st = strides(l);
     let fnt = nt_of(l);
@@ -695,14 +724,22 @@ fn freeze(l: u32, top: bool) {
         }
         let i0 = ic * st.x;
         var held = false;
+        if line {
+            held = inlet_line(c, jc, t) == ic;
+        }
         for (var j = max(jlo, 1u); j <= min(jhi, fnz - 1u); j++) {
+            var fi = NO_INLET;
+            if line {
+                fi = inlet_line(l, j, t);
+            }
             if st.x == 2u {
                 let im = select(i0 - 1u, fnt - 1u, i0 == 0u);
                 let ip = select(i0 + 1u, 0u, i0 + 1u == fnt);
-                held = held || scr[at(l, ia, j * fnt + im)] == 0.0
-                    || scr[at(l, ia, j * fnt + i0)] == 0.0 || scr[at(l, ia, j * fnt + ip)] == 0.0;
+                held = held || (scr[at(l, ia, j * fnt + im)] == 0.0 && im != fi)
+                    || (scr[at(l, ia, j * fnt + i0)] == 0.0 && i0 != fi)
+                    || (scr[at(l, ia, j * fnt + ip)] == 0.0 && ip != fi);
             } else {
-                held = held || scr[at(l, ia, j * fnt + i0)] == 0.0;
+                held = held || (scr[at(l, ia, j * fnt + i0)] == 0.0 && i0 != fi);
             }
         }
         scr[at(c, A_INVF, kc)] = select(1.0 / diag(c, jc, ic), 0.0, held);
@@ -838,7 +875,7 @@ fn iterate(l: u32, max_cycles: u32) -> Outcome {
     }
     workgroupBarrier();
     for (var m = l; m >= 1u; m--) {
-        freeze(m, m == l);
+        freeze(m, m == l, l);
     }
     let tol = params.tolerance;
     if l == 0u {

@@ -12,7 +12,9 @@
 //!    weighting), constraint `u_H ≥ 0`, solved by a V-cycle on level `l − 1`;
 //! 4. correction `p ← max(0, p + P(u_H − u₀))` (bilinear `P`) at the nodes inside the
 //!    pressure zone only (node and four neighbours positive: a truncated correction;
-//!    the free boundary is left to the smoother), held nodes kept at 0;
+//!    the free boundary is left to the smoother), held nodes kept at 0; coarse nodes
+//!    where the fine grid holds its pressure are frozen at `u₀` (see `freeze`: one
+//!    node per row for the inlet line, the stencil's reach for grooves and arcs);
 //! 5. `NU_POST` smoothing sweeps.
 //!
 //! Coarsening halves both directions where the grid's couplings `cθ = λ/Δθ²` and
@@ -88,6 +90,12 @@ pub(crate) struct Level {
     r: Vec<f64>,
     /// Relationship to the next coarser level (None: coarsest).
     pub coarsen: Option<Coarsen>,
+    /// Per row: the column held on the maximum-film line when this grid is solved
+    /// (`usize::MAX`: none).
+    inlet_col: Vec<usize>,
+    /// Per row: as a correction grid, the column frozen for the finer grid's inlet line
+    /// (see [`freeze`]; `usize::MAX`: none).
+    inlet_corr: Vec<usize>,
 }
 
 impl Level {
@@ -164,6 +172,10 @@ impl Level {
                 self.f_own[k] = -6.0 * (a * sn - b * cn);
             }
         }
+        self.inlet_col.clear();
+        self.inlet_col.resize(nz + 1, usize::MAX);
+        self.inlet_corr.clear();
+        self.inlet_corr.resize(nz + 1, usize::MAX);
         for j in 1..nz {
             for i in 0..nt {
                 let k = j * nt + i;
@@ -187,6 +199,7 @@ impl Level {
                     let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
                     let i = (th / dt).round() as usize % nt;
                     self.inv_d[j * nt + i] = 0.0;
+                    self.inlet_col[j] = i;
                 }
             }
         }
@@ -492,15 +505,57 @@ fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
     }
 }
 
-/// Freezes the nodes of `coarse` (as a correction grid of `fine`, coarsened by `how`)
-/// whose restriction stencil touches a held or frozen node of `fine`: the coarse grid
-/// cannot represent the held line, and at the fine solution `u₀` is the coarse
-/// solution, so the fixed point is kept. The pattern depends only on the holds, so it
+/// Freezes nodes of `coarse` (as a correction grid of `fine`, coarsened by `how`) at
+/// `u₀`, a zero correction where the fine grid holds its pressure. At the fine solution
+/// `u₀` is the coarse solution whatever nodes are frozen, so the fixed point is kept;
+/// the pattern only sets how fast the cycle converges. It depends only on the holds, so it
 /// is set once per [`Hierarchy::iterate`], not per cycle.
-fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen) {
+///
+/// - Grooves and arcs (held bands): every coarse node whose restriction stencil touches a
+///   held or frozen fine node.
+/// - The maximum-film inlet line (one node per row), on explicit grids (`line`; the
+///   accuracy ladder keeps the stencil rule, see [`Hierarchy::line_freeze`]): one coarse
+///   node per row, the one on
+///   the line, or, when the line falls between two coarse nodes, the one on the side of
+///   the smaller right-hand side (upstream: the cavitated side, where the correction is
+///   zero anyway). Frozen by the stencil rule above instead, the line took two coarse
+///   columns per row on every coarser grid, a band a quarter to an eighth of the
+///   circumference wide on the coarsest ones, right where the pressure rises: the
+///   correction missed it and the cycle contracted by ~0.5 instead of ~0.25 (issue 20
+///   pass 3: 128 × 32, max-film inlet, 83 → 42 sweeps on average; examples/mg_probe.rs).
+fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     let (st, sz) = strides(how);
     let fine_inv = fine.inv();
     let fnt = fine.nt;
+    // Without `line` (see `Hierarchy::line_freeze`): no inlet line, the stencil rule for
+    // the inlet's held nodes too.
+    let fine_inlet: &[usize] = if !line {
+        &[]
+    } else if fine.top {
+        &fine.inlet_col
+    } else {
+        &fine.inlet_corr
+    };
+    // The fine inlet line on the coarse grid: the coincident node, or (between two coarse
+    // nodes) the one on the side of the smaller right-hand side, upstream of the pressure
+    // zone (freezing the downstream one pins the correction where the pressure rises).
+    for jc in 1..coarse.nz {
+        let jf = jc * sz;
+        let fi = fine_inlet.get(jf).copied().unwrap_or(usize::MAX);
+        coarse.inlet_corr[jc] = if fi == usize::MAX {
+            usize::MAX
+        } else if st == 1 || fi % 2 == 0 {
+            fi / st
+        } else {
+            let left = fi - 1;
+            let right = if fi + 1 == fnt { 0 } else { fi + 1 };
+            if fine.f_own[jf * fnt + left] <= fine.f_own[jf * fnt + right] {
+                left / 2
+            } else {
+                right / 2
+            }
+        };
+    }
     for jc in 1..coarse.nz {
         let jf = jc * sz;
         let (jlo, jhi) = if sz == 2 { (jf - 1, jf + 1) } else { (jf, jf) };
@@ -512,10 +567,12 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen) {
                 if i0 + 1 == fnt { 0 } else { i0 + 1 },
             ];
             let cols = if st == 2 { &cols[..] } else { &cols[1..2] };
-            let mut held = false;
+            // The fine inlet line's node on this grid; and any node whose stencil
+            // touches a held fine node off that line (grooves, arcs).
+            let mut held = coarse.inlet_corr[jc] == ic;
             for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
                 for &i in cols {
-                    held |= fine_inv[j * fnt + i] == 0.0;
+                    held |= fine_inv[j * fnt + i] == 0.0 && fine_inlet.get(j) != Some(&i);
                 }
             }
             let k = jc * coarse.nt + ic;
@@ -558,6 +615,12 @@ pub(crate) struct Hierarchy {
     pub theta0: f64,
     /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
     pub updates: u64,
+    /// Whether the correction grids freeze one node per row for the max-film inlet line
+    /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
+    /// accuracy ladder, unchanged: with node 0 on the maximum film the two rules coincide
+    /// unless the journal is tilted out of the plane of its eccentricity). The WGSL kernel
+    /// (`inlet_line` in shaders/finite_mg.wgsl) follows the same split. See [`freeze`].
+    pub line_freeze: bool,
 }
 
 impl Hierarchy {
@@ -662,7 +725,7 @@ impl Hierarchy {
         for m in (1..=l).rev() {
             if let Some(how) = self.levels[m].coarsen {
                 let (lo, hi) = self.levels.split_at_mut(m);
-                freeze(&hi[0], &mut lo[m - 1], how);
+                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
             }
         }
         if l == 0 || self.levels[l].coarsen.is_none() {

@@ -434,6 +434,7 @@ impl FiniteSolver {
         let warm = field.len() == g.field_len() && field.iter().all(|v| v.is_finite() && *v >= 0.0);
         self.mg.theta0 = 0.0;
         self.mg.updates = 0;
+        self.mg.line_freeze = true;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -465,6 +466,7 @@ impl FiniteSolver {
             0.0
         };
         self.mg.updates = 0;
+        self.mg.line_freeze = false;
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
         let top = self.mg.levels.len() - 1;
         let res = self.fmg(job.aspect, top, stop);

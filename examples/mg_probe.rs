@@ -1,0 +1,325 @@
+//! Probe of the projected multigrid's cycle count on explicit grids (issue 20, pass 3):
+//! the states of the finite benchmark, cold starts, one thread; per grid the work in
+//! sweeps of the grid (mean, min, max) and the largest relative difference of the load
+//! vector and of the field from red-black projected SOR iterated to 1e-13 (the same
+//! discrete problem, converged).
+//!
+//! `cargo run --release --example mg_probe -- [n_theta n_z] [none|max] [states]`
+//! (defaults: the grids 64 × 16, 128 × 32, 256 × 64, max-film inlet, 32 states).
+//!
+//! `cargo run --release --example mg_probe -- gpu N_THETA N_Z`: the same states on the
+//! multigrid kernel (shaders/finite_mg.wgsl, any f64 adapter, lavapipe here): work per state
+//! on the GPU and the CPU, and the largest relative difference of their load vectors.
+//!
+//! `cargo run --release --example mg_probe -- aniso`: which direction's discretisation
+//! error dominates at 256 × 32 (B/D = 0.5): relative load-vector errors of 256 × 32,
+//! 512 × 32 (θ refined), 256 × 64 (ζ refined) and 512 × 64 against the converged solution
+//! ([`FiniteSolver::reference`]), free inlet (no snapped inlet column on explicit grids),
+//! the states of the finite benchmark.
+use bearing_sweep::bearing::finite::{
+    ladder_estimate, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet,
+};
+use bearing_sweep::bearing::{pack_state, BearingParams, BearingState};
+use bearing_sweep::bench::finite::bench_states;
+
+fn aniso(n: usize) {
+    let (mut p, states) = bench_states(n);
+    p.finite.inlet = Inlet::None;
+    p.model = bearing_sweep::bearing::FilmModel::Finite;
+    let grids = [
+        (256u32, 32u32),
+        (512, 32),
+        (256, 64),
+        (512, 64),
+        (64, 16),
+        (128, 16),
+        (128, 32),
+        (128, 64),
+    ];
+    println!("| state | 256×32 | 512×32 (θ refined) | 256×64 (ζ refined) | 512×64 | Simpson-ζ 64x16 | S 128x16 | S 128x32 | S 128x64 | S 256x32 |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut worst = [0.0_f64; 9];
+    for (k, s) in states.iter().enumerate() {
+        let packed = pack_state(&p, s).expect("valid state");
+        let job = FiniteJob::new(&p, &packed);
+        let mut solver = FiniteSolver::new();
+        let want = solver.reference(&job, &FiniteGrid::for_bearing(&p));
+        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        print!("| {k} |");
+        let mut simpson_256 = 0.0;
+        for (c, &(t, z)) in grids.iter().enumerate() {
+            let g = FiniteGrid::from(&FiniteSettings {
+                inlet: Inlet::None,
+                tolerance: 1e-11,
+                ..FiniteSettings::with_grid(t, z)
+            });
+            let mut field = Vec::new();
+            let (got, _) = solver.solve(&job, &g, &mut field);
+            // Columns 4-7: the same fields summed by Simpson's rule in ζ.
+            let got = if c >= 4 {
+                simpson(&field, t as usize, z as usize)
+            } else {
+                got
+            };
+            let e = (0..4)
+                .map(|i| (got[i] - want[i]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                / norm;
+            worst[c] = worst[c].max(e);
+            print!(" {e:.2e} |");
+            if c == 0 {
+                let got = simpson(&field, t as usize, z as usize);
+                let e = (0..4)
+                    .map(|i| (got[i] - want[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    / norm;
+                worst[8] = worst[8].max(e);
+                simpson_256 = e;
+            }
+        }
+        print!(" {simpson_256:.2e} |");
+        println!();
+    }
+    println!(
+        "| largest | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |",
+        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5], worst[6], worst[7], worst[8]
+    );
+}
+
+/// Load integrals with Simpson's rule in ζ (rectangle rule in θ).
+fn simpson(p: &[f64], nt: usize, nz: usize) -> [f64; 4] {
+    let dt = 2.0 * std::f64::consts::PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
+    for j in 1..nz {
+        let zeta = j as f64 * dz;
+        let w = if j % 2 == 1 { 4.0 / 3.0 } else { 2.0 / 3.0 };
+        let (mut c, mut s) = (0.0, 0.0);
+        for i in 0..nt {
+            let th = i as f64 * dt;
+            c += p[j * nt + i] * th.cos();
+            s += p[j * nt + i] * th.sin();
+        }
+        acc[0] += w * c;
+        acc[1] += w * s;
+        acc[2] += w * c * zeta;
+        acc[3] += w * s * zeta;
+    }
+    acc.map(|v| -v * dt * dz / 3.0)
+}
+
+/// The 12 states of tests/finite_accuracy.rs turned so that the maximum film is at θ = 0
+/// (a node of every grid, as the accuracy ladder places it): aligned ε 0.1-0.95, tilted in
+/// the plane of the eccentricity, squeezed.
+fn turned_states(p: &BearingParams) -> Vec<BearingState> {
+    let d = p.clearance;
+    let w = 100.0;
+    let mut out = Vec::new();
+    for &(e, tilt, sq) in &[
+        (0.1, 0.0, 0.0),
+        (0.3, 0.0, 0.0),
+        (0.6, 0.0, 0.0),
+        (0.8, 0.0, 0.0),
+        (0.9, 0.0, 0.0),
+        (0.95, 0.0, 0.0),
+        (0.3, 0.2, 0.0),
+        (0.6, 0.2, 0.0),
+        (0.8, 0.1, 0.0),
+        (0.5, 0.0, 0.1),
+        (0.7, 0.0, -0.1),
+        (0.6, 0.15, 0.05),
+    ] {
+        // Eccentricity along −x: the maximum film arg(−ε) is at θ = 0.
+        out.push(BearingState {
+            xi: -(e + tilt) * d,
+            yi: 0.0,
+            xj: -(e - tilt) * d,
+            yj: 0.0,
+            vxi: -sq * d * w,
+            vyi: 0.0,
+            vxj: -sq * d * w,
+            vyj: 0.0,
+            omega: w,
+        });
+    }
+    out
+}
+
+/// Ladder shapes `n_theta/n_z` = 8 (today's at B/D = 0.5), 4 and 2: per grid the largest
+/// true error of the load vector against the converged solution and the range of the
+/// Richardson estimate ([`ladder_estimate`]) over it, max-film inlet on a node.
+fn shapes() {
+    let p = BearingParams {
+        model: bearing_sweep::bearing::FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let states = turned_states(&p);
+    let mut refs = Vec::new();
+    for s in &states {
+        let packed = pack_state(&p, s).expect("valid state");
+        let job = FiniteJob::new(&p, &packed);
+        refs.push((
+            job,
+            FiniteSolver::new().reference(&job, &FiniteGrid::for_bearing(&p)),
+        ));
+    }
+    for r in [8u32, 4, 2] {
+        println!("shape {r}: | grid | nodes | largest true error | estimate / true (min-max) | states with estimate ≤ 5e-4 |");
+        let mut values: Vec<Vec<[f64; 4]>> = vec![Vec::new(); states.len()];
+        let mut nz = (16 / r).max(2);
+        while nz * r <= 1024 && nz <= 256 {
+            let nt = nz * r;
+            let g = FiniteGrid::from(&FiniteSettings {
+                tolerance: 1e-11,
+                ..FiniteSettings::with_grid(nt, nz)
+            });
+            let mut solver = FiniteSolver::new();
+            let (mut worst, mut lo, mut hi, mut met) = (0.0_f64, f64::INFINITY, 0.0_f64, 0);
+            for (k, (job, want)) in refs.iter().enumerate() {
+                let (got, _) = solver.solve(job, &g, &mut Vec::new());
+                let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let e = (0..4)
+                    .map(|i| (got[i] - want[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    / norm;
+                worst = worst.max(e);
+                values[k].push(got);
+                if let Some(est) = ladder_estimate(&values[k]) {
+                    lo = lo.min(est / e);
+                    hi = hi.max(est / e);
+                    met += usize::from(est <= 5e-4);
+                }
+            }
+            println!(
+                "| {nt}×{nz} | {} | {worst:.2e} | {lo:.2} - {hi:.2} | {met} |",
+                nt * (nz - 1)
+            );
+            nz *= 2;
+        }
+    }
+}
+
+fn gpu(nt: u32, nz: u32) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p, states) = bench_states(32);
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+        .collect();
+    let g = FiniteGrid::from(&FiniteSettings::with_grid(nt, nz));
+    let mut fields = vec![Vec::new(); jobs.len()];
+    let (mut out, mut reports) = (Vec::new(), Vec::new());
+    backend
+        .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+        .expect("the multigrid kernel runs");
+    let mut solver = FiniteSolver::new();
+    let (mut gsum, mut csum, mut diff, mut gmax) = (0u64, 0u64, 0.0_f64, 0u32);
+    for (k, job) in jobs.iter().enumerate() {
+        let (want, r) = solver.solve(job, &g, &mut Vec::new());
+        csum += r.sweeps as u64;
+        gsum += reports[k].sweeps as u64;
+        gmax = gmax.max(reports[k].sweeps);
+        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let d = (0..4)
+            .map(|i| (out[k][i] - want[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        diff = diff.max(d / norm);
+    }
+    let n = jobs.len() as f64;
+    println!(
+        "| {nt}×{nz} | GPU sweeps mean {:.1} (max {gmax}) | CPU {:.1} | max load diff {diff:.1e} |",
+        gsum as f64 / n,
+        csum as f64 / n
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("gpu") {
+        let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
+        let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
+        gpu(nt, nz);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("shapes") {
+        shapes();
+        return;
+    }
+    if args.first().map(String::as_str) == Some("aniso") {
+        aniso(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(16));
+        return;
+    }
+    let grids: Vec<(u32, u32)> = match (args.first(), args.get(1)) {
+        (Some(a), Some(b)) => vec![(a.parse().expect("n_theta"), b.parse().expect("n_z"))],
+        _ => vec![(64, 16), (128, 32), (256, 64)],
+    };
+    let inlet = match args.get(2).map(String::as_str) {
+        Some("none") => Inlet::None,
+        _ => Inlet::MaxFilm,
+    };
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(32);
+    let (p, states) = bench_states(n);
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::new(&p, &pack_state(&p, s).expect("valid state")))
+        .collect();
+    println!("| grid | inlet | MG sweeps mean (min-max) | max load diff | max field diff |");
+    println!("|---|---|---|---|---|");
+    for (t, z) in grids {
+        let settings = FiniteSettings {
+            inlet,
+            ..FiniteSettings::with_grid(t, z)
+        };
+        let g = FiniteGrid::from(&settings);
+        let tight = FiniteGrid {
+            tolerance: 1e-13,
+            ..g
+        };
+        let mut solver = FiniteSolver::new();
+        let (mut sum, mut lo, mut hi) = (0u64, u32::MAX, 0u32);
+        let (mut dl, mut df) = (0.0_f64, 0.0_f64);
+        for job in &jobs {
+            let mut want = Vec::new();
+            let (wi, _) = solver.solve_psor(job, &tight, &mut want);
+            let mut got = Vec::new();
+            let (gi, r) = solver.solve(job, &g, &mut got);
+            sum += r.sweeps as u64;
+            if std::env::var("PROBE_EACH").is_ok() {
+                eprint!(" {}", r.sweeps);
+            }
+            lo = lo.min(r.sweeps);
+            hi = hi.max(r.sweeps);
+            let norm = wi.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let d = (0..4).map(|k| (gi[k] - wi[k]).powi(2)).sum::<f64>().sqrt();
+            dl = dl.max(d / norm);
+            let fmax = want.iter().fold(0.0_f64, |m, v| m.max(*v));
+            let fd = want
+                .iter()
+                .zip(&got)
+                .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+            df = df.max(fd / fmax);
+        }
+        if std::env::var("PROBE_EACH").is_ok() {
+            eprintln!();
+        }
+        println!(
+            "| {t}×{z} | {inlet:?} | {:.1} ({lo}-{hi}) | {dl:.1e} | {df:.1e} |",
+            sum as f64 / jobs.len() as f64
+        );
+    }
+}
