@@ -949,10 +949,6 @@ impl Singularities {
     }
 }
 
-/// States per block of [`FilmRule::integrate_many`] (its bookkeeping lives on the stack;
-/// 64 gives the root search full lane groups on all but the block's last few states).
-const BLOCK: usize = 64;
-
 /// The default rule with its Gauss table built once.
 #[derive(Clone, Debug)]
 pub struct FilmRule {
@@ -997,59 +993,46 @@ impl FilmRule {
 
     /// [`FilmRule::integrate`] of every state into `out` (same length), the same bits: the
     /// tilted states' arc-end root searches of degree 4 run [`ROOT_LANES`] states at a
-    /// time in SIMD lanes ([`quartic_roots_lanes`]), the rest as in `integrate`.
+    /// time in SIMD lanes ([`quartic_roots_lanes`]), the rest (and the last few searched
+    /// states of the call) as in `integrate`.
     pub fn integrate_many(&self, states: &[PackedState], out: &mut [FilmIntegrals]) {
         assert_eq!(states.len(), out.len(), "one output per state");
-        for (st, o) in states.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
-            self.integrate_block(st, o);
-        }
-    }
-
-    /// [`FilmRule::integrate_many`] on at most [`BLOCK`] states.
-    fn integrate_block(&self, states: &[PackedState], out: &mut [FilmIntegrals]) {
-        let mut sing: [Option<Singularities>; BLOCK] = [None; BLOCK];
-        let mut pending: [Option<PendingRoots>; BLOCK] = [None; BLOCK];
-        // States waiting for a degree-4 root search, by index in the block.
-        let mut queue = [0usize; BLOCK];
+        // States waiting for a degree-4 root search: (index, quartic and its context).
+        let mut queue: [Option<(usize, PendingRoots)>; ROOT_LANES] = [None; ROOT_LANES];
         let mut queued = 0;
-        for (k, (state, o)) in states.iter().zip(out.iter_mut()).enumerate() {
+        for (k, state) in states.iter().enumerate() {
             if let Some((v, _)) = Self::aligned(state) {
-                *o = v;
+                out[k] = v;
                 continue;
             }
             match Singularities::locate_start(state, &self.settings, false) {
-                Located::Done(s) => sing[k] = Some(s),
+                Located::Done(sing) => out[k] = self.panels(state, &sing).0,
                 Located::Search(p) if p.n == 4 => {
-                    pending[k] = Some(p);
-                    queue[queued] = k;
+                    queue[queued] = Some((k, p));
                     queued += 1;
+                    if queued == ROOT_LANES {
+                        let mut c = [[0.0; 5]; ROOT_LANES];
+                        for (cl, q) in c.iter_mut().zip(&queue) {
+                            *cl = q.expect("queued").1.c;
+                        }
+                        let found = quartic_roots_lanes(self.isa, &c);
+                        for (q, (roots, sweeps)) in queue.iter().zip(found) {
+                            let (i, p) = q.expect("queued");
+                            out[i] = self.panels(&states[i], &p.finish(&roots, 4, sweeps)).0;
+                        }
+                        queued = 0;
+                    }
                 }
                 Located::Search(p) => {
                     let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
-                    sing[k] = Some(p.finish(&roots, n, sweeps));
+                    out[k] = self.panels(state, &p.finish(&roots, n, sweeps)).0;
                 }
             }
         }
-        let full = queued - queued % ROOT_LANES;
-        for group in queue[..full].chunks_exact(ROOT_LANES) {
-            let mut c = [[0.0; 5]; ROOT_LANES];
-            for (cl, &k) in c.iter_mut().zip(group) {
-                *cl = pending[k].expect("queued").c;
-            }
-            let found = quartic_roots_lanes(self.isa, &c);
-            for (&k, (roots, sweeps)) in group.iter().zip(found) {
-                sing[k] = Some(pending[k].expect("queued").finish(&roots, 4, sweeps));
-            }
-        }
-        for &k in &queue[full..queued] {
-            let p = pending[k].expect("queued");
+        for q in &queue[..queued] {
+            let (i, p) = q.expect("queued");
             let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
-            sing[k] = Some(p.finish(&roots, n, sweeps));
-        }
-        for ((state, o), s) in states.iter().zip(out.iter_mut()).zip(&sing) {
-            if let Some(s) = s {
-                *o = self.panels(state, s).0;
-            }
+            out[i] = self.panels(&states[i], &p.finish(&roots, n, sweeps)).0;
         }
     }
 
