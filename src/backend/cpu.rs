@@ -74,9 +74,9 @@ impl FilmBackend for CpuBackend {
         out.resize(states.len(), [0.0; 4]);
         let rule = &self.rule;
         let run = |out: &mut [FilmIntegrals], states: &[PackedState]| {
-            for (o, s) in out.iter_mut().zip(states) {
-                *o = rule.integrate(s).0;
-            }
+            // Root searches of several states in SIMD lanes; the same bits as one state
+            // at a time.
+            rule.integrate_many(states, out);
         };
         if self.threads == 1 || states.len() <= CHUNK {
             run(out, states);

@@ -24,9 +24,9 @@ pub use loads::{film_loads, finish_loads, finish_loads_with, pack_state, Loads, 
 pub use lubricant::Lubricant;
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{
-    atan2_lane, quartic_roots, quartic_roots_counted, slice_integrals, slices_lanes, Accuracy,
-    FilmIntegrals, FilmRule, LaneIsa, Lanes, PackedState, RuleSettings, Singularities,
-    ACCURACY_LEVELS, LANES,
+    atan2_lane, quartic_roots, quartic_roots_counted, quartic_roots_lanes, slice_integrals,
+    slices_lanes, Accuracy, FilmIntegrals, FilmRule, LaneIsa, Lanes, PackedState, RuleSettings,
+    Singularities, ACCURACY_LEVELS, LANES, ROOT_LANES,
 };
 pub use state::{BearingState, End, StateFault};
 pub use thermal::{solve_balance, Balance, ThermalError, ThermalSettings};

@@ -540,13 +540,26 @@ pub fn quartic_roots_counted(c: [f64; 5]) -> ([(f64, f64); 4], usize, usize) {
 
 /// Durand-Kerner on the first `n + 1` coefficients of `c` (`n` from [`kept_degree`]).
 fn durand_kerner_from(c: [f64; 5], n: usize) -> ([(f64, f64); 4], usize, usize) {
-    let mut roots = [(0.0, 0.0); 4];
     if n == 0 {
-        return (roots, 0, 0);
+        return ([(0.0, 0.0); 4], 0, 0);
     }
+    let (a, mut roots) = durand_kerner_start(&c, n);
+    let sweeps = match n {
+        1 => durand_kerner::<1>(&a, &mut roots),
+        2 => durand_kerner::<2>(&a, &mut roots),
+        3 => durand_kerner::<3>(&a, &mut roots),
+        _ => durand_kerner::<4>(&a, &mut roots),
+    };
+    (roots, n, sweeps)
+}
+
+/// The monic lower coefficients of `c`'s first `n + 1` (`1 <= n <= 4`) and the
+/// Durand-Kerner start points.
+fn durand_kerner_start(c: &[f64; 5], n: usize) -> ([f64; 4], [(f64, f64); 4]) {
+    let mut roots = [(0.0, 0.0); 4];
     let lead = c[n];
     let mut a = [0.0; 4];
-    for (ak, ck) in a.iter_mut().zip(&c).take(n) {
+    for (ak, ck) in a.iter_mut().zip(c.iter()).take(n) {
         *ak = ck / lead;
     }
     // Start on a circle of radius ~ the roots' geometric mean, at angles 0.4 + 2πk/n.
@@ -559,13 +572,152 @@ fn durand_kerner_from(c: [f64; 5], n: usize) -> ([(f64, f64); 4], usize, usize) 
     for (root, dir) in roots.iter_mut().zip(&start_directions()[n]).take(n) {
         *root = (radius * dir.0, radius * dir.1);
     }
-    let sweeps = match n {
-        1 => durand_kerner::<1>(&a, &mut roots),
-        2 => durand_kerner::<2>(&a, &mut roots),
-        3 => durand_kerner::<3>(&a, &mut roots),
-        _ => durand_kerner::<4>(&a, &mut roots),
-    };
-    (roots, n, sweeps)
+    (a, roots)
+}
+
+/// States whose degree-4 root searches [`quartic_roots_lanes`] runs together.
+pub const ROOT_LANES: usize = 4;
+
+/// [`durand_kerner`] for degree 4 on [`ROOT_LANES`] polynomials at once, lane `l` holding
+/// the monic lower coefficients `a[k][l]` and the roots `(re[i][l], im[i][l])`. Each lane
+/// does the scalar search's operations in its order, and a lane whose search has stopped
+/// (or whose step is skipped, `den == 0`) keeps its roots through selects: every lane ends
+/// with the scalar search's roots and sweep count bit for bit (tests/rule_root_lanes.rs).
+/// The lanes run until the slowest has converged.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lanes indexed across several arrays
+fn durand_kerner_lanes_generic(
+    a: &[[f64; ROOT_LANES]; 4],
+    re: &mut [[f64; ROOT_LANES]; 4],
+    im: &mut [[f64; ROOT_LANES]; 4],
+    sweeps: &mut [usize; ROOT_LANES],
+) {
+    let mut active = [true; ROOT_LANES];
+    *sweeps = [ROOT_ITERATIONS; ROOT_LANES];
+    for sweep in 1..=ROOT_ITERATIONS {
+        let mut moved = [0.0_f64; ROOT_LANES];
+        // One root at a time, in the scalar order (each update seen by the next root).
+        durand_kerner_lane_root::<0>(a, re, im, &active, &mut moved);
+        durand_kerner_lane_root::<1>(a, re, im, &active, &mut moved);
+        durand_kerner_lane_root::<2>(a, re, im, &active, &mut moved);
+        durand_kerner_lane_root::<3>(a, re, im, &active, &mut moved);
+        let mut any = false;
+        for l in 0..ROOT_LANES {
+            if active[l] && moved[l] < 1e-13 {
+                sweeps[l] = sweep;
+                active[l] = false;
+            }
+            any |= active[l];
+        }
+        if !any {
+            break;
+        }
+    }
+}
+
+/// One Durand-Kerner update of root `I` in every lane ([`durand_kerner`]'s inner loop for
+/// `i = I`; the root index a constant so that the lanes' loop has no branch).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lanes indexed across several arrays
+fn durand_kerner_lane_root<const I: usize>(
+    a: &[[f64; ROOT_LANES]; 4],
+    re: &mut [[f64; ROOT_LANES]; 4],
+    im: &mut [[f64; ROOT_LANES]; 4],
+    active: &[bool; ROOT_LANES],
+    moved: &mut [f64; ROOT_LANES],
+) {
+    let (zr, zi) = (re[I], im[I]);
+    let mut new_r = zr;
+    let mut new_i = zi;
+    for l in 0..ROOT_LANES {
+        let z = (zr[l], zi[l]);
+        let mut p = (1.0, 0.0);
+        for k in (0..4).rev() {
+            p = (p.0 * z.0 - p.1 * z.1 + a[k][l], p.0 * z.1 + p.1 * z.0);
+        }
+        let mut q = (1.0, 0.0);
+        for j in 0..4 {
+            if j != I {
+                let d = (z.0 - re[j][l], z.1 - im[j][l]);
+                q = (q.0 * d.0 - q.1 * d.1, q.0 * d.1 + q.1 * d.0);
+            }
+        }
+        let den = q.0 * q.0 + q.1 * q.1;
+        let step = ((p.0 * q.0 + p.1 * q.1) / den, (p.1 * q.0 - p.0 * q.1) / den);
+        let take = active[l] & (den != 0.0);
+        new_r[l] = if take { z.0 - step.0 } else { z.0 };
+        new_i[l] = if take { z.1 - step.1 } else { z.1 };
+        let m = moved[l].max(step.0.abs().max(step.1.abs()) / (1.0 + z.0.abs().max(z.1.abs())));
+        moved[l] = if take { m } else { moved[l] };
+    }
+    re[I] = new_r;
+    im[I] = new_i;
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn durand_kerner_lanes_avx512(
+    a: &[[f64; ROOT_LANES]; 4],
+    re: &mut [[f64; ROOT_LANES]; 4],
+    im: &mut [[f64; ROOT_LANES]; 4],
+    sweeps: &mut [usize; ROOT_LANES],
+) {
+    durand_kerner_lanes_generic(a, re, im, sweeps)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn durand_kerner_lanes_avx2(
+    a: &[[f64; ROOT_LANES]; 4],
+    re: &mut [[f64; ROOT_LANES]; 4],
+    im: &mut [[f64; ROOT_LANES]; 4],
+    sweeps: &mut [usize; ROOT_LANES],
+) {
+    durand_kerner_lanes_generic(a, re, im, sweeps)
+}
+
+/// The roots of [`ROOT_LANES`] degree-4 polynomials `c` (`c[l][4] != 0`, none of them
+/// dropped by [`kept_degree`]) found together on instruction set `isa`: the same roots and
+/// sweep counts, bit for bit, as [`quartic_roots_counted`] gives for each.
+pub fn quartic_roots_lanes(
+    isa: LaneIsa,
+    c: &[[f64; 5]; ROOT_LANES],
+) -> [([(f64, f64); 4], usize); ROOT_LANES] {
+    let (mut a, mut re, mut im) = (
+        [[0.0; ROOT_LANES]; 4],
+        [[0.0; ROOT_LANES]; 4],
+        [[0.0; ROOT_LANES]; 4],
+    );
+    for l in 0..ROOT_LANES {
+        let (al, rl) = durand_kerner_start(&c[l], 4);
+        for k in 0..4 {
+            a[k][l] = al[k];
+            re[k][l] = rl[k].0;
+            im[k][l] = rl[k].1;
+        }
+    }
+    let mut sweeps = [0; ROOT_LANES];
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            unsafe { durand_kerner_lanes_avx512(&a, &mut re, &mut im, &mut sweeps) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { durand_kerner_lanes_avx2(&a, &mut re, &mut im, &mut sweeps) }
+        }
+        _ => durand_kerner_lanes_generic(&a, &mut re, &mut im, &mut sweeps),
+    }
+    let mut out = [([(0.0, 0.0); 4], 0); ROOT_LANES];
+    for l in 0..ROOT_LANES {
+        for k in 0..4 {
+            out[l].0[k] = (re[k][l], im[k][l]);
+        }
+        out[l].1 = sweeps[l];
+    }
+    out
 }
 
 /// Radius in `t = s − 1/2` beyond which no arc-end root can end a panel early: a panel
@@ -593,6 +745,19 @@ impl Singularities {
     }
 
     fn locate(state: &PackedState, settings: &RuleSettings, all_roots: bool) -> Self {
+        match Self::locate_start(state, settings, all_roots) {
+            Located::Done(sing) => sing,
+            Located::Search(pending) => {
+                let (roots, n, sweeps) = durand_kerner_from(pending.c, pending.n);
+                pending.finish(&roots, n, sweeps)
+            }
+        }
+    }
+
+    /// Everything [`Singularities::locate`] does before the Durand-Kerner search, which is
+    /// left to the caller when needed (so that [`FilmRule::integrate_many`] can run it for
+    /// several states in SIMD lanes).
+    fn locate_start(state: &PackedState, settings: &RuleSettings, all_roots: bool) -> Located {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
         let (e1x, e1y) = (ejx - e0x, ejy - e0y);
@@ -657,7 +822,7 @@ impl Singularities {
                     }
                 }
             }
-            return sing;
+            return Located::Done(sing);
         }
         // Arc-end quartic in t = s − 1/2: ε = ec + e1 t, r = rc + r1 t.
         let (ecx, ecy) = (e0x + 0.5 * e1x, e0y + 0.5 * e1y);
@@ -681,9 +846,48 @@ impl Singularities {
             // the roots would give, without finding them (bit-identical results; on the
             // rotor workloads of issue 28 nearly every tilted state takes this path).
             sing.root_work = (n, 0);
-            return sing;
+            return Located::Done(sing);
         }
-        let (roots, n, sweeps) = durand_kerner_from(c, n);
+        Located::Search(PendingRoots {
+            sing,
+            c,
+            n,
+            rate_zero,
+            e0: (e0x, e0y),
+            e1: (e1x, e1y),
+        })
+    }
+}
+
+/// [`Singularities::locate_start`]'s result: the singularities, or a state whose arc-end
+/// roots must still be searched.
+enum Located {
+    Done(Singularities),
+    Search(PendingRoots),
+}
+
+/// A state waiting for its arc-end roots: the quartic (coefficients `c`, kept degree `n`)
+/// and what [`PendingRoots::finish`] needs to place them.
+#[derive(Clone, Copy)]
+struct PendingRoots {
+    sing: Singularities,
+    c: [f64; 5],
+    n: usize,
+    rate_zero: Option<(f64, f64)>,
+    e0: (f64, f64),
+    e1: (f64, f64),
+}
+
+impl PendingRoots {
+    /// The singularities with the quartic's roots (degree `n`, found in `sweeps` sweeps).
+    fn finish(self, roots: &[(f64, f64); 4], n: usize, sweeps: usize) -> Singularities {
+        let PendingRoots {
+            mut sing,
+            rate_zero,
+            e0: (e0x, e0y),
+            e1: (e1x, e1y),
+            ..
+        } = self;
         sing.root_work = (n, sweeps);
         // Near the rate vector's zero s_r ± i d_r two roots of Q cluster. Locally
         // (ε ≈ ε(s_r), r = |r1| (t ê + d_r ê⊥), t = s − s_r) Q/|r1|² is the quadratic
@@ -714,7 +918,9 @@ impl Singularities {
         }
         sing
     }
+}
 
+impl Singularities {
     /// End of the panel that starts at `s` (at most 1).
     pub fn panel_end(&self, s: f64, settings: &RuleSettings) -> f64 {
         let mut step = 1.0 - s;
@@ -778,17 +984,77 @@ impl FilmRule {
     }
 
     /// Film integrals of one packed state, and the number of slices evaluated.
-    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
     pub fn integrate(&self, state: &PackedState) -> (FilmIntegrals, u32) {
+        if let Some(aligned) = Self::aligned(state) {
+            return aligned;
+        }
+        self.panels(state, &Singularities::of(state, &self.settings))
+    }
+
+    /// [`FilmRule::integrate`] of every state into `out` (same length), the same bits: the
+    /// tilted states' arc-end root searches of degree 4 run [`ROOT_LANES`] states at a
+    /// time in SIMD lanes ([`quartic_roots_lanes`]), the rest (and the last few searched
+    /// states of the call) as in `integrate`.
+    pub fn integrate_many(&self, states: &[PackedState], out: &mut [FilmIntegrals]) {
+        assert_eq!(states.len(), out.len(), "one output per state");
+        // States waiting for a degree-4 root search: (index, quartic and its context).
+        let mut queue: [Option<(usize, PendingRoots)>; ROOT_LANES] = [None; ROOT_LANES];
+        let mut queued = 0;
+        for (k, state) in states.iter().enumerate() {
+            if let Some((v, _)) = Self::aligned(state) {
+                out[k] = v;
+                continue;
+            }
+            match Singularities::locate_start(state, &self.settings, false) {
+                Located::Done(sing) => out[k] = self.panels(state, &sing).0,
+                Located::Search(p) if p.n == 4 => {
+                    queue[queued] = Some((k, p));
+                    queued += 1;
+                    if queued == ROOT_LANES {
+                        let mut c = [[0.0; 5]; ROOT_LANES];
+                        for (cl, q) in c.iter_mut().zip(&queue) {
+                            *cl = q.expect("queued").1.c;
+                        }
+                        let found = quartic_roots_lanes(self.isa, &c);
+                        for (q, (roots, sweeps)) in queue.iter().zip(found) {
+                            let (i, p) = q.expect("queued");
+                            out[i] = self.panels(&states[i], &p.finish(&roots, 4, sweeps)).0;
+                        }
+                        queued = 0;
+                    }
+                }
+                Located::Search(p) => {
+                    let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
+                    out[k] = self.panels(state, &p.finish(&roots, n, sweeps)).0;
+                }
+            }
+        }
+        for q in &queue[..queued] {
+            let (i, p) = q.expect("queued");
+            let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
+            out[i] = self.panels(&states[i], &p.finish(&roots, n, sweeps)).0;
+        }
+    }
+
+    /// An aligned state's integrals (one slice), `None` for a tilted one.
+    fn aligned(state: &PackedState) -> Option<(FilmIntegrals, u32)> {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
         let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
         if e1x == 0.0 && e1y == 0.0 && r1x == 0.0 && r1y == 0.0 {
             // Aligned: the slice loads are constant, ∫ s(1−s) ds = 1/6, ∫ s²(1−s) ds = 1/12.
             let [c, s] = slice_integrals(e0x, e0y, r0x, r0y);
-            return ([c / 6.0, s / 6.0, c / 12.0, s / 12.0], 1);
+            return Some(([c / 6.0, s / 6.0, c / 12.0, s / 12.0], 1));
         }
-        let sing = Singularities::of(state, &self.settings);
+        None
+    }
+
+    /// A tilted state's integrals over the panels `sing` lays out, and the slices.
+    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
+    fn panels(&self, state: &PackedState, sing: &Singularities) -> (FilmIntegrals, u32) {
+        let [e0x, e0y, ejx, ejy] = state.ecc;
+        let [r0x, r0y, rjx, rjy] = state.rate;
+        let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
         let mut acc = [0.0; 4];
         let mut slices = 0;
         let mut s = 0.0;
