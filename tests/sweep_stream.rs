@@ -1,7 +1,10 @@
-//! Reductions as the run goes (issue 21 item 7): a rotor variant whose evaluation window
-//! has a fixed length keeps only the window, the run's totals and the samples its
-//! whole-run series show. Its reductions and kept series are bit for bit those of the
-//! stored samples, and the samples it holds do not grow with `t_end`.
+//! Reductions as the run goes (issue 21 item 7): a rotor variant keeps only its window,
+//! the run's totals and the samples its whole-run series show. Its reductions and kept
+//! series are bit for bit those of the stored samples (windows of fixed length, and
+//! fraction windows of runs that reach `t_end` or whose record was not decimated), a run
+//! that ends early is reduced over a fraction window from a bounded record within stated
+//! tolerances, and the samples it holds do not grow with `t_end`. JFO finite-film
+//! bearings' film series are reduced too (issue 27).
 
 use std::collections::BTreeSet;
 
@@ -12,7 +15,11 @@ use bearing_sweep::sweep::reduce::{
 };
 use bearing_sweep::sweep::rotor_sim::RotorSimulator;
 use bearing_sweep::sweep::runner::{BatchSimulator, Outcome, VariantJob};
+use bearing_sweep::sweep::stream::EARLY_END_RECORD;
 use serde_json::{json, Value};
+
+/// Step limit of the early-ended runs (tuned so the run has more samples than the record).
+const STEPS: u64 = 20_000;
 
 /// The paper rotor (sweeps/clearance-viscosity.json's base) at `clearance` m for `t_end` s,
 /// samples every 5e-4 s, at most `max_steps` steps.
@@ -44,11 +51,23 @@ fn held_with_friction_check() -> Value {
 /// Runs `scenes` on the CPU, reduced as they go under `opts` (`stream`) or from stored
 /// samples.
 fn run(scenes: &[Value], opts: Option<&ReductionOptions>) -> Vec<Outcome> {
+    run_within(scenes, opts, None)
+}
+
+/// [`run`] within the memory budget `max_memory` (bytes; default 2 GiB).
+fn run_within(
+    scenes: &[Value],
+    opts: Option<&ReductionOptions>,
+    max_memory: Option<u64>,
+) -> Vec<Outcome> {
     let accuracy = Accuracy::default();
     let backend = create_backend(BackendKind::Cpu, accuracy).unwrap().0;
     let mut sim = RotorSimulator::new(LoadEvaluator::new(backend), accuracy);
     if let Some(o) = opts {
         sim.set_reductions(o);
+    }
+    if let Some(b) = max_memory {
+        sim.set_max_memory(bearing_sweep::budget::MemoryBudget::new(b));
     }
     let jobs: Vec<VariantJob> = scenes
         .iter()
@@ -130,6 +149,13 @@ fn streamed_reductions_equal_stored_ones_bit_for_bit() {
         // Longer than the run: the whole run, truncated.
         (Window::Revolutions(1e4), Span::Window),
         (Window::Seconds(10.0), Span::Run),
+        // Fractions of the run (the default half, a short one, the whole run): their
+        // start is known in advance for the runs that reach t_end; the early-ended run
+        // is reduced from its record (1001 samples at most here: not decimated).
+        (Window::Fraction(0.5), Span::Run),
+        (Window::Fraction(0.5), Span::Window),
+        (Window::Fraction(0.013), Span::Window),
+        (Window::Fraction(1.0), Span::Run),
     ] {
         let opts = options(window, span);
         let streamed = run(&scenes, Some(&opts));
@@ -218,4 +244,263 @@ fn an_invalid_variant_streamed_reports_like_a_stored_one() {
         &want,
     );
     assert_eq!(red.series, None);
+}
+
+/// `(path, value)` of every number under `v`.
+fn leaves(path: &str, v: &Value, out: &mut Vec<(String, f64)>) {
+    match v {
+        Value::Object(m) => m
+            .iter()
+            .for_each(|(k, x)| leaves(&format!("{path}.{k}"), x, out)),
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .for_each(|(i, x)| leaves(&format!("{path}[{i}]"), x, out)),
+        Value::Number(n) => out.push((path.to_string(), n.as_f64().unwrap())),
+        _ => {}
+    }
+}
+
+/// The tolerance of a reduction from the decimated record against the exact one, by
+/// field (`None`: not compared; `Some(0)`: equal). Measured at strides 4 and 8 (the paper
+/// rotor, 52 119 and 104 237 samples into a record of 16 384): window means 2.3e-7
+/// relative, window min/max 6.1e-6, orbit sizes and centres 2.0e-4 of the orbit's
+/// radius, whirl ratio 5.7e-11, whirl amplitude 2.1e-7, sub-synchronous (side-lobe)
+/// ratio 2.6e-5 and amplitude 6.5e-6, window start and revolutions 3.9e-5 (within one
+/// kept sample interval); run extremes are kept from every sample: exact. Allowed: about
+/// 4 times those.
+fn record_tolerance(path: &str) -> Option<(f64, bool)> {
+    let leaf = path.rsplit('.').next().unwrap();
+    let rel = |x| Some((x, true));
+    if path.contains("h_min") || path.contains("_peak_n") || path.contains("eccentricity_max") {
+        return Some((0.0, false));
+    }
+    if path.contains("orbit.") {
+        // Absolute, in units of the orbit's radius (applied by the caller).
+        return Some((8e-4, false));
+    }
+    match leaf {
+        "samples" | "record_samples" | "sample_stride" | "truncated" => None,
+        "t_end_s" => Some((0.0, false)),
+        "t_start_s" | "revolutions" => rel(1.6e-4),
+        "mean" | "power_loss_w" | "amplitude_m" => rel(1e-6),
+        "min" | "max" => rel(2.5e-5),
+        "ratio" | "whirl_ratio" => Some((1e-9, false)),
+        "subsync_ratio" | "subsync_amplitude_m" => rel(1e-4),
+        _ => Some((0.0, false)),
+    }
+}
+
+#[test]
+fn early_ended_fraction_window_comes_from_a_bounded_record() {
+    // The paper rotor sampled every 1e-4 s towards t_end = 1000 s, stopped by the step
+    // limit: its half-run window is not known in advance, so it is reduced from the
+    // record of the whole run (at most EARLY_END_RECORD samples, decimated). Stored, the
+    // run keeps every sample (one variant: the budget's cap is millions). Two step
+    // limits: the samples held do not grow with the run.
+    let opts = ReductionOptions::default();
+    let mut held = Vec::new();
+    for steps in [STEPS, 2 * STEPS] {
+        let mut s = scene(3e-4, 1000.0, steps);
+        s["integrator"]["sample_interval"] = json!(1e-4);
+        let stored = run(std::slice::from_ref(&s), None);
+        let streamed = run(&[s], Some(&opts));
+        assert_ne!(stored[0].status, "ok", "the step limit ends the run");
+        let signals = stored[0].signals.as_ref().unwrap();
+        let samples = signals.t.len();
+        assert!(
+            samples > 3 * EARLY_END_RECORD,
+            "{samples} samples: record not decimated"
+        );
+        let exact = serde_json::to_value(reduce(signals, &opts)).unwrap();
+        let red = streamed[0].reduced.as_ref().unwrap();
+        let got = serde_json::to_value(&red.reductions).unwrap();
+        // Said in the result: the window came from a decimated record.
+        let w = &got["window"];
+        let record = w["record_samples"]
+            .as_u64()
+            .expect("record_samples reported") as usize;
+        assert!(record <= EARLY_END_RECORD + 1, "record of {record} samples");
+        assert!(w["sample_stride"].as_u64().unwrap() >= 4, "{w}");
+        held.push(red.peak_stored_samples);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        leaves("", &got, &mut a);
+        leaves("", &exact, &mut b);
+        let mut compared = 0;
+        for (path, y) in &b {
+            let Some((tol, relative)) = record_tolerance(path) else {
+                continue;
+            };
+            let x = a
+                .iter()
+                .find(|(p, _)| p == path)
+                .unwrap_or_else(|| panic!("{path} missing"))
+                .1;
+            let scale = if path.contains("orbit.") {
+                // The orbit's radius (exact).
+                let radius = format!("{}.radius_m", path.rsplit_once('.').unwrap().0);
+                b.iter().find(|(p, _)| *p == radius).unwrap().1
+            } else if relative {
+                y.abs()
+            } else {
+                1.0
+            };
+            assert!(
+                (x - y).abs() <= tol * scale,
+                "steps {steps}: {path}: from the record {x}, exact {y} (tolerance {tol} x {scale})"
+            );
+            compared += 1;
+        }
+        assert!(compared > 60, "{compared} numbers compared");
+    }
+    // The record and its latest sample; the tail (the window of a run that reaches
+    // t_end = 1000 s starts at 500 s) holds nothing.
+    for h in &held {
+        assert!(*h <= EARLY_END_RECORD + 1, "held {h} samples");
+    }
+    assert_eq!(held[0], held[1], "held samples grew with the run: {held:?}");
+}
+
+#[test]
+fn default_window_held_samples_do_not_grow_with_t_end() {
+    // The default half-run window of runs that reach t_end = 4 s and 16 s (8001 and
+    // 32 001 samples) under a budget whose sample cap is the floor (4096): the tail
+    // holds the window, decimated beyond the cap, and the record at most 4096 samples
+    // whatever t_end. Stored, the run keeps up to the cap as well, but the tail's window
+    // is every sample where the stored run was: the 4 s run's reductions are bit for bit
+    // those of its stored samples.
+    let opts = ReductionOptions::default();
+    // 2 MiB: one variant of 26 numbers per sample gets the floor cap, 4096.
+    let tiny = Some(2 << 20);
+    let mut held = Vec::new();
+    for t_end in [4.0, 16.0] {
+        let s = scene(3e-4, t_end, 10_000_000);
+        let o = run_within(std::slice::from_ref(&s), Some(&opts), tiny);
+        assert_eq!(o[0].status, "ok", "t_end {t_end}: {:?}", o[0].message);
+        let red = o[0].reduced.as_ref().unwrap();
+        held.push(red.peak_stored_samples);
+        if t_end == 4.0 {
+            let stored = run(&[s], None);
+            let want =
+                serde_json::to_value(reduce(stored[0].signals.as_ref().unwrap(), &opts)).unwrap();
+            same(
+                "default window, 4 s",
+                &serde_json::to_value(&red.reductions).unwrap(),
+                &want,
+            );
+        } else {
+            // 16 000 window samples over a cap of 4096: decimated, and said so.
+            let w = serde_json::to_value(red.reductions.window).unwrap();
+            assert_eq!(w["sample_stride"], json!(4), "{w}");
+            assert!(w.get("record_samples").is_none(), "{w}");
+        }
+    }
+    let (short, long) = (held[0], held[1]);
+    assert!(
+        (long as f64) <= 1.1 * short as f64,
+        "held samples grew with t_end: {short} at 4 s, {long} at 16 s (allowed 1.1x)"
+    );
+    assert!(
+        long <= 2 * 4096 + 2,
+        "held {long}: over the tail's and record's caps"
+    );
+}
+
+/// The oil-whirl scene (sweeps/oil-whirl.json) for `t_end` s with both bearings on the
+/// finite film, 36 × 8, with `cavitation`.
+fn finite_whirl(cavitation: &str, t_end: f64) -> Value {
+    let mut s: Value = serde_json::from_str(include_str!("../sweeps/oil-whirl.json")).unwrap();
+    s["integrator"]["t_end"] = json!(t_end);
+    s["integrator"]["rtol"] = json!(1e-6);
+    s["integrator"]["atol"] = json!(1e-9);
+    for b in s["bearings"].as_array_mut().unwrap() {
+        b["model"] = json!("finite");
+        b["finite"] = json!({"n_theta": 36, "n_z": 8, "cavitation": cavitation});
+    }
+    s
+}
+
+#[test]
+fn jfo_film_series_are_reduced_over_the_window() {
+    // Issue 27: a JFO finite-film rotor's samples carry the film's friction and flows;
+    // the reductions give their window statistics per bearing, streamed and stored alike
+    // (bit for bit), equal to a hand reduction of the samples' series (trapezoidal mean
+    // over the second half of the run, min and max over its samples).
+    use bearing_sweep::rotor::{simulate_batch, Scene};
+    let s = finite_whirl("jfo", 0.01);
+    let opts = ReductionOptions::default();
+    let streamed = run(std::slice::from_ref(&s), Some(&opts));
+    let stored = run(std::slice::from_ref(&s), None);
+    assert_eq!(streamed[0].status, "ok", "{:?}", streamed[0].message);
+    let red = serde_json::to_value(&streamed[0].reduced.as_ref().unwrap().reductions).unwrap();
+    let want = serde_json::to_value(reduce(stored[0].signals.as_ref().unwrap(), &opts)).unwrap();
+    same("jfo reductions", &red, &want);
+    // By hand, from the rotor's own samples.
+    let scene: Scene = serde_json::from_value(s).unwrap();
+    let accuracy = Accuracy::default();
+    let backend = create_backend(BackendKind::Cpu, accuracy).unwrap().0;
+    let r = simulate_batch(&[scene], &mut LoadEvaluator::new(backend), &mut |_, _| {}).remove(0);
+    let t = &r.samples.t;
+    let n = t.len();
+    let ts = t[n - 1] - 0.5 * (t[n - 1] - t[0]);
+    let w0 = t.iter().position(|&x| x >= ts).unwrap();
+    for (k, b) in r.samples.bearings.iter().enumerate() {
+        let film = b.film.as_ref().expect("JFO samples carry the film series");
+        for (name, v) in [
+            ("power_loss_w", &film.power_loss_w),
+            ("side_flow_m3_per_s", &film.side_flow_m3_per_s),
+            ("inlet_flow_m3_per_s", &film.inlet_flow_m3_per_s),
+            ("friction_torque_nm", &film.friction_torque_nm),
+        ] {
+            let (mut area, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
+            for i in w0..n {
+                lo = lo.min(v[i]);
+                hi = hi.max(v[i]);
+                if i > w0 {
+                    area += 0.5 * (v[i] + v[i - 1]) * (t[i] - t[i - 1]);
+                }
+            }
+            let mean = area / (t[n - 1] - t[w0]);
+            let got = &red["bearings"][k]["film"][name];
+            let at = format!("bearing {k} film.{name}");
+            // The same sums in the same order up to the mean's division: rounding only.
+            let m = got["mean"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{at}: {got}"));
+            assert!(
+                (m - mean).abs() <= 1e-12 * mean.abs().max(1e-30),
+                "{at}: mean {m}, by hand {mean}"
+            );
+            assert_eq!(got["min"].as_f64(), Some(lo), "{at}: min");
+            assert_eq!(got["max"].as_f64(), Some(hi), "{at}: max");
+        }
+        // Power loss is positive and the side flow leaves the film.
+        assert!(
+            red["bearings"][k]["film"]["power_loss_w"]["min"]
+                .as_f64()
+                .unwrap()
+                > 0.0
+        );
+    }
+}
+
+#[test]
+fn swift_stieber_finite_film_has_no_film_series_to_reduce() {
+    // A Swift-Stieber (reynolds) finite film's samples carry no film series (only JFO
+    // films carry their history and fill the film outputs, docs/jfo.md): its reductions
+    // have no `film` block, as for the short film.
+    use bearing_sweep::rotor::{simulate_batch, Scene};
+    let s = finite_whirl("reynolds", 0.005);
+    let opts = ReductionOptions::default();
+    let streamed = run(std::slice::from_ref(&s), Some(&opts));
+    assert_eq!(streamed[0].status, "ok", "{:?}", streamed[0].message);
+    let red = serde_json::to_value(&streamed[0].reduced.as_ref().unwrap().reductions).unwrap();
+    for b in red["bearings"].as_array().unwrap() {
+        assert!(b.get("film").is_none(), "{b}");
+    }
+    let scene: Scene = serde_json::from_value(s).unwrap();
+    let accuracy = Accuracy::default();
+    let backend = create_backend(BackendKind::Cpu, accuracy).unwrap().0;
+    let r = simulate_batch(&[scene], &mut LoadEvaluator::new(backend), &mut |_, _| {}).remove(0);
+    assert!(r.samples.bearings.iter().all(|b| b.film.is_none()));
 }

@@ -25,6 +25,7 @@ pub const UNIT_SUFFIXES: &[(&str, &str)] = &[
     ("_rad_s", "radians per second"),
     ("_1_s", "per second (growth rate)"),
     ("_m_s", "metres per second"),
+    ("_m3_per_s", "cubic metres per second"),
     ("_m_s2", "metres per second squared"),
     ("_n_per_m", "newtons per metre"),
     ("_n_s_per_m", "newton seconds per metre"),
@@ -35,7 +36,17 @@ pub const UNIT_SUFFIXES: &[(&str, &str)] = &[
 
 /// Unit suffixes that result keys carry in their names (`value_m`, `friction_torque_nm`,
 /// `sigma_1_s`), longest first so `_rad_s` is not read as `_s`.
-const KEY_SUFFIXES: &[&str] = &["_rad_s", "_1_s", "_nm", "_ms", "_m", "_s", "_n", "_w"];
+const KEY_SUFFIXES: &[&str] = &[
+    "_m3_per_s",
+    "_rad_s",
+    "_1_s",
+    "_nm",
+    "_ms",
+    "_m",
+    "_s",
+    "_n",
+    "_w",
+];
 
 /// Unit suffix of a scene parameter (the last key of an axis path).
 fn scene_unit(key: &str) -> Option<&'static str> {
@@ -99,6 +110,7 @@ fn plain_unit(key: &str) -> Option<&'static str> {
         | "applied_to"
         | "of"
         | "sample_stride"
+        | "record_samples"
         | "newton_iterations"
         | "threshold_iterations" => "count",
         "bearing" => "index",
@@ -395,5 +407,24 @@ mod tests {
             assert_eq!(param_column(path, true), want, "{path}");
         }
         assert_eq!(param_column("bearings[*].model", false), "bearings_model");
+    }
+
+    #[test]
+    fn film_flows_and_the_decimated_window_have_their_units() {
+        // reductions.bearings[0].film (JFO finite film) and a window from a decimated
+        // record: m³/s is not read as seconds.
+        let lines = vec![
+            r#"{"id":0,"params":{},"status":"max_steps","reductions":{"window":{"samples":3,"sample_stride":4,"record_samples":9},"bearings":[{"film":{"side_flow_m3_per_s":{"mean":2e-7},"power_loss_w":{"max":3.0}}}]}}"#.to_string(),
+        ];
+        let csv = variants_csv(&lines);
+        let header = csv.lines().find(|l| l.starts_with("id,")).unwrap();
+        for col in [
+            "b0_film_side_flow_mean_m3_per_s",
+            "b0_film_power_loss_max_w",
+            "window_sample_stride_count",
+            "window_record_samples_count",
+        ] {
+            assert!(header.split(',').any(|c| c == col), "{col} not in {header}");
+        }
     }
 }

@@ -66,6 +66,23 @@ pub struct BearingSignals {
     pub wx: Vec<f64>,
     /// Film force on the journal, N.
     pub wy: Vec<f64>,
+    /// The film's own friction and flows (JFO finite-film bearings, whose samples carry
+    /// them; empty otherwise).
+    pub film: FilmSignals,
+}
+
+/// A film's own friction and flows, sampled at the variant's `t` (the rotor samples'
+/// `film` series, docs/jfo.md). SI units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FilmSignals {
+    /// Friction torque of the film on the journal, N·m.
+    pub friction_torque_nm: Vec<f64>,
+    /// Power loss `|M ω|`, W.
+    pub power_loss_w: Vec<f64>,
+    /// Side flow out of both end faces, m³/s.
+    pub side_flow_m3_per_s: Vec<f64>,
+    /// Net flow from the supply into the film, m³/s.
+    pub inlet_flow_m3_per_s: Vec<f64>,
 }
 
 /// Time series of one variant. SI units.
@@ -167,6 +184,29 @@ pub struct WindowInfo {
     pub samples: usize,
     /// The run was shorter than the requested window: the whole run is used.
     pub truncated: bool,
+    /// Present when the window's samples were decimated: every this many samples were
+    /// kept (a fraction window longer than the batch's sample cap, or one taken from a
+    /// decimated record).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sample_stride: Option<usize>,
+    /// Present when the run ended before `t_end` and its fraction window was taken from
+    /// a decimated record of the whole run: the record's samples
+    /// (`super::stream::EARLY_END_RECORD` at most).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub record_samples: Option<usize>,
+}
+
+/// A film's own friction and flows over the window (JFO finite-film bearings).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FilmReduction {
+    /// The film's friction torque on the journal (as sampled, signed), N·m.
+    pub friction_torque_nm: Option<Stats>,
+    /// The film's power loss `|M ω|`, W.
+    pub power_loss_w: Option<Stats>,
+    /// Side flow out of both end faces, m³/s.
+    pub side_flow_m3_per_s: Option<Stats>,
+    /// Net flow from the supply into the film, m³/s.
+    pub inlet_flow_m3_per_s: Option<Stats>,
 }
 
 /// Reductions of one bearing.
@@ -190,6 +230,10 @@ pub struct BearingReduction {
     pub orbit: Option<Orbit>,
     /// Journal-centre whirl over the window.
     pub whirl: Option<Whirl>,
+    /// The film's own friction and flows over the window (present for JFO finite-film
+    /// bearings only, whose samples carry them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub film: Option<FilmReduction>,
 }
 
 /// Reductions of one variant.
@@ -238,6 +282,8 @@ impl Reductions {
                 revolutions: 0.0,
                 samples: 0,
                 truncated: false,
+                sample_stride: Some(1),
+                record_samples: Some(0),
             }),
             h_min: Some(FilmMin {
                 value_m: 0.0,
@@ -264,6 +310,12 @@ impl Reductions {
                     subsync_amplitude_m: 0.0,
                     oil_whirl: false,
                     searched_up_to_ratio: Some(2.5),
+                }),
+                film: Some(FilmReduction {
+                    friction_torque_nm: stats,
+                    power_loss_w: stats,
+                    side_flow_m3_per_s: stats,
+                    inlet_flow_m3_per_s: stats,
                 }),
             }],
         };
@@ -551,6 +603,8 @@ pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Red
         revolutions: revolutions_from(&s.t, &s.spin, w0),
         samples: n - w0,
         truncated,
+        sample_stride: None,
+        record_samples: None,
     };
     let mut h_min: Option<FilmMin> = None;
     let mut total_power = Some(0.0);
@@ -606,6 +660,7 @@ pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Red
                 eccentricity_max: totals.eccentricity_max,
                 orbit: orbit(&b.xi[w0..], &b.yi[w0..]),
                 whirl: wh,
+                film: film_reduction(tw, &b.film, w0, n),
             }
         })
         .collect();
@@ -618,6 +673,26 @@ pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Red
         oil_whirl: oil,
         bearings,
     }
+}
+
+/// A film's friction and flows over the window (samples `w0..n`): `None` when the
+/// bearing's samples do not carry them.
+fn film_reduction(tw: &[f64], f: &FilmSignals, w0: usize, n: usize) -> Option<FilmReduction> {
+    let columns = [
+        &f.friction_torque_nm,
+        &f.power_loss_w,
+        &f.side_flow_m3_per_s,
+        &f.inlet_flow_m3_per_s,
+    ];
+    if columns.iter().any(|c| c.len() != n) {
+        return None;
+    }
+    Some(FilmReduction {
+        friction_torque_nm: stats(tw, &f.friction_torque_nm[w0..]),
+        power_loss_w: stats(tw, &f.power_loss_w[w0..]),
+        side_flow_m3_per_s: stats(tw, &f.side_flow_m3_per_s[w0..]),
+        inlet_flow_m3_per_s: stats(tw, &f.inlet_flow_m3_per_s[w0..]),
+    })
 }
 
 /// The kept series, decimated (`None` when nothing is kept).

@@ -4,9 +4,9 @@
 
 use serde_json::{json, Value};
 
-use super::reduce::{BearingSignals, ReductionOptions, Signals};
+use super::reduce::{BearingSignals, FilmSignals, ReductionOptions, Signals};
 use super::runner::{BatchSimulator, Outcome, Reduced, VariantJob};
-use super::stream::{streams, RunReducer};
+use super::stream::RunReducer;
 use crate::backend::{
     BackendInfo, CpuBackend, DispatchStats, Dispatcher, EvalStats, LoadEvaluator,
 };
@@ -82,6 +82,16 @@ pub fn signals_of(r: &SimResult, scene: &Scene) -> Signals {
                 mz: b.mz.clone(),
                 wx: b.wx.clone(),
                 wy: b.wy.clone(),
+                film: b
+                    .film
+                    .as_ref()
+                    .map(|f| FilmSignals {
+                        friction_torque_nm: f.friction_torque_nm.clone(),
+                        power_loss_w: f.power_loss_w.clone(),
+                        side_flow_m3_per_s: f.side_flow_m3_per_s.clone(),
+                        inlet_flow_m3_per_s: f.inlet_flow_m3_per_s.clone(),
+                    })
+                    .unwrap_or_default(),
             })
             .collect(),
     }
@@ -167,8 +177,8 @@ pub struct RotorSimulator {
     /// Host-side counters of the GPU sub-batches ([`RotorSimulator::gpu_report`]).
     gpu_host: GpuHostCounters,
     full_model: bool,
-    /// The spec's reductions: with a window of fixed length each variant is reduced as it
-    /// runs and keeps only what they need ([`super::stream`]).
+    /// The spec's reductions: each variant is reduced as it runs and keeps only what they
+    /// need ([`super::stream`]); unset, the samples are stored and the runner reduces them.
     reductions: Option<ReductionOptions>,
     /// The memory budget the batch's sample caps come from (default 2 GiB).
     max_memory: MemoryBudget,
@@ -224,11 +234,11 @@ impl RotorSimulator {
         self.full_model = full;
     }
 
-    /// Reduce each variant with `opts` as it runs where its window has a fixed length
-    /// (memory then follows the window, not `t_end`); otherwise the samples are stored
-    /// and the runner reduces them.
+    /// Reduce each variant with `opts` as it runs (memory then follows the window and
+    /// the kept series, not `t_end`: [`super::stream`]); without this call the samples
+    /// are stored and the runner reduces them.
     pub fn set_reductions(&mut self, opts: &ReductionOptions) {
-        self.reductions = streams(opts).then(|| opts.clone());
+        self.reductions = Some(opts.clone());
     }
 
     /// Evaluator counters summed over the evaluator and the per-thread workers.
@@ -503,8 +513,8 @@ impl RotorSimulator {
 }
 
 /// Simulates `scenes` on one evaluator, reporting `done(i, outcome)` as each ends: reduced
-/// as they run under `opts` (a window of fixed length), else from their stored samples
-/// (at most `cap` each). Scenes are validated within `budget`, the run's memory budget
+/// as they run under `opts` (a fraction window's tail decimated beyond `cap` samples),
+/// else from their stored samples (at most `cap` each). Scenes are validated within `budget`, the run's memory budget
 /// (`cap` comes from it).
 fn simulate_chunk(
     scenes: &[Scene],
@@ -518,7 +528,10 @@ fn simulate_chunk(
         Some(opts) => simulate_batch_observed(
             scenes,
             evaluator,
-            scenes.iter().map(|s| RunReducer::new(s, opts)).collect(),
+            scenes
+                .iter()
+                .map(|s| RunReducer::new(s, opts, cap))
+                .collect(),
             &mut |i, r, reducer| done(i, outcome_reduced(r, &scenes[i], reducer, opts)),
             Some(cancel),
             budget,

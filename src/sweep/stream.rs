@@ -1,13 +1,22 @@
-//! Reductions as the run goes: a rotor variant whose evaluation window has a fixed length
-//! (`{"revolutions": N}` or `{"seconds": T}`) keeps only the window's samples (a tail
-//! compacted as it moves), the run's totals (sample count, angle, running extremes) and,
-//! when the spec keeps series over the whole run, the samples those series will show.
-//! Its memory follows what the spec keeps, not `t_end` or the memory budget; its
-//! reductions are the numbers [`super::reduce::reduce`] gives on every sample (the tail
-//! holds the whole window and the sample before it; `tests/sweep_stream.rs`).
+//! Reductions as the run goes: every rotor variant of a sweep keeps only its evaluation
+//! window's samples, the run's totals (sample count, angle, running extremes) and, when
+//! the spec keeps series over the whole run, the samples those series will show.
 //!
-//! A window given as a fraction of the run grows with the run and is kept by the
-//! decimating store instead ([`crate::rotor::SeriesStore`]).
+//! - A window of fixed length (`{"revolutions": N}` or `{"seconds": T}`) is a tail
+//!   compacted as it moves; its reductions are the numbers [`super::reduce::reduce`]
+//!   gives on every sample (the tail holds the whole window and the sample before it).
+//! - A window given as a fraction of the run (`{"fraction": f}`, the default) starts at
+//!   `t_last − f (t_last − t0)`, known in advance for a run that reaches `t_end`
+//!   (`t_last` its last sample time): the tail keeps the samples from there on (every
+//!   one up to the batch's sample cap, the decimating store's, then every other, ...),
+//!   so a run that reaches `t_end` gets the reductions of every sample whenever the
+//!   stored samples would not have been decimated. A run that ends early (step limit,
+//!   failure, stop event) has a window not known in advance: it is reduced from a
+//!   decimating record of the whole run ([`EARLY_END_RECORD`] samples at most); its
+//!   `window.record_samples` and `window.sample_stride` say so when that record was
+//!   decimated.
+//!
+//! Memory follows what the spec keeps, not `t_end` (`tests/sweep_stream.rs`).
 
 use std::collections::BTreeSet;
 
@@ -27,6 +36,14 @@ const MIN_COMPACT: usize = 64;
 /// many, then every other one, and so on (at least `4 × points`).
 pub const RUN_SERIES_FALLBACK: usize = 4096;
 
+/// Most samples of the whole-run record from which a run that ends before `t_end` is
+/// reduced over a fraction window (every sample up to this many, then every other one,
+/// and so on; never more than the batch's sample cap, [`crate::budget::MemoryBudget::sample_cap`]).
+/// 16 384 samples: 3.1 MB for a two-bearing variant (24 numbers of 8 B each), the
+/// budget's cap for a 256-variant CPU batch at 2 GiB; a half-run window then keeps 4 096
+/// to 8 192 samples, the decimating store's floor ([`crate::budget::MIN_SAMPLE_CAP`]).
+pub const EARLY_END_RECORD: usize = 1 << 14;
+
 /// The running reductions of one rotor variant (see the module doc).
 #[derive(Clone, Debug)]
 pub struct RunReducer {
@@ -36,6 +53,80 @@ pub struct RunReducer {
     compact_at: usize,
     run_series: Option<RunSeries>,
     peak_stored: usize,
+    /// A fraction window's tail and record (then `tail` stays empty).
+    fraction: Option<FractionWindow>,
+}
+
+/// A fraction window kept as the run goes (see the module doc).
+#[derive(Clone, Debug)]
+struct FractionWindow {
+    /// The window's fraction of the run.
+    f: f64,
+    /// Last sample time of a run that reaches `t_end`, s.
+    t_last: f64,
+    /// Sample interval, s.
+    dt: f64,
+    /// Samples before this time are left out of `tail` (set at the first sample).
+    keep_from: f64,
+    /// Samples left out of `tail`.
+    skipped: usize,
+    /// The samples from `keep_from` on, decimated beyond the batch's sample cap.
+    tail: Decimating,
+    /// The whole run, decimated beyond [`EARLY_END_RECORD`].
+    record: Decimating,
+}
+
+/// Samples kept every `stride`-th (counted from the first one it saw) at most `cap`
+/// (then every other one is dropped and the stride doubles), plus the latest one.
+#[derive(Clone, Debug)]
+struct Decimating {
+    keep: Option<BTreeSet<SeriesGroup>>,
+    kept: Signals,
+    stride: usize,
+    cap: usize,
+    seen: usize,
+    /// The latest sample, appended when off the stride.
+    last: Signals,
+}
+
+impl Decimating {
+    fn new(scene: &Scene, cap: usize, keep: Option<BTreeSet<SeriesGroup>>) -> Self {
+        Decimating {
+            keep,
+            kept: empty_signals(scene),
+            stride: 1,
+            cap: cap.max(2),
+            seen: 0,
+            last: empty_signals(scene),
+        }
+    }
+
+    fn observe(&mut self, x: &Sample<'_>) {
+        if self.seen.is_multiple_of(self.stride) {
+            push(&mut self.kept, x, self.keep.as_ref());
+            // Every sample while at most `cap`: exact for runs that short.
+            if len(&self.kept) > self.cap {
+                each_column(&mut self.kept, &mut |c| c.keep_even());
+                self.stride *= 2;
+            }
+        }
+        self.seen += 1;
+        each_column(&mut self.last, &mut |c| c.drain_front(usize::MAX));
+        push(&mut self.last, x, self.keep.as_ref());
+    }
+
+    /// The kept samples and the latest one (when off the stride).
+    fn samples(&self) -> Signals {
+        let mut s = self.kept.clone();
+        if self.seen > 0 && !(self.seen - 1).is_multiple_of(self.stride) {
+            append(&mut s, &mut self.last.clone());
+        }
+        s
+    }
+
+    fn stored(&self) -> usize {
+        len(&self.kept) + len(&self.last)
+    }
 }
 
 /// The samples of the whole-run series: those `decimate_indices` will pick for a run
@@ -47,18 +138,8 @@ struct RunSeries {
     picks: Vec<usize>,
     next_pick: usize,
     picked: Signals,
-    /// Every `stride`-th sample, at most `cap`.
-    fallback: Signals,
-    stride: usize,
-    cap: usize,
-    /// The latest sample (kept columns), appended at the end when off the stride.
-    last: Signals,
-}
-
-/// Whether a variant reduced with `opts` can run with a [`RunReducer`]: its window has
-/// a fixed length.
-pub fn streams(opts: &ReductionOptions) -> bool {
-    matches!(opts.window, Window::Revolutions(_) | Window::Seconds(_))
+    /// The whole run decimated (for a run that ends early).
+    fallback: Decimating,
 }
 
 fn empty_signals(scene: &Scene) -> Signals {
@@ -103,6 +184,13 @@ fn push(s: &mut Signals, x: &Sample<'_>, keep: Option<&BTreeSet<SeriesGroup>>) {
             b.wx.push(v.wx);
             b.wy.push(v.wy);
         }
+        // The film's own friction and flows: read by the reductions only (no kept group).
+        if let (None, Some(f)) = (keep, v.film) {
+            b.film.friction_torque_nm.push(f.friction_torque_nm);
+            b.film.power_loss_w.push(f.power_loss_w);
+            b.film.side_flow_m3_per_s.push(f.side_flow_m3_per_s);
+            b.film.inlet_flow_m3_per_s.push(f.inlet_flow_m3_per_s);
+        }
     }
 }
 
@@ -123,6 +211,10 @@ fn each_column(s: &mut Signals, f: &mut dyn FnMut(&mut dyn Column)) {
             &mut b.mz,
             &mut b.wx,
             &mut b.wy,
+            &mut b.film.friction_torque_nm,
+            &mut b.film.power_loss_w,
+            &mut b.film.side_flow_m3_per_s,
+            &mut b.film.inlet_flow_m3_per_s,
         ] {
             f(v);
         }
@@ -154,22 +246,36 @@ fn len(s: &Signals) -> usize {
 }
 
 impl RunReducer {
-    /// The reducer of a variant running `scene` under `opts` ([`streams`] must hold; a
-    /// fraction window is treated as the whole run).
-    pub fn new(scene: &Scene, opts: &ReductionOptions) -> Self {
-        let run_series = (!opts.keep.is_empty() && opts.span == Span::Run).then(|| {
-            let n = crate::integrate::sample_count(&crate::rotor::settings_of(scene));
-            RunSeries {
-                keep: opts.keep.clone(),
-                picks: decimate_indices(0, n, opts.points),
-                next_pick: 0,
-                picked: empty_signals(scene),
-                fallback: empty_signals(scene),
-                stride: 1,
-                cap: RUN_SERIES_FALLBACK.max(4 * opts.points),
-                last: empty_signals(scene),
-            }
+    /// The reducer of a variant running `scene` under `opts`; `cap`: the batch's sample
+    /// cap ([`crate::rotor::sample_cap`]), the most samples a fraction window's tail keeps
+    /// before it is decimated.
+    pub fn new(scene: &Scene, opts: &ReductionOptions, cap: usize) -> Self {
+        let settings = crate::rotor::settings_of(scene);
+        let n = crate::integrate::sample_count(&settings);
+        let run_series = (!opts.keep.is_empty() && opts.span == Span::Run).then(|| RunSeries {
+            keep: opts.keep.clone(),
+            picks: decimate_indices(0, n, opts.points),
+            next_pick: 0,
+            picked: empty_signals(scene),
+            fallback: Decimating::new(
+                scene,
+                RUN_SERIES_FALLBACK.max(4 * opts.points),
+                Some(opts.keep.clone()),
+            ),
         });
+        let fraction = match opts.window {
+            Window::Fraction(f) => Some(FractionWindow {
+                f,
+                // Sample times are `k · sample_interval`, k < n (integrate::sample_count).
+                t_last: n.saturating_sub(1) as f64 * settings.sample_interval,
+                dt: settings.sample_interval,
+                keep_from: f64::NEG_INFINITY,
+                skipped: 0,
+                tail: Decimating::new(scene, cap, None),
+                record: Decimating::new(scene, EARLY_END_RECORD.min(cap), None),
+            }),
+            _ => None,
+        };
         RunReducer {
             window: opts.window,
             tail: empty_signals(scene),
@@ -177,6 +283,7 @@ impl RunReducer {
             compact_at: MIN_COMPACT,
             run_series,
             peak_stored: 0,
+            fraction,
         }
     }
 
@@ -191,7 +298,11 @@ impl RunReducer {
             + self
                 .run_series
                 .as_ref()
-                .map_or(0, |r| len(&r.picked) + len(&r.fallback) + len(&r.last))
+                .map_or(0, |r| len(&r.picked) + r.fallback.stored())
+            + self
+                .fraction
+                .as_ref()
+                .map_or(0, |w| w.tail.stored() + w.record.stored())
     }
 
     /// First tail sample that a later end of the run can still need in its window (one
@@ -240,33 +351,75 @@ impl RunReducer {
     }
 
     /// The variant's reductions and kept series, as [`super::reduce::reduce`] and
-    /// [`super::reduce::kept_series`] give them on every sample.
+    /// [`super::reduce::kept_series`] give them on every sample (a fraction window: on
+    /// its kept samples, see the module doc).
     pub fn finish(&self, opts: &ReductionOptions) -> (Reductions, Option<Value>) {
-        let reductions = reduce_tail(&self.tail, &self.totals, opts);
+        let fraction = self.fraction.as_ref().map(|w| w.window(&self.totals));
+        let (window, stride, record) = match &fraction {
+            Some((s, stride, record)) => (s, *stride, *record),
+            None => (&self.tail, 1, None),
+        };
+        let mut reductions = reduce_tail(window, &self.totals, opts);
+        if let Some(w) = &mut reductions.window {
+            // Only when decimated, so the reductions of every sample are unchanged.
+            w.sample_stride = (stride > 1).then_some(stride);
+            w.record_samples = record;
+        }
         let series = match &self.run_series {
             Some(r) if r.picks.len() == r.next_pick && self.totals.samples == r.full_count() => {
                 kept_series_from(&r.picked, 0, opts)
             }
-            Some(r) => {
-                let mut s = r.fallback.clone();
-                if self.totals.samples > 0 && !(self.totals.samples - 1).is_multiple_of(r.stride) {
-                    append(&mut s, &mut r.last.clone());
-                }
-                kept_series_from(&s, 0, opts)
-            }
+            Some(r) => kept_series_from(&r.fallback.samples(), 0, opts),
             None => {
                 let start = super::reduce::window_start_in(
-                    &self.tail.t,
-                    &self.tail.spin,
+                    &window.t,
+                    &window.spin,
                     opts.window,
                     self.totals.t0,
                     || self.totals.revolutions(),
                 )
                 .0;
-                kept_series_from(&self.tail, start, opts)
+                kept_series_from(window, start, opts)
             }
         };
         (reductions, series)
+    }
+}
+
+impl FractionWindow {
+    fn observe(&mut self, first: bool, x: &Sample<'_>) {
+        if first {
+            // The window's start for a run that reaches `t_end` (as `window_start_in`
+            // computes it), less two sample intervals: the sample before the start is
+            // kept, and a rounding difference in `t_last` does not lose the start.
+            self.keep_from = self.t_last - self.f * (self.t_last - x.t) - 2.0 * self.dt;
+        }
+        if x.t >= self.keep_from {
+            self.tail.observe(x);
+        } else {
+            self.skipped += 1;
+        }
+        self.record.observe(x);
+    }
+
+    /// The samples the window is reduced from, their stride, and the record's sample
+    /// count when the run ended before the tail's start and the record was decimated.
+    fn window(&self, totals: &RunTotals) -> (Signals, usize, Option<usize>) {
+        let tail = self.tail.samples();
+        let covers = match (tail.t.first(), tail.t.last()) {
+            // The window's start, as `window_start_in` computes it.
+            (Some(&first), Some(&t1)) => {
+                self.skipped == 0 || first <= t1 - self.f * (t1 - totals.t0)
+            }
+            _ => self.skipped == 0,
+        };
+        if covers {
+            return (tail, self.tail.stride, None);
+        }
+        let record = self.record.samples();
+        let stride = self.record.stride;
+        let n = len(&record);
+        (record, stride, (stride > 1).then_some(n))
     }
 }
 
@@ -281,16 +434,7 @@ impl RunSeries {
             push(&mut self.picked, x, Some(&self.keep));
             self.next_pick += 1;
         }
-        if index.is_multiple_of(self.stride) {
-            push(&mut self.fallback, x, Some(&self.keep));
-            // Every sample while at most `cap`: exact for runs that short.
-            if len(&self.fallback) > self.cap {
-                each_column(&mut self.fallback, &mut |c| c.keep_even());
-                self.stride *= 2;
-            }
-        }
-        each_column(&mut self.last, &mut |c| c.drain_front(usize::MAX));
-        push(&mut self.last, x, Some(&self.keep));
+        self.fallback.observe(x);
     }
 }
 
@@ -311,6 +455,11 @@ fn append(a: &mut Signals, b: &mut Signals) {
         x.mz.append(&mut y.mz);
         x.wx.append(&mut y.wx);
         x.wy.append(&mut y.wy);
+        let (f, g) = (&mut x.film, &mut y.film);
+        f.friction_torque_nm.append(&mut g.friction_torque_nm);
+        f.power_loss_w.append(&mut g.power_loss_w);
+        f.side_flow_m3_per_s.append(&mut g.side_flow_m3_per_s);
+        f.inlet_flow_m3_per_s.append(&mut g.inlet_flow_m3_per_s);
     }
 }
 
@@ -324,12 +473,15 @@ impl SampleObserver for RunReducer {
                 .iter()
                 .map(|b| [b.h_min, b.eccentricity_max, b.wx, b.wy]),
         );
-        push(&mut self.tail, x, None);
+        match &mut self.fraction {
+            Some(w) => w.observe(index == 0, x),
+            None => push(&mut self.tail, x, None),
+        }
         if let Some(r) = &mut self.run_series {
             r.observe(index, x);
         }
         self.peak_stored = self.peak_stored.max(self.stored());
-        if len(&self.tail) >= self.compact_at {
+        if self.fraction.is_none() && len(&self.tail) >= self.compact_at {
             self.compact();
         }
     }
