@@ -8,6 +8,8 @@ mod finite;
 #[cfg(feature = "gpu")]
 mod finite_gpu;
 #[cfg(feature = "gpu")]
+mod finite_jfo;
+#[cfg(feature = "gpu")]
 mod finite_mg;
 #[cfg(feature = "gpu")]
 mod gpu;

@@ -1,0 +1,252 @@
+//! The finite film's mass-conserving (JFO) cavitation on the GPU (shaders/finite_jfo.wgsl,
+//! issue 27) against the CPU JFO solver: aligned, tilted, whirling and squeezed states with
+//! the max-film inlet, a grooved film that reforms in the land, a negative spin, and one
+//! time step with a film history; the evaluator's `--backend gpu` route. Runs on whatever
+//! f64 adapter wgpu finds (lavapipe on CI); skips with a notice without one, fails with
+//! `BEARING_SWEEP_REQUIRE_GPU=1`.
+//!
+//! Tolerances: both solvers iterate the same discrete equations (the host sets the GPU's
+//! problem up with the CPU's code) until their estimated iteration error, relative to the
+//! largest pressure, is below the stop tolerance `tol`; the GPU sweeps in zebra-line order,
+//! the CPU row by row, so the iterates differ but the fixed point is the same. Each is
+//! within `tol` of it, so they agree to `2 tol`: loads relative to the load vector's
+//! norm, pressure relative to its maximum, film fraction absolutely, flows relative to
+//! the flow scale.
+
+use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+use bearing_sweep::bearing::finite::{
+    jfo_flow_integrals, Cavitation, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver,
+    JfoHistory, JfoSolver, SolveReport,
+};
+use bearing_sweep::bearing::{
+    pack_state, Accuracy, BearingParams, BearingState, FilmModel, Groove, Grooves,
+};
+
+fn gpu_required() -> bool {
+    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+fn gpu_f64() -> Option<GpuBackend> {
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    match GpuBackend::new(Accuracy::default(), options) {
+        Ok(b) => Some(b),
+        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
+        Err(e) => {
+            eprintln!("notice: skipping the finite-film JFO GPU cases: {e}");
+            None
+        }
+    }
+}
+
+/// A failed comparison names the case, the state, the value index, both values and the
+/// tolerance.
+fn check(label: &str, index: usize, actual: f64, expected: f64, tol: f64) {
+    assert!(
+        (actual - expected).abs() <= tol,
+        "{label}: index {index}: actual {actual:e}, expected {expected:e}, tolerance {tol:e}"
+    );
+}
+
+/// The paper's bearing (B/D = 0.5), JFO on an explicit `nt × nz` grid at `tol`.
+fn paper(nt: u32, nz: u32, tol: f64) -> BearingParams {
+    BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            n_theta: Some(nt),
+            n_z: Some(nz),
+            tolerance: tol,
+            cavitation: Cavitation::Jfo,
+            ..FiniteSettings::default()
+        },
+        ..BearingParams::paper_table2()
+    }
+}
+
+/// An ambient axial groove at 180° (the film reforms in the land before it) and a fed one
+/// at 0°.
+fn grooved(p: BearingParams) -> BearingParams {
+    BearingParams {
+        grooves: Grooves::new(&[
+            Groove {
+                angle: 180.0,
+                width: 20.0,
+                supply_pressure: 0.0,
+                length: None,
+            },
+            Groove {
+                angle: 0.0,
+                width: 20.0,
+                supply_pressure: 2e4,
+                length: None,
+            },
+        ])
+        .unwrap(),
+        ..p
+    }
+}
+
+/// Aligned, tilted, whirling and squeezed states at `omega` rad/s.
+fn states(p: &BearingParams, omega: f64) -> Vec<(&'static str, BearingState)> {
+    let d = p.clearance;
+    let at = |e: f64, t: f64, tilt: f64| BearingState {
+        xi: e * d * t.cos(),
+        yi: e * d * t.sin(),
+        xj: e * d * (1.0 - tilt) * t.cos(),
+        yj: e * d * (1.0 - tilt) * t.sin(),
+        omega,
+        ..BearingState::default()
+    };
+    vec![
+        ("aligned ε 0.3", at(0.3, 4.2, 0.0)),
+        ("aligned ε 0.8", at(0.8, 1.0, 0.0)),
+        ("tilted in plane", at(0.6, 2.0, 0.5)),
+        (
+            "tilted about the mid-plane",
+            BearingState {
+                xi: 0.4 * d,
+                yi: -0.2 * d,
+                xj: -0.1 * d,
+                yj: -0.5 * d,
+                omega,
+                ..BearingState::default()
+            },
+        ),
+        (
+            "whirling",
+            BearingState {
+                vxi: 0.02 * d * omega,
+                vxj: 0.02 * d * omega,
+                ..at(0.5, 0.7, 0.0)
+            },
+        ),
+        (
+            "squeezed",
+            BearingState {
+                vyi: -0.3 * d * omega,
+                vyj: -0.1 * d * omega,
+                ..at(0.4, 4.0, 0.2)
+            },
+        ),
+    ]
+}
+
+fn jobs(p: &BearingParams, st: &[(&str, BearingState)]) -> (Vec<FiniteJob>, FiniteGrid) {
+    let jobs = st
+        .iter()
+        .map(|(_, s)| FiniteJob::of_state(p, &pack_state(p, s).unwrap(), s.omega))
+        .collect();
+    (jobs, FiniteGrid::for_bearing(p))
+}
+
+/// Compares one state's GPU solution with the CPU's: loads, pressure, film fraction and
+/// (with the CPU's flow sums on each field) side and inlet flow, each to `2 tol`.
+#[allow(clippy::too_many_arguments)]
+fn compare(
+    name: &str,
+    tol: f64,
+    job: &FiniteJob,
+    grid: &FiniteGrid,
+    (want, want_rep, want_f): (&[f64; 4], &SolveReport, &[f64]),
+    (got, got_rep, got_f): (&[f64; 4], &SolveReport, &[f64]),
+    history: Option<&JfoHistory>,
+) {
+    assert!(
+        want_rep.converged && got_rep.converged,
+        "{name}: {want_rep:?} {got_rep:?}"
+    );
+    assert_eq!(got_f.len(), want_f.len(), "{name}: field length");
+    let n = want_f.len() / 2;
+    let norm = want.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for q in 0..4 {
+        check(
+            &format!("{name} load"),
+            q,
+            got[q],
+            want[q],
+            2.0 * tol * norm,
+        );
+    }
+    let pmax = want_f[..n].iter().fold(0.0_f64, |a, &b| a.max(b));
+    for k in 0..n {
+        check(
+            &format!("{name} pressure"),
+            k,
+            got_f[k],
+            want_f[k],
+            2.0 * tol * pmax,
+        );
+        check(
+            &format!("{name} film fraction"),
+            k,
+            got_f[n + k],
+            want_f[n + k],
+            2.0 * tol,
+        );
+    }
+    let (nt, nz) = (grid.n_theta, grid.n_z);
+    let (fw, _) = jfo_flow_integrals(job, grid, nt, nz, 0.0, want_f, history).unwrap();
+    let (fg, _) = jfo_flow_integrals(job, grid, nt, nz, 0.0, got_f, history).unwrap();
+    let scale = fw.scale.max(fw.inlet.abs());
+    for (q, (g, w)) in [
+        (fg.side[0], fw.side[0]),
+        (fg.side[1], fw.side[1]),
+        (fg.inlet, fw.inlet),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        check(&format!("{name} flow"), q, g, w, 2.0 * tol * scale);
+    }
+}
+
+/// Steady JFO states on explicit grids: the GPU's loads, fields and flows equal the CPU's
+/// to twice the stop tolerance; with the max-film inlet and with grooves (film reforming
+/// in the land), both spin directions; the film is cavitated somewhere in each case (so
+/// the film-fraction branch is exercised).
+#[test]
+fn jfo_kernel_matches_cpu_on_steady_states() {
+    let Some(mut backend) = gpu_f64() else { return };
+    let tol = 1e-9;
+    for (nt, nz) in [(72u32, 16u32), (64, 24)] {
+        for (label, p, omega) in [
+            ("max-film inlet", paper(nt, nz, tol), 100.0),
+            ("max-film inlet, negative spin", paper(nt, nz, tol), -100.0),
+            ("grooved", grooved(paper(nt, nz, tol)), 100.0),
+        ] {
+            let st = states(&p, omega);
+            let (jobs, grid) = jobs(&p, &st);
+            let mut cpu = Vec::new();
+            let mut solver = FiniteSolver::new();
+            for j in &jobs {
+                let mut f = Vec::new();
+                let (v, r) = solver.solve(j, &grid, &mut f);
+                cpu.push((v, r, f));
+            }
+            let mut fields = vec![Vec::new(); jobs.len()];
+            let (mut out, mut reports) = (Vec::new(), Vec::new());
+            backend
+                .integrate_finite(&jobs, &grid, &mut fields, &mut out, &mut reports)
+                .expect("the JFO kernel runs");
+            let mut cavitated = 0;
+            for k in 0..jobs.len() {
+                let name = format!("{nt}×{nz} {label}, {}", st[k].0);
+                let (v, r, f) = &cpu[k];
+                let n = f.len() / 2;
+                cavitated += usize::from(f[n..].iter().any(|&x| x < 0.99));
+                compare(
+                    &name,
+                    tol,
+                    &jobs[k],
+                    &grid,
+                    (v, r, f),
+                    (&out[k], &reports[k], &fields[k]),
+                    None,
+                );
+            }
+            assert_eq!(cavitated, jobs.len(), "{label}: every state cavitates");
+        }
+    }
+}
