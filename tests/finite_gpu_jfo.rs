@@ -250,3 +250,189 @@ fn jfo_kernel_matches_cpu_on_steady_states() {
         }
     }
 }
+
+/// The time-step form (a film history, `JfoHistory` with the previous eccentricities): four
+/// steps of a whirl orbit around a film fed by an ambient groove, marched by the CPU; at
+/// each step the GPU solves the same step (same history, same warm start) through
+/// `integrate_finite_jfo` and agrees to twice the stop tolerance. The history must matter
+/// (the steady film of the step's state differs by far more than the tolerance), so a
+/// kernel ignoring it would fail.
+#[test]
+fn jfo_kernel_matches_cpu_on_time_steps_with_history() {
+    let Some(mut backend) = gpu_f64() else { return };
+    let tol = 1e-9;
+    let p = BearingParams {
+        grooves: Grooves::new(&[Groove {
+            angle: 180.0,
+            width: 20.0,
+            supply_pressure: 0.0,
+            length: None,
+        }])
+        .unwrap(),
+        ..paper(72, 16, tol)
+    };
+    let (ecc, whirl, omega) = (0.5, 0.3, 1.0);
+    let state = |t: f64| {
+        let (c, s) = ((whirl * t).cos(), (whirl * t).sin());
+        let e = ecc * p.clearance;
+        BearingState {
+            xi: e * c,
+            yi: e * s,
+            xj: e * c,
+            yj: e * s,
+            vxi: -e * whirl * s,
+            vyi: e * whirl * c,
+            vxj: -e * whirl * s,
+            vyj: e * whirl * c,
+            omega,
+        }
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let n = g.n_theta * (g.n_z + 1);
+    let (mut reynolds, mut jfo) = (FiniteSolver::new(), JfoSolver::new());
+    let packed0 = pack_state(&p, &state(0.0)).unwrap();
+    let mut field = Vec::new();
+    jfo.solve(
+        &mut reynolds,
+        &FiniteJob::of_state(&p, &packed0, omega),
+        &g,
+        &mut field,
+        None,
+    );
+    let mut prev_ecc = packed0.state.ecc;
+    // 64 steps per whirl period.
+    let dt = 2.0 * std::f64::consts::PI / whirl / 64.0;
+    for step in 1..=4 {
+        let s = state(step as f64 * dt);
+        let packed = pack_state(&p, &s).unwrap();
+        let job = FiniteJob::of_state(&p, &packed, omega);
+        let phi_old = field[n..].to_vec();
+        let h = JfoHistory {
+            phi: &phi_old,
+            dtau: packed.rate_scale * dt,
+            prev_ecc: Some(prev_ecc),
+        };
+        let mut gpu_fields = vec![field.clone()];
+        let (want, want_rep) = jfo.solve(&mut reynolds, &job, &g, &mut field, Some(&h));
+        let (mut out, mut reports) = (Vec::new(), Vec::new());
+        backend
+            .integrate_finite_jfo(
+                std::slice::from_ref(&job),
+                &g,
+                &mut gpu_fields,
+                &[Some(h)],
+                &mut out,
+                &mut reports,
+            )
+            .expect("the JFO kernel runs");
+        let name = format!("whirl step {step}");
+        compare(
+            &name,
+            tol,
+            &job,
+            &g,
+            (&want, &want_rep, &field),
+            (&out[0], &reports[0], &gpu_fields[0]),
+            Some(&h),
+        );
+        let mut steady = Vec::new();
+        let (sv, _) = jfo.solve(&mut reynolds, &job, &g, &mut steady, None);
+        let norm = want.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let moved = (0..4).map(|q| (sv[q] - want[q]).abs()).fold(0.0, f64::max);
+        assert!(
+            moved > 100.0 * tol * norm,
+            "{name}: the history changes the loads by only {moved:e}"
+        );
+        prev_ecc = packed.state.ecc;
+    }
+}
+
+/// The evaluator on `--backend gpu`: JFO bearings on an explicit grid run on the kernel
+/// (no fallback notice, nothing recomputed on the CPU), steady and as time steps with the
+/// committed film history; loads and film flows equal the CPU backend's to the tolerance.
+/// Accuracy mode (the ladder) falls back to the CPU with one notice naming why.
+#[test]
+fn evaluator_routes_jfo_to_the_kernel() {
+    use bearing_sweep::backend::{CpuBackend, LoadEvaluator, LoadRequest};
+    let Some(backend) = gpu_f64() else { return };
+    let tol = 1e-9;
+    let p = paper(72, 16, tol);
+    let mut gpu_ev = LoadEvaluator::new(Box::new(backend));
+    let mut cpu_ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let st = states(&p, 100.0);
+    let check_loads = |label: &str,
+                       a: &[bearing_sweep::backend::LoadResult],
+                       b: &[bearing_sweep::backend::LoadResult]| {
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            let (x, y) = (x.as_ref().unwrap(), y.as_ref().unwrap());
+            let (vx, vy) = (x.load_vector(p.length), y.load_vector(p.length));
+            let norm = vy.iter().map(|v| v * v).sum::<f64>().sqrt();
+            for q in 0..4 {
+                check(
+                    &format!("{label} {k} load"),
+                    q,
+                    vx[q],
+                    vy[q],
+                    4.0 * tol * norm,
+                );
+            }
+            let (fx, fy) = (&x.film, &y.film);
+            for (q, (u, v)) in [
+                (fx.side_flow_m3_per_s, fy.side_flow_m3_per_s),
+                (fx.inlet_flow_m3_per_s, fy.inlet_flow_m3_per_s),
+                (fx.friction_torque_nm, fy.friction_torque_nm),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                check(&format!("{label} {k} film output"), q, u, v, 1e-6 * v.abs());
+            }
+        }
+    };
+    // Steady (eval).
+    let req: Vec<LoadRequest> = st
+        .iter()
+        .map(|&(_, state)| LoadRequest { bearing: 0, state })
+        .collect();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    gpu_ev.evaluate(&[p], &req, &mut a);
+    cpu_ev.evaluate(&[p], &req, &mut b);
+    check_loads("steady", &a, &b);
+    // Time steps: one bearing, its film committed after each call.
+    let mut s = st[4].1;
+    for step in 0..3 {
+        let t = 1e-3 * step as f64;
+        s.xi += s.vxi * 1e-3;
+        s.xj += s.vxj * 1e-3;
+        let req = [LoadRequest {
+            bearing: 0,
+            state: s,
+        }];
+        for ev in [&mut gpu_ev, &mut cpu_ev] {
+            ev.set_times(&[t], true);
+        }
+        gpu_ev.evaluate(&[p], &req, &mut a);
+        cpu_ev.evaluate(&[p], &req, &mut b);
+        check_loads(&format!("time step {step}"), &a, &b);
+        gpu_ev.commit_film_history(0);
+        cpu_ev.commit_film_history(0);
+    }
+    let notices = gpu_ev.take_notices();
+    assert!(notices.is_empty(), "no CPU fallback expected: {notices:?}");
+    assert_eq!(gpu_ev.stats().cpu_recomputed, 0);
+    // Accuracy mode: the ladder on the CPU, said once.
+    let pa = BearingParams {
+        finite: FiniteSettings {
+            cavitation: Cavitation::Jfo,
+            ..FiniteSettings::default()
+        },
+        ..p
+    };
+    gpu_ev.evaluate(&[pa], &req, &mut a);
+    assert!(a[0].is_ok());
+    let notices = gpu_ev.take_notices();
+    assert!(
+        notices.len() == 1 && notices[0].contains("accuracy mode (the ladder) runs on the CPU"),
+        "accuracy-mode JFO: one notice naming why: {notices:?}"
+    );
+}
