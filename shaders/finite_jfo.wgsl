@@ -21,7 +21,8 @@
 // (at least ω − 1; its fifth root by an f32 pow, the only f32 operation).
 //
 // The fields and coefficients live in storage buffers (no size limit from workgroup
-// memory); the pressure and film fraction are updated in place.
+// memory); the pressure and film fraction are updated in place. One dispatch runs at most
+// `per_dispatch` sweeps; the host dispatches again until every state is done.
 
 const WG: u32 = 64u;
 // Values per node in `coef` (src/bearing/finite/jfo.rs JFO_NODE_STRIDE): a_e, a_n, d, c_e,
@@ -29,8 +30,10 @@ const WG: u32 = 64u;
 const NODE_STRIDE: u32 = 8u;
 // Per job (stride 4 f64): ω (SOR factor), spin sign (1 or −1), unused ×2.
 const JOB_STRIDE: u32 = 4u;
-// Per result (stride 4 f64): sweeps, iteration error, converged (1/0), unused.
-const OUT_STRIDE: u32 = 4u;
+// Per result (stride 12 f64), also the iteration's state between dispatches (the host
+// sets it to 0, 0, 0, 0, −1 × 6): sweeps, iteration error, converged (1/0), done (1/0:
+// converged or at the sweep limit), the last six changes, unused × 2.
+const OUT_STRIDE: u32 = 12u;
 
 struct Params {
     // States in this dispatch.
@@ -42,6 +45,11 @@ struct Params {
     max_sweeps: u32,
     // Iteration tolerance (relative).
     tolerance: f64,
+    // Sweeps per dispatch at most: llvmpipe (lavapipe) ends any shader loop after 65 535
+    // iterations in all (seen as every slow state stopping at exactly 237 sweeps of
+    // 128 × 32), so the host bounds one dispatch's loop iterations and dispatches again;
+    // the iteration resumes from `results`.
+    per_dispatch: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -110,18 +118,37 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     let n = nt * (nz + 1u);
     let cb = job * n * NODE_STRIDE;
     let fb = job * 2u * n;
+    let o = job * OUT_STRIDE;
     let omega = jobs[job * JOB_STRIDE];
     let forward = jobs[job * JOB_STRIDE + 1u] >= 0.0;
 
-    var hist: array<f64, 6>;
-    for (var q = 0u; q < 6u; q++) {
-        hist[q] = -1.0;
+    // Resume: the state of the iteration from the previous dispatch (sweeps, error, done,
+    // contraction history), read through workgroup memory so that the stopping decisions
+    // stay workgroup-uniform.
+    if lid == 0u {
+        for (var q = 0u; q < 10u; q++) {
+            red[q] = results[o + q];
+        }
     }
-    var sweeps = 0u;
-    var err: f64 = 0.0;
-    var converged = false;
-    loop {
+    workgroupBarrier();
+    var sweeps = u32(workgroupUniformLoad(&red[0]));
+    var err: f64 = workgroupUniformLoad(&red[1]);
+    var converged = workgroupUniformLoad(&red[2]) > 0.5;
+    let done = workgroupUniformLoad(&red[3]) > 0.5;
+    var hist: array<f64, 6>;
+    hist[0] = workgroupUniformLoad(&red[4]);
+    hist[1] = workgroupUniformLoad(&red[5]);
+    hist[2] = workgroupUniformLoad(&red[6]);
+    hist[3] = workgroupUniformLoad(&red[7]);
+    hist[4] = workgroupUniformLoad(&red[8]);
+    hist[5] = workgroupUniformLoad(&red[9]);
+    if done {
+        return;
+    }
+    var finished = false;
+    for (var run = 0u; run < params.per_dispatch; run++) {
         if sweeps >= params.max_sweeps {
+            finished = true;
             break;
         }
         var m = vec3<f64>(0.0, 0.0, 0.0);
@@ -174,18 +201,19 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         err = change * rho / (1.0 - rho);
         if change == 0.0 || (sweeps >= 6u && err <= params.tolerance) {
             converged = true;
+            finished = true;
             break;
         }
-        // NaN or infinite: stop, unconverged (the host recomputes on the CPU).
-        if !(change <= 1.0e300) {
-            break;
-        }
+        // A non-finite iterate runs to the sweep limit and the host sees its non-finite
+        // loads (the evaluator recomputes those on the CPU).
     }
     if lid == 0u {
-        let o = job * OUT_STRIDE;
         results[o] = f64(sweeps);
         results[o + 1u] = err;
         results[o + 2u] = select(f64(0.0), f64(1.0), converged);
-        results[o + 3u] = 0.0;
+        results[o + 3u] = select(f64(0.0), f64(1.0), finished);
+        for (var q = 0u; q < 6u; q++) {
+            results[o + 4u + q] = hist[q];
+        }
     }
 }

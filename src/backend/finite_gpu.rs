@@ -381,7 +381,8 @@ impl FinitePipeline {
 /// One dispatch of a one-workgroup-per-state kernel and its read-back, shared by the
 /// finite-film drivers: `make` creates the buffers bound at 0, 1, ... (inside the error
 /// scopes, so that running out of device memory is an error, not a panic); `groups`
-/// workgroups run `pipeline`; the buffers at `read` (in that order, each with
+/// workgroups run `pipeline`, `repeat` times in a row (one compute pass: each dispatch
+/// sees the previous one's writes); the buffers at `read` (in that order, each with
 /// `COPY_SRC`) are copied back and returned as one f64 vector. `what` names the work in
 /// error messages.
 #[allow(clippy::too_many_arguments)]
@@ -392,6 +393,7 @@ pub(crate) fn dispatch_read(
     pipeline: &wgpu::ComputePipeline,
     make: impl FnOnce(&wgpu::Device) -> Vec<wgpu::Buffer>,
     groups: u32,
+    repeat: u32,
     read: &[usize],
     what: &str,
 ) -> Result<Vec<f64>, BackendError> {
@@ -427,7 +429,9 @@ pub(crate) fn dispatch_read(
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
+        for _ in 0..repeat.max(1) {
+            pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
+        }
     }
     let mut at = 0;
     for &b in read {

@@ -27,7 +27,15 @@ pub const FINITE_JFO_WGSL: &str = include_str!("../../shaders/finite_jfo.wgsl");
 
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE` in the shader).
 const JOB_STRIDE: usize = 4;
-const OUT_STRIDE: usize = 4;
+const OUT_STRIDE: usize = 12;
+/// Loop iterations one invocation may run per dispatch: llvmpipe (lavapipe) ends a
+/// shader's loops after 65 535 iterations in all (shaders/finite_jfo.wgsl `per_dispatch`);
+/// with a margin for the loops other than the row march.
+const LOOP_BUDGET: usize = 40_000;
+/// Dispatches per submission (between read-backs of the done flags).
+const REPEAT: u32 = 16;
+/// Lanes of the kernel's workgroup (`WG`).
+const WG: usize = 64;
 /// States per dispatch at most (bounds one dispatch's run time under the device timeout on
 /// a software device).
 const MAX_STATES: usize = 4096;
@@ -44,6 +52,8 @@ struct Params {
     n_z: u32,
     max_sweeps: u32,
     tolerance: f64,
+    per_dispatch: u32,
+    _pad: u32,
 }
 
 /// The compiled JFO pipeline on one device.
@@ -162,6 +172,9 @@ impl JfoPipeline {
             })
             .collect();
         let todo: Vec<usize> = (0..jobs.len()).filter(|&k| problems[k].is_some()).collect();
+        // Sweeps per dispatch: one invocation marches `rows` rows of `nt` nodes per sweep.
+        let rows = 2 * (nz.saturating_sub(1)).div_ceil(2 * WG);
+        let per_dispatch = (LOOP_BUDGET / (rows * nt + 64)).max(1);
         let per_state = n * JFO_NODE_STRIDE * 8;
         let chunk = (COEF_BUDGET / per_state.max(1)).clamp(1, MAX_STATES);
         for part in todo.chunks(chunk) {
@@ -182,47 +195,66 @@ impl JfoPipeline {
                 n_z: nz as u32,
                 max_sweeps: grid.max_sweeps(),
                 tolerance: grid.tolerance,
+                per_dispatch: per_dispatch as u32,
+                _pad: 0,
             };
-            let make = |device: &wgpu::Device| {
-                let init = |label, data: &[u8], usage| {
-                    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some(label),
-                        contents: data,
-                        usage,
-                    })
+            // The iteration's state: sweeps, error, converged, done, history (−1: none).
+            let mut state: Vec<f64> = (0..count)
+                .flat_map(|_| {
+                    let mut r = [0.0; OUT_STRIDE];
+                    r[4..10].fill(-1.0);
+                    r
+                })
+                .collect();
+            let vals = loop {
+                let make = |device: &wgpu::Device| {
+                    let init = |label, data: &[u8], usage| {
+                        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some(label),
+                            contents: data,
+                            usage,
+                        })
+                    };
+                    let st = wgpu::BufferUsages::STORAGE;
+                    vec![
+                        init(
+                            "finite jfo params",
+                            bytemuck::bytes_of(&params),
+                            wgpu::BufferUsages::UNIFORM,
+                        ),
+                        init("finite jfo coefficients", bytemuck::cast_slice(&coef), st),
+                        init("finite jfo jobs", bytemuck::cast_slice(&job_data), st),
+                        init(
+                            "finite jfo fields",
+                            bytemuck::cast_slice(&field_data),
+                            st | wgpu::BufferUsages::COPY_SRC,
+                        ),
+                        init(
+                            "finite jfo results",
+                            bytemuck::cast_slice(&state),
+                            st | wgpu::BufferUsages::COPY_SRC,
+                        ),
+                    ]
                 };
-                let st = wgpu::BufferUsages::STORAGE;
-                let results = vec![0.0_f64; count * OUT_STRIDE];
-                vec![
-                    init(
-                        "finite jfo params",
-                        bytemuck::bytes_of(&params),
-                        wgpu::BufferUsages::UNIFORM,
-                    ),
-                    init("finite jfo coefficients", bytemuck::cast_slice(&coef), st),
-                    init("finite jfo jobs", bytemuck::cast_slice(&job_data), st),
-                    init(
-                        "finite jfo fields",
-                        bytemuck::cast_slice(&field_data),
-                        st | wgpu::BufferUsages::COPY_SRC,
-                    ),
-                    init(
-                        "finite jfo results",
-                        bytemuck::cast_slice(&results),
-                        st | wgpu::BufferUsages::COPY_SRC,
-                    ),
-                ]
+                let vals = dispatch_read(
+                    device,
+                    queue,
+                    timeout,
+                    &self.pipeline,
+                    make,
+                    count as u32,
+                    REPEAT,
+                    &[3, 4],
+                    "finite-film JFO",
+                )?;
+                let done = vals[count * 2 * n..].chunks(OUT_STRIDE).all(|r| r[3] > 0.5);
+                if done {
+                    break vals;
+                }
+                // Resume from where the device stopped.
+                field_data.copy_from_slice(&vals[..count * 2 * n]);
+                state.copy_from_slice(&vals[count * 2 * n..]);
             };
-            let vals = dispatch_read(
-                device,
-                queue,
-                timeout,
-                &self.pipeline,
-                make,
-                count as u32,
-                &[3, 4],
-                "finite-film JFO",
-            )?;
             let res = &vals[count * 2 * n..];
             for (c, &k) in part.iter().enumerate() {
                 let field = &vals[c * 2 * n..(c + 1) * 2 * n];
