@@ -729,15 +729,28 @@ impl LoadEvaluator {
                 .iter()
                 .map(|s| (s.key.0, s.request, s.rate_scale))
                 .collect();
-            if self.film_history.solve_group(
+            if let Some(status) = self.film_history.solve_group(
                 &timed,
                 &jobs,
                 &grid,
                 &mut fields,
                 &mut ints,
                 &mut reports,
+                self.backend.as_mut(),
             ) {
-                // JFO with its film history (CPU; issue 27).
+                // JFO with its film history (issue 27): the backend's JFO solve, the CPU's
+                // after a backend failure.
+                if let Err(e) = status {
+                    let why = e.to_string();
+                    if self.finite_fallbacks.insert(why.clone()) {
+                        self.notices.push(format!(
+                            "notice: {why}; JFO film-history states recomputed on the CPU \
+                             (this call: {}; further calls for the same reason silently)",
+                            jobs.len()
+                        ));
+                    }
+                    self.stats.cpu_recomputed += jobs.len() as u64;
+                }
             } else if let Err(e) =
                 self.backend
                     .integrate_finite(&jobs, &grid, &mut fields, &mut ints, &mut reports)

@@ -47,6 +47,35 @@ pub(crate) fn cpu_integrate_finite(
     }
 }
 
+/// Solves JFO `jobs` on the fixed `grid` with one film history per job (`None`: steady;
+/// `histories` empty: all steady) on rayon's global pool, one task per state: the CPU
+/// implementation of [`super::FilmBackend::integrate_finite_jfo`].
+pub(crate) fn cpu_integrate_jfo(
+    jobs: &[FiniteJob],
+    grid: &FiniteGrid,
+    fields: &mut [Vec<f64>],
+    histories: &[Option<JfoHistory>],
+    out: &mut Vec<FilmIntegrals>,
+    reports: &mut Vec<SolveReport>,
+) {
+    out.clear();
+    out.resize(jobs.len(), [0.0; 4]);
+    reports.clear();
+    reports.resize(jobs.len(), SolveReport::default());
+    out.par_iter_mut()
+        .zip(reports.par_iter_mut())
+        .zip(jobs.par_iter().zip(fields.par_iter_mut()).enumerate())
+        .for_each_init(
+            || (FiniteSolver::new(), JfoSolver::new()),
+            |(reynolds, jfo), ((o, r), (k, (job, field)))| {
+                let h = histories.get(k).and_then(|h| h.as_ref());
+                let (ints, rep) = jfo.solve(reynolds, job, grid, field, h);
+                *o = ints;
+                *r = rep;
+            },
+        );
+}
+
 /// The model a state is evaluated with (moved to [`crate::bearing::finite`] so that the
 /// bearing layer can resolve `auto` too).
 pub use crate::bearing::finite::effective_model;
@@ -109,9 +138,10 @@ impl FilmHistory {
         self.candidates.clear();
     }
 
-    /// Solves a group of JFO states of one fixed grid with their histories on the CPU
-    /// (rayon over states), when the call has times; `false` (nothing done) otherwise.
-    /// `states[k] = (bearing index, request index, rate scale)`.
+    /// Solves a group of JFO states of one fixed grid with their histories by `backend`
+    /// ([`super::FilmBackend::integrate_finite_jfo`]; on its failure by the CPU, the
+    /// failure returned for the caller's notice), when the call has times; `None` (nothing
+    /// done) otherwise. `states[k] = (bearing index, request index, rate scale)`.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn solve_group(
         &mut self,
@@ -121,10 +151,11 @@ impl FilmHistory {
         fields: &mut [Vec<f64>],
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
-    ) -> bool {
+        backend: &mut dyn super::FilmBackend,
+    ) -> Option<Result<(), super::BackendError>> {
         self.used.clear();
         if grid.cavitation != Cavitation::Jfo || self.times.is_empty() || grid.accuracy.is_some() {
-            return false;
+            return None;
         }
         let n = grid.n_theta * (grid.n_z + 1);
         let times = &self.times;
@@ -134,26 +165,26 @@ impl FilmHistory {
             let (th, phi, ecc) = committed.get(&b)?;
             (phi.len() == n && t > *th).then(|| (phi.clone(), scale * (t - th), *ecc))
         }));
-        out.clear();
-        out.resize(jobs.len(), [0.0; 4]);
-        reports.clear();
-        reports.resize(jobs.len(), SolveReport::default());
-        out.par_iter_mut()
-            .zip(reports.par_iter_mut())
-            .zip(jobs.par_iter().zip(fields.par_iter_mut()).zip(&self.used))
-            .for_each_init(
-                || (FiniteSolver::new(), JfoSolver::new()),
-                |(reynolds, jfo), ((o, r), ((job, field), used))| {
-                    let h = used.as_ref().map(|(phi, dtau, ecc)| JfoHistory {
-                        phi,
-                        dtau: *dtau,
-                        prev_ecc: Some(*ecc),
-                    });
-                    let (ints, rep) = jfo.solve(reynolds, job, grid, field, h.as_ref());
-                    *o = ints;
-                    *r = rep;
-                },
-            );
+        let histories: Vec<Option<JfoHistory>> = self
+            .used
+            .iter()
+            .map(|used| {
+                used.as_ref().map(|(phi, dtau, ecc)| JfoHistory {
+                    phi,
+                    dtau: *dtau,
+                    prev_ecc: Some(*ecc),
+                })
+            })
+            .collect();
+        let mut status = backend.integrate_finite_jfo(jobs, grid, fields, &histories, out, reports);
+        if status.is_err() {
+            for f in fields.iter_mut() {
+                f.clear();
+            }
+            cpu_integrate_jfo(jobs, grid, fields, &histories, out, reports);
+        } else {
+            status = Ok(());
+        }
         if self.candidates_on {
             for (k, &(b, req, _)) in states.iter().enumerate() {
                 if let (Some(&t), true) = (times.get(req), fields[k].len() == 2 * n) {
@@ -162,7 +193,7 @@ impl FilmHistory {
                 }
             }
         }
-        true
+        Some(status)
     }
 
     /// Film friction and flow of state `k` of the group last solved by

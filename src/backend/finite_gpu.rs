@@ -42,6 +42,8 @@ pub(crate) struct FinitePipeline {
     pipeline: wgpu::ComputePipeline,
     /// The multigrid kernel (larger grids, accuracy mode), built on first use.
     multigrid: Mutex<Option<Arc<super::finite_mg::MultigridPipeline>>>,
+    /// The JFO kernel (`cavitation: jfo`, explicit grids), built on first use.
+    jfo: Mutex<Option<Arc<super::finite_jfo::JfoPipeline>>>,
 }
 
 impl FinitePipeline {
@@ -68,7 +70,44 @@ impl FinitePipeline {
         Ok(FinitePipeline {
             pipeline,
             multigrid: Mutex::new(None),
+            jfo: Mutex::new(None),
         })
+    }
+
+    /// Solves the JFO `jobs` on the explicit `grid` with the JFO kernel
+    /// ([`super::finite_jfo`]), cold states from this pipeline's Swift–Stieber solution;
+    /// `histories` empty (steady) or one per job (a time step).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run_jfo(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<crate::bearing::finite::JfoHistory>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        let jfo = {
+            let mut slot = self
+                .jfo
+                .lock()
+                .map_err(|_| BackendError::Device("finite-film pipeline lock".into()))?;
+            if slot.is_none() {
+                *slot = Some(Arc::new(super::finite_jfo::JfoPipeline::new(device)?));
+            }
+            slot.clone().expect("built above")
+        };
+        let mut start =
+            |j: &[FiniteJob], g: &FiniteGrid, f: &mut [Vec<f64>], r: &mut Vec<SolveReport>| {
+                let mut ints = Vec::new();
+                self.run(device, queue, timeout, j, g, f, &mut ints, r)
+            };
+        jfo.run(
+            device, queue, timeout, jobs, grid, fields, histories, &mut start, out, reports,
+        )
     }
 
     /// Solves `jobs` on `grid`; `fields[k]` of the grid's length is job k's warm start.
@@ -85,11 +124,17 @@ impl FinitePipeline {
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
         if grid.cavitation == crate::bearing::finite::Cavitation::Jfo {
-            return Err(BackendError::Device(
-                "the WGSL finite-film kernels solve Swift-Stieber cavitation; \
-                 `cavitation: jfo` runs on the CPU"
-                    .into(),
-            ));
+            return self.run_jfo(
+                device,
+                queue,
+                timeout,
+                jobs,
+                grid,
+                fields,
+                &[],
+                out,
+                reports,
+            );
         }
         if grid.accuracy.is_some() && (grid.polish || grid.n_theta > 0) {
             // The multigrid kernel runs the ladder with its per-grid stop on the loads; a
@@ -331,4 +376,117 @@ impl FinitePipeline {
         }
         Ok(())
     }
+}
+
+/// One dispatch of a one-workgroup-per-state kernel and its read-back, shared by the
+/// finite-film drivers: `make` creates the buffers bound at 0, 1, ... (inside the error
+/// scopes, so that running out of device memory is an error, not a panic); `groups`
+/// workgroups run `pipeline`, `repeat` times in a row (one compute pass: each dispatch
+/// sees the previous one's writes); the buffers at `read` (in that order, each with
+/// `COPY_SRC`) are copied back and returned as one f64 vector. `what` names the work in
+/// error messages.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn dispatch_read(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    timeout: Duration,
+    pipeline: &wgpu::ComputePipeline,
+    make: impl FnOnce(&wgpu::Device) -> Vec<wgpu::Buffer>,
+    groups: u32,
+    repeat: u32,
+    read: &[usize],
+    what: &str,
+) -> Result<Vec<f64>, BackendError> {
+    let scope_oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let scope_val = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let bufs = make(device);
+    let total: u64 = read.iter().map(|&b| bufs[b].size()).sum();
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("finite readback"),
+        size: total.max(8),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let layout = pipeline.get_bind_group_layout(0);
+    let entries: Vec<wgpu::BindGroupEntry> = bufs
+        .iter()
+        .enumerate()
+        .map(|(b, buf)| wgpu::BindGroupEntry {
+            binding: b as u32,
+            resource: buf.as_entire_binding(),
+        })
+        .collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("finite bindings"),
+        layout: &layout,
+        entries: &entries,
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(what),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        for _ in 0..repeat.max(1) {
+            pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
+        }
+    }
+    let mut at = 0;
+    for &b in read {
+        enc.copy_buffer_to_buffer(&bufs[b], 0, &readback, at, bufs[b].size());
+        at += bufs[b].size();
+    }
+    let sub = queue.submit(Some(enc.finish()));
+    let val = pollster::block_on(scope_val.pop());
+    let oom = pollster::block_on(scope_oom.pop());
+    if let Some(e) = oom.or(val) {
+        return Err(BackendError::Device(format!(
+            "dispatching {groups} {what} states: {e}"
+        )));
+    }
+    let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> = Arc::new(Mutex::new(None));
+    let d = done.clone();
+    readback.map_async(wgpu::MapMode::Read, .., move |r| {
+        if let Ok(mut g) = d.lock() {
+            *g = Some(r);
+        }
+    });
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(sub),
+            timeout: Some(timeout),
+        })
+        .map_err(|e| {
+            BackendError::Device(format!(
+                "waiting for the {what} kernel (timeout {timeout:?}): {e}"
+            ))
+        })?;
+    let mut state = done.lock().ok().and_then(|g| g.clone());
+    if state.is_none() {
+        let _ = device.poll(wgpu::PollType::Poll);
+        state = done.lock().ok().and_then(|g| g.clone());
+    }
+    match state {
+        Some(Ok(())) => {}
+        Some(Err(e)) => {
+            return Err(BackendError::Device(format!(
+                "reading the {what} results back: {e}"
+            )))
+        }
+        None => {
+            return Err(BackendError::Device(format!(
+                "{what} results never became readable"
+            )))
+        }
+    }
+    let vals = {
+        let view = readback
+            .get_mapped_range(..)
+            .map_err(|e| BackendError::Device(format!("mapping the {what} results: {e}")))?;
+        bytemuck::cast_slice::<u8, f64>(&view).to_vec()
+    };
+    readback.unmap();
+    Ok(vals)
 }

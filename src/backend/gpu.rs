@@ -892,4 +892,37 @@ impl FilmBackend for GpuBackend {
             reports,
         )
     }
+
+    /// JFO films with their histories: the JFO kernel (explicit grids).
+    fn integrate_finite_jfo(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<crate::bearing::finite::JfoHistory>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.check_fault()?;
+        if self.precision != Precision::F64 {
+            return Err(BackendError::Device(
+                "the finite-film kernel needs SHADER_F64; this GPU kernel runs in f32".into(),
+            ));
+        }
+        if self.finite.is_none() {
+            self.finite = Some(super::finite_gpu::FinitePipeline::new(&self.device)?);
+        }
+        let pipeline = self.finite.as_ref().expect("built above");
+        pipeline.run_jfo(
+            &self.device,
+            &self.queue,
+            self.timeout,
+            jobs,
+            grid,
+            fields,
+            histories,
+            out,
+            reports,
+        )
+    }
 }

@@ -8,6 +8,8 @@ mod finite;
 #[cfg(feature = "gpu")]
 mod finite_gpu;
 #[cfg(feature = "gpu")]
+mod finite_jfo;
+#[cfg(feature = "gpu")]
 mod finite_mg;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -34,7 +36,7 @@ pub use gpu_kernel::{
 pub use shared::{DispatchStats, Dispatcher, SharedBackend};
 pub use states::bench_states;
 
-use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, JfoHistory, SolveReport};
 use crate::bearing::{Accuracy, FilmIntegrals, PackedState, RuleSettings};
 
 /// Which backend a user asked for.
@@ -126,6 +128,23 @@ pub trait FilmBackend: Send {
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
         finite::cpu_integrate_finite(jobs, grid, fields, out, reports, true);
+        Ok(())
+    }
+
+    /// Mass-conserving (JFO) films on the fixed `grid` with a film history per job (issue
+    /// 27, rotor runs: `histories[k]` `None` is a steady film, an empty slice all steady),
+    /// otherwise as [`FilmBackend::integrate_finite`]. The default is the CPU JFO solver on
+    /// rayon's global pool.
+    fn integrate_finite_jfo(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<JfoHistory>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        finite::cpu_integrate_jfo(jobs, grid, fields, histories, out, reports);
         Ok(())
     }
 
@@ -449,6 +468,18 @@ impl FilmBackend for Chosen {
     ) -> Result<(), BackendError> {
         self.backend
             .integrate_finite(jobs, grid, fields, out, reports)
+    }
+    fn integrate_finite_jfo(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<JfoHistory>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.backend
+            .integrate_finite_jfo(jobs, grid, fields, histories, out, reports)
     }
     fn choice(&self) -> Option<BackendChoice> {
         Some(self.choice.clone())

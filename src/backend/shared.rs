@@ -15,7 +15,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::{BackendChoice, BackendError, BackendInfo, FilmBackend};
-use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, JfoHistory, SolveReport};
 use crate::bearing::{FilmIntegrals, PackedState, RuleSettings};
 
 /// Under a merge policy, a handle counts as active while its last request is at most this
@@ -388,6 +388,20 @@ impl FilmBackend for SharedBackend {
         self.dispatcher
             .lock_backend(0)
             .integrate_finite(jobs, grid, fields, out, reports)
+    }
+
+    fn integrate_finite_jfo(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<JfoHistory>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.dispatcher
+            .lock_backend(0)
+            .integrate_finite_jfo(jobs, grid, fields, histories, out, reports)
     }
 
     fn choice(&self) -> Option<BackendChoice> {

@@ -336,3 +336,122 @@ pub fn bench_finite_rotor(t_end: f64) -> String {
     }
     md
 }
+
+/// JFO against Swift–Stieber at equal grid (BENCHMARKS.md "Issue 27", `finite --bench
+/// --cavitation jfo`): `n` states of [`bench_states`], fed on the maximum-film line and
+/// with an ambient axial groove at 180° (where the JFO film reforms in the land), explicit
+/// grids 64 × 16 and 128 × 32, tolerance 1e-8, cold starts through the evaluator (warm
+/// starts off), each setting timed over `reps` calls after a warm-up call; the CPU backend
+/// and, with `gpu`, the WGSL kernels (JFO: shaders/finite_jfo.wgsl, started from the
+/// Swift–Stieber kernel's solution). Per row: states/s, counted work (sweeps of the grid
+/// per state, the JFO count including its Swift–Stieber start) and, for the GPU, the
+/// largest relative difference of its load vectors from the CPU backend's. Markdown.
+pub fn bench_finite_jfo(n: usize, reps: usize, gpu: bool) -> String {
+    use crate::bearing::finite::Cavitation;
+    use crate::bearing::{Groove, Grooves};
+    let (p0, states) = bench_states(n);
+    let req: Vec<LoadRequest> = states
+        .iter()
+        .map(|&state| LoadRequest { bearing: 0, state })
+        .collect();
+    let mut cpu = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
+    let threads = cpu.info().device;
+    let mut gpu_ev = None;
+    let mut md = format!(
+        "JFO vs Swift–Stieber at equal grid: {n} states of the paper's bearing (B/D = 0.5, \
+         ε 0.1-0.9, half tilted, a third whirling/squeezing), tolerance 1e-8, cold starts, \
+         {reps} timed calls per row. Sweeps: work in sweeps of the grid per state. GPU vs \
+         CPU: largest relative difference of the load vectors.\n\n\
+         | feed | grid | cavitation | backend | states/s | sweeps/state | GPU vs CPU |\n\
+         |---|---|---|---|---|---|---|\n"
+    );
+    if gpu {
+        let opts = GpuOptions {
+            precision: Some(crate::backend::Precision::F64),
+            ..GpuOptions::default()
+        };
+        match GpuBackend::new(Accuracy::default(), opts) {
+            Ok(g) => gpu_ev = Some(LoadEvaluator::new(Box::new(g))),
+            Err(e) => md = format!("GPU skipped: {e}\n\n{md}"),
+        }
+    }
+    let gpu_name = gpu_ev.as_ref().map(|e| e.info().device);
+    for groove in [false, true] {
+        let mut p = BearingParams {
+            model: FilmModel::Finite,
+            ..p0
+        };
+        if groove {
+            p.grooves = Grooves::new(&[Groove {
+                angle: 180.0,
+                width: 20.0,
+                supply_pressure: 0.0,
+                length: None,
+            }])
+            .expect("one groove");
+        }
+        let feed = if groove {
+            "groove at 180°"
+        } else {
+            "max-film line"
+        };
+        for (t, z) in [(64, 16), (128, 32)] {
+            for cav in [Cavitation::Reynolds, Cavitation::Jfo] {
+                let bp = BearingParams {
+                    finite: FiniteSettings {
+                        cavitation: cav,
+                        ..FiniteSettings::with_grid(t, z)
+                    },
+                    ..p
+                };
+                let timed = |ev: &mut LoadEvaluator| {
+                    ev.set_warm_start(false);
+                    let mut out = Vec::new();
+                    ev.evaluate(&[bp], &req, &mut out); // warm-up (pipeline build)
+                    let before = ev.stats();
+                    let start = Instant::now();
+                    for _ in 0..reps {
+                        ev.evaluate(&[bp], &req, &mut out);
+                    }
+                    let secs = start.elapsed().as_secs_f64();
+                    let after = ev.stats();
+                    let sweeps = (after.finite_sweeps - before.finite_sweeps) as f64
+                        / (after.finite_states - before.finite_states).max(1) as f64;
+                    let loads: Vec<[f64; 4]> = out
+                        .iter()
+                        .map(|r| match r {
+                            Ok(l) => l.load_vector(bp.length),
+                            Err(_) => [f64::NAN; 4],
+                        })
+                        .collect();
+                    ((reps * req.len()) as f64 / secs, sweeps, loads)
+                };
+                let (rate, sweeps, want) = timed(&mut cpu);
+                md += &format!(
+                    "| {feed} | {t}×{z} | {} | cpu ({threads}) | {rate:.0} | {sweeps:.0} | — |\n",
+                    cav.name()
+                );
+                if let (Some(ev), Some(name)) = (gpu_ev.as_mut(), gpu_name.as_ref()) {
+                    let (rate, sweeps, got) = timed(ev);
+                    let diff = got
+                        .iter()
+                        .zip(&want)
+                        .map(|(a, b)| norm_err(*a, *b))
+                        .fold(0.0, f64::max);
+                    md += &format!(
+                        "| {feed} | {t}×{z} | {} | gpu ({name}) | {rate:.0} | {sweeps:.0} | \
+                         {diff:.1e} |\n",
+                        cav.name()
+                    );
+                }
+            }
+        }
+    }
+    if let Some(ev) = gpu_ev.as_mut() {
+        let notices = ev.take_notices();
+        if !notices.is_empty() {
+            md += &format!("\nGPU notices: {notices:?}\n");
+        }
+    }
+    md
+}

@@ -139,6 +139,11 @@ pub(crate) struct FiniteArgs {
     /// Simulated time of the rotor-scene cost benchmark, s (the paper's run is 0.5 s).
     #[arg(long, default_value_t = 0.1)]
     pub(crate) rotor_t_end: f64,
+    /// Cavitation model of the benchmark: `reynolds` (Swift-Stieber, the standard tables)
+    /// or `jfo` (JFO against Swift-Stieber at equal grid, CPU and with --gpu the kernels;
+    /// BENCHMARKS.md "Issue 27").
+    #[arg(long, default_value = "reynolds", value_parser = ["reynolds", "jfo"])]
+    pub(crate) cavitation: String,
 }
 
 #[derive(Args)]

@@ -112,7 +112,12 @@ fn finite_cmd(a: FiniteArgs) -> Result<(), AppError> {
         }
         println!("{md}");
     }
-    if a.bench {
+    if a.bench && a.cavitation == "jfo" {
+        println!(
+            "{}",
+            crate::bench::finite::bench_finite_jfo(a.states.max(1), a.reps.max(1), a.gpu)
+        );
+    } else if a.bench {
         println!(
             "{}",
             crate::bench::finite::bench_finite(a.states.max(1), a.reps.max(1), a.gpu)

@@ -979,3 +979,103 @@ pub(crate) fn apply_jfo_flow(
         loads.film = flow;
     }
 }
+
+/// Values per node of [`JfoProblem::node_coefficients`]: `a_e, a_n, d, c_e, c_s, c_0`,
+/// held pressure (negative: free), unused (stride 8 for the GPU kernel's layout).
+#[cfg(feature = "gpu")]
+pub(crate) const JFO_NODE_STRIDE: usize = 8;
+
+/// One state's discrete JFO problem on a fixed grid, set up exactly as
+/// [`JfoSolver::solve`]'s fixed-grid solve sets it up (same coefficients, history forms,
+/// held nodes and start), for the GPU driver (`src/backend/finite_jfo.rs`), which iterates
+/// it on the device and sums the loads here.
+#[cfg(feature = "gpu")]
+pub(crate) struct JfoProblem {
+    lvl: JfoLevel,
+    /// The Swift–Stieber solver's SOR factor on this grid (as the CPU iteration uses).
+    pub(crate) omega: f64,
+}
+
+#[cfg(feature = "gpu")]
+impl JfoProblem {
+    /// The problem of `job` on the fixed grid `g` from the start `p`, `phi` (each
+    /// `n_theta × (n_z + 1)` values: a warm field, or the Swift–Stieber pressure with
+    /// `φ = 1`), with `history` as in [`JfoSolver::solve`]. `None` without a finite spin or
+    /// on an accuracy-mode grid.
+    pub(crate) fn new(
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        p: Vec<f64>,
+        phi: Vec<f64>,
+        history: Option<&JfoHistory>,
+    ) -> Option<JfoProblem> {
+        let spin = job.spin.filter(|s| s.is_finite())?;
+        if g.accuracy.is_some() {
+            return None;
+        }
+        let g = FiniteGrid {
+            cavitation: Cavitation::Jfo,
+            ..*g
+        };
+        let (nt, nz) = (g.n_theta, g.n_z);
+        let n = nt * (nz + 1);
+        // The history's forms as `JfoSolver::solve_fixed` takes them.
+        let (phi_old, inv_dtau, prev_ecc) = match history {
+            Some(h) if h.phi.len() == n && h.dtau > 0.0 => {
+                (Some(h.phi), 1.0 / h.dtau, h.prev_ecc.as_ref())
+            }
+            _ => (None, 0.0, None),
+        };
+        let mut lvl = JfoLevel {
+            p,
+            phi,
+            ..JfoLevel::default()
+        };
+        match phi_old {
+            Some(f) => lvl.phi_old.extend(f.iter().map(|v| {
+                if v.is_finite() {
+                    v.clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
+            })),
+            None => lvl.phi_old.resize(n, 1.0),
+        }
+        lvl.setup(job, &g, nt, nz, 0.0, spin, inv_dtau, prev_ecc);
+        Some(JfoProblem {
+            omega: g.relaxation(job.aspect),
+            lvl,
+        })
+    }
+
+    /// Spin over the rate scale (its sign is the direction of the sweeps).
+    pub(crate) fn spin(&self) -> f64 {
+        self.lvl.s
+    }
+
+    /// Appends the node coefficients, [`JFO_NODE_STRIDE`] values per node of the full
+    /// grid (row-major, end rows included).
+    pub(crate) fn node_coefficients(&self, out: &mut Vec<f64>) {
+        let l = &self.lvl;
+        for k in 0..l.len() {
+            out.extend_from_slice(&[l.ae[k], l.an[k], l.d[k], l.ce[k], l.cs[k], l.c0[k]]);
+            out.extend_from_slice(&[l.held[k], 0.0]);
+        }
+    }
+
+    /// The start (pressure, then film fraction) with the held nodes and end rows set.
+    pub(crate) fn start(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&self.lvl.p);
+        out.extend_from_slice(&self.lvl.phi);
+    }
+
+    /// Loads integrals of a solved `field` (pressure, then film fraction) on this grid,
+    /// summed as the CPU solve sums them.
+    pub(crate) fn integrals_of(&mut self, field: &[f64]) -> FilmIntegrals {
+        let n = self.lvl.len();
+        self.lvl.p.clear();
+        self.lvl.p.extend_from_slice(&field[..n.min(field.len())]);
+        self.lvl.p.resize(n, 0.0);
+        self.lvl.integrals()
+    }
+}

@@ -1,0 +1,278 @@
+//! Host side of `shaders/finite_jfo.wgsl`: the finite film's mass-conserving (JFO)
+//! cavitation on the GPU backend's device (issue 27), explicit grids, one workgroup per
+//! state, f64.
+//!
+//! The host sets each state's discrete problem up with the CPU solver's own code
+//! ([`JfoProblem`]: coefficients, the steady or time-step storage with a film history, the
+//! held supply nodes), so the kernel solves the same equations; it starts cold states from
+//! the Swift–Stieber solution of the same grid computed on the device by the finite-film
+//! kernels (PSOR or multigrid, as the CPU starts from its multigrid solution), iterates on
+//! the device, and sums the loads of the returned field here, as the CPU does. Accuracy
+//! mode (the ladder) is declined: the evaluator runs it on the CPU with a notice.
+
+use std::time::Duration;
+
+use rayon::prelude::*;
+use wgpu::util::DeviceExt;
+
+use super::finite_gpu::dispatch_read;
+use super::BackendError;
+use crate::bearing::finite::{
+    Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoProblem, SolveReport, JFO_NODE_STRIDE,
+};
+use crate::bearing::FilmIntegrals;
+
+/// The JFO kernel's WGSL source.
+pub const FINITE_JFO_WGSL: &str = include_str!("../../shaders/finite_jfo.wgsl");
+
+/// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE` in the shader).
+const JOB_STRIDE: usize = 4;
+const OUT_STRIDE: usize = 12;
+/// Loop iterations one invocation may run per dispatch: llvmpipe (lavapipe) ends a
+/// shader's loops after 65 535 iterations in all (shaders/finite_jfo.wgsl `per_dispatch`);
+/// with a margin for the loops other than the row march.
+const LOOP_BUDGET: usize = 40_000;
+/// Dispatches per submission (between read-backs of the done flags).
+const REPEAT: u32 = 16;
+/// Lanes of the kernel's workgroup (`WG`).
+const WG: usize = 64;
+/// States per dispatch at most (bounds one dispatch's run time under the device timeout on
+/// a software device).
+const MAX_STATES: usize = 4096;
+/// Bytes of one dispatch's coefficient buffer at most: WebGPU's default storage-binding
+/// limit (128 MiB).
+const COEF_BUDGET: usize = 128 << 20;
+
+/// The uniform block (`Params`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    count: u32,
+    n_theta: u32,
+    n_z: u32,
+    max_sweeps: u32,
+    tolerance: f64,
+    per_dispatch: u32,
+    _pad: u32,
+}
+
+/// The compiled JFO pipeline on one device.
+pub(crate) struct JfoPipeline {
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// The Swift–Stieber solve of the cold states' start: `(jobs, grid, fields, reports)` as
+/// [`super::FilmBackend::integrate_finite`].
+pub(crate) type StartSolver<'a> = dyn FnMut(
+        &[FiniteJob],
+        &FiniteGrid,
+        &mut [Vec<f64>],
+        &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError>
+    + 'a;
+
+impl JfoPipeline {
+    /// Compiles the kernel; a validation error is returned, not raised.
+    pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("finite_jfo.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(FINITE_JFO_WGSL.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("finite film JFO kernel"),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "the finite-film JFO kernel does not build: {e}"
+            )));
+        }
+        Ok(JfoPipeline { pipeline })
+    }
+
+    /// Solves the JFO `jobs` on the fixed `grid`. `fields[k]` of the grid's length
+    /// (pressure then film fraction, valid) is job k's warm start, else it starts from the
+    /// Swift–Stieber solution by `start`; it receives the solution. `histories`: empty
+    /// (steady) or one per job (a time step from its film fraction, as
+    /// [`crate::bearing::finite::JfoSolver::solve`]). A job without a finite spin gets NaN
+    /// loads (as the CPU solver returns).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        histories: &[Option<JfoHistory>],
+        start: &mut StartSolver,
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        if grid.accuracy.is_some() {
+            return Err(BackendError::Device(
+                "the WGSL JFO kernel solves explicit grids; `cavitation: jfo` in accuracy \
+                 mode (the ladder) runs on the CPU"
+                    .into(),
+            ));
+        }
+        let (nt, nz) = (grid.n_theta, grid.n_z);
+        let n = nt * (nz + 1);
+        out.clear();
+        out.resize(jobs.len(), [f64::NAN; 4]);
+        reports.clear();
+        reports.resize(jobs.len(), SolveReport::default());
+        // Warm starts as the CPU accepts them; the others from Swift–Stieber on the device.
+        let warm: Vec<bool> = fields
+            .iter()
+            .map(|f| {
+                f.len() == 2 * n
+                    && f[..n].iter().all(|v| v.is_finite() && *v >= 0.0)
+                    && f[n..].iter().all(|v| (0.0..=1.0).contains(v))
+            })
+            .collect();
+        let cold: Vec<usize> = (0..jobs.len()).filter(|&k| !warm[k]).collect();
+        let mut start_sweeps = vec![0u32; jobs.len()];
+        let mut starts: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
+        if !cold.is_empty() {
+            let rg = FiniteGrid {
+                cavitation: Cavitation::Reynolds,
+                ..*grid
+            };
+            let cold_jobs: Vec<FiniteJob> = cold.iter().map(|&k| jobs[k]).collect();
+            let mut cold_fields = vec![Vec::new(); cold.len()];
+            let mut cold_reports = Vec::new();
+            start(&cold_jobs, &rg, &mut cold_fields, &mut cold_reports)?;
+            for (c, &k) in cold.iter().enumerate() {
+                starts[k] = std::mem::take(&mut cold_fields[c]);
+                start_sweeps[k] = cold_reports.get(c).map_or(0, |r| r.sweeps);
+            }
+        }
+        let mut problems: Vec<Option<JfoProblem>> = jobs
+            .par_iter()
+            .enumerate()
+            .map(|(k, job)| {
+                let (p, phi) = if warm[k] {
+                    (fields[k][..n].to_vec(), fields[k][n..].to_vec())
+                } else {
+                    let mut p = starts[k].clone();
+                    if p.len() != n || !p.iter().all(|v| v.is_finite()) {
+                        p = vec![0.0; n];
+                    }
+                    (p, vec![1.0; n])
+                };
+                let history = histories.get(k).and_then(|h| h.as_ref());
+                JfoProblem::new(job, grid, p, phi, history)
+            })
+            .collect();
+        let todo: Vec<usize> = (0..jobs.len()).filter(|&k| problems[k].is_some()).collect();
+        // Sweeps per dispatch: one invocation marches `rows` rows of `nt` nodes per sweep.
+        let rows = 2 * (nz.saturating_sub(1)).div_ceil(2 * WG);
+        let per_dispatch = (LOOP_BUDGET / (rows * nt + 64)).max(1);
+        let per_state = n * JFO_NODE_STRIDE * 8;
+        let chunk = (COEF_BUDGET / per_state.max(1)).clamp(1, MAX_STATES);
+        for part in todo.chunks(chunk) {
+            let count = part.len();
+            let mut coef = Vec::with_capacity(count * n * JFO_NODE_STRIDE);
+            let mut job_data = Vec::with_capacity(count * JOB_STRIDE);
+            let mut field_data = Vec::with_capacity(count * 2 * n);
+            for &k in part {
+                let pr = problems[k].as_ref().expect("filtered above");
+                pr.node_coefficients(&mut coef);
+                pr.start(&mut field_data);
+                let sign = if pr.spin() >= 0.0 { 1.0 } else { -1.0 };
+                job_data.extend_from_slice(&[pr.omega, sign, 0.0, 0.0]);
+            }
+            let params = Params {
+                count: count as u32,
+                n_theta: nt as u32,
+                n_z: nz as u32,
+                max_sweeps: grid.max_sweeps(),
+                tolerance: grid.tolerance,
+                per_dispatch: per_dispatch as u32,
+                _pad: 0,
+            };
+            // The iteration's state: sweeps, error, converged, done, history (−1: none).
+            let mut state: Vec<f64> = (0..count)
+                .flat_map(|_| {
+                    let mut r = [0.0; OUT_STRIDE];
+                    r[4..10].fill(-1.0);
+                    r
+                })
+                .collect();
+            let vals = loop {
+                let make = |device: &wgpu::Device| {
+                    let init = |label, data: &[u8], usage| {
+                        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some(label),
+                            contents: data,
+                            usage,
+                        })
+                    };
+                    let st = wgpu::BufferUsages::STORAGE;
+                    vec![
+                        init(
+                            "finite jfo params",
+                            bytemuck::bytes_of(&params),
+                            wgpu::BufferUsages::UNIFORM,
+                        ),
+                        init("finite jfo coefficients", bytemuck::cast_slice(&coef), st),
+                        init("finite jfo jobs", bytemuck::cast_slice(&job_data), st),
+                        init(
+                            "finite jfo fields",
+                            bytemuck::cast_slice(&field_data),
+                            st | wgpu::BufferUsages::COPY_SRC,
+                        ),
+                        init(
+                            "finite jfo results",
+                            bytemuck::cast_slice(&state),
+                            st | wgpu::BufferUsages::COPY_SRC,
+                        ),
+                    ]
+                };
+                let vals = dispatch_read(
+                    device,
+                    queue,
+                    timeout,
+                    &self.pipeline,
+                    make,
+                    count as u32,
+                    REPEAT,
+                    &[3, 4],
+                    "finite-film JFO",
+                )?;
+                let done = vals[count * 2 * n..].chunks(OUT_STRIDE).all(|r| r[3] > 0.5);
+                if done {
+                    break vals;
+                }
+                // Resume from where the device stopped.
+                field_data.copy_from_slice(&vals[..count * 2 * n]);
+                state.copy_from_slice(&vals[count * 2 * n..]);
+            };
+            let res = &vals[count * 2 * n..];
+            for (c, &k) in part.iter().enumerate() {
+                let field = &vals[c * 2 * n..(c + 1) * 2 * n];
+                let r = &res[c * OUT_STRIDE..(c + 1) * OUT_STRIDE];
+                let pr = problems[k].as_mut().expect("filtered above");
+                out[k] = pr.integrals_of(field);
+                fields[k].clear();
+                fields[k].extend_from_slice(field);
+                reports[k] = SolveReport {
+                    sweeps: start_sweeps[k].saturating_add(r[0] as u32),
+                    iteration_error: r[1],
+                    converged: r[2] > 0.5,
+                    n_theta: nt as u32,
+                    n_z: nz as u32,
+                    ..SolveReport::default()
+                };
+            }
+        }
+        Ok(())
+    }
+}
