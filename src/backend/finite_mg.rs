@@ -10,8 +10,14 @@
 //! **Verified range.** The kernel runs grids of at most [`DEVICE_MAX_NODES`] nodes (512 × 64
 //! at B/D = 0.5, 256 × 64, 1024 × 32). Beyond it, with the max-film inlet, lavapipe returned
 //! wrong loads (512 × 128, 1024 × 96, 1024 × 128 at tolerance 1e-8: the top grid's V-cycles
-//! stop with a zero change after ~15 cycles; 1024 × 64 and the free inlet were right; not
-//! diagnosed). So an explicit grid beyond it is declined (the evaluator recomputes it on the
+//! stop with a zero change after ~15 cycles; 1024 × 64 and the free inlet were right). The
+//! likely cause is lavapipe's, not the kernel's: llvmpipe ends a shader's loops after 65 535
+//! iterations in all (found for the JFO kernel, which is resumable for that reason,
+//! docs/jfo.md "Dispatches"), and a loop it ends reads as a zero change. Measured with
+//! `BEARING_SWEEP_FINITE_GPU_MAX_NODES=400000 mg_probe gpu 1024 128`: the kernel stops after
+//! 34.8 sweeps of work (CPU: 105.7) with loads 100 % off; on an H200 the same grids
+//! agree with the CPU (BENCHMARKS "Issue 20/26: the multigrid kernel"). Making this kernel
+//! resumable like the JFO one would lift the cap; until then it stays. So an explicit grid beyond it is declined (the evaluator recomputes it on the
 //! CPU with a notice), and in accuracy mode the ladder runs on the device up to that grid;
 //! the states whose estimate is still above the accuracy there (those that need
 //! 1024 × 128 at B/D = 0.5) are solved from scratch by the CPU solver here (the same
