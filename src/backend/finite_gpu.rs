@@ -226,153 +226,74 @@ impl FinitePipeline {
                 max_sweeps: grid.max_sweeps(),
                 tolerance: grid.tolerance,
             };
-            let storage = |label, data: &[u8], extra: wgpu::BufferUsages| {
-                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: data,
-                    usage: wgpu::BufferUsages::STORAGE | extra,
-                })
+            let make = |device: &wgpu::Device| {
+                let storage = |label, data: &[u8], extra: wgpu::BufferUsages| {
+                    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(label),
+                        contents: data,
+                        usage: wgpu::BufferUsages::STORAGE | extra,
+                    })
+                };
+                vec![
+                    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("finite params"),
+                        contents: bytemuck::bytes_of(&params),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    }),
+                    trig_buf.clone(),
+                    storage(
+                        "finite jobs",
+                        bytemuck::cast_slice(&job_data),
+                        wgpu::BufferUsages::empty(),
+                    ),
+                    storage(
+                        "finite fields",
+                        bytemuck::cast_slice(&field_data),
+                        wgpu::BufferUsages::COPY_SRC,
+                    ),
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("finite results"),
+                        size: (n * OUT_STRIDE * 8) as u64,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    }),
+                    storage(
+                        "finite inlets",
+                        bytemuck::cast_slice(&inlets),
+                        wgpu::BufferUsages::empty(),
+                    ),
+                    geo_buf.clone(),
+                ]
             };
-            let scope_oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-            let scope_val = device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("finite params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let jobs_buf = storage(
-                "finite jobs",
-                bytemuck::cast_slice(&job_data),
-                wgpu::BufferUsages::empty(),
-            );
-            let fields_buf = storage(
-                "finite fields",
-                bytemuck::cast_slice(&field_data),
-                wgpu::BufferUsages::COPY_SRC,
-            );
-            let results_len = (n * OUT_STRIDE * 8) as u64;
-            let results_buf = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("finite results"),
-                size: results_len,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let inlets_buf = storage(
-                "finite inlets",
-                bytemuck::cast_slice(&inlets),
-                wgpu::BufferUsages::empty(),
-            );
-            let fields_len = (n * full * 8) as u64;
-            let readback = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("finite readback"),
-                size: fields_len + results_len,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let layout = self.pipeline.get_bind_group_layout(0);
-            let entries: Vec<wgpu::BindGroupEntry> = [
-                &params_buf,
-                &trig_buf,
-                &jobs_buf,
-                &fields_buf,
-                &results_buf,
-                &inlets_buf,
-                &geo_buf,
-            ]
-            .iter()
-            .enumerate()
-            .map(|(b, buf)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buf.as_entire_binding(),
-            })
-            .collect();
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("finite bindings"),
-                layout: &layout,
-                entries: &entries,
-            });
-            let mut enc =
-                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("finite film kernel"),
-                    timestamp_writes: None,
+            // Fields (binding 3), then results (binding 4).
+            let vals = dispatch_read(
+                device,
+                queue,
+                timeout,
+                &self.pipeline,
+                make,
+                n as u32,
+                1,
+                &[3, 4],
+                "finite-film",
+            )?;
+            for (k, f) in fchunk.iter_mut().enumerate() {
+                f.clear();
+                f.extend_from_slice(&vals[k * full..(k + 1) * full]);
+            }
+            let res = &vals[n * full..];
+            for k in 0..n {
+                let r = &res[k * OUT_STRIDE..(k + 1) * OUT_STRIDE];
+                out.push([r[0], r[1], r[2], r[3]]);
+                reports.push(SolveReport {
+                    sweeps: r[4] as u32,
+                    iteration_error: r[5],
+                    converged: r[6] > 0.5,
+                    n_theta: grid.n_theta as u32,
+                    n_z: grid.n_z as u32,
+                    ..SolveReport::default()
                 });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                let groups = n as u32;
-                pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
             }
-            enc.copy_buffer_to_buffer(&fields_buf, 0, &readback, 0, fields_len);
-            enc.copy_buffer_to_buffer(&results_buf, 0, &readback, fields_len, results_len);
-            let sub = queue.submit(Some(enc.finish()));
-            let val = pollster::block_on(scope_val.pop());
-            let oom = pollster::block_on(scope_oom.pop());
-            if let Some(e) = oom.or(val) {
-                return Err(BackendError::Device(format!(
-                    "dispatching {n} finite-film states: {e}"
-                )));
-            }
-            let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> =
-                Arc::new(Mutex::new(None));
-            let d = done.clone();
-            readback.map_async(wgpu::MapMode::Read, .., move |r| {
-                if let Ok(mut g) = d.lock() {
-                    *g = Some(r);
-                }
-            });
-            device
-                .poll(wgpu::PollType::Wait {
-                    submission_index: Some(sub),
-                    timeout: Some(timeout),
-                })
-                .map_err(|e| {
-                    BackendError::Device(format!(
-                        "waiting for the finite-film kernel (timeout {timeout:?}): {e}"
-                    ))
-                })?;
-            let mut state = done.lock().ok().and_then(|g| g.clone());
-            if state.is_none() {
-                let _ = device.poll(wgpu::PollType::Poll);
-                state = done.lock().ok().and_then(|g| g.clone());
-            }
-            match state {
-                Some(Ok(())) => {}
-                Some(Err(e)) => {
-                    return Err(BackendError::Device(format!(
-                        "reading the finite-film results back: {e}"
-                    )))
-                }
-                None => {
-                    return Err(BackendError::Device(
-                        "finite-film results never became readable".into(),
-                    ))
-                }
-            }
-            {
-                let view = readback.get_mapped_range(..).map_err(|e| {
-                    BackendError::Device(format!("mapping the finite-film results: {e}"))
-                })?;
-                let vals: &[f64] = bytemuck::cast_slice(&view);
-                for (k, f) in fchunk.iter_mut().enumerate() {
-                    f.clear();
-                    f.extend_from_slice(&vals[k * full..(k + 1) * full]);
-                }
-                let res = &vals[n * full..];
-                for k in 0..n {
-                    let r = &res[k * OUT_STRIDE..(k + 1) * OUT_STRIDE];
-                    out.push([r[0], r[1], r[2], r[3]]);
-                    reports.push(SolveReport {
-                        sweeps: r[4] as u32,
-                        iteration_error: r[5],
-                        converged: r[6] > 0.5,
-                        n_theta: grid.n_theta as u32,
-                        n_z: grid.n_z as u32,
-                        ..SolveReport::default()
-                    });
-                }
-            }
-            readback.unmap();
         }
         Ok(())
     }

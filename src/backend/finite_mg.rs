@@ -24,11 +24,11 @@
 //! deterministic ladder, so the same result as a CPU run).
 
 use std::f64::consts::PI;
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use wgpu::util::DeviceExt;
 
+use super::finite_gpu::dispatch_read;
 use super::BackendError;
 use crate::bearing::finite::{
     accuracy_ladder, coarser, Coarsen, FiniteGrid, FiniteJob, SolveReport, ALGEBRAIC_FRACTION,
@@ -48,8 +48,6 @@ const OUT_STRIDE: usize = 12;
 /// Arrays per level in a slot's scratch (face coefficients ×2, inverse diagonals ×2,
 /// right-hand side, iterate, u0, residual).
 const ARRAYS: usize = 8;
-/// Workgroups per dispatch row (WebGPU's guaranteed per-dimension limit).
-const ROW: u32 = 65_535;
 /// Column value meaning "no inlet on this row" (`NO_INLET`).
 const NO_INLET: u32 = u32::MAX;
 /// V-cycle limit of one grid (src/bearing/finite/solver.rs `MAX_CYCLES`).
@@ -480,143 +478,61 @@ impl MultigridPipeline {
         scratch_bytes: u64,
     ) -> Result<Vec<f64>, BackendError> {
         let n = params.count as usize;
-        let scope_oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let scope_val = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let init = |label, data: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: data,
-                usage,
-            })
-        };
-        let st = wgpu::BufferUsages::STORAGE;
-        let params_buf = init(
-            "finite mg params",
-            bytemuck::bytes_of(params),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let jobs_buf = init("finite mg jobs", bytemuck::cast_slice(job_data), st);
-        let fields_buf = init(
-            "finite mg fields",
-            bytemuck::cast_slice(field_data),
-            st | wgpu::BufferUsages::COPY_SRC,
-        );
         // An empty inlet table (no max-film inlet) still needs a binding.
         let inl: Vec<u32> = if inlets.is_empty() {
             vec![NO_INLET]
         } else {
             inlets.to_vec()
         };
-        let inlets_buf = init("finite mg inlets", bytemuck::cast_slice(&inl), st);
-        let results_len = (n * OUT_STRIDE * 8) as u64;
-        let results_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("finite mg results"),
-            size: results_len,
-            usage: st | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let scratch = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("finite mg scratch"),
-            size: scratch_bytes.max(8),
-            usage: st,
-            mapped_at_creation: false,
-        });
-        let fields_len = (field_data.len() * 8) as u64;
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("finite mg readback"),
-            size: fields_len + results_len,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let layout = self.pipeline.get_bind_group_layout(0);
-        let bufs = [
-            &params_buf,
-            shared[0],
-            &jobs_buf,
-            &fields_buf,
-            &results_buf,
-            &inlets_buf,
-            shared[1],
-            &scratch,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = bufs
-            .iter()
-            .enumerate()
-            .map(|(b, buf)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buf.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("finite mg bindings"),
-            layout: &layout,
-            entries: &entries,
-        });
-        let mut enc =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("finite film multigrid"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            let groups = n as u32;
-            pass.dispatch_workgroups(groups.min(ROW), groups.div_ceil(ROW), 1);
-        }
-        enc.copy_buffer_to_buffer(&fields_buf, 0, &readback, 0, fields_len);
-        enc.copy_buffer_to_buffer(&results_buf, 0, &readback, fields_len, results_len);
-        let sub = queue.submit(Some(enc.finish()));
-        let val = pollster::block_on(scope_val.pop());
-        let oom = pollster::block_on(scope_oom.pop());
-        if let Some(e) = oom.or(val) {
-            return Err(BackendError::Device(format!(
-                "dispatching {n} finite-film multigrid states: {e}"
-            )));
-        }
-        let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> =
-            Arc::new(Mutex::new(None));
-        let d = done.clone();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            if let Ok(mut g) = d.lock() {
-                *g = Some(r);
-            }
-        });
-        device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(sub),
-                timeout: Some(timeout),
-            })
-            .map_err(|e| {
-                BackendError::Device(format!(
-                    "waiting for the finite-film multigrid kernel (timeout {timeout:?}): {e}"
-                ))
-            })?;
-        let mut state = done.lock().ok().and_then(|g| g.clone());
-        if state.is_none() {
-            let _ = device.poll(wgpu::PollType::Poll);
-            state = done.lock().ok().and_then(|g| g.clone());
-        }
-        match state {
-            Some(Ok(())) => {}
-            Some(Err(e)) => {
-                return Err(BackendError::Device(format!(
-                    "reading the finite-film multigrid results back: {e}"
-                )))
-            }
-            None => {
-                return Err(BackendError::Device(
-                    "finite-film multigrid results never became readable".into(),
-                ))
-            }
-        }
-        let vals = {
-            let view = readback.get_mapped_range(..).map_err(|e| {
-                BackendError::Device(format!("mapping the finite-film multigrid results: {e}"))
-            })?;
-            bytemuck::cast_slice::<u8, f64>(&view).to_vec()
+        let make = |device: &wgpu::Device| {
+            let init = |label, data: &[u8], usage| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: data,
+                    usage,
+                })
+            };
+            let st = wgpu::BufferUsages::STORAGE;
+            vec![
+                init(
+                    "finite mg params",
+                    bytemuck::bytes_of(params),
+                    wgpu::BufferUsages::UNIFORM,
+                ),
+                shared[0].clone(),
+                init("finite mg jobs", bytemuck::cast_slice(job_data), st),
+                init(
+                    "finite mg fields",
+                    bytemuck::cast_slice(field_data),
+                    st | wgpu::BufferUsages::COPY_SRC,
+                ),
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("finite mg results"),
+                    size: (n * OUT_STRIDE * 8) as u64,
+                    usage: st | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                init("finite mg inlets", bytemuck::cast_slice(&inl), st),
+                shared[1].clone(),
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("finite mg scratch"),
+                    size: scratch_bytes.max(8),
+                    usage: st,
+                    mapped_at_creation: false,
+                }),
+            ]
         };
-        readback.unmap();
-        Ok(vals)
+        // Fields (binding 3), then results (binding 4).
+        dispatch_read(
+            device,
+            queue,
+            timeout,
+            &self.pipeline,
+            make,
+            n as u32,
+            1,
+            &[3, 4],
+            "finite-film multigrid",
+        )
     }
 }
