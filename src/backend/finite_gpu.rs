@@ -49,24 +49,13 @@ pub(crate) struct FinitePipeline {
 impl FinitePipeline {
     /// Compiles the kernel; a validation error is returned, not raised.
     pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("finite.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(FINITE_WGSL.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("finite film kernel"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(BackendError::Device(format!(
-                "the finite-film kernel does not build: {e}"
-            )));
-        }
+        let pipeline = compile_pipeline(
+            device,
+            "finite.wgsl",
+            FINITE_WGSL,
+            "finite film kernel",
+            "the finite-film kernel",
+        )?;
         Ok(FinitePipeline {
             pipeline,
             multigrid: Mutex::new(None),
@@ -296,6 +285,35 @@ impl FinitePipeline {
             }
         }
         Ok(())
+    }
+}
+
+/// Compiles the compute pipeline of a finite-film kernel (`source`, entry point `main`,
+/// layout from the shader), shared by the finite-film drivers; a validation error is
+/// returned as "`what` does not build", not raised.
+pub(crate) fn compile_pipeline(
+    device: &wgpu::Device,
+    file: &str,
+    source: &str,
+    label: &str,
+    what: &str,
+) -> Result<wgpu::ComputePipeline, BackendError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(file),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    match pollster::block_on(scope.pop()) {
+        Some(e) => Err(BackendError::Device(format!("{what} does not build: {e}"))),
+        None => Ok(pipeline),
     }
 }
 

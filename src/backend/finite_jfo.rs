@@ -15,7 +15,7 @@ use std::time::Duration;
 use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
-use super::finite_gpu::dispatch_read;
+use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
     Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoProblem, SolveReport, JFO_NODE_STRIDE,
@@ -74,24 +74,13 @@ pub(crate) type StartSolver<'a> = dyn FnMut(
 impl JfoPipeline {
     /// Compiles the kernel; a validation error is returned, not raised.
     pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("finite_jfo.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(FINITE_JFO_WGSL.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("finite film JFO kernel"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(BackendError::Device(format!(
-                "the finite-film JFO kernel does not build: {e}"
-            )));
-        }
+        let pipeline = compile_pipeline(
+            device,
+            "finite_jfo.wgsl",
+            FINITE_JFO_WGSL,
+            "finite film JFO kernel",
+            "the finite-film JFO kernel",
+        )?;
         Ok(JfoPipeline { pipeline })
     }
 

@@ -28,7 +28,7 @@ use std::time::Duration;
 
 use wgpu::util::DeviceExt;
 
-use super::finite_gpu::dispatch_read;
+use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
     accuracy_ladder, coarser, Coarsen, FiniteGrid, FiniteJob, SolveReport, ALGEBRAIC_FRACTION,
@@ -146,24 +146,13 @@ struct Group<'a> {
 impl MultigridPipeline {
     /// Compiles the kernel; a validation error is returned, not raised.
     pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("finite_mg.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(FINITE_MG_WGSL.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("finite film multigrid kernel"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(BackendError::Device(format!(
-                "the finite-film multigrid kernel does not build: {e}"
-            )));
-        }
+        let pipeline = compile_pipeline(
+            device,
+            "finite_mg.wgsl",
+            FINITE_MG_WGSL,
+            "finite film multigrid kernel",
+            "the finite-film multigrid kernel",
+        )?;
         Ok(MultigridPipeline { pipeline })
     }
 
