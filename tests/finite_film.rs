@@ -1,6 +1,8 @@
 //! Finite-length Reynolds film (issue 16, docs/finite-film.md): limits, grid convergence,
 //! Raimondi–Boyd, the stored model-error map, the backends and the interfaces.
 
+mod common;
+
 use std::f64::consts::PI;
 
 use bearing_sweep::bearing::finite::{
@@ -364,9 +366,7 @@ fn raimondi_boyd_full_bearing() {
 // ---------------------------------------------------------------------------------------
 // Backends and interfaces.
 
-use bearing_sweep::backend::{
-    CpuBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest, Precision,
-};
+use bearing_sweep::backend::{CpuBackend, LoadEvaluator, LoadRequest};
 
 /// States over the film's range: aligned, tilted, whirling, squeezing, near the wall.
 fn mixed_states(p: &BearingParams, n: usize) -> Vec<BearingState> {
@@ -389,25 +389,6 @@ fn mixed_states(p: &BearingParams, n: usize) -> Vec<BearingState> {
             }
         })
         .collect()
-}
-
-fn gpu_required() -> bool {
-    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
-}
-
-fn gpu_f64() -> Option<GpuBackend> {
-    let options = GpuOptions {
-        precision: Some(Precision::F64),
-        ..GpuOptions::default()
-    };
-    match GpuBackend::new(Accuracy::default(), options) {
-        Ok(b) => Some(b),
-        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
-        Err(e) => {
-            eprintln!("notice: skipping the finite-film GPU cases: {e}");
-            None
-        }
-    }
 }
 
 fn eval_all(ev: &mut LoadEvaluator, p: &BearingParams, states: &[BearingState]) -> Vec<Loads> {
@@ -519,7 +500,9 @@ fn warm_start_agrees_with_cold_start_in_fewer_sweeps() {
 /// within 1e-8 relative), cold and warm, both inlets; lavapipe here.
 #[test]
 fn cpu_and_gpu_agree() {
-    let Some(gpu) = gpu_f64() else { return };
+    let Some(gpu) = common::gpu_f64_or_skip("finite-film GPU") else {
+        return;
+    };
     let mut gpu_ev = LoadEvaluator::new(Box::new(gpu));
     for inlet in [Inlet::None, Inlet::MaxFilm] {
         let g = FiniteSettings {
@@ -558,7 +541,9 @@ fn cpu_and_gpu_agree() {
 /// the CPU with a notice, not lost.
 #[test]
 fn gpu_grid_beyond_workgroup_memory_falls_back_to_cpu() {
-    let Some(gpu) = gpu_f64() else { return };
+    let Some(gpu) = common::gpu_f64_or_skip("finite-film GPU") else {
+        return;
+    };
     let g = grid(512, 128);
     let p = bearing(0.5, FilmModel::Finite, g);
     let states = mixed_states(&p, 3);

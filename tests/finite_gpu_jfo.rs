@@ -13,7 +13,9 @@
 //! norm, pressure relative to its maximum, film fraction absolutely, flows relative to
 //! the flow scale.
 
-use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+mod common;
+
+use bearing_sweep::backend::FilmBackend;
 use bearing_sweep::bearing::finite::{
     jfo_flow_integrals, Cavitation, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver,
     JfoHistory, JfoSolver, SolveReport,
@@ -21,25 +23,6 @@ use bearing_sweep::bearing::finite::{
 use bearing_sweep::bearing::{
     pack_state, Accuracy, BearingParams, BearingState, FilmModel, Groove, Grooves,
 };
-
-fn gpu_required() -> bool {
-    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
-}
-
-fn gpu_f64() -> Option<GpuBackend> {
-    let options = GpuOptions {
-        precision: Some(Precision::F64),
-        ..GpuOptions::default()
-    };
-    match GpuBackend::new(Accuracy::default(), options) {
-        Ok(b) => Some(b),
-        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
-        Err(e) => {
-            eprintln!("notice: skipping the finite-film JFO GPU cases: {e}");
-            None
-        }
-    }
-}
 
 /// A failed comparison names the case, the state, the value index, both values and the
 /// tolerance.
@@ -208,7 +191,9 @@ fn compare(
 /// the film-fraction branch is exercised).
 #[test]
 fn jfo_kernel_matches_cpu_on_steady_states() {
-    let Some(mut backend) = gpu_f64() else { return };
+    let Some(mut backend) = common::gpu_f64_or_skip("finite-film JFO GPU") else {
+        return;
+    };
     let tol = 1e-9;
     let mut most_sweeps = 0;
     for (nt, nz) in [(72u32, 16u32), (64, 24), (128, 32)] {
@@ -265,7 +250,9 @@ fn jfo_kernel_matches_cpu_on_steady_states() {
 /// kernel ignoring it would fail.
 #[test]
 fn jfo_kernel_matches_cpu_on_time_steps_with_history() {
-    let Some(mut backend) = gpu_f64() else { return };
+    let Some(mut backend) = common::gpu_f64_or_skip("finite-film JFO GPU") else {
+        return;
+    };
     let tol = 1e-9;
     let p = BearingParams {
         grooves: Grooves::new(&[Groove {
@@ -360,7 +347,9 @@ fn jfo_kernel_matches_cpu_on_time_steps_with_history() {
 #[test]
 fn evaluator_routes_jfo_to_the_kernel() {
     use bearing_sweep::backend::{CpuBackend, LoadEvaluator, LoadRequest};
-    let Some(backend) = gpu_f64() else { return };
+    let Some(backend) = common::gpu_f64_or_skip("finite-film JFO GPU") else {
+        return;
+    };
     let tol = 1e-9;
     let p = paper(72, 16, tol);
     let mut gpu_ev = LoadEvaluator::new(Box::new(backend));

@@ -13,33 +13,16 @@
 //! Richardson estimate, `d₂ ρ/(1 − ρ)` with `ρ ≤ 0.8`, moves by at most ~8× it (`d₂`
 //! changes by ≤ 2 stop tolerances, times ≤ 4) — the test allows 10×.
 
-use bearing_sweep::backend::{CpuBackend, Precision};
-use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
+mod common;
+
+use bearing_sweep::backend::CpuBackend;
+use bearing_sweep::backend::{FilmBackend, GpuBackend, LoadEvaluator, LoadRequest};
 use bearing_sweep::bearing::finite::{
     FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, Inlet, SolveReport,
 };
 use bearing_sweep::bearing::{
     pack_state, Accuracy, BearingParams, BearingState, FilmLayout, FilmModel, Groove, Grooves,
 };
-
-fn gpu_required() -> bool {
-    std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1")
-}
-
-fn gpu_f64() -> Option<GpuBackend> {
-    let options = GpuOptions {
-        precision: Some(Precision::F64),
-        ..GpuOptions::default()
-    };
-    match GpuBackend::new(Accuracy::default(), options) {
-        Ok(b) => Some(b),
-        Err(e) if gpu_required() => panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}"),
-        Err(e) => {
-            eprintln!("notice: skipping the finite-film multigrid GPU cases: {e}");
-            None
-        }
-    }
-}
 
 /// A failed comparison names the case, the state, both values and the tolerance.
 fn check(label: &str, index: usize, actual: f64, expected: f64, tol: f64) {
@@ -170,7 +153,9 @@ fn grooved(finite: FiniteSettings) -> BearingParams {
 /// the grid's; a warm start from the converged field agrees too and needs fewer cycles.
 #[test]
 fn multigrid_kernel_matches_cpu_on_large_explicit_grids() {
-    let Some(mut backend) = gpu_f64() else { return };
+    let Some(mut backend) = common::gpu_f64_or_skip("finite-film multigrid GPU") else {
+        return;
+    };
     let tol = 1e-10;
     for (nt, nz) in [(128u32, 32u32), (256, 64)] {
         let base = FiniteSettings {
@@ -233,7 +218,9 @@ fn multigrid_kernel_matches_cpu_on_large_explicit_grids() {
 /// B/D = 0.25 too: another ladder shape), with grooves (the banded estimate).
 #[test]
 fn accuracy_mode_on_gpu_matches_cpu() {
-    let Some(mut backend) = gpu_f64() else { return };
+    let Some(mut backend) = common::gpu_f64_or_skip("finite-film multigrid GPU") else {
+        return;
+    };
     let default = FiniteSettings::default().accuracy;
     let mut cases: Vec<(String, BearingParams)> = Vec::new();
     for accuracy in [default, 2e-3, 1e-4] {
@@ -297,7 +284,9 @@ fn accuracy_mode_on_gpu_matches_cpu() {
 /// with the CPU backend's.
 #[test]
 fn evaluator_runs_large_grids_on_the_gpu_and_polished_accuracy_mode_on_the_cpu() {
-    let Some(backend) = gpu_f64() else { return };
+    let Some(backend) = common::gpu_f64_or_skip("finite-film multigrid GPU") else {
+        return;
+    };
     let mut gpu_ev = LoadEvaluator::new(Box::new(backend));
     let mut cpu_ev = LoadEvaluator::new(Box::new(CpuBackend::new(Accuracy::default(), None)));
     let mut accuracy_states = 0u64;

@@ -480,3 +480,24 @@ pub fn sci(v: &[f64]) -> String {
     let items: Vec<String> = v.iter().map(|x| format!("{x:.2e}")).collect();
     format!("[{}]", items.join(", "))
 }
+
+/// The GPU backend in f64 at the default accuracy, or `None` with a notice that the
+/// `what` cases are skipped when no adapter exists (a failure under
+/// BEARING_SWEEP_REQUIRE_GPU=1, as `.ci/run` sets).
+pub fn gpu_f64_or_skip(what: &str) -> Option<bearing_sweep::backend::GpuBackend> {
+    use bearing_sweep::backend::{GpuBackend, GpuOptions, Precision};
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => Some(b),
+        Err(e) if std::env::var("BEARING_SWEEP_REQUIRE_GPU").is_ok_and(|v| v == "1") => {
+            panic!("BEARING_SWEEP_REQUIRE_GPU=1 but: {e}")
+        }
+        Err(e) => {
+            eprintln!("notice: skipping the {what} cases: {e}");
+            None
+        }
+    }
+}
