@@ -5,6 +5,11 @@
 //! for samples, whose three extra stages are evaluated (in one batched call each) only for
 //! the variants with a sample inside the accepted step.
 
+// The tableau below keeps the coefficients with the digits Hairer's listing prints (more
+// than an f64 holds); rounding them by hand would risk a transcription error for no gain,
+// since the compiler rounds each literal to the nearest f64.
+#![allow(clippy::excessive_precision)]
+
 use std::time::Instant;
 
 use super::common::{
