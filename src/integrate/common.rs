@@ -266,6 +266,102 @@ pub(crate) fn admit<F: Clone>(
     active
 }
 
+/// Starts an explicit Runge–Kutta batch at t = 0 (dopri5 and DOP853 share it): admits
+/// the variants whose settings and initial state are usable (the others end `NonFinite`),
+/// evaluates `f(0, y0)` for all of them in one call into `k0` (the first stage), picks each
+/// one's first step (`fixed_step` or [`initial_step`]), emits the t = 0 sample and ends the
+/// variants with `t_end = 0`; a variant whose first evaluation faults ends there without a
+/// sample. Returns the variants still running, after flushing the samples and notifying
+/// the system of those that ended.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn start_explicit<S: BatchSystem>(
+    sys: &mut S,
+    tracks: &mut [Track<S::Fault>],
+    settings: &[Settings],
+    y: &[f64],
+    scale: &[f64],
+    k0: &mut [f64],
+    buf: &mut Packed<S::Fault>,
+    rec: &mut Packed<S::Fault>,
+    ended: &mut Vec<usize>,
+    start: Instant,
+) -> Vec<usize> {
+    let d = sys.dim();
+    let mut active = Vec::new();
+    for id in 0..settings.len() {
+        if tracks[id].check_settings(&settings[id]) && finite(&y[id * d..(id + 1) * d]) {
+            active.push(id);
+        } else {
+            if matches!(tracks[id].status, Status::Running) {
+                end(&mut tracks[id], Status::NonFinite { time: 0.0 }, start);
+            }
+            ended.push(id);
+        }
+    }
+    // f(0, y0) for every variant in one call.
+    buf.clear();
+    for &id in &active {
+        buf.push(id, 0.0, d)
+            .copy_from_slice(&y[id * d..(id + 1) * d]);
+    }
+    buf.eval(sys, tracks);
+    for e in 0..buf.len() {
+        let id = buf.ids[e];
+        let r = id * d..(id + 1) * d;
+        let tr = &mut tracks[id];
+        if let Some(f) = &buf.faults[e] {
+            end(
+                tr,
+                Status::Fault {
+                    time: 0.0,
+                    fault: f.clone(),
+                },
+                start,
+            );
+            ended.push(id);
+            continue;
+        }
+        k0[r.clone()].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
+        let s = &settings[id];
+        tr.h = s
+            .fixed_step
+            .unwrap_or_else(|| initial_step(&y[r.clone()], &k0[r.clone()], &scale[r.clone()], s));
+        let y0v = &y[r];
+        tr.emit(id, s, 0.0, 0.0, d, rec, |_, out| out.copy_from_slice(y0v));
+        if reached(0.0, s.t_end) {
+            end(tr, Status::Finished, start);
+            ended.push(id);
+        }
+    }
+    active.retain(|&id| matches!(tracks[id].status, Status::Running));
+    rec.flush_records(sys);
+    notify(sys, tracks, ended);
+    active
+}
+
+/// The step each active variant tries this round, into `hs` (its controller's step, capped
+/// by `max_step`, landing on `t_end` rather than leaving a sliver under 1 % of a step);
+/// marks every variant's stages usable (`stage_ok`) for the round.
+pub(crate) fn plan_steps<F>(
+    active: &[usize],
+    tracks: &[Track<F>],
+    settings: &[Settings],
+    hs: &mut [f64],
+    stage_ok: &mut [bool],
+) {
+    for &id in active {
+        let tr = &tracks[id];
+        let s = &settings[id];
+        let left = s.t_end - tr.t;
+        let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
+        if h >= left || left - h < 0.01 * h {
+            h = left;
+        }
+        hs[id] = h;
+        stage_ok[id] = true;
+    }
+}
+
 /// After an accepted adaptive step: the status the variant ends with, if any — `t_end`
 /// reached, accepted steps shrinking toward a singularity (Zeno), or the step budget spent.
 pub(crate) fn status_after_accepted<F>(track: &Track<F>, s: &Settings) -> Option<Status<F>> {

@@ -13,7 +13,7 @@
 use std::time::Instant;
 
 use super::common::{
-    end, finite, h_floor, initial_step, notify, reached, status_after_accepted, Packed, Track,
+    end, finite, h_floor, notify, plan_steps, start_explicit, status_after_accepted, Packed, Track,
 };
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -369,75 +369,27 @@ pub(crate) fn run<S: BatchSystem>(
     let mut buf = Packed::new();
     let mut rec = Packed::new();
     let mut ended = Vec::new();
-    let mut active = Vec::new();
     // Variants accepted this round with a sample inside the step: (id, t0, h).
     let mut dense: Vec<(usize, f64, f64)> = Vec::new();
     // The previous point of each such variant (y before the step).
     let mut yold = vec![0.0; n * d];
     let mut dense_ok = vec![true; n];
 
-    for id in 0..n {
-        if tracks[id].check_settings(&settings[id]) && finite(&y[id * d..(id + 1) * d]) {
-            active.push(id);
-        } else {
-            if matches!(tracks[id].status, Status::Running) {
-                end(&mut tracks[id], Status::NonFinite { time: 0.0 }, start);
-            }
-            ended.push(id);
-        }
-    }
-    buf.clear();
-    for &id in &active {
-        buf.push(id, 0.0, d)
-            .copy_from_slice(&y[id * d..(id + 1) * d]);
-    }
-    buf.eval(sys, &mut tracks);
-    for e in 0..buf.len() {
-        let id = buf.ids[e];
-        let r = id * d..(id + 1) * d;
-        let tr = &mut tracks[id];
-        if let Some(f) = &buf.faults[e] {
-            end(
-                tr,
-                Status::Fault {
-                    time: 0.0,
-                    fault: f.clone(),
-                },
-                start,
-            );
-            ended.push(id);
-            continue;
-        }
-        k[0][r.clone()].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
-        let s = &settings[id];
-        tr.h = s
-            .fixed_step
-            .unwrap_or_else(|| initial_step(&y[r.clone()], &k[0][r.clone()], &scale[r.clone()], s));
-        let y0v = &y[r];
-        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
-            out.copy_from_slice(y0v)
-        });
-        if reached(0.0, s.t_end) {
-            end(tr, Status::Finished, start);
-            ended.push(id);
-        }
-    }
-    active.retain(|&id| matches!(tracks[id].status, Status::Running));
-    rec.flush_records(sys);
-    notify(sys, &tracks, &mut ended);
+    let mut active = start_explicit(
+        sys,
+        &mut tracks,
+        settings,
+        &y,
+        &scale,
+        &mut k[0],
+        &mut buf,
+        &mut rec,
+        &mut ended,
+        start,
+    );
 
     while !active.is_empty() {
-        for &id in &active {
-            let tr = &tracks[id];
-            let s = &settings[id];
-            let left = s.t_end - tr.t;
-            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
-            if h >= left || left - h < 0.01 * h {
-                h = left;
-            }
-            hs[id] = h;
-            stage_ok[id] = true;
-        }
+        plan_steps(&active, &tracks, settings, &mut hs, &mut stage_ok);
         // Stages 1..=11, then the new point (row 12) whose f is stage 12.
         for st in 1..=12 {
             buf.clear();

@@ -4,8 +4,8 @@
 use std::time::Instant;
 
 use super::common::{
-    end, err_norm, finite, h_floor, initial_step, notify, reached, status_after_accepted, Packed,
-    Track,
+    end, err_norm, finite, h_floor, notify, plan_steps, start_explicit, status_after_accepted,
+    Packed, Track,
 };
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -179,7 +179,6 @@ pub(crate) fn run<S: BatchSystem>(
     let mut buf = Packed::new();
     let mut rec = Packed::new();
     let mut ended = Vec::new();
-    let mut active = Vec::new();
     let mut stiff_count = vec![StiffCount::default(); n];
     let mut handed: Vec<usize> = Vec::new();
     // Stage 6's input (the point of k6), for the stiffness test.
@@ -191,70 +190,21 @@ pub(crate) fn run<S: BatchSystem>(
         }
     }
 
-    for id in 0..n {
-        if tracks[id].check_settings(&settings[id]) && finite(&y[id * d..(id + 1) * d]) {
-            active.push(id);
-        } else {
-            if matches!(tracks[id].status, Status::Running) {
-                end(&mut tracks[id], Status::NonFinite { time: 0.0 }, start);
-            }
-            ended.push(id);
-        }
-    }
-    // f(0, y0) for every variant in one call.
-    buf.clear();
-    for &id in &active {
-        buf.push(id, 0.0, d)
-            .copy_from_slice(&y[id * d..(id + 1) * d]);
-    }
-    buf.eval(sys, &mut tracks);
-    for e in 0..buf.len() {
-        let id = buf.ids[e];
-        let r = id * d..(id + 1) * d;
-        let tr = &mut tracks[id];
-        if let Some(f) = &buf.faults[e] {
-            end(
-                tr,
-                Status::Fault {
-                    time: 0.0,
-                    fault: f.clone(),
-                },
-                start,
-            );
-            ended.push(id);
-            continue;
-        }
-        k[0][r.clone()].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
-        let s = &settings[id];
-        tr.h = s
-            .fixed_step
-            .unwrap_or_else(|| initial_step(&y[r.clone()], &k[0][r.clone()], &scale[r.clone()], s));
-        let y0v = &y[r];
-        tr.emit(id, s, 0.0, 0.0, d, &mut rec, |_, out| {
-            out.copy_from_slice(y0v)
-        });
-        if reached(0.0, s.t_end) {
-            end(tr, Status::Finished, start);
-            ended.push(id);
-        }
-    }
-    active.retain(|&id| matches!(tracks[id].status, Status::Running));
-    rec.flush_records(sys);
-    notify(sys, &tracks, &mut ended);
+    let mut active = start_explicit(
+        sys,
+        &mut tracks,
+        settings,
+        &y,
+        &scale,
+        &mut k[0],
+        &mut buf,
+        &mut rec,
+        &mut ended,
+        start,
+    );
 
     while !active.is_empty() {
-        for &id in &active {
-            let tr = &tracks[id];
-            let s = &settings[id];
-            let left = s.t_end - tr.t;
-            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
-            // Land on t_end rather than leave a sliver.
-            if h >= left || left - h < 0.01 * h {
-                h = left;
-            }
-            hs[id] = h;
-            stage_ok[id] = true;
-        }
+        plan_steps(&active, &tracks, settings, &mut hs, &mut stage_ok);
         for st in 1..7 {
             buf.clear();
             for &id in &active {
