@@ -858,8 +858,74 @@ fn iteration_error_below_1e_8_through_the_rupture() {
         );
         assert!(worst_pre < 1e-9, "nz {nz}: {worst_pre:.2e}");
         assert!(
-            under_pre <= 25.0,
+            under_pre <= 3.0,
             "nz {nz}: actual up to {under_pre:.1}× reported"
         );
     }
+}
+
+/// The reported iteration error against the true one through rupture and reformation
+/// (issue 27, session 34; docs/jfo.md "Iteration error"): one gap period `[0.24, 0.74]`
+/// at 128 nodes (1000 steps, tolerance 1e-9), every 10th step judged against the same
+/// step (same history) solved on to 1e-13: reported/true within a factor 3 both ways
+/// wherever the true error is above 1e-11. Before issue 27's session 34 the reported
+/// error was the last sweep's change extrapolated, up to 22× below the true error here
+/// (the test above, asserted ≤ 25× then).
+#[test]
+fn iteration_error_honest_through_rupture_and_reformation() {
+    let (nz, steps, tol) = (128usize, 1000usize, 1e-9);
+    let mut st = Stepper::new(nz, 0.5 / steps as f64, tol);
+    let gr = setup(nz, 1e-13);
+    let n = st.n();
+    let mut ratios = Vec::new();
+    let (mut seen_cavity, mut seen_reformed) = (false, false);
+    for s in 1..=steps {
+        let rep = st.step();
+        assert!(rep.iteration_error <= tol, "{rep:?}");
+        let cav = st.cavitated();
+        seen_cavity |= cav;
+        seen_reformed |= seen_cavity && !cav;
+        if s % 10 != 0 {
+            continue;
+        }
+        let t = st.t();
+        let hist = st.history();
+        let mut reference = st.field.clone();
+        let (_, rr) = JfoSolver::new().solve(
+            &mut FiniteSolver::new(),
+            &job(t),
+            &gr,
+            &mut reference,
+            Some(&hist),
+        );
+        assert!(rr.converged, "reference at t = {t}: {rr:?}");
+        let pmax = reference[..n].iter().fold(0.0_f64, |a, &v| a.max(v));
+        let dp = (0..n)
+            .map(|k| (st.field[k] - reference[k]).abs())
+            .fold(0.0, f64::max);
+        let dphi = (n..2 * n)
+            .map(|k| (st.field[k] - reference[k]).abs())
+            .fold(0.0, f64::max);
+        let truth = (dp / pmax).max(dphi);
+        eprintln!(
+            "t {t:.4} cavity {cav}: reported {:.3e}, true {truth:.3e}, ratio {:.2}",
+            rep.iteration_error,
+            rep.iteration_error / truth
+        );
+        if truth > 1e-11 {
+            ratios.push(rep.iteration_error / truth);
+        }
+    }
+    assert!(
+        seen_cavity && seen_reformed,
+        "the march ruptures and reforms"
+    );
+    let lo = ratios.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+    let hi = ratios.iter().fold(0.0_f64, |a, &v| a.max(v));
+    eprintln!("{} judged, ratios {lo:.2} ... {hi:.2}", ratios.len());
+    assert!(ratios.len() >= 50, "{} judged", ratios.len());
+    assert!(
+        lo >= 1.0 / 3.0 && hi <= 3.0,
+        "reported/true {lo:.2} ... {hi:.2}"
+    );
 }
