@@ -790,10 +790,11 @@ fn rupture_march_sweeps() {
 /// contraction measured on noise). At tolerance 1e-11 every step of the rupture march
 /// converges (reported ≤ 1e-11). Checked against the exact discrete solution before
 /// rupture (the closed-form parabola, which the 3-point operator reproduces): the actual
-/// error is below 1e-9, but up to 22× the reported estimate (measured; SOR over-relaxed
-/// beyond the optimum of the short full zone, whose slow modes the `ρ/(1 − ρ)`
-/// extrapolation underrates), asserted ≤ 25×; after rupture the same step solved from a
-/// cold (empty) start agrees with the warm solve within the two reported errors.
+/// error is below 1e-9 and at most 3× the reported estimate (before issue 27's session 34
+/// up to 22×: the last sweep's change times `ρ/(1 − ρ)` underrated the slow modes of SOR
+/// over-relaxed beyond the optimum of the short full zone; now the block extrapolation
+/// of `JfoLevel::iterate`); after rupture the same step solved from a cold (empty) start
+/// agrees with the warm solve within 3× the two reported errors.
 #[test]
 fn iteration_error_below_1e_8_through_the_rupture() {
     let tol = 1e-11;
@@ -845,8 +846,10 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                 let diff = dp.max(dphi);
                 worst_post = worst_post.max(diff);
                 under_post = under_post.max(diff / (rep.iteration_error + rc.iteration_error));
+                // The reported errors are estimates within a factor 3 (both ways), not
+                // bounds.
                 assert!(
-                    diff <= rep.iteration_error + rc.iteration_error,
+                    diff <= 3.0 * (rep.iteration_error + rc.iteration_error),
                     "nz {nz}, t {t}: warm and cold differ by {diff:.2e}, reported {:.2e} + {:.2e}",
                     rep.iteration_error,
                     rc.iteration_error
