@@ -790,11 +790,11 @@ fn rupture_march_sweeps() {
 /// contraction measured on noise). At tolerance 1e-11 every step of the rupture march
 /// converges (reported ≤ 1e-11). Checked against the exact discrete solution before
 /// rupture (the closed-form parabola, which the 3-point operator reproduces): the actual
-/// error is below 1e-9 and at most 3× the reported estimate (before issue 27's session 34
-/// up to 22×: the last sweep's change times `ρ/(1 − ρ)` underrated the slow modes of SOR
-/// over-relaxed beyond the optimum of the short full zone; now the block extrapolation
-/// of `JfoLevel::iterate`); after rupture the same step solved from a cold (empty) start
-/// agrees with the warm solve within 3× the two reported errors.
+/// error is below 1e-9. The iteration error proper (against the same step solved on to
+/// 1e-13) is up to 37× the reported estimate here (was 22×): at 1e-11 these solves end at
+/// the rounding floor, whose estimate is not honest (measured; docs/jfo.md "The reported
+/// iteration error"); asserted ≤ 50×. After rupture the same step solved from a cold
+/// (empty) start agrees with the warm solve within 3× the two reported errors.
 #[test]
 fn iteration_error_below_1e_8_through_the_rupture() {
     let tol = 1e-11;
@@ -807,6 +807,7 @@ fn iteration_error_below_1e_8_through_the_rupture() {
         let (mut worst_pre, mut worst_post, mut reported_max) = (0.0_f64, 0.0_f64, 0.0_f64);
         let mut under_pre = 0.0_f64;
         let mut under_post = 0.0_f64;
+        let mut parabola_gap = 0.0_f64;
         for s in 0..steps {
             let rep = st.step();
             assert!(rep.iteration_error <= tol, "{rep:?}");
@@ -821,7 +822,37 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                     })
                     .fold(0.0, f64::max);
                 worst_pre = worst_pre.max(actual);
-                under_pre = under_pre.max(actual / rep.iteration_error);
+                // The iteration error proper: against the same step solved on to 1e-13
+                // (the parabola itself is 1-2e-10 from the discrete solution here).
+                let hist_phi = st.phi_old.clone();
+                let hist = JfoHistory {
+                    phi: &hist_phi,
+                    dtau: st.dt,
+                    prev_ecc: Some(job(t - st.dt).state.ecc),
+                };
+                let mut reference = st.field.clone();
+                let (_, rr) = st.jfo.solve(
+                    &mut st.reynolds,
+                    &job(t),
+                    &setup(nz, 1e-13),
+                    &mut reference,
+                    Some(&hist),
+                );
+                assert!(rr.converged, "{rr:?}");
+                let to_reference = (0..n)
+                    .map(|k| (st.field[k] - reference[k]).abs())
+                    .fold(0.0, f64::max)
+                    / p0();
+                let to_parabola = (1..jl)
+                    .map(|j| {
+                        let z = j as f64 * dz;
+                        (reference[j * NT] - (p0() * z / L + 0.5 * k * z * (z - L))).abs() / p0()
+                    })
+                    .fold(0.0, f64::max);
+                parabola_gap = parabola_gap.max(to_parabola);
+                if to_reference > 1e-12 {
+                    under_pre = under_pre.max(to_reference / rep.iteration_error);
+                }
             } else if s % 20 == 0 {
                 // The same step from an empty film: both within their reported errors.
                 let hist_phi = st.phi_old.clone();
@@ -857,11 +888,16 @@ fn iteration_error_below_1e_8_through_the_rupture() {
             }
         }
         eprintln!(
-            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (≤ {under_pre:.1}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
+            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (the 1e-13 solve is {parabola_gap:.2e} from the parabola; the iteration error ≤ {under_pre:.2}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
         );
         assert!(worst_pre < 1e-9, "nz {nz}: {worst_pre:.2e}");
+        // At 1e-11 the pre-rupture solves end at the iteration's rounding floor (the 1e-13
+        // solve itself is 1.0e-10 of P0 from the exact parabola), where the floor's
+        // estimate (the noise times (ω − 1)/(2 − ω)) is not honest: measured up to 37×
+        // low (docs/jfo.md "The reported iteration error"; above the floor the block
+        // estimate is within 3×, `iteration_error_honest_through_rupture_and_reformation`).
         assert!(
-            under_pre <= 3.0,
+            under_pre <= 50.0,
             "nz {nz}: actual up to {under_pre:.1}× reported"
         );
     }
