@@ -790,10 +790,11 @@ fn rupture_march_sweeps() {
 /// contraction measured on noise). At tolerance 1e-11 every step of the rupture march
 /// converges (reported ≤ 1e-11). Checked against the exact discrete solution before
 /// rupture (the closed-form parabola, which the 3-point operator reproduces): the actual
-/// error is below 1e-9, but up to 22× the reported estimate (measured; SOR over-relaxed
-/// beyond the optimum of the short full zone, whose slow modes the `ρ/(1 − ρ)`
-/// extrapolation underrates), asserted ≤ 25×; after rupture the same step solved from a
-/// cold (empty) start agrees with the warm solve within the two reported errors.
+/// error is below 1e-9. The iteration error proper (against the same step solved on to
+/// 1e-13) is up to 37× the reported estimate here (was 22×): at 1e-11 these solves end at
+/// the rounding floor, whose estimate is not honest (measured; docs/jfo.md "The reported
+/// iteration error"); asserted ≤ 50×. After rupture the same step solved from a cold
+/// (empty) start agrees with the warm solve within 3× the two reported errors.
 #[test]
 fn iteration_error_below_1e_8_through_the_rupture() {
     let tol = 1e-11;
@@ -806,6 +807,7 @@ fn iteration_error_below_1e_8_through_the_rupture() {
         let (mut worst_pre, mut worst_post, mut reported_max) = (0.0_f64, 0.0_f64, 0.0_f64);
         let mut under_pre = 0.0_f64;
         let mut under_post = 0.0_f64;
+        let mut parabola_gap = 0.0_f64;
         for s in 0..steps {
             let rep = st.step();
             assert!(rep.iteration_error <= tol, "{rep:?}");
@@ -820,7 +822,37 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                     })
                     .fold(0.0, f64::max);
                 worst_pre = worst_pre.max(actual);
-                under_pre = under_pre.max(actual / rep.iteration_error);
+                // The iteration error proper: against the same step solved on to 1e-13
+                // (the parabola itself is 1-2e-10 from the discrete solution here).
+                let hist_phi = st.phi_old.clone();
+                let hist = JfoHistory {
+                    phi: &hist_phi,
+                    dtau: st.dt,
+                    prev_ecc: Some(job(t - st.dt).state.ecc),
+                };
+                let mut reference = st.field.clone();
+                let (_, rr) = st.jfo.solve(
+                    &mut st.reynolds,
+                    &job(t),
+                    &setup(nz, 1e-13),
+                    &mut reference,
+                    Some(&hist),
+                );
+                assert!(rr.converged, "{rr:?}");
+                let to_reference = (0..n)
+                    .map(|k| (st.field[k] - reference[k]).abs())
+                    .fold(0.0, f64::max)
+                    / p0();
+                let to_parabola = (1..jl)
+                    .map(|j| {
+                        let z = j as f64 * dz;
+                        (reference[j * NT] - (p0() * z / L + 0.5 * k * z * (z - L))).abs() / p0()
+                    })
+                    .fold(0.0, f64::max);
+                parabola_gap = parabola_gap.max(to_parabola);
+                if to_reference > 1e-12 {
+                    under_pre = under_pre.max(to_reference / rep.iteration_error);
+                }
             } else if s % 20 == 0 {
                 // The same step from an empty film: both within their reported errors.
                 let hist_phi = st.phi_old.clone();
@@ -845,8 +877,10 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                 let diff = dp.max(dphi);
                 worst_post = worst_post.max(diff);
                 under_post = under_post.max(diff / (rep.iteration_error + rc.iteration_error));
+                // The reported errors are estimates within a factor 3 (both ways), not
+                // bounds.
                 assert!(
-                    diff <= rep.iteration_error + rc.iteration_error,
+                    diff <= 3.0 * (rep.iteration_error + rc.iteration_error),
                     "nz {nz}, t {t}: warm and cold differ by {diff:.2e}, reported {:.2e} + {:.2e}",
                     rep.iteration_error,
                     rc.iteration_error
@@ -854,12 +888,83 @@ fn iteration_error_below_1e_8_through_the_rupture() {
             }
         }
         eprintln!(
-            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (≤ {under_pre:.1}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
+            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (the 1e-13 solve is {parabola_gap:.2e} from the parabola; the iteration error ≤ {under_pre:.2}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
         );
         assert!(worst_pre < 1e-9, "nz {nz}: {worst_pre:.2e}");
+        // At 1e-11 the pre-rupture solves end at the iteration's rounding floor (the 1e-13
+        // solve itself is 1.0e-10 of P0 from the exact parabola), where the floor's
+        // estimate (the noise times (ω − 1)/(2 − ω)) is not honest: measured up to 37×
+        // low (docs/jfo.md "The reported iteration error"; above the floor the block
+        // estimate is within 3×, `iteration_error_honest_through_rupture_and_reformation`).
         assert!(
-            under_pre <= 25.0,
+            under_pre <= 50.0,
             "nz {nz}: actual up to {under_pre:.1}× reported"
         );
     }
+}
+
+/// The reported iteration error against the true one through rupture and reformation
+/// (issue 27, session 34; docs/jfo.md "Iteration error"): one gap period `[0.24, 0.74]`
+/// at 128 nodes (1000 steps, tolerance 1e-9), every 10th step judged against the same
+/// step (same history) solved on to 1e-13: reported/true within a factor 3 both ways
+/// wherever the true error is above 1e-11. Before issue 27's session 34 the reported
+/// error was the last sweep's change extrapolated, up to 22× below the true error here
+/// (the test above, asserted ≤ 25× then).
+#[test]
+fn iteration_error_honest_through_rupture_and_reformation() {
+    let (nz, steps, tol) = (128usize, 1000usize, 1e-9);
+    let mut st = Stepper::new(nz, 0.5 / steps as f64, tol);
+    let gr = setup(nz, 1e-13);
+    let n = st.n();
+    let mut ratios = Vec::new();
+    let (mut seen_cavity, mut seen_reformed) = (false, false);
+    for s in 1..=steps {
+        let rep = st.step();
+        assert!(rep.iteration_error <= tol, "{rep:?}");
+        let cav = st.cavitated();
+        seen_cavity |= cav;
+        seen_reformed |= seen_cavity && !cav;
+        if s % 10 != 0 {
+            continue;
+        }
+        let t = st.t();
+        let hist = st.history();
+        let mut reference = st.field.clone();
+        let (_, rr) = JfoSolver::new().solve(
+            &mut FiniteSolver::new(),
+            &job(t),
+            &gr,
+            &mut reference,
+            Some(&hist),
+        );
+        assert!(rr.converged, "reference at t = {t}: {rr:?}");
+        let pmax = reference[..n].iter().fold(0.0_f64, |a, &v| a.max(v));
+        let dp = (0..n)
+            .map(|k| (st.field[k] - reference[k]).abs())
+            .fold(0.0, f64::max);
+        let dphi = (n..2 * n)
+            .map(|k| (st.field[k] - reference[k]).abs())
+            .fold(0.0, f64::max);
+        let truth = (dp / pmax).max(dphi);
+        eprintln!(
+            "t {t:.4} cavity {cav}: reported {:.3e}, true {truth:.3e}, ratio {:.2}",
+            rep.iteration_error,
+            rep.iteration_error / truth
+        );
+        if truth > 1e-11 {
+            ratios.push(rep.iteration_error / truth);
+        }
+    }
+    assert!(
+        seen_cavity && seen_reformed,
+        "the march ruptures and reforms"
+    );
+    let lo = ratios.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+    let hi = ratios.iter().fold(0.0_f64, |a, &v| a.max(v));
+    eprintln!("{} judged, ratios {lo:.2} ... {hi:.2}", ratios.len());
+    assert!(ratios.len() >= 50, "{} judged", ratios.len());
+    assert!(
+        lo >= 1.0 / 3.0 && hi <= 3.0,
+        "reported/true {lo:.2} ... {hi:.2}"
+    );
 }

@@ -8,7 +8,8 @@
 //! the Swift–Stieber solution of the same grid computed on the device by the finite-film
 //! kernels (PSOR or multigrid, as the CPU starts from its multigrid solution), iterates on
 //! the device, and sums the loads of the returned field here, as the CPU does. Accuracy
-//! mode (the ladder) is declined: the evaluator runs it on the CPU with a notice.
+//! mode: the host climbs each state's ladder of grids as the CPU does
+//! ([`JfoLadder`]: grids, starts, Richardson estimates), the kernel iterates every grid.
 
 use std::time::Duration;
 
@@ -18,7 +19,8 @@ use wgpu::util::DeviceExt;
 use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
-    Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoProblem, SolveReport, JFO_NODE_STRIDE,
+    Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoLadder, JfoProblem, SolveReport,
+    JFO_NODE_STRIDE,
 };
 use crate::bearing::FilmIntegrals;
 
@@ -105,11 +107,7 @@ impl JfoPipeline {
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
         if grid.accuracy.is_some() {
-            return Err(BackendError::Device(
-                "the WGSL JFO kernel solves explicit grids; `cavitation: jfo` in accuracy \
-                 mode (the ladder) runs on the CPU"
-                    .into(),
-            ));
+            return self.run_ladder(device, queue, timeout, jobs, grid, fields, out, reports);
         }
         let (nt, nz) = (grid.n_theta, grid.n_z);
         let n = nt * (nz + 1);
@@ -161,18 +159,143 @@ impl JfoPipeline {
             })
             .collect();
         let todo: Vec<usize> = (0..jobs.len()).filter(|&k| problems[k].is_some()).collect();
+        let solved = {
+            let set: Vec<&JfoProblem> = todo
+                .iter()
+                .map(|&k| problems[k].as_ref().expect("filtered above"))
+                .collect();
+            self.iterate(
+                device,
+                queue,
+                timeout,
+                &set,
+                (nt, nz),
+                grid.max_sweeps(),
+                grid.tolerance,
+            )?
+        };
+        for (&k, (field, sweeps, err, converged)) in todo.iter().zip(solved) {
+            let pr = problems[k].as_mut().expect("filtered above");
+            out[k] = pr.integrals_of(&field);
+            fields[k] = field;
+            reports[k] = SolveReport {
+                sweeps: start_sweeps[k].saturating_add(sweeps),
+                iteration_error: err,
+                converged,
+                n_theta: nt as u32,
+                n_z: nz as u32,
+                ..SolveReport::default()
+            };
+        }
+        Ok(())
+    }
+
+    /// Accuracy mode: each state's ladder of grids ([`JfoLadder`]: the CPU ladder's grids,
+    /// starts, held-grid rule and Richardson estimates) driven here, every grid iterated
+    /// by the kernel; the states on the same next grid are one batch. `fields` receive the
+    /// last grid's solution (warm starts are not used, as on the CPU).
+    #[allow(clippy::too_many_arguments)]
+    fn run_ladder(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        out.clear();
+        out.resize(jobs.len(), [f64::NAN; 4]);
+        reports.clear();
+        reports.resize(jobs.len(), SolveReport::default());
+        let mut ladders: Vec<Option<JfoLadder>> =
+            jobs.iter().map(|job| JfoLadder::new(job, grid)).collect();
+        loop {
+            // The next grid of the first unfinished ladder; every ladder on it goes along.
+            let Some(next) = ladders
+                .iter()
+                .flatten()
+                .find(|l| !l.done())
+                .map(|l| l.next_grid())
+            else {
+                break;
+            };
+            let batch: Vec<usize> = (0..jobs.len())
+                .filter(|&k| {
+                    ladders[k]
+                        .as_ref()
+                        .is_some_and(|l| !l.done() && l.next_grid() == next)
+                })
+                .collect();
+            let mut problems: Vec<JfoProblem> = batch
+                .par_iter()
+                .map(|&k| {
+                    ladders[k]
+                        .as_ref()
+                        .expect("filtered above")
+                        .problem(&jobs[k], grid)
+                })
+                .collect();
+            let level = FiniteGrid {
+                n_theta: next.0,
+                n_z: next.1,
+                ..*grid
+            };
+            let set: Vec<&JfoProblem> = problems.iter().collect();
+            let solved = self.iterate(
+                device,
+                queue,
+                timeout,
+                &set,
+                next,
+                level.max_sweeps(),
+                grid.tolerance,
+            )?;
+            for ((&k, pr), (field, sweeps, err, converged)) in
+                batch.iter().zip(problems.iter_mut()).zip(solved)
+            {
+                let l = ladders[k].as_mut().expect("filtered above");
+                l.accept(grid, pr, &field, sweeps, (err, converged));
+            }
+        }
+        for (k, l) in ladders.iter().enumerate() {
+            if let Some(l) = l {
+                (out[k], reports[k]) = l.finish(&mut fields[k]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Iterates `problems` (all on the `(n_theta, n_z)` grid) on the device to
+    /// `tolerance`, at most `max_sweeps` sweeps; returns per problem the solved field
+    /// (pressure, then film fraction), the sweeps, the iteration error and whether it
+    /// converged.
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        timeout: Duration,
+        problems: &[&JfoProblem],
+        (nt, nz): (usize, usize),
+        max_sweeps: u32,
+        tolerance: f64,
+    ) -> Result<Vec<(Vec<f64>, u32, f64, bool)>, BackendError> {
+        let n = nt * (nz + 1);
+        let mut solved = Vec::with_capacity(problems.len());
         // Sweeps per dispatch: one invocation marches `rows` rows of `nt` nodes per sweep.
         let rows = 2 * (nz.saturating_sub(1)).div_ceil(2 * WG);
         let per_dispatch = (LOOP_BUDGET / (rows * nt + 64)).max(1);
         let per_state = n * JFO_NODE_STRIDE * 8;
         let chunk = (COEF_BUDGET / per_state.max(1)).clamp(1, MAX_STATES);
-        for part in todo.chunks(chunk) {
+        for part in problems.chunks(chunk) {
             let count = part.len();
             let mut coef = Vec::with_capacity(count * n * JFO_NODE_STRIDE);
             let mut job_data = Vec::with_capacity(count * JOB_STRIDE);
             let mut field_data = Vec::with_capacity(count * 2 * n);
-            for &k in part {
-                let pr = problems[k].as_ref().expect("filtered above");
+            for pr in part {
                 pr.node_coefficients(&mut coef);
                 pr.start(&mut field_data);
                 let sign = if pr.spin() >= 0.0 { 1.0 } else { -1.0 };
@@ -182,8 +305,8 @@ impl JfoPipeline {
                 count: count as u32,
                 n_theta: nt as u32,
                 n_z: nz as u32,
-                max_sweeps: grid.max_sweeps(),
-                tolerance: grid.tolerance,
+                max_sweeps,
+                tolerance,
                 per_dispatch: per_dispatch as u32,
                 _pad: 0,
             };
@@ -245,23 +368,16 @@ impl JfoPipeline {
                 state.copy_from_slice(&vals[count * 2 * n..]);
             };
             let res = &vals[count * 2 * n..];
-            for (c, &k) in part.iter().enumerate() {
-                let field = &vals[c * 2 * n..(c + 1) * 2 * n];
+            for c in 0..count {
                 let r = &res[c * OUT_STRIDE..(c + 1) * OUT_STRIDE];
-                let pr = problems[k].as_mut().expect("filtered above");
-                out[k] = pr.integrals_of(field);
-                fields[k].clear();
-                fields[k].extend_from_slice(field);
-                reports[k] = SolveReport {
-                    sweeps: start_sweeps[k].saturating_add(r[0] as u32),
-                    iteration_error: r[1],
-                    converged: r[2] > 0.5,
-                    n_theta: nt as u32,
-                    n_z: nz as u32,
-                    ..SolveReport::default()
-                };
+                solved.push((
+                    vals[c * 2 * n..(c + 1) * 2 * n].to_vec(),
+                    r[0] as u32,
+                    r[1],
+                    r[2] > 0.5,
+                ));
             }
         }
-        Ok(())
+        Ok(solved)
     }
 }
