@@ -324,6 +324,104 @@ fn slices_lanes_avx2(
     slices_lanes_generic(ex, ey, rx, ry, out_c, out_s)
 }
 
+/// The film line of a tilted state, `(e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y)`: eccentricity
+/// and rate vectors at `s = 0` and their changes over the bearing (`ε(s) = e0 + e1 s`).
+type FilmLine = [f64; 8];
+
+/// One panel's weighted slice loads, lane by lane: `[w c, w s, w z c, w z s]` with
+/// `w = weight · len · z (1 − z)` at node `z = s + len · node` (the scalar panel loop's
+/// products, the same operations in the same order, so that summing lanes `0..m` in order
+/// gives its sums bit for bit). Node setup, slices and products all in SIMD lanes; pad
+/// lanes (node 0, weight 0) evaluate a valid slice at `z = s` that the caller does not sum.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
+fn panel_lanes_generic(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = *line;
+    let (mut z, mut ex, mut ey, mut rx, mut ry) = (
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+    );
+    for i in 0..LANES {
+        let zi = s + len * nodes[i];
+        z[i] = zi;
+        ex[i] = e0x + e1x * zi;
+        ey[i] = e0y + e1y * zi;
+        rx[i] = r0x + r1x * zi;
+        ry[i] = r0y + r1y * zi;
+    }
+    let (mut c, mut sn) = ([0.0; LANES], [0.0; LANES]);
+    slices_lanes_generic(&ex, &ey, &rx, &ry, &mut c, &mut sn);
+    for i in 0..LANES {
+        let wg = weights[i] * len * z[i] * (1.0 - z[i]);
+        out[0][i] = wg * c[i];
+        out[1][i] = wg * sn[i];
+        out[2][i] = wg * z[i] * c[i];
+        out[3][i] = wg * z[i] * sn[i];
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn panel_lanes_avx512(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    panel_lanes_generic(s, len, line, nodes, weights, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn panel_lanes_avx2(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    panel_lanes_generic(s, len, line, nodes, weights, out)
+}
+
+/// [`panel_lanes_generic`] on instruction set `isa` (dispatched as [`slices_lanes`]; the
+/// same bits on every one).
+fn panel_lanes(
+    isa: LaneIsa,
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            unsafe { panel_lanes_avx512(s, len, line, nodes, weights, out) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { panel_lanes_avx2(s, len, line, nodes, weights, out) }
+        }
+        _ => panel_lanes_generic(s, len, line, nodes, weights, out),
+    }
+}
+
 /// The instruction set [`slices_lanes`] runs on, detected once per process.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LaneIsa {
@@ -954,6 +1052,9 @@ impl Singularities {
 pub struct FilmRule {
     settings: RuleSettings,
     gauss: GaussRule,
+    /// The Gauss nodes and weights in groups of [`LANES`] (pad lanes: node 0, weight 0),
+    /// with the number of real nodes in each group.
+    node_lanes: Vec<(Lanes, Lanes, usize)>,
     isa: LaneIsa,
 }
 
@@ -966,8 +1067,21 @@ impl FilmRule {
     /// [`FilmRule::new`] with the slices on instruction set `isa` (the results are the
     /// same bits on every one; for tests and benchmarks).
     pub fn with_isa(settings: RuleSettings, isa: LaneIsa) -> Self {
+        let gauss = gauss_legendre_unit(settings.nodes as usize);
+        let node_lanes = gauss
+            .nodes
+            .chunks(LANES)
+            .zip(gauss.weights.chunks(LANES))
+            .map(|(n, w)| {
+                let (mut nl, mut wl) = ([0.0; LANES], [0.0; LANES]);
+                nl[..n.len()].copy_from_slice(n);
+                wl[..w.len()].copy_from_slice(w);
+                (nl, wl, n.len())
+            })
+            .collect();
         FilmRule {
-            gauss: gauss_legendre_unit(settings.nodes as usize),
+            gauss,
+            node_lanes,
             settings,
             isa,
         }
@@ -1049,16 +1163,28 @@ impl FilmRule {
         None
     }
 
-    /// A tilted state's integrals over the panels `sing` lays out, and the slices.
-    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
+    /// A tilted state's integrals over the panels `sing` lays out, and the slices. Each
+    /// panel's node setup, slices and weighted products run in SIMD lanes
+    /// ([`panel_lanes`]); the products are summed node by node in the order of the scalar
+    /// loop this replaced (the same bits, tests/rule_panel_lanes.rs).
     fn panels(&self, state: &PackedState, sing: &Singularities) -> (FilmIntegrals, u32) {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
-        let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
+        let line: FilmLine = [
+            e0x,
+            e0y,
+            ejx - e0x,
+            ejy - e0y,
+            r0x,
+            r0y,
+            rjx - r0x,
+            rjy - r0y,
+        ];
         let mut acc = [0.0; 4];
         let mut slices = 0;
         let mut s = 0.0;
         let mut panels = 0;
+        let mut prod = [[0.0; LANES]; 4];
         while s < 1.0 {
             panels += 1;
             let end = if panels >= self.settings.max_panels {
@@ -1067,34 +1193,14 @@ impl FilmRule {
                 sing.panel_end(s, &self.settings)
             };
             let len = end - s;
-            // The panel's slices in groups of LANES (unused lanes: a zero rate, no load),
-            // summed node by node in the order of the scalar loop.
-            let (nodes, weights) = (&self.gauss.nodes, &self.gauss.weights);
-            let mut first = 0;
-            while first < nodes.len() {
-                let m = (nodes.len() - first).min(LANES);
-                let (mut ex, mut ey, mut rx, mut ry) =
-                    ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let mut zs = [0.0; LANES];
-                for i in 0..m {
-                    let z = s + len * nodes[first + i];
-                    zs[i] = z;
-                    ex[i] = e0x + e1x * z;
-                    ey[i] = e0y + e1y * z;
-                    rx[i] = r0x + r1x * z;
-                    ry[i] = r0y + r1y * z;
+            for (nodes, weights, m) in &self.node_lanes {
+                panel_lanes(self.isa, s, len, &line, nodes, weights, &mut prod);
+                for i in 0..*m {
+                    acc[0] += prod[0][i];
+                    acc[1] += prod[1][i];
+                    acc[2] += prod[2][i];
+                    acc[3] += prod[3][i];
                 }
-                let (mut cs, mut ss) = ([0.0; LANES], [0.0; LANES]);
-                slices_lanes(self.isa, &ex, &ey, &rx, &ry, &mut cs, &mut ss);
-                for i in 0..m {
-                    let (z, c, sn) = (zs[i], cs[i], ss[i]);
-                    let wg = weights[first + i] * len * z * (1.0 - z);
-                    acc[0] += wg * c;
-                    acc[1] += wg * sn;
-                    acc[2] += wg * z * c;
-                    acc[3] += wg * z * sn;
-                }
-                first += m;
             }
             slices += self.settings.nodes;
             s = end;
