@@ -24,9 +24,12 @@
 //! singularities are located per state (see [`Singularities`]): the poles where
 //! `|ε(s)| = 1`, the zero of the rate vector `r(s)` (a kink where it is real and inside),
 //! and the complex points where an arc end meets the complex pole of `1/h³`. Panels march from
-//! `s = 0`; each is at most `κ` times the distance from its start to the nearest
-//! singularity (`κ = 1/2` ahead, `1` behind: every panel then sees its singularity at
-//! Bernstein-ellipse parameter ≥ 3 + 2√2), and a real kink is a panel boundary. Aligned
+//! `s = 0`; each is at most `κ` times the distance from its start to the nearest real pole
+//! (`κ = 1/2` ahead, `1` behind: Bernstein-ellipse parameter 3 + 2√2 for the panel), and at
+//! most as long as keeps every complex singularity outside the panel's Bernstein ellipse of
+//! parameter `1 + √2 + √(2 + 2√2)` ≈ 4.61 (the smallest the `κ` rule, used for them too
+//! before issue 28's seventh pass, gave a complex singularity: one straight above a panel's
+//! start; see [`RuleSettings::complex_ellipse`]), and a real kink is a panel boundary. Aligned
 //! journals (`ε` and `r` constant along `z`) are integrated exactly with one slice.
 
 use std::f64::consts::PI;
@@ -61,6 +64,13 @@ pub struct RuleSettings {
     pub kappa_ahead: f64,
     /// Panel length over distance to a singularity behind the panel.
     pub kappa_behind: f64,
+    /// Grading toward the complex singularities (arc-end roots, the rate vector's zero,
+    /// a kink's side points), dimensionless, default `1 + √2`: a panel `[s, s + L]` ends
+    /// where its Bernstein ellipse whose focal-distance sum is `complex_ellipse × L` would
+    /// reach the nearest one, `L = 2 (k d − Δ) / (k² − 1)` with `k` this value, `d` the
+    /// singularity's distance from `s` and `Δ` its signed axial offset ahead of `s`. The
+    /// real poles keep `kappa_ahead`, `kappa_behind` (the same ellipse as `k = 3` there).
+    pub complex_ellipse: f64,
     /// Near-kinks of the rate vector closer than this to the real axis (in `s`) are
     /// treated as exact kinks: a panel boundary, no grading. The error this leaves is
     /// of order `C floor²`, `C` up to a few thousand where the near-kink slice is close
@@ -131,6 +141,13 @@ impl Accuracy {
             nodes,
             kappa_ahead: 0.5,
             kappa_behind: 1.0,
+            // The focal-distance sum over panel length that κ = 1 behind gave a complex
+            // singularity straight above a panel's start (d + √2 d over a panel of d), the
+            // smallest ellipse that rule gave any complex singularity; now every complex
+            // singularity gets it (before: up to 3 straight behind, 4.24 just ahead).
+            // Same worst errors at every level on the calibration states, ~16 % fewer
+            // slices on strongly tilted ones (BENCHMARKS.md "Issue 28, seventh pass").
+            complex_ellipse: 1.0 + std::f64::consts::SQRT_2,
             // Treating a near-kink at distance d as exact costs ~C d² with C up to ~3e3
             // (relative, measured: a near-kink on a slice near the wall while the rest of
             // the film carries little load; `NearKinkWhirl` states in the tests). With
@@ -819,12 +836,14 @@ pub fn quartic_roots_lanes(
 }
 
 /// Radius in `t = s − 1/2` beyond which no arc-end root can end a panel early: a panel
-/// starting at `s ∈ [0, 1)` is cut by a root `ρ` only if `κ |s − ρ| < 1 − s`, and
-/// `|s − ρ| >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ_min` never
-/// bind (the worst start is `s = 0`). 1 % is added so that the 1e-13 to which
-/// Durand-Kerner converges cannot bring a root back inside.
+/// starting at `s ∈ [0, 1)` is cut by a root `ρ` at distance `d = |s − ρ|` only if
+/// `2 (k d − Δ) / (k² − 1) < 1 − s` ([`Singularities::panel_end`], `k` the
+/// `complex_ellipse`, `Δ <= d`), which needs `κ d < 1 − s <= 1` with `κ = 2 / (k + 1)`, and
+/// `d >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ` never bind (the
+/// worst start is `s = 0`). 1 % is added so that the 1e-13 to which Durand-Kerner converges
+/// cannot bring a root back inside.
 fn far_radius(settings: &RuleSettings) -> f64 {
-    let kappa_min = settings.kappa_ahead.min(settings.kappa_behind);
+    let kappa_min = 2.0 / (settings.complex_ellipse + 1.0);
     (0.5 + 1.0 / kappa_min) * 1.01
 }
 
@@ -1028,16 +1047,16 @@ impl Singularities {
         if self.pole_hi.is_finite() {
             step = step.min(settings.kappa_ahead * (self.pole_hi - s));
         }
+        // The longest panel [s, s + L] whose Bernstein ellipse with focal-distance sum k L
+        // leaves the singularity c outside: |c − s| + |c − s − L| >= k L, solved for L.
+        let k = settings.complex_ellipse;
+        let inv = 2.0 / (k * k - 1.0);
         for &(re, im) in &self.complex[..self.complex_count] {
-            let kappa = if re > s {
-                settings.kappa_ahead
-            } else {
-                settings.kappa_behind
-            };
             // sqrt of the sum of squares as in the WGSL kernel (no overflow: |s|, |re|
             // and |im| are of order one where they bind).
-            let dx = s - re;
-            step = step.min(kappa * (dx * dx + im * im).sqrt());
+            let dx = re - s;
+            let d = (dx * dx + im * im).sqrt();
+            step = step.min(inv * (k * d - dx));
         }
         let mut end = s + step;
         if self.kink_s > s && self.kink_s < end {
