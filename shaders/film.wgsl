@@ -60,12 +60,13 @@ struct Params {
     _pad: u32,
 }
 
-// Table layout (all `real`): [kappa_ahead, kappa_behind, kink_floor, 0,
+// Table layout (all `real`): [kappa_ahead, kappa_behind, kink_floor, complex_ellipse,
 //   nodes[0..n], weights[0..n], start angles: 10 (cos, sin) pairs for quartic degree
 //   m = 1..4, root k < m at offset 2 (m(m-1)/2 + k)].
 const T_KAPPA_AHEAD: u32 = 0u;
 const T_KAPPA_BEHIND: u32 = 1u;
 const T_KINK_FLOOR: u32 = 2u;
+const T_COMPLEX_ELLIPSE: u32 = 3u;
 const T_NODES: u32 = 4u;
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -469,11 +470,15 @@ fn panel_end(sing: Sing, s: real) -> real {
     var step = 1.0 - s;
     step = min(step, kappa_behind * (s - sing.pole_lo));
     step = min(step, kappa_ahead * (sing.pole_hi - s));
+    // Complex singularities: the longest panel whose Bernstein ellipse with focal-distance
+    // sum `ell` times its length leaves the singularity outside.
+    let ell = table[T_COMPLEX_ELLIPSE];
+    let inv = 2.0 / (ell * ell - 1.0);
     for (var k = 0u; k < sing.count; k++) {
         let c = sing.complex[k];
-        let kappa = select(kappa_behind, kappa_ahead, c.x > s);
-        let dx = s - c.x;
-        step = min(step, kappa * sqrt(dx * dx + c.y * c.y));
+        let dx = c.x - s;
+        let d = sqrt(dx * dx + c.y * c.y);
+        step = min(step, inv * (ell * d - dx));
     }
     var end = s + step;
     if sing.kink_s > s && sing.kink_s < end {

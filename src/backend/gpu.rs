@@ -151,7 +151,12 @@ fn select_adapter() -> Result<wgpu::Adapter, BackendError> {
 fn table_values(rule: &FilmRule) -> Vec<f64> {
     let s = rule.settings();
     let g = rule.gauss();
-    let mut t = vec![s.kappa_ahead, s.kappa_behind, s.kink_floor, 0.0];
+    let mut t = vec![
+        s.kappa_ahead,
+        s.kappa_behind,
+        s.kink_floor,
+        s.complex_ellipse,
+    ];
     t.extend_from_slice(&g.nodes);
     t.extend_from_slice(&g.weights);
     // Durand-Kerner start angles, as `quartic_roots` computes them on the CPU.

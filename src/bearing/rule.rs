@@ -24,9 +24,12 @@
 //! singularities are located per state (see [`Singularities`]): the poles where
 //! `|ε(s)| = 1`, the zero of the rate vector `r(s)` (a kink where it is real and inside),
 //! and the complex points where an arc end meets the complex pole of `1/h³`. Panels march from
-//! `s = 0`; each is at most `κ` times the distance from its start to the nearest
-//! singularity (`κ = 1/2` ahead, `1` behind: every panel then sees its singularity at
-//! Bernstein-ellipse parameter ≥ 3 + 2√2), and a real kink is a panel boundary. Aligned
+//! `s = 0`; each is at most `κ` times the distance from its start to the nearest real pole
+//! (`κ = 1/2` ahead, `1` behind: Bernstein-ellipse parameter 3 + 2√2 for the panel), and at
+//! most as long as keeps every complex singularity outside the panel's Bernstein ellipse of
+//! parameter `1 + √2 + √(2 + 2√2)` ≈ 4.61 (the smallest the `κ` rule, used for them too
+//! before issue 28's seventh pass, gave a complex singularity: one straight above a panel's
+//! start; see [`RuleSettings::complex_ellipse`]), and a real kink is a panel boundary. Aligned
 //! journals (`ε` and `r` constant along `z`) are integrated exactly with one slice.
 
 use std::f64::consts::PI;
@@ -61,6 +64,13 @@ pub struct RuleSettings {
     pub kappa_ahead: f64,
     /// Panel length over distance to a singularity behind the panel.
     pub kappa_behind: f64,
+    /// Grading toward the complex singularities (arc-end roots, the rate vector's zero,
+    /// a kink's side points), dimensionless, default `1 + √2`: a panel `[s, s + L]` ends
+    /// where its Bernstein ellipse whose focal-distance sum is `complex_ellipse × L` would
+    /// reach the nearest one, `L = 2 (k d − Δ) / (k² − 1)` with `k` this value, `d` the
+    /// singularity's distance from `s` and `Δ` its signed axial offset ahead of `s`. The
+    /// real poles keep `kappa_ahead`, `kappa_behind` (the same ellipse as `k = 3` there).
+    pub complex_ellipse: f64,
     /// Near-kinks of the rate vector closer than this to the real axis (in `s`) are
     /// treated as exact kinks: a panel boundary, no grading. The error this leaves is
     /// of order `C floor²`, `C` up to a few thousand where the near-kink slice is close
@@ -131,6 +141,13 @@ impl Accuracy {
             nodes,
             kappa_ahead: 0.5,
             kappa_behind: 1.0,
+            // The focal-distance sum over panel length that κ = 1 behind gave a complex
+            // singularity straight above a panel's start (d + √2 d over a panel of d), the
+            // smallest ellipse that rule gave any complex singularity; now every complex
+            // singularity gets it (before: up to 3 straight behind, 4.24 just ahead).
+            // Same worst errors at every level on the calibration states, ~16 % fewer
+            // slices on strongly tilted ones (BENCHMARKS.md "Issue 28, seventh pass").
+            complex_ellipse: 1.0 + std::f64::consts::SQRT_2,
             // Treating a near-kink at distance d as exact costs ~C d² with C up to ~3e3
             // (relative, measured: a near-kink on a slice near the wall while the rest of
             // the film carries little load; `NearKinkWhirl` states in the tests). With
@@ -322,6 +339,104 @@ fn slices_lanes_avx2(
     out_s: &mut Lanes,
 ) {
     slices_lanes_generic(ex, ey, rx, ry, out_c, out_s)
+}
+
+/// The film line of a tilted state, `(e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y)`: eccentricity
+/// and rate vectors at `s = 0` and their changes over the bearing (`ε(s) = e0 + e1 s`).
+type FilmLine = [f64; 8];
+
+/// One panel's weighted slice loads, lane by lane: `[w c, w s, w z c, w z s]` with
+/// `w = weight · len · z (1 − z)` at node `z = s + len · node` (the scalar panel loop's
+/// products, the same operations in the same order, so that summing lanes `0..m` in order
+/// gives its sums bit for bit). Node setup, slices and products all in SIMD lanes; pad
+/// lanes (node 0, weight 0) evaluate a valid slice at `z = s` that the caller does not sum.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
+fn panel_lanes_generic(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = *line;
+    let (mut z, mut ex, mut ey, mut rx, mut ry) = (
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+    );
+    for i in 0..LANES {
+        let zi = s + len * nodes[i];
+        z[i] = zi;
+        ex[i] = e0x + e1x * zi;
+        ey[i] = e0y + e1y * zi;
+        rx[i] = r0x + r1x * zi;
+        ry[i] = r0y + r1y * zi;
+    }
+    let (mut c, mut sn) = ([0.0; LANES], [0.0; LANES]);
+    slices_lanes_generic(&ex, &ey, &rx, &ry, &mut c, &mut sn);
+    for i in 0..LANES {
+        let wg = weights[i] * len * z[i] * (1.0 - z[i]);
+        out[0][i] = wg * c[i];
+        out[1][i] = wg * sn[i];
+        out[2][i] = wg * z[i] * c[i];
+        out[3][i] = wg * z[i] * sn[i];
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn panel_lanes_avx512(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    panel_lanes_generic(s, len, line, nodes, weights, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn panel_lanes_avx2(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    panel_lanes_generic(s, len, line, nodes, weights, out)
+}
+
+/// [`panel_lanes_generic`] on instruction set `isa` (dispatched as [`slices_lanes`]; the
+/// same bits on every one).
+fn panel_lanes(
+    isa: LaneIsa,
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            unsafe { panel_lanes_avx512(s, len, line, nodes, weights, out) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { panel_lanes_avx2(s, len, line, nodes, weights, out) }
+        }
+        _ => panel_lanes_generic(s, len, line, nodes, weights, out),
+    }
 }
 
 /// The instruction set [`slices_lanes`] runs on, detected once per process.
@@ -721,12 +836,14 @@ pub fn quartic_roots_lanes(
 }
 
 /// Radius in `t = s − 1/2` beyond which no arc-end root can end a panel early: a panel
-/// starting at `s ∈ [0, 1)` is cut by a root `ρ` only if `κ |s − ρ| < 1 − s`, and
-/// `|s − ρ| >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ_min` never
-/// bind (the worst start is `s = 0`). 1 % is added so that the 1e-13 to which
-/// Durand-Kerner converges cannot bring a root back inside.
+/// starting at `s ∈ [0, 1)` is cut by a root `ρ` at distance `d = |s − ρ|` only if
+/// `2 (k d − Δ) / (k² − 1) < 1 − s` ([`Singularities::panel_end`], `k` the
+/// `complex_ellipse`, `Δ <= d`), which needs `κ d < 1 − s <= 1` with `κ = 2 / (k + 1)`, and
+/// `d >= |ρ − 1/2| − |s − 1/2|`, so roots with `|ρ − 1/2| > 1/2 + 1/κ` never bind (the
+/// worst start is `s = 0`). 1 % is added so that the 1e-13 to which Durand-Kerner converges
+/// cannot bring a root back inside.
 fn far_radius(settings: &RuleSettings) -> f64 {
-    let kappa_min = settings.kappa_ahead.min(settings.kappa_behind);
+    let kappa_min = 2.0 / (settings.complex_ellipse + 1.0);
     (0.5 + 1.0 / kappa_min) * 1.01
 }
 
@@ -930,16 +1047,16 @@ impl Singularities {
         if self.pole_hi.is_finite() {
             step = step.min(settings.kappa_ahead * (self.pole_hi - s));
         }
+        // The longest panel [s, s + L] whose Bernstein ellipse with focal-distance sum k L
+        // leaves the singularity c outside: |c − s| + |c − s − L| >= k L, solved for L.
+        let k = settings.complex_ellipse;
+        let inv = 2.0 / (k * k - 1.0);
         for &(re, im) in &self.complex[..self.complex_count] {
-            let kappa = if re > s {
-                settings.kappa_ahead
-            } else {
-                settings.kappa_behind
-            };
             // sqrt of the sum of squares as in the WGSL kernel (no overflow: |s|, |re|
             // and |im| are of order one where they bind).
-            let dx = s - re;
-            step = step.min(kappa * (dx * dx + im * im).sqrt());
+            let dx = re - s;
+            let d = (dx * dx + im * im).sqrt();
+            step = step.min(inv * (k * d - dx));
         }
         let mut end = s + step;
         if self.kink_s > s && self.kink_s < end {
@@ -954,6 +1071,9 @@ impl Singularities {
 pub struct FilmRule {
     settings: RuleSettings,
     gauss: GaussRule,
+    /// The Gauss nodes and weights in groups of [`LANES`] (pad lanes: node 0, weight 0),
+    /// with the number of real nodes in each group.
+    node_lanes: Vec<(Lanes, Lanes, usize)>,
     isa: LaneIsa,
 }
 
@@ -966,8 +1086,21 @@ impl FilmRule {
     /// [`FilmRule::new`] with the slices on instruction set `isa` (the results are the
     /// same bits on every one; for tests and benchmarks).
     pub fn with_isa(settings: RuleSettings, isa: LaneIsa) -> Self {
+        let gauss = gauss_legendre_unit(settings.nodes as usize);
+        let node_lanes = gauss
+            .nodes
+            .chunks(LANES)
+            .zip(gauss.weights.chunks(LANES))
+            .map(|(n, w)| {
+                let (mut nl, mut wl) = ([0.0; LANES], [0.0; LANES]);
+                nl[..n.len()].copy_from_slice(n);
+                wl[..w.len()].copy_from_slice(w);
+                (nl, wl, n.len())
+            })
+            .collect();
         FilmRule {
-            gauss: gauss_legendre_unit(settings.nodes as usize),
+            gauss,
+            node_lanes,
             settings,
             isa,
         }
@@ -1049,16 +1182,28 @@ impl FilmRule {
         None
     }
 
-    /// A tilted state's integrals over the panels `sing` lays out, and the slices.
-    #[allow(clippy::needless_range_loop)] // lanes and Gauss nodes indexed together
+    /// A tilted state's integrals over the panels `sing` lays out, and the slices. Each
+    /// panel's node setup, slices and weighted products run in SIMD lanes
+    /// ([`panel_lanes`]); the products are summed node by node in the order of the scalar
+    /// loop this replaced (the same bits, tests/rule_panel_lanes.rs).
     fn panels(&self, state: &PackedState, sing: &Singularities) -> (FilmIntegrals, u32) {
         let [e0x, e0y, ejx, ejy] = state.ecc;
         let [r0x, r0y, rjx, rjy] = state.rate;
-        let (e1x, e1y, r1x, r1y) = (ejx - e0x, ejy - e0y, rjx - r0x, rjy - r0y);
+        let line: FilmLine = [
+            e0x,
+            e0y,
+            ejx - e0x,
+            ejy - e0y,
+            r0x,
+            r0y,
+            rjx - r0x,
+            rjy - r0y,
+        ];
         let mut acc = [0.0; 4];
         let mut slices = 0;
         let mut s = 0.0;
         let mut panels = 0;
+        let mut prod = [[0.0; LANES]; 4];
         while s < 1.0 {
             panels += 1;
             let end = if panels >= self.settings.max_panels {
@@ -1067,34 +1212,14 @@ impl FilmRule {
                 sing.panel_end(s, &self.settings)
             };
             let len = end - s;
-            // The panel's slices in groups of LANES (unused lanes: a zero rate, no load),
-            // summed node by node in the order of the scalar loop.
-            let (nodes, weights) = (&self.gauss.nodes, &self.gauss.weights);
-            let mut first = 0;
-            while first < nodes.len() {
-                let m = (nodes.len() - first).min(LANES);
-                let (mut ex, mut ey, mut rx, mut ry) =
-                    ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let mut zs = [0.0; LANES];
-                for i in 0..m {
-                    let z = s + len * nodes[first + i];
-                    zs[i] = z;
-                    ex[i] = e0x + e1x * z;
-                    ey[i] = e0y + e1y * z;
-                    rx[i] = r0x + r1x * z;
-                    ry[i] = r0y + r1y * z;
+            for (nodes, weights, m) in &self.node_lanes {
+                panel_lanes(self.isa, s, len, &line, nodes, weights, &mut prod);
+                for i in 0..*m {
+                    acc[0] += prod[0][i];
+                    acc[1] += prod[1][i];
+                    acc[2] += prod[2][i];
+                    acc[3] += prod[3][i];
                 }
-                let (mut cs, mut ss) = ([0.0; LANES], [0.0; LANES]);
-                slices_lanes(self.isa, &ex, &ey, &rx, &ry, &mut cs, &mut ss);
-                for i in 0..m {
-                    let (z, c, sn) = (zs[i], cs[i], ss[i]);
-                    let wg = weights[first + i] * len * z * (1.0 - z);
-                    acc[0] += wg * c;
-                    acc[1] += wg * sn;
-                    acc[2] += wg * z * c;
-                    acc[3] += wg * z * sn;
-                }
-                first += m;
             }
             slices += self.settings.nodes;
             s = end;
