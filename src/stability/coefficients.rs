@@ -193,7 +193,9 @@ fn steps_of(job: &CoefficientJob, relative_step: f64) -> Steps {
 
 /// Step-size levels of one coefficient set: of the positions and tilts (`pos`) and of
 /// their rates (`rate`), the latter on held ladder grids over rate steps
-/// [`HELD_RATE_FACTOR`] times larger (`held`).
+/// [`HELD_RATE_FACTOR`] times larger (`held`). On held grids each position and tilt also
+/// gets one secant pair at [`HELD_RATE_FACTOR`] times its step (after its levels): the
+/// grid error is estimated from the secants (see `add_grid_error`).
 #[derive(Clone, Copy, Debug)]
 struct Levels {
     pos: &'static [f64],
@@ -211,10 +213,26 @@ impl Levels {
         }
     }
 
+    /// Film evaluations of coordinate `c`: its levels' pairs, plus the secant pair of a
+    /// position or tilt on a held grid.
+    fn of_coordinate(&self, c: usize) -> usize {
+        2 * self.of(c).len() + if self.held && c < 4 { 2 } else { 0 }
+    }
+
     /// Film evaluations of one coefficient set over `nc` coordinates.
     fn evaluations(&self, nc: usize) -> usize {
-        1 + (0..nc).map(|c| 2 * self.of(c).len()).sum::<usize>()
+        1 + (0..nc).map(|c| self.of_coordinate(c)).sum::<usize>()
     }
+}
+
+/// Secants of the loads over the largest steps of a held grid, per coordinate (same
+/// signs and units as the coefficients): positions and tilts over ±[`HELD_RATE_FACTOR`]
+/// times their step, rates over ±`s` (their largest level). Their grid convergence is
+/// regular where the small-step derivative's is not (see `add_grid_error`).
+#[derive(Clone, Copy, Debug, Default)]
+struct Secants {
+    stiffness: [[f64; 4]; 4],
+    damping: [[f64; 4]; 4],
 }
 
 /// Step-size levels: `h, h/2, h/4` (Richardson) or `h`.
@@ -436,7 +454,7 @@ pub fn coefficients_batch(
         .map(|(k, job)| {
             let (fs, cs, qs) = starts[k];
             let (lv, per_job) = (lvs[k], per[k]);
-            let mut out = differentiate(
+            let (mut out, fine_sec) = differentiate(
                 k,
                 job,
                 &results[fs..fs + per_job],
@@ -447,7 +465,7 @@ pub fn coefficients_batch(
             )?;
             out.grid = grids[k];
             if let Some(cs) = cs {
-                let c = differentiate(
+                let (c, half_sec) = differentiate(
                     k,
                     job,
                     &results[cs..cs + per_job],
@@ -469,47 +487,87 @@ pub fn coefficients_batch(
                     None => None,
                 };
                 let est = chosen[k].map_or(0.0, |g| g.1);
-                add_grid_error(
-                    &mut out.stiffness_error,
-                    &out.stiffness,
-                    &c.stiffness,
-                    q.as_ref().map(|q| &q.stiffness),
-                    est,
-                );
-                add_grid_error(
-                    &mut out.damping_error,
-                    &out.damping,
-                    &c.damping,
-                    q.as_ref().map(|q| &q.damping),
-                    est,
-                );
+                match q {
+                    // Held grids with their quarter grid: the secants' grid convergence.
+                    Some((_, quarter_sec)) => {
+                        add_grid_error(
+                            &mut out.stiffness_error,
+                            &out.stiffness,
+                            &fine_sec.stiffness,
+                            &half_sec.stiffness,
+                            Some(&quarter_sec.stiffness),
+                            est,
+                        );
+                        add_grid_error(
+                            &mut out.damping_error,
+                            &out.damping,
+                            &fine_sec.damping,
+                            &half_sec.damping,
+                            Some(&quarter_sec.damping),
+                            est,
+                        );
+                    }
+                    None => {
+                        add_grid_error(
+                            &mut out.stiffness_error,
+                            &out.stiffness,
+                            &out.stiffness,
+                            &c.stiffness,
+                            None,
+                            est,
+                        );
+                        add_grid_error(
+                            &mut out.damping_error,
+                            &out.damping,
+                            &out.damping,
+                            &c.damping,
+                            None,
+                            est,
+                        );
+                    }
+                }
             }
             Ok(out)
         })
         .collect()
 }
 
-/// Adds the discretisation error of the coefficients `fine` (grid h) to `error`, from the
-/// same coefficients on the half grid (`half`, 2h) and, on held ladder grids, the quarter
-/// grid (`quarter`, 4h), per 2 × 2 sub-block of like units (x-y and tilt rows and
-/// columns), with Frobenius norms `n₂ = |K_h − K_2h|`, `n₁ = |K_2h − K_4h|`:
+/// Adds the discretisation error of the coefficients `value` (grid h) to `error`. `fine`,
+/// `half` and `quarter` are what is compared across grids: on held ladder grids (with
+/// the quarter grid) the secants over the largest steps (see [`Secants`]) on the grids
+/// h, 2h and 4h; without the quarter grid `value` itself on h and 2h. Per 2 × 2
+/// sub-block of like units (x-y and tilt rows and columns), with Frobenius norms
+/// `n₂ = |S_h − S_2h|`, `n₁ = |S_2h − S_4h|`:
 ///
 /// - with the quarter grid, the geometric tail of [`crate::bearing::finite::ladder_estimate`]:
 ///   `ρ = clamp(n₂/n₁, 1/4, 0.8)`, each entry
-///   `ρ/(1 − ρ) · max(|ΔK_ij|, m · max(|K_ij|/|K|, 1/2))` with `m = max(n₂, n₁/4)` (an
-///   entry whose grid error crosses zero gets at least the block's relative error, and
-///   a small entry at least the block's rms share `m/2`, as its own grid error is
-///   irregular; a lucky small `n₂` after a large `n₁` is not believed). Measured
-///   (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128 extrapolated
-///   reference): K and C (the rates differenced as in `HELD_RATE_FACTOR`) converge at
-///   second order on the held grid (observed `n₂/n₁` 0.16-0.3 from 256 × 32 on at
-///   ε ≤ 0.7), where the block norm of this is within 1.2-1.8 of the true error
-///   (docs/finite-film.md "Coefficients").
+///   `|K|/|S| · ρ/(1 − ρ) · max(|ΔS_ij|, m · max(|S_ij|/|S|, 1/4))` with
+///   `m = max(n₂, n₁/4)` (an entry whose grid error crosses zero gets at least the
+///   block's relative error, and a small entry at least `m/4`, half the block's rms
+///   share; a lucky small `n₂` after a large `n₁` is not believed), `|K|/|S|` carrying
+///   the secants' relative grid error over to the coefficients.
+///
+///   Why the secants (issue 20, session 34): the discrete cavitated set is a set of
+///   nodes, so the loads have a kink wherever a boundary node switches, and a
+///   derivative at the small position step (~1e-3 of the smoothness scale) is the slope
+///   of one piece: its grid error has an irregular part that jumps from grid to grid.
+///   At ε ≤ 0.7 it is small and the coefficients themselves converge at second order,
+///   but at ε 0.8-0.9 it dominates on 128 × 16 and 256 × 32: K's successive-grid ratios
+///   were 0.06-0.67 (ε 0.85: 0.14, 0.60, 0.10 up to 1024 × 128) and the tail taken from
+///   the coefficients reported 4-17× the true error (K 14.6×, C 4.6× at ε 0.85). The
+///   secant over ±0.4 of the smoothness scale moves the boundary across several cells
+///   and averages the kinks: at ε 0.85 its ratios are 0.29, 0.22, 0.26
+///   (`examples/coef_cause.rs` at the relative step 0.4). Measured (examples/
+///   coef_convergence.rs, paper bearing, the 1024 × 128 / 512 × 64 extrapolated
+///   reference, x-y blocks at 512 × 64): reported/true K 1.1-2.5, C 1.1-2.4 at ε 0.3,
+///   0.517, 0.7, 0.85, 0.9 (docs/finite-film.md "Coefficients"). The coefficients'
+///   values are those of before (small steps; Richardson over the rate steps).
 /// - without (explicit grids, or a half grid below the ladder's first), the bound of
 ///   before: `max(|ΔK_ij|, 3 est |K_ij|)` with `est` the loads' relative estimate
 ///   (measured: `|ΔK|` was up to 3× short on coarse grids, the loads' error ≤ 2×).
 fn add_grid_error(
     error: &mut [[f64; 4]; 4],
+    value: &[[f64; 4]; 4],
     fine: &[[f64; 4]; 4],
     half: &[[f64; 4]; 4],
     quarter: Option<&[[f64; 4]; 4]>,
@@ -527,6 +585,13 @@ fn add_grid_error(
             };
             let n2 = norm(&|i, j| fine[i][j] - half[i][j]);
             let size = norm(&|i, j| fine[i][j]);
+            // The secants' grid error relative to their own size, on the coefficients'
+            // (1 without secants: `fine` is `value`).
+            let scale = if size > 0.0 {
+                norm(&|i, j| value[i][j]) / size
+            } else {
+                1.0
+            };
             for &(i, j) in &cells {
                 let d2 = (fine[i][j] - half[i][j]).abs();
                 error[i][j] += match quarter {
@@ -537,14 +602,17 @@ fn add_grid_error(
                         } else {
                             0.25
                         };
-                        // At least the block's rms share `m/2` (a small entry's own grid
-                        // error is irregular: it is not smaller than its block's).
+                        // At least the block's relative error, and a small entry at least
+                        // `m/4` (half its rms share: its own grid error may cross zero).
+                        // `m/2` before the secants, whose small entries converge as
+                        // regularly as the block; with it the block was 1.2-1.3× the
+                        // no-floor estimate and 3.1-3.6× the true error at ε 0.8-0.85.
                         let share = if size > 0.0 {
-                            n2.max(0.25 * n1) * (fine[i][j].abs() / size).max(0.5)
+                            n2.max(0.25 * n1) * (fine[i][j].abs() / size).max(0.25)
                         } else {
                             0.0
                         };
-                        rho / (1.0 - rho) * d2.max(share)
+                        scale * rho / (1.0 - rho) * d2.max(share)
                     }
                     None => d2.max(3.0 * est * fine[i][j].abs()),
                 };
@@ -574,7 +642,13 @@ fn push_differences(
             4 | 5 => st.velocity_m_s,
             _ => st.tilt_rate_rad_s,
         };
-        for &f in lv.of(c) {
+        // The levels, then on a held grid a position's secant pair.
+        let secant: &[f64] = if lv.held && c < 4 {
+            &[HELD_RATE_FACTOR]
+        } else {
+            &[]
+        };
+        for &f in lv.of(c).iter().chain(secant) {
             for sign in [1.0, -1.0] {
                 let mut dq = [0.0; 4];
                 let mut dv = [0.0; 4];
@@ -602,7 +676,7 @@ fn differentiate(
     lv: Levels,
     richardson: bool,
     nc: usize,
-) -> Result<BearingCoefficients, StabilityError> {
+) -> Result<(BearingCoefficients, Secants), StabilityError> {
     let len = job.params.length;
     let mut mids = Vec::with_capacity(chunk.len());
     for (n, r) in chunk.iter().enumerate() {
@@ -636,6 +710,7 @@ fn differentiate(
         steps: st,
         grid: None,
     };
+    let mut secants = Secants::default();
     // Start of coordinate `c`'s differences in `mids`.
     let mut first = 1;
     for c in 0..nc {
@@ -700,8 +775,19 @@ fn differentiate(
                 out.damping[i][c - 4] = -value;
                 out.damping_error[i][c - 4] = error;
             }
+            if lv.held {
+                // The secant over the largest step: a position's own pair after its
+                // levels, a rate's largest level.
+                if c < 4 {
+                    let at = first + 2 * lvc.len();
+                    let (p, m) = (mids[at][i], mids[at + 1][i]);
+                    secants.stiffness[i][c] = -(p - m) / (2.0 * HELD_RATE_FACTOR * unit);
+                } else {
+                    secants.damping[i][c - 4] = -d[0];
+                }
+            }
         }
-        first += 2 * lvc.len();
+        first += lv.of_coordinate(c);
     }
-    Ok(out)
+    Ok((out, secants))
 }
