@@ -34,8 +34,14 @@ fn paper(accuracy: f64) -> BearingParams {
 }
 
 /// Coefficients at accuracy 1e-2 and 5e-4 at two states: each entry of the x-y block of
-/// K and C differs by no more than the two reported errors together (the coarse one
-/// carries the discretisation error, ~1e-2, which the old report left out).
+/// K and C differs by no more than 3 times the two reported errors together (the coarse
+/// one carries the discretisation error, ~1e-2, which the old report, ~1e-7, left out).
+/// A factor 3, the project's honesty bound: the grid error is an estimate, not a bound
+/// (since session 34 taken from secants, within 0.7-2.6 of the true error per entry on
+/// 64 × 8 … 1024 × 128 at the second state, `coef_convergence 1024 0.75 -0.6 450`), so
+/// about half the entries of an honest estimate fall short of their true error; before,
+/// with the kinks' irregular share in the tail, it was a conservative one and this
+/// checked factor 1 (measured now: largest difference / reported errors 1.35).
 #[test]
 fn coefficient_errors_include_the_discretisation_error() {
     let mut ev = evaluator();
@@ -78,10 +84,10 @@ fn coefficient_errors_include_the_discretisation_error() {
                     let diff = (a - b).abs();
                     worst = worst.max(diff / (ea + eb));
                     assert!(
-                        diff <= ea + eb,
+                        diff <= 3.0 * (ea + eb),
                         "state {k} {name}[{i}][{j}]: accuracy 1e-2 gives {a:.6e} ± {ea:.2e}, \
-                         5e-4 gives {b:.6e} ± {eb:.2e}: difference {diff:.2e} beyond the \
-                         reported errors"
+                         5e-4 gives {b:.6e} ± {eb:.2e}: difference {diff:.2e} beyond 3 times \
+                         the reported errors"
                     );
                     // The coarse grid's reported error is not a rounding-level number.
                     assert!(ea >= 1e-4 * a.abs().max(b.abs()) || diff <= 1e-6 * b.abs());
