@@ -435,14 +435,23 @@ pub fn coefficients_batch(
         steps.push(st);
         let fine_start = requests.len();
         push_differences(&mut requests, k as u32, job, &st, lv, nc);
+        // With the quarter grid (held grids) the half and quarter grids give only the
+        // secants of the grid error (`push_secants`: 2 film solves per coordinate instead
+        // of 6-8 and the state); without it the half grid's coefficients themselves.
+        let secants_only = quarter[k].is_some();
         let coarse_start = coarse[k].map(|_| {
             let at = requests.len();
-            push_differences(&mut requests, (jobs.len() + k) as u32, job, &st, lv, nc);
+            let b = (jobs.len() + k) as u32;
+            if secants_only {
+                push_secants(&mut requests, b, job, &st, nc);
+            } else {
+                push_differences(&mut requests, b, job, &st, lv, nc);
+            }
             at
         });
         let quarter_start = quarter[k].map(|_| {
             let at = requests.len();
-            push_differences(&mut requests, (2 * jobs.len() + k) as u32, job, &st, lv, nc);
+            push_secants(&mut requests, (2 * jobs.len() + k) as u32, job, &st, nc);
             at
         });
         starts.push((fine_start, coarse_start, quarter_start));
@@ -465,31 +474,12 @@ pub fn coefficients_batch(
             )?;
             out.grid = grids[k];
             if let Some(cs) = cs {
-                let (c, half_sec) = differentiate(
-                    k,
-                    job,
-                    &results[cs..cs + per_job],
-                    &steps[k],
-                    lv,
-                    options.richardson,
-                    nc,
-                )?;
-                let q = match qs {
-                    Some(qs) => Some(differentiate(
-                        k,
-                        job,
-                        &results[qs..qs + per_job],
-                        &steps[k],
-                        lv,
-                        options.richardson,
-                        nc,
-                    )?),
-                    None => None,
-                };
                 let est = chosen[k].map_or(0.0, |g| g.1);
-                match q {
+                match qs {
                     // Held grids with their quarter grid: the secants' grid convergence.
-                    Some((_, quarter_sec)) => {
+                    Some(qs) => {
+                        let half_sec = secants_of(k, job, &results[cs..cs + 2 * nc], &steps[k])?;
+                        let quarter_sec = secants_of(k, job, &results[qs..qs + 2 * nc], &steps[k])?;
                         add_grid_error(
                             &mut out.stiffness_error,
                             &out.stiffness,
@@ -508,6 +498,15 @@ pub fn coefficients_batch(
                         );
                     }
                     None => {
+                        let (c, _) = differentiate(
+                            k,
+                            job,
+                            &results[cs..cs + per_job],
+                            &steps[k],
+                            lv,
+                            options.richardson,
+                            nc,
+                        )?;
                         add_grid_error(
                             &mut out.stiffness_error,
                             &out.stiffness,
@@ -664,6 +663,83 @@ fn push_differences(
             }
         }
     }
+}
+
+/// The secant pairs of `job` on bearing `b` alone (see [`Secants`]): per coordinate the
+/// state moved by ± [`HELD_RATE_FACTOR`] times a position's or tilt's step, ± the rate
+/// step `s` (`st` holds it already scaled); the same states as those of
+/// [`push_differences`] on a held grid, so the secants are the same numbers.
+fn push_secants(
+    requests: &mut Vec<LoadRequest>,
+    b: u32,
+    job: &CoefficientJob,
+    st: &Steps,
+    nc: usize,
+) {
+    let len = job.params.length;
+    for c in 0..nc {
+        let (unit, f) = match c {
+            0 | 1 => (st.position_m, HELD_RATE_FACTOR),
+            2 | 3 => (st.tilt_rad, HELD_RATE_FACTOR),
+            4 | 5 => (st.velocity_m_s, 1.0),
+            _ => (st.tilt_rate_rad_s, 1.0),
+        };
+        for sign in [1.0, -1.0] {
+            let mut dq = [0.0; 4];
+            let mut dv = [0.0; 4];
+            if c < 4 {
+                dq[c] = sign * f * unit;
+            } else {
+                dv[c - 4] = sign * f * unit;
+            }
+            requests.push(LoadRequest {
+                bearing: b,
+                state: perturb(&job.state, len, dq, dv),
+            });
+        }
+    }
+}
+
+/// The secants of job `k` from the loads of [`push_secants`] (`chunk`), computed as in
+/// [`differentiate`].
+fn secants_of(
+    k: usize,
+    job: &CoefficientJob,
+    chunk: &[crate::backend::LoadResult],
+    st: &Steps,
+) -> Result<Secants, StabilityError> {
+    let len = job.params.length;
+    let mut out = Secants::default();
+    for (c, pair) in chunk.chunks_exact(2).enumerate() {
+        let mut mids = [[0.0; 4]; 2];
+        for (m, r) in mids.iter_mut().zip(pair) {
+            match r {
+                Ok(l) => *m = mid_plane_loads(l, len),
+                Err(fault) => {
+                    return Err(StabilityError::Film {
+                        bearing: k,
+                        context: "at a perturbed state of the finite differences".into(),
+                        fault: *fault,
+                    })
+                }
+            }
+        }
+        for i in 0..4 {
+            let (p, m) = (mids[0][i], mids[1][i]);
+            if c < 4 {
+                let unit = if c < 2 { st.position_m } else { st.tilt_rad };
+                out.stiffness[i][c] = -(p - m) / (2.0 * HELD_RATE_FACTOR * unit);
+            } else {
+                let unit = if c < 6 {
+                    st.velocity_m_s
+                } else {
+                    st.tilt_rate_rad_s
+                };
+                out.damping[i][c - 4] = -((p - m) / (2.0 * 1.0 * unit));
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Coefficients of job `k` from the loads of its state and perturbations (`chunk`, in
