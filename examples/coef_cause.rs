@@ -1,7 +1,11 @@
 //! Diagnosis of the finite film's damping convergence (issue 20): the x-y blocks of K and
 //! C at one state on held ladder grids, differenced at one step (central, no Richardson)
 //! with a chosen relative step and held-grid iteration tolerance, so that the step's and
-//! the iteration's shares of C's grid-to-grid scatter can be told apart.
+//! the iteration's shares of C's grid-to-grid scatter can be told apart. Session 34 used
+//! it for K at high eccentricity: at ε 0.85 K's grid convergence is irregular at the step
+//! 1e-3 and regular at 0.4 (`-- 0.85 2.0 450 0.4 1e-8 64 128 256 512 1024`), the reason
+//! the grid error is taken from secants over the largest steps (BENCHMARKS.md "Issue 20:
+//! coefficients at high eccentricity (session 34)").
 //!
 //! `cargo run --release --example coef_cause -- EPS ANGLE OMEGA REL_STEP TOL NT...`: the
 //! state `ε (cos angle, sin angle) δ` at `OMEGA` rad/s, central differences at the

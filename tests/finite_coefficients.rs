@@ -34,8 +34,14 @@ fn paper(accuracy: f64) -> BearingParams {
 }
 
 /// Coefficients at accuracy 1e-2 and 5e-4 at two states: each entry of the x-y block of
-/// K and C differs by no more than the two reported errors together (the coarse one
-/// carries the discretisation error, ~1e-2, which the old report left out).
+/// K and C differs by no more than 3 times the two reported errors together (the coarse
+/// one carries the discretisation error, ~1e-2, which the old report, ~1e-7, left out).
+/// A factor 3, the project's honesty bound: the grid error is an estimate, not a bound
+/// (since session 34 taken from secants, within 0.7-2.6 of the true error per entry on
+/// 64 × 8 … 1024 × 128 at the second state, `coef_convergence 1024 0.75 -0.6 450`), so
+/// about half the entries of an honest estimate fall short of their true error; before,
+/// with the kinks' irregular share in the tail, it was a conservative one and this
+/// checked factor 1 (measured now: largest difference / reported errors 1.35).
 #[test]
 fn coefficient_errors_include_the_discretisation_error() {
     let mut ev = evaluator();
@@ -78,10 +84,10 @@ fn coefficient_errors_include_the_discretisation_error() {
                     let diff = (a - b).abs();
                     worst = worst.max(diff / (ea + eb));
                     assert!(
-                        diff <= ea + eb,
+                        diff <= 3.0 * (ea + eb),
                         "state {k} {name}[{i}][{j}]: accuracy 1e-2 gives {a:.6e} ± {ea:.2e}, \
-                         5e-4 gives {b:.6e} ± {eb:.2e}: difference {diff:.2e} beyond the \
-                         reported errors"
+                         5e-4 gives {b:.6e} ± {eb:.2e}: difference {diff:.2e} beyond 3 times \
+                         the reported errors"
                     );
                     // The coarse grid's reported error is not a rounding-level number.
                     assert!(ea >= 1e-4 * a.abs().max(b.abs()) || diff <= 1e-6 * b.abs());
@@ -216,14 +222,19 @@ fn smooth_in_speed(p: BearingParams, speeds: Vec<f64>) {
 }
 
 /// The reported coefficient errors at the default accuracy against a converged reference
-/// (the held 1024 × 128 and 512 × 64 grids, Richardson-extrapolated: both converge at
-/// second order there, successive-grid ratios 0.2-0.3), on three equilibrium-like states
-/// of the paper bearing (ε 0.517, 0.3, 0.7): for the x-y blocks of K and of C, the norm of
-/// the reported errors is within a factor 3 of the norm of the true errors, both ways
-/// (per entry a true error may cross zero between grids, so the block norm is checked).
-/// Before the damping's rates were differenced over steps that average the discrete
-/// cavitation boundary's kinks (`HELD_RATE_FACTOR` in src/stability/coefficients.rs), C
-/// converged erratically (ratios 0.02-3.5) and its ratio here was 0.6-20, unchecked.
+/// (the held 1024 × 128 and 512 × 64 grids, Richardson-extrapolated), on five
+/// equilibrium-like states of the paper bearing (ε 0.517, 0.3, 0.7, 0.85, 0.9): for the
+/// x-y blocks of K and of C, the norm of the reported errors is within a factor 3 of the
+/// norm of the true errors, both ways (per entry a true error may cross zero between
+/// grids, so the block norm is checked). Before the damping's rates were differenced over
+/// steps that average the discrete cavitation boundary's kinks (`HELD_RATE_FACTOR` in
+/// src/stability/coefficients.rs), C converged erratically (ratios 0.02-3.5) and its
+/// ratio here was 0.6-20, unchecked. Before the grid error was taken from the secants
+/// over the largest steps (session 34, `add_grid_error`), the kinks' irregular share of
+/// the small-step derivative on 128 × 16 and 256 × 32 made the ratio 14.6 (K) and 4.6 (C)
+/// at ε 0.85, unchecked. At ε ≥ 0.8 the reference's own error is less certain: K's
+/// successive-grid ratio between 256 × 32, 512 × 64 and 1024 × 128 is 0.1-1.2 there
+/// (BENCHMARKS.md "Issue 20: coefficients at high eccentricity (session 34)").
 #[test]
 fn reported_coefficient_errors_are_honest_against_a_converged_reference() {
     let mut ev = evaluator();
@@ -233,6 +244,8 @@ fn reported_coefficient_errors_are_honest_against_a_converged_reference() {
         (0.517_f64, -0.6_f64, 500.0),
         (0.3, 0.9, 450.0),
         (0.7, 0.5, 450.0),
+        (0.85, 2.0, 450.0),
+        (0.9, 2.0, 450.0),
     ];
     let mut jobs = Vec::new();
     for &(eps, angle, w) in &states {

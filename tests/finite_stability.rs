@@ -56,3 +56,41 @@ fn finite_film_threshold_without_failed_points() {
         "threshold: actual {w} rad/s, expected 469 (ROSS finite-element film), tolerance 2 %"
     );
 }
+
+/// Issue 20 item 3: a failed point of a scan is reported by its speed with its reason, not
+/// dropped, and the threshold is still found from the analysed speeds. The scan starts at
+/// 0 rad/s, where the film carries no load (no spin, no squeeze: the rotor has no static
+/// equilibrium on its bearings: a singular Jacobian); the rest brackets the threshold as
+/// above. Accuracy 2e-3 (256 × 32) to keep the test short: measured 461.65 rad/s there,
+/// 461.59 at the defaults (the test above).
+#[test]
+fn a_failed_speed_is_reported_with_its_reason_and_the_threshold_still_found() {
+    let (b, _) = create_backend(BackendKind::Cpu, Accuracy::default()).unwrap();
+    let mut ev = LoadEvaluator::new(b);
+    let grid = vec![0.0, 450.0, 460.0, 470.0, 480.0];
+    let r = rotor("finite", serde_json::json!({"accuracy": 2e-3}));
+    let t = thresholds(&mut ev, &[&r], std::slice::from_ref(&grid)).remove(0);
+    println!(
+        "threshold {:?} rad/s, growth {:?}, failed {:?}, note {}",
+        t.speed_rad_s, t.grid_growth_1_s, t.failed, t.note
+    );
+    assert_eq!(t.failed.len(), 1, "failed points: {:?}", t.failed);
+    assert_eq!(t.failed[0].speed_rad_s, 0.0);
+    assert!(
+        t.failed[0]
+            .reason
+            .contains("no static equilibrium at 0 rad/s"),
+        "the failed point carries its reason: {}",
+        t.failed[0].reason
+    );
+    assert_eq!(
+        t.grid_growth_1_s[0], None,
+        "no growth rate at the failed speed"
+    );
+    assert!(t.grid_growth_1_s[1..].iter().all(Option::is_some));
+    let w = t.speed_rad_s.expect("a threshold from the analysed speeds");
+    assert!(
+        (w - 461.6).abs() <= 0.01 * 461.6,
+        "threshold: actual {w} rad/s, expected 461.6 (the defaults' 461.59), tolerance 1 %"
+    );
+}

@@ -193,7 +193,9 @@ fn steps_of(job: &CoefficientJob, relative_step: f64) -> Steps {
 
 /// Step-size levels of one coefficient set: of the positions and tilts (`pos`) and of
 /// their rates (`rate`), the latter on held ladder grids over rate steps
-/// [`HELD_RATE_FACTOR`] times larger (`held`).
+/// [`HELD_RATE_FACTOR`] times larger (`held`). On held grids each position and tilt also
+/// gets one secant pair at [`HELD_RATE_FACTOR`] times its step (after its levels): the
+/// grid error is estimated from the secants (see `add_grid_error`).
 #[derive(Clone, Copy, Debug)]
 struct Levels {
     pos: &'static [f64],
@@ -211,10 +213,26 @@ impl Levels {
         }
     }
 
+    /// Film evaluations of coordinate `c`: its levels' pairs, plus the secant pair of a
+    /// position or tilt on a held grid.
+    fn of_coordinate(&self, c: usize) -> usize {
+        2 * self.of(c).len() + if self.held && c < 4 { 2 } else { 0 }
+    }
+
     /// Film evaluations of one coefficient set over `nc` coordinates.
     fn evaluations(&self, nc: usize) -> usize {
-        1 + (0..nc).map(|c| 2 * self.of(c).len()).sum::<usize>()
+        1 + (0..nc).map(|c| self.of_coordinate(c)).sum::<usize>()
     }
+}
+
+/// Secants of the loads over the largest steps of a held grid, per coordinate (same
+/// signs and units as the coefficients): positions and tilts over ±[`HELD_RATE_FACTOR`]
+/// times their step, rates over ±`s` (their largest level). Their grid convergence is
+/// regular where the small-step derivative's is not (see `add_grid_error`).
+#[derive(Clone, Copy, Debug, Default)]
+struct Secants {
+    stiffness: [[f64; 4]; 4],
+    damping: [[f64; 4]; 4],
 }
 
 /// Step-size levels: `h, h/2, h/4` (Richardson) or `h`.
@@ -417,14 +435,23 @@ pub fn coefficients_batch(
         steps.push(st);
         let fine_start = requests.len();
         push_differences(&mut requests, k as u32, job, &st, lv, nc);
+        // With the quarter grid (held grids) the half and quarter grids give only the
+        // secants of the grid error (`push_secants`: 2 film solves per coordinate instead
+        // of 6-8 and the state); without it the half grid's coefficients themselves.
+        let secants_only = quarter[k].is_some();
         let coarse_start = coarse[k].map(|_| {
             let at = requests.len();
-            push_differences(&mut requests, (jobs.len() + k) as u32, job, &st, lv, nc);
+            let b = (jobs.len() + k) as u32;
+            if secants_only {
+                push_secants(&mut requests, b, job, &st, nc);
+            } else {
+                push_differences(&mut requests, b, job, &st, lv, nc);
+            }
             at
         });
         let quarter_start = quarter[k].map(|_| {
             let at = requests.len();
-            push_differences(&mut requests, (2 * jobs.len() + k) as u32, job, &st, lv, nc);
+            push_secants(&mut requests, (2 * jobs.len() + k) as u32, job, &st, nc);
             at
         });
         starts.push((fine_start, coarse_start, quarter_start));
@@ -436,7 +463,7 @@ pub fn coefficients_batch(
         .map(|(k, job)| {
             let (fs, cs, qs) = starts[k];
             let (lv, per_job) = (lvs[k], per[k]);
-            let mut out = differentiate(
+            let (mut out, fine_sec) = differentiate(
                 k,
                 job,
                 &results[fs..fs + per_job],
@@ -447,69 +474,99 @@ pub fn coefficients_batch(
             )?;
             out.grid = grids[k];
             if let Some(cs) = cs {
-                let c = differentiate(
-                    k,
-                    job,
-                    &results[cs..cs + per_job],
-                    &steps[k],
-                    lv,
-                    options.richardson,
-                    nc,
-                )?;
-                let q = match qs {
-                    Some(qs) => Some(differentiate(
-                        k,
-                        job,
-                        &results[qs..qs + per_job],
-                        &steps[k],
-                        lv,
-                        options.richardson,
-                        nc,
-                    )?),
-                    None => None,
-                };
                 let est = chosen[k].map_or(0.0, |g| g.1);
-                add_grid_error(
-                    &mut out.stiffness_error,
-                    &out.stiffness,
-                    &c.stiffness,
-                    q.as_ref().map(|q| &q.stiffness),
-                    est,
-                );
-                add_grid_error(
-                    &mut out.damping_error,
-                    &out.damping,
-                    &c.damping,
-                    q.as_ref().map(|q| &q.damping),
-                    est,
-                );
+                match qs {
+                    // Held grids with their quarter grid: the secants' grid convergence.
+                    Some(qs) => {
+                        let half_sec = secants_of(k, job, &results[cs..cs + 2 * nc], &steps[k])?;
+                        let quarter_sec = secants_of(k, job, &results[qs..qs + 2 * nc], &steps[k])?;
+                        add_grid_error(
+                            &mut out.stiffness_error,
+                            &out.stiffness,
+                            &fine_sec.stiffness,
+                            &half_sec.stiffness,
+                            Some(&quarter_sec.stiffness),
+                            est,
+                        );
+                        add_grid_error(
+                            &mut out.damping_error,
+                            &out.damping,
+                            &fine_sec.damping,
+                            &half_sec.damping,
+                            Some(&quarter_sec.damping),
+                            est,
+                        );
+                    }
+                    None => {
+                        let (c, _) = differentiate(
+                            k,
+                            job,
+                            &results[cs..cs + per_job],
+                            &steps[k],
+                            lv,
+                            options.richardson,
+                            nc,
+                        )?;
+                        add_grid_error(
+                            &mut out.stiffness_error,
+                            &out.stiffness,
+                            &out.stiffness,
+                            &c.stiffness,
+                            None,
+                            est,
+                        );
+                        add_grid_error(
+                            &mut out.damping_error,
+                            &out.damping,
+                            &out.damping,
+                            &c.damping,
+                            None,
+                            est,
+                        );
+                    }
+                }
             }
             Ok(out)
         })
         .collect()
 }
 
-/// Adds the discretisation error of the coefficients `fine` (grid h) to `error`, from the
-/// same coefficients on the half grid (`half`, 2h) and, on held ladder grids, the quarter
-/// grid (`quarter`, 4h), per 2 × 2 sub-block of like units (x-y and tilt rows and
-/// columns), with Frobenius norms `n₂ = |K_h − K_2h|`, `n₁ = |K_2h − K_4h|`:
+/// Adds the discretisation error of the coefficients `value` (grid h) to `error`. `fine`,
+/// `half` and `quarter` are what is compared across grids: on held ladder grids (with
+/// the quarter grid) the secants over the largest steps (see [`Secants`]) on the grids
+/// h, 2h and 4h; without the quarter grid `value` itself on h and 2h. Per 2 × 2
+/// sub-block of like units (x-y and tilt rows and columns), with Frobenius norms
+/// `n₂ = |S_h − S_2h|`, `n₁ = |S_2h − S_4h|`:
 ///
 /// - with the quarter grid, the geometric tail of [`crate::bearing::finite::ladder_estimate`]:
 ///   `ρ = clamp(n₂/n₁, 1/4, 0.8)`, each entry
-///   `ρ/(1 − ρ) · max(|ΔK_ij|, m · max(|K_ij|/|K|, 1/2))` with `m = max(n₂, n₁/4)` (an
-///   entry whose grid error crosses zero gets at least the block's relative error, and
-///   a small entry at least the block's rms share `m/2`, as its own grid error is
-///   irregular; a lucky small `n₂` after a large `n₁` is not believed). Measured
-///   (examples/coef_convergence.rs, paper bearing ε 0.3-0.85, 1024 × 128 extrapolated
-///   reference): K and C (the rates differenced as in `HELD_RATE_FACTOR`) converge at
-///   second order on the held grid (observed `n₂/n₁` 0.16-0.3 from 256 × 32 on at
-///   ε ≤ 0.7), where the block norm of this is within 1.2-1.8 of the true error
-///   (docs/finite-film.md "Coefficients").
+///   `|K|/|S| · ρ/(1 − ρ) · max(|ΔS_ij|, m · max(|S_ij|/|S|, 1/4))` with
+///   `m = max(n₂, n₁/4)` (an entry whose grid error crosses zero gets at least the
+///   block's relative error, and a small entry at least `m/4`, half the block's rms
+///   share; a lucky small `n₂` after a large `n₁` is not believed), `|K|/|S|` carrying
+///   the secants' relative grid error over to the coefficients.
+///
+///   Why the secants (issue 20, session 34): the discrete cavitated set is a set of
+///   nodes, so the loads have a kink wherever a boundary node switches, and a
+///   derivative at the small position step (~1e-3 of the smoothness scale) is the slope
+///   of one piece: its grid error has an irregular part that jumps from grid to grid.
+///   At ε ≤ 0.7 it is small and the coefficients themselves converge at second order,
+///   but at ε 0.8-0.9 it dominates on 128 × 16 and 256 × 32: K's successive-grid ratios
+///   were 0.06-0.67 (ε 0.85: 0.14, 0.60, 0.10 up to 1024 × 128) and the tail taken from
+///   the coefficients reported 4-17× the true error (K 14.6×, C 4.6× at ε 0.85). The
+///   secant over ±0.4 of the smoothness scale moves the boundary across several cells
+///   and averages the kinks: at ε 0.85 its ratios are 0.29, 0.22, 0.26
+///   (`examples/coef_cause.rs` at the relative step 0.4). Measured (examples/
+///   coef_convergence.rs, paper bearing, the 1024 × 128 / 512 × 64 extrapolated
+///   reference, x-y blocks at 512 × 64): reported/true K 1.1-2.5, C 1.1-2.4 at ε 0.3,
+///   0.517, 0.7, 0.85, 0.9 (docs/finite-film.md "Coefficients"). The coefficients'
+///   values are those of before (small steps; Richardson over the rate steps).
 /// - without (explicit grids, or a half grid below the ladder's first), the bound of
 ///   before: `max(|ΔK_ij|, 3 est |K_ij|)` with `est` the loads' relative estimate
 ///   (measured: `|ΔK|` was up to 3× short on coarse grids, the loads' error ≤ 2×).
 fn add_grid_error(
     error: &mut [[f64; 4]; 4],
+    value: &[[f64; 4]; 4],
     fine: &[[f64; 4]; 4],
     half: &[[f64; 4]; 4],
     quarter: Option<&[[f64; 4]; 4]>,
@@ -527,6 +584,13 @@ fn add_grid_error(
             };
             let n2 = norm(&|i, j| fine[i][j] - half[i][j]);
             let size = norm(&|i, j| fine[i][j]);
+            // The secants' grid error relative to their own size, on the coefficients'
+            // (1 without secants: `fine` is `value`).
+            let scale = if size > 0.0 {
+                norm(&|i, j| value[i][j]) / size
+            } else {
+                1.0
+            };
             for &(i, j) in &cells {
                 let d2 = (fine[i][j] - half[i][j]).abs();
                 error[i][j] += match quarter {
@@ -537,14 +601,17 @@ fn add_grid_error(
                         } else {
                             0.25
                         };
-                        // At least the block's rms share `m/2` (a small entry's own grid
-                        // error is irregular: it is not smaller than its block's).
+                        // At least the block's relative error, and a small entry at least
+                        // `m/4` (half its rms share: its own grid error may cross zero).
+                        // `m/2` before the secants, whose small entries converge as
+                        // regularly as the block; with it the block was 1.2-1.3× the
+                        // no-floor estimate and 3.1-3.6× the true error at ε 0.8-0.85.
                         let share = if size > 0.0 {
-                            n2.max(0.25 * n1) * (fine[i][j].abs() / size).max(0.5)
+                            n2.max(0.25 * n1) * (fine[i][j].abs() / size).max(0.25)
                         } else {
                             0.0
                         };
-                        rho / (1.0 - rho) * d2.max(share)
+                        scale * rho / (1.0 - rho) * d2.max(share)
                     }
                     None => d2.max(3.0 * est * fine[i][j].abs()),
                 };
@@ -574,7 +641,13 @@ fn push_differences(
             4 | 5 => st.velocity_m_s,
             _ => st.tilt_rate_rad_s,
         };
-        for &f in lv.of(c) {
+        // The levels, then on a held grid a position's secant pair.
+        let secant: &[f64] = if lv.held && c < 4 {
+            &[HELD_RATE_FACTOR]
+        } else {
+            &[]
+        };
+        for &f in lv.of(c).iter().chain(secant) {
             for sign in [1.0, -1.0] {
                 let mut dq = [0.0; 4];
                 let mut dv = [0.0; 4];
@@ -592,6 +665,83 @@ fn push_differences(
     }
 }
 
+/// The secant pairs of `job` on bearing `b` alone (see [`Secants`]): per coordinate the
+/// state moved by ± [`HELD_RATE_FACTOR`] times a position's or tilt's step, ± the rate
+/// step `s` (`st` holds it already scaled); the same states as those of
+/// [`push_differences`] on a held grid, so the secants are the same numbers.
+fn push_secants(
+    requests: &mut Vec<LoadRequest>,
+    b: u32,
+    job: &CoefficientJob,
+    st: &Steps,
+    nc: usize,
+) {
+    let len = job.params.length;
+    for c in 0..nc {
+        let (unit, f) = match c {
+            0 | 1 => (st.position_m, HELD_RATE_FACTOR),
+            2 | 3 => (st.tilt_rad, HELD_RATE_FACTOR),
+            4 | 5 => (st.velocity_m_s, 1.0),
+            _ => (st.tilt_rate_rad_s, 1.0),
+        };
+        for sign in [1.0, -1.0] {
+            let mut dq = [0.0; 4];
+            let mut dv = [0.0; 4];
+            if c < 4 {
+                dq[c] = sign * f * unit;
+            } else {
+                dv[c - 4] = sign * f * unit;
+            }
+            requests.push(LoadRequest {
+                bearing: b,
+                state: perturb(&job.state, len, dq, dv),
+            });
+        }
+    }
+}
+
+/// The secants of job `k` from the loads of [`push_secants`] (`chunk`), computed as in
+/// [`differentiate`].
+fn secants_of(
+    k: usize,
+    job: &CoefficientJob,
+    chunk: &[crate::backend::LoadResult],
+    st: &Steps,
+) -> Result<Secants, StabilityError> {
+    let len = job.params.length;
+    let mut out = Secants::default();
+    for (c, pair) in chunk.chunks_exact(2).enumerate() {
+        let mut mids = [[0.0; 4]; 2];
+        for (m, r) in mids.iter_mut().zip(pair) {
+            match r {
+                Ok(l) => *m = mid_plane_loads(l, len),
+                Err(fault) => {
+                    return Err(StabilityError::Film {
+                        bearing: k,
+                        context: "at a perturbed state of the finite differences".into(),
+                        fault: *fault,
+                    })
+                }
+            }
+        }
+        for i in 0..4 {
+            let (p, m) = (mids[0][i], mids[1][i]);
+            if c < 4 {
+                let unit = if c < 2 { st.position_m } else { st.tilt_rad };
+                out.stiffness[i][c] = -(p - m) / (2.0 * HELD_RATE_FACTOR * unit);
+            } else {
+                let unit = if c < 6 {
+                    st.velocity_m_s
+                } else {
+                    st.tilt_rate_rad_s
+                };
+                out.damping[i][c - 4] = -((p - m) / (2.0 * 1.0 * unit));
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Coefficients of job `k` from the loads of its state and perturbations (`chunk`, in
 /// the order of [`push_differences`]).
 fn differentiate(
@@ -602,7 +752,7 @@ fn differentiate(
     lv: Levels,
     richardson: bool,
     nc: usize,
-) -> Result<BearingCoefficients, StabilityError> {
+) -> Result<(BearingCoefficients, Secants), StabilityError> {
     let len = job.params.length;
     let mut mids = Vec::with_capacity(chunk.len());
     for (n, r) in chunk.iter().enumerate() {
@@ -636,6 +786,7 @@ fn differentiate(
         steps: st,
         grid: None,
     };
+    let mut secants = Secants::default();
     // Start of coordinate `c`'s differences in `mids`.
     let mut first = 1;
     for c in 0..nc {
@@ -700,8 +851,19 @@ fn differentiate(
                 out.damping[i][c - 4] = -value;
                 out.damping_error[i][c - 4] = error;
             }
+            if lv.held {
+                // The secant over the largest step: a position's own pair after its
+                // levels, a rate's largest level.
+                if c < 4 {
+                    let at = first + 2 * lvc.len();
+                    let (p, m) = (mids[at][i], mids[at + 1][i]);
+                    secants.stiffness[i][c] = -(p - m) / (2.0 * HELD_RATE_FACTOR * unit);
+                } else {
+                    secants.damping[i][c - 4] = -d[0];
+                }
+            }
         }
-        first += 2 * lvc.len();
+        first += lv.of_coordinate(c);
     }
-    Ok(out)
+    Ok((out, secants))
 }
