@@ -11,7 +11,7 @@ use std::collections::BTreeSet;
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::sweep::reduce::{
-    kept_series, reduce, ReductionOptions, SeriesGroup, Span, Window,
+    kept_series, reduce, stats, whirl, ReductionOptions, SeriesGroup, Span, Window,
 };
 use bearing_sweep::sweep::rotor_sim::RotorSimulator;
 use bearing_sweep::sweep::runner::{BatchSimulator, Outcome, VariantJob};
@@ -502,7 +502,14 @@ fn coarse_record_takes_the_whirl_from_the_full_rate_tail() {
                 "steps {steps} bearing {k}: Nyquist {nyquist}"
             );
             let n = w["samples"].as_u64().expect("whirl from the tail") as usize;
-            assert!(n <= WHIRL_TAIL && n >= 4000, "{w}");
+            // The full-rate end (4096 samples at this budget's cap) inside the window
+            // (from its first kept sample: at most a stride after the exact start).
+            let full = exact["window"]["samples"].as_u64().unwrap() as usize;
+            let want_n = full.min(4096);
+            assert!(
+                n <= want_n && n + stride as usize >= want_n,
+                "{n} tail samples, expected {want_n}: {w}"
+            );
             assert!(w.get("searched_up_to_ratio").is_none(), "{w}");
             assert!(want.get("searched_up_to_ratio").is_none(), "{want}");
             // The tail spectrum's grid step, 1 / (4 revolutions of the tail).
@@ -517,14 +524,34 @@ fn coarse_record_takes_the_whirl_from_the_full_rate_tail() {
                 (r - r0).abs() <= 0.25 / revs,
                 "steps {steps} bearing {k}: whirl ratio {r} from the tail, {r0} exact ({revs} revolutions)"
             );
-            let (a, a0) = (
-                w["amplitude_m"].as_f64().unwrap(),
-                want["amplitude_m"].as_f64().unwrap(),
+            // The same spectrum from the stored samples of the tail's span: every number
+            // of the whirl equal (the ring holds exactly those samples). Its amplitude is
+            // the tail's own: the whole window's peak is lower where the spin, and with it
+            // the synchronous whirl, drifts over the window (0.74 relative at 400 000 steps).
+            let t = &signals.t;
+            let from = t.partition_point(|&x| x < w["t_start_s"].as_f64().unwrap());
+            let spin_mean = stats(&t[from..], &signals.spin[from..]).unwrap().mean;
+            let b = &signals.bearings[k];
+            let mut by_hand = whirl(
+                &t[from..],
+                &b.xi[from..],
+                &b.yi[from..],
+                spin_mean,
+                b.clearance_m,
+                &opts.whirl,
+            )
+            .expect("a whirl over the tail");
+            by_hand.samples = Some(t.len() - from);
+            by_hand.t_start_s = Some(t[from]);
+            same(
+                &format!("steps {steps} bearing {k}: tail whirl"),
+                w,
+                &serde_json::to_value(by_hand).unwrap(),
             );
-            eprintln!("steps {steps} bearing {k}: stride {stride} nyquist {nyquist:.3} ratio {r} vs {r0} (diff {:.2e}, step {:.2e}); amplitude {a} vs {a0} (rel {:.2e})", (r - r0).abs(), 0.25 / revs, (a / a0 - 1.0).abs());
-            assert!(
-                (a - a0).abs() <= 0.05 * a0,
-                "amplitude {a} from the tail, {a0} exact"
+            eprintln!(
+                "steps {steps} bearing {k}: stride {stride}, Nyquist ratio {nyquist:.3}, ratio {r} from {n} tail samples vs {r0} (diff {:.2e}, grid step {:.2e})",
+                (r - r0).abs(),
+                0.25 / revs
             );
         }
         // The variant's ratio is that of the bearing with the largest amplitude.
