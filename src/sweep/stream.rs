@@ -55,9 +55,10 @@ pub const EARLY_END_RECORD: usize = 1 << 14;
 /// is, [`crate::budget::MemoryBudget::sample_cap`]). 2^16 samples: 12.6 MB for a
 /// two-bearing variant (24 numbers of 8 B); a window of up to 6.5 s at the example
 /// sweeps' 1e-4 s sample interval is kept whole, a longer one keeps 32 768 to 65 536
-/// samples (stride 2, 4, ...), whose means and extremes differ from every sample's by
-/// about 1e-7 and 1e-5 (relative; BENCHMARKS.md "Issue 21"). So a variant's memory
-/// depends on the spec and this constant, not on `t_end` or `--max-memory`.
+/// samples (stride 2, 4, ...), whose means and min/max differ from every sample's by
+/// 7e-7 and 2.2e-6 (relative) at stride 4, 5e-5 and 1.2e-4 at stride 128 against 16
+/// (BENCHMARKS.md "Issue 21"). So a variant's memory depends on the spec and this
+/// constant, not on `t_end` or `--max-memory`.
 pub const WINDOW_SAMPLES: usize = 1 << 16;
 
 /// Samples of a fraction window's end kept at the full sample rate for the whirl
