@@ -11,15 +11,20 @@ use std::collections::BTreeSet;
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::Accuracy;
 use bearing_sweep::sweep::reduce::{
-    kept_series, reduce, ReductionOptions, SeriesGroup, Span, Window,
+    kept_series, reduce, stats, whirl, ReductionOptions, SeriesGroup, Span, Window,
 };
 use bearing_sweep::sweep::rotor_sim::RotorSimulator;
 use bearing_sweep::sweep::runner::{BatchSimulator, Outcome, VariantJob};
-use bearing_sweep::sweep::stream::EARLY_END_RECORD;
+use bearing_sweep::sweep::stream::{EARLY_END_RECORD, WHIRL_TAIL, WINDOW_SAMPLES};
 use serde_json::{json, Value};
 
 /// Step limit of the early-ended runs (tuned so the run has more samples than the record).
 const STEPS: u64 = 20_000;
+
+/// Step limit of the coarse-record whirl run (tuned so its record's stride, at 1e-2 s
+/// samples and a 4096-sample record, is 2 or more: a Nyquist limit below `max_ratio`;
+/// twice as many steps give stride 4 and a limit below the synchronous whirl).
+const WHIRL_STEPS: u64 = 200_000;
 
 /// The paper rotor (sweeps/clearance-viscosity.json's base) at `clearance` m for `t_end` s,
 /// samples every 5e-4 s, at most `max_steps` steps.
@@ -291,6 +296,40 @@ fn record_tolerance(path: &str) -> Option<(f64, bool)> {
     }
 }
 
+/// Checks every number of `got` (reductions from decimated samples) against `exact`'s
+/// within [`record_tolerance`]; returns how many were compared.
+fn within_record_tolerance(at: &str, got: &Value, exact: &Value) -> usize {
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    leaves("", &got, &mut a);
+    leaves("", &exact, &mut b);
+    let mut compared = 0;
+    for (path, y) in &b {
+        let Some((tol, relative)) = record_tolerance(path) else {
+            continue;
+        };
+        let x = a
+            .iter()
+            .find(|(p, _)| p == path)
+            .unwrap_or_else(|| panic!("{path} missing"))
+            .1;
+        let scale = if path.contains("orbit.") {
+            // The orbit's radius (exact).
+            let radius = format!("{}.radius_m", path.rsplit_once('.').unwrap().0);
+            b.iter().find(|(p, _)| *p == radius).unwrap().1
+        } else if relative {
+            y.abs()
+        } else {
+            1.0
+        };
+        assert!(
+            (x - y).abs() <= tol * scale,
+            "{at}: {path}: from the record {x}, exact {y} (tolerance {tol} x {scale})"
+        );
+        compared += 1;
+    }
+    compared
+}
+
 #[test]
 fn early_ended_fraction_window_comes_from_a_bounded_record() {
     // The paper rotor sampled every 1e-4 s towards t_end = 1000 s, stopped by the step
@@ -323,40 +362,13 @@ fn early_ended_fraction_window_comes_from_a_bounded_record() {
         assert!(record <= EARLY_END_RECORD + 1, "record of {record} samples");
         assert!(w["sample_stride"].as_u64().unwrap() >= 4, "{w}");
         held.push(red.peak_stored_samples);
-        let (mut a, mut b) = (Vec::new(), Vec::new());
-        leaves("", &got, &mut a);
-        leaves("", &exact, &mut b);
-        let mut compared = 0;
-        for (path, y) in &b {
-            let Some((tol, relative)) = record_tolerance(path) else {
-                continue;
-            };
-            let x = a
-                .iter()
-                .find(|(p, _)| p == path)
-                .unwrap_or_else(|| panic!("{path} missing"))
-                .1;
-            let scale = if path.contains("orbit.") {
-                // The orbit's radius (exact).
-                let radius = format!("{}.radius_m", path.rsplit_once('.').unwrap().0);
-                b.iter().find(|(p, _)| *p == radius).unwrap().1
-            } else if relative {
-                y.abs()
-            } else {
-                1.0
-            };
-            assert!(
-                (x - y).abs() <= tol * scale,
-                "steps {steps}: {path}: from the record {x}, exact {y} (tolerance {tol} x {scale})"
-            );
-            compared += 1;
-        }
+        let compared = within_record_tolerance(&format!("steps {steps}"), &got, &exact);
         assert!(compared > 60, "{compared} numbers compared");
     }
-    // The record and its latest sample; the tail (the window of a run that reaches
-    // t_end = 1000 s starts at 500 s) holds nothing.
+    // The record and its latest sample and the full-rate end for the whirl; the tail
+    // (the window of a run that reaches t_end = 1000 s starts at 500 s) holds nothing.
     for h in &held {
-        assert!(*h <= EARLY_END_RECORD + 1, "held {h} samples");
+        assert!(*h <= EARLY_END_RECORD + 1 + WHIRL_TAIL, "held {h} samples");
     }
     assert_eq!(held[0], held[1], "held samples grew with the run: {held:?}");
 }
@@ -401,9 +413,162 @@ fn default_window_held_samples_do_not_grow_with_t_end() {
         "held samples grew with t_end: {short} at 4 s, {long} at 16 s (allowed 1.1x)"
     );
     assert!(
-        long <= 2 * 4096 + 2,
-        "held {long}: over the tail's and record's caps"
+        long <= 3 * 4096 + 2,
+        "held {long}: over the tail's, record's and full-rate end's caps"
     );
+}
+
+#[test]
+fn fraction_window_is_held_up_to_a_constant_not_the_budget() {
+    // One variant of 140 001 samples (14 s every 1e-4 s) reaching t_end: its half-run
+    // window (70 001 samples) is over WINDOW_SAMPLES, so it is kept every other sample
+    // whatever the budget (the 2 GiB default's cap is 2^22 samples, 64 GiB's 2^27), and
+    // the held samples are the same under both. Against every sample (stored), the
+    // decimated window's reductions are within the record's tolerances.
+    let opts = ReductionOptions::default();
+    let mut s = scene(3e-4, 14.0, 10_000_000);
+    s["integrator"]["sample_interval"] = json!(1e-4);
+    let stored = run(std::slice::from_ref(&s), None);
+    let samples = stored[0].signals.as_ref().unwrap().t.len();
+    assert!(samples / 2 > WINDOW_SAMPLES, "{samples} samples");
+    let exact = serde_json::to_value(reduce(stored[0].signals.as_ref().unwrap(), &opts)).unwrap();
+    let mut held = Vec::new();
+    for budget in [None, Some(64 << 30)] {
+        let o = run_within(std::slice::from_ref(&s), Some(&opts), budget);
+        assert_eq!(o[0].status, "ok", "{:?}", o[0].message);
+        let red = o[0].reduced.as_ref().unwrap();
+        held.push(red.peak_stored_samples);
+        let got = serde_json::to_value(&red.reductions).unwrap();
+        assert_eq!(
+            got["window"]["sample_stride"],
+            json!(2),
+            "{}",
+            got["window"]
+        );
+        assert!(got["window"].get("record_samples").is_none());
+        let compared = within_record_tolerance(&format!("budget {budget:?}"), &got, &exact);
+        assert!(compared > 60, "{compared} numbers compared");
+        // Not alias-limited at stride 2: the whirl is the window's, not the tail's.
+        for b in got["bearings"].as_array().unwrap() {
+            assert!(b["whirl"].get("samples").is_none(), "{}", b["whirl"]);
+        }
+    }
+    assert_eq!(held[0], held[1], "held samples follow the budget: {held:?}");
+    // The tail (at most WINDOW_SAMPLES + 1 and the latest sample), the record and the
+    // full-rate end, all three bounded by constants.
+    assert!(
+        held[0] <= WINDOW_SAMPLES + 2 + EARLY_END_RECORD + 1 + WHIRL_TAIL,
+        "held {held:?}"
+    );
+}
+
+#[test]
+fn coarse_record_takes_the_whirl_from_the_full_rate_tail() {
+    // A long run ended early by the step limit under a budget whose sample cap is the
+    // floor (4096): its record is decimated to a stride whose Nyquist limit is below
+    // the synchronous whirl (ratio 1), so the whirl comes from the full-rate end of the
+    // window (4096 samples here) and says so; its ratio is the one of every stored
+    // sample within the tail spectrum's grid step, and the search reaches max_ratio.
+    // Two step limits: the held samples do not grow with the run.
+    let opts = ReductionOptions::default();
+    let tiny = Some(2 << 20);
+    let mut held = Vec::new();
+    for steps in [WHIRL_STEPS, 2 * WHIRL_STEPS] {
+        let mut s = scene(3e-4, 1000.0, steps);
+        s["integrator"]["sample_interval"] = json!(1e-2);
+        s["integrator"]["rtol"] = json!(1e-4);
+        let o = run_within(std::slice::from_ref(&s), Some(&opts), tiny);
+        assert_ne!(o[0].status, "ok", "the step limit ends the run");
+        let red = o[0].reduced.as_ref().unwrap();
+        held.push(red.peak_stored_samples);
+        let got = serde_json::to_value(&red.reductions).unwrap();
+        let stride = got["window"]["sample_stride"].as_u64().expect("decimated") as f64;
+        let stored = run(&[s], None);
+        let signals = stored[0].signals.as_ref().unwrap();
+        let exact = serde_json::to_value(reduce(signals, &opts)).unwrap();
+        for (k, b) in got["bearings"].as_array().unwrap().iter().enumerate() {
+            let w = &b["whirl"];
+            let want = &exact["bearings"][k]["whirl"];
+            // The kept samples' Nyquist ratio (as `whirl` computes it, with its 10 %
+            // margin) is below max_ratio (2.5), and for the longer run below the whirl:
+            // searched from them, ratio 1 would be missed.
+            let ew = &exact["window"];
+            let spin = std::f64::consts::TAU * ew["revolutions"].as_f64().unwrap()
+                / (ew["t_end_s"].as_f64().unwrap() - ew["t_start_s"].as_f64().unwrap());
+            let nyquist = 0.9 * std::f64::consts::PI / (stride * 1e-2 * spin);
+            let below = if steps > WHIRL_STEPS { 1.0 } else { 2.5 };
+            assert!(
+                nyquist < below,
+                "steps {steps} bearing {k}: Nyquist {nyquist}"
+            );
+            let n = w["samples"].as_u64().expect("whirl from the tail") as usize;
+            // The full-rate end (4096 samples at this budget's cap) inside the window
+            // (from its first kept sample: at most a stride after the exact start).
+            let full = exact["window"]["samples"].as_u64().unwrap() as usize;
+            let want_n = full.min(4096);
+            assert!(
+                n <= want_n && n + stride as usize >= want_n,
+                "{n} tail samples, expected {want_n}: {w}"
+            );
+            assert!(w.get("searched_up_to_ratio").is_none(), "{w}");
+            assert!(want.get("searched_up_to_ratio").is_none(), "{want}");
+            // The tail spectrum's grid step, 1 / (4 revolutions of the tail).
+            let revs = spin
+                * (got["window"]["t_end_s"].as_f64().unwrap() - w["t_start_s"].as_f64().unwrap())
+                / std::f64::consts::TAU;
+            let (r, r0) = (
+                w["ratio"].as_f64().unwrap(),
+                want["ratio"].as_f64().unwrap(),
+            );
+            assert!(
+                (r - r0).abs() <= 0.25 / revs,
+                "steps {steps} bearing {k}: whirl ratio {r} from the tail, {r0} exact ({revs} revolutions)"
+            );
+            // The same spectrum from the stored samples of the tail's span: every number
+            // of the whirl equal (the ring holds exactly those samples). Its amplitude is
+            // the tail's own: the whole window's peak is lower where the spin, and with it
+            // the synchronous whirl, drifts over the window (0.74 relative at 400 000 steps).
+            let t = &signals.t;
+            let from = t.partition_point(|&x| x < w["t_start_s"].as_f64().unwrap());
+            let spin_mean = stats(&t[from..], &signals.spin[from..]).unwrap().mean;
+            let b = &signals.bearings[k];
+            let mut by_hand = whirl(
+                &t[from..],
+                &b.xi[from..],
+                &b.yi[from..],
+                spin_mean,
+                b.clearance_m,
+                &opts.whirl,
+            )
+            .expect("a whirl over the tail");
+            by_hand.samples = Some(t.len() - from);
+            by_hand.t_start_s = Some(t[from]);
+            same(
+                &format!("steps {steps} bearing {k}: tail whirl"),
+                w,
+                &serde_json::to_value(by_hand).unwrap(),
+            );
+            eprintln!(
+                "steps {steps} bearing {k}: stride {stride}, Nyquist ratio {nyquist:.3}, ratio {r} from {n} tail samples vs {r0} (diff {:.2e}, grid step {:.2e})",
+                (r - r0).abs(),
+                0.25 / revs
+            );
+        }
+        // The variant's ratio is that of the bearing with the largest amplitude.
+        let largest = got["bearings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|b| &b["whirl"])
+            .fold(None::<&Value>, |best, w| match best {
+                Some(b) if b["amplitude_m"].as_f64() >= w["amplitude_m"].as_f64() => Some(b),
+                _ => Some(w),
+            })
+            .unwrap();
+        assert_eq!(got["whirl_ratio"], largest["ratio"]);
+    }
+    assert_eq!(held[0], held[1], "held samples grew with the run: {held:?}");
+    assert!(held[0] <= 3 * 4096 + 2, "held {held:?}");
 }
 
 /// The oil-whirl scene (sweeps/oil-whirl.json) for `t_end` s with both bearings on the

@@ -169,6 +169,14 @@ pub struct Whirl {
     /// not searched rather than reported wrong.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub searched_up_to_ratio: Option<f64>,
+    /// Present when the window's kept samples were decimated so far that its search
+    /// would stop below `max_ratio`: the whirl was then taken from the window's last
+    /// samples at the full sample rate (`super::stream::WHIRL_TAIL` at most), this many.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// With `samples`: the first of those full-rate samples, s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub t_start_s: Option<f64>,
 }
 
 /// The window actually used.
@@ -310,6 +318,8 @@ impl Reductions {
                     subsync_amplitude_m: 0.0,
                     oil_whirl: false,
                     searched_up_to_ratio: Some(2.5),
+                    samples: Some(0),
+                    t_start_s: Some(0.0),
                 }),
                 film: Some(FilmReduction {
                     friction_torque_nm: stats,
@@ -672,6 +682,69 @@ pub fn reduce_tail(s: &Signals, run: &RunTotals, opts: &ReductionOptions) -> Red
         whirl_ratio: best_whirl.map(|(r, _)| r),
         oil_whirl: oil,
         bearings,
+    }
+}
+
+/// The end of a window at the full sample rate: its times, spin and each bearing's
+/// journal centre at the end face `z = 0` (what the whirl spectrum reads). SI units.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WhirlSamples {
+    /// Sample times, s, increasing.
+    pub t: Vec<f64>,
+    /// Spin, rad/s.
+    pub spin: Vec<f64>,
+    /// Per bearing `(x, y)` of the journal centre, m.
+    pub centres: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
+/// Replaces the whirl of each bearing whose search over the window's decimated samples
+/// stopped below `max_ratio` (`searched_up_to_ratio` present) by the whirl of `tail`,
+/// the window's last samples at the full rate, from the window's start on (`ratio`
+/// then over the tail's own mean spin; `samples` and `t_start_s` say so), when the tail
+/// is at least a revolution long. `whirl_ratio` and `oil_whirl` are recomputed as
+/// [`reduce_tail`] computes them. `clearances_m`: per bearing, m.
+pub fn whirl_from_tail(
+    r: &mut Reductions,
+    tail: &WhirlSamples,
+    clearances_m: &[f64],
+    opts: &ReductionOptions,
+) {
+    let Some(window) = r.window else {
+        return;
+    };
+    let from = tail.t.partition_point(|&t| t < window.t_start_s);
+    let t = &tail.t[from..];
+    let Some(spin_mean) = stats(t, &tail.spin[from..]).map(|st| st.mean) else {
+        return;
+    };
+    let mut changed = false;
+    for (k, b) in r.bearings.iter_mut().enumerate() {
+        let limited = b.whirl.is_some_and(|w| w.searched_up_to_ratio.is_some());
+        let (Some((x, y)), Some(&clearance)) = (tail.centres.get(k), clearances_m.get(k)) else {
+            continue;
+        };
+        if !limited {
+            continue;
+        }
+        let full = whirl(t, &x[from..], &y[from..], spin_mean, clearance, &opts.whirl);
+        if let Some(mut w) = full {
+            w.samples = Some(t.len());
+            w.t_start_s = t.first().copied();
+            b.whirl = Some(w);
+            changed = true;
+        }
+    }
+    if changed {
+        // As `reduce_tail`: the ratio of the largest amplitude (the first of equals).
+        let mut best: Option<(f64, f64)> = None;
+        r.oil_whirl = false;
+        for w in r.bearings.iter().filter_map(|b| b.whirl) {
+            r.oil_whirl |= w.oil_whirl;
+            if best.is_none_or(|(_, a)| w.amplitude_m > a) {
+                best = Some((w.ratio, w.amplitude_m));
+            }
+        }
+        r.whirl_ratio = best.map(|(ratio, _)| ratio);
     }
 }
 

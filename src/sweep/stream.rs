@@ -8,21 +8,27 @@
 //! - A window given as a fraction of the run (`{"fraction": f}`, the default) starts at
 //!   `t_last − f (t_last − t0)`, known in advance for a run that reaches `t_end`
 //!   (`t_last` its last sample time): the tail keeps the samples from there on (every
-//!   one up to the batch's sample cap, the decimating store's, then every other, ...),
-//!   so a run that reaches `t_end` gets the reductions of every sample whenever the
-//!   stored samples would not have been decimated. A run that ends early (step limit,
+//!   one up to [`WINDOW_SAMPLES`], or the batch's sample cap where lower, then every
+//!   other, ...), so a run that reaches `t_end` gets the reductions of every sample
+//!   whenever its window has at most that many. A run that ends early (step limit,
 //!   failure, stop event) has a window not known in advance: it is reduced from a
 //!   decimating record of the whole run ([`EARLY_END_RECORD`] samples at most); its
 //!   `window.record_samples` and `window.sample_stride` say so when that record was
 //!   decimated.
+//! - Beside them a fraction window keeps its last [`WHIRL_TAIL`] samples at the full rate
+//!   (time, spin, journal centres): when the window's kept samples are so coarse that
+//!   the whirl search would stop below `max_ratio` (aliasing), each bearing's whirl is
+//!   taken from that tail instead ([`super::reduce::whirl_from_tail`]).
 //!
-//! Memory follows what the spec keeps, not `t_end` (`tests/sweep_stream.rs`).
+//! Memory follows what the spec keeps and these constants, not `t_end` or the memory
+//! budget (the budget's sample cap only lowers them; `tests/sweep_stream.rs`).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, VecDeque};
 
+use super::reduce::whirl_from_tail;
 use super::reduce::{
     angle_step, decimate_indices, kept_series_from, reduce_tail, BearingSignals, ReductionOptions,
-    Reductions, RunTotals, SeriesGroup, Signals, Span, Window,
+    Reductions, RunTotals, SeriesGroup, Signals, Span, WhirlSamples, Window,
 };
 use crate::rotor::{Sample, SampleObserver, Scene};
 use serde_json::Value;
@@ -43,6 +49,25 @@ pub const RUN_SERIES_FALLBACK: usize = 4096;
 /// budget's cap for a 256-variant CPU batch at 2 GiB; a half-run window then keeps 4 096
 /// to 8 192 samples, the decimating store's floor ([`crate::budget::MIN_SAMPLE_CAP`]).
 pub const EARLY_END_RECORD: usize = 1 << 14;
+
+/// Most samples a fraction window's tail holds per variant: every sample of the window
+/// up to this many, then every other one, and so on (lower where the batch's sample cap
+/// is, [`crate::budget::MemoryBudget::sample_cap`]). 2^16 samples: 12.6 MB for a
+/// two-bearing variant (24 numbers of 8 B); a window of up to 6.5 s at the example
+/// sweeps' 1e-4 s sample interval is kept whole, a longer one keeps 32 768 to 65 536
+/// samples (stride 2, 4, ...), whose means and min/max differ from every sample's by
+/// 7e-7 and 2.2e-6 (relative) at stride 4, 5e-5 and 1.2e-4 at stride 128 against 16
+/// (BENCHMARKS.md "Issue 21"). So a variant's memory depends on the spec and this
+/// constant, not on `t_end` or `--max-memory`.
+pub const WINDOW_SAMPLES: usize = 1 << 16;
+
+/// Samples of a fraction window's end kept at the full sample rate for the whirl
+/// spectrum (a ring buffer of time, spin and each bearing's journal centre), used when
+/// the window's kept samples are decimated beyond the search's Nyquist limit (lower
+/// where the batch's sample cap is). 2^14 samples: 1.6 s, 26 revolutions at the example
+/// sweeps' 1e-4 s and 100 rad/s (docs/outputs.md asks 10+ revolutions of a whirl
+/// study), 0.8 MB for a two-bearing variant (6 numbers of 8 B).
+pub const WHIRL_TAIL: usize = 1 << 14;
 
 /// The running reductions of one rotor variant (see the module doc).
 #[derive(Clone, Debug)]
@@ -74,6 +99,54 @@ struct FractionWindow {
     tail: Decimating,
     /// The whole run, decimated beyond [`EARLY_END_RECORD`].
     record: Decimating,
+    /// The last [`WHIRL_TAIL`] samples at the full rate, for the whirl.
+    ring: WhirlRing,
+}
+
+/// The latest samples (at most `cap`) of what the whirl spectrum reads, every one.
+#[derive(Clone, Debug)]
+struct WhirlRing {
+    cap: usize,
+    t: VecDeque<f64>,
+    spin: VecDeque<f64>,
+    /// Per bearing, the journal centre at `z = 0`.
+    centres: Vec<(VecDeque<f64>, VecDeque<f64>)>,
+}
+
+impl WhirlRing {
+    fn new(scene: &Scene, cap: usize) -> Self {
+        WhirlRing {
+            cap: cap.max(1),
+            t: VecDeque::new(),
+            spin: VecDeque::new(),
+            centres: vec![(VecDeque::new(), VecDeque::new()); scene.bearings.len()],
+        }
+    }
+
+    fn observe(&mut self, x: &Sample<'_>) {
+        let full = self.t.len() >= self.cap;
+        let put = |v: &mut VecDeque<f64>, a: f64| {
+            if full {
+                v.pop_front();
+            }
+            v.push_back(a);
+        };
+        put(&mut self.t, x.t);
+        put(&mut self.spin, x.spin);
+        for ((cx, cy), b) in self.centres.iter_mut().zip(x.bearings) {
+            put(cx, b.xi);
+            put(cy, b.yi);
+        }
+    }
+
+    fn samples(&self) -> WhirlSamples {
+        let v = |d: &VecDeque<f64>| d.iter().copied().collect::<Vec<_>>();
+        WhirlSamples {
+            t: v(&self.t),
+            spin: v(&self.spin),
+            centres: self.centres.iter().map(|(x, y)| (v(x), v(y))).collect(),
+        }
+    }
 }
 
 /// Samples kept every `stride`-th (counted from the first one it saw) at most `cap`
@@ -103,6 +176,10 @@ impl Decimating {
 
     fn observe(&mut self, x: &Sample<'_>) {
         if self.seen.is_multiple_of(self.stride) {
+            if len(&self.kept) == self.cap {
+                // The one sample over the cap, without doubling the columns' capacity.
+                each_column(&mut self.kept, &mut |c| c.reserve_one());
+            }
             push(&mut self.kept, x, self.keep.as_ref());
             // Every sample while at most `cap`: exact for runs that short.
             if len(&self.kept) > self.cap {
@@ -226,6 +303,8 @@ fn each_column(s: &mut Signals, f: &mut dyn FnMut(&mut dyn Column)) {
 trait Column {
     fn drain_front(&mut self, n: usize);
     fn keep_even(&mut self);
+    /// Room for one more element, exactly, when full.
+    fn reserve_one(&mut self);
 }
 
 impl<T> Column for Vec<T> {
@@ -239,6 +318,11 @@ impl<T> Column for Vec<T> {
             k % 2 == 1
         });
     }
+    fn reserve_one(&mut self) {
+        if !self.is_empty() && self.len() == self.capacity() {
+            self.reserve_exact(1);
+        }
+    }
 }
 
 fn len(s: &Signals) -> usize {
@@ -247,8 +331,9 @@ fn len(s: &Signals) -> usize {
 
 impl RunReducer {
     /// The reducer of a variant running `scene` under `opts`; `cap`: the batch's sample
-    /// cap ([`crate::rotor::sample_cap`]), the most samples a fraction window's tail keeps
-    /// before it is decimated.
+    /// cap ([`crate::rotor::sample_cap`]), a ceiling on what a fraction window holds
+    /// (its tail [`WINDOW_SAMPLES`], record [`EARLY_END_RECORD`] and full-rate end
+    /// [`WHIRL_TAIL`], each lowered to `cap`).
     pub fn new(scene: &Scene, opts: &ReductionOptions, cap: usize) -> Self {
         let settings = crate::rotor::settings_of(scene);
         let n = crate::integrate::sample_count(&settings);
@@ -271,8 +356,9 @@ impl RunReducer {
                 dt: settings.sample_interval,
                 keep_from: f64::NEG_INFINITY,
                 skipped: 0,
-                tail: Decimating::new(scene, cap, None),
+                tail: Decimating::new(scene, WINDOW_SAMPLES.min(cap), None),
                 record: Decimating::new(scene, EARLY_END_RECORD.min(cap), None),
+                ring: WhirlRing::new(scene, WHIRL_TAIL.min(cap)),
             }),
             _ => None,
         };
@@ -302,7 +388,7 @@ impl RunReducer {
             + self
                 .fraction
                 .as_ref()
-                .map_or(0, |w| w.tail.stored() + w.record.stored())
+                .map_or(0, |w| w.tail.stored() + w.record.stored() + w.ring.t.len())
     }
 
     /// First tail sample that a later end of the run can still need in its window (one
@@ -365,6 +451,12 @@ impl RunReducer {
             w.sample_stride = (stride > 1).then_some(stride);
             w.record_samples = record;
         }
+        if let (Some(f), true) = (&self.fraction, stride > 1) {
+            // Decimated: a whirl search stopped short by the kept samples' Nyquist limit
+            // is redone on the window's end at the full rate.
+            let clearances: Vec<f64> = window.bearings.iter().map(|b| b.clearance_m).collect();
+            whirl_from_tail(&mut reductions, &f.ring.samples(), &clearances, opts);
+        }
         let series = match &self.run_series {
             Some(r) if r.picks.len() == r.next_pick && self.totals.samples == r.full_count() => {
                 kept_series_from(&r.picked, 0, opts)
@@ -400,6 +492,7 @@ impl FractionWindow {
             self.skipped += 1;
         }
         self.record.observe(x);
+        self.ring.observe(x);
     }
 
     /// The samples the window is reduced from, their stride, and the record's sample

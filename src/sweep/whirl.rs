@@ -183,5 +183,7 @@ pub fn whirl(
         subsync_amplitude_m: fin(sub_a)?,
         oil_whirl: oil,
         searched_up_to_ratio: (r_max < opts.max_ratio).then_some(r_max),
+        samples: None,
+        t_start_s: None,
     })
 }
