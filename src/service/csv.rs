@@ -10,6 +10,9 @@ use std::collections::HashMap;
 
 use serde_json::Value;
 
+use super::store::{for_each_variant_line, Store, StoreError};
+use crate::sweep::job::light_line;
+
 /// Unit suffixes of column names, with what they mean (docs/outputs.md lists them).
 pub const UNIT_SUFFIXES: &[(&str, &str)] = &[
     ("_m", "metres"),
@@ -271,6 +274,22 @@ fn field(v: &Value) -> String {
     } else {
         text
     }
+}
+
+/// The CSV of every variant of stored sweep `id` (the `?format=csv` export; offset and
+/// limit do not apply): its lines read a page at a time, each kept without its series.
+pub fn sweep_csv(store: &dyn Store, id: &str) -> Result<String, StoreError> {
+    let mut lines = Vec::new();
+    for_each_variant_line(
+        store,
+        id,
+        &mut |_, line| {
+            lines.push(light_line(line));
+            Ok(())
+        },
+        |e| e,
+    )?;
+    Ok(variants_csv(&lines))
 }
 
 /// The CSV of variant lines (compact JSON, id order): comment lines with the constant

@@ -941,23 +941,8 @@ async fn sweep_variants(
     let r = row_or_404(&st, &id).await?;
     let store = st.store.clone();
     if csv_wanted {
-        // Every variant (offset/limit apply to JSON pages only): one flat row each.
-        // The CSV has no series: lines are kept without them (a page at a time), and
-        // the text goes out in chunks.
         return stream_blocking("text/csv; charset=utf-8", move |w| {
-            let mut lines = Vec::new();
-            let mut at = 0;
-            loop {
-                let page = store.variant_lines(&r.id, at, MAX_PAGE)?;
-                let n = page.len() as u64;
-                lines.extend(page.into_iter().map(|(_, l)| without_series(l)));
-                if n < MAX_PAGE {
-                    break;
-                }
-                at += n;
-            }
-            let text = csv::variants_csv(&lines);
-            drop(lines);
+            let text = csv::sweep_csv(store.as_ref(), &r.id)?;
             w.write_all(text.as_bytes())
                 .map_err(|e| ApiError::internal(format!("streaming: {e}")))
         })
@@ -967,22 +952,6 @@ async fn sweep_variants(
     let page = blocking(move || Ok(store.variant_lines(&r.id, offset, limit)?)).await?;
     let body = crate::sweep::job::variant_page(offset, total, &page);
     Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
-}
-
-/// A variant line without its `series` (what the CSV leaves out anyway).
-fn without_series(line: String) -> String {
-    if !line.contains("\"series\"") {
-        return line;
-    }
-    match serde_json::from_str::<Value>(&line) {
-        Ok(mut v) => {
-            if let Some(o) = v.as_object_mut() {
-                o.remove("series");
-            }
-            v.to_string()
-        }
-        Err(_) => line,
-    }
 }
 
 /// Names of a sweep's figures.

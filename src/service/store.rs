@@ -331,19 +331,30 @@ impl VariantSink for StoreSink {
         &mut self,
         f: &mut dyn FnMut(u64, &str) -> Result<(), SweepError>,
     ) -> Result<(), SweepError> {
-        let mut offset = 0;
-        loop {
-            let page = self
-                .store
-                .variant_lines(&self.id, offset, PAGE)
-                .map_err(sweep_error)?;
-            for (id, line) in &page {
-                f(*id, line)?;
-            }
-            if (page.len() as u64) < PAGE {
-                return Ok(());
-            }
-            offset += PAGE;
+        for_each_variant_line(self.store.as_ref(), &self.id, f, sweep_error)
+    }
+}
+
+/// Calls `f` on every committed variant line of sweep `id`, in id order, fetching
+/// [`PAGE`] lines per store call (so at most one page is held); stops at `f`'s first
+/// error, and maps the store's own errors with `store_error`.
+pub fn for_each_variant_line<E>(
+    store: &dyn Store,
+    id: &str,
+    f: &mut dyn FnMut(u64, &str) -> Result<(), E>,
+    store_error: impl Fn(StoreError) -> E,
+) -> Result<(), E> {
+    let mut offset = 0;
+    loop {
+        let page = store
+            .variant_lines(id, offset, PAGE)
+            .map_err(&store_error)?;
+        for (variant, line) in &page {
+            f(*variant, line)?;
         }
+        if (page.len() as u64) < PAGE {
+            return Ok(());
+        }
+        offset += PAGE;
     }
 }

@@ -152,6 +152,15 @@ pub fn light_variant(line: &str) -> Option<Value> {
     serde_json::from_str::<Value>(line).ok().map(without_series)
 }
 
+/// A variant line without its series, as text: the line itself when it has none or is
+/// not JSON (the CSV export reads these; parsing only the lines that carry a series).
+pub fn light_line(line: &str) -> String {
+    if !line.contains("\"series\"") {
+        return line.to_string();
+    }
+    light_variant(line).map_or_else(|| line.to_string(), |v| v.to_string())
+}
+
 /// A page of variant lines as the JSON object `{"offset", "total", "variants": [...]}`
 /// (compact), the lines as stored: their numbers are not re-encoded.
 pub fn variant_page(offset: u64, total: u64, lines: &[(u64, String)]) -> String {
