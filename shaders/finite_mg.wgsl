@@ -765,7 +765,9 @@ fn loads(l: u32) -> array<f64, 4> {
         let i = k % nt;
         var w: f64 = 1.0;
         if simpson {
-            w = select(2.0 / 3.0, 4.0 / 3.0, j % 2u == 1u);
+            let even: f64 = 2.0 / 3.0;
+            let odd: f64 = 4.0 / 3.0;
+            w = select(even, odd, j % 2u == 1u);
         }
         let v = w * scr[at(l, A_P, k)];
         let t = trig_at(l, 2u * i);
