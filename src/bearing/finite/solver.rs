@@ -228,6 +228,14 @@ pub struct FiniteSolver {
     sin: Vec<f64>,
     /// Scratch of the JFO solver (issue 27).
     jfo: super::jfo::JfoSolver,
+    /// Accuracy mode with the loads summed by the rectangle rule and the
+    /// measured-contraction estimate ([`ladder_estimate`]), as before issue 20 pass 4:
+    /// what the finite-film coefficients and equilibria use to choose their held grid
+    /// (src/stability/coefficients.rs), whose coefficient error model is calibrated on that
+    /// ladder's convergence (with Simpson sums its half/quarter-grid tail was measured 10 %
+    /// short at accuracy 1e-2). Held grids ([`FiniteSettings::held_grid`]) always sum this
+    /// way. Default false: Simpson's rule in ζ ([`ladder_integrals_on`]).
+    pub rectangle_ladder: bool,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -371,7 +379,12 @@ impl FiniteSolver {
     ) -> (FilmIntegrals, SolveReport) {
         let ladder = accuracy_ladder(job.aspect);
         let stop = Stop::Loads((ALGEBRAIC_FRACTION * target).max(g.tolerance));
-        let mut values = vec![self.ladder_start(job, g, stop).integrals];
+        // Held grids (coefficients and equilibria) sum by the rectangle rule, as before
+        // issue 20 pass 4 (see `FiniteSolver::rectangle_ladder`).
+        let keep = std::mem::replace(&mut self.rectangle_ladder, true);
+        let start = self.ladder_start(job, g, stop);
+        self.rectangle_ladder = keep;
+        let mut values = vec![start.integrals];
         let mut top_nt = self.mg.levels.last().map_or(0, |l| l.nt);
         for &dims in &ladder[1..] {
             if top_nt >= g.n_theta {
@@ -388,7 +401,7 @@ impl FiniteSolver {
         let last = self.mg.levels[top].loads(self.mg.theta0, self.mg.simpson_z);
         *values.last_mut().expect("at least one grid") = last;
         let estimate = if g.layout.is_empty() {
-            simpson_estimate(&values)
+            ladder_estimate(&values)
         } else {
             banded_estimate(&values)
         }
@@ -476,7 +489,7 @@ impl FiniteSolver {
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
         // banded estimate is calibrated on it (tests/grooves.rs).
-        self.mg.simpson_z = g.layout.is_empty();
+        self.mg.simpson_z = g.layout.is_empty() && !self.rectangle_ladder;
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
         let top = self.mg.levels.len() - 1;
         let res = self.fmg(job.aspect, top, stop);
@@ -612,10 +625,12 @@ impl FiniteSolver {
             let step = self.ladder_next(job, g, dims, stop);
             values.push(step.integrals);
             steps.push(step);
-            let est = if g.layout.is_empty() {
+            let est = if !g.layout.is_empty() {
+                banded_estimate(&values)
+            } else if self.mg.simpson_z {
                 simpson_estimate(&values)
             } else {
-                banded_estimate(&values)
+                ladder_estimate(&values)
             };
             if let Some(e) = est {
                 estimate = e;
