@@ -839,8 +839,8 @@ pub fn banded_estimate(values: &[FilmIntegrals]) -> Option<f64> {
 /// rule in ζ, [`ladder_integrals_on`]): `|v₀ − v₋₁| / 3` relative to `|v₀|`, the
 /// Richardson estimate at second order. With the ζ quadrature's `Δζ²` error removed, what
 /// is left is the field's own second-order discretisation error, mostly from ζ on the
-/// ladder's grids (issue 20 pass 4, examples/zeta_probe.rs: at B/D = 0.5 refining θ alone
-/// changes it by ≤ 10 %, refining ζ alone divides it by ~4). The measured contraction of
+/// ladder's grids (issue 20 pass 4, examples/zeta_probe.rs, B/D = 0.5, 128 × 16: refining
+/// θ alone does not reduce it, 0.95-2×, refining ζ alone divides it by 1.2-12). The measured contraction of
 /// [`ladder_estimate`] is not used: on these small errors it is often pre-asymptotic and
 /// gave up to 40 × the true error, the fixed second order 0.37-1.7 × (tests/
 /// finite_accuracy.rs checks 1/3-3 ×). `None` below three grids (the first pair, 16 × 2
