@@ -400,3 +400,49 @@ fn default_accuracy_median_state_costs_no_more_than_old_default() {
          PSOR state's {old_mean}"
     );
 }
+
+/// The accuracy ladder's load sum (issue 20 pass 4): Simpson's rule in ζ, the rectangle
+/// rule in θ, on fields given in closed form. `P = ζ(1 − ζ)(1 + cos θ)` (zero on the end
+/// rows, as every film): exact, `−⅓ (π/6, 0, π/12, 0)`, where the rectangle rule in ζ is
+/// off by `Δζ²` relative; `P = ζ²(1 − ζ)²(1 + cos θ)`: fourth order (error ×1/16 per
+/// halving of Δζ; Simpson's `Δζ⁴/180 (f‴(1) − f‴(0))` = `2Δζ⁴/15` on `∫ζ²(1−ζ)² = 1/30`).
+#[test]
+fn ladder_load_sum_is_simpson_in_zeta() {
+    use bearing_sweep::bearing::finite::ladder_integrals_on;
+    use std::f64::consts::PI;
+    let field = |nt: usize, nz: usize, theta0: f64, f: &dyn Fn(f64) -> f64| {
+        let mut p = vec![0.0; nt * (nz + 1)];
+        for j in 0..=nz {
+            for i in 0..nt {
+                let th = theta0 + 2.0 * PI * i as f64 / nt as f64;
+                p[j * nt + i] = f(j as f64 / nz as f64) * (1.0 + th.cos());
+            }
+        }
+        p
+    };
+    let quad = |z: f64| z * (1.0 - z);
+    let want = [-PI / 18.0, 0.0, -PI / 36.0, 0.0];
+    for nz in [2, 4, 16] {
+        let got = ladder_integrals_on(&field(32, nz, 0.3, &quad), 32, nz, 0.3);
+        for k in 0..4 {
+            assert!(
+                (got[k] - want[k]).abs() <= 1e-13,
+                "quadratic profile, n_z {nz}, integral {k}: actual {}, expected {}",
+                got[k],
+                want[k]
+            );
+        }
+    }
+    let quartic = |z: f64| z * z * (1.0 - z) * (1.0 - z);
+    let exact = -PI / 3.0 / 30.0;
+    let err =
+        |nz: usize| ladder_integrals_on(&field(32, nz, 0.0, &quartic), 32, nz, 0.0)[0] - exact;
+    for nz in [8, 16] {
+        let want = -PI / 3.0 * 2.0 / 15.0 / (nz as f64).powi(4);
+        assert!(
+            (err(nz) / want - 1.0).abs() <= 1e-6,
+            "quartic profile, n_z {nz}: error {:e}, expected Simpson's {want:e}",
+            err(nz)
+        );
+    }
+}
