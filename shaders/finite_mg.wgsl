@@ -747,19 +747,29 @@ fn freeze(l: u32, top: bool, t: u32) {
     workgroupBarrier();
 }
 
-// Load integrals −⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) of level l's iterate.
+// Load integrals −⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) of level l's iterate:
+// rectangle rule in θ; in ζ Simpson's rule on the ladder of the plain film (accuracy mode
+// without held bands, even n_z: weights 4/3 on odd rows, 2/3 on even ones; solver.rs
+// ladder_integrals_on), else the rectangle rule (explicit grids, grooves and arcs).
 fn loads(l: u32) -> array<f64, 4> {
     let nt = nt_of(l);
     let nz = nz_of(l);
     let dt = 2.0 * PI / f64(nt);
     let dz = 1.0 / f64(nz);
     let interior = interior_of(l);
+    let simpson = params.mode != 0u && params.banded == 0u && nz % 2u == 0u;
     var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         let j = k / nt;
         let i = k % nt;
-        let v = scr[at(l, A_P, k)];
+        var w: f64 = 1.0;
+        if simpson {
+            let even: f64 = 2.0 / 3.0;
+            let odd: f64 = 4.0 / 3.0;
+            w = select(even, odd, j % 2u == 1u);
+        }
+        let v = w * scr[at(l, A_P, k)];
         let t = trig_at(l, 2u * i);
         let zeta = f64(j) * dz;
         let c = v * t.x;
@@ -941,7 +951,7 @@ fn fmg(top: u32) -> Outcome {
     return res;
 }
 
-// Richardson estimate of the last of `n` ladder values (solver.rs ladder_estimate and,
+// Richardson estimate of the last of `n` ladder values (solver.rs simpson_estimate and,
 // with held bands, banded_estimate); negative below three grids.
 fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     if n < 3u {
@@ -964,11 +974,8 @@ fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     if params.banded != 0u {
         return 1.5 * max(d2, 0.25 * d1) / norm;
     }
-    var rho: f64 = 0.25;
-    if d1 > 0.0 {
-        rho = clamp(d2 / d1, 0.25, 0.8);
-    }
-    return d2 * rho / (1.0 - rho) / norm;
+    // Second order (loads summed by Simpson in ζ, see `loads`).
+    return d2 / 3.0 / norm;
 }
 
 @compute @workgroup_size(256)

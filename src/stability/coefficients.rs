@@ -303,7 +303,11 @@ fn grid_and_estimate(
     let packed = pack_state(params, state).ok()?;
     let r = if packed.rate_scale > 0.0 {
         let job = FiniteJob::of_state(params, &packed, state.omega);
-        FiniteSolver::new()
+        let mut solver = FiniteSolver::new();
+        // The held grids' ladder: rectangle sums, the estimate `add_grid_error` is
+        // calibrated on (see `FiniteSolver::rectangle_ladder`, issue 20 pass 4).
+        solver.rectangle_ladder = true;
+        solver
             .solve(&job, &FiniteGrid::for_bearing(params), &mut Vec::new())
             .1
     } else {

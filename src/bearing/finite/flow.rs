@@ -27,7 +27,9 @@
 //!   `inlet = side + storage + Σ_free σ`: inflow equals side flow plus the squeeze storage
 //!   of the pressure zone (`Σ storage_k` over free nodes with `P > 0`) up to the
 //!   converged residual `Σ_free σ` (reported as `residual`).
-//! - **pressure torque**: `∬ H ∂P/∂θ dθ dζ` as the face sum `Σ H_{i+½} (P_{i+1} − P_i) Δζ`.
+//! - **pressure torque**: `∬ H ∂P/∂θ dθ dζ` as the face sum `Σ H_{i+½} (P_{i+1} − P_i) Δζ`
+//!   (rows weighted by Simpson's rule in ζ on the accuracy ladder of the plain film, as
+//!   its loads are).
 
 use std::f64::consts::PI;
 
@@ -129,8 +131,21 @@ pub fn flow_integrals(
         }
     }
     let mut loads = [0.0; 4];
+    // The accuracy ladder of the plain film sums its loads by Simpson's rule in ζ
+    // (`super::solver::ladder_integrals_on`, issue 20 pass 4): the loads and the pressure
+    // torque here are summed the same way, so the torque identity holds on the loads the
+    // solver returned. Weight of row j over Δζ.
+    // (Held grids, `n_theta` > 0, sum by the rectangle rule: `FiniteSolver::rectangle_ladder`.)
+    let simpson =
+        g.accuracy.is_some() && g.n_theta == 0 && g.layout.is_empty() && nz.is_multiple_of(2);
     for j in 1..nz {
         let zeta = j as f64 * dz;
+        let w = match (simpson, j % 2) {
+            (false, _) => 1.0,
+            (true, 1) => 4.0 / 3.0,
+            (true, _) => 2.0 / 3.0,
+        };
+        let mut shear = 0.0;
         let ex = e[0] + (e[2] - e[0]) * zeta;
         let ey = e[1] + (e[3] - e[1]) * zeta;
         let row = j * nt;
@@ -154,14 +169,15 @@ pub fn flow_integrals(
                 abs_residual += sigma.abs();
             }
             let (cf, sf) = trig[2 * i + 1];
-            out.pressure_shear += film(e, zeta, cf, sf) * (p[ip] - p[k]);
+            shear += film(e, zeta, cf, sf) * (p[ip] - p[k]);
             lc += p[k] * c;
             ls += p[k] * s;
         }
-        loads[0] += lc;
-        loads[1] += ls;
-        loads[2] += lc * zeta;
-        loads[3] += ls * zeta;
+        out.pressure_shear += w * shear;
+        loads[0] += w * lc;
+        loads[1] += w * ls;
+        loads[2] += w * lc * zeta;
+        loads[3] += w * ls * zeta;
     }
     let area = dt * dz;
     out.side = out.side.map(|v| v * area);

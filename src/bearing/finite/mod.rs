@@ -32,6 +32,6 @@ pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, I
 pub(crate) use solver::ALGEBRAIC_FRACTION;
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
-    ladder_estimate, richardson_estimate, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
-    LadderStep, SolveReport,
+    ladder_estimate, ladder_integrals_on, richardson_estimate, simpson_estimate, FiniteGrid,
+    FiniteJob, FiniteSolution, FiniteSolver, LadderStep, SolveReport,
 };

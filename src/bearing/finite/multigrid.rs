@@ -621,6 +621,10 @@ pub(crate) struct Hierarchy {
     /// unless the journal is tilted out of the plane of its eccentricity). The WGSL kernel
     /// (`inlet_line` in shaders/finite_mg.wgsl) follows the same split. See [`freeze`].
     pub line_freeze: bool,
+    /// Whether load vectors are summed by Simpson's rule in ζ (the accuracy ladder of the
+    /// plain 360° film, issue 20 pass 4) instead of the rectangle rule (explicit grids,
+    /// grooves and arcs); see [`super::solver::ladder_integrals_on`].
+    pub simpson_z: bool,
 }
 
 impl Hierarchy {
@@ -733,7 +737,8 @@ impl Hierarchy {
             return (1, 0.0, true);
         }
         let mut prev = Vec::new();
-        let mut prev_loads = self.levels[l].loads(self.theta0);
+        let simpson = self.simpson_z;
+        let mut prev_loads = self.levels[l].loads(self.theta0, simpson);
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {
@@ -760,7 +765,7 @@ impl Hierarchy {
                     }
                 }
                 Stop::Loads(_) => {
-                    let now = self.levels[l].loads(self.theta0);
+                    let now = self.levels[l].loads(self.theta0, simpson);
                     let d = (0..4)
                         .map(|k| (now[k] - prev_loads[k]).powi(2))
                         .sum::<f64>();
@@ -818,9 +823,14 @@ impl Level {
         (&self.ae, &self.an, &self.f_own, &self.inv_d)
     }
 
-    /// Load integrals of the iterate, node 0 at angle `theta0`.
-    pub(crate) fn loads(&self, theta0: f64) -> [f64; 4] {
-        super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
+    /// Load integrals of the iterate, node 0 at angle `theta0`: by Simpson's rule in ζ
+    /// when `simpson` (see [`Hierarchy::simpson_z`]), else by the rectangle rule.
+    pub(crate) fn loads(&self, theta0: f64, simpson: bool) -> [f64; 4] {
+        if simpson {
+            super::solver::ladder_integrals_on(&self.p, self.nt, self.nz, theta0)
+        } else {
+            super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
+        }
     }
 
     /// Copies a warm-start field of this grid's length in (held nodes set to their value).

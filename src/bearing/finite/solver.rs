@@ -201,8 +201,13 @@ pub struct LadderStep {
     pub n_theta: usize,
     /// Intervals along the length.
     pub n_z: usize,
-    /// Load integrals of this grid's solution (node 0 at the ladder's angle).
+    /// Load integrals of this grid's solution (node 0 at the ladder's angle), summed as the
+    /// accuracy mode reports them: Simpson's rule in ζ for the plain 360° film
+    /// ([`ladder_integrals_on`]), the rectangle rule with grooves or arcs.
     pub integrals: FilmIntegrals,
+    /// The same field's load integrals by the rectangle rule (what the ladder reported
+    /// before issue 20 pass 4; [`FiniteSolver::reference`] extrapolates these).
+    pub rectangle: FilmIntegrals,
     /// Relaxation node updates on all grids since the ladder started (work).
     pub updates: u64,
     /// V-cycles on this grid, estimated iteration error, converged.
@@ -223,6 +228,14 @@ pub struct FiniteSolver {
     sin: Vec<f64>,
     /// Scratch of the JFO solver (issue 27).
     jfo: super::jfo::JfoSolver,
+    /// Accuracy mode with the loads summed by the rectangle rule and the
+    /// measured-contraction estimate ([`ladder_estimate`]), as before issue 20 pass 4:
+    /// what the finite-film coefficients and equilibria use to choose their held grid
+    /// (src/stability/coefficients.rs), whose coefficient error model is calibrated on that
+    /// ladder's convergence (with Simpson sums its half/quarter-grid tail was measured 10 %
+    /// short at accuracy 1e-2). Held grids ([`FiniteSettings::held_grid`]) always sum this
+    /// way. Default false: Simpson's rule in ζ ([`ladder_integrals_on`]).
+    pub rectangle_ladder: bool,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -366,7 +379,12 @@ impl FiniteSolver {
     ) -> (FilmIntegrals, SolveReport) {
         let ladder = accuracy_ladder(job.aspect);
         let stop = Stop::Loads((ALGEBRAIC_FRACTION * target).max(g.tolerance));
-        let mut values = vec![self.ladder_start(job, g, stop).integrals];
+        // Held grids (coefficients and equilibria) sum by the rectangle rule, as before
+        // issue 20 pass 4 (see `FiniteSolver::rectangle_ladder`).
+        let keep = std::mem::replace(&mut self.rectangle_ladder, true);
+        let start = self.ladder_start(job, g, stop);
+        self.rectangle_ladder = keep;
+        let mut values = vec![start.integrals];
         let mut top_nt = self.mg.levels.last().map_or(0, |l| l.nt);
         for &dims in &ladder[1..] {
             if top_nt >= g.n_theta {
@@ -380,7 +398,7 @@ impl FiniteSolver {
         let res = self
             .mg
             .iterate(top, job.aspect, Stop::Loads(g.tolerance), MAX_CYCLES);
-        let last = self.mg.levels[top].loads(self.mg.theta0);
+        let last = self.mg.levels[top].loads(self.mg.theta0, self.mg.simpson_z);
         *values.last_mut().expect("at least one grid") = last;
         let estimate = if g.layout.is_empty() {
             ladder_estimate(&values)
@@ -435,6 +453,7 @@ impl FiniteSolver {
         self.mg.theta0 = 0.0;
         self.mg.updates = 0;
         self.mg.line_freeze = true;
+        self.mg.simpson_z = false;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -467,6 +486,10 @@ impl FiniteSolver {
         };
         self.mg.updates = 0;
         self.mg.line_freeze = false;
+        // The plain 360° film sums its loads by Simpson's rule in ζ (see
+        // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
+        // banded estimate is calibrated on it (tests/grooves.rs).
+        self.mg.simpson_z = g.layout.is_empty() && !self.rectangle_ladder;
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
         let top = self.mg.levels.len() - 1;
         let res = self.fmg(job.aspect, top, stop);
@@ -498,10 +521,16 @@ impl FiniteSolver {
             accuracy: None,
             ..*g
         };
+        let rectangle = integrals_at(&lvl.p, &grid, self.mg.theta0);
         LadderStep {
             n_theta: lvl.nt,
             n_z: lvl.nz,
-            integrals: integrals_at(&lvl.p, &grid, self.mg.theta0),
+            integrals: if self.mg.simpson_z {
+                ladder_integrals_on(&lvl.p, lvl.nt, lvl.nz, self.mg.theta0)
+            } else {
+                rectangle
+            },
+            rectangle,
             updates: self.mg.updates,
             result: res,
         }
@@ -534,8 +563,37 @@ impl FiniteSolver {
         out
     }
 
+    /// [`FiniteSolver::ladder`] with each grid's field (row-major, `n_theta × (n_z + 1)`)
+    /// and the angle of node 0 (rad): for probes of load sums and error estimates
+    /// (examples/zeta_probe.rs).
+    pub fn ladder_fields(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        tol: f64,
+        on_loads: bool,
+        levels: usize,
+    ) -> (f64, Vec<(LadderStep, Vec<f64>)>) {
+        let stop = if on_loads {
+            Stop::Loads(tol)
+        } else {
+            Stop::Field(tol)
+        };
+        let ladder = accuracy_ladder(job.aspect);
+        let first = self.ladder_start(job, g, stop);
+        let top = |s: &Self| s.mg.levels[s.mg.levels.len() - 1].p.clone();
+        let mut out = vec![(first, top(self))];
+        for &dims in ladder.iter().skip(1).take(levels.saturating_sub(1)) {
+            let step = self.ladder_next(job, g, dims, stop);
+            out.push((step, top(self)));
+        }
+        (self.mg.theta0, out)
+    }
+
     /// The converged reference of a state for benchmarks and probes: the ladder's two
-    /// finest grids (up to 1024 intervals around), iterated to 1e-10, Richardson-
+    /// finest grids (up to 1024 intervals around), iterated to 1e-10, their loads summed
+    /// by the rectangle rule (as before issue 20 pass 4: the reference does not depend on
+    /// the load sum it checks), Richardson-
     /// extrapolated `(4 v_h − v_2h)/3` (good to ~1e-5 on the states of
     /// tests/finite_accuracy.rs, whose ladder converges at second order). The inlet line is
     /// on the grid at every level (unlike a fixed grid's snapped column, an irregular
@@ -544,9 +602,9 @@ impl FiniteSolver {
         let steps = self.ladder(job, g, 1e-10, false, usize::MAX);
         let n = steps.len();
         if n < 2 {
-            return steps[n - 1].integrals;
+            return steps[n - 1].rectangle;
         }
-        let (f, c) = (&steps[n - 1].integrals, &steps[n - 2].integrals);
+        let (f, c) = (&steps[n - 1].rectangle, &steps[n - 2].rectangle);
         std::array::from_fn(|k| (4.0 * f[k] - c[k]) / 3.0)
     }
 
@@ -567,10 +625,12 @@ impl FiniteSolver {
             let step = self.ladder_next(job, g, dims, stop);
             values.push(step.integrals);
             steps.push(step);
-            let est = if g.layout.is_empty() {
-                ladder_estimate(&values)
-            } else {
+            let est = if !g.layout.is_empty() {
                 banded_estimate(&values)
+            } else if self.mg.simpson_z {
+                simpson_estimate(&values)
+            } else {
+                ladder_estimate(&values)
             };
             if let Some(e) = est {
                 estimate = e;
@@ -587,7 +647,10 @@ impl FiniteSolver {
             let res = self
                 .mg
                 .iterate(top, job.aspect, Stop::Field(g.tolerance), MAX_CYCLES);
-            (self.mg.levels[top].loads(self.mg.theta0), res)
+            (
+                self.mg.levels[top].loads(self.mg.theta0, self.mg.simpson_z),
+                res,
+            )
         } else {
             (last.integrals, last.result)
         };
@@ -770,6 +833,72 @@ pub fn banded_estimate(values: &[FilmIntegrals]) -> Option<f64> {
     }
     // 1.5: margin over the worst measured max(d₂, d₁/4)/true error, 0.87.
     Some(1.5 * d2.max(0.25 * d1) / norm)
+}
+
+/// The estimate of the accuracy ladder of the plain 360° film (loads summed by Simpson's
+/// rule in ζ, [`ladder_integrals_on`]): `|v₀ − v₋₁| / 3` relative to `|v₀|`, the
+/// Richardson estimate at second order. With the ζ quadrature's `Δζ²` error removed, what
+/// is left is the field's own second-order discretisation error, mostly from ζ on the
+/// ladder's grids (issue 20 pass 4, examples/zeta_probe.rs, B/D = 0.5, 128 × 16: refining
+/// θ alone does not reduce it, 0.95-2×, refining ζ alone divides it by 1.2-12). The measured contraction of
+/// [`ladder_estimate`] is not used: on these small errors it is often pre-asymptotic and
+/// gave up to 40 × the true error, the fixed second order 0.37-1.7 × (tests/
+/// finite_accuracy.rs checks 1/3-3 ×). `None` below three grids (the first pair, 16 × 2
+/// and 32 × 4 at B/D = 0.5, is not in the asymptotic range).
+pub fn simpson_estimate(values: &[FilmIntegrals]) -> Option<f64> {
+    let n = values.len();
+    if n < 3 {
+        return None;
+    }
+    let d2 = (0..4)
+        .map(|k| (values[n - 1][k] - values[n - 2][k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let norm = values[n - 1].iter().map(|x| x * x).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        return Some(0.0);
+    }
+    // 3 = 2² − 1: Richardson at second order.
+    Some(d2 / 3.0 / norm)
+}
+
+/// Load integrals of an accuracy-ladder field (`nt × nz`, node 0 at `theta0`, `nz`
+/// even): the rectangle rule in θ (periodic) and Simpson's rule in ζ (weights
+/// `Δζ/3 · (1, 4, 2, …, 4, 1)`; the end rows are 0). The rectangle rule in ζ is the
+/// trapezoid rule of an integrand that vanishes at both ends with a nonzero slope there,
+/// off by `Δζ²/12 (f'(1) − f'(0))`: on the ladder's grids at B/D = 0.5 nearly all of the
+/// load error (1.0e-3-2.0e-3 at 256 × 32, against 6.8e-5-6.2e-4 summed by Simpson from
+/// the same fields; examples/zeta_probe.rs). Odd `nz` (never on the ladder): the
+/// rectangle rule.
+pub fn ladder_integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> FilmIntegrals {
+    if !nz.is_multiple_of(2) {
+        return integrals_on(p, nt, nz, theta0);
+    }
+    let dt = 2.0 * PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
+    let trig: Vec<(f64, f64)> = (0..nt)
+        .map(|i| {
+            let th = theta0 + i as f64 * dt;
+            (th.cos(), th.sin())
+        })
+        .collect();
+    for j in 1..nz {
+        let zeta = j as f64 * dz;
+        // Simpson weights over Δζ: 4/3 on odd rows, 2/3 on even ones.
+        let w = if j % 2 == 1 { 4.0 / 3.0 } else { 2.0 / 3.0 };
+        let (mut c, mut s) = (0.0, 0.0);
+        for (i, &(ci, si)) in trig.iter().enumerate() {
+            let v = p[j * nt + i];
+            c += v * ci;
+            s += v * si;
+        }
+        acc[0] += w * c;
+        acc[1] += w * s;
+        acc[2] += w * c * zeta;
+        acc[3] += w * s * zeta;
+    }
+    acc.map(|v| -v * dt * dz / 3.0)
 }
 
 /// `−⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) dθ dζ` by the rectangle rule.

@@ -1,0 +1,438 @@
+//! Probe of the load sums and error estimates of the accuracy ladder (issue 20, cost at
+//! the default accuracy, pass 4): on the 12 states of tests/finite_accuracy.rs, per ladder
+//! grid, the true error of the load vector summed by several quadratures of the same
+//! field, and the ratio of several error estimates to it.
+//!
+//! `cargo run --release --example zeta_probe`
+use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
+use bearing_sweep::bearing::{
+    finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
+};
+
+fn states(p: &BearingParams) -> Vec<(String, BearingState)> {
+    let d = p.clearance;
+    let w = 100.0;
+    let mut out = Vec::new();
+    for &(e, tilt, sq) in &[
+        (0.1, 0.0, 0.0),
+        (0.3, 0.0, 0.0),
+        (0.6, 0.0, 0.0),
+        (0.8, 0.0, 0.0),
+        (0.9, 0.0, 0.0),
+        (0.95, 0.0, 0.0),
+        (0.3, 0.2, 0.0),
+        (0.6, 0.2, 0.0),
+        (0.8, 0.1, 0.0),
+        (0.5, 0.0, 0.1),
+        (0.7, 0.0, -0.1),
+        (0.6, 0.15, 0.05),
+    ] {
+        let (c, s) = (0.7_f64.cos(), 0.7_f64.sin());
+        out.push((
+            format!("e{e} t{tilt} s{sq}"),
+            BearingState {
+                xi: (e + tilt) * d * c,
+                yi: (e + tilt) * d * s,
+                xj: (e - tilt) * d * c,
+                yj: (e - tilt) * d * s,
+                vxi: sq * d * w * c,
+                vyi: sq * d * w * s,
+                vxj: sq * d * w * c,
+                vyj: sq * d * w * s,
+                omega: w,
+            },
+        ));
+    }
+    out
+}
+
+fn norm(a: &[f64; 4]) -> f64 {
+    a.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+fn dist(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Row sums `(Σ p cos θ, Σ p sin θ)` per ζ row times Δθ.
+fn rows(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Vec<[f64; 2]> {
+    let dt = 2.0 * std::f64::consts::PI / nt as f64;
+    (0..=nz)
+        .map(|j| {
+            let (mut c, mut s) = (0.0, 0.0);
+            for i in 0..nt {
+                let th = theta0 + i as f64 * dt;
+                c += p[j * nt + i] * th.cos();
+                s += p[j * nt + i] * th.sin();
+            }
+            [c * dt, s * dt]
+        })
+        .collect()
+}
+
+/// [`rows`] plus the Euler–Maclaurin correction of the periodic trapezoid sum for the
+/// derivative jump at node 0 (the inlet line): `−Δθ²/12 (f'(0⁻) − f'(0⁺))`, one-sided
+/// third-order derivatives.
+fn rows_em(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Vec<[f64; 2]> {
+    let dt = 2.0 * std::f64::consts::PI / nt as f64;
+    let mut out = rows(p, nt, nz, theta0);
+    for j in 0..=nz {
+        for (c, trig) in [(0usize, f64::cos as fn(f64) -> f64), (1, f64::sin)] {
+            let f = |i: isize| {
+                let ii = i.rem_euclid(nt as isize) as usize;
+                p[j * nt + ii] * trig(theta0 + i as f64 * dt)
+            };
+            let dp = (-11.0 * f(0) + 18.0 * f(1) - 9.0 * f(2) + 2.0 * f(3)) / (6.0 * dt);
+            let dm = (11.0 * f(0) - 18.0 * f(-1) + 9.0 * f(-2) - 2.0 * f(-3)) / (6.0 * dt);
+            out[j][c] -= dt * dt / 12.0 * (dm - dp);
+        }
+    }
+    out
+}
+
+/// Quadrature in ζ of the four integrands (cos, sin, ζ cos, ζ sin) by rule `rule`:
+/// 0 rectangle (= trapezoid), 1 Simpson, 2 trapezoid + Euler–Maclaurin end correction
+/// with second-order one-sided derivatives, 3 same with third-order derivatives.
+fn quad(r: &[[f64; 2]], nz: usize, rule: u32) -> [f64; 4] {
+    let h = 1.0 / nz as f64;
+    let f = |j: usize| -> [f64; 4] {
+        let z = j as f64 * h;
+        [r[j][0], r[j][1], z * r[j][0], z * r[j][1]]
+    };
+    let mut acc = [0.0; 4];
+    for j in 1..nz {
+        let w = match rule {
+            1 => {
+                if j % 2 == 1 {
+                    4.0 / 3.0
+                } else {
+                    2.0 / 3.0
+                }
+            }
+            _ => 1.0,
+        };
+        let v = f(j);
+        for k in 0..4 {
+            acc[k] += w * v[k] * h;
+        }
+    }
+    if rule >= 2 && nz >= 4 {
+        let (a0, a1, a2, a3) = (f(0), f(1), f(2), f(3));
+        let (b0, b1, b2, b3) = (f(nz), f(nz - 1), f(nz - 2), f(nz - 3));
+        for k in 0..4 {
+            let (d0, d1) = if rule == 2 {
+                (
+                    (-3.0 * a0[k] + 4.0 * a1[k] - a2[k]) / (2.0 * h),
+                    (3.0 * b0[k] - 4.0 * b1[k] + b2[k]) / (2.0 * h),
+                )
+            } else {
+                (
+                    (-11.0 * a0[k] + 18.0 * a1[k] - 9.0 * a2[k] + 2.0 * a3[k]) / (6.0 * h),
+                    (11.0 * b0[k] - 18.0 * b1[k] + 9.0 * b2[k] - 2.0 * b3[k]) / (6.0 * h),
+                )
+            };
+            acc[k] -= h * h / 12.0 * (d1 - d0);
+        }
+    }
+    acc.map(|v| -v / 3.0)
+}
+
+const RULES: [&str; 6] = ["rect", "simpson", "EM2", "EM3", "EM3+th", "simp+th"];
+
+/// The states turned so that the maximum film is at θ = 0 (a node of explicit grids):
+/// Simpson-summed error on grids refined in one direction at a time.
+fn aniso() {
+    use bearing_sweep::bearing::finite::FiniteSettings;
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let shapes: [(&str, Vec<(usize, usize)>); 2] = [
+        (
+            "8",
+            vec![(16, 2), (32, 4), (64, 8), (128, 16), (256, 32), (512, 64)],
+        ),
+        (
+            "4",
+            vec![(16, 4), (32, 8), (64, 16), (128, 32), (256, 64), (512, 128)],
+        ),
+    ];
+    let accs = [1e-2, 2e-3, 1e-3, 5e-4];
+    for (name, grids) in &shapes {
+        println!("shape {name}:");
+        let mut worst = vec![(0.0_f64, f64::INFINITY, 0.0_f64); accs.len()];
+        for (label, s0) in states(&p) {
+            // Eccentricity along −x: the maximum film arg(−ε) is at θ = 0.
+            let r = |x: f64, y: f64| -(x.hypot(y));
+            let s = BearingState {
+                xi: r(s0.xi, s0.yi),
+                yi: 0.0,
+                xj: r(s0.xj, s0.yj),
+                yj: 0.0,
+                vxi: r(s0.vxi, s0.vyi) * (s0.vxi.signum() * s0.xi.signum()),
+                vyi: 0.0,
+                vxj: r(s0.vxj, s0.vyj) * (s0.vxj.signum() * s0.xj.signum()),
+                vyj: 0.0,
+                ..s0
+            };
+            let packed: Packed = pack_state(&p, &s).unwrap();
+            let job = FiniteJob::new(&p, &packed);
+            let lv = |ints: &[f64; 4]| {
+                finish_loads(&p, &s, ints, packed.rate_scale).load_vector(p.length)
+            };
+            let mut solver = FiniteSolver::new();
+            let truth = lv(&solver.reference(&job, &g));
+            let tn = norm(&truth);
+            let mut vals = Vec::new();
+            print!("{label:14}");
+            for &(nt, nz) in grids {
+                let gg = FiniteGrid::from(&FiniteSettings {
+                    tolerance: 1e-11,
+                    ..FiniteSettings::with_grid(nt as u32, nz as u32)
+                });
+                let mut f = Vec::new();
+                let _ = solver.solve(&job, &gg, &mut f);
+                let sim = lv(&quad(&rows(&f, nt, nz, 0.0), nz, 1));
+                let err = dist(&sim, &truth) / tn;
+                let est = vals
+                    .last()
+                    .map(|v: &[f64; 4]| dist(&sim, v) / 3.0 / norm(&sim))
+                    .unwrap_or(f64::INFINITY);
+                print!(" {err:.1e}/{:.2}", est / err);
+                vals.push(sim);
+                let _ = est;
+            }
+            // stop simulation (estimate from the third grid on)
+            for (a, &acc) in accs.iter().enumerate() {
+                for l in 2..vals.len() {
+                    let est = dist(&vals[l], &vals[l - 1]) / 3.0 / norm(&vals[l]);
+                    if est <= acc {
+                        let err = dist(&vals[l], &truth) / tn;
+                        print!(
+                            " | {acc:.0e}: {}x{} err {err:.1e} r {:.2}",
+                            grids[l].0,
+                            grids[l].1,
+                            est / err
+                        );
+                        worst[a].0 = worst[a].0.max(err);
+                        worst[a].1 = worst[a].1.min(est / err);
+                        worst[a].2 = worst[a].2.max(est / err);
+                        break;
+                    }
+                }
+            }
+            println!();
+        }
+        for (a, &acc) in accs.iter().enumerate() {
+            println!(
+                "  acc {acc:.0e}: largest true {:.2e}, estimate/true {:.2}-{:.2}",
+                worst[a].0, worst[a].1, worst[a].2
+            );
+        }
+    }
+}
+
+/// The solver as it runs (accuracy mode) on the 12 test states and the 32 states of the
+/// finite benchmark, at accuracy `acc`: per state the grid, node updates, estimate and
+/// true error against [`FiniteSolver::reference`]; median and largest updates, largest
+/// error, range of estimate / true error.
+fn cost(acc: f64) {
+    use bearing_sweep::bearing::finite::FiniteSettings;
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            accuracy: acc,
+            ..FiniteSettings::default()
+        },
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let sets: [(&str, BearingParams, Vec<BearingState>); 2] = [
+        (
+            "test set (12)",
+            p,
+            states(&p).into_iter().map(|x| x.1).collect(),
+        ),
+        (
+            "bench set (32)",
+            BearingParams {
+                finite: p.finite,
+                ..pb
+            },
+            bench,
+        ),
+    ];
+    for (name, p, states) in sets {
+        let g = FiniteGrid::for_bearing(&p);
+        let (mut ups, mut errs, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+        let mut moved: Vec<(f64, f64)> = Vec::new();
+        let mut grids = std::collections::BTreeMap::new();
+        for s in &states {
+            let packed: Packed = pack_state(&p, s).unwrap();
+            let job = FiniteJob::new(&p, &packed);
+            let lv = |ints: &[f64; 4]| {
+                finish_loads(&p, s, ints, packed.rate_scale).load_vector(p.length)
+            };
+            let mut solver = FiniteSolver::new();
+            let truth = lv(&solver.reference(&job, &g));
+            let (ints, r) = solver.solve(&job, &g, &mut Vec::new());
+            let err = dist(&lv(&ints), &truth) / norm(&truth);
+            // The loads before pass 4: the same ladder, rectangle sums, stopped where the
+            // measured-contraction estimate is at most `acc` (its per-grid stop measured
+            // on the Simpson loads instead: within 2 % of the accuracy).
+            let steps = solver.ladder(&job, &g, 0.02 * acc, true, usize::MAX);
+            let rect: Vec<[f64; 4]> = steps.iter().map(|t| t.rectangle).collect();
+            let mut old = None;
+            for l in 2..rect.len() {
+                let e = ladder_estimate(&rect[..=l]).unwrap();
+                if e <= acc || l + 1 == rect.len() {
+                    old = Some((lv(&rect[l]), e));
+                    break;
+                }
+            }
+            let (old, old_est) = old.expect("three grids");
+            moved.push((dist(&lv(&ints), &old) / norm(&truth), old_est));
+            ups.push(r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1)));
+            errs.push(err);
+            ratios.push(r.error_estimate / err);
+            *grids.entry((r.n_theta, r.n_z)).or_insert(0) += 1;
+        }
+        ups.sort();
+        errs.sort_by(f64::total_cmp);
+        ratios.sort_by(f64::total_cmp);
+        println!(
+            "{name} accuracy {acc:e}: node updates median {} max {}; true error median {:.2e} max {:.2e}; estimate/true {:.2}-{:.2}; grids {grids:?}",
+            ups[ups.len() / 2],
+            ups[ups.len() - 1],
+            errs[errs.len() / 2],
+            errs[errs.len() - 1],
+            ratios[0],
+            ratios[ratios.len() - 1]
+        );
+        let worst = moved.iter().map(|m| m.0 / m.1).fold(0.0, f64::max);
+        let largest = moved.iter().map(|m| m.0).fold(0.0, f64::max);
+        println!("   loads moved from the pre-pass-4 solver's: largest {largest:.2e}, largest over the old estimate {worst:.2}");
+    }
+}
+
+fn main() {
+    if std::env::args().nth(1).as_deref() == Some("cost") {
+        for a in std::env::args().skip(2) {
+            cost(a.parse().expect("an accuracy"));
+        }
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("aniso") {
+        aniso();
+        return;
+    }
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let acc: f64 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5e-4);
+    // per rule, per level: (true errors, estimate ratios [rich, d/3])
+    let nl = 7;
+    let mut errs = vec![vec![Vec::new(); nl]; RULES.len()];
+    let mut ratios = vec![vec![vec![Vec::new(); 4]; nl]; RULES.len()];
+    let mut cost = vec![Vec::new(); nl];
+    for (label, s) in states(&p) {
+        let packed: Packed = pack_state(&p, &s).unwrap();
+        let job = FiniteJob::new(&p, &packed);
+        let lv =
+            |ints: &[f64; 4]| finish_loads(&p, &s, ints, packed.rate_scale).load_vector(p.length);
+        let mut solver = FiniteSolver::new();
+        let (_, tight) = solver.ladder_fields(&job, &g, 1e-10, false, nl);
+        let n = tight.len();
+        let v: Vec<[f64; 4]> = tight.iter().map(|t| lv(&t.0.integrals)).collect();
+        let truth: [f64; 4] = std::array::from_fn(|k| (4.0 * v[n - 1][k] - v[n - 2][k]) / 3.0);
+        let tn = norm(&truth);
+        // The fields at the accuracy's per-grid stop (what the solver returns).
+        let (th0, steps) = solver.ladder_fields(&job, &g, 0.02 * acc, true, nl - 1);
+        for (l, (st, _)) in steps.iter().enumerate() {
+            cost[l].push(st.updates);
+        }
+        print!("{label:14}");
+        for (ri, _) in RULES.iter().enumerate() {
+            let ys: Vec<[f64; 4]> = steps
+                .iter()
+                .map(|(st, f)| {
+                    let r = if ri >= 4 {
+                        rows_em(f, st.n_theta, st.n_z, th0)
+                    } else {
+                        rows(f, st.n_theta, st.n_z, th0)
+                    };
+                    let rule = [0, 1, 2, 3, 3, 1][ri];
+                    lv(&quad(&r, st.n_z, rule))
+                })
+                .collect();
+            let rect: Vec<[f64; 4]> = steps
+                .iter()
+                .map(|(st, f)| lv(&quad(&rows(f, st.n_theta, st.n_z, th0), st.n_z, 0)))
+                .collect();
+            for l in 0..ys.len() {
+                let e = dist(&ys[l], &truth) / tn;
+                errs[ri][l].push(e);
+                if l >= 2 {
+                    let d1 = dist(&ys[l - 1], &ys[l - 2]);
+                    let d2 = dist(&ys[l], &ys[l - 1]);
+                    let rho = if d1 > 0.0 {
+                        (d2 / d1).clamp(0.25, 0.8)
+                    } else {
+                        0.25
+                    };
+                    let rich = d2 * rho / (1.0 - rho) / norm(&ys[l]);
+                    let third = d2 / 3.0 / norm(&ys[l]);
+                    // Embedded pair: |rect - rule| (quadrature part) and the rect Richardson.
+                    let pair = dist(&ys[l], &rect[l]) / norm(&ys[l]);
+                    let r1 = dist(&rect[l - 1], &rect[l - 2]);
+                    let r2 = dist(&rect[l], &rect[l - 1]);
+                    let rrho = if r1 > 0.0 {
+                        (r2 / r1).clamp(0.25, 0.8)
+                    } else {
+                        0.25
+                    };
+                    let rrich = r2 * rrho / (1.0 - rrho) / norm(&ys[l]);
+                    for (k, est) in [rich, third, pair, rrich].iter().enumerate() {
+                        ratios[ri][l][k].push(est / e);
+                    }
+                }
+            }
+            print!(" {}:", RULES[ri]);
+            for l in 2..ys.len() {
+                print!(" {:.1e}", errs[ri][l].last().unwrap());
+            }
+        }
+        println!();
+    }
+    let mm = |v: &[f64]| {
+        (
+            v.iter().cloned().fold(f64::INFINITY, f64::min),
+            v.iter().cloned().fold(0.0, f64::max),
+        )
+    };
+    for l in 0..nl - 1 {
+        let c = &mut cost[l];
+        c.sort();
+        println!(
+            "level {l}: updates at acc {acc:e}: median {} max {}",
+            c[c.len() / 2],
+            c[c.len() - 1]
+        );
+        for (ri, name) in RULES.iter().enumerate() {
+            let (a, b) = mm(&errs[ri][l]);
+            print!("   {name:8} err {a:.1e}-{b:.1e}");
+            if l >= 2 {
+                for (k, en) in ["rich", "d/3", "pair", "rectrich"].iter().enumerate() {
+                    let (a, b) = mm(&ratios[ri][l][k]);
+                    print!(" | {en} {a:.2}-{b:.2}");
+                }
+            }
+            println!();
+        }
+    }
+}
