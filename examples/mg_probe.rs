@@ -248,12 +248,110 @@ fn gpu(nt: u32, nz: u32) {
     );
 }
 
+/// `mg_probe dump FILE [states]`: the multigrid kernel's loads and reports, as bits, for a
+/// fixed set of settings (explicit 128 × 32 and 256 × 64 with both inlets, grooves, accuracy
+/// mode at the default and 1e-4, a warm start), one line per state, to compare two kernel
+/// versions bit for bit (`diff` the files).
+fn dump(path: &str, n: usize) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    use std::fmt::Write as _;
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p0, states) = bench_states(n);
+    let mut text = String::new();
+    let explicit = |nt, nz, inlet| FiniteSettings {
+        inlet,
+        ..FiniteSettings::with_grid(nt, nz)
+    };
+    let cases: Vec<(String, FiniteSettings, bool)> = vec![
+        ("128x32 max".into(), explicit(128, 32, Inlet::MaxFilm), true),
+        ("128x32 none".into(), explicit(128, 32, Inlet::None), false),
+        (
+            "256x64 max".into(),
+            explicit(256, 64, Inlet::MaxFilm),
+            false,
+        ),
+        ("accuracy default".into(), FiniteSettings::default(), false),
+        (
+            "accuracy 1e-3 none".into(),
+            FiniteSettings {
+                accuracy: 1e-3,
+                inlet: Inlet::None,
+                ..FiniteSettings::default()
+            },
+            false,
+        ),
+    ];
+    for (label, finite, warm_too) in cases {
+        let p = BearingParams {
+            model: bearing_sweep::bearing::FilmModel::Finite,
+            finite,
+            ..p0
+        };
+        let jobs: Vec<FiniteJob> = states
+            .iter()
+            .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+            .collect();
+        let g = FiniteGrid::for_bearing(&p);
+        let mut fields = vec![Vec::new(); jobs.len()];
+        let rounds = if warm_too { 2 } else { 1 };
+        for round in 0..rounds {
+            let (mut out, mut reports) = (Vec::new(), Vec::new());
+            backend
+                .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+                .expect("the multigrid kernel runs");
+            for (k, (o, r)) in out.iter().zip(&reports).enumerate() {
+                let _ = write!(text, "{label} round {round} state {k}:");
+                for v in o {
+                    let _ = write!(text, " {:016x}", v.to_bits());
+                }
+                let _ = writeln!(
+                    text,
+                    " sweeps {} err {:016x} conv {} grid {}x{} est {:016x} met {}",
+                    r.sweeps,
+                    r.iteration_error.to_bits(),
+                    r.converged,
+                    r.n_theta,
+                    r.n_z,
+                    r.error_estimate.to_bits(),
+                    r.accuracy_met
+                );
+            }
+            for (k, f) in fields.iter().enumerate() {
+                let h = f.iter().fold(0u64, |h, v| {
+                    h.rotate_left(5) ^ v.to_bits().wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                });
+                let _ = writeln!(
+                    text,
+                    "{label} round {round} field {k}: len {} hash {h:016x}",
+                    f.len()
+                );
+            }
+        }
+    }
+    std::fs::write(path, text).expect("writable dump file");
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("gpu") {
         let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
         let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
         gpu(nt, nz);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("dump") {
+        let path = args.get(1).map_or("mg_dump.txt", String::as_str);
+        dump(path, args.get(2).and_then(|s| s.parse().ok()).unwrap_or(8));
         return;
     }
     if args.first().map(String::as_str) == Some("shapes") {
