@@ -341,12 +341,76 @@ fn dump(path: &str, n: usize) {
     std::fs::write(path, text).expect("writable dump file");
 }
 
+/// `mg_probe acc ACCURACY [states]`: accuracy mode on the multigrid kernel against the CPU
+/// solver: per state the grids reached and the relative difference of the load vectors.
+fn gpu_acc(accuracy: f64, n: usize) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p0, states) = bench_states(n);
+    let p = BearingParams {
+        model: bearing_sweep::bearing::FilmModel::Finite,
+        finite: FiniteSettings {
+            accuracy,
+            ..FiniteSettings::default()
+        },
+        ..p0
+    };
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+        .collect();
+    let g = FiniteGrid::for_bearing(&p);
+    let mut fields = vec![Vec::new(); jobs.len()];
+    let (mut out, mut reports) = (Vec::new(), Vec::new());
+    let t = std::time::Instant::now();
+    backend
+        .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+        .expect("the multigrid kernel runs");
+    println!("gpu {:.1} s", t.elapsed().as_secs_f64());
+    let mut solver = FiniteSolver::new();
+    for (k, job) in jobs.iter().enumerate() {
+        let (want, r) = solver.solve(job, &g, &mut Vec::new());
+        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let d = (0..4)
+            .map(|i| (out[k][i] - want[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        println!(
+            "state {k}: gpu {}x{} sweeps {} | cpu {}x{} sweeps {} | load diff {:.1e}",
+            reports[k].n_theta,
+            reports[k].n_z,
+            reports[k].sweeps,
+            r.n_theta,
+            r.n_z,
+            r.sweeps,
+            d / norm
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("gpu") {
         let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
         let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
         gpu(nt, nz);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("acc") {
+        gpu_acc(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1e-4),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(8),
+        );
         return;
     }
     if args.first().map(String::as_str) == Some("dump") {

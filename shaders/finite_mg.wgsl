@@ -918,6 +918,7 @@ fn coarsest_step(tol: f64, top: bool) -> bool {
 }
 
 fn start_coarsest() {
+    spent += 7u;
     cs = 0u;
     for (var q = 0u; q < 6u; q++) {
         hist[q] = -1.0;

@@ -20,8 +20,8 @@
 //! error, never loads.
 //!
 //! **Range.** Grids up to [`DEVICE_MAX_NODES`] (nodes with the end rows): one step of the
-//! largest level must fit a dispatch's loop budget (about 1.1 million nodes; the range is
-//! half that, so that a dispatch holds more than one such step) and a state's
+//! largest level must fit a dispatch's loop budget (about 480 000 nodes; the range is
+//! about half that, so that a dispatch holds more than one such step) and a state's
 //! scratch (8 arrays per level, ~90 bytes per node of the largest level with the levels
 //! below and the field) one storage binding of the device (checked per device: an error
 //! beyond it). Checked against the CPU up to 1024 × 128 (132 096 nodes, the ladder's last
@@ -59,14 +59,17 @@ const OUT_STATE: usize = 11;
 const ST_RUN: f64 = 0.0;
 const ST_MORE: f64 = 2.0;
 const ST_OVERRUN: f64 = 3.0;
-/// Loop iterations one invocation may run per dispatch (the kernel's `params.limit`):
-/// llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in all, so a dispatch
-/// that counts more is void; the margin covers the loops the kernel's count rounds.
-const LOOP_LIMIT: u32 = 65_000;
+/// Loop iterations, as the kernel counts them, one dispatch may run (the kernel's
+/// `params.limit`): llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in
+/// all, and the kernel's count is an estimate that fell short of llvmpipe's by a factor
+/// 1.6-2.2 (measured: a tilted whirling state at accuracy 1e-4, `mg_probe acc 1e-4 2`, was
+/// cut with a budget of 40 000 counted iterations and ran right with 30 000), so the
+/// limit is 65 535 / 2.2; a dispatch that counts more is void.
+const LOOP_LIMIT: u32 = 30_000;
 /// Loop iterations reserved for the serial walk of the truncated correction (candidate
 /// sort and walk by one invocation; a few hundred candidates at most in the cases
 /// measured), on top of a step's parallel loops.
-const SERIAL_RESERVE: u32 = 10_000;
+const SERIAL_RESERVE: u32 = 5_000;
 /// Workgroup size of the kernel (`WG`).
 const WG: usize = 256;
 /// Dispatches per submission (between read-backs of the status flags).
@@ -85,11 +88,11 @@ const SCRATCH_BUDGET: u64 = 2 << 30;
 /// on a software device).
 const MAX_SLOTS: usize = 4096;
 /// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Range"
-/// (a step of the largest level within the loop budget allows ~1.1 million nodes; half of
-/// that leaves a dispatch room for more than one such step: 2048 × 257 and 4096 × 129
-/// fit). The environment variable `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a
+/// (a step of the largest level within the loop budget allows ~480 000 nodes; about half
+/// of that leaves a dispatch room for more than one such step: 2048 × 129 and 1024 × 257,
+/// the ladder's last grid at B/D = 1, fit). The environment variable `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a
 /// node count) overrides it (an unparsable value keeps the default).
-pub const DEVICE_MAX_NODES: usize = 540_000;
+pub const DEVICE_MAX_NODES: usize = 270_000;
 
 /// The range in force ([`DEVICE_MAX_NODES`] or its override).
 fn device_max_nodes() -> usize {
@@ -564,6 +567,18 @@ impl MultigridPipeline {
             )?;
             dispatched += REPEAT;
             let status = |s: usize| res[s * OUT_STRIDE + OUT_STATE];
+            if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
+                // Diagnostics: per running state, phase, level, cycle, V-cycle step and
+                // coarsest sweep after this round.
+                let running: Vec<String> = (0..n)
+                    .filter(|&s| status(s) == ST_RUN)
+                    .map(|s| {
+                        let r = &res[s * OUT_STRIDE + OUT_STATE..];
+                        format!("{s}:{}/{}/{}/{}/{}", r[1], r[2], r[3], r[12], r[13])
+                    })
+                    .collect();
+                eprintln!("mg dispatches {dispatched}: running {}", running.join(" "));
+            }
             if let Some(s) = (0..n).find(|&s| status(s) == ST_OVERRUN) {
                 return Err(BackendError::Device(format!(
                     "the finite-film multigrid kernel ran past its loop limit ({LOOP_LIMIT} \
@@ -613,7 +628,7 @@ fn loops(n: usize) -> usize {
 /// side, the freezes of the levels below with the inlet line's walks, the loads: ≲ 8 I),
 /// the descent (two sweeps, residual, restriction: ≲ 4 I) or the set-up and prolongation
 /// of a ladder grid (≲ 3 I); 12 I + 400 bounds them all. A grid whose step leaves less
-/// than 2 000 iterations of budget (about 1.1 million nodes) is beyond the kernel.
+/// than 2 000 iterations of budget (about 480 000 nodes) is beyond the kernel.
 ///
 /// Cap: an upper bound on the dispatches a state needs, from the kernel's own limits
 /// (every level iterated to `MAX_CYCLES` V-cycles, every coarsest solve to
@@ -627,12 +642,17 @@ fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
     let free = (LOOP_LIMIT - SERIAL_RESERVE) as usize;
     if step + 2_000 > free {
         return Err(BackendError::Device(format!(
-            "the finite-film multigrid kernel solves grids of at most ~1.1 million nodes \
+            "the finite-film multigrid kernel solves grids of at most ~480 000 nodes \
              (one step of its largest level within a dispatch's loop limit); this one has \
              {largest}"
         )));
     }
     let budget = free - step;
+    // Diagnostics: a smaller budget (loop iterations) from the environment.
+    let budget = std::env::var("BEARING_SWEEP_MG_BUDGET")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .map_or(budget, |b| b.clamp(1_000, budget));
     // Coarsest solve: up to 4000 sweeps of ~20 loop iterations (multigrid.rs
     // COARSEST_SWEEPS).
     let coarsest = 4_000 * 20;
