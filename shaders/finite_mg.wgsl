@@ -32,11 +32,11 @@ const NO_INLET: u32 = 0xffffffffu;
 // Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
 // theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
 const JOB_STRIDE: u32 = 16u;
-// Per result (stride 84 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// Per result (stride 86 f64): integrals[4], sweeps, iteration error, converged, n_theta,
 // n_z, error estimate, accuracy met, then the state block (OUT_STATE: status first,
 // ST_*: 1 done; 2 the dispatch's grids were not enough for the accuracy, the host solves
 // it again with the full ladder).
-const OUT_STRIDE: u32 = 84u;
+const OUT_STRIDE: u32 = 86u;
 // Arrays of a level (offsets in units of the level's node count).
 const A_AE: u32 = 0u;
 const A_AN: u32 = 1u;
@@ -109,7 +109,8 @@ struct Params {
 
 var<workgroup> red: array<f64, 1024>;
 var<workgroup> wu: array<f64, 4>;
-// Correction candidates that the truncated correction would empty (prolong_correction).
+// Correction candidates that the truncated correction would empty (prolong_correction),
+// and the sort's scratch.
 const CAND_CAP: u32 = 512u;
 var<workgroup> cand: array<u32, CAND_CAP>;
 var<workgroup> cand_zero: array<u32, CAND_CAP>;
@@ -524,21 +525,16 @@ fn inside_before(l: u32, k: u32) -> bool {
         && (j == 1u || scr[at(l, A_P, k - nt)] > 0.0);
 }
 
-// Whether sorted candidate list entry `c` (a node index) was emptied, by binary search.
-fn emptied(c: u32, n: u32) -> bool {
-    var lo = 0u;
-    var hi = n;
-    serial += 1u;
-    while lo < hi {
-        serial += 1u;
-        let mid = (lo + hi) / 2u;
-        if cand[mid] < c {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
+// Whether node x of level l (array ia: its inverse diagonals) was emptied by the truncated
+// correction in progress: a candidate (free, inside before the correction, corrected to
+// zero or below; its new value in A_R is 0 unless the walk shut it out, then its old,
+// positive value). Final for the nodes the walk has passed.
+fn gone(l: u32, ia: u32, x: u32) -> bool {
+    if scr[at(l, A_R, x)] != 0.0 || scr[at(l, ia, x)] == 0.0 || !inside_before(l, x) {
+        return false;
     }
-    return lo < n && cand[lo] == c && cand_zero[lo] != 0u;
+    let nt = nt_of(l);
+    return max(scr[at(l, A_P, x)] + corr(l, x / nt, x % nt), 0.0) <= 0.0;
 }
 
 // p += P(u_H − u0) at the nodes inside the pressure zone (node and four neighbours
@@ -547,8 +543,9 @@ fn emptied(c: u32, n: u32) -> bool {
 // last column) the correction emptied is not inside any more. Here: every node's new
 // value from the field before the correction (into the residual array, dead here); the
 // candidates that the correction empties (few: at the free boundary) go to a workgroup
-// list that one invocation walks in node order to find which are really emptied and which
-// later neighbours they shut out; then the new field is copied back. Beyond the list's
+// list, sorted by node (ranks, all invocations), that one invocation walks in node order
+// to find which are really emptied (`gone`: a node's own test, O(1)) and which later
+// neighbours they shut out; then the new field is copied back. Beyond the list's
 // capacity one invocation does the CPU's in-place walk. The same result as the CPU's.
 fn prolong_correction(l: u32, top: bool) {
     let nt = nt_of(l);
@@ -603,30 +600,38 @@ fn prolong_correction(l: u32, top: bool) {
         spent += workgroupUniformLoad(&wcost);
         return;
     }
-    if n > 0u && lid == 0u {
-        // Sort the candidates (insertion sort: a handful), then walk them in node order.
-        for (var a = 1u; a < n; a++) {
-            serial += 1u;
+    if n > 0u {
+        // Sort the candidates by node: each one's rank in the list (all invocations), into
+        // cand_zero, then back.
+        spent += loops(n) * (n + 1u) + loops(n) + 2u;
+        for (var a = lid; a < n; a += WG) {
             let x = cand[a];
-            var b = a;
-            serial += 1u;
-            while b > 0u && cand[b - 1u] > x {
-                serial += 1u;
-                cand[b] = cand[b - 1u];
-                b -= 1u;
+            var r = 0u;
+            for (var b = 0u; b < n; b++) {
+                if cand[b] < x {
+                    r += 1u;
+                }
             }
-            cand[b] = x;
+            cand_zero[r] = x;
         }
+        workgroupBarrier();
+        for (var a = lid; a < n; a += WG) {
+            cand[a] = cand_zero[a];
+        }
+        workgroupBarrier();
+    }
+    if n > 0u && lid == 0u {
+        // Walk them in node order: shut out (unchanged) where an earlier neighbour was
+        // emptied.
         for (var a = 0u; a < n; a++) {
             serial += 1u;
             let k = cand[a];
             let i = k % nt;
             let j = k / nt;
-            var shut = (i > 0u && emptied(k - 1u, a)) || (j > 1u && emptied(k - nt, a));
+            var shut = (i > 0u && gone(l, ia, k - 1u)) || (j > 1u && gone(l, ia, k - nt));
             if i + 1u == nt {
-                shut = shut || emptied(j * nt, a);
+                shut = shut || gone(l, ia, j * nt);
             }
-            cand_zero[a] = select(1u, 0u, shut);
             if shut {
                 // Not inside any more: unchanged.
                 scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
@@ -636,10 +641,10 @@ fn prolong_correction(l: u32, top: bool) {
         let nz = nz_of(l);
         for (var a = 0u; a < n; a++) {
             serial += 1u;
-            if cand_zero[a] == 0u {
+            let z = cand[a];
+            if !gone(l, ia, z) {
                 continue;
             }
-            let z = cand[a];
             let i = z % nt;
             let j = z / nt;
             var later = array<u32, 3>(0u, 0u, 0u);
@@ -655,7 +660,7 @@ fn prolong_correction(l: u32, top: bool) {
             for (var q = 0u; q < 3u; q++) {
                 serial += 1u;
                 let k = later[q];
-                if k != 0u && !emptied(k, n) && scr[at(l, ia, k)] != 0.0 {
+                if k != 0u && !gone(l, ia, k) && scr[at(l, ia, k)] != 0.0 {
                     scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
                 }
             }
@@ -858,15 +863,20 @@ const PH_OUT: u32 = 6u;
 // The state block of a slot, in `results` from OUT_STATE on (f64 each): status, phase,
 // level, cycle, cycle limit, last change, iteration error, converged, node updates, ladder
 // values kept, estimate, met, V-cycle step, coarsest sweep, coarsest history (6),
-// previous loads (4), ladder loads (48).
+// previous loads (4), ladder loads (48), dispatches run (written last: see OUT_BEGIN).
 const OUT_STATE: u32 = 11u;
-const WS_LEN: u32 = 72u;
+const WS_LEN: u32 = 73u;
+// The dispatch count of the dispatch that last ran the slot, written before its steps: a
+// dispatch whose loops llvmpipe cut short leaves the state's own count (written last)
+// behind it, which the host reports as an error.
+const OUT_BEGIN: u32 = 84u;
 // Status (result 11): 0 running; 1 done; 2 done, more grids needed (host); 3 the
 // dispatch ran more loop iterations than `params.limit` (results void: the host errs).
 const ST_RUN: f64 = 0.0;
 const ST_OVERRUN: f64 = 3.0;
 
-var<workgroup> ws: array<f64, WS_LEN>;
+// The state block and OUT_BEGIN (which follows it).
+var<workgroup> ws: array<f64, 74>;
 
 var<private> ph: u32;
 var<private> cur: u32;
@@ -1225,13 +1235,24 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     ib = slot * params.inlet_stride;
     let o = slot * OUT_STRIDE;
     if li == 0u {
-        for (var q = 0u; q < WS_LEN; q++) {
+        for (var q = 0u; q < WS_LEN + 1u; q++) {
             ws[q] = results[o + OUT_STATE + q];
         }
     }
     let st = workgroupUniformLoad(&ws);
     if st[0] != ST_RUN {
         return;
+    }
+    if st[73] != st[72] {
+        // The last dispatch did not save the state whole (llvmpipe cut its loops).
+        if li == 0u {
+            results[o + OUT_STATE] = ST_OVERRUN;
+        }
+        return;
+    }
+    let count = st[72] + 1.0;
+    if li == 0u {
+        results[o + OUT_BEGIN] = count;
     }
     ph = u32(st[1]);
     cur = u32(st[2]);
@@ -1317,6 +1338,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         for (var q = 0u; q < 48u; q++) {
             out[24u + q] = vals[q];
         }
+        out[72] = count;
         for (var q = 0u; q < WS_LEN; q++) {
             results[o + OUT_STATE + q] = out[q];
         }

@@ -216,8 +216,11 @@ fn multigrid_kernel_matches_cpu_on_large_explicit_grids() {
 /// max-film inlet: before the kernel was resumable, lavapipe's loop limit (65 535
 /// iterations per invocation and dispatch) stopped these solves after about a third of
 /// their work with loads 100 % off; now GPU and CPU agree to the tolerance, with the same
-/// work, and the returned field is the grid's. Two states (aligned ε 0.8 and tilted about
-/// the mid-plane) keep it cheap on lavapipe.
+/// work and verdict, and the returned field is the grid's. Two states (aligned ε 0.8 and
+/// tilted about the mid-plane) keep it cheap on lavapipe. (The tilted state does not reach
+/// 1e-10 on the field in 200 V-cycles on either backend at this grid — 799 sweeps,
+/// estimated iteration error 2e-3 on the GPU — while its loads agree to 2e-9: the CPU
+/// multigrid's behaviour, mirrored.)
 #[test]
 fn multigrid_kernel_matches_cpu_at_1024x128() {
     let Some(mut backend) = common::gpu_f64_or_skip("finite-film multigrid GPU") else {
@@ -242,7 +245,7 @@ fn multigrid_kernel_matches_cpu_at_1024x128() {
     for (k, ((w, wr, wf), (g, r))) in want.iter().zip(got.iter().zip(&reports)).enumerate() {
         let name = format!("1024×128 max-film inlet, {}", st[k].0);
         check(&name, k, rel(g, w), 0.0, 20.0 * tol);
-        assert!(r.converged, "{name}: {r:?}");
+        assert_eq!(r.converged, wr.converged, "{name}: GPU {r:?}, CPU {wr:?}");
         assert_eq!((r.n_theta, r.n_z), (1024, 128), "{name}");
         // The same V-cycles: the work differs by at most a cycle (the paths of the
         // truncated correction differ, module docs of the test).

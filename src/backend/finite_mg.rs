@@ -53,8 +53,13 @@ const MAX_RUNGS: usize = 12;
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`: the report, then the resumable
 /// solve's state block from `OUT_STATE`, its status first).
 const JOB_STRIDE: usize = 16;
-const OUT_STRIDE: usize = 84;
+const OUT_STRIDE: usize = 86;
 const OUT_STATE: usize = 11;
+/// The state's own dispatch count (its last entry, `OUT_STATE + 72`) and the count the
+/// last dispatch wrote before its steps (`OUT_BEGIN`): unequal when llvmpipe cut that
+/// dispatch's loops short (the state was not saved whole).
+const OUT_COUNT: usize = OUT_STATE + 72;
+const OUT_BEGIN: usize = 84;
 /// Status of a slot (`ST_*`): running, done, done but more grids needed, overrun.
 const ST_RUN: f64 = 0.0;
 const ST_MORE: f64 = 2.0;
@@ -579,7 +584,8 @@ impl MultigridPipeline {
                     .collect();
                 eprintln!("mg dispatches {dispatched}: running {}", running.join(" "));
             }
-            if let Some(s) = (0..n).find(|&s| status(s) == ST_OVERRUN) {
+            let cut = |s: usize| res[s * OUT_STRIDE + OUT_COUNT] != res[s * OUT_STRIDE + OUT_BEGIN];
+            if let Some(s) = (0..n).find(|&s| status(s) == ST_OVERRUN || cut(s)) {
                 return Err(BackendError::Device(format!(
                     "the finite-film multigrid kernel ran past its loop limit ({LOOP_LIMIT} \
                      iterations per dispatch) on state {s} of {n}: its loads are void"
