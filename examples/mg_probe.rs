@@ -370,32 +370,53 @@ fn gpu_acc(accuracy: f64, n: usize) {
         .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
         .collect();
     let g = FiniteGrid::for_bearing(&p);
-    let mut fields = vec![Vec::new(); jobs.len()];
-    let (mut out, mut reports) = (Vec::new(), Vec::new());
-    let t = std::time::Instant::now();
-    backend
-        .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
-        .expect("the multigrid kernel runs");
-    println!("gpu {:.1} s", t.elapsed().as_secs_f64());
-    let mut solver = FiniteSolver::new();
-    for (k, job) in jobs.iter().enumerate() {
-        let (want, r) = solver.solve(job, &g, &mut Vec::new());
-        let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+    // One warm-up call each (pipeline creation), then a timed one; the CPU backend on
+    // all threads (rayon), as `finite --bench` runs it.
+    let mut cpu_backend =
+        bearing_sweep::backend::CpuBackend::new(bearing_sweep::bearing::Accuracy::default(), None);
+    let run = |b: &mut dyn FilmBackend| {
+        let mut fields = vec![Vec::new(); jobs.len()];
+        let (mut out, mut reports) = (Vec::new(), Vec::new());
+        b.integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+            .expect("the finite film runs");
+        let t = std::time::Instant::now();
+        let mut fields = vec![Vec::new(); jobs.len()];
+        b.integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+            .expect("the finite film runs");
+        (t.elapsed().as_secs_f64(), out, reports)
+    };
+    let (tg, out, reports) = run(&mut backend);
+    let (tc, want, wr) = run(&mut cpu_backend);
+    let nj = jobs.len() as f64;
+    let mut diff = 0.0_f64;
+    let mut top = 0;
+    for k in 0..jobs.len() {
+        let norm = want[k].iter().map(|v| v * v).sum::<f64>().sqrt();
         let d = (0..4)
-            .map(|i| (out[k][i] - want[i]).powi(2))
+            .map(|i| (out[k][i] - want[k][i]).powi(2))
             .sum::<f64>()
             .sqrt();
-        println!(
-            "state {k}: gpu {}x{} sweeps {} | cpu {}x{} sweeps {} | load diff {:.1e}",
-            reports[k].n_theta,
-            reports[k].n_z,
-            reports[k].sweeps,
-            r.n_theta,
-            r.n_z,
-            r.sweeps,
-            d / norm
+        diff = diff.max(d / norm);
+        assert_eq!(
+            (reports[k].n_theta, reports[k].n_z),
+            (wr[k].n_theta, wr[k].n_z),
+            "state {k}: GPU and CPU grids"
         );
+        if reports[k].n_theta == 1024 {
+            top += 1;
+        }
     }
+    let sweeps = |r: &[bearing_sweep::bearing::finite::SolveReport]| {
+        r.iter().map(|r| r.sweeps as f64).sum::<f64>() / nj
+    };
+    println!(
+        "| accuracy {accuracy:e} | {} states ({top} on 1024×128) | GPU {:.1} states/s, {:.1} sweeps | CPU {:.1} states/s, {:.1} sweeps | max load diff {diff:.1e} |",
+        jobs.len(),
+        nj / tg,
+        sweeps(&reports),
+        nj / tc,
+        sweeps(&wr)
+    );
 }
 
 fn main() {
