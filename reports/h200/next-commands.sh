@@ -23,7 +23,9 @@
 #                     multigrid kernel, explicit grid), accuracy 5e-4 (the default: the
 #                     ladder inside the kernel, up to 1024x128 on the device since the
 #                     kernel is resumable) and 1e-4; errors against the 1024x128
-#                     Richardson-extrapolated reference, equal on both backends. Issue 26's
+#                     Richardson-extrapolated reference, equal on both backends (the rows
+#                     ask for loads only, so accuracy mode runs on the kernel: a "GPU
+#                     notices" line under the table means a fallback). Issue 26's
 #                     goal: GPU >= 20x the 16-thread CPU at the default accuracy (session
 #                     32, H200: 1.2-2.1x). Section "Issue 20/26: the multigrid kernel".
 #  sweeps.txt         the 4 096-variant short-film rotor sweep (sweeps/clearance-viscosity
