@@ -20,8 +20,8 @@
 //! error, never loads.
 //!
 //! **Range.** Grids up to [`DEVICE_MAX_NODES`] (nodes with the end rows): one step of the
-//! largest level must fit a dispatch's loop budget (about 480 000 nodes; the range is
-//! about half that, so that a dispatch holds more than one such step) and a state's
+//! largest level must fit a dispatch's loop budget (about 375 000 nodes; the range is
+//! about 70 % of that, so that a dispatch holds more than one such step) and a state's
 //! scratch (8 arrays per level, ~90 bytes per node of the largest level with the levels
 //! below and the field) one storage binding of the device (checked per device: an error
 //! beyond it). Checked against the CPU up to 1024 × 128 (132 096 nodes, the ladder's last
@@ -71,10 +71,12 @@ const ST_OVERRUN: f64 = 3.0;
 /// cut with a budget of 40 000 counted iterations and ran right with 30 000), so the
 /// limit is 65 535 / 2.2; a dispatch that counts more is void.
 const LOOP_LIMIT: u32 = 30_000;
-/// Loop iterations reserved for the serial walk of the truncated correction (candidate
-/// sort and walk by one invocation; a few hundred candidates at most in the cases
-/// measured), on top of a step's parallel loops.
-const SERIAL_RESERVE: u32 = 5_000;
+/// Loop iterations reserved for the truncated correction's candidates on top of a step's
+/// parallel loops: their sort (≤ 3 × 513 at the list's 512) and walk by one invocation
+/// (≤ 8 per candidate), ~5 600 at a full list; beyond the list, the in-place walk over the
+/// level's nodes (4 096 at 128 × 32; larger grids overrun: an error). 5 000 was too few: a
+/// squeezed JFO start state at 128 × 32 overran it (tests/finite_gpu_jfo.rs).
+const SERIAL_RESERVE: u32 = 10_000;
 /// Workgroup size of the kernel (`WG`).
 const WG: usize = 256;
 /// Dispatches per submission (between read-backs of the status flags).
@@ -93,7 +95,7 @@ const SCRATCH_BUDGET: u64 = 2 << 30;
 /// on a software device).
 const MAX_SLOTS: usize = 4096;
 /// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Range"
-/// (a step of the largest level within the loop budget allows ~480 000 nodes; about half
+/// (a step of the largest level within the loop budget allows ~375 000 nodes; about 70 %
 /// of that leaves a dispatch room for more than one such step: 2048 × 129 and 1024 × 257,
 /// the ladder's last grid at B/D = 1, fit). The environment variable `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a
 /// node count) overrides it (an unparsable value keeps the default).
@@ -634,7 +636,7 @@ fn loops(n: usize) -> usize {
 /// side, the freezes of the levels below with the inlet line's walks, the loads: ≲ 8 I),
 /// the descent (two sweeps, residual, restriction: ≲ 4 I) or the set-up and prolongation
 /// of a ladder grid (≲ 3 I); 12 I + 400 bounds them all. A grid whose step leaves less
-/// than 2 000 iterations of budget (about 480 000 nodes) is beyond the kernel.
+/// than 2 000 iterations of budget (about 375 000 nodes) is beyond the kernel.
 ///
 /// Cap: an upper bound on the dispatches a state needs, from the kernel's own limits
 /// (every level iterated to `MAX_CYCLES` V-cycles, every coarsest solve to
@@ -648,7 +650,7 @@ fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
     let free = (LOOP_LIMIT - SERIAL_RESERVE) as usize;
     if step + 2_000 > free {
         return Err(BackendError::Device(format!(
-            "the finite-film multigrid kernel solves grids of at most ~480 000 nodes \
+            "the finite-film multigrid kernel solves grids of at most ~375 000 nodes \
              (one step of its largest level within a dispatch's loop limit); this one has \
              {largest}"
         )));
