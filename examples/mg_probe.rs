@@ -248,12 +248,195 @@ fn gpu(nt: u32, nz: u32) {
     );
 }
 
+/// `mg_probe dump FILE [states]`: the multigrid kernel's loads and reports, as bits, for a
+/// fixed set of settings (explicit 128 × 32 and 256 × 64 with both inlets, grooves, accuracy
+/// mode at the default and 1e-4, a warm start), one line per state, to compare two kernel
+/// versions bit for bit (`diff` the files).
+fn dump(path: &str, n: usize) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    use std::fmt::Write as _;
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p0, states) = bench_states(n);
+    let mut text = String::new();
+    let explicit = |nt, nz, inlet| FiniteSettings {
+        inlet,
+        ..FiniteSettings::with_grid(nt, nz)
+    };
+    let cases: Vec<(String, FiniteSettings, bool)> = vec![
+        ("128x32 max".into(), explicit(128, 32, Inlet::MaxFilm), true),
+        ("128x32 none".into(), explicit(128, 32, Inlet::None), false),
+        (
+            "256x64 max".into(),
+            explicit(256, 64, Inlet::MaxFilm),
+            false,
+        ),
+        ("accuracy default".into(), FiniteSettings::default(), false),
+        (
+            "accuracy 1e-3 none".into(),
+            FiniteSettings {
+                accuracy: 1e-3,
+                inlet: Inlet::None,
+                ..FiniteSettings::default()
+            },
+            false,
+        ),
+    ];
+    for (label, finite, warm_too) in cases {
+        let p = BearingParams {
+            model: bearing_sweep::bearing::FilmModel::Finite,
+            finite,
+            ..p0
+        };
+        let jobs: Vec<FiniteJob> = states
+            .iter()
+            .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+            .collect();
+        let g = FiniteGrid::for_bearing(&p);
+        let mut fields = vec![Vec::new(); jobs.len()];
+        let rounds = if warm_too { 2 } else { 1 };
+        for round in 0..rounds {
+            let (mut out, mut reports) = (Vec::new(), Vec::new());
+            backend
+                .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+                .expect("the multigrid kernel runs");
+            for (k, (o, r)) in out.iter().zip(&reports).enumerate() {
+                let _ = write!(text, "{label} round {round} state {k}:");
+                for v in o {
+                    let _ = write!(text, " {:016x}", v.to_bits());
+                }
+                let _ = writeln!(
+                    text,
+                    " sweeps {} err {:016x} conv {} grid {}x{} est {:016x} met {}",
+                    r.sweeps,
+                    r.iteration_error.to_bits(),
+                    r.converged,
+                    r.n_theta,
+                    r.n_z,
+                    r.error_estimate.to_bits(),
+                    r.accuracy_met
+                );
+            }
+            for (k, f) in fields.iter().enumerate() {
+                let h = f.iter().fold(0u64, |h, v| {
+                    h.rotate_left(5) ^ v.to_bits().wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                });
+                let _ = writeln!(
+                    text,
+                    "{label} round {round} field {k}: len {} hash {h:016x}",
+                    f.len()
+                );
+            }
+        }
+    }
+    std::fs::write(path, text).expect("writable dump file");
+}
+
+/// `mg_probe acc ACCURACY [states]`: accuracy mode on the multigrid kernel against the CPU
+/// solver: per state the grids reached and the relative difference of the load vectors.
+fn gpu_acc(accuracy: f64, n: usize) {
+    use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
+    let options = GpuOptions {
+        precision: Some(Precision::F64),
+        ..GpuOptions::default()
+    };
+    let mut backend = match GpuBackend::new(bearing_sweep::bearing::Accuracy::default(), options) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no f64 GPU adapter: {e}");
+            return;
+        }
+    };
+    let (p0, states) = bench_states(n);
+    let p = BearingParams {
+        model: bearing_sweep::bearing::FilmModel::Finite,
+        finite: FiniteSettings {
+            accuracy,
+            ..FiniteSettings::default()
+        },
+        ..p0
+    };
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
+        .collect();
+    let g = FiniteGrid::for_bearing(&p);
+    // One warm-up call each (pipeline creation), then a timed one; the CPU backend on
+    // all threads (rayon), as `finite --bench` runs it.
+    let mut cpu_backend =
+        bearing_sweep::backend::CpuBackend::new(bearing_sweep::bearing::Accuracy::default(), None);
+    let run = |b: &mut dyn FilmBackend| {
+        let mut fields = vec![Vec::new(); jobs.len()];
+        let (mut out, mut reports) = (Vec::new(), Vec::new());
+        b.integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+            .expect("the finite film runs");
+        let t = std::time::Instant::now();
+        let mut fields = vec![Vec::new(); jobs.len()];
+        b.integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+            .expect("the finite film runs");
+        (t.elapsed().as_secs_f64(), out, reports)
+    };
+    let (tg, out, reports) = run(&mut backend);
+    let (tc, want, wr) = run(&mut cpu_backend);
+    let nj = jobs.len() as f64;
+    let mut diff = 0.0_f64;
+    let mut top = 0;
+    for k in 0..jobs.len() {
+        let norm = want[k].iter().map(|v| v * v).sum::<f64>().sqrt();
+        let d = (0..4)
+            .map(|i| (out[k][i] - want[k][i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        diff = diff.max(d / norm);
+        assert_eq!(
+            (reports[k].n_theta, reports[k].n_z),
+            (wr[k].n_theta, wr[k].n_z),
+            "state {k}: GPU and CPU grids"
+        );
+        if reports[k].n_theta == 1024 {
+            top += 1;
+        }
+    }
+    let sweeps = |r: &[bearing_sweep::bearing::finite::SolveReport]| {
+        r.iter().map(|r| r.sweeps as f64).sum::<f64>() / nj
+    };
+    println!(
+        "| accuracy {accuracy:e} | {} states ({top} on 1024×128) | GPU {:.1} states/s, {:.1} sweeps | CPU {:.1} states/s, {:.1} sweeps | max load diff {diff:.1e} |",
+        jobs.len(),
+        nj / tg,
+        sweeps(&reports),
+        nj / tc,
+        sweeps(&wr)
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("gpu") {
         let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
         let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
         gpu(nt, nz);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("acc") {
+        gpu_acc(
+            args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1e-4),
+            args.get(2).and_then(|s| s.parse().ok()).unwrap_or(8),
+        );
+        return;
+    }
+    if args.first().map(String::as_str) == Some("dump") {
+        let path = args.get(1).map_or("mg_dump.txt", String::as_str);
+        dump(path, args.get(2).and_then(|s| s.parse().ok()).unwrap_or(8));
         return;
     }
     if args.first().map(String::as_str) == Some("shapes") {

@@ -32,10 +32,11 @@ const NO_INLET: u32 = 0xffffffffu;
 // Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
 // theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
 const JOB_STRIDE: u32 = 16u;
-// Per result (stride 12 f64): integrals[4], sweeps, iteration error, converged, n_theta,
-// n_z, error estimate, accuracy met, status (1: done; 2: the dispatch's grids were not
-// enough for the accuracy, the host solves it again with the full ladder).
-const OUT_STRIDE: u32 = 12u;
+// Per result (stride 86 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// n_z, error estimate, accuracy met, then the state block (OUT_STATE: status first,
+// ST_*: 1 done; 2 the dispatch's grids were not enough for the accuracy, the host solves
+// it again with the full ladder).
+const OUT_STRIDE: u32 = 86u;
 // Arrays of a level (offsets in units of the level's node count).
 const A_AE: u32 = 0u;
 const A_AN: u32 = 1u;
@@ -77,8 +78,10 @@ struct Params {
     more: u32,
     // V-cycle limit of a grid (solver.rs MAX_CYCLES).
     max_cycles: u32,
-    pad0: u32,
-    pad1: u32,
+    // Loop iterations of a dispatch after which it starts no further step (resumable: see
+    // `main`), and beyond which its results are void (ST_OVERRUN).
+    budget: u32,
+    limit: u32,
     // Fixed grid: tolerance on the field; ladder: on the loads (max(accuracy/50, tol)).
     tolerance: f64,
     // Ladder: requested accuracy.
@@ -106,12 +109,15 @@ struct Params {
 
 var<workgroup> red: array<f64, 1024>;
 var<workgroup> wu: array<f64, 4>;
-// Correction candidates that the truncated correction would empty (prolong_correction).
+// Correction candidates that the truncated correction would empty (prolong_correction),
+// and the sort's scratch.
 const CAND_CAP: u32 = 512u;
 var<workgroup> cand: array<u32, CAND_CAP>;
 var<workgroup> cand_zero: array<u32, CAND_CAP>;
 var<workgroup> ncand: atomic<u32>;
 var<workgroup> wn: u32;
+// Loop iterations of the serial part of prolong_correction (invocation 0's count).
+var<workgroup> wcost: u32;
 
 var<private> lid: u32;
 var<private> sb: u32;
@@ -126,6 +132,18 @@ var<private> cos0: f64;
 var<private> sin0: f64;
 // Relaxation node updates (work), uniform across the workgroup.
 var<private> updates: f64;
+// Loop iterations this dispatch has run so far (an upper bound on what the invocation
+// with the most runs, local index 0, ran), uniform across the workgroup: the budget that
+// makes the kernel resumable (see `main`).
+var<private> spent: u32;
+// Loop iterations of invocation 0's serial walks (prolong_correction, `emptied`).
+var<private> serial: u32;
+
+// Iterations of a loop `for (var m = lid; m < n; m += WG)` for invocation 0, plus its
+// exit test.
+fn loops(n: u32) -> u32 {
+    return (n + WG - 1u) / WG + 1u;
+}
 
 fn nt_of(l: u32) -> u32 {
     return params.lv[l].x;
@@ -203,6 +221,8 @@ fn neighbours(l: u32, a: u32, j: u32, i: u32) -> f64 {
 
 // Max-reduction of (a, b) over the workgroup; uniform results.
 fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
+    // log2(WG) halvings and the exit test.
+    spent += 9u;
     red[lid] = a;
     red[WG + lid] = b;
     workgroupBarrier();
@@ -225,6 +245,8 @@ fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
 
 // Sum-reduction of four values; uniform results.
 fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
+    // The 4-value loops around and inside log2(WG) halvings.
+    spent += 64u;
     for (var q = 0u; q < 4u; q++) {
         red[q * WG + lid] = v[q];
     }
@@ -262,6 +284,7 @@ fn setup(l: u32) {
     let ct = aspect2 / (dt * dt);
     let cz = 1.0 / (dz * dz);
     let gb = params.lw[l].y;
+    spent += loops(n) + loops(interior_of(l));
     for (var k = lid; k < n; k += WG) {
         let j = k / nt;
         let i = k % nt;
@@ -322,6 +345,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
     let ia = select(A_INVF, A_INV, top);
     var my_dp: f64 = 0.0;
     var my_p: f64 = 0.0;
+    spent += 1u + 2u * loops(cnt);
     for (var colour = 0u; colour < 2u; colour++) {
         for (var m = lid; m < cnt; m += WG) {
             let j = 1u + m / half;
@@ -357,6 +381,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
 fn residual(l: u32, top: bool) {
     let nt = nt_of(l);
     let interior = interior_of(l);
+    spent += loops(interior);
     let ia = select(A_INVF, A_INV, top);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
@@ -403,6 +428,7 @@ fn restrict_fas(l: u32) {
     let cnt = nt_of(c);
     let cnz = nz_of(c);
     let nc = full_of(c);
+    spent += 2u * loops(nc);
     for (var kc = lid; kc < nc; kc += WG) {
         let jc = kc / cnt;
         let ic = kc % cnt;
@@ -499,19 +525,16 @@ fn inside_before(l: u32, k: u32) -> bool {
         && (j == 1u || scr[at(l, A_P, k - nt)] > 0.0);
 }
 
-// Whether sorted candidate list entry `c` (a node index) was emptied, by binary search.
-fn emptied(c: u32, n: u32) -> bool {
-    var lo = 0u;
-    var hi = n;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if cand[mid] < c {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
+// Whether node x of level l (array ia: its inverse diagonals) was emptied by the truncated
+// correction in progress: a candidate (free, inside before the correction, corrected to
+// zero or below; its new value in A_R is 0 unless the walk shut it out, then its old,
+// positive value). Final for the nodes the walk has passed.
+fn gone(l: u32, ia: u32, x: u32) -> bool {
+    if scr[at(l, A_R, x)] != 0.0 || scr[at(l, ia, x)] == 0.0 || !inside_before(l, x) {
+        return false;
     }
-    return lo < n && cand[lo] == c && cand_zero[lo] != 0u;
+    let nt = nt_of(l);
+    return max(scr[at(l, A_P, x)] + corr(l, x / nt, x % nt), 0.0) <= 0.0;
 }
 
 // p += P(u_H − u0) at the nodes inside the pressure zone (node and four neighbours
@@ -520,8 +543,9 @@ fn emptied(c: u32, n: u32) -> bool {
 // last column) the correction emptied is not inside any more. Here: every node's new
 // value from the field before the correction (into the residual array, dead here); the
 // candidates that the correction empties (few: at the free boundary) go to a workgroup
-// list that one invocation walks in node order to find which are really emptied and which
-// later neighbours they shut out; then the new field is copied back. Beyond the list's
+// list, sorted by node (ranks, all invocations), that one invocation walks in node order
+// to find which are really emptied (`gone`: a node's own test, O(1)) and which later
+// neighbours they shut out; then the new field is copied back. Beyond the list's
 // capacity one invocation does the CPU's in-place walk. The same result as the CPU's.
 fn prolong_correction(l: u32, top: bool) {
     let nt = nt_of(l);
@@ -530,6 +554,8 @@ fn prolong_correction(l: u32, top: bool) {
     if lid == 0u {
         atomicStore(&ncand, 0u);
     }
+    serial = 0u;
+    spent += 2u * loops(interior) + 2u;
     workgroupBarrier();
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
@@ -559,6 +585,7 @@ fn prolong_correction(l: u32, top: bool) {
         // Too many: the CPU's walk, in place, by one invocation.
         if lid == 0u {
             let nz = nz_of(l);
+            wcost = nt * nz;
             for (var k = nt; k < nt * nz; k++) {
                 if scr[at(l, ia, k)] == 0.0 {
                     if top {
@@ -570,29 +597,41 @@ fn prolong_correction(l: u32, top: bool) {
                 }
             }
         }
-        workgroupBarrier();
+        spent += workgroupUniformLoad(&wcost);
         return;
     }
-    if n > 0u && lid == 0u {
-        // Sort the candidates (insertion sort: a handful), then walk them in node order.
-        for (var a = 1u; a < n; a++) {
+    if n > 0u {
+        // Sort the candidates by node: each one's rank in the list (all invocations), into
+        // cand_zero, then back.
+        spent += loops(n) * (n + 1u) + loops(n) + 2u;
+        for (var a = lid; a < n; a += WG) {
             let x = cand[a];
-            var b = a;
-            while b > 0u && cand[b - 1u] > x {
-                cand[b] = cand[b - 1u];
-                b -= 1u;
+            var r = 0u;
+            for (var b = 0u; b < n; b++) {
+                if cand[b] < x {
+                    r += 1u;
+                }
             }
-            cand[b] = x;
+            cand_zero[r] = x;
         }
+        workgroupBarrier();
+        for (var a = lid; a < n; a += WG) {
+            cand[a] = cand_zero[a];
+        }
+        workgroupBarrier();
+    }
+    if n > 0u && lid == 0u {
+        // Walk them in node order: shut out (unchanged) where an earlier neighbour was
+        // emptied.
         for (var a = 0u; a < n; a++) {
+            serial += 1u;
             let k = cand[a];
             let i = k % nt;
             let j = k / nt;
-            var shut = (i > 0u && emptied(k - 1u, a)) || (j > 1u && emptied(k - nt, a));
+            var shut = (i > 0u && gone(l, ia, k - 1u)) || (j > 1u && gone(l, ia, k - nt));
             if i + 1u == nt {
-                shut = shut || emptied(j * nt, a);
+                shut = shut || gone(l, ia, j * nt);
             }
-            cand_zero[a] = select(1u, 0u, shut);
             if shut {
                 // Not inside any more: unchanged.
                 scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
@@ -601,10 +640,11 @@ fn prolong_correction(l: u32, top: bool) {
         // Later neighbours of the emptied nodes are shut out: unchanged.
         let nz = nz_of(l);
         for (var a = 0u; a < n; a++) {
-            if cand_zero[a] == 0u {
+            serial += 1u;
+            let z = cand[a];
+            if !gone(l, ia, z) {
                 continue;
             }
-            let z = cand[a];
             let i = z % nt;
             let j = z / nt;
             var later = array<u32, 3>(0u, 0u, 0u);
@@ -618,14 +658,19 @@ fn prolong_correction(l: u32, top: bool) {
                 later[2] = z + nt - 1u;
             }
             for (var q = 0u; q < 3u; q++) {
+                serial += 1u;
                 let k = later[q];
-                if k != 0u && !emptied(k, n) && scr[at(l, ia, k)] != 0.0 {
+                if k != 0u && !gone(l, ia, k) && scr[at(l, ia, k)] != 0.0 {
                     scr[at(l, A_R, k)] = scr[at(l, A_P, k)];
                 }
             }
         }
     }
+    if lid == 0u {
+        wcost = serial;
+    }
     workgroupBarrier();
+    spent += workgroupUniformLoad(&wcost);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         scr[at(l, A_P, k)] = scr[at(l, A_R, k)];
@@ -640,6 +685,7 @@ fn prolong_solution(l: u32) {
     let nt = nt_of(l);
     let cnt = nt_of(c);
     let interior = interior_of(l);
+    spent += loops(interior);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         let j = k / nt;
@@ -711,6 +757,13 @@ fn freeze(l: u32, top: bool, t: u32) {
     let cnt = nt_of(c);
     let ia = select(A_INVF, A_INV, top);
     let interior = interior_of(c);
+    // Per node: inlet_line's two walks over the levels between c and t, and up to three
+    // fine rows each with its own walk.
+    var per_node = 4u;
+    if line {
+        per_node = 4u + 2u * (t - c) + 3u * (3u + 2u * (t - l));
+    }
+    spent += 1u + loops(interior) * per_node;
     for (var m = lid; m < interior; m += WG) {
         let kc = m + cnt;
         let jc = kc / cnt;
@@ -759,6 +812,7 @@ fn loads(l: u32) -> array<f64, 4> {
     let interior = interior_of(l);
     let simpson = params.mode != 0u && params.banded == 0u && nz % 2u == 0u;
     var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
+    spent += loops(interior);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         let j = k / nt;
@@ -801,61 +855,94 @@ fn root5(x: f64) -> f64 {
     return y;
 }
 
-// Projected SOR on the coarsest level (0) until the estimated change is below `tol` of
-// the largest value (multigrid.rs Level::solve_coarsest).
-fn solve_coarsest(tol: f64, top: bool) {
+// The resumable solve (see `main`): its phases.
+// Set up the first grid's levels (and load a warm start).
+const PH_INIT: u32 = 0u;
+// Next grid of the sequence: set it up (ladder grids) and prolong the solution onto it.
+const PH_PREP: u32 = 1u;
+// Start iterating on level `cur`: its own right-hand side, the freezes below it.
+const PH_ENTER: u32 = 2u;
+// Level 0 solved by itself: its projected SOR to the tolerance, one sweep per step.
+const PH_COARSE: u32 = 3u;
+// A V-cycle on level `cur`, at step `vs`.
+const PH_CYCLE: u32 = 4u;
+// Field, loads and report out.
+const PH_DONE: u32 = 5u;
+// Written out: nothing left to do.
+const PH_OUT: u32 = 6u;
+// The state block of a slot, in `results` from OUT_STATE on (f64 each): status, phase,
+// level, cycle, cycle limit, last change, iteration error, converged, node updates, ladder
+// values kept, estimate, met, V-cycle step, coarsest sweep, coarsest history (6),
+// previous loads (4), ladder loads (48), dispatches run (written last: see OUT_BEGIN).
+const OUT_STATE: u32 = 11u;
+const WS_LEN: u32 = 73u;
+// The dispatch count of the dispatch that last ran the slot, written before its steps: a
+// dispatch whose loops llvmpipe cut short leaves the state's own count (written last)
+// behind it, which the host reports as an error.
+const OUT_BEGIN: u32 = 84u;
+// Status (result 11): 0 running; 1 done; 2 done, more grids needed (host); 3 the
+// dispatch ran more loop iterations than `params.limit` (results void: the host errs).
+const ST_RUN: f64 = 0.0;
+const ST_OVERRUN: f64 = 3.0;
+
+// The state block and OUT_BEGIN (which follows it).
+var<workgroup> ws: array<f64, 74>;
+
+var<private> ph: u32;
+var<private> cur: u32;
+var<private> cyc: u32;
+var<private> maxc: u32;
+var<private> last_change: f64;
+var<private> err: f64;
+var<private> conv: bool;
+var<private> nv: u32;
+var<private> est: f64;
+var<private> met: bool;
+var<private> vs: u32;
+var<private> cs: u32;
+var<private> hist: array<f64, 6>;
+var<private> prev: array<f64, 4>;
+var<private> vals: array<f64, 48>;
+
+// One sweep of the projected SOR on the coarsest level (0) and its stop test: the solve
+// ends when the estimated change is below `tol` of the largest value or after
+// COARSEST_SWEEPS (multigrid.rs Level::solve_coarsest). True when the solve is over.
+fn coarsest_step(tol: f64, top: bool) -> bool {
     let omega = omega0;
-    var hist = array<f64, 6>(-1.0, -1.0, -1.0, -1.0, -1.0, -1.0);
     let floor = min(omega - 1.0, 0.9999);
     let min_tail = floor / (1.0 - floor);
-    let interior = f64(interior_of(0u));
-    for (var s = 0u; s < COARSEST_SWEEPS; s++) {
-        let r = sweep(0u, omega, top, true);
-        let dp = r.x;
-        let mp = r.y;
-        updates += interior;
-        for (var q = 0u; q < 5u; q++) {
-            hist[q] = hist[q + 1u];
-        }
-        hist[5] = dp;
-        if dp != 0.0 && dp * min_tail > tol * mp {
-            continue;
-        }
-        var measured: f64 = 0.0;
-        if hist[0] > 0.0 {
-            measured = root5(hist[5] / hist[0]);
-        }
-        let rho = min(max(measured, omega - 1.0), 0.9999);
-        if dp == 0.0 || (s >= 5u && dp * rho / (1.0 - rho) <= tol * mp) {
-            break;
-        }
+    let r = sweep(0u, omega, top, true);
+    let dp = r.x;
+    let mp = r.y;
+    updates += f64(interior_of(0u));
+    // The history shift and root5's Newton steps.
+    spent += 8u;
+    for (var q = 0u; q < 5u; q++) {
+        hist[q] = hist[q + 1u];
     }
+    hist[5] = dp;
+    let s = cs;
+    cs += 1u;
+    if cs >= COARSEST_SWEEPS {
+        return true;
+    }
+    if dp != 0.0 && dp * min_tail > tol * mp {
+        return false;
+    }
+    var measured: f64 = 0.0;
+    if hist[0] > 0.0 {
+        measured = root5(hist[5] / hist[0]);
+    }
+    let rho = min(max(measured, omega - 1.0), 0.9999);
+    return dp == 0.0 || (s >= 5u && dp * rho / (1.0 - rho) <= tol * mp);
 }
 
-// One V-cycle on level `top` (its right-hand side set).
-fn vcycle(top: u32) {
-    for (var m = top; m >= 1u; m--) {
-        for (var s = 0u; s < NU_PRE; s++) {
-            sweep(m, 1.0, m == top, false);
-        }
-        updates += f64(NU_PRE * interior_of(m));
-        residual(m, m == top);
-        restrict_fas(m);
+fn start_coarsest() {
+    spent += 7u;
+    cs = 0u;
+    for (var q = 0u; q < 6u; q++) {
+        hist[q] = -1.0;
     }
-    solve_coarsest(COARSEST_TOL, false);
-    for (var m = 1u; m <= top; m++) {
-        prolong_correction(m, m == top);
-        for (var s = 0u; s < NU_POST; s++) {
-            sweep(m, 1.0, m == top, false);
-        }
-        updates += f64(NU_POST * interior_of(m));
-    }
-}
-
-struct Outcome {
-    cycles: u32,
-    err: f64,
-    converged: bool,
 }
 
 fn norm4(a: array<f64, 4>) -> f64 {
@@ -872,83 +959,6 @@ fn dist4(a: array<f64, 4>, b: array<f64, 4>) -> f64 {
         s += (a[q] - b[q]) * (a[q] - b[q]);
     }
     return sqrt(s);
-}
-
-// V-cycles on level l (own right-hand side) until the estimated iteration error is below
-// the tolerance (of the field over its maximum in fixed mode, of the loads over their
-// norm on the ladder), at most `max_cycles` (multigrid.rs Hierarchy::iterate).
-fn iterate(l: u32, max_cycles: u32) -> Outcome {
-    let nt = nt_of(l);
-    let n = full_of(l);
-    for (var k = lid; k < n; k += WG) {
-        scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
-    }
-    workgroupBarrier();
-    for (var m = l; m >= 1u; m--) {
-        freeze(m, m == l, l);
-    }
-    let tol = params.tolerance;
-    if l == 0u {
-        solve_coarsest(tol, true);
-        return Outcome(1u, 0.0, true);
-    }
-    let field_stop = params.mode == 0u;
-    var prev_loads = loads(l);
-    var last_change: f64 = -1.0;
-    var err: f64 = -1.0;
-    let interior = interior_of(l);
-    for (var cycle = 1u; cycle <= max_cycles; cycle++) {
-        if field_stop {
-            for (var m = lid; m < interior; m += WG) {
-                scr[at(l, A_BASE, m + nt)] = scr[at(l, A_P, m + nt)];
-            }
-            workgroupBarrier();
-        }
-        vcycle(l);
-        var change: f64 = 0.0;
-        if field_stop {
-            var dmax: f64 = 0.0;
-            var pmax: f64 = 0.0;
-            for (var m = lid; m < interior; m += WG) {
-                let a = scr[at(l, A_P, m + nt)];
-                dmax = max(dmax, abs(a - scr[at(l, A_BASE, m + nt)]));
-                pmax = max(pmax, a);
-            }
-            let r = reduce_max2(dmax, pmax);
-            if r.y > 0.0 {
-                change = r.x / r.y;
-            }
-        } else {
-            let now = loads(l);
-            let d = dist4(now, prev_loads);
-            let norm = norm4(now);
-            prev_loads = now;
-            if norm > 0.0 {
-                change = d / norm;
-            }
-        }
-        // Contraction per cycle: measured, within [0.1, 0.95]; 0.5 until measured.
-        var rho: f64 = 0.5;
-        if last_change > 0.0 {
-            rho = clamp(change / last_change, 0.1, 0.95);
-        }
-        last_change = change;
-        err = change * rho / (1.0 - rho);
-        if change == 0.0 || err <= tol {
-            return Outcome(cycle, err, true);
-        }
-    }
-    return Outcome(max_cycles, err, false);
-}
-
-// Full multigrid from level 0 to `top`: one V-cycle per intermediate level.
-fn fmg(top: u32) -> Outcome {
-    var res = iterate(0u, params.max_cycles);
-    for (var l = 1u; l <= top; l++) {
-        prolong_solution(l);
-        res = iterate(l, select(1u, params.max_cycles, l == top));
-    }
-    return res;
 }
 
 // Richardson estimate of the last of `n` ladder values (solver.rs simpson_estimate and,
@@ -978,6 +988,248 @@ fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     return d2 / 3.0 / norm;
 }
 
+// Level `cur`'s iteration is over (multigrid.rs Hierarchy::iterate returned): the next
+// grid of the full multigrid start (one V-cycle per intermediate level), of the ladder
+// (with its loads, Richardson estimate and stop at the requested accuracy), or done.
+fn finish_level() {
+    let top0 = params.top0;
+    if cur < top0 {
+        cur += 1u;
+        maxc = select(1u, params.max_cycles, cur == top0);
+        ph = PH_PREP;
+        return;
+    }
+    if params.mode == 0u {
+        ph = PH_DONE;
+        return;
+    }
+    spent += 24u;
+    if cur == top0 {
+        let v0 = loads(top0);
+        for (var q = 0u; q < 4u; q++) {
+            vals[q] = v0[q];
+        }
+        nv = 1u;
+        est = -1.0;
+    } else {
+        let v = loads(cur);
+        if nv < MAX_RUNGS {
+            for (var q = 0u; q < 4u; q++) {
+                vals[4u * nv + q] = v[q];
+            }
+            nv += 1u;
+        }
+        let e = estimate(vals, nv);
+        if e >= 0.0 {
+            est = e;
+            if e <= params.accuracy {
+                met = true;
+                ph = PH_DONE;
+                return;
+            }
+        }
+    }
+    if cur + 1u < params.n_levels {
+        cur += 1u;
+        maxc = params.max_cycles;
+        ph = PH_PREP;
+    } else {
+        ph = PH_DONE;
+    }
+}
+
+// One V-cycle step on level t = `cur` (multigrid.rs Hierarchy::vcycle and iterate):
+// vs = 0 starts a cycle; 1 ..= t the descent (pre-smoothing, residual, FAS restriction of
+// level t + 1 − vs); t + 1 the coarsest solve (a sweep per step); t + 2 ..= 2t + 1 the
+// ascent (truncated correction and post-smoothing of level vs − t − 1); 2t + 2 the
+// cycle's stop test (the estimated iteration error against the tolerance).
+fn cycle_step() {
+    let t = cur;
+    let nt = nt_of(t);
+    let interior = interior_of(t);
+    let field_stop = params.mode == 0u;
+    if vs == 0u {
+        cyc += 1u;
+        if field_stop {
+            spent += loops(interior);
+            for (var m = lid; m < interior; m += WG) {
+                scr[at(t, A_BASE, m + nt)] = scr[at(t, A_P, m + nt)];
+            }
+            workgroupBarrier();
+        }
+        vs = 1u;
+    } else if vs <= t {
+        let m = t + 1u - vs;
+        for (var s = 0u; s < NU_PRE; s++) {
+            sweep(m, 1.0, m == t, false);
+        }
+        updates += f64(NU_PRE * interior_of(m));
+        residual(m, m == t);
+        restrict_fas(m);
+        vs += 1u;
+        if vs == t + 1u {
+            start_coarsest();
+        }
+    } else if vs == t + 1u {
+        if coarsest_step(COARSEST_TOL, false) {
+            vs += 1u;
+        }
+    } else if vs <= 2u * t + 1u {
+        let m = vs - t - 1u;
+        prolong_correction(m, m == t);
+        for (var s = 0u; s < NU_POST; s++) {
+            sweep(m, 1.0, m == t, false);
+        }
+        updates += f64(NU_POST * interior_of(m));
+        vs += 1u;
+    } else {
+        var change: f64 = 0.0;
+        if field_stop {
+            var dmax: f64 = 0.0;
+            var pmax: f64 = 0.0;
+            spent += loops(interior);
+            for (var m = lid; m < interior; m += WG) {
+                let a = scr[at(t, A_P, m + nt)];
+                dmax = max(dmax, abs(a - scr[at(t, A_BASE, m + nt)]));
+                pmax = max(pmax, a);
+            }
+            let r = reduce_max2(dmax, pmax);
+            if r.y > 0.0 {
+                change = r.x / r.y;
+            }
+        } else {
+            let now = loads(t);
+            let d = dist4(now, prev);
+            let norm = norm4(now);
+            prev = now;
+            if norm > 0.0 {
+                change = d / norm;
+            }
+            spent += 16u;
+        }
+        // Contraction per cycle: measured, within [0.1, 0.95]; 0.5 until measured.
+        var rho: f64 = 0.5;
+        if last_change > 0.0 {
+            rho = clamp(change / last_change, 0.1, 0.95);
+        }
+        last_change = change;
+        err = change * rho / (1.0 - rho);
+        vs = 0u;
+        if change == 0.0 || err <= params.tolerance {
+            conv = true;
+            finish_level();
+        } else if cyc >= maxc {
+            conv = false;
+            finish_level();
+        }
+    }
+}
+
+// One step of the solve (a phase's unit of work), then the phase that follows.
+fn step(slot: u32, warm: bool) {
+    let top0 = params.top0;
+    if ph == PH_INIT {
+        spent += top0 + 1u;
+        for (var l = 0u; l <= top0; l++) {
+            setup(l);
+        }
+        cur = 0u;
+        maxc = params.max_cycles;
+        if params.mode == 0u && warm {
+            // Warm start (multigrid.rs Level::load_field): interior free nodes from the
+            // given field, held nodes at their value; V-cycles on the grid itself.
+            let nt = nt_of(top0);
+            let interior = interior_of(top0);
+            let fb = slot * params.field_stride;
+            spent += loops(interior);
+            for (var m = lid; m < interior; m += WG) {
+                let k = m + nt;
+                var v = fields[fb + k];
+                if scr[at(top0, A_INV, k)] == 0.0 {
+                    v = hold_of(top0, k);
+                }
+                scr[at(top0, A_P, k)] = v;
+            }
+            workgroupBarrier();
+            cur = top0;
+        }
+        ph = PH_ENTER;
+    } else if ph == PH_PREP {
+        if cur > top0 {
+            setup(cur);
+        }
+        prolong_solution(cur);
+        ph = PH_ENTER;
+    } else if ph == PH_ENTER {
+        // multigrid.rs Hierarchy::iterate: the level's own right-hand side, then the
+        // freezes of its correction grids.
+        let l = cur;
+        let nt = nt_of(l);
+        let n = full_of(l);
+        spent += loops(n) + l + 1u;
+        for (var k = lid; k < n; k += WG) {
+            scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
+        }
+        workgroupBarrier();
+        for (var m = l; m >= 1u; m--) {
+            freeze(m, m == l, l);
+        }
+        if l == 0u {
+            start_coarsest();
+            ph = PH_COARSE;
+        } else {
+            prev = loads(l);
+            last_change = -1.0;
+            err = -1.0;
+            cyc = 0u;
+            vs = 0u;
+            ph = PH_CYCLE;
+        }
+    } else if ph == PH_COARSE {
+        if coarsest_step(params.tolerance, true) {
+            cyc = 1u;
+            err = 0.0;
+            conv = true;
+            finish_level();
+        }
+    } else if ph == PH_CYCLE {
+        cycle_step();
+    } else if ph == PH_DONE {
+        // Field of the last grid out, loads, report.
+        let n = full_of(cur);
+        let fb = slot * params.field_stride;
+        spent += loops(n);
+        for (var k = lid; k < n; k += WG) {
+            fields[fb + k] = scr[at(cur, A_P, k)];
+        }
+        let ints = loads(cur);
+        if lid == 0u {
+            let o = slot * OUT_STRIDE;
+            for (var q = 0u; q < 4u; q++) {
+                results[o + q] = ints[q];
+            }
+            let interior = f64(max(interior_of(cur), 1u));
+            results[o + 4u] = ceil(updates / interior);
+            results[o + 5u] = err;
+            results[o + 6u] = select(f64(0.0), f64(1.0), conv);
+            results[o + 7u] = f64(nt_of(cur));
+            results[o + 8u] = f64(nz_of(cur));
+            results[o + 9u] = est;
+            results[o + 10u] = select(f64(0.0), f64(1.0), met);
+        }
+        spent += 8u;
+        ph = PH_OUT;
+    }
+}
+
+// Resumable: a dispatch runs steps of the solve until its loop iterations reach
+// `params.budget`, keeps the state in the slot's `results` block (the fields stay in
+// `scr`) and returns; the host dispatches again until every slot's status is set. So no
+// invocation runs more than `params.limit` loop iterations per dispatch: llvmpipe
+// (lavapipe) ends a shader's loops after 65 535 iterations in all, which had stopped
+// large grids early with wrong loads (BENCHMARKS "Issue 20/26: the multigrid kernel").
+// A dispatch that counted more than the limit marks its slot ST_OVERRUN: the host reports
+// an error instead of loads a cut loop may have spoiled.
 @compute @workgroup_size(256)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let slot = wid.x + wid.y * 65535u;
@@ -988,6 +1240,49 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     sb = slot * params.stride;
     jb = slot * JOB_STRIDE;
     ib = slot * params.inlet_stride;
+    let o = slot * OUT_STRIDE;
+    if li == 0u {
+        for (var q = 0u; q < WS_LEN + 1u; q++) {
+            ws[q] = results[o + OUT_STATE + q];
+        }
+    }
+    let st = workgroupUniformLoad(&ws);
+    if st[0] != ST_RUN {
+        return;
+    }
+    if st[73] != st[72] {
+        // The last dispatch did not save the state whole (llvmpipe cut its loops).
+        if li == 0u {
+            results[o + OUT_STATE] = ST_OVERRUN;
+        }
+        return;
+    }
+    let count = st[72] + 1.0;
+    if li == 0u {
+        results[o + OUT_BEGIN] = count;
+    }
+    ph = u32(st[1]);
+    cur = u32(st[2]);
+    cyc = u32(st[3]);
+    maxc = u32(st[4]);
+    last_change = st[5];
+    err = st[6];
+    conv = st[7] > 0.5;
+    updates = st[8];
+    nv = u32(st[9]);
+    est = st[10];
+    met = st[11] > 0.5;
+    vs = u32(st[12]);
+    cs = u32(st[13]);
+    for (var q = 0u; q < 6u; q++) {
+        hist[q] = st[14u + q];
+    }
+    for (var q = 0u; q < 4u; q++) {
+        prev[q] = st[20u + q];
+    }
+    for (var q = 0u; q < 48u; q++) {
+        vals[q] = st[24u + q];
+    }
     for (var q = 0u; q < 4u; q++) {
         ecc[q] = jobs[jb + q];
         rate[q] = jobs[jb + 4u + q];
@@ -1004,92 +1299,55 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     omega0 = workgroupUniformLoad(&wu[0]);
     let warm = workgroupUniformLoad(&wu[1]) > 0.5;
     workgroupBarrier();
-    updates = 0.0;
+    // The loops above (the state in, its copy out below) and this one's exit test.
+    spent = 2u * WS_LEN + 96u;
 
-    let top0 = params.top0;
-    for (var l = 0u; l <= top0; l++) {
-        setup(l);
-    }
-    var top = top0;
-    var res: Outcome;
-    var est: f64 = 0.0;
-    var met = false;
-    var status: f64 = 1.0;
-    if params.mode == 0u {
-        if warm {
-            // Warm start (multigrid.rs Level::load_field): interior free nodes from the
-            // given field, held nodes at their value.
-            let nt = nt_of(top0);
-            let interior = interior_of(top0);
-            let fb = slot * params.field_stride;
-            for (var m = lid; m < interior; m += WG) {
-                let k = m + nt;
-                var v = fields[fb + k];
-                if scr[at(top0, A_INV, k)] == 0.0 {
-                    v = hold_of(top0, k);
-                }
-                scr[at(top0, A_P, k)] = v;
-            }
-            workgroupBarrier();
-            res = iterate(top0, params.max_cycles);
-        } else {
-            res = fmg(top0);
+    loop {
+        if ph == PH_OUT || spent >= params.budget {
+            break;
         }
-    } else {
-        res = fmg(top0);
-        var vals: array<f64, 48>;
-        var nv = 1u;
-        let v0 = loads(top0);
-        for (var q = 0u; q < 4u; q++) {
-            vals[q] = v0[q];
-        }
-        est = -1.0;
-        for (var l = top0 + 1u; l < params.n_levels; l++) {
-            setup(l);
-            prolong_solution(l);
-            res = iterate(l, params.max_cycles);
-            top = l;
-            let v = loads(l);
-            if nv < MAX_RUNGS {
-                for (var q = 0u; q < 4u; q++) {
-                    vals[4u * nv + q] = v[q];
-                }
-                nv += 1u;
-            }
-            let e = estimate(vals, nv);
-            if e >= 0.0 {
-                est = e;
-                if e <= params.accuracy {
-                    met = true;
-                    break;
-                }
-            }
-        }
-        if !met && params.more != 0u {
-            status = 2.0;
-        }
+        spent += 1u;
+        step(slot, warm);
     }
 
-    // Field of the last grid out, loads, report.
-    let n = full_of(top);
-    let fb = slot * params.field_stride;
-    for (var k = lid; k < n; k += WG) {
-        fields[fb + k] = scr[at(top, A_P, k)];
-    }
-    let ints = loads(top);
     if lid == 0u {
-        let o = slot * OUT_STRIDE;
-        for (var q = 0u; q < 4u; q++) {
-            results[o + q] = ints[q];
+        var status = ST_RUN;
+        if ph == PH_OUT {
+            status = 1.0;
+            if params.mode != 0u && !met && params.more != 0u {
+                status = 2.0;
+            }
         }
-        let interior = f64(max(interior_of(top), 1u));
-        results[o + 4u] = ceil(updates / interior);
-        results[o + 5u] = res.err;
-        results[o + 6u] = select(f64(0.0), f64(1.0), res.converged);
-        results[o + 7u] = f64(nt_of(top));
-        results[o + 8u] = f64(nz_of(top));
-        results[o + 9u] = est;
-        results[o + 10u] = select(f64(0.0), f64(1.0), met);
-        results[o + 11u] = status;
+        if spent > params.limit {
+            status = ST_OVERRUN;
+        }
+        var out: array<f64, WS_LEN>;
+        out[0] = status;
+        out[1] = f64(ph);
+        out[2] = f64(cur);
+        out[3] = f64(cyc);
+        out[4] = f64(maxc);
+        out[5] = last_change;
+        out[6] = err;
+        out[7] = select(f64(0.0), f64(1.0), conv);
+        out[8] = updates;
+        out[9] = f64(nv);
+        out[10] = est;
+        out[11] = select(f64(0.0), f64(1.0), met);
+        out[12] = f64(vs);
+        out[13] = f64(cs);
+        for (var q = 0u; q < 6u; q++) {
+            out[14u + q] = hist[q];
+        }
+        for (var q = 0u; q < 4u; q++) {
+            out[20u + q] = prev[q];
+        }
+        for (var q = 0u; q < 48u; q++) {
+            out[24u + q] = vals[q];
+        }
+        out[72] = count;
+        for (var q = 0u; q < WS_LEN; q++) {
+            results[o + OUT_STATE + q] = out[q];
+        }
     }
 }

@@ -1,4 +1,7 @@
 #!/bin/bash
+# (Session 32's run, kept as it ran: its 40 000-node range and the
+# BEARING_SWEEP_FINITE_GPU_MAX_NODES=200000 variant predate the resumable kernel; the next
+# hardware run is reports/h200/next-commands.sh.)
 # Issue 20 item 2 / issue 26 item 3 figures on the hardware GPU (H200, 16 cores): the
 # finite film's projected multigrid kernel (shaders/finite_mg.wgsl) against the CPU
 # backend on 16 threads. Run from the repository root with the release binary at

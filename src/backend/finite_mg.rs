@@ -7,21 +7,29 @@
 //! grouped by their hierarchy (grid sizes and coarsenings depend on the aspect `B/r0`);
 //! each group is dispatched in chunks bounded by a scratch budget.
 //!
-//! **Verified range.** The kernel runs grids of at most [`DEVICE_MAX_NODES`] nodes (512 × 64
-//! at B/D = 0.5, 256 × 64, 1024 × 32). Beyond it, with the max-film inlet, lavapipe returned
-//! wrong loads (512 × 128, 1024 × 96, 1024 × 128 at tolerance 1e-8: the top grid's V-cycles
-//! stop with a zero change after ~15 cycles; 1024 × 64 and the free inlet were right). The
-//! likely cause is lavapipe's, not the kernel's: llvmpipe ends a shader's loops after 65 535
-//! iterations in all (found for the JFO kernel, which is resumable for that reason,
-//! docs/jfo.md "Dispatches"), and a loop it ends reads as a zero change. Measured with
-//! `BEARING_SWEEP_FINITE_GPU_MAX_NODES=400000 mg_probe gpu 1024 128`: the kernel stops after
-//! 34.8 sweeps of work (CPU: 105.7) with loads 100 % off; on an H200 the same grids
-//! agree with the CPU (BENCHMARKS "Issue 20/26: the multigrid kernel"). Making this kernel
-//! resumable like the JFO one would lift the cap; until then it stays. So an explicit grid beyond it is declined (the evaluator recomputes it on the
-//! CPU with a notice), and in accuracy mode the ladder runs on the device up to that grid;
-//! the states whose estimate is still above the accuracy there (those that need
-//! 1024 × 128 at B/D = 0.5) are solved from scratch by the CPU solver here (the same
-//! deterministic ladder, so the same result as a CPU run).
+//! **Resumable.** llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in
+//! all; one dispatch of the whole solve ran past that at 512 × 128 and beyond (1024 × 128:
+//! stopped after 34.8 sweeps of work of the CPU's 105.7, loads 100 % off). So the kernel
+//! runs steps of the solve (a level's set-up, a V-cycle's descent or ascent on one level,
+//! one coarsest-grid sweep, ...) until it has counted a loop budget ([`loop_budget`]),
+//! keeps its state (phase, level, cycle, stop-rule and ladder history) in the result
+//! buffer and the fields in its scratch, and the host dispatches again until every state
+//! is done: the same arithmetic in the same order as one long dispatch. A dispatch that
+//! counted more loop iterations than [`LOOP_LIMIT`] (the serial walk of the truncated
+//! correction beyond its reserve), or a state not done after the cap on dispatches, is an
+//! error, never loads.
+//!
+//! **Range.** Grids up to [`DEVICE_MAX_NODES`] (nodes with the end rows): one step of the
+//! largest level must fit a dispatch's loop budget (about 375 000 nodes; the range is
+//! about 70 % of that, so that a dispatch holds more than one such step) and a state's
+//! scratch (8 arrays per level, ~90 bytes per node of the largest level with the levels
+//! below and the field) one storage binding of the device (checked per device: an error
+//! beyond it). Checked against the CPU up to 1024 × 128 (132 096 nodes, the ladder's last
+//! grid at B/D = 0.5) on lavapipe. Beyond the range an explicit grid is declined (the
+//! evaluator recomputes it on the CPU with a notice), and in accuracy mode the ladder runs
+//! on the device up to there; the states whose estimate is still above the accuracy are
+//! solved from scratch by the CPU solver here (the same deterministic ladder, so the same
+//! result as a CPU run).
 
 use std::f64::consts::PI;
 use std::time::Duration;
@@ -42,9 +50,37 @@ pub const FINITE_MG_WGSL: &str = include_str!("../../shaders/finite_mg.wgsl");
 const MAX_LEVELS: usize = 24;
 /// Ladder grids the kernel keeps load vectors of (`MAX_RUNGS`).
 const MAX_RUNGS: usize = 12;
-/// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`).
+/// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`: the report, then the resumable
+/// solve's state block from `OUT_STATE`, its status first).
 const JOB_STRIDE: usize = 16;
-const OUT_STRIDE: usize = 12;
+const OUT_STRIDE: usize = 86;
+const OUT_STATE: usize = 11;
+/// The state's own dispatch count (its last entry, `OUT_STATE + 72`) and the count the
+/// last dispatch wrote before its steps (`OUT_BEGIN`): unequal when llvmpipe cut that
+/// dispatch's loops short (the state was not saved whole).
+const OUT_COUNT: usize = OUT_STATE + 72;
+const OUT_BEGIN: usize = 84;
+/// Status of a slot (`ST_*`): running, done, done but more grids needed, overrun.
+const ST_RUN: f64 = 0.0;
+const ST_MORE: f64 = 2.0;
+const ST_OVERRUN: f64 = 3.0;
+/// Loop iterations, as the kernel counts them, one dispatch may run (the kernel's
+/// `params.limit`): llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in
+/// all, and the kernel's count is an estimate that fell short of llvmpipe's by a factor
+/// 1.6-2.2 (measured: a tilted whirling state at accuracy 1e-4, `mg_probe acc 1e-4 2`, was
+/// cut with a budget of 40 000 counted iterations and ran right with 30 000), so the
+/// limit is 65 535 / 2.2; a dispatch that counts more is void.
+const LOOP_LIMIT: u32 = 30_000;
+/// Loop iterations reserved for the truncated correction's candidates on top of a step's
+/// parallel loops: their sort (≤ 3 × 513 at the list's 512) and walk by one invocation
+/// (≤ 8 per candidate), ~5 600 at a full list; beyond the list, the in-place walk over the
+/// level's nodes (4 096 at 128 × 32; larger grids overrun: an error). 5 000 was too few: a
+/// squeezed JFO start state at 128 × 32 overran it (tests/finite_gpu_jfo.rs).
+const SERIAL_RESERVE: u32 = 10_000;
+/// Workgroup size of the kernel (`WG`).
+const WG: usize = 256;
+/// Dispatches per submission (between read-backs of the status flags).
+const REPEAT: u32 = 8;
 /// Arrays per level in a slot's scratch (face coefficients ×2, inverse diagonals ×2,
 /// right-hand side, iterate, u0, residual).
 const ARRAYS: usize = 8;
@@ -58,14 +94,14 @@ const SCRATCH_BUDGET: u64 = 2 << 30;
 /// States per dispatch at most (bounds one dispatch's run time under the device timeout
 /// on a software device).
 const MAX_SLOTS: usize = 4096;
-/// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Verified
-/// range" (512 × 65 = 33 280 at B/D = 0.5; the next ladder grid, 1024 × 129, would also
-/// quadruple every slot's memory). The environment variable
-/// `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a node count) overrides it, to check the range on
-/// another device (an unparsable value keeps the default).
-pub const DEVICE_MAX_NODES: usize = 40_000;
+/// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Range"
+/// (a step of the largest level within the loop budget allows ~375 000 nodes; about 70 %
+/// of that leaves a dispatch room for more than one such step: 2048 × 129 and 1024 × 257,
+/// the ladder's last grid at B/D = 1, fit). The environment variable `BEARING_SWEEP_FINITE_GPU_MAX_NODES` (a
+/// node count) overrides it (an unparsable value keeps the default).
+pub const DEVICE_MAX_NODES: usize = 270_000;
 
-/// The verified range in force ([`DEVICE_MAX_NODES`] or its override).
+/// The range in force ([`DEVICE_MAX_NODES`] or its override).
 fn device_max_nodes() -> usize {
     std::env::var("BEARING_SWEEP_FINITE_GPU_MAX_NODES")
         .ok()
@@ -87,8 +123,8 @@ struct Params {
     banded: u32,
     more: u32,
     max_cycles: u32,
-    pad0: u32,
-    pad1: u32,
+    budget: u32,
+    limit: u32,
     tolerance: f64,
     target: f64,
     lv: [[u32; 4]; MAX_LEVELS],
@@ -198,15 +234,15 @@ impl MultigridPipeline {
         let max_nodes = device_max_nodes();
         if grid.accuracy.is_none() && grid.n_theta * (grid.n_z + 1) > max_nodes {
             return Err(BackendError::Device(format!(
-                "finite grid {}×{} is beyond the multigrid kernel's verified range \
-                 ({max_nodes} nodes)",
+                "finite grid {}×{} is beyond the multigrid kernel's range ({max_nodes} \
+                 nodes: src/backend/finite_mg.rs \"Range\")",
                 grid.n_theta, grid.n_z
             )));
         }
         let mut on_cpu = Vec::new();
         for (g, (dims, top0)) in keys.iter().enumerate() {
             let members: Vec<usize> = (0..jobs.len()).filter(|&k| member_of[k] == g).collect();
-            // The levels within the verified range (accuracy mode: the ladder up to there).
+            // The levels within the range (accuracy mode: the ladder up to there).
             let mut n_levels = dims.len();
             while n_levels > 0 && full(&dims[n_levels - 1]) > max_nodes {
                 n_levels -= 1;
@@ -329,6 +365,7 @@ impl MultigridPipeline {
             Some(target) => (ALGEBRAIC_FRACTION * target).max(grid.tolerance),
             None => grid.tolerance,
         };
+        let (budget, cap_dispatches) = loop_budget(dims)?;
         let mut redo = Vec::new();
         for chunk in group.members.chunks(slots) {
             let n = chunk.len();
@@ -402,8 +439,8 @@ impl MultigridPipeline {
                 banded: u32::from(banded),
                 more: u32::from(group.n_levels < group.dims.len()),
                 max_cycles: MAX_CYCLES,
-                pad0: 0,
-                pad1: 0,
+                budget,
+                limit: LOOP_LIMIT,
                 tolerance: stop_tol,
                 target: grid.accuracy.unwrap_or(0.0),
                 lv,
@@ -419,11 +456,12 @@ impl MultigridPipeline {
                 &inlets,
                 &field_data,
                 (n * stride * 8) as u64,
+                cap_dispatches,
             )?;
             let (fv, rv) = vals.split_at(n * field_stride);
             for (s, &k) in chunk.iter().enumerate() {
                 let r = &rv[s * OUT_STRIDE..(s + 1) * OUT_STRIDE];
-                if r[11] > 1.5 {
+                if r[OUT_STATE] == ST_MORE {
                     redo.push(k);
                     continue;
                 }
@@ -452,7 +490,10 @@ impl MultigridPipeline {
         Ok(redo)
     }
 
-    /// One dispatch: uploads, runs, reads back `fields` followed by the results.
+    /// One chunk's solve: uploads, dispatches the resumable kernel until every slot's
+    /// status is set (at most `cap_dispatches` dispatches), reads back `fields` followed by
+    /// the results. A slot still running after the cap, or one whose dispatch overran the
+    /// loop limit, is an error.
     #[allow(clippy::too_many_arguments)]
     fn dispatch(
         &self,
@@ -465,6 +506,7 @@ impl MultigridPipeline {
         inlets: &[u32],
         field_data: &[f64],
         scratch_bytes: u64,
+        cap_dispatches: u32,
     ) -> Result<Vec<f64>, BackendError> {
         let n = params.count as usize;
         // An empty inlet table (no max-film inlet) still needs a binding.
@@ -473,55 +515,160 @@ impl MultigridPipeline {
         } else {
             inlets.to_vec()
         };
-        let make = |device: &wgpu::Device| {
-            let init = |label, data: &[u8], usage| {
-                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: data,
-                    usage,
-                })
-            };
-            let st = wgpu::BufferUsages::STORAGE;
-            vec![
-                init(
-                    "finite mg params",
-                    bytemuck::bytes_of(params),
-                    wgpu::BufferUsages::UNIFORM,
-                ),
-                shared[0].clone(),
-                init("finite mg jobs", bytemuck::cast_slice(job_data), st),
-                init(
-                    "finite mg fields",
-                    bytemuck::cast_slice(field_data),
-                    st | wgpu::BufferUsages::COPY_SRC,
-                ),
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("finite mg results"),
-                    size: (n * OUT_STRIDE * 8) as u64,
-                    usage: st | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                }),
-                init("finite mg inlets", bytemuck::cast_slice(&inl), st),
-                shared[1].clone(),
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("finite mg scratch"),
-                    size: scratch_bytes.max(8),
-                    usage: st,
-                    mapped_at_creation: false,
-                }),
-            ]
+        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let init = |label, data: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage,
+            })
         };
-        // Fields (binding 3), then results (binding 4).
+        let st = wgpu::BufferUsages::STORAGE;
+        // Every buffer lives across the dispatches (the solve's state is in them).
+        let bufs = vec![
+            init(
+                "finite mg params",
+                bytemuck::bytes_of(params),
+                wgpu::BufferUsages::UNIFORM,
+            ),
+            shared[0].clone(),
+            init("finite mg jobs", bytemuck::cast_slice(job_data), st),
+            init(
+                "finite mg fields",
+                bytemuck::cast_slice(field_data),
+                st | wgpu::BufferUsages::COPY_SRC,
+            ),
+            // Zeros: every slot at its first phase, status running.
+            init(
+                "finite mg results",
+                bytemuck::cast_slice(&vec![0.0_f64; n * OUT_STRIDE]),
+                st | wgpu::BufferUsages::COPY_SRC,
+            ),
+            init("finite mg inlets", bytemuck::cast_slice(&inl), st),
+            shared[1].clone(),
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("finite mg scratch"),
+                size: scratch_bytes.max(8),
+                usage: st,
+                mapped_at_creation: false,
+            }),
+        ];
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "allocating the finite-film multigrid's buffers for {n} states: {e}"
+            )));
+        }
+        let mut dispatched = 0u32;
+        loop {
+            // Results (binding 4) only, until every slot is done.
+            let res = dispatch_read(
+                device,
+                queue,
+                timeout,
+                &self.pipeline,
+                |_| bufs.clone(),
+                n as u32,
+                REPEAT,
+                &[4],
+                "finite-film multigrid",
+            )?;
+            dispatched += REPEAT;
+            let status = |s: usize| res[s * OUT_STRIDE + OUT_STATE];
+            if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
+                // Diagnostics: per running state, phase, level, cycle, V-cycle step and
+                // coarsest sweep after this round.
+                let running: Vec<String> = (0..n)
+                    .filter(|&s| status(s) == ST_RUN)
+                    .map(|s| {
+                        let r = &res[s * OUT_STRIDE + OUT_STATE..];
+                        format!("{s}:{}/{}/{}/{}/{}", r[1], r[2], r[3], r[12], r[13])
+                    })
+                    .collect();
+                eprintln!("mg dispatches {dispatched}: running {}", running.join(" "));
+            }
+            let cut = |s: usize| res[s * OUT_STRIDE + OUT_COUNT] != res[s * OUT_STRIDE + OUT_BEGIN];
+            if let Some(s) = (0..n).find(|&s| status(s) == ST_OVERRUN || cut(s)) {
+                return Err(BackendError::Device(format!(
+                    "the finite-film multigrid kernel ran past its loop limit ({LOOP_LIMIT} \
+                     iterations per dispatch) on state {s} of {n}: its loads are void"
+                )));
+            }
+            if (0..n).all(|s| status(s) != ST_RUN) {
+                break;
+            }
+            if dispatched >= cap_dispatches {
+                let s = (0..n).find(|&s| status(s) == ST_RUN).unwrap_or(0);
+                return Err(BackendError::Device(format!(
+                    "the finite-film multigrid kernel did not finish state {s} of {n} in \
+                     {dispatched} dispatches (the cap for this grid: more work than its \
+                     cycle limits allow, so it would not terminate)"
+                )));
+            }
+        }
+        // Fields (binding 3), then results (binding 4): one more dispatch, which every
+        // slot leaves at once (done).
         dispatch_read(
             device,
             queue,
             timeout,
             &self.pipeline,
-            make,
+            |_| bufs.clone(),
             n as u32,
             1,
             &[3, 4],
             "finite-film multigrid",
         )
     }
+}
+
+/// Loop iterations of a strided loop over `n` nodes for the kernel's invocation 0
+/// (`loops`).
+fn loops(n: usize) -> usize {
+    n.div_ceil(WG) + 1
+}
+
+/// The kernel's per-dispatch budget for a hierarchy and the cap on dispatches of a state.
+///
+/// Budget: the dispatch starts no further step once it has counted this many loop
+/// iterations, so it stays within [`LOOP_LIMIT`] if no step costs more than
+/// `LOOP_LIMIT − budget − SERIAL_RESERVE`. The largest step is on the largest level (a
+/// strided loop of `I = loops(nodes)` iterations): the entry into a level (right-hand
+/// side, the freezes of the levels below with the inlet line's walks, the loads: ≲ 8 I),
+/// the descent (two sweeps, residual, restriction: ≲ 4 I) or the set-up and prolongation
+/// of a ladder grid (≲ 3 I); 12 I + 400 bounds them all. A grid whose step leaves less
+/// than 2 000 iterations of budget (about 375 000 nodes) is beyond the kernel.
+///
+/// Cap: an upper bound on the dispatches a state needs, from the kernel's own limits
+/// (every level iterated to `MAX_CYCLES` V-cycles, every coarsest solve to
+/// `COARSEST_SWEEPS` sweeps of ~20 iterations): twice the work bound over what a dispatch
+/// that does not finish does at least. A state not done then does not terminate (a
+/// defect): an error, not loads. (Far above what states need: at 1024 × 128 the cap is
+/// thousands of dispatches, a state needs tens.)
+fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
+    let largest = dims.iter().map(full).max().unwrap_or(0);
+    let step = 12 * loops(largest) + 400;
+    let free = (LOOP_LIMIT - SERIAL_RESERVE) as usize;
+    if step + 2_000 > free {
+        return Err(BackendError::Device(format!(
+            "the finite-film multigrid kernel solves grids of at most ~375 000 nodes \
+             (one step of its largest level within a dispatch's loop limit); this one has \
+             {largest}"
+        )));
+    }
+    let budget = free - step;
+    // Diagnostics: a smaller budget (loop iterations) from the environment.
+    let budget = std::env::var("BEARING_SWEEP_MG_BUDGET")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .map_or(budget, |b| b.clamp(1_000, budget));
+    // Coarsest solve: up to 4000 sweeps of ~20 loop iterations (multigrid.rs
+    // COARSEST_SWEEPS).
+    let coarsest = 4_000 * 20;
+    let cycle: usize = dims.iter().map(|d| 16 * loops(full(d))).sum::<usize>() + coarsest;
+    let levels = dims.len();
+    let work = levels * (MAX_CYCLES as usize * cycle + 16 * loops(largest));
+    // A dispatch that does not finish its state runs at least `budget` less its start
+    // (~250 iterations) of the state's work.
+    let cap = (2 * work / (budget - 250) + 2 * REPEAT as usize).min(u32::MAX as usize / 2) as u32;
+    Ok((budget as u32, cap))
 }
