@@ -80,7 +80,7 @@ impl Default for BenchOptions {
 
 /// One backend at one batch size.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct BenchRow {
+pub struct BackendRow {
     /// `cpu` or `gpu`.
     pub backend: String,
     /// Device description.
@@ -139,7 +139,7 @@ pub struct FlopCount {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BenchReport {
     /// One row per backend and size.
-    pub rows: Vec<BenchRow>,
+    pub rows: Vec<BackendRow>,
     /// Flops per state for the benchmark's states.
     pub flops: FlopCount,
     /// Smallest size from which the GPU's end-to-end throughput stays above the CPU's.
@@ -414,7 +414,7 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
                 }
             };
             let kernel_gflops = batch_flops / kernel_s * 1e-9;
-            report.rows.push(BenchRow {
+            report.rows.push(BackendRow {
                 backend: info.name.clone(),
                 device: info.device.clone(),
                 lanes: if profiled.is_some() { lanes } else { None },
@@ -436,7 +436,7 @@ pub fn run_bench(options: &BenchOptions) -> Result<BenchReport, BackendError> {
             });
         }
     }
-    let crossover = |rate: fn(&BenchRow) -> f64| -> Option<usize> {
+    let crossover = |rate: fn(&BackendRow) -> f64| -> Option<usize> {
         let mut first = None;
         for &size in &options.sizes {
             let get = |name: &str| {

@@ -58,7 +58,7 @@ pub const DEFAULT_GPU_BATCH: usize = 100_000;
 
 /// One method at one setting.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct BenchRow {
+pub struct LoadsRow {
     /// `"rule"` or `"baseline"` (CPU), `"rule-gpu-f64"` or `"rule-gpu-f32"` (GPU backend).
     pub method: String,
     /// The accuracy level (rule) or `"n×n"` grid (baseline).
@@ -93,7 +93,7 @@ pub struct BenchLoadsReport {
     /// Threads of the parallel runs.
     pub parallel_threads: usize,
     /// Rows, rule first.
-    pub rows: Vec<BenchRow>,
+    pub rows: Vec<LoadsRow>,
     /// Rule rate at the 1e-6 level over the baseline rate needed for a max error of 1e-6,
     /// on one thread.
     pub speedup_at_1e6: f64,
@@ -197,7 +197,7 @@ fn rule_row(
     reference: &[[f64; 4]],
     level: f64,
     opts: &BenchLoadsOptions,
-) -> BenchRow {
+) -> LoadsRow {
     let acc = Accuracy::new(level).expect("calibrated level");
     let requests: Vec<LoadRequest> = states
         .iter()
@@ -228,7 +228,7 @@ fn rule_row(
         .filter_map(|s| pack_state(params, s).ok())
         .map(|p| rule.integrate(&p.state).1 as u64)
         .sum();
-    BenchRow {
+    LoadsRow {
         method: "rule".into(),
         setting: format!("{level:e}"),
         device: "cpu".into(),
@@ -252,7 +252,7 @@ fn gpu_rows(
     reference: &[[f64; 4]],
     opts: &BenchLoadsOptions,
     notes: &mut Vec<String>,
-) -> Vec<BenchRow> {
+) -> Vec<LoadsRow> {
     let bearings = [*params];
     let requests: Vec<LoadRequest> = states
         .iter()
@@ -305,7 +305,7 @@ fn gpu_rows(
                 ));
                 continue;
             }
-            rows.push(BenchRow {
+            rows.push(LoadsRow {
                 method: format!("rule-gpu-{tag}"),
                 setting: format!("{level:e}"),
                 device,
@@ -333,7 +333,7 @@ fn baseline_row(
     n: usize,
     opts: &BenchLoadsOptions,
     pool: &rayon::ThreadPool,
-) -> BenchRow {
+) -> LoadsRow {
     // n² grid points per state: errors on the same first `BASELINE_ERROR_STATES` states
     // at every grid (so that the observed order compares like with like), each timing
     // pass on ~2e7 points (the rate hardly depends on the state).
@@ -360,7 +360,7 @@ fn baseline_row(
             .collect()
     });
     let (max, median) = max_and_median(errs);
-    BenchRow {
+    LoadsRow {
         method: "baseline".into(),
         setting: format!("{n}x{n}"),
         device: "cpu".into(),
@@ -377,8 +377,8 @@ fn baseline_row(
 /// The baseline's single-thread rate at a max error of `target`: measured at the coarsest
 /// grid reaching it, else extrapolated from the two finest grids' observed order
 /// (error ∝ n^-p, cost ∝ n²).
-fn baseline_rate_at(rows: &[BenchRow], grids: &[usize], target: f64) -> (f64, String) {
-    let base: Vec<(&BenchRow, usize)> = rows
+fn baseline_rate_at(rows: &[LoadsRow], grids: &[usize], target: f64) -> (f64, String) {
+    let base: Vec<(&LoadsRow, usize)> = rows
         .iter()
         .filter(|r| r.method == "baseline")
         .zip(grids.iter().copied())
@@ -515,7 +515,7 @@ pub fn bench_loads(opts: &BenchLoadsOptions) -> Result<BenchLoadsReport, AppErro
         .num_threads(opts.threads.unwrap_or(0))
         .build()
         .map_err(|e| AppError::input("--threads", e.to_string()))?;
-    let mut rows: Vec<BenchRow> = ACCURACY_LEVELS
+    let mut rows: Vec<LoadsRow> = ACCURACY_LEVELS
         .iter()
         .map(|&level| rule_row(&params, &states, &reference, level, opts))
         .collect();

@@ -18,7 +18,7 @@ pub use all::{
 pub use backend_report::bench_backend;
 pub use loads::{
     bench_loads, bench_loads_markdown, bench_states, gpu_timing_batch, BenchLoadsOptions,
-    BenchLoadsReport, BenchRow, DEFAULT_GPU_BATCH,
+    BenchLoadsReport, LoadsRow, DEFAULT_GPU_BATCH,
 };
 #[cfg(feature = "postgres")]
 pub use queue::{bench_queue, QueueBenchOptions};

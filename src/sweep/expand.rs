@@ -17,7 +17,7 @@
 
 use serde_json::{Map, Value};
 
-use super::spec::{set_path, Mode, SweepSpec};
+use super::spec::{set_path, AxisMode, SweepSpec};
 use super::SweepError;
 
 /// A scene validator: `Err((JSON path inside the scene, reason))`.
@@ -144,7 +144,7 @@ impl Expansion {
     /// Plans the expansion (Latin hypercube strata are drawn here, `O(samples · axes)`).
     pub fn new(spec: &SweepSpec) -> Self {
         let plan = match &spec.mode {
-            Mode::Grid => {
+            AxisMode::Grid => {
                 let factors = factors(spec);
                 let lens = factors
                     .iter()
@@ -152,10 +152,10 @@ impl Expansion {
                     .collect();
                 Plan::Grid { factors, lens }
             }
-            Mode::Zip => Plan::Zip {
+            AxisMode::Zip => Plan::Zip {
                 len: spec.axes.first().map_or(1, |a| a.values.len() as u64),
             },
-            Mode::LatinHypercube { samples, seed } => {
+            AxisMode::LatinHypercube { samples, seed } => {
                 let factors = factors(spec);
                 let n = *samples;
                 let u = (0..factors.len())

@@ -31,7 +31,7 @@ pub mod wording;
 
 pub use expand::Expansion;
 pub use options::{RequestedAccuracy, SweepOptions};
-pub use spec::{parse_spec, Axis, AxisValues, Mode, SweepKind, SweepSpec};
+pub use spec::{parse_spec, Axis, AxisMode, AxisValues, SweepKind, SweepSpec};
 
 /// A sweep failure: bad spec (with the JSON path), bad variant, I/O, resume or merge.
 #[derive(Debug, thiserror::Error)]

@@ -107,7 +107,7 @@ pub(crate) fn fin(x: f64) -> Option<f64> {
 
 /// Mean (time average), min and max of a signal over the window.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Stats {
+pub struct WindowStats {
     /// Trapezoidal time average.
     pub mean: f64,
     /// Smallest sample.
@@ -208,26 +208,26 @@ pub struct WindowInfo {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FilmReduction {
     /// The film's friction torque on the journal (as sampled, signed), N·m.
-    pub friction_torque_nm: Option<Stats>,
+    pub friction_torque_nm: Option<WindowStats>,
     /// The film's power loss `|M ω|`, W.
-    pub power_loss_w: Option<Stats>,
+    pub power_loss_w: Option<WindowStats>,
     /// Side flow out of both end faces, m³/s.
-    pub side_flow_m3_per_s: Option<Stats>,
+    pub side_flow_m3_per_s: Option<WindowStats>,
     /// Net flow from the supply into the film, m³/s.
-    pub inlet_flow_m3_per_s: Option<Stats>,
+    pub inlet_flow_m3_per_s: Option<WindowStats>,
 }
 
 /// Reductions of one bearing.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BearingReduction {
     /// Friction coefficient over the window.
-    pub friction_coefficient: Option<Stats>,
+    pub friction_coefficient: Option<WindowStats>,
     /// `|M_z|` over the window, N·m.
-    pub friction_torque_nm: Option<Stats>,
+    pub friction_torque_nm: Option<WindowStats>,
     /// Mean `|M_z · spin|` over the window, W.
     pub power_loss_w: Option<f64>,
     /// `|W|` over the window, N.
-    pub force_n: Option<Stats>,
+    pub force_n: Option<WindowStats>,
     /// Peak `|W|` over the run, N (the transmitted bearing force).
     pub force_peak_n: Option<Extreme>,
     /// Minimum film thickness over the run, m.
@@ -267,7 +267,7 @@ impl Reductions {
     /// Every field present (zeros), one bearing: the shape a variant's `reductions`
     /// can take, to check paths into it (a plot's `y`) before running.
     pub fn schema() -> Value {
-        let stats = Some(Stats {
+        let stats = Some(WindowStats {
             mean: 0.0,
             min: 0.0,
             max: 0.0,
@@ -495,7 +495,7 @@ pub(crate) fn trapezoid_weights(t: &[f64]) -> Vec<f64> {
 
 /// Time average, min and max of `v` over samples `t` (skipping `None`s); `None` when
 /// nothing is defined or a result is non-finite.
-pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<Stats> {
+pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<WindowStats> {
     let mut min = f64::INFINITY;
     let mut max = f64::NEG_INFINITY;
     let mut area = 0.0;
@@ -523,7 +523,7 @@ pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<Stats> {
         return None;
     }
     let mean = if span > 0.0 { area / span } else { only };
-    Some(Stats {
+    Some(WindowStats {
         mean: fin(mean)?,
         min: fin(min)?,
         max: fin(max)?,
@@ -531,7 +531,7 @@ pub fn stats_opt(t: &[f64], v: impl Fn(usize) -> Option<f64>) -> Option<Stats> {
 }
 
 /// [`stats_opt`] of a plain signal.
-pub fn stats(t: &[f64], v: &[f64]) -> Option<Stats> {
+pub fn stats(t: &[f64], v: &[f64]) -> Option<WindowStats> {
     stats_opt(t, |i| Some(v[i]))
 }
 

@@ -198,7 +198,7 @@ pub struct Axis {
 
 /// How axes combine into variants.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Mode {
+pub enum AxisMode {
     /// Full Cartesian product; the first axis (group) varies slowest.
     Grid,
     /// Axes taken in lockstep: variant `k` takes the `k`-th value of every axis.
@@ -225,7 +225,7 @@ pub struct SweepSpec {
     /// The axes, in spec order.
     pub axes: Vec<Axis>,
     /// How the axes combine.
-    pub mode: Mode,
+    pub mode: AxisMode,
     /// What each variant keeps.
     pub reductions: ReductionOptions,
     /// SVG plots written with a complete result.
@@ -623,10 +623,10 @@ fn check_overlaps(axes: &[Axis], base: &Value) -> Result<(), SweepError> {
 
 /// The mode of the typed document, checked: a Latin hypercube needs 1 to
 /// [`MAX_VARIANTS`] samples.
-fn mode_from_doc(m: Option<ModeDoc>) -> Result<Mode, SweepError> {
+fn mode_from_doc(m: Option<ModeDoc>) -> Result<AxisMode, SweepError> {
     Ok(match m {
-        None | Some(ModeDoc::Grid) => Mode::Grid,
-        Some(ModeDoc::Zip) => Mode::Zip,
+        None | Some(ModeDoc::Grid) => AxisMode::Grid,
+        Some(ModeDoc::Zip) => AxisMode::Zip,
         Some(ModeDoc::LatinHypercube(l)) => {
             let samples = l.samples.0;
             if samples == 0 {
@@ -641,7 +641,7 @@ fn mode_from_doc(m: Option<ModeDoc>) -> Result<Mode, SweepError> {
                     format!("{samples} exceeds the limit of {MAX_VARIANTS}"),
                 ));
             }
-            Mode::LatinHypercube {
+            AxisMode::LatinHypercube {
                 samples,
                 seed: l.seed.map_or(0, |s| s.0),
             }
@@ -649,9 +649,9 @@ fn mode_from_doc(m: Option<ModeDoc>) -> Result<Mode, SweepError> {
     })
 }
 
-fn check_mode(mode: &Mode, axes: &[Axis]) -> Result<(), SweepError> {
+fn check_mode(mode: &AxisMode, axes: &[Axis]) -> Result<(), SweepError> {
     match mode {
-        Mode::Zip => {
+        AxisMode::Zip => {
             if let Some(first) = axes.first() {
                 for (k, a) in axes.iter().enumerate() {
                     if a.zip.is_some() {
@@ -673,7 +673,7 @@ fn check_mode(mode: &Mode, axes: &[Axis]) -> Result<(), SweepError> {
                 }
             }
         }
-        Mode::Grid => {
+        AxisMode::Grid => {
             let mut group_len: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
             for (k, a) in axes.iter().enumerate() {
                 if let Some(g) = &a.zip {
@@ -690,7 +690,7 @@ fn check_mode(mode: &Mode, axes: &[Axis]) -> Result<(), SweepError> {
                 }
             }
         }
-        Mode::LatinHypercube { .. } => {}
+        AxisMode::LatinHypercube { .. } => {}
     }
     Ok(())
 }
@@ -1079,6 +1079,6 @@ mod tests {
         assert_eq!(s.canonical["kind"], json!("rotor"));
         assert_eq!(s.canonical["base"], base());
         assert_eq!(s.axes.len(), 1);
-        assert_eq!(s.mode, Mode::Grid);
+        assert_eq!(s.mode, AxisMode::Grid);
     }
 }
