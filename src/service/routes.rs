@@ -24,8 +24,8 @@ use utoipa::OpenApi;
 use super::error::{ApiError, ErrorBody};
 use super::limits::{Held, COEFF_BYTES_PER_SPEED, EVAL_BYTES_PER_STATE, STREAM_CHUNK_BYTES};
 use super::scheduler::{now_unix_s, SweepEvent};
-use super::store::{NewSweep, SweepRow, SweepStatus};
-use super::sweeps::{check_submission, options_from_query, ParsedSweep};
+use super::store::{SweepRow, SweepStatus};
+use super::sweeps::{options_from_query, ParsedSweep};
 use super::{csv, AppState};
 use crate::sweep::job::result_document;
 use crate::sweep::progress::ProgressSnapshot;
@@ -388,23 +388,6 @@ fn parse_body(bytes: &[u8]) -> Result<Value, ApiError> {
     })
 }
 
-fn sweep_id() -> String {
-    use sha2::{Digest, Sha256};
-    use std::sync::atomic::AtomicU64;
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let seed = format!(
-        "{:?}-{}-{}",
-        std::time::SystemTime::now(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    );
-    // 16 hex digits: opaque and unique enough for one server's sweeps.
-    Sha256::digest(seed.as_bytes())[..8]
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
-
 /// Film backend of a sweep (query `backend`).
 #[derive(utoipa::ToSchema)]
 #[schema(rename_all = "lowercase")]
@@ -474,23 +457,10 @@ async fn submit_sweep(
     let (bytes, _held) = read_body(&st, &headers, body).await?;
     let doc = parse_body(&bytes)?;
     drop(bytes);
-    let max_variants = st.config.max_variants;
-    let max_queued = st.config.max_queued;
-    let max_memory = st.config.max_memory;
-    let store = st.store.clone();
+    let (max_variants, max_queued) = (st.config.max_variants, st.config.max_queued);
     let scheduler = st.scheduler.clone();
-    let created = blocking(move || {
-        let (parsed, total) = check_submission(&doc, max_variants, max_memory)?;
-        // Counted and inserted in one transaction (429 at the limit).
-        let options = serde_json::to_value(options).unwrap_or_default();
-        let new = NewSweep::submitted(sweep_id(), doc, &parsed, total, options);
-        let row = store.insert_sweep_limited(&new, max_queued)?;
-        // Parsed once: the scheduler and the result route use this one.
-        scheduler.remember_spec(&row.id, std::sync::Arc::new(parsed));
-        Ok(row)
-    })
-    .await?;
-    st.scheduler.wake();
+    let created =
+        blocking(move || scheduler.submit(doc, &options, max_variants, max_queued)).await?;
     Ok((
         StatusCode::CREATED,
         Json(Created {

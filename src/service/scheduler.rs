@@ -10,11 +10,12 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use serde_json::json;
+use serde_json::{json, Value};
 use tokio::sync::{broadcast, Notify};
 
-use super::store::{Store, StoreSink, SweepRow, SweepStatus, SweepUpdate};
-use super::sweeps::{parse_options, parse_sweep_doc, ParsedSweep};
+use super::error::ApiError;
+use super::store::{NewSweep, Store, StoreSink, SweepRow, SweepStatus, SweepUpdate};
+use super::sweeps::{check_submission, new_sweep_id, parse_options, parse_sweep_doc, ParsedSweep};
 use crate::sweep::friction_map::friction_map;
 use crate::sweep::job::Figures;
 use crate::sweep::progress::{Progress, ProgressCounters, ProgressSnapshot};
@@ -260,6 +261,28 @@ impl Scheduler {
             .events
             .send(SweepEvent::Status(SweepStatus::Cancelled));
         Ok(SweepStatus::Cancelled)
+    }
+
+    /// Submits the spec document `doc` with run `options` (`POST /api/sweeps`): checks it
+    /// as [`check_submission`] does (within `max_variants` and this scheduler's memory
+    /// budget), stores it as queued (counted and inserted in one transaction: 429 when
+    /// `max_queued` sweeps are open), keeps its parsed spec and wakes the scheduler.
+    /// Blocking (parsing, validation, a store write).
+    pub fn submit(
+        &self,
+        doc: Value,
+        options: &SweepOptions,
+        max_variants: u64,
+        max_queued: u64,
+    ) -> Result<SweepRow, ApiError> {
+        let (parsed, total) = check_submission(&doc, max_variants, self.max_memory)?;
+        let options = serde_json::to_value(options).unwrap_or_default();
+        let new = NewSweep::submitted(new_sweep_id(), doc, &parsed, total, options);
+        let row = self.store.insert_sweep_limited(&new, max_queued)?;
+        // Parsed once: the runs and the result route use this one.
+        self.remember_spec(&row.id, Arc::new(parsed));
+        self.wake();
+        Ok(row)
     }
 
     /// Keeps the spec of sweep `id` as parsed at its submission.

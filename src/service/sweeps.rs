@@ -2,6 +2,8 @@
 //! `base` must be inline: no path from a request reaches the filesystem), and the run
 //! options of the query (`backend`, `accuracy`, `full_model`, mirroring `run`'s flags).
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use serde_json::Value;
 
 use super::error::ApiError;
@@ -10,6 +12,23 @@ use crate::budget::MemoryBudget;
 use crate::sweep::{Expansion, RequestedAccuracy, SweepError, SweepOptions, SweepSpec};
 
 pub use crate::sweep::job::ParsedSweep;
+
+static SUBMITTED: AtomicU64 = AtomicU64::new(0);
+
+/// A fresh opaque sweep id (16 hex digits from the time, the process and a counter): the
+/// one id scheme of the SQLite service and the PostgreSQL queue.
+pub fn new_sweep_id() -> String {
+    use sha2::{Digest, Sha256};
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let n = SUBMITTED.fetch_add(1, Ordering::Relaxed);
+    let seed = format!("{nanos}/{}/{n}", std::process::id());
+    Sha256::digest(seed.as_bytes())[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
 
 /// Parses a spec document as `run` does within the memory budget `budget`, refusing a
 /// `base` given as a file name.

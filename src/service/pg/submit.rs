@@ -1,8 +1,6 @@
 //! Enqueueing a sweep spec (as `run` reads it) on the PostgreSQL queue: parsed once by
 //! the caller ([`parse_queued`]) and every variant validated before anything is stored.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-
 use serde_json::Value;
 
 use super::error::PgError;
@@ -10,21 +8,7 @@ use super::queue::{PgQueue, QueuedSweep, SweepOptions};
 use crate::sweep::spec::{parse_spec, SweepSpec};
 use crate::sweep::Expansion;
 
-static SUBMITTED: AtomicU64 = AtomicU64::new(0);
-
-/// A fresh opaque sweep id (16 hex digits from the time, the process and a counter).
-pub fn new_sweep_id() -> String {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    let n = SUBMITTED.fetch_add(1, Ordering::Relaxed);
-    let seed = format!("{nanos}/{}/{n}", std::process::id());
-    use sha2::{Digest, Sha256};
-    Sha256::digest(seed.as_bytes())[..8]
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
+pub use crate::service::sweeps::new_sweep_id;
 
 /// A spec document parsed for the queue as `run` parses it (no base file: the document
 /// is what every worker expands); a bad one is a [`PgError::Spec`] naming the JSON path.
