@@ -110,27 +110,17 @@ fn simpson(p: &[f64], nt: usize, nz: usize) -> [f64; 4] {
     acc.map(|v| -v * dt * dz / 3.0)
 }
 
+#[path = "../tests/support/finite_states.rs"]
+mod finite_states;
+
 /// The 12 states of tests/finite_accuracy.rs turned so that the maximum film is at θ = 0
 /// (a node of every grid, as the accuracy ladder places it): aligned ε 0.1-0.95, tilted in
 /// the plane of the eccentricity, squeezed.
 fn turned_states(p: &BearingParams) -> Vec<BearingState> {
     let d = p.clearance;
-    let w = 100.0;
+    let w = finite_states::OMEGA;
     let mut out = Vec::new();
-    for &(e, tilt, sq) in &[
-        (0.1, 0.0, 0.0),
-        (0.3, 0.0, 0.0),
-        (0.6, 0.0, 0.0),
-        (0.8, 0.0, 0.0),
-        (0.9, 0.0, 0.0),
-        (0.95, 0.0, 0.0),
-        (0.3, 0.2, 0.0),
-        (0.6, 0.2, 0.0),
-        (0.8, 0.1, 0.0),
-        (0.5, 0.0, 0.1),
-        (0.7, 0.0, -0.1),
-        (0.6, 0.15, 0.05),
-    ] {
+    for &(e, tilt, sq) in &finite_states::CASES {
         // Eccentricity along −x: the maximum film arg(−ε) is at θ = 0.
         out.push(BearingState {
             xi: -(e + tilt) * d,

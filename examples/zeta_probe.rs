@@ -9,41 +9,11 @@ use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
 };
 
+#[path = "../tests/support/finite_states.rs"]
+mod finite_states;
+
 fn states(p: &BearingParams) -> Vec<(String, BearingState)> {
-    let d = p.clearance;
-    let w = 100.0;
-    let mut out = Vec::new();
-    for &(e, tilt, sq) in &[
-        (0.1, 0.0, 0.0),
-        (0.3, 0.0, 0.0),
-        (0.6, 0.0, 0.0),
-        (0.8, 0.0, 0.0),
-        (0.9, 0.0, 0.0),
-        (0.95, 0.0, 0.0),
-        (0.3, 0.2, 0.0),
-        (0.6, 0.2, 0.0),
-        (0.8, 0.1, 0.0),
-        (0.5, 0.0, 0.1),
-        (0.7, 0.0, -0.1),
-        (0.6, 0.15, 0.05),
-    ] {
-        let (c, s) = (0.7_f64.cos(), 0.7_f64.sin());
-        out.push((
-            format!("e{e} t{tilt} s{sq}"),
-            BearingState {
-                xi: (e + tilt) * d * c,
-                yi: (e + tilt) * d * s,
-                xj: (e - tilt) * d * c,
-                yj: (e - tilt) * d * s,
-                vxi: sq * d * w * c,
-                vyi: sq * d * w * s,
-                vxj: sq * d * w * c,
-                vyj: sq * d * w * s,
-                omega: w,
-            },
-        ));
-    }
-    out
+    finite_states::accuracy_states(p)
 }
 
 fn norm(a: &[f64; 4]) -> f64 {
