@@ -6,8 +6,7 @@
 mod common;
 
 use bearing_sweep::bearing::{
-    pack_state, Accuracy, BearingParams, BearingState, FilmRule, PackedState, RuleSettings,
-    Singularities, ACCURACY_LEVELS,
+    Accuracy, BearingState, FilmRule, RuleSettings, Singularities, ACCURACY_LEVELS,
 };
 use common::*;
 
@@ -27,10 +26,6 @@ fn panel_ends(sing: &Singularities, settings: &RuleSettings) -> Vec<f64> {
         s = end;
     }
     ends
-}
-
-fn packed(p: &BearingParams, s: &BearingState) -> PackedState {
-    pack_state(p, s).expect("valid state").state
 }
 
 #[test]

@@ -9,39 +9,17 @@
 mod common;
 
 use bearing_sweep::bearing::{
-    pack_state, slices_lanes, Accuracy, BearingParams, BearingState, FilmIntegrals, FilmRule,
-    LaneIsa, Lanes, PackedState, Singularities, ACCURACY_LEVELS, LANES,
+    slices_lanes, Accuracy, FilmIntegrals, FilmRule, LaneIsa, Lanes, PackedState, Singularities,
+    ACCURACY_LEVELS, LANES,
 };
-use bearing_sweep::bench::bench_states;
 use common::*;
 
 const ISAS: [LaneIsa; 3] = [LaneIsa::Baseline, LaneIsa::Avx2, LaneIsa::Avx512];
 
-fn packed(p: &BearingParams, s: &BearingState) -> PackedState {
-    pack_state(p, s).expect("valid state").state
-}
-
-fn bits(v: &[FilmIntegrals]) -> Vec<[u64; 4]> {
-    v.iter().map(|x| x.map(f64::to_bits)).collect()
-}
-
 /// Random states of every family and eccentricity range (aligned ones included), mixed
-/// with `bench loads`'s strongly tilted ones.
+/// with 1000 of `bench loads`'s strongly tilted ones.
 fn mixed_states(seed: u64) -> Vec<PackedState> {
-    let geoms = geometries();
-    let mut rng = Rng::new(seed);
-    let mut out = Vec::new();
-    for family in FAMILIES {
-        for emax in [0.5, 0.95, 0.99] {
-            for k in 0..60 {
-                let (_, p) = &geoms[k % geoms.len()];
-                out.push(packed(p, &random_state(&mut rng, p, family, emax)));
-            }
-        }
-    }
-    let p = BearingParams::paper_table2();
-    out.extend(bench_states(&p, 1000).iter().map(|s| packed(&p, s)));
-    out
+    mixed_packed_states(seed, 1000)
 }
 
 /// The panel loop before the seventh pass: per panel, the nodes set up one at a time, the
@@ -122,15 +100,15 @@ fn panel_lanes_equal_the_scalar_panel_loop_bit_for_bit() {
             let rule = FilmRule::with_isa(settings, isa);
             let one: Vec<FilmIntegrals> = states.iter().map(|s| rule.integrate(s).0).collect();
             assert_eq!(
-                bits(&one),
-                bits(&want),
+                integral_bits(&one),
+                integral_bits(&want),
                 "integrate, level {level:e} {isa:?}"
             );
             let mut many = vec![[f64::NAN; 4]; states.len()];
             rule.integrate_many(&states, &mut many);
             assert_eq!(
-                bits(&many),
-                bits(&want),
+                integral_bits(&many),
+                integral_bits(&want),
                 "integrate_many, level {level:e} {isa:?}"
             );
         }

@@ -8,39 +8,17 @@ mod common;
 
 use bearing_sweep::backend::{CpuBackend, FilmBackend};
 use bearing_sweep::bearing::{
-    pack_state, quartic_roots_counted, quartic_roots_lanes, Accuracy, BearingParams, BearingState,
-    FilmIntegrals, FilmRule, LaneIsa, PackedState, Singularities, ACCURACY_LEVELS, ROOT_LANES,
+    quartic_roots_counted, quartic_roots_lanes, Accuracy, FilmIntegrals, FilmRule, LaneIsa,
+    PackedState, Singularities, ACCURACY_LEVELS, ROOT_LANES,
 };
-use bearing_sweep::bench::bench_states;
 use common::*;
 
 const ISAS: [LaneIsa; 3] = [LaneIsa::Baseline, LaneIsa::Avx2, LaneIsa::Avx512];
 
-fn packed(p: &BearingParams, s: &BearingState) -> PackedState {
-    pack_state(p, s).expect("valid state").state
-}
-
-fn bits(v: &[FilmIntegrals]) -> Vec<[u64; 4]> {
-    v.iter().map(|x| x.map(f64::to_bits)).collect()
-}
-
 /// Random states of every family and eccentricity range, mixed with `bench loads`'s
 /// strongly tilted ones (whose roots are near the bearing: nearly all of them searched).
 fn mixed_states(seed: u64) -> Vec<PackedState> {
-    let geoms = geometries();
-    let mut rng = Rng::new(seed);
-    let mut out = Vec::new();
-    for family in FAMILIES {
-        for emax in [0.5, 0.95, 0.99] {
-            for k in 0..60 {
-                let (_, p) = &geoms[k % geoms.len()];
-                out.push(packed(p, &random_state(&mut rng, p, family, emax)));
-            }
-        }
-    }
-    let p = BearingParams::paper_table2();
-    out.extend(bench_states(&p, 1500).iter().map(|s| packed(&p, s)));
-    // Interleave so that blocks and lane groups mix families and leftovers occur.
+    let out = mixed_packed_states(seed, 1500);
     let n = out.len();
     (0..n).map(|k| out[(k * 7919) % n]).collect()
 }
@@ -114,15 +92,19 @@ fn integrate_many_equals_integrate_bit_for_bit() {
             // Whole slice, and odd-sized pieces (partial blocks, partial lane groups).
             let mut got = vec![[f64::NAN; 4]; states.len()];
             rule.integrate_many(&states, &mut got);
-            assert_eq!(bits(&got), bits(&want), "level {level:e} {isa:?}");
+            assert_eq!(
+                integral_bits(&got),
+                integral_bits(&want),
+                "level {level:e} {isa:?}"
+            );
             for piece in [1, 3, 5, 63, 65, 130] {
                 let mut got = vec![[f64::NAN; 4]; states.len()];
                 for (s, o) in states.chunks(piece).zip(got.chunks_mut(piece)) {
                     rule.integrate_many(s, o);
                 }
                 assert_eq!(
-                    bits(&got),
-                    bits(&want),
+                    integral_bits(&got),
+                    integral_bits(&want),
                     "level {level:e} {isa:?} piece {piece}"
                 );
             }
@@ -140,6 +122,10 @@ fn cpu_backend_gives_the_one_state_rule_bit_for_bit() {
         let mut cpu = CpuBackend::new(acc, threads);
         let mut got = Vec::new();
         cpu.integrate(&states, &mut got).unwrap();
-        assert_eq!(bits(&got), bits(&want), "threads {threads:?}");
+        assert_eq!(
+            integral_bits(&got),
+            integral_bits(&want),
+            "threads {threads:?}"
+        );
     }
 }

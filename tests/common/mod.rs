@@ -5,7 +5,43 @@
 //! Every integration-test crate includes this module; not all of them use every item.
 #![allow(dead_code)]
 
-use bearing_sweep::bearing::{BearingParams, BearingState, ClearanceConvention};
+use bearing_sweep::bearing::{
+    pack_state, BearingParams, BearingState, ClearanceConvention, FilmIntegrals, PackedState,
+};
+
+/// The packed (solver-side) form of a state that must be valid.
+pub fn packed(p: &BearingParams, s: &BearingState) -> PackedState {
+    pack_state(p, s).expect("valid state").state
+}
+
+/// The bits of film integrals, for bit-for-bit comparisons.
+pub fn integral_bits(v: &[FilmIntegrals]) -> Vec<[u64; 4]> {
+    v.iter().map(|x| x.map(f64::to_bits)).collect()
+}
+
+/// Random states of every family and eccentricity bound 0.5, 0.95 and 0.99 (60 per family
+/// and bound, over the test geometries, aligned ones included), then `n_bench` of
+/// `bench loads`'s strongly tilted states of the paper's bearing; all packed.
+pub fn mixed_packed_states(seed: u64, n_bench: usize) -> Vec<PackedState> {
+    let geoms = geometries();
+    let mut rng = Rng::new(seed);
+    let mut out = Vec::new();
+    for family in FAMILIES {
+        for emax in [0.5, 0.95, 0.99] {
+            for k in 0..60 {
+                let (_, p) = &geoms[k % geoms.len()];
+                out.push(packed(p, &random_state(&mut rng, p, family, emax)));
+            }
+        }
+    }
+    let p = BearingParams::paper_table2();
+    out.extend(
+        bearing_sweep::bench::bench_states(&p, n_bench)
+            .iter()
+            .map(|s| packed(&p, s)),
+    );
+    out
+}
 
 /// Euclidean norm.
 pub fn norm(v: &[f64]) -> f64 {
