@@ -46,7 +46,7 @@ const KEEP_ALIVE: Duration = Duration::from_secs(15);
     info(title = "bearing-sweep service", description = "Sweeps of rigid rotors in hydrodynamic journal bearings, and batched film-load evaluation."),
     paths(submit_sweep, list_sweeps, get_sweep, delete_sweep, sweep_result, sweep_variants,
           list_plots, get_plot, sweep_events, cancel_sweep, eval, coefficients, healthz),
-    components(schemas(ErrorBody, BackendParam, FormatParam, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList,
+    components(schemas(ErrorBody, BackendParam, FormatParam, StreamEvent, Created, SweepSummary, SweepList, SweepInfo, ProgressSnapshot, SweepStatus, PlotList,
         crate::sweep::spec::SpecDocument, crate::sweep::spec::SweepSpecDoc, crate::sweep::friction_map::FrictionMapDoc,
         super::bodies::EvalBody, super::bodies::BearingBody)),
     modifiers(&BearerAuth)
@@ -399,6 +399,19 @@ pub enum BackendParam {
     Gpu,
     /// A GPU when one exists, else the CPU.
     Auto,
+}
+
+/// One server-sent event of `GET /api/sweeps/{id}/events`, as a client parses it (OpenAPI
+/// before 3.2 reads a `text/event-stream` schema as the schema of each event).
+#[derive(utoipa::ToSchema)]
+#[allow(dead_code)] // a schema only: the events are written by `status_event` and `sweep_events`
+pub struct StreamEvent {
+    /// Event name.
+    #[schema(pattern = "^(status|variant|deleted)$")]
+    event: String,
+    /// The event's JSON object as text: `{"status", "progress"}` for `status`,
+    /// `{"id", "ok", "progress"}` for `variant`, `{"status": "deleted"}` for `deleted`.
+    data: String,
 }
 
 /// Answer format of the variant records (query `format`).
@@ -871,7 +884,8 @@ async fn sweep_result(
            ("offset" = Option<u64>, Query, description = "First record (in id order), default 0"),
            ("limit" = Option<u64>, Query, maximum = 10000, description = "Records, default 100, at most 10000"),
            ("format" = Option<FormatParam>, Query, description = "json (default) or csv")),
-    responses((status = 200, description = "`{offset, variants: [...]}` or CSV (text/csv)", body = serde_json::Value),
+    responses((status = 200, description = "`{offset, variants: [...]}`, or with `format=csv` one flat row per variant",
+               content((serde_json::Value = "application/json"), (String = "text/csv"))),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 404, description = "No such sweep", body = ErrorBody),
               (status = 422, description = "Bad query", body = ErrorBody)),
@@ -983,7 +997,7 @@ fn status_event(status: SweepStatus, p: &ProgressSnapshot) -> Event {
 /// final status (`done`, `failed`, `cancelled`) or a `deleted` event.
 #[utoipa::path(get, path = "/api/sweeps/{id}/events",
     params(("id" = String, Path, description = "Sweep id")),
-    responses((status = 200, description = "text/event-stream", content_type = "text/event-stream", body = String),
+    responses((status = 200, description = "An event stream; the schema describes each event", content_type = "text/event-stream", body = StreamEvent),
               (status = 401, description = "Token required", body = ErrorBody),
               (status = 404, description = "No such sweep", body = ErrorBody)),
     security((), ("bearer" = [])))]

@@ -421,6 +421,23 @@ pub mod suite {
         assert_eq!(list["sweeps"].as_array().unwrap().len(), 0, "{list}");
     }
 
+    /// The schema a GET route's 200 answer documents for `media_type`, `$ref` resolved;
+    /// fails naming the route when that media type is not documented (a client or a
+    /// fuzzer reading the document would refuse the answer).
+    pub fn documented_schema(doc: &Value, path: &str, media_type: &str) -> Value {
+        let content = &doc["paths"][path]["get"]["responses"]["200"]["content"];
+        let schema = &content[media_type]["schema"];
+        assert!(
+            schema.is_object(),
+            "GET {path} answers {media_type} but its 200 documents only {:?}",
+            content.as_object().map(|c| c.keys().collect::<Vec<_>>())
+        );
+        match schema["$ref"].as_str().and_then(|r| r.strip_prefix("#/components/schemas/")) {
+            Some(name) => doc["components"]["schemas"][name].clone(),
+            None => schema.clone(),
+        }
+    }
+
     /// A synthetic sweep: events reach `done`, the result equals `run`'s (bit for bit but
     /// for the `run` section), the CSV has one row per variant with the same numbers.
     pub fn sweep_events_result_and_csv(base: &str, scratch_dir: &Path) {
@@ -443,6 +460,23 @@ pub mod suite {
                 Some((ev.to_string(), serde_json::from_str(data).unwrap()))
             })
             .collect();
+        // The OpenAPI document describes what came: each event (an object of `event` and
+        // `data`, OpenAPI before 3.2 reading a `text/event-stream` schema per event), its
+        // name one the schema allows.
+        let doc = get(&format!("{base}/api/openapi.json"), None).json();
+        let event_schema = documented_schema(&doc, "/api/sweeps/{id}/events", "text/event-stream");
+        assert_eq!(event_schema["type"], "object", "{event_schema}");
+        for field in ["event", "data"] {
+            assert_eq!(event_schema["properties"][field]["type"], "string", "{event_schema}");
+            assert!(
+                event_schema["required"].as_array().is_some_and(|r| r.iter().any(|f| f == field)),
+                "event field {field} not required: {event_schema}"
+            );
+        }
+        let names = event_schema["properties"]["event"]["pattern"].as_str().unwrap_or("");
+        for (e, _) in &events {
+            assert!(names.contains(e.as_str()), "event {e} not in the documented pattern {names}");
+        }
         let last = events.last().expect("some events");
         assert_eq!(last.0, "status", "{events:?}");
         assert_eq!(last.1["status"], "done", "{events:?}");
@@ -476,6 +510,8 @@ pub mod suite {
             csv.content_type
         );
         check_csv_against_result(&csv.text, &result.json());
+        documented_schema(&doc, "/api/sweeps/{id}/variants", "text/csv");
+        documented_schema(&doc, "/api/sweeps/{id}/variants", "application/json");
 
         // JSON pages: offset/limit.
         let page = get(
