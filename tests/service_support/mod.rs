@@ -432,7 +432,10 @@ pub mod suite {
             "GET {path} answers {media_type} but its 200 documents only {:?}",
             content.as_object().map(|c| c.keys().collect::<Vec<_>>())
         );
-        match schema["$ref"].as_str().and_then(|r| r.strip_prefix("#/components/schemas/")) {
+        match schema["$ref"]
+            .as_str()
+            .and_then(|r| r.strip_prefix("#/components/schemas/"))
+        {
             Some(name) => doc["components"]["schemas"][name].clone(),
             None => schema.clone(),
         }
@@ -467,15 +470,25 @@ pub mod suite {
         let event_schema = documented_schema(&doc, "/api/sweeps/{id}/events", "text/event-stream");
         assert_eq!(event_schema["type"], "object", "{event_schema}");
         for field in ["event", "data"] {
-            assert_eq!(event_schema["properties"][field]["type"], "string", "{event_schema}");
+            assert_eq!(
+                event_schema["properties"][field]["type"], "string",
+                "{event_schema}"
+            );
             assert!(
-                event_schema["required"].as_array().is_some_and(|r| r.iter().any(|f| f == field)),
+                event_schema["required"]
+                    .as_array()
+                    .is_some_and(|r| r.iter().any(|f| f == field)),
                 "event field {field} not required: {event_schema}"
             );
         }
-        let names = event_schema["properties"]["event"]["pattern"].as_str().unwrap_or("");
+        let names = event_schema["properties"]["event"]["pattern"]
+            .as_str()
+            .unwrap_or("");
         for (e, _) in &events {
-            assert!(names.contains(e.as_str()), "event {e} not in the documented pattern {names}");
+            assert!(
+                names.contains(e.as_str()),
+                "event {e} not in the documented pattern {names}"
+            );
         }
         let last = events.last().expect("some events");
         assert_eq!(last.0, "status", "{events:?}");
