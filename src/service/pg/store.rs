@@ -192,34 +192,31 @@ impl PgStore {
     }
 
     fn summary(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
-        let id = id.to_string();
-        self.call(move |q| {
-            let id = id.clone();
-            async move {
-                const CTX: &str = "reading a sweep's status";
-                let c = q.connection(CTX).await?;
-                let sql = format!("SELECT {SUMMARY_COLUMNS} FROM sweeps s WHERE s.id = $1");
-                let r = c
-                    .query_opt(&sql, &[&id])
-                    .await
-                    .map_err(|e| q.db_error(CTX, e))?;
-                Ok(r.as_ref().map(to_row))
-            }
-        })
+        self.row_by_id(id, SUMMARY_COLUMNS, "reading a sweep's status")
     }
 
     fn row(&self, id: &str) -> Result<Option<SweepRow>, StoreError> {
+        self.row_by_id(id, ROW_COLUMNS, "reading a sweep")
+    }
+
+    /// One sweep's row by id, reading `columns` ([`ROW_COLUMNS`] or [`SUMMARY_COLUMNS`]);
+    /// `ctx` names the operation in a database error.
+    fn row_by_id(
+        &self,
+        id: &str,
+        columns: &'static str,
+        ctx: &'static str,
+    ) -> Result<Option<SweepRow>, StoreError> {
         let id = id.to_string();
         self.call(move |q| {
             let id = id.clone();
             async move {
-                const CTX: &str = "reading a sweep";
-                let c = q.connection(CTX).await?;
-                let sql = format!("SELECT {ROW_COLUMNS} FROM sweeps s WHERE s.id = $1");
+                let c = q.connection(ctx).await?;
+                let sql = format!("SELECT {columns} FROM sweeps s WHERE s.id = $1");
                 let r = c
                     .query_opt(&sql, &[&id])
                     .await
-                    .map_err(|e| q.db_error(CTX, e))?;
+                    .map_err(|e| q.db_error(ctx, e))?;
                 Ok(r.as_ref().map(to_row))
             }
         })
