@@ -272,8 +272,9 @@ fn cost(acc: f64) {
         errs.sort_by(f64::total_cmp);
         ratios.sort_by(f64::total_cmp);
         println!(
-            "{name} accuracy {acc:e}: node updates median {} max {}; true error median {:.2e} max {:.2e}; estimate/true {:.2}-{:.2}; grids {grids:?}",
+            "{name} accuracy {acc:e}: node updates median {} mean {:.0} max {}; true error median {:.2e} max {:.2e}; estimate/true {:.2}-{:.2}; grids {grids:?}",
             ups[ups.len() / 2],
+            ups.iter().sum::<u64>() as f64 / ups.len() as f64,
             ups[ups.len() - 1],
             errs[errs.len() / 2],
             errs[errs.len() - 1],

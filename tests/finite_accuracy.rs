@@ -277,9 +277,10 @@ fn butenschoen_table_at_default_accuracy() {
 }
 
 /// Accuracy mode iterates each grid of the ladder only until its load vector's iteration
-/// error is 1/50 of the requested accuracy (issue 20, cost): the loads it returns are
-/// those of the same ladder iterated to 1e-10 (field) within 5 % of the accuracy, on the
-/// same grid, and the work stays ≤ 25 sweeps of the final grid (all grids' node updates
+/// error is 1/10 of the requested accuracy (issue 20, cost; 1/50 until session 35): the
+/// loads it returns are those of the same ladder iterated to 1e-10 (field) within 25 % of
+/// the accuracy (2.5 × the fraction, as 5 % was at 1/50; measured ≤ 8.5 % on the test and
+/// benchmark states, `zeta_probe work`), on the same grid, and the work stays ≤ 25 sweeps of the final grid (all grids' node updates
 /// over its node count) at the default accuracy (measured 12-22; 35-75 when every grid was
 /// iterated to 1e-8).
 #[test]
@@ -305,9 +306,9 @@ fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
             report.n_theta, report.n_z
         );
         assert!(
-            d <= 0.05 * accuracy,
+            d <= 0.25 * accuracy,
             "{label}: accuracy-mode loads {d:.2e} from the tightly iterated ladder's, expected \
-             ≤ 5 % of the accuracy {accuracy}"
+             ≤ 25 % of the accuracy {accuracy}"
         );
         assert!(
             report.sweeps <= 25,
