@@ -462,6 +462,19 @@ fn split() {
                     print!(" {acc:.0e}:{}x{} e {e:.1e} r {:.2}", g.0, g.1, est / e);
                 }
             }
+            // the ζ step with a measured ζ contraction ρ = |v(128×32) − v(128×16)| /
+            // |v(128×16) − v(128×8)| (clamped to [0.05, 0.8]): tail d₂ ρ/(1 − ρ)
+            {
+                let v8 = solve(128, 8);
+                let (v16, v32) = (&vals[at((128, 16))], &vals[at((128, 32))]);
+                let (d1, d2) = (dist(v16, &v8), dist(v32, v16));
+                let rho = (d2 / d1).clamp(0.05, 0.8);
+                let e = dist(v32, &truth) / tn;
+                print!(
+                    " | 128x32 rho {rho:.2} tail/true {:.2}",
+                    d2 * rho / (1.0 - rho) / norm(v32) / e
+                );
+            }
             // the ζ step's own ratio at 128 × 32, 256 × 64
             for (f, c) in [((128, 32), (128, 16)), ((256, 64), (128, 32))] {
                 let (v, w) = (&vals[at(f)], &vals[at(c)]);
