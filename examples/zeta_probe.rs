@@ -3,7 +3,8 @@
 //! grid, the true error of the load vector summed by several quadratures of the same
 //! field, and the ratio of several error estimates to it.
 //!
-//! `cargo run --release --example zeta_probe`
+//! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
+//! `split [rules]`, `work`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
@@ -271,8 +272,9 @@ fn cost(acc: f64) {
         errs.sort_by(f64::total_cmp);
         ratios.sort_by(f64::total_cmp);
         println!(
-            "{name} accuracy {acc:e}: node updates median {} max {}; true error median {:.2e} max {:.2e}; estimate/true {:.2}-{:.2}; grids {grids:?}",
+            "{name} accuracy {acc:e}: node updates median {} mean {:.0} max {}; true error median {:.2e} max {:.2e}; estimate/true {:.2}-{:.2}; grids {grids:?}",
             ups[ups.len() / 2],
+            ups.iter().sum::<u64>() as f64 / ups.len() as f64,
             ups[ups.len() - 1],
             errs[errs.len() / 2],
             errs[errs.len() - 1],
@@ -285,7 +287,299 @@ fn cost(acc: f64) {
     }
 }
 
+/// Richardson-extrapolated ladder loads (issue 20, session 35): on the 12 test states and
+/// the 32 benchmark states, per ladder grid (fields at the default's per-grid stop,
+/// accuracy 5e-4 × 0.02 on the loads), the true error of the Simpson-summed loads `v` and
+/// of their extrapolate `R = (4 v₀ − v₋₁)/3`, and candidate estimates of R's error over
+/// the true one; the reference's own uncertainty (rectangle- against Simpson-summed
+/// extrapolates of 1024 × 128 / 512 × 64).
+fn extrap() {
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let mut all: Vec<(String, BearingParams, BearingState)> =
+        states(&p).into_iter().map(|(l, s)| (l, p, s)).collect();
+    for (k, s) in bench.into_iter().enumerate() {
+        all.push((
+            format!("bench {k}"),
+            BearingParams {
+                finite: p.finite,
+                ..pb
+            },
+            s,
+        ));
+    }
+    for (label, p, s) in all {
+        let g = FiniteGrid::for_bearing(&p);
+        let packed: Packed = pack_state(&p, &s).unwrap();
+        let job = FiniteJob::new(&p, &packed);
+        let lv =
+            |ints: &[f64; 4]| finish_loads(&p, &s, ints, packed.rate_scale).load_vector(p.length);
+        let mut solver = FiniteSolver::new();
+        let tight = solver.ladder(&job, &g, 1e-10, false, usize::MAX);
+        let n = tight.len();
+        let ext = |f: [f64; 4], c: [f64; 4]| -> [f64; 4] {
+            std::array::from_fn(|k| (4.0 * f[k] - c[k]) / 3.0)
+        };
+        let truth = ext(lv(&tight[n - 1].rectangle), lv(&tight[n - 2].rectangle));
+        let truth_s = ext(lv(&tight[n - 1].integrals), lv(&tight[n - 2].integrals));
+        let tn = norm(&truth);
+        let steps = solver.ladder(&job, &g, 0.02 * 5e-4, true, 6);
+        let v: Vec<[f64; 4]> = steps.iter().map(|t| lv(&t.integrals)).collect();
+        print!("{label:28} ref {:.1e}", dist(&truth, &truth_s) / tn);
+        let r: Vec<[f64; 4]> = (1..v.len()).map(|l| ext(v[l], v[l - 1])).collect();
+        for l in 2..v.len() {
+            let ev = dist(&v[l], &truth) / tn;
+            let est_v = dist(&v[l], &v[l - 1]) / 3.0 / norm(&v[l]);
+            let rl = r[l - 1];
+            let er = dist(&rl, &truth) / tn;
+            let dr = dist(&rl, &r[l - 2]) / norm(&rl);
+            print!(
+                " | {}x{} u{} v {:.1e} ({:.2}) R {:.1e} dR {:.1e} ({:.2})",
+                steps[l].n_theta,
+                steps[l].n_z,
+                steps[l].updates,
+                ev,
+                est_v / ev,
+                er,
+                dr,
+                dr / er
+            );
+        }
+        println!();
+    }
+}
+
+/// Where the error sits, per direction (issue 20, session 35): the 12 test states and
+/// the 32 benchmark states turned so that the mid-plane's maximum film is at θ = 0 (node 0
+/// of explicit grids: the inlet line on the grid, as on the ladder), solved on explicit
+/// grids to 1e-11 and summed by Simpson in ζ. Per ladder grid `nt × nz` of the state's
+/// default stop region: the true error of `v(nt, nz)`, of the ζ-refined `v(nt, 2nz)`, the
+/// θ-refined `v(2nt, nz)`, the ζ-extrapolate `Rζ = (4 v(nt, nz) − v(nt, nz/2))/3`, the
+/// two-direction extrapolate `(5 v − v(nt, nz/2) − v(nt/2, nz))/3`, and the one-direction
+/// Richardson terms `dθ = |v − v(nt/2, nz)|/3`, `dζ = |v − v(nt, nz/2)|/3` (relative).
+fn split() {
+    use bearing_sweep::bearing::finite::FiniteSettings;
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let mut all: Vec<(String, BearingParams, BearingState)> =
+        states(&p).into_iter().map(|(l, s)| (l, p, s)).collect();
+    for (k, s) in bench.into_iter().enumerate() {
+        let b = BearingParams {
+            finite: p.finite,
+            ..pb
+        };
+        all.push((format!("bench {k}"), b, s));
+    }
+    for (label, p, s0) in all {
+        // Turn every vector by π − φ, φ the mid-plane eccentricity's angle.
+        let phi = (0.5 * (s0.yi + s0.yj)).atan2(0.5 * (s0.xi + s0.xj));
+        let (c, sn) = (
+            (std::f64::consts::PI - phi).cos(),
+            (std::f64::consts::PI - phi).sin(),
+        );
+        let rot = |x: f64, y: f64| (x * c - y * sn, x * sn + y * c);
+        let (xi, yi) = rot(s0.xi, s0.yi);
+        let (xj, yj) = rot(s0.xj, s0.yj);
+        let (vxi, vyi) = rot(s0.vxi, s0.vyi);
+        let (vxj, vyj) = rot(s0.vxj, s0.vyj);
+        let s = BearingState {
+            xi,
+            yi,
+            xj,
+            yj,
+            vxi,
+            vyi,
+            vxj,
+            vyj,
+            ..s0
+        };
+        let g = FiniteGrid::for_bearing(&p);
+        let packed: Packed = pack_state(&p, &s).unwrap();
+        let job = FiniteJob::new(&p, &packed);
+        let lv =
+            |ints: &[f64; 4]| finish_loads(&p, &s, ints, packed.rate_scale).load_vector(p.length);
+        let mut solver = FiniteSolver::new();
+        let truth = lv(&solver.reference(&job, &g));
+        let tn = norm(&truth);
+        let mut solve = |nt: usize, nz: usize| {
+            let gg = FiniteGrid::from(&FiniteSettings {
+                tolerance: 1e-11,
+                ..FiniteSettings::with_grid(nt as u32, nz as u32)
+            });
+            let mut f = Vec::new();
+            let _ = solver.solve(&job, &gg, &mut f);
+            lv(&quad(&rows(&f, nt, nz, 0.0), nz, 1))
+        };
+        print!("{label:28}");
+        if std::env::args().nth(2).as_deref() == Some("rules") {
+            // Candidate ladders from 32 × 4 on: the estimate |v₀ − v₋₁|/3 against the
+            // true error of v₀ at each accuracy's stopping grid.
+            let grids = [
+                (32, 4),
+                (64, 8),
+                (128, 16),
+                (128, 32),
+                (256, 32),
+                (256, 64),
+                (512, 64),
+                (512, 128),
+            ];
+            let vals: Vec<[f64; 4]> = grids.iter().map(|&(a, b)| solve(a, b)).collect();
+            let at = |d: (usize, usize)| grids.iter().position(|&x| x == d).unwrap();
+            let rules: [(&str, &[(usize, usize)]); 2] = [
+                ("now", &[(32, 4), (64, 8), (128, 16), (256, 32), (512, 64)]),
+                (
+                    "z-step",
+                    &[
+                        (32, 4),
+                        (64, 8),
+                        (128, 16),
+                        (128, 32),
+                        (256, 64),
+                        (512, 128),
+                    ],
+                ),
+            ];
+            for (name, seq) in rules {
+                print!(" | {name}:");
+                for acc in [2e-3, 1e-3, 5e-4, 1e-4] {
+                    let mut out = None;
+                    for l in 1..seq.len() {
+                        let (v, w) = (&vals[at(seq[l])], &vals[at(seq[l - 1])]);
+                        let est = dist(v, w) / 3.0 / norm(v);
+                        if est <= acc || l + 1 == seq.len() {
+                            out = Some((seq[l], est, dist(v, &truth) / tn));
+                            break;
+                        }
+                    }
+                    let (g, est, e) = out.unwrap();
+                    print!(" {acc:.0e}:{}x{} e {e:.1e} r {:.2}", g.0, g.1, est / e);
+                }
+            }
+            // the ζ step with a measured ζ contraction ρ = |v(128×32) − v(128×16)| /
+            // |v(128×16) − v(128×8)| (clamped to [0.05, 0.8]): tail d₂ ρ/(1 − ρ)
+            {
+                let v8 = solve(128, 8);
+                let (v16, v32) = (&vals[at((128, 16))], &vals[at((128, 32))]);
+                let (d1, d2) = (dist(v16, &v8), dist(v32, v16));
+                let rho = (d2 / d1).clamp(0.05, 0.8);
+                let e = dist(v32, &truth) / tn;
+                print!(
+                    " | 128x32 rho {rho:.2} tail/true {:.2}",
+                    d2 * rho / (1.0 - rho) / norm(v32) / e
+                );
+            }
+            // the ζ step's own ratio at 128 × 32, 256 × 64
+            for (f, c) in [((128, 32), (128, 16)), ((256, 64), (128, 32))] {
+                let (v, w) = (&vals[at(f)], &vals[at(c)]);
+                let e = dist(v, &truth) / tn;
+                print!(
+                    " | {}x{} e {e:.1e} r {:.2}",
+                    f.0,
+                    f.1,
+                    dist(v, w) / 3.0 / norm(v) / e
+                );
+            }
+            println!();
+            continue;
+        }
+        for (nt, nz) in [(64, 8), (128, 16), (256, 32)] {
+            let v = solve(nt, nz);
+            let vz = solve(nt, nz / 2);
+            let vt = solve(nt / 2, nz);
+            let fz = solve(nt, 2 * nz);
+            let ft = solve(2 * nt, nz);
+            let rz: [f64; 4] = std::array::from_fn(|k| (4.0 * v[k] - vz[k]) / 3.0);
+            let rc: [f64; 4] = std::array::from_fn(|k| (5.0 * v[k] - vz[k] - vt[k]) / 3.0);
+            let e = |x: &[f64; 4]| dist(x, &truth) / tn;
+            print!(
+                " | {nt}x{nz} v {:.1e} 2z {:.1e} 2t {:.1e} Rz {:.1e} Rc {:.1e} dt {:.1e} dz {:.1e}",
+                e(&v),
+                e(&fz),
+                e(&ft),
+                e(&rz),
+                e(&rc),
+                dist(&v, &vt) / 3.0 / norm(&v),
+                dist(&v, &vz) / 3.0 / norm(&v)
+            );
+        }
+        println!();
+    }
+}
+
+/// Work of the ladder against its per-grid stop (issue 20, session 35): on the 12 test
+/// states and the 32 benchmark states, the ladder's node updates up to 128 × 16 and
+/// 256 × 32 with each grid iterated until the load vector's estimated iteration error is
+/// below `fraction × 5e-4` (the solver: 0.02), and the iteration error that leaves in the
+/// loads of 128 × 16 (against the same grid at 1e-10) and in its estimate
+/// `|v₀ − v₋₁|/3`, relative to the accuracy 5e-4.
+fn work() {
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let mut all: Vec<(BearingParams, BearingState)> =
+        states(&p).into_iter().map(|(_, s)| (p, s)).collect();
+    for s in bench {
+        let b = BearingParams {
+            finite: p.finite,
+            ..pb
+        };
+        all.push((b, s));
+    }
+    let acc = 5e-4;
+    for frac in [0.02, 0.05, 0.1, 0.2, 0.5] {
+        let (mut u16, mut u32_, mut dv, mut de) = (Vec::new(), Vec::new(), 0.0_f64, 0.0_f64);
+        for (p, s) in &all {
+            let g = FiniteGrid::for_bearing(p);
+            let packed: Packed = pack_state(p, s).unwrap();
+            let job = FiniteJob::new(p, &packed);
+            let lv =
+                |ints: &[f64; 4]| finish_loads(p, s, ints, packed.rate_scale).load_vector(p.length);
+            let mut solver = FiniteSolver::new();
+            let tight = solver.ladder(&job, &g, 1e-10, false, 5);
+            let loose = solver.ladder(&job, &g, frac * acc, true, 5);
+            u16.push(loose[3].updates);
+            u32_.push(loose[4].updates);
+            let (t3, t2, l3, l2) = (
+                lv(&tight[3].integrals),
+                lv(&tight[2].integrals),
+                lv(&loose[3].integrals),
+                lv(&loose[2].integrals),
+            );
+            let n = norm(&t3);
+            dv = dv.max(dist(&l3, &t3) / n / acc);
+            de = de.max((dist(&l3, &l2) - dist(&t3, &t2)).abs() / 3.0 / n / acc);
+        }
+        u16.sort();
+        u32_.sort();
+        println!(
+            "fraction {frac}: updates to 128x16 median {} max {}; to 256x32 median {} max {}; 128x16 loads' iteration error up to {dv:.3} of the accuracy, its estimate moved up to {de:.3} of it",
+            u16[u16.len() / 2], u16[u16.len() - 1], u32_[u32_.len() / 2], u32_[u32_.len() - 1]
+        );
+    }
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("work") {
+        work();
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("split") {
+        split();
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("extrap") {
+        extrap();
+        return;
+    }
     if std::env::args().nth(1).as_deref() == Some("cost") {
         for a in std::env::args().skip(2) {
             cost(a.parse().expect("an accuracy"));

@@ -82,7 +82,7 @@ struct Params {
     // `main`), and beyond which its results are void (ST_OVERRUN).
     budget: u32,
     limit: u32,
-    // Fixed grid: tolerance on the field; ladder: on the loads (max(accuracy/50, tol)).
+    // Fixed grid: tolerance on the field; ladder: on the loads (max(accuracy/10, tol)).
     tolerance: f64,
     // Ladder: requested accuracy.
     accuracy: f64,

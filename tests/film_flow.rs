@@ -476,8 +476,9 @@ fn balance_states(p: &BearingParams) -> [BearingState; 5] {
 /// the evaluator with `film_outputs` off, accuracy-mode loads are bit for bit the
 /// unpolished solve's, and the work is that of the ladder alone; with film outputs on,
 /// the same states take more sweeps (the last grid iterated to the field tolerance) and
-/// their loads move by about the ladder's per-grid stop, 2 % of the accuracy (an
-/// estimate: 3 % measured on the tilted state; bound 10 %).
+/// their loads move by about the ladder's per-grid stop, 10 % of the accuracy since issue
+/// 20 session 35 (15 % measured on the tilted state; 2 % before, when 3 % was measured and
+/// the bound was 10 %: the bound stays 5 × the stop, 50 %).
 #[test]
 fn polish_only_where_film_outputs_are_requested() {
     use bearing_sweep::backend::{
@@ -528,10 +529,10 @@ fn polish_only_where_film_outputs_are_requested() {
             diff / norm
         );
         assert!(
-            diff <= 0.1 * p.finite.accuracy * norm,
+            diff <= 0.5 * p.finite.accuracy * norm,
             "state {k}: polish moved the loads by {:.2e} relative, bound {:.2e}",
             diff / norm,
-            0.1 * p.finite.accuracy
+            0.5 * p.finite.accuracy
         );
     }
     eprintln!("sweeps: film outputs off {sweeps_off}, on {sweeps_on}");

@@ -277,9 +277,10 @@ fn butenschoen_table_at_default_accuracy() {
 }
 
 /// Accuracy mode iterates each grid of the ladder only until its load vector's iteration
-/// error is 1/50 of the requested accuracy (issue 20, cost): the loads it returns are
-/// those of the same ladder iterated to 1e-10 (field) within 5 % of the accuracy, on the
-/// same grid, and the work stays ≤ 25 sweeps of the final grid (all grids' node updates
+/// error is 1/10 of the requested accuracy (issue 20, cost; 1/50 until session 35): the
+/// loads it returns are those of the same ladder iterated to 1e-10 (field) within 25 % of
+/// the accuracy (2.5 × the fraction, as 5 % was at 1/50; measured ≤ 8.5 % on the test and
+/// benchmark states, `zeta_probe work`), on the same grid, and the work stays ≤ 25 sweeps of the final grid (all grids' node updates
 /// over its node count) at the default accuracy (measured 12-22; 35-75 when every grid was
 /// iterated to 1e-8).
 #[test]
@@ -305,9 +306,9 @@ fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
             report.n_theta, report.n_z
         );
         assert!(
-            d <= 0.05 * accuracy,
+            d <= 0.25 * accuracy,
             "{label}: accuracy-mode loads {d:.2e} from the tightly iterated ladder's, expected \
-             ≤ 5 % of the accuracy {accuracy}"
+             ≤ 25 % of the accuracy {accuracy}"
         );
         assert!(
             report.sweeps <= 25,
@@ -325,7 +326,8 @@ fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
 /// 1e-8, counted here), and every state is within 1e-3 of the converged solution with its
 /// estimate within a factor 3. Measured (issue 20 pass 4, Simpson's rule in ζ): median
 /// 32,640 updates against 54,150, largest 548,352 (one state on 512 × 64), largest error
-/// 8.3e-4; before pass 4 every state ended on 512 × 64 (~476,000 on average).
+/// 8.3e-4; before pass 4 every state ended on 512 × 64 (~476,000 on average). Session 35
+/// (each grid to accuracy/10): median 30,720, mean 69,024, largest 387,072, same grids.
 #[test]
 fn default_accuracy_median_state_costs_no_more_than_old_default() {
     let (p, states) = bearing_sweep::bench::finite::bench_states(32);

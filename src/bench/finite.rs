@@ -139,7 +139,7 @@ pub fn bench_finite(n: usize, reps: usize, gpu: bool) -> String {
     md += &format!(
         "\nFinite film, {n} states of the paper's bearing (B/D = 0.5, ε 0.1-0.9, half tilted, a \
          third whirling/squeezing), cold start, projected multigrid (explicit grids: \
-         tolerance 1e-8; accuracy mode: each grid to 1/50 of the accuracy on the loads); \
+         tolerance 1e-8; accuracy mode: each grid to 1/10 of the accuracy on the loads); \
          error: load vector (W_x, W_y, M_x/B, M_y/B) against the accuracy ladder's \
          1024×128 Richardson-extrapolated (inlet line on the grid). \
          Sweeps: work in sweeps of the final grid.\n\n\
