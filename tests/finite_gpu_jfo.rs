@@ -1,7 +1,9 @@
 //! The finite film's mass-conserving (JFO) cavitation on the GPU (shaders/finite_jfo.wgsl,
 //! issue 27) against the CPU JFO solver: aligned, tilted, whirling and squeezed states with
 //! the max-film inlet, a grooved film that reforms in the land, a negative spin, and one
-//! time step with a film history; the evaluator's `--backend gpu` route. Runs on whatever
+//! time step with a film history; the evaluator's `--backend gpu` route; the kernel's
+//! reported iteration error against a tight CPU solve (the CPU's stop rule decides at the
+//! kernel's block pauses, session 35). Runs on whatever
 //! f64 adapter wgpu finds (lavapipe on CI); skips with a notice without one, fails with
 //! `BEARING_SWEEP_REQUIRE_GPU=1`.
 //!
