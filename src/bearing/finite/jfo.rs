@@ -386,7 +386,7 @@ impl JfoLevel {
     fn rounding_floor(&self) -> f64 {
         let (nt, nz) = (self.nt, self.nz);
         let pmax = self.p.iter().fold(0.0_f64, |a, &v| a.max(v));
-        if !(pmax > 0.0) || nz < 2 {
+        if pmax.is_nan() || pmax <= 0.0 || nz < 2 {
             return 0.0;
         }
         let mut worst = 0.0_f64;
@@ -456,7 +456,7 @@ impl JfoLevel {
                 // A floating-point fixed point: its error is the rounding floor.
                 return stop.verdict(self, 0.0);
             }
-            if sweep % stop.block == 0 {
+            if sweep.is_multiple_of(stop.block) {
                 if let Some(v) = stop.end_of_block(self, pmax) {
                     return v;
                 }
@@ -1334,7 +1334,7 @@ impl JfoProblem {
         if still {
             return Some(rule.stop.verdict(&self.lvl, 0.0));
         }
-        if sweeps % rule.stop.block == 0 {
+        if sweeps.is_multiple_of(rule.stop.block) {
             let pmax = self.lvl.p.iter().fold(0.0_f64, |a, &v| a.max(v));
             if let Some(v) = rule.stop.end_of_block(&self.lvl, pmax) {
                 return Some(v);
