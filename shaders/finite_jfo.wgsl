@@ -8,17 +8,26 @@
 // Node equation (free node k, surface moving towards +θ; mirrored for s < 0):
 //   d P_k + c_φ φ_k = q_k,  c_φ = c_e,k + c_s,k,
 //   q_k = a_e,k P_E + a_e,W P_W + a_n,k P_N + a_n,S P_S + c_e,W φ_W − c_0,k,
-// whose unique monotone root is P = (q − c_φ)/d with φ = 1 if positive (over-relaxed by
-// ω), else P = 0, φ = q/c_φ clipped to [0, 1].
+// whose unique monotone root is P = r/d with φ = 1 if positive (over-relaxed by ω), else
+// P = 0, φ = 1 + r/c_φ clipped to [0, 1], where r = q − c_φ is formed from the full
+// node's storage s_f = c_s + c_0 directly (r = Σ a P_nb + c_e,W φ_W − c_e,k − s_f), as
+// on the CPU: c_s and c_0 are each O(12 H/Δτ) in a time step and their difference would
+// leave its rounding in P (issue 27, docs/jfo.md "Iteration error").
 //
 // Ordering: zebra lines. The odd interior rows are updated first, each by one invocation
 // marching its row in the direction of the surface motion (so the film fraction is carried
 // through the cavitated zone in one sweep, as the CPU's Gauss–Seidel does), then the even
 // rows. Rows of one colour only read the other colour's pressure, so the sweep is
 // deterministic; it converges to the same fixed point as the CPU's row-by-row order (the
-// node equations), not along the same iterates. Stopping rule as the CPU's: the change
-// max(|ΔP|/max P, |Δφ|) of a sweep times ρ/(1 − ρ), ρ the contraction over five sweeps
-// (at least ω − 1; its fifth root by an f32 pow, the only f32 operation).
+// node equations), not along the same iterates.
+//
+// Stopping (issue 27, session 35): the kernel does not decide. It pauses each state at
+// the end of every block of `block` sweeps (or at a sweep that changes nothing) and the
+// host applies the CPU's block rule to the field (`BlockStop` in
+// src/bearing/finite/jfo.rs: the block extrapolation and the rounding floor), then
+// resumes or finishes the state. Per sweep the kernel keeps the last six changes
+// max(|ΔP|/max P, |Δφ|) and the last halving of the change, for the host's stagnation
+// rule (the CPU's `window`).
 //
 // The fields and coefficients live in storage buffers (no size limit from workgroup
 // memory); the pressure and film fraction are updated in place. One dispatch runs at most
@@ -26,13 +35,16 @@
 
 const WG: u32 = 64u;
 // Values per node in `coef` (src/bearing/finite/jfo.rs JFO_NODE_STRIDE): a_e, a_n, d, c_e,
-// c_s, c_0, held pressure (negative: free), unused.
+// c_s, c_0, held pressure (negative: free), s_f (the full node's storage).
 const NODE_STRIDE: u32 = 8u;
-// Per job (stride 4 f64): ω (SOR factor), spin sign (1 or −1), unused ×2.
+// Per job (stride 4 f64): ω (SOR factor), spin sign (1 or −1), sweeps per block of the
+// host's stop rule (a pause after every `block` sweeps, ≥ 1), unused.
 const JOB_STRIDE: u32 = 4u;
 // Per result (stride 12 f64), also the iteration's state between dispatches (the host
-// sets it to 0, 0, 0, 0, −1 × 6): sweeps, iteration error, converged (1/0), done (1/0:
-// converged or at the sweep limit), the last six changes, unused × 2.
+// starts it at 0, 0, 0, 0, −1 × 6, 1e300, 0): sweeps, the last change, a sweep without
+// change seen (1/0), state (0: running, 1: at the sweep limit or finished by the host,
+// 2: paused for the host's decision), the last six changes, the last halved change and
+// the sweep it was reached at.
 const OUT_STRIDE: u32 = 12u;
 
 struct Params {
@@ -43,13 +55,14 @@ struct Params {
     n_z: u32,
     // Sweep limit.
     max_sweeps: u32,
-    // Iteration tolerance (relative).
-    tolerance: f64,
     // Sweeps per dispatch at most: llvmpipe (lavapipe) ends any shader loop after 65 535
     // iterations in all (seen as every slow state stopping at exactly 237 sweeps of
     // 128 × 32), so the host bounds one dispatch's loop iterations and dispatches again;
     // the iteration resumes from `results`.
     per_dispatch: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -89,8 +102,8 @@ fn update(cb: u32, fb: u32, n: u32, nt: u32, j: u32, i: u32, omega: f64, forward
         inflow = -c(cb, k, 3u) * fields[fb + n + ip];
     }
     let c_phi = c_out + c(cb, k, 4u);
-    let q = sum + inflow - c(cb, k, 5u);
-    let pg = (q - c_phi) / c(cb, k, 2u);
+    let r = sum + inflow - c_out - c(cb, k, 7u);
+    let pg = r / c(cb, k, 2u);
     let old_p = fields[fb + k];
     let old_phi = fields[fb + n + k];
     var np: f64 = 0.0;
@@ -98,7 +111,7 @@ fn update(cb: u32, fb: u32, n: u32, nt: u32, j: u32, i: u32, omega: f64, forward
     if pg > 0.0 {
         np = max(old_p + omega * (pg - old_p), 0.0);
     } else if c_phi > 0.0 {
-        nphi = clamp(q / c_phi, 0.0, 1.0);
+        nphi = clamp(1.0 + r / c_phi, 0.0, 1.0);
     }
     // else: no outflow and no inflow, nothing moves (P = 0, φ = 1), as on the CPU.
     fields[fb + k] = np;
@@ -121,20 +134,24 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     let o = job * OUT_STRIDE;
     let omega = jobs[job * JOB_STRIDE];
     let forward = jobs[job * JOB_STRIDE + 1u] >= 0.0;
+    let block = max(u32(jobs[job * JOB_STRIDE + 2u]), 1u);
 
-    // Resume: the state of the iteration from the previous dispatch (sweeps, error, done,
-    // contraction history), read through workgroup memory so that the stopping decisions
-    // stay workgroup-uniform.
+    // Resume: the state of the iteration from the previous dispatch (sweeps, state,
+    // change history), read through workgroup memory so that the decisions stay
+    // workgroup-uniform.
     if lid == 0u {
-        for (var q = 0u; q < 10u; q++) {
+        for (var q = 0u; q < 12u; q++) {
             red[q] = results[o + q];
         }
     }
     workgroupBarrier();
     var sweeps = u32(workgroupUniformLoad(&red[0]));
-    var err: f64 = workgroupUniformLoad(&red[1]);
-    var converged = workgroupUniformLoad(&red[2]) > 0.5;
+    var last: f64 = workgroupUniformLoad(&red[1]);
+    var still = workgroupUniformLoad(&red[2]) > 0.5;
+    // Running (0) only; paused or finished states wait for the host.
     let done = workgroupUniformLoad(&red[3]) > 0.5;
+    var best: f64 = workgroupUniformLoad(&red[10]);
+    var best_at: f64 = workgroupUniformLoad(&red[11]);
     var hist: array<f64, 6>;
     hist[0] = workgroupUniformLoad(&red[4]);
     hist[1] = workgroupUniformLoad(&red[5]);
@@ -145,10 +162,11 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     if done {
         return;
     }
-    var finished = false;
+    // 1: at the sweep limit; 2: paused for the host.
+    var state: f64 = 0.0;
     for (var run = 0u; run < params.per_dispatch; run++) {
         if sweeps >= params.max_sweeps {
-            finished = true;
+            state = 1.0;
             break;
         }
         var m = vec3<f64>(0.0, 0.0, 0.0);
@@ -193,15 +211,18 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
             hist[q] = hist[q + 1u];
         }
         hist[5] = change;
-        var measured: f64 = 0.0;
-        if hist[0] > 0.0 {
-            measured = f64(pow(f32(hist[5] / hist[0]), 0.2));
+        last = change;
+        if change < 0.5 * best {
+            best = change;
+            best_at = f64(sweeps);
         }
-        let rho = min(max(measured, omega - 1.0), 0.9999);
-        err = change * rho / (1.0 - rho);
-        if change == 0.0 || (sweeps >= 6u && err <= params.tolerance) {
-            converged = true;
-            finished = true;
+        if change == 0.0 {
+            still = true;
+            state = 2.0;
+            break;
+        }
+        if sweeps % block == 0u {
+            state = 2.0;
             break;
         }
         // A non-finite iterate runs to the sweep limit and the host sees its non-finite
@@ -209,11 +230,13 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     }
     if lid == 0u {
         results[o] = f64(sweeps);
-        results[o + 1u] = err;
-        results[o + 2u] = select(f64(0.0), f64(1.0), converged);
-        results[o + 3u] = select(f64(0.0), f64(1.0), finished);
+        results[o + 1u] = last;
+        results[o + 2u] = select(f64(0.0), f64(1.0), still);
+        results[o + 3u] = state;
         for (var q = 0u; q < 6u; q++) {
             results[o + 4u + q] = hist[q];
         }
+        results[o + 10u] = best;
+        results[o + 11u] = best_at;
     }
 }

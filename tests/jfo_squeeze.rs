@@ -790,11 +790,12 @@ fn rupture_march_sweeps() {
 /// contraction measured on noise). At tolerance 1e-11 every step of the rupture march
 /// converges (reported ≤ 1e-11). Checked against the exact discrete solution before
 /// rupture (the closed-form parabola, which the 3-point operator reproduces): the actual
-/// error is below 1e-9. The iteration error proper (against the same step solved on to
-/// 1e-13) is up to 37× the reported estimate here (was 22×): at 1e-11 these solves end at
-/// the rounding floor, whose estimate is not honest (measured; docs/jfo.md "The reported
-/// iteration error"); asserted ≤ 50×. After rupture the same step solved from a cold
-/// (empty) start agrees with the warm solve within 3× the two reported errors.
+/// error is below 1e-9 of P0 (the parabola is the exact discrete solution only up to the
+/// columns' coupling, 1e-10 of P0 here). The iteration error proper (against the same step
+/// solved on to 1e-13, relative to max P as the solver measures it) is within a factor 3
+/// of the reported estimate both ways (session 34 compared it relative to P0, 2-30× below
+/// max P before rupture, and read up to 37×). After rupture the same step solved from a
+/// cold (empty) start agrees with the warm solve within 3× the two reported errors.
 #[test]
 fn iteration_error_below_1e_8_through_the_rupture() {
     let tol = 1e-11;
@@ -805,7 +806,7 @@ fn iteration_error_below_1e_8_through_the_rupture() {
         let dz = 1.0 / nz as f64;
         let jl = st.jl();
         let (mut worst_pre, mut worst_post, mut reported_max) = (0.0_f64, 0.0_f64, 0.0_f64);
-        let mut under_pre = 0.0_f64;
+        let (mut under_pre, mut over_pre) = (0.0_f64, 0.0_f64);
         let mut under_post = 0.0_f64;
         let mut parabola_gap = 0.0_f64;
         for s in 0..steps {
@@ -839,10 +840,13 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                     Some(&hist),
                 );
                 assert!(rr.converged, "{rr:?}");
+                // Relative to max P, as the solver measures its error (max P is 2-30× P0
+                // before rupture; comparing to P0 had made the estimate look 37× low).
+                let pmax = reference[..n].iter().fold(0.0_f64, |a, &v| a.max(v));
                 let to_reference = (0..n)
                     .map(|k| (st.field[k] - reference[k]).abs())
                     .fold(0.0, f64::max)
-                    / p0();
+                    / pmax;
                 let to_parabola = (1..jl)
                     .map(|j| {
                         let z = j as f64 * dz;
@@ -850,8 +854,10 @@ fn iteration_error_below_1e_8_through_the_rupture() {
                     })
                     .fold(0.0, f64::max);
                 parabola_gap = parabola_gap.max(to_parabola);
-                if to_reference > 1e-12 {
+                // Judged where the reference is well below it (its own reported error).
+                if to_reference > 10.0 * rr.iteration_error {
                     under_pre = under_pre.max(to_reference / rep.iteration_error);
+                    over_pre = over_pre.max(rep.iteration_error / to_reference);
                 }
             } else if s % 20 == 0 {
                 // The same step from an empty film: both within their reported errors.
@@ -888,17 +894,18 @@ fn iteration_error_below_1e_8_through_the_rupture() {
             }
         }
         eprintln!(
-            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (the 1e-13 solve is {parabola_gap:.2e} from the parabola; the iteration error ≤ {under_pre:.2}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
+            "nz {nz}, tolerance {tol:.0e}: largest reported {reported_max:.2e}; before rupture the actual error is at most {worst_pre:.2e} (the 1e-13 solve is {parabola_gap:.2e} of P0 from the parabola; the iteration error ≤ {under_pre:.2}× reported); after, warm vs cold {worst_post:.2e} (≤ {under_post:.2}× the sum reported)"
         );
         assert!(worst_pre < 1e-9, "nz {nz}: {worst_pre:.2e}");
-        // At 1e-11 the pre-rupture solves end at the iteration's rounding floor (the 1e-13
-        // solve itself is 1.0e-10 of P0 from the exact parabola), where the floor's
-        // estimate (the noise times (ω − 1)/(2 − ω)) is not honest: measured up to 37×
-        // low (docs/jfo.md "The reported iteration error"; above the floor the block
-        // estimate is within 3×, `iteration_error_honest_through_rupture_and_reformation`).
+        // The iteration error against the 1e-13 solve, both relative to max P: within a
+        // factor 3 both ways (session 34 had compared it relative to P0 and read the
+        // estimate as up to 37× low; the 1e-10 of P0 between the 1e-13 solve and the
+        // parabola is the columns' coupling through B/r0 = 1e-5, not rounding:
+        // `rounding_floor_is_reported_honestly`).
+        eprintln!("nz {nz}: true/reported up to {under_pre:.2}, reported/true up to {over_pre:.2}");
         assert!(
-            under_pre <= 50.0,
-            "nz {nz}: actual up to {under_pre:.1}× reported"
+            under_pre <= 3.0 && over_pre <= 3.0 && over_pre > 0.0,
+            "nz {nz}: true/reported up to {under_pre:.2}, reported/true up to {over_pre:.2}"
         );
     }
 }
@@ -967,4 +974,102 @@ fn iteration_error_honest_through_rupture_and_reformation() {
         lo >= 1.0 / 3.0 && hi <= 3.0,
         "reported/true {lo:.2} ... {hi:.2}"
     );
+}
+
+/// The rounding floor is reported (issue 27, session 35; docs/jfo.md "The rounding
+/// floor"): the iteration's floating-point fixed point is off the exact discrete solution
+/// by the rounding of its node equations amplified by the operator's inverse, which the
+/// changes of the iterate cannot show (they vanish there). Before rupture with the columns
+/// decoupled to 1e-16 (`B/r0 = 1e-8` instead of the benchmark's 1e-5, whose coupling
+/// moves the column θ = 0 by 3.5e-12 of `max P` from its parabola) the exact discrete
+/// solution is the closed-form parabola on the column θ = 0 and `P = 0` on the others
+/// (the column θ = 180° separates and is cavitated). Each of 64, 128, 256 and 512 nodes
+/// along ζ, two pre-rupture steps, solved at tolerances 1e-12 ... 1e-16: the reported
+/// iteration error within a factor 3 of the true one (relative to `max P`) both ways,
+/// except where the solve ends at the sweep cap on the stagnation rule (its noise times
+/// `ρ/(1 − ρ)` is an upper estimate there: within 10 above); a reported convergence means
+/// the true error is within 3× the tolerance, and a tolerance below the floor (1e-16) is
+/// reported as not met. Before session 35 the 1e-16 solves reported 9e-16 ("converged")
+/// at true errors of 1e-14 to 1e-13.
+#[test]
+fn rounding_floor_is_reported_honestly() {
+    let aspect = 1e-8;
+    let mut ratios = Vec::new();
+    let mut failed = Vec::new();
+    for nz in [64usize, 128, 256, 512] {
+        let steps = 140 * nz / 128;
+        let mut st = Stepper::new(nz, 0.07 / steps as f64, 1e-9);
+        let n = st.n();
+        let dz = 1.0 / nz as f64;
+        let jb = |t: f64| FiniteJob { aspect, ..job(t) };
+        let cap = setup(nz, 1e-16).max_sweeps();
+        for s in 0..=steps / 10 {
+            st.phi_old.clear();
+            let f = st.field[n..].to_vec();
+            st.phi_old.extend_from_slice(&f);
+            st.steps += 1;
+            let t = st.t();
+            let hist_phi = st.phi_old.clone();
+            let hist = JfoHistory {
+                phi: &hist_phi,
+                dtau: st.dt,
+                prev_ecc: Some(job(t - st.dt).state.ecc),
+            };
+            let g = st.g;
+            st.jfo
+                .solve(&mut st.reynolds, &jb(t), &g, &mut st.field, Some(&hist));
+            assert!(!st.cavitated(), "nz {nz}, t {t}: before rupture");
+            if s % (steps / 10) != 0 {
+                continue;
+            }
+            let k = 12.0 * h_dot(t) / h(t).powi(3);
+            let exact = |j: usize, i: usize| {
+                let z = (j as f64 * dz).min(1.0 - j as f64 * dz);
+                match i {
+                    0 if z <= L => p0() * z / L + 0.5 * k * z * (z - L),
+                    0 => p0(),
+                    _ => 0.0,
+                }
+            };
+            for tol in [1e-12, 1e-13, 1e-14, 1e-16] {
+                let mut f = st.field.clone();
+                let (_, r) = st.jfo.solve(
+                    &mut st.reynolds,
+                    &jb(t),
+                    &setup(nz, tol),
+                    &mut f,
+                    Some(&hist),
+                );
+                let pmax = f[..n].iter().fold(0.0_f64, |a, &v| a.max(v));
+                let truth = (1..nz)
+                    .flat_map(|j| (0..NT).map(move |i| (j, i)))
+                    .map(|(j, i)| (f[j * NT + i] - exact(j, i)).abs())
+                    .fold(0.0, f64::max)
+                    / pmax;
+                let ratio = r.iteration_error / truth;
+                eprintln!(
+                    "nz {nz} t {t:.4} tol {tol:.0e}: reported {:.2e} converged {} sweeps {} true {truth:.2e} ratio {ratio:.2}",
+                    r.iteration_error, r.converged, r.sweeps
+                );
+                let hi = if r.sweeps >= cap { 10.0 } else { 3.0 };
+                if !(ratio >= 1.0 / 3.0 && ratio <= hi) {
+                    failed.push(format!(
+                        "nz {nz}, t {t}, tol {tol:.0e}: reported/true {ratio:.2}"
+                    ));
+                }
+                if r.converged && truth > 3.0 * tol {
+                    failed.push(format!("nz {nz}, tol {tol:.0e}: met at {truth:.2e}"));
+                }
+                if tol == 1e-16 && r.converged {
+                    failed.push(format!("nz {nz}: 1e-16 is below the floor, reported met"));
+                }
+                ratios.push(ratio);
+            }
+        }
+    }
+    let lo = ratios.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+    let hi = ratios.iter().fold(0.0_f64, |a, &v| a.max(v));
+    eprintln!("{} judged, ratios {lo:.2} ... {hi:.2}", ratios.len());
+    assert_eq!(ratios.len(), 32);
+    assert!(failed.is_empty(), "{failed:#?}");
 }

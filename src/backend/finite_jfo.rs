@@ -19,7 +19,7 @@ use wgpu::util::DeviceExt;
 use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
-    Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoLadder, JfoProblem, SolveReport,
+    Cavitation, FiniteGrid, FiniteJob, JfoHistory, JfoLadder, JfoProblem, KernelStop, SolveReport,
     JFO_NODE_STRIDE,
 };
 use crate::bearing::FilmIntegrals;
@@ -53,9 +53,8 @@ struct Params {
     n_theta: u32,
     n_z: u32,
     max_sweeps: u32,
-    tolerance: f64,
     per_dispatch: u32,
-    _pad: u32,
+    _pad: [u32; 3],
 }
 
 /// The compiled JFO pipeline on one device.
@@ -160,15 +159,12 @@ impl JfoPipeline {
             .collect();
         let todo: Vec<usize> = (0..jobs.len()).filter(|&k| problems[k].is_some()).collect();
         let solved = {
-            let set: Vec<&JfoProblem> = todo
-                .iter()
-                .map(|&k| problems[k].as_ref().expect("filtered above"))
-                .collect();
+            let mut set: Vec<&mut JfoProblem> = problems.iter_mut().flatten().collect();
             self.iterate(
                 device,
                 queue,
                 timeout,
-                &set,
+                &mut set,
                 (nt, nz),
                 grid.max_sweeps(),
                 grid.tolerance,
@@ -243,12 +239,12 @@ impl JfoPipeline {
                 n_z: next.1,
                 ..*grid
             };
-            let set: Vec<&JfoProblem> = problems.iter().collect();
+            let mut set: Vec<&mut JfoProblem> = problems.iter_mut().collect();
             let solved = self.iterate(
                 device,
                 queue,
                 timeout,
-                &set,
+                &mut set,
                 next,
                 level.max_sweeps(),
                 grid.tolerance,
@@ -271,14 +267,17 @@ impl JfoPipeline {
     /// Iterates `problems` (all on the `(n_theta, n_z)` grid) on the device to
     /// `tolerance`, at most `max_sweeps` sweeps; returns per problem the solved field
     /// (pressure, then film fraction), the sweeps, the iteration error and whether it
-    /// converged.
+    /// converged. The kernel pauses each state at the end of every block of sweeps and the
+    /// CPU's stop rule decides here ([`JfoProblem::at_pause`]: the block extrapolation
+    /// with its rounding floor, issue 27 session 35), so the reported error is the CPU's
+    /// estimate of the kernel's iterate.
     #[allow(clippy::too_many_arguments)]
     fn iterate(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         timeout: Duration,
-        problems: &[&JfoProblem],
+        problems: &mut [&mut JfoProblem],
         (nt, nz): (usize, usize),
         max_sweeps: u32,
         tolerance: f64,
@@ -290,31 +289,36 @@ impl JfoPipeline {
         let per_dispatch = (LOOP_BUDGET / (rows * nt + 64)).max(1);
         let per_state = n * JFO_NODE_STRIDE * 8;
         let chunk = (COEF_BUDGET / per_state.max(1)).clamp(1, MAX_STATES);
-        for part in problems.chunks(chunk) {
+        for part in problems.chunks_mut(chunk) {
             let count = part.len();
+            let mut rules: Vec<KernelStop> =
+                part.iter().map(|pr| pr.stop_rule(tolerance)).collect();
+            // Per state: the finished iteration's (error, converged).
+            let mut verdicts: Vec<Option<(f64, bool)>> = vec![None; count];
             let mut coef = Vec::with_capacity(count * n * JFO_NODE_STRIDE);
             let mut job_data = Vec::with_capacity(count * JOB_STRIDE);
             let mut field_data = Vec::with_capacity(count * 2 * n);
-            for pr in part {
+            for (pr, rule) in part.iter().zip(&rules) {
                 pr.node_coefficients(&mut coef);
                 pr.start(&mut field_data);
                 let sign = if pr.spin() >= 0.0 { 1.0 } else { -1.0 };
-                job_data.extend_from_slice(&[pr.omega, sign, 0.0, 0.0]);
+                job_data.extend_from_slice(&[pr.omega, sign, rule.stop.block as f64, 0.0]);
             }
             let params = Params {
                 count: count as u32,
                 n_theta: nt as u32,
                 n_z: nz as u32,
                 max_sweeps,
-                tolerance,
                 per_dispatch: per_dispatch as u32,
-                _pad: 0,
+                _pad: [0; 3],
             };
-            // The iteration's state: sweeps, error, converged, done, history (−1: none).
+            // The iteration's state: sweeps, last change, still, state, history (−1:
+            // none), last halved change (none yet: 1e300), its sweep.
             let mut state: Vec<f64> = (0..count)
                 .flat_map(|_| {
                     let mut r = [0.0; OUT_STRIDE];
                     r[4..10].fill(-1.0);
+                    r[10] = 1e300;
                     r
                 })
                 .collect();
@@ -359,22 +363,60 @@ impl JfoPipeline {
                     &[3, 4],
                     "finite-film JFO",
                 )?;
-                let done = vals[count * 2 * n..].chunks(OUT_STRIDE).all(|r| r[3] > 0.5);
-                if done {
-                    break vals;
-                }
-                // Resume from where the device stopped.
+                // Resume from where the device stopped; the host decides on the paused
+                // states (the CPU's stop rule on their fields).
                 field_data.copy_from_slice(&vals[..count * 2 * n]);
                 state.copy_from_slice(&vals[count * 2 * n..]);
+                let decided: Vec<(usize, Option<(f64, bool)>)> = part
+                    .par_iter_mut()
+                    .zip(rules.par_iter_mut())
+                    .zip(field_data.par_chunks(2 * n))
+                    .zip(state.par_chunks(OUT_STRIDE))
+                    .enumerate()
+                    .filter(|(c, _)| verdicts[*c].is_none())
+                    .map(|(c, (((pr, rule), field), r))| {
+                        let v = if r[3] > 1.5 {
+                            pr.at_pause(
+                                rule,
+                                field,
+                                r[0] as u32,
+                                &r[4..10],
+                                r[11] as u32,
+                                r[2] > 0.5,
+                            )
+                        } else if r[3] > 0.5 {
+                            Some(pr.at_limit(rule))
+                        } else {
+                            None
+                        };
+                        (c, v)
+                    })
+                    .collect();
+                for (c, v) in decided {
+                    let r = &mut state[c * OUT_STRIDE..(c + 1) * OUT_STRIDE];
+                    match v {
+                        Some(v) => {
+                            verdicts[c] = Some(v);
+                            r[3] = 1.0;
+                        }
+                        // Paused and not done: run on (a state at the limit is decided).
+                        None => {
+                            r[2] = 0.0;
+                            r[3] = 0.0;
+                        }
+                    }
+                }
+                if verdicts.iter().all(|v| v.is_some()) {
+                    break vals;
+                }
             };
-            let res = &vals[count * 2 * n..];
             for c in 0..count {
-                let r = &res[c * OUT_STRIDE..(c + 1) * OUT_STRIDE];
+                let (err, converged) = verdicts[c].expect("all decided");
                 solved.push((
                     vals[c * 2 * n..(c + 1) * 2 * n].to_vec(),
-                    r[0] as u32,
-                    r[1],
-                    r[2] > 0.5,
+                    state[c * OUT_STRIDE] as u32,
+                    err,
+                    converged,
                 ));
             }
         }

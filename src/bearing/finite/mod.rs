@@ -22,7 +22,7 @@ pub(crate) use jfo::apply_jfo_flow;
 // For the GPU JFO driver (src/backend/finite_jfo.rs): the CPU's discrete problem.
 pub use jfo::{jfo_balance, jfo_flow_integrals, JfoBalance, JfoHistory, JfoSolver};
 #[cfg(feature = "gpu")]
-pub(crate) use jfo::{JfoLadder, JfoProblem, JFO_NODE_STRIDE};
+pub(crate) use jfo::{JfoLadder, JfoProblem, KernelStop, JFO_NODE_STRIDE};
 pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MAP_LEVELS};
 // For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
 #[cfg(feature = "gpu")]
