@@ -832,6 +832,12 @@ fn fault_of(bearing: usize, f: &StateFault) -> RotorFault {
     }
 }
 
+/// The rotor's positions whose rate is a state component: `(x, y)` of `G` and `v_G`.
+const KINEMATIC: [(usize, usize); 2] = [
+    (super::model::X, super::model::VX),
+    (super::model::X + 1, super::model::VX + 1),
+];
+
 impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     type Fault = RotorFault;
 
@@ -848,6 +854,17 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         } else {
             JAC_DIM
         }
+    }
+
+    fn kinematic_pairs(&self) -> &[(usize, usize)] {
+        // `Ġ = v_G` (both models: `rigid_derivative`, `ideal_derivative`).
+        &KINEMATIC
+    }
+
+    fn scale_invariant_block(&self) -> Option<(usize, usize)> {
+        // The attitude quaternion: loads, torques and the kinematics read it normalised
+        // (`quat_matrix`), its rate `½ q ⊗ ω` is linear in it.
+        Some((super::model::Q, 4))
     }
 
     fn scales(&self, id: usize, out: &mut [f64]) {
