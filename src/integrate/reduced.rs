@@ -84,7 +84,8 @@ pub(crate) struct NewtonLu {
     jk: Vec<f64>,
     /// The quadrature rows of `J`, columns `0..jd`, row-major.
     jq: Vec<f64>,
-    /// Scratch: matrices being built, reduced right-hand sides.
+    /// Scratch: `−J_RR`, matrices being built, reduced right-hand sides.
+    base: Vec<f64>,
     m_re: Vec<f64>,
     m_im: Vec<f64>,
     r_re: Vec<f64>,
@@ -117,17 +118,28 @@ impl NewtonLu {
         for q in red.jd..d {
             self.jq.extend_from_slice(&jac[q * d..q * d + red.jd]);
         }
-        // Real: γ I − J_RR, then −J_{r i} / γ into column j of each pair.
-        self.m_re.clear();
-        for &r in &red.keep {
-            for &c in &red.keep {
-                let v = -jac[r * d + c];
-                self.m_re.push(if r == c { v + gamma } else { v });
+        // −J_RR gathered once (`base`), then per shift: the diagonal, and −J_{r i} / σ into
+        // column j of each pair.
+        if n == 0 {
+            // Nothing to factorise (no component `f` depends on).
+            return;
+        }
+        self.base.clear();
+        self.base.resize(n * n, 0.0);
+        for (row, &r) in self.base.chunks_exact_mut(n).zip(&red.keep) {
+            let jrow = &jac[r * d..(r + 1) * d];
+            for (o, &c) in row.iter_mut().zip(&red.keep) {
+                *o = -jrow[c];
             }
         }
-        for a in 0..n {
-            for (k, &(_, j)) in red.kin.iter().enumerate() {
-                self.m_re[a * n + red.pos[j]] -= self.jk[a * nk + k] / gamma;
+        // Real: γ I − J_RR − Σ J_{R i} e_jᵀ / γ.
+        self.m_re.clear();
+        self.m_re.extend_from_slice(&self.base);
+        for (a, row) in self.m_re.chunks_exact_mut(n).enumerate() {
+            row[a] += gamma;
+            let jk = &self.jk[a * nk..(a + 1) * nk];
+            for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
+                row[red.pos[j]] -= jv / gamma;
             }
         }
         self.real.factor_matrix(&mut self.m_re, n);
@@ -135,20 +147,20 @@ impl NewtonLu {
         let den = alpha * alpha + beta * beta;
         let (ir, ii) = (alpha / den, -beta / den);
         self.m_re.clear();
+        self.m_re.extend_from_slice(&self.base);
         self.m_im.clear();
-        for &r in &red.keep {
-            for &c in &red.keep {
-                let v = -jac[r * d + c];
-                let diag = r == c;
-                self.m_re.push(if diag { v + alpha } else { v });
-                self.m_im.push(if diag { beta } else { 0.0 });
-            }
-        }
-        for a in 0..n {
-            for (k, &(_, j)) in red.kin.iter().enumerate() {
-                let jv = self.jk[a * nk + k];
-                self.m_re[a * n + red.pos[j]] -= jv * ir;
-                self.m_im[a * n + red.pos[j]] -= jv * ii;
+        self.m_im.resize(n * n, 0.0);
+        let rows = self
+            .m_re
+            .chunks_exact_mut(n)
+            .zip(self.m_im.chunks_exact_mut(n));
+        for (a, (row_r, row_i)) in rows.enumerate() {
+            row_r[a] += alpha;
+            row_i[a] = beta;
+            let jk = &self.jk[a * nk..(a + 1) * nk];
+            for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
+                row_r[red.pos[j]] -= jv * ir;
+                row_i[red.pos[j]] -= jv * ii;
             }
         }
         self.cplx.factor_matrix(&mut self.m_re, &mut self.m_im, n);
