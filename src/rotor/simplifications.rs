@@ -25,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::backend::{EvalStats, EvaluatorOptions, DEFAULT_CPU_BELOW};
+use crate::bearing::finite::ERROR_MAP_ECC;
 use crate::bearing::{BearingParams, BearingState};
 
 /// Gain of the squeeze-drop error estimate: the largest measured
@@ -352,10 +353,11 @@ pub struct SimplificationTally {
 /// with more bearing geometries looks every further one up, as before).
 const SHORT_SEEN_SLOTS: usize = 4;
 
-/// Map entries strictly increase with `ε` up to the map's last eccentricity (docs:
-/// `MAP_LOAD`, every row; `tests/rotor_tally_skip.rs` checks it): past it the map's
-/// edge value is used, so the load error is flat there.
-const MAP_LAST_ECC: f64 = 0.95;
+/// The model-error map's load error strictly increases with `ε` up to the map's last
+/// eccentricity at every positive `B/D` (every row of the map does;
+/// `tests/rotor_tally_skip.rs` checks it): past it the map's edge value is used, so the
+/// load error is flat there.
+const MAP_LAST_ECC: f64 = ERROR_MAP_ECC[ERROR_MAP_ECC.len() - 1];
 
 /// Eccentricity margin of the skip: a look-up is skipped only when its `ε` is this much
 /// below the largest one seen. The map's smallest slope is 1.8e-3 per unit `ε` (the
@@ -394,7 +396,8 @@ impl ShortSeen {
         }
         let r2 = (s.xi * s.xi + s.yi * s.yi).max(s.xj * s.xj + s.yj * s.yj);
         // NaN compares false: looked up.
-        !(r2 < lim * lim * (1.0 - 1e-12))
+        let below = r2 < lim * lim * (1.0 - 1e-12);
+        !below
     }
 
     /// Records a looked-up eccentricity `e` for aspect `bd`.
