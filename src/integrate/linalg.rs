@@ -18,7 +18,9 @@ pub(crate) struct RealLu {
 }
 
 impl RealLu {
-    /// Factorises `shift I − jac` (`jac` row-major `n x n`, `n² = jac.len()`).
+    /// Factorises `shift I − jac` (`jac` row-major `n x n`, `n² = jac.len()`): the full
+    /// system, the reference of `super::reduced`'s tests.
+    #[cfg(test)]
     pub(crate) fn factor_shifted(&mut self, shift: f64, jac: &[f64], n: usize) {
         debug_assert_eq!(jac.len(), n * n);
         self.n = n;
@@ -27,6 +29,20 @@ impl RealLu {
         for k in 0..n {
             self.a[k * n + k] += shift;
         }
+        self.eliminate();
+    }
+
+    /// Factorises the `n x n` row-major matrix `a` (moved in: its storage is reused).
+    pub(crate) fn factor_matrix(&mut self, a: &mut Vec<f64>, n: usize) {
+        debug_assert_eq!(a.len(), n * n);
+        self.n = n;
+        std::mem::swap(&mut self.a, a);
+        self.eliminate();
+    }
+
+    /// LU with partial pivoting of `self.a` in place.
+    fn eliminate(&mut self) {
+        let n = self.n;
         self.piv.clear();
         self.piv.resize(n, 0);
         // A non-finite entry (a Jacobian probe gone bad) makes the factors meaningless
@@ -108,7 +124,9 @@ pub(crate) struct ComplexLu {
 }
 
 impl ComplexLu {
-    /// Factorises `(shift_re + i shift_im) I − jac` (`jac` row-major `n x n`).
+    /// Factorises `(shift_re + i shift_im) I − jac` (`jac` row-major `n x n`): the full
+    /// system, the reference of `super::reduced`'s tests.
+    #[cfg(test)]
     pub(crate) fn factor_shifted(&mut self, shift_re: f64, shift_im: f64, jac: &[f64], n: usize) {
         debug_assert_eq!(jac.len(), n * n);
         self.n = n;
@@ -120,9 +138,25 @@ impl ComplexLu {
             self.re[k * n + k] += shift_re;
             self.im[k * n + k] = shift_im;
         }
+        self.eliminate();
+    }
+
+    /// Factorises the `n x n` row-major complex matrix `re + i im` (moved in: their
+    /// storage is reused).
+    pub(crate) fn factor_matrix(&mut self, re: &mut Vec<f64>, im: &mut Vec<f64>, n: usize) {
+        debug_assert!(re.len() == n * n && im.len() == n * n);
+        self.n = n;
+        std::mem::swap(&mut self.re, re);
+        std::mem::swap(&mut self.im, im);
+        self.eliminate();
+    }
+
+    /// LU with partial pivoting of `self.re + i self.im` in place.
+    fn eliminate(&mut self) {
+        let n = self.n;
         self.piv.clear();
         self.piv.resize(n, 0);
-        self.singular = !(self.re.iter().all(|v| v.is_finite()) && shift_im.is_finite());
+        self.singular = !self.re.iter().chain(self.im.iter()).all(|v| v.is_finite());
         let (re, im) = (&mut self.re, &mut self.im);
         for k in 0..n {
             // Pivot: the largest |re| + |im| in the column (any norm serves).

@@ -14,6 +14,7 @@ mod dop853;
 mod dopri;
 mod linalg;
 mod radau;
+mod reduced;
 mod rk4;
 mod system;
 

@@ -7,7 +7,11 @@
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
-//! Jacobians are reused while Newton converges fast (contraction <= 0.1).
+//! Jacobians are reused while Newton converges fast (contraction <= 0.1). What a system
+//! declares of its structure is used: kinematic rows and quadratures are eliminated from
+//! the Newton systems in closed form (`super::reduced`), and one column of a
+//! scale-invariant block is derived from the others by Euler's relation instead of
+//! evaluated ([`BatchSystem::scale_invariant_block`]).
 
 // Index loops mirror the tableau's subscripts.
 #![allow(clippy::needless_range_loop)]
@@ -20,7 +24,7 @@ use super::common::{
     admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
 };
-use super::linalg::{ComplexLu, RealLu};
+use super::reduced::{NewtonLu, Reduction};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 const SQ6: f64 = 2.449_489_742_783_178;
@@ -234,6 +238,14 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let d3 = 3 * d;
     let eb = eigenbasis();
     let vinv = collocation_inverse();
+    // The Newton systems on the components that need a dense LU (positions whose rate is
+    // a velocity and quadratures eliminated in closed form: `super::reduced`).
+    let red = Reduction::new(d, jd, sys.kinematic_pairs());
+    // A block whose scale `f` ignores, inside the Jacobian's columns.
+    let block = sys
+        .scale_invariant_block()
+        .filter(|&(b0, len)| len >= 2 && b0 + len <= jd);
+    let mut derived: Vec<Option<usize>> = vec![None; n];
     let mut f0 = vec![0.0; n * d];
     // Row-major d x d per variant.
     let mut jac: Vec<Vec<f64>> = vec![vec![0.0; d * d]; n];
@@ -246,8 +258,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
         sys.scales(id, &mut scale[id * d..(id + 1) * d]);
     }
     // gamma/h I - J (also the error estimate's matrix) and (alpha - i beta)/h I - J.
-    let mut lu_r: Vec<RealLu> = vec![RealLu::default(); n];
-    let mut lu_c: Vec<ComplexLu> = vec![ComplexLu::default(); n];
+    let mut lus: Vec<NewtonLu> = vec![NewtonLu::default(); n];
     let mut vars: Vec<Var> = (0..n)
         .map(|_| Var {
             need_f0: true,
@@ -316,9 +327,24 @@ pub(crate) fn continue_from<S: BatchSystem>(
         // 2. Jacobians: one batched call per column.
         work.clear();
         work.extend(active.iter().copied().filter(|&id| vars[id].need_jac));
+        // Each variant's column of the scale-invariant block derived from the others
+        // (Euler's relation): the block's largest component, which is far from zero.
+        for &id in &work {
+            derived[id] = block.and_then(|(b0, len)| {
+                let yb = &y[id * d + b0..id * d + b0 + len];
+                let (k, v) = yb
+                    .iter()
+                    .enumerate()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+                (v.abs() > 0.0 && v.is_finite()).then_some(b0 + k)
+            });
+        }
         for col in 0..jd {
             buf.clear();
             for &id in &work {
+                if derived[id] == Some(col) {
+                    continue;
+                }
                 let slot = buf.push(id, tracks[id].t, d);
                 slot.copy_from_slice(&y[id * d..(id + 1) * d]);
                 slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
@@ -373,6 +399,28 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
             }
         }
+        // The derived columns: y_c* ∂f_r/∂y_c* = [r ∈ B] f_r − Σ_{c ∈ B, c ≠ c*} y_c ∂f_r/∂y_c.
+        if let Some((b0, len)) = block {
+            for &id in &work {
+                let Some(cs) = derived[id] else { continue };
+                if !matches!(tracks[id].status, Status::Running) {
+                    continue;
+                }
+                let yb = &y[id * d..(id + 1) * d];
+                let jm = &mut jac[id];
+                for p in 0..d {
+                    let mut s = if (b0..b0 + len).contains(&p) {
+                        f0[id * d + p]
+                    } else {
+                        0.0
+                    };
+                    for c in (b0..b0 + len).filter(|&c| c != cs) {
+                        s -= yb[c] * jm[p * d + c];
+                    }
+                    jm[p * d + cs] = s / yb[cs];
+                }
+            }
+        }
         for &id in &work {
             let v = &mut vars[id];
             v.need_jac = false;
@@ -394,8 +442,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             hs[id] = h;
             let v = &mut vars[id];
             if v.need_lu || h != v.h_lu {
-                lu_r[id].factor_shifted(eb.gamma / h, &jac[id], d);
-                lu_c[id].factor_shifted(eb.alpha / h, -eb.beta / h, &jac[id], d);
+                lus[id].factor(&red, eb.gamma / h, eb.alpha / h, -eb.beta / h, &jac[id]);
                 tracks[id].stats.factorizations += 1;
                 v.need_lu = false;
                 v.h_lu = h;
@@ -414,7 +461,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             } else {
                 zb.fill(0.0);
             }
-            v.newton = if lu_r[id].singular || lu_c[id].singular {
+            v.newton = if lus[id].singular() {
                 Newton::Failed
             } else {
                 Newton::Iterating
@@ -479,8 +526,8 @@ pub(crate) fn continue_from<S: BatchSystem>(
                         w2[p] = tr(&ti[1], &f) - (ah * wz2 + bh * wz3);
                         w3[p] = tr(&ti[2], &f) - (ah * wz3 - bh * wz2);
                     }
-                    lu_r[id].solve(w1);
-                    lu_c[id].solve(w2, w3);
+                    lus[id].solve_real(&red, w1);
+                    lus[id].solve_complex(&red, w2, w3);
                 }
                 let t = &eb.t;
                 for p in 0..d {
@@ -583,7 +630,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 let ze = (EZ[0] * zb[p] + EZ[1] * zb[d + p] + EZ[2] * zb[2 * d + p]) / h;
                 errv[p] = f0[id * d + p] + ze;
             }
-            lu_r[id].solve(&mut errv);
+            lus[id].solve_real(&red, &mut errv);
             let norm = if fixed {
                 0.0
             } else {

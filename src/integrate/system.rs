@@ -152,6 +152,23 @@ pub trait BatchSystem {
         self.dim()
     }
 
+    /// Pairs `(i, j)` with `f_i = y_j` exactly for every variant (a position whose rate
+    /// is a velocity component): radau5 eliminates component `i` from its Newton systems
+    /// in closed form instead of factorising it (`super::reduced`). Default: none.
+    fn kinematic_pairs(&self) -> &[(usize, usize)] {
+        &[]
+    }
+
+    /// A block of components `(start, len)` whose overall scale `f` ignores (a
+    /// quaternion normalised in every use): with `y_B` replaced by `λ y_B` (`λ > 0`), `f_r`
+    /// is unchanged for `r` outside the block and multiplied by `λ` inside it (its own rate
+    /// linear in it). Euler's relation `Σ_{c ∈ B} y_c ∂f_r/∂y_c = [r ∈ B] f_r` then gives
+    /// one of the block's Jacobian columns from the others, so radau5 evaluates one column
+    /// fewer per Jacobian. Default: none.
+    fn scale_invariant_block(&self) -> Option<(usize, usize)> {
+        None
+    }
+
     /// Typical magnitude of each component of variant `id` (the unit of `atol`).
     fn scales(&self, _id: usize, out: &mut [f64]) {
         out.fill(1.0);

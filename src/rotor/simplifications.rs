@@ -25,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::backend::{EvalStats, EvaluatorOptions, DEFAULT_CPU_BELOW};
+use crate::bearing::finite::ERROR_MAP_ECC;
 use crate::bearing::{BearingParams, BearingState};
 
 /// Gain of the squeeze-drop error estimate: the largest measured
@@ -343,6 +344,73 @@ pub struct SimplificationTally {
     pub short_error_at: (f64, f64),
     /// Whether that state lay outside the stored map (edge value used).
     pub short_error_extrapolated: bool,
+    /// The largest end eccentricity ratio looked up so far per bearing aspect ratio, for
+    /// skipping look-ups that cannot raise [`SimplificationTally::short_error_max`].
+    short_seen: ShortSeen,
+}
+
+/// Capacity of [`ShortSeen`]: distinct `B/D` of a variant's bearings tracked (a variant
+/// with more bearing geometries looks every further one up, as before).
+const SHORT_SEEN_SLOTS: usize = 4;
+
+/// The model-error map's load error strictly increases with `ε` up to the map's last
+/// eccentricity at every positive `B/D` (every row of the map does;
+/// `tests/rotor_tally_skip.rs` checks it): past it the map's edge value is used, so the
+/// load error is flat there.
+const MAP_LAST_ECC: f64 = ERROR_MAP_ECC[ERROR_MAP_ECC.len() - 1];
+
+/// Eccentricity margin of the skip: a look-up is skipped only when its `ε` is this much
+/// below the largest one seen. The map's smallest slope is 1.8e-3 per unit `ε` (the
+/// `B/D = 0.1` row from `ε` 0 to 0.1), so the skipped state's load error is below the
+/// seen one by at least 1.8e-12 × the aspect scale, far above the look-up's rounding
+/// (~1e-15 of values below 10): the comparison `>=` of the full look-up could not have
+/// taken it.
+const SKIP_MARGIN: f64 = 1e-9;
+
+/// Per aspect ratio `B/D` (its bits), the largest end eccentricity ratio whose short-model
+/// error was looked up.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct ShortSeen {
+    len: usize,
+    bd_bits: [u64; SHORT_SEEN_SLOTS],
+    e_max: [f64; SHORT_SEEN_SLOTS],
+}
+
+impl ShortSeen {
+    /// Whether a state with end centres `(xi, yi)`, `(xj, yj)` (m) in a bearing of aspect
+    /// `bd` and clearance `c` (m) has a larger end eccentricity than `ε_lim − margin`,
+    /// `ε_lim = min(largest seen, MAP_LAST_ECC)`: only then can its load error reach the
+    /// largest so far (the map strictly increases in `ε` below `MAP_LAST_ECC` at a fixed
+    /// positive `B/D`). Squared radii instead of `hypot`, with a relative margin of 1e-12
+    /// that covers their rounding.
+    fn may_raise(&self, bd: f64, c: f64, s: &BearingState) -> bool {
+        if !(bd > 0.0 && bd.is_finite() && c > 0.0 && c.is_finite()) {
+            return true;
+        }
+        let Some(k) = (0..self.len).find(|&k| self.bd_bits[k] == bd.to_bits()) else {
+            return true;
+        };
+        let lim = (self.e_max[k].min(MAP_LAST_ECC) - SKIP_MARGIN) * c;
+        if lim <= 0.0 {
+            return true;
+        }
+        let r2 = (s.xi * s.xi + s.yi * s.yi).max(s.xj * s.xj + s.yj * s.yj);
+        // NaN compares false: looked up.
+        let below = r2 < lim * lim * (1.0 - 1e-12);
+        !below
+    }
+
+    /// Records a looked-up eccentricity `e` for aspect `bd`.
+    fn seen(&mut self, bd: f64, e: f64) {
+        let bits = bd.to_bits();
+        if let Some(k) = (0..self.len).find(|&k| self.bd_bits[k] == bits) {
+            self.e_max[k] = self.e_max[k].max(e);
+        } else if self.len < SHORT_SEEN_SLOTS {
+            self.bd_bits[self.len] = bits;
+            self.e_max[self.len] = e;
+            self.len += 1;
+        }
+    }
 }
 
 impl SimplificationTally {
@@ -359,13 +427,19 @@ impl SimplificationTally {
         } else {
             self.short_states += 1;
             let bd = params.length / (2.0 * params.radius);
-            let (ei, ej) = state.eccentricity_ratios(params.clearance);
-            let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
-            if e.load.abs() >= self.short_error_max {
-                self.short_error_max = e.load.abs();
-                self.short_attitude_at_max = e.attitude_deg;
-                self.short_error_at = (bd, ei.max(ej));
-                self.short_error_extrapolated = e.extrapolated;
+            // The look-up (two `hypot`s and a bilinear map) was 7 % of a rotor run's
+            // instructions (BENCHMARKS.md "Issue 28, eighth pass"); a state less eccentric
+            // than one already looked up at the same B/D cannot raise the maximum.
+            if self.short_seen.may_raise(bd, params.clearance, state) {
+                let (ei, ej) = state.eccentricity_ratios(params.clearance);
+                let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
+                self.short_seen.seen(bd, ei.max(ej));
+                if e.load.abs() >= self.short_error_max {
+                    self.short_error_max = e.load.abs();
+                    self.short_attitude_at_max = e.attitude_deg;
+                    self.short_error_at = (bd, ei.max(ej));
+                    self.short_error_extrapolated = e.extrapolated;
+                }
             }
         }
         if spec.near_aligned.enabled {

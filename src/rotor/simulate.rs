@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{contact_force, EndKin, RotorModel, DIM, JAC_DIM, V3, WORK};
+use super::model::{contact_force, EndKin, Kin, RotorModel, DIM, JAC_DIM, V3, WORK};
 use super::scene::{ModelKind, Scene, SceneError};
 use super::simplifications::{
     variant_report, SimplificationReport, SimplificationSpec, SimplificationTally,
@@ -662,6 +662,9 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     requests: Vec<LoadRequest>,
     results: Vec<LoadResult>,
     ends: Vec<EndKin>,
+    /// The kinematics of each bearing-model entry of the last film pass, in entry order
+    /// (the derivative that follows reads them instead of computing them again).
+    kins: Vec<Kin>,
     ideal_loads: Vec<[f64; 4]>,
     /// Each simulation's sample observer (the store, or running reductions).
     observers: Vec<O>,
@@ -706,6 +709,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
         }
         self.requests.clear();
         self.ends.clear();
+        self.kins.clear();
         let d = self.dim;
         let thermal = d > DIM;
         self.calls += 1;
@@ -751,6 +755,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                 self.times.push(ts[k]);
                 self.ends.push(e);
             }
+            self.kins.push(kin);
         }
         self.results.clear();
         if !self.requests.is_empty() {
@@ -832,6 +837,12 @@ fn fault_of(bearing: usize, f: &StateFault) -> RotorFault {
     }
 }
 
+/// The rotor's positions whose rate is a state component: `(x, y)` of `G` and `v_G`.
+const KINEMATIC: [(usize, usize); 2] = [
+    (super::model::X, super::model::VX),
+    (super::model::X + 1, super::model::VX + 1),
+];
+
 impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     type Fault = RotorFault;
 
@@ -848,6 +859,17 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         } else {
             JAC_DIM
         }
+    }
+
+    fn kinematic_pairs(&self) -> &[(usize, usize)] {
+        // `Ġ = v_G` (both models: `rigid_derivative`, `ideal_derivative`).
+        &KINEMATIC
+    }
+
+    fn scale_invariant_block(&self) -> Option<(usize, usize)> {
+        // The attitude quaternion: loads, torques and the kinematics read it normalised
+        // (`quat_matrix`), its rate `½ q ⊗ ω` is linear in it.
+        Some((super::model::Q, 4))
     }
 
     fn scales(&self, id: usize, out: &mut [f64]) {
@@ -879,6 +901,8 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         }
         self.film_pass(ids, ts, ys, true);
         let mut cursor = 0;
+        // Index into `kins` (bearing-model entries only).
+        let mut entry = 0;
         let d = self.dim;
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
@@ -887,7 +911,9 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             if m.kind == ModelKind::Ideal {
                 m.ideal_derivative(y, dy, &mut self.ideal_loads);
             } else {
-                let kin = m.kin(y);
+                // The film pass's kinematics of this entry (the same state).
+                let kin = &self.kins[entry];
+                entry += 1;
                 let mut f = [0.0; 2];
                 let mut tau = V3::zeros();
                 let mut power = 0.0;
@@ -957,7 +983,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                     dy.fill(0.0);
                     continue;
                 }
-                m.rigid_derivative(y, &kin, f, tau, power, &mut dy[..DIM]);
+                m.rigid_derivative(y, kin, f, tau, power, &mut dy[..DIM]);
             }
             if !dy.iter().all(|v| v.is_finite()) {
                 faults[k] = Some(RotorFault::NonFinite);
@@ -1458,6 +1484,7 @@ fn simulate<O: SampleObserver>(
             requests: Vec::new(),
             results: Vec::new(),
             ends: Vec::new(),
+            kins: Vec::new(),
             ideal_loads: Vec::new(),
             observers: idx
                 .iter()

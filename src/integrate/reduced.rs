@@ -1,0 +1,342 @@
+//! Radau5's Newton matrices `σ I − J` solved on the components that need a dense LU.
+//!
+//! Two kinds of components are eliminated in closed form before the factorisation:
+//!
+//! - **kinematic** ones, `f_i = y_j` exactly ([`BatchSystem::kinematic_pairs`], e.g. a
+//!   rotor's position whose rate is its velocity): row `i` of `(σ I − J) x = b` is
+//!   `σ x_i − x_j = b_i`, so `x_i = (b_i + x_j) / σ`, and substituting it into the other
+//!   rows adds `−J_{r i} / σ` to their column `j` and `J_{r i} b_i / σ` to their right-hand
+//!   side;
+//! - **quadratures** (components from [`BatchSystem::jacobian_dim`] on, which `f` does not
+//!   depend on, e.g. the work done): their columns of `J` are zero, so `σ I − J` is block
+//!   lower triangular and `x_q = (b_q + Σ_c J_{q c} x_c) / σ` once the others are known.
+//!
+//! What is left (the rotor's 12 components less two positions and the work: 9) goes
+//! through the dense LU of [`super::linalg`]: `(9/12)³` of its factorisation work and
+//! `(9/12)²` of its solves. The solution is the same as the full system's up to rounding
+//! (unit tests: `1e-12` relative on random Jacobians with this structure).
+//!
+//! [`BatchSystem::kinematic_pairs`]: super::system::BatchSystem::kinematic_pairs
+//! [`BatchSystem::jacobian_dim`]: super::system::BatchSystem::jacobian_dim
+
+use super::linalg::{ComplexLu, RealLu};
+
+/// Which components of a `d`-dimensional system are eliminated, and the order of the rest.
+#[derive(Clone, Debug)]
+pub(crate) struct Reduction {
+    d: usize,
+    /// Components `f` depends on (`0..jd`); the rest are quadratures.
+    jd: usize,
+    /// `(i, j)`: `f_i = y_j`, `i` eliminated, `j` kept.
+    kin: Vec<(usize, usize)>,
+    /// Kept components, ascending: reduced index `a` is component `keep[a]`.
+    keep: Vec<usize>,
+    /// Reduced index of each component (`usize::MAX` if eliminated).
+    pos: Vec<usize>,
+}
+
+impl Reduction {
+    /// The reduction of a `d`-dimensional system whose `f` depends on components
+    /// `0..jd` only, with kinematic pairs `pairs`. Pairs that do not fit (out of range,
+    /// `i == j`, `i` repeated, `j` itself eliminated or a quadrature) are ignored, so a
+    /// system that declares nothing usable is solved in full (`0..jd` kept).
+    pub(crate) fn new(d: usize, jd: usize, pairs: &[(usize, usize)]) -> Self {
+        let jd = jd.min(d);
+        let mut kin: Vec<(usize, usize)> = Vec::new();
+        for &(i, j) in pairs {
+            let fits =
+                i < jd && j < jd && i != j && !kin.iter().any(|&(a, b)| a == i || b == i || a == j);
+            if fits {
+                kin.push((i, j));
+            }
+        }
+        let keep: Vec<usize> = (0..jd).filter(|c| !kin.iter().any(|k| k.0 == *c)).collect();
+        let mut pos = vec![usize::MAX; d];
+        for (a, &c) in keep.iter().enumerate() {
+            pos[c] = a;
+        }
+        Reduction {
+            d,
+            jd,
+            kin,
+            keep,
+            pos,
+        }
+    }
+
+    /// Size of the system factorised.
+    pub(crate) fn size(&self) -> usize {
+        self.keep.len()
+    }
+}
+
+/// The factorisations of one variant's `γ I − J` (real `γ`) and `(α + iβ) I − J`, with
+/// the Jacobian entries the eliminations need.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct NewtonLu {
+    real: RealLu,
+    cplx: ComplexLu,
+    /// The real shift `γ` and the complex one `(α, β)` of the last factorisation.
+    gamma: f64,
+    alpha: f64,
+    beta: f64,
+    /// `J_{keep[a], i}` for each kinematic pair `(i, _)`, row-major `size x kin.len()`.
+    jk: Vec<f64>,
+    /// The quadrature rows of `J`, columns `0..jd`, row-major.
+    jq: Vec<f64>,
+    /// Scratch: `−J_RR`, matrices being built, reduced right-hand sides.
+    base: Vec<f64>,
+    m_re: Vec<f64>,
+    m_im: Vec<f64>,
+    r_re: Vec<f64>,
+    r_im: Vec<f64>,
+}
+
+impl NewtonLu {
+    /// Factorises `γ I − J` and `(α + iβ) I − J` (`jac` row-major `d x d`) reduced by
+    /// `red`.
+    pub(crate) fn factor(
+        &mut self,
+        red: &Reduction,
+        gamma: f64,
+        alpha: f64,
+        beta: f64,
+        jac: &[f64],
+    ) {
+        let (d, n, nk) = (red.d, red.size(), red.kin.len());
+        debug_assert_eq!(jac.len(), d * d);
+        self.gamma = gamma;
+        self.alpha = alpha;
+        self.beta = beta;
+        self.jk.clear();
+        for &r in &red.keep {
+            for &(i, _) in &red.kin {
+                self.jk.push(jac[r * d + i]);
+            }
+        }
+        self.jq.clear();
+        for q in red.jd..d {
+            self.jq.extend_from_slice(&jac[q * d..q * d + red.jd]);
+        }
+        // −J_RR gathered once (`base`), then per shift: the diagonal, and −J_{r i} / σ into
+        // column j of each pair.
+        if n == 0 {
+            // Nothing to factorise (no component `f` depends on).
+            return;
+        }
+        self.base.clear();
+        self.base.resize(n * n, 0.0);
+        for (row, &r) in self.base.chunks_exact_mut(n).zip(&red.keep) {
+            let jrow = &jac[r * d..(r + 1) * d];
+            for (o, &c) in row.iter_mut().zip(&red.keep) {
+                *o = -jrow[c];
+            }
+        }
+        // Real: γ I − J_RR − Σ J_{R i} e_jᵀ / γ.
+        self.m_re.clear();
+        self.m_re.extend_from_slice(&self.base);
+        for (a, row) in self.m_re.chunks_exact_mut(n).enumerate() {
+            row[a] += gamma;
+            let jk = &self.jk[a * nk..(a + 1) * nk];
+            for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
+                row[red.pos[j]] -= jv / gamma;
+            }
+        }
+        self.real.factor_matrix(&mut self.m_re, n);
+        // Complex: σ = α + iβ, 1/σ = (α − iβ) / (α² + β²).
+        let den = alpha * alpha + beta * beta;
+        let (ir, ii) = (alpha / den, -beta / den);
+        self.m_re.clear();
+        self.m_re.extend_from_slice(&self.base);
+        self.m_im.clear();
+        self.m_im.resize(n * n, 0.0);
+        let rows = self
+            .m_re
+            .chunks_exact_mut(n)
+            .zip(self.m_im.chunks_exact_mut(n));
+        for (a, (row_r, row_i)) in rows.enumerate() {
+            row_r[a] += alpha;
+            row_i[a] = beta;
+            let jk = &self.jk[a * nk..(a + 1) * nk];
+            for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
+                row_r[red.pos[j]] -= jv * ir;
+                row_i[red.pos[j]] -= jv * ii;
+            }
+        }
+        self.cplx.factor_matrix(&mut self.m_re, &mut self.m_im, n);
+    }
+
+    /// The last factorisation met a zero pivot or a non-finite entry.
+    pub(crate) fn singular(&self) -> bool {
+        self.real.singular || self.cplx.singular
+    }
+
+    /// Solves `(γ I − J) x = b` in place (`b`, length `d`, becomes `x`).
+    pub(crate) fn solve_real(&mut self, red: &Reduction, b: &mut [f64]) {
+        let (n, nk, g) = (red.size(), red.kin.len(), self.gamma);
+        self.r_re.clear();
+        for (a, &r) in red.keep.iter().enumerate() {
+            let mut s = b[r];
+            for (k, &(i, _)) in red.kin.iter().enumerate() {
+                s += self.jk[a * nk + k] * (b[i] / g);
+            }
+            self.r_re.push(s);
+        }
+        self.real.solve(&mut self.r_re);
+        for (a, &r) in red.keep.iter().enumerate() {
+            b[r] = self.r_re[a];
+        }
+        for &(i, j) in &red.kin {
+            b[i] = (b[i] + b[j]) / g;
+        }
+        for (q, row) in (red.jd..red.d).zip(self.jq.chunks_exact(red.jd.max(1))) {
+            let mut s = b[q];
+            for (c, &jv) in row.iter().enumerate() {
+                s += jv * b[c];
+            }
+            b[q] = s / g;
+        }
+        debug_assert_eq!(self.r_re.len(), n);
+    }
+
+    /// Solves `((α + iβ) I − J) x = b` in place for `b = br + i bi` (length `d` each).
+    pub(crate) fn solve_complex(&mut self, red: &Reduction, br: &mut [f64], bi: &mut [f64]) {
+        let nk = red.kin.len();
+        let den = self.alpha * self.alpha + self.beta * self.beta;
+        let (ir, ii) = (self.alpha / den, -self.beta / den);
+        // (u + iv) / σ.
+        let over = |u: f64, v: f64| (u * ir - v * ii, u * ii + v * ir);
+        self.r_re.clear();
+        self.r_im.clear();
+        for (a, &r) in red.keep.iter().enumerate() {
+            let (mut sr, mut si) = (br[r], bi[r]);
+            for (k, &(i, _)) in red.kin.iter().enumerate() {
+                let jv = self.jk[a * nk + k];
+                let (qr, qi) = over(br[i], bi[i]);
+                sr += jv * qr;
+                si += jv * qi;
+            }
+            self.r_re.push(sr);
+            self.r_im.push(si);
+        }
+        self.cplx.solve(&mut self.r_re, &mut self.r_im);
+        for (a, &r) in red.keep.iter().enumerate() {
+            br[r] = self.r_re[a];
+            bi[r] = self.r_im[a];
+        }
+        for &(i, j) in &red.kin {
+            let (qr, qi) = over(br[i] + br[j], bi[i] + bi[j]);
+            br[i] = qr;
+            bi[i] = qi;
+        }
+        for (q, row) in (red.jd..red.d).zip(self.jq.chunks_exact(red.jd.max(1))) {
+            let (mut sr, mut si) = (br[q], bi[q]);
+            for (c, &jv) in row.iter().enumerate() {
+                sr += jv * br[c];
+                si += jv * bi[c];
+            }
+            let (qr, qi) = over(sr, si);
+            br[q] = qr;
+            bi[q] = qi;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rng(seed: &mut u64) -> f64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    /// A random `d x d` Jacobian with the rotor's structure: `f_0 = y_2`, `f_1 = y_3`,
+    /// column `d − 1` zero (a quadrature).
+    fn structured(d: usize, seed: &mut u64) -> Vec<f64> {
+        let mut j: Vec<f64> = (0..d * d).map(|_| 10.0 * rng(seed)).collect();
+        for r in 0..d {
+            j[r * d + d - 1] = 0.0;
+        }
+        for (i, jj) in [(0, 2), (1, 3)] {
+            for c in 0..d {
+                j[i * d + c] = if c == jj { 1.0 } else { 0.0 };
+            }
+        }
+        j
+    }
+
+    #[test]
+    fn reduced_solves_equal_the_full_ones() {
+        let d = 12;
+        let mut seed = 0x1234_5678_9abc_def1_u64;
+        let red = Reduction::new(d, d - 1, &[(0, 2), (1, 3)]);
+        assert_eq!(red.size(), 9);
+        for case in 0..50 {
+            let j = structured(d, &mut seed);
+            // Shifts of the size radau5 uses (γ/h, (α, β)/h for h from 1e-5 to 1).
+            let h = 10f64.powf(-5.0 * (rng(&mut seed) + 1.0) / 2.0);
+            let (g, a, b) = (3.637 / h, 2.681 / h, 3.050 / h);
+            let mut lu = NewtonLu::default();
+            lu.factor(&red, g, a, b, &j);
+            assert!(!lu.singular());
+            let b0: Vec<f64> = (0..d).map(|_| rng(&mut seed)).collect();
+            let b1: Vec<f64> = (0..d).map(|_| rng(&mut seed)).collect();
+            let mut full = RealLu::default();
+            full.factor_shifted(g, &j, d);
+            let (mut want, mut got) = (b0.clone(), b0.clone());
+            full.solve(&mut want);
+            lu.solve_real(&red, &mut got);
+            let size = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for k in 0..d {
+                assert!(
+                    (got[k] - want[k]).abs() <= 1e-12 * size,
+                    "case {case}, real x[{k}]: {} against {}",
+                    got[k],
+                    want[k]
+                );
+            }
+            let mut fc = ComplexLu::default();
+            fc.factor_shifted(a, b, &j, d);
+            let (mut wr, mut wi) = (b0.clone(), b1.clone());
+            fc.solve(&mut wr, &mut wi);
+            let (mut gr, mut gi) = (b0.clone(), b1.clone());
+            lu.solve_complex(&red, &mut gr, &mut gi);
+            let size = wr.iter().chain(&wi).fold(0.0_f64, |m, v| m.max(v.abs()));
+            for k in 0..d {
+                assert!(
+                    (gr[k] - wr[k]).abs() <= 1e-12 * size && (gi[k] - wi[k]).abs() <= 1e-12 * size,
+                    "case {case}, complex x[{k}]: ({}, {}) against ({}, {})",
+                    gr[k],
+                    gi[k],
+                    wr[k],
+                    wi[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn unusable_pairs_are_ignored_and_singular_matrices_flagged() {
+        // Out of range, i == j, a chain (3 -> 0 while 0 is eliminated), a repeat.
+        let red = Reduction::new(6, 5, &[(0, 1), (7, 1), (2, 2), (3, 0), (0, 4), (4, 5)]);
+        assert_eq!(red.kin, vec![(0, 1)]);
+        assert_eq!(red.keep, vec![1, 2, 3, 4]);
+        // No pairs, no quadratures: the full system.
+        let full = Reduction::new(4, 4, &[]);
+        assert_eq!(full.size(), 4);
+        let mut lu = NewtonLu::default();
+        let mut j = vec![0.0; 16];
+        j[5] = f64::NAN;
+        lu.factor(&full, 1.0, 1.0, 1.0, &j);
+        assert!(lu.singular(), "NaN entry not flagged");
+        // γ I − J singular: J = γ I.
+        let j: Vec<f64> = (0..16)
+            .map(|k| if k % 5 == 0 { 2.0 } else { 0.0 })
+            .collect();
+        lu.factor(&full, 2.0, 1.0, 1.0, &j);
+        assert!(lu.singular(), "zero pivot not flagged");
+    }
+}
