@@ -806,6 +806,12 @@ pub(crate) struct Hierarchy {
     pub theta0: f64,
     /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
     pub updates: u64,
+    /// Levels of an earlier, taller hierarchy kept for their allocations: the accuracy
+    /// ladder adds grids on top per state ([`Hierarchy::push_finer`]) and the next state's
+    /// [`Hierarchy::build`] drops them again; allocated afresh each time, the finest
+    /// (512 × 64: 11 arrays of 260 kB) came from and went back to the system per state.
+    /// Every array is reset by [`Level::setup`], so a reused level is a fresh one.
+    spare: Vec<Level>,
     /// Whether the correction grids freeze one node per row for the max-film inlet line
     /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
     /// accuracy ladder, unchanged: with node 0 on the maximum film the two rules coincide
@@ -830,7 +836,15 @@ impl Hierarchy {
             b = d;
         }
         dims.reverse();
-        self.levels.resize_with(dims.len(), Level::default);
+        // Levels beyond the new hierarchy go to the spares, missing ones come from them:
+        // their arrays keep their capacity (see `Hierarchy::spare`).
+        while self.levels.len() > dims.len() {
+            let lvl = self.levels.pop().expect("nonempty");
+            self.spare.push(lvl);
+        }
+        while self.levels.len() < dims.len() {
+            self.levels.push(self.spare.pop().unwrap_or_default());
+        }
         for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
             lvl.setup(job, a, b, g.max_film_inlet, &g.layout, self.theta0);
             lvl.coarsen = how;
@@ -846,7 +860,7 @@ impl Hierarchy {
         g: &FiniteGrid,
         how: Coarsen,
     ) {
-        let mut lvl = Level::default();
+        let mut lvl = self.spare.pop().unwrap_or_default();
         lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0);
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
