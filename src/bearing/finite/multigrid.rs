@@ -540,6 +540,8 @@ fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
 }
 
 /// [`restrict_fas`] for the strides `ST` in θ and `SZ` in ζ.
+// One index across several row slices of the same length.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut Level) {
     let (fnt, cnt, cnz) = (fine.nt, coarse.nt, coarse.nz);
@@ -635,12 +637,14 @@ fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen) {
 /// [`prolong_correction`] for the strides `ST` in θ and `SZ` in ζ, on row slices: the row
 /// south of the fine row is already corrected, the row north not yet, as in the walk by
 /// node index before (the same tests see the same values; the same arithmetic).
+// One index across several row slices of the same length.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn prolong_correction_on<const ST: usize, const SZ: usize>(fine: &mut Level, coarse: &mut Level) {
     let cnt = coarse.nt;
     let cn = coarse.len();
-    for k in 0..cn {
-        coarse.r[k] = coarse.p[k] - coarse.base[k];
+    for ((e, p), b) in coarse.r[..cn].iter_mut().zip(&coarse.p).zip(&coarse.base) {
+        *e = p - b;
     }
     let e = &coarse.r[..cn];
     let (nt, nz, top) = (fine.nt, fine.nz, fine.top);
