@@ -12,13 +12,76 @@
 //!
 //! `cargo run --release --example mg_cost -- [reps] [accuracy]` (`accuracy`: only the
 //! second table, e.g. under `valgrind --tool=callgrind` for counted instructions).
+//!
+//! `cargo run --release --example mg_cost -- prof psor|mg N_THETA N_Z [reps [tolerance]]` and
+//! `... -- prof acc ACCURACY [reps [tolerance]]`: one solver on one setting only (the 32 states, cold
+//! starts), its node updates per state and wall per state and per node update: the run to
+//! put under `valgrind --tool=callgrind` (instructions per state and where they go).
 use std::time::Instant;
 
 use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
 use bearing_sweep::bearing::{finish_loads, pack_state};
 use bearing_sweep::bench::finite::bench_states;
 
+/// `prof`: one solver, one setting (see the module doc).
+fn prof(args: &[String]) {
+    let (p, states) = bench_states(32);
+    let jobs: Vec<_> = states
+        .iter()
+        .map(|s| {
+            let packed = pack_state(&p, s).expect("valid state");
+            FiniteJob::new(&p, &packed)
+        })
+        .collect();
+    let method = args.first().map(String::as_str).unwrap_or("mg");
+    let num = |k: usize, d: f64| args.get(k).and_then(|s| s.parse().ok()).unwrap_or(d);
+    let (g, reps) = if method == "acc" {
+        let settings = FiniteSettings {
+            accuracy: num(1, FiniteSettings::default().accuracy),
+            tolerance: num(3, FiniteSettings::default().tolerance),
+            ..FiniteSettings::default()
+        };
+        (FiniteGrid::from(&settings), num(2, 1.0) as usize)
+    } else {
+        let (t, z) = (num(1, 128.0) as u32, num(2, 32.0) as u32);
+        let settings = FiniteSettings {
+            tolerance: num(4, 1e-8),
+            ..FiniteSettings::with_grid(t, z)
+        };
+        (FiniteGrid::from(&settings), num(3, 1.0) as usize)
+    };
+    let mut solver = FiniteSolver::new();
+    let mut best = f64::INFINITY;
+    let mut updates = 0u64;
+    for _ in 0..reps.max(1) {
+        updates = 0;
+        let start = Instant::now();
+        for job in &jobs {
+            let (_, r) = if method == "psor" {
+                solver.solve_psor(job, &g, &mut Vec::new())
+            } else {
+                solver.solve(job, &g, &mut Vec::new())
+            };
+            updates += r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1));
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    let n = jobs.len() as f64;
+    println!(
+        "{method} {:?}: {:.0} node updates/state, {:.3} ms/state, {:.2} ns/update",
+        args.get(1..).unwrap_or(&[]),
+        updates as f64 / n,
+        best / n * 1e3,
+        best / updates as f64 * 1e9
+    );
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("prof") {
+        prof(&args[1..]);
+        return;
+    }
     let reps: usize = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())
@@ -138,13 +201,19 @@ fn main() {
         "| 64×16 PSOR (old default) | {:.3} | {:.0} | {:.2e} | {:.2e} |",
         old.0, old.1, old.2, old.3
     );
-    for (label, accuracy) in [
-        ("5e-4 (default)", FiniteSettings::default().accuracy),
-        ("1e-4", 1e-4),
+    // The last two rows: each ladder grid stopped at accuracy/10 on the loads instead of
+    // accuracy/50 (`tolerance` above accuracy/50 sets the per-grid stop; issue 20 item 3).
+    let tol = FiniteSettings::default().tolerance;
+    for (label, accuracy, tolerance) in [
+        ("5e-4 (default)", FiniteSettings::default().accuracy, tol),
+        ("1e-4", 1e-4, tol),
+        ("5e-4, grids stopped at 5e-5", 5e-4, 5e-5),
+        ("1e-4, grids stopped at 1e-5", 1e-4, 1e-5),
     ] {
         let acc = time_it(
             &FiniteGrid::from(&FiniteSettings {
                 accuracy,
+                tolerance,
                 ..FiniteSettings::default()
             }),
             false,

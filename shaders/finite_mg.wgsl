@@ -376,8 +376,9 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
     return vec2<f64>(0.0, 0.0);
 }
 
-// r = f − A p at the interior of level l, zero at held nodes and where the constraint is
-// active (multigrid.rs Level::residual).
+// r = f − A p at the interior of level l after a sweep, zero at held nodes and where the
+// constraint is active (multigrid.rs Level::residual): computed at the sweep's first colour
+// ((i + j) even); the second colour's is zero to rounding after the sweep, written as 0.
 fn residual(l: u32, top: bool) {
     let nt = nt_of(l);
     let interior = interior_of(l);
@@ -388,7 +389,7 @@ fn residual(l: u32, top: bool) {
         let j = k / nt;
         let i = k % nt;
         var r: f64 = 0.0;
-        if scr[at(l, ia, k)] != 0.0 {
+        if ((i + j) & 1u) == 0u && scr[at(l, ia, k)] != 0.0 {
             let row = j * nt;
             let ip = select(k + 1u, row, i + 1u == nt);
             let im = select(k - 1u, row + nt - 1u, i == 0u);

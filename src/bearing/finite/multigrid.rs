@@ -7,7 +7,8 @@
 //!
 //! 1. `NU_PRE` red-black projected Gauss–Seidel sweeps (the smoother);
 //! 2. the residual `r = f − A p`, set to zero where the constraint is active
-//!    (`p = 0`, `r < 0`: those nodes are solved, their residual is the contact force);
+//!    (`p = 0`, `r < 0`: those nodes are solved, their residual is the contact force),
+//!    computed on the sweep's first colour (the second's is zero after the sweep);
 //! 3. FAS coarse problem (Brandt–Cryer): `u₀ = inject(p)`, `f_H = A_H u₀ + R r` (full
 //!    weighting), constraint `u_H ≥ 0`, solved by a V-cycle on level `l − 1`;
 //! 4. correction `p ← max(0, p + P(u_H − u₀))` (bilinear `P`) at the nodes inside the
@@ -53,6 +54,89 @@ pub(crate) enum Coarsen {
     Theta,
     /// Only ζ halved.
     Zeta,
+}
+
+/// One row of a level for the relaxation: the row's coefficients and the field's rows
+/// south and north of it (see [`Level::relax`]).
+struct RowRef<'a> {
+    south: &'a [f64],
+    north: &'a [f64],
+    ae: &'a [f64],
+    an: &'a [f64],
+    an_south: &'a [f64],
+    f: &'a [f64],
+    inv: &'a [f64],
+    hold: &'a [f64],
+}
+
+impl RowRef<'_> {
+    /// The projected Gauss–Seidel update of node `i` of the row (`ip`, `im`: its east and
+    /// west neighbours in `cur`, the row's field) at factor `omega`: `Some((old, new))`
+    /// where the node is relaxed or held (`top`), `None` where it is frozen.
+    #[inline(always)]
+    fn update(
+        &self,
+        cur: &mut [f64],
+        i: usize,
+        ip: usize,
+        im: usize,
+        omega: f64,
+        top: bool,
+    ) -> Option<(f64, f64)> {
+        let ik = self.inv[i];
+        let old = cur[i];
+        if ik == 0.0 {
+            // Held (solved grid): its value (0 at the inlet); frozen on a correction grid
+            // (next to a held fine node): unchanged.
+            if top {
+                cur[i] = self.hold[i];
+                return Some((old, self.hold[i]));
+            }
+            return None;
+        }
+        let s = self.ae[i] * cur[ip]
+            + self.ae[im] * cur[im]
+            + self.an[i] * self.north[i]
+            + self.an_south[i] * self.south[i];
+        let new = (old + omega * ((s + self.f[i]) * ik - old)).max(0.0);
+        cur[i] = new;
+        Some((old, new))
+    }
+}
+
+/// One row of a level for the residual (see [`Level::residual`]).
+struct ResidualRow<'a> {
+    south: &'a [f64],
+    cur: &'a [f64],
+    north: &'a [f64],
+    ae: &'a [f64],
+    an: &'a [f64],
+    an_south: &'a [f64],
+    d: &'a [f64],
+    f: &'a [f64],
+    inv: &'a [f64],
+}
+
+impl ResidualRow<'_> {
+    /// `f − A p` at node `i` of the row (`ip`, `im`: east and west), 0 where held or frozen
+    /// and where the constraint is active.
+    #[inline(always)]
+    fn at(&self, i: usize, ip: usize, im: usize) -> f64 {
+        if self.inv[i] == 0.0 {
+            return 0.0;
+        }
+        let pk = self.cur[i];
+        let v = self.f[i] - self.d[i] * pk
+            + self.ae[i] * self.cur[ip]
+            + self.ae[im] * self.cur[im]
+            + self.an[i] * self.north[i]
+            + self.an_south[i] * self.south[i];
+        if pk <= 0.0 && v < 0.0 {
+            0.0
+        } else {
+            v
+        }
+    }
 }
 
 /// One grid of the hierarchy with its operator, right-hand sides and iterate.
@@ -153,7 +237,12 @@ impl Level {
                 (th.cos(), th.sin())
             })
             .collect();
-        let held = layout.held_nodes(nt, nz, theta0);
+        // The held bands' face factors and pressures; none for the plain 360° film (factor
+        // 1, exact, and no three arrays of the grid's size to allocate and fill).
+        let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
+        let east = |k: usize| held.as_ref().map_or(1.0, |h| h.east[k]);
+        let north = |k: usize| held.as_ref().map_or(1.0, |h| h.north[k]);
+        let held_pa = |k: usize| held.as_ref().map_or(-1.0, |h| h.held_pa[k]);
         for j in 0..=nz {
             let zeta = j as f64 * dz;
             let zh = (j as f64 + 0.5) * dz;
@@ -164,10 +253,10 @@ impl Level {
                 let (cf, sf) = trig[2 * i + 1];
                 let (cn, sn) = trig[2 * i];
                 let hf = film(e, zeta, cf, sf);
-                self.ae[k] = ct * hf * hf * hf * held.east[k];
+                self.ae[k] = ct * hf * hf * hf * east(k);
                 if j < nz {
                     let hn = film(e, zh, cn, sn);
-                    self.an[k] = cz * hn * hn * hn * held.north[k];
+                    self.an[k] = cz * hn * hn * hn * north(k);
                 }
                 self.f_own[k] = -6.0 * (a * sn - b * cn);
             }
@@ -183,9 +272,9 @@ impl Level {
                 let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
                 self.d[k] = d;
                 self.inv_d_free[k] = 1.0 / d;
-                if held.held_pa[k] >= 0.0 {
+                if held_pa(k) >= 0.0 {
                     self.inv_d[k] = 0.0;
-                    self.hold[k] = held.held_pa[k] * job.supply;
+                    self.hold[k] = held_pa(k) * job.supply;
                 } else {
                     self.inv_d[k] = 1.0 / d;
                 }
@@ -217,25 +306,24 @@ impl Level {
         }
     }
 
-    /// `Σ a_nb p_nb` at interior node `k = j nt + i`.
-    #[inline(always)]
-    fn neighbours(&self, p: &[f64], j: usize, i: usize) -> f64 {
-        let nt = self.nt;
-        let row = j * nt;
-        let k = row + i;
-        let ip = if i + 1 == nt { row } else { k + 1 };
-        let im = if i == 0 { row + nt - 1 } else { k - 1 };
-        self.ae[k] * p[ip]
-            + self.ae[im] * p[im]
-            + self.an[k] * p[k + nt]
-            + self.an[k - nt] * p[k - nt]
+    /// One red-black projected SOR sweep with factor `omega` (1: Gauss–Seidel); returns
+    /// the largest change and the largest value (the coarsest grid's stop test).
+    pub fn sweep(&mut self, omega: f64) -> (f64, f64) {
+        self.relax::<true>(omega)
     }
 
-    /// One red-black projected SOR sweep with factor `omega` (1: Gauss–Seidel); returns
-    /// the largest change and the largest value. The neighbour sum is written out here
-    /// (not through [`Level::neighbours`]): this loop is the multigrid's relaxation, and
-    /// a call and the re-derived row per node cost ~2× its arithmetic (perf, issue 20).
-    pub fn sweep(&mut self, omega: f64) -> (f64, f64) {
+    /// The smoother of a V-cycle: [`Level::sweep`] at ω = 1 without the largest change
+    /// and value, which no cycle reads (same iterates, bit for bit).
+    fn smooth(&mut self) {
+        self.relax::<false>(1.0);
+    }
+
+    /// The red-black sweep, row by row on row slices (this row, the rows south and north,
+    /// the row's coefficients), the periodic ends of a row outside the inner loop: the
+    /// inner loop then has no wrap test and no bounds check (callgrind, issue 20 pass 5:
+    /// 60 → 30 instructions per node update). `TRACK`: whether the largest change and value
+    /// are wanted. The arithmetic and its order are those of the node update before.
+    fn relax<const TRACK: bool>(&mut self, omega: f64) -> (f64, f64) {
         let (nt, nz) = (self.nt, self.nz);
         let n = self.len();
         let top = self.top;
@@ -251,39 +339,54 @@ impl Level {
         for colour in 0..2 {
             for j in 1..nz {
                 let row = j * nt;
-                let mut i = (colour + j) % 2;
-                while i < nt {
-                    let k = row + i;
-                    let ik = inv[k];
-                    if ik == 0.0 {
-                        // Held (solved grid): its value (0 at the inlet); frozen on a
-                        // correction grid (next to a held fine node): unchanged.
-                        if top {
-                            let old = p[k];
-                            p[k] = hold[k];
-                            max_dp = max_dp.max((hold[k] - old).abs());
-                            max_p = max_p.max(hold[k]);
+                let (below, rest) = p.split_at_mut(row);
+                let (cur, above) = rest.split_at_mut(nt);
+                let r = RowRef {
+                    south: &below[row - nt..row],
+                    north: &above[..nt],
+                    ae: &ae[row..row + nt],
+                    an: &an[row..row + nt],
+                    an_south: &an[row - nt..row],
+                    f: &f[row..row + nt],
+                    inv: &inv[row..row + nt],
+                    hold: &hold[row..row + nt],
+                };
+                // Inlined by hand (`RowRef::update` is `inline(always)`; a closure here was
+                // left as a call per node).
+                macro_rules! node {
+                    ($i:expr, $ip:expr, $im:expr) => {
+                        if let Some((old, new)) = r.update(cur, $i, $ip, $im, omega, top) {
+                            if TRACK {
+                                max_dp = max_dp.max((new - old).abs());
+                                max_p = max_p.max(new);
+                            }
                         }
-                        i += 2;
-                        continue;
-                    }
-                    let ip = if i + 1 == nt { row } else { k + 1 };
-                    let im = if i == 0 { row + nt - 1 } else { k - 1 };
-                    let s =
-                        ae[k] * p[ip] + ae[im] * p[im] + an[k] * p[k + nt] + an[k - nt] * p[k - nt];
-                    let old = p[k];
-                    let new = (old + omega * ((s + f[k]) * ik - old)).max(0.0);
-                    p[k] = new;
-                    max_dp = max_dp.max((new - old).abs());
-                    max_p = max_p.max(new);
+                    };
+                }
+                // This colour's nodes of the row: (i + j + colour) even. The ends of the
+                // row (periodic neighbours) outside the inner loop.
+                let mut i = (colour + j) % 2;
+                if i == 0 {
+                    node!(0, 1, nt - 1);
+                    i = 2;
+                }
+                while i + 1 < nt {
+                    node!(i, i + 1, i - 1);
                     i += 2;
+                }
+                if i + 1 == nt {
+                    node!(i, 0, i - 1);
                 }
             }
         }
         (max_dp, max_p)
     }
 
-    /// `r = f − A p`, zero at held nodes and where the constraint is active.
+    /// `r = f − A p` after a smoothing sweep, zero at held nodes and where the constraint is
+    /// active. Row slices as in [`Level::relax`]. Computed at the sweep's first colour only
+    /// (see below; issue 20 pass 5: the same cycle counts, iterates equal to rounding).
+    /// Out of line (one call per grid and cycle) so that profiles attribute it.
+    #[inline(never)]
     fn residual(&mut self) {
         let (nt, nz) = (self.nt, self.nz);
         let n = self.len();
@@ -299,39 +402,43 @@ impl Level {
             &self.f[..n],
             &self.p[..n],
         );
-        let r = &mut self.r[..n];
         for j in 1..nz {
             let row = j * nt;
-            for i in 0..nt {
-                let k = row + i;
-                r[k] = if inv[k] == 0.0 {
-                    0.0
-                } else {
-                    let ip = if i + 1 == nt { row } else { k + 1 };
-                    let im = if i == 0 { row + nt - 1 } else { k - 1 };
-                    let v = f[k] - d[k] * p[k]
-                        + ae[k] * p[ip]
-                        + ae[im] * p[im]
-                        + an[k] * p[k + nt]
-                        + an[k - nt] * p[k - nt];
-                    if p[k] <= 0.0 && v < 0.0 {
-                        0.0
-                    } else {
-                        v
-                    }
-                };
+            let (south, cur, north) = (
+                &p[row - nt..row],
+                &p[row..row + nt],
+                &p[row + nt..row + 2 * nt],
+            );
+            let (aer, anr, ans) = (&ae[row..row + nt], &an[row..row + nt], &an[row - nt..row]);
+            let (dr, fr, ir) = (&d[row..row + nt], &f[row..row + nt], &inv[row..row + nt]);
+            let out = &mut self.r[row..row + nt];
+            let row_ref = ResidualRow {
+                south,
+                cur,
+                north,
+                ae: aer,
+                an: anr,
+                an_south: ans,
+                d: dr,
+                f: fr,
+                inv: ir,
+            };
+            // The first colour's nodes ((i + j) even); the second colour's residual is
+            // zero to rounding after the sweep (each node solved, or projected to 0 with
+            // a negative residual, which the rule zeroes): written as 0, half the work.
+            let mut i = j % 2;
+            out.fill(0.0);
+            if i == 0 {
+                out[0] = row_ref.at(0, 1, nt - 1);
+                i = 2;
             }
-        }
-    }
-
-    /// `A u` at interior node (j, i) of this level (held nodes: 0).
-    #[inline(always)]
-    fn apply(&self, u: &[f64], j: usize, i: usize) -> f64 {
-        let k = j * self.nt + i;
-        if self.inv()[k] == 0.0 {
-            0.0
-        } else {
-            self.d[k] * u[k] - self.neighbours(u, j, i)
+            while i + 1 < nt {
+                out[i] = row_ref.at(i, i + 1, i - 1);
+                i += 2;
+            }
+            if i + 1 == nt {
+                out[i] = row_ref.at(i, 0, i - 1);
+            }
         }
     }
 
@@ -417,60 +524,149 @@ fn strides(c: Coarsen) -> (usize, usize) {
     }
 }
 
-/// Full-weighting restriction of `fine.r` into `out` (coarse grid `nt × nz`). The
-/// periodic neighbours are found by comparison, not `rem_euclid` (integer divisions per
-/// stencil point were a visible share of a cycle).
-fn restrict_residual(fine: &Level, c: Coarsen, nt: usize, nz: usize, out: &mut [f64]) {
-    let (st, sz) = strides(c);
-    let fnt = fine.nt;
-    let r = &fine.r;
-    // Weighted θ-stencil of fine row `row` at fine column `i0`.
-    let along = |row: usize, i0: usize| {
-        if st == 2 {
-            let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
-            let ip = if i0 + 1 == fnt { 0 } else { i0 + 1 };
-            0.25 * r[row + im] + 0.5 * r[row + i0] + 0.25 * r[row + ip]
+/// The FAS coarse problem of `fine` on `coarse` (coarsened by `c`): `u₀` = injection of
+/// the fine iterate (also the coarse start), `f_H = A_H u₀ + R r` with `R` the full
+/// weighting, zero at frozen coarse nodes. One pass over the coarse grid on row slices, the
+/// strides as constants (was: the restriction through a closure testing the stride per
+/// point, then `A_H u₀` through a per-node call: ~145 instructions per coarse node,
+/// callgrind, issue 20 pass 5); the same arithmetic in the same order.
+#[inline(never)]
+fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
+    match c {
+        Coarsen::Both => restrict_fas_on::<2, 2>(fine, coarse),
+        Coarsen::Theta => restrict_fas_on::<2, 1>(fine, coarse),
+        Coarsen::Zeta => restrict_fas_on::<1, 2>(fine, coarse),
+    }
+}
+
+/// [`restrict_fas`] for the strides `ST` in θ and `SZ` in ζ.
+// One index across several row slices of the same length.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut Level) {
+    let (fnt, cnt, cnz) = (fine.nt, coarse.nt, coarse.nz);
+    for jc in 0..=cnz {
+        let (frow, crow) = (jc * SZ * fnt, jc * cnt);
+        let src = &fine.p[frow..frow + fnt];
+        let (base, p) = (
+            &mut coarse.base[crow..crow + cnt],
+            &mut coarse.p[crow..crow + cnt],
+        );
+        for ic in 0..cnt {
+            let v = src[ic * ST];
+            base[ic] = v;
+            p[ic] = v;
+        }
+    }
+    // Weighted θ-stencil of a fine row at fine column `i0` (west neighbour `im`; the east
+    // one, i0 + 1, never wraps: i0 is even and the row's length even).
+    let along = |r: &[f64], i0: usize, im: usize| {
+        if ST == 2 {
+            0.25 * r[im] + 0.5 * r[i0] + 0.25 * r[i0 + 1]
         } else {
-            r[row + i0]
+            r[i0]
         }
     };
-    out.fill(0.0);
-    for jc in 1..nz {
-        let jf = jc * sz;
-        for ic in 0..nt {
-            let i0 = ic * st;
-            out[jc * nt + ic] = if sz == 2 {
-                0.25 * along((jf - 1) * fnt, i0)
-                    + 0.5 * along(jf * fnt, i0)
-                    + 0.25 * along((jf + 1) * fnt, i0)
+    let inv = if coarse.top {
+        &coarse.inv_d
+    } else {
+        &coarse.inv_d_free
+    };
+    let (u, d, ae, an) = (&coarse.base, &coarse.d, &coarse.ae, &coarse.an);
+    let out = &mut coarse.f;
+    out[..cnt].fill(0.0);
+    out[cnz * cnt..].fill(0.0);
+    let r = &fine.r;
+    for jc in 1..cnz {
+        let jf = jc * SZ;
+        let crow = jc * cnt;
+        let rc = &r[jf * fnt..(jf + 1) * fnt];
+        let (rs, rn) = if SZ == 2 {
+            (
+                &r[(jf - 1) * fnt..jf * fnt],
+                &r[(jf + 1) * fnt..(jf + 2) * fnt],
+            )
+        } else {
+            (rc, rc)
+        };
+        let (us, uc, un) = (
+            &u[crow - cnt..crow],
+            &u[crow..crow + cnt],
+            &u[crow + cnt..crow + 2 * cnt],
+        );
+        let (aer, anr, ans) = (
+            &ae[crow..crow + cnt],
+            &an[crow..crow + cnt],
+            &an[crow - cnt..crow],
+        );
+        let (dr, ir) = (&d[crow..crow + cnt], &inv[crow..crow + cnt]);
+        let outr = &mut out[crow..crow + cnt];
+        for ic in 0..cnt {
+            outr[ic] = if ir[ic] == 0.0 {
+                0.0
             } else {
-                along(jf * fnt, i0)
+                let i0 = ic * ST;
+                let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+                let rr = if SZ == 2 {
+                    0.25 * along(rs, i0, im) + 0.5 * along(rc, i0, im) + 0.25 * along(rn, i0, im)
+                } else {
+                    along(rc, i0, im)
+                };
+                let ip = if ic + 1 == cnt { 0 } else { ic + 1 };
+                let iw = if ic == 0 { cnt - 1 } else { ic - 1 };
+                let s = aer[ic] * uc[ip] + aer[iw] * uc[iw] + anr[ic] * un[ic] + ans[ic] * us[ic];
+                rr + (dr[ic] * uc[ic] - s)
             };
         }
     }
 }
 
 /// `fine.p[k] += P(coarse.p − coarse.base)` by bilinear interpolation at the nodes inside
-/// the pressure zone, then projected; held nodes set to 0.
-fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
-    let (st, sz) = strides(c);
+/// the pressure zone, then projected; held nodes set to 0. The correction `u_H − u₀` is
+/// formed once per coarse node in `coarse.r` (scratch: the coarse grid's residual is not
+/// read again before its next descent), not up to four times per fine node.
+#[inline(never)]
+fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen) {
+    match c {
+        Coarsen::Both => prolong_correction_on::<2, 2>(fine, coarse),
+        Coarsen::Theta => prolong_correction_on::<2, 1>(fine, coarse),
+        Coarsen::Zeta => prolong_correction_on::<1, 2>(fine, coarse),
+    }
+}
+
+/// [`prolong_correction`] for the strides `ST` in θ and `SZ` in ζ, on row slices: the row
+/// south of the fine row is already corrected, the row north not yet, as in the walk by
+/// node index before (the same tests see the same values; the same arithmetic).
+// One index across several row slices of the same length.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn prolong_correction_on<const ST: usize, const SZ: usize>(fine: &mut Level, coarse: &mut Level) {
     let cnt = coarse.nt;
+    let cn = coarse.len();
+    for ((e, p), b) in coarse.r[..cn].iter_mut().zip(&coarse.p).zip(&coarse.base) {
+        *e = p - b;
+    }
+    let e = &coarse.r[..cn];
     let (nt, nz, top) = (fine.nt, fine.nz, fine.top);
-    let e = |k: usize| coarse.p[k] - coarse.base[k];
+    let inv = if top { &fine.inv_d } else { &fine.inv_d_free };
+    let hold = &fine.hold;
+    let p = &mut fine.p;
     for j in 1..nz {
-        let (jc, jo) = if sz == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
         let (row, crow) = (j * nt, jc * cnt);
+        // The coarse rows at and above this fine row (jc + 1 ≤ the coarse grid's n_z).
+        let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
+        let (below, rest) = p.split_at_mut(row);
+        let (cur, above) = rest.split_at_mut(nt);
+        let (south, north) = (&below[row - nt..row], &above[..nt]);
+        let (ir, hr) = (&inv[row..row + nt], &hold[row..row + nt]);
+        // Rows next to the end faces: the face's p = 0 does not count against the zone.
+        let (first, last) = (j == 1, j + 1 == nz);
         for i in 0..nt {
-            let k = row + i;
-            let held = if top {
-                fine.inv_d[k] == 0.0
-            } else {
-                fine.inv_d_free[k] == 0.0
-            };
-            if held {
+            if ir[i] == 0.0 {
                 // Held (solved grid): its value; frozen (correction grid): unchanged.
                 if top {
-                    fine.p[k] = fine.hold[k];
+                    cur[i] = hr[i];
                 }
                 continue;
             }
@@ -479,28 +675,26 @@ fn prolong_correction(fine: &mut Level, coarse: &Level, c: Coarsen) {
             // left to the smoother. Corrected there, the coarse grid's view of the
             // active set fights the fine one and the cycle settles into a limit cycle
             // (measured: a constant change per cycle from 256 × 32 on).
-            let ip = if i + 1 == nt { row } else { k + 1 };
-            let im = if i == 0 { row + nt - 1 } else { k - 1 };
-            let pk = fine.p[k];
+            let ip = if i + 1 == nt { 0 } else { i + 1 };
+            let im = if i == 0 { nt - 1 } else { i - 1 };
+            let pk = cur[i];
             let inside = pk > 0.0
-                && fine.p[ip] > 0.0
-                && fine.p[im] > 0.0
-                && (j + 1 == nz || fine.p[k + nt] > 0.0)
-                && (j == 1 || fine.p[k - nt] > 0.0);
+                && cur[ip] > 0.0
+                && cur[im] > 0.0
+                && (last || north[i] > 0.0)
+                && (first || south[i] > 0.0);
             if !inside {
                 continue;
             }
-            let (ic, io) = if st == 2 { (i / 2, i % 2) } else { (i, 0) };
+            let (ic, io) = if ST == 2 { (i / 2, i % 2) } else { (i, 0) };
             let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
             let v = match (jo, io) {
-                (0, 0) => e(crow + ic),
-                (0, _) => 0.5 * (e(crow + ic) + e(crow + ic1)),
-                (_, 0) => 0.5 * (e(crow + ic) + e(crow + cnt + ic)),
-                _ => {
-                    0.25 * (e(crow + ic) + e(crow + ic1) + e(crow + cnt + ic) + e(crow + cnt + ic1))
-                }
+                (0, 0) => e0[ic],
+                (0, _) => 0.5 * (e0[ic] + e0[ic1]),
+                (_, 0) => 0.5 * (e0[ic] + e1[ic]),
+                _ => 0.25 * (e0[ic] + e0[ic1] + e1[ic] + e1[ic1]),
             };
-            fine.p[k] = (pk + v).max(0.0);
+            cur[i] = (pk + v).max(0.0);
         }
     }
 }
@@ -585,7 +779,8 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
 pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
     let (st, sz) = strides(c);
     let cnt = coarse.nt;
-    let u = |jc: usize, ic: usize| coarse.p[jc * cnt + (ic % cnt)];
+    // Column ic + 1 wraps to 0 at the coarse grid's end (a comparison, not `%` per node).
+    let u = |jc: usize, ic: usize| coarse.p[jc * cnt + if ic == cnt { 0 } else { ic }];
     for j in 1..fine.nz {
         let (jc, jo) = (j / sz, j % sz);
         for i in 0..fine.nt {
@@ -615,6 +810,12 @@ pub(crate) struct Hierarchy {
     pub theta0: f64,
     /// Relaxation node updates done (work measure: all levels, smoothing and coarsest).
     pub updates: u64,
+    /// Levels of an earlier, taller hierarchy kept for their allocations: the accuracy
+    /// ladder adds grids on top per state ([`Hierarchy::push_finer`]) and the next state's
+    /// [`Hierarchy::build`] drops them again; allocated afresh each time, the finest
+    /// (512 × 64: 11 arrays of 260 kB) came from and went back to the system per state.
+    /// Every array is reset by [`Level::setup`], so a reused level is a fresh one.
+    spare: Vec<Level>,
     /// Whether the correction grids freeze one node per row for the max-film inlet line
     /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
     /// accuracy ladder, unchanged: with node 0 on the maximum film the two rules coincide
@@ -639,7 +840,15 @@ impl Hierarchy {
             b = d;
         }
         dims.reverse();
-        self.levels.resize_with(dims.len(), Level::default);
+        // Levels beyond the new hierarchy go to the spares, missing ones come from them:
+        // their arrays keep their capacity (see `Hierarchy::spare`).
+        while self.levels.len() > dims.len() {
+            let lvl = self.levels.pop().expect("nonempty");
+            self.spare.push(lvl);
+        }
+        while self.levels.len() < dims.len() {
+            self.levels.push(self.spare.pop().unwrap_or_default());
+        }
         for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
             lvl.setup(job, a, b, g.max_film_inlet, &g.layout, self.theta0);
             lvl.coarsen = how;
@@ -655,7 +864,7 @@ impl Hierarchy {
         g: &FiniteGrid,
         how: Coarsen,
     ) {
-        let mut lvl = Level::default();
+        let mut lvl = self.spare.pop().unwrap_or_default();
         lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0);
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
@@ -669,44 +878,24 @@ impl Hierarchy {
             return;
         }
         let how = self.levels[l].coarsen.expect("checked");
+        let (nu_pre, nu_post) = (NU_PRE, NU_POST);
         let (lo, hi) = self.levels.split_at_mut(l);
         let fine = &mut hi[0];
         let coarse = &mut lo[l - 1];
-        for _ in 0..NU_PRE {
-            fine.sweep(1.0);
+        for _ in 0..nu_pre {
+            fine.smooth();
         }
-        self.updates += NU_PRE as u64 * fine.interior() as u64;
+        self.updates += nu_pre as u64 * fine.interior() as u64;
         fine.residual();
-        let (st, sz) = strides(how);
-        // u₀ = injection of the fine iterate.
-        for jc in 0..=coarse.nz {
-            for ic in 0..coarse.nt {
-                let v = fine.p[jc * sz * fine.nt + ic * st];
-                coarse.base[jc * coarse.nt + ic] = v;
-                coarse.p[jc * coarse.nt + ic] = v;
-            }
-        }
-        let mut rr = std::mem::take(&mut coarse.f);
-        restrict_residual(fine, how, coarse.nt, coarse.nz, &mut rr);
-        for jc in 1..coarse.nz {
-            for ic in 0..coarse.nt {
-                let k = jc * coarse.nt + ic;
-                rr[k] = if coarse.inv()[k] == 0.0 {
-                    0.0
-                } else {
-                    rr[k] + coarse.apply(&coarse.base, jc, ic)
-                };
-            }
-        }
-        coarse.f = rr;
+        restrict_fas(fine, coarse, how);
         self.vcycle(l - 1, aspect);
         let (lo, hi) = self.levels.split_at_mut(l);
         let fine = &mut hi[0];
-        prolong_correction(fine, &lo[l - 1], how);
-        for _ in 0..NU_POST {
-            fine.sweep(1.0);
+        prolong_correction(fine, &mut lo[l - 1], how);
+        for _ in 0..nu_post {
+            fine.smooth();
         }
-        self.updates += NU_POST as u64 * fine.interior() as u64;
+        self.updates += nu_post as u64 * fine.interior() as u64;
     }
 
     /// V-cycles on the top level `l` (own right-hand side) until the estimated iteration
@@ -754,9 +943,12 @@ impl Hierarchy {
                 Stop::Field(_) => {
                     let mut change = 0.0_f64;
                     let mut max_p = 0.0_f64;
+                    // Comparisons, not `f64::max` (its NaN rule kept the loop scalar; the
+                    // field is finite): the same maxima.
                     for (a, b) in p.iter().zip(&prev) {
-                        change = change.max((a - b).abs());
-                        max_p = max_p.max(*a);
+                        let d = (a - b).abs();
+                        change = if d > change { d } else { change };
+                        max_p = if *a > max_p { *a } else { max_p };
                     }
                     if max_p > 0.0 {
                         change / max_p
