@@ -60,7 +60,7 @@ impl Loads {
         // `0 · x` is ±0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
         // when all are finite: one branch for the common case (every load of a rotor run),
         // the fields named only for a failing load (building the named list first cost
-        // ~120 instructions a load, BENCHMARKS.md "Issue 28, eighth pass").
+        // ~60 more instructions a load, BENCHMARKS.md "Issue 28, eighth pass").
         let film = &self.film;
         let zero = 0.0 * self.wx
             + 0.0 * self.wy
