@@ -187,7 +187,9 @@ fn finite_or_fault_names_the_first_non_finite_output() {
         },
     };
     assert_eq!(ok.finite_or_fault(), Ok(ok));
-    let set: [(&str, fn(&mut Loads, f64)); 14] = [
+    // Each output's JSON name and how to set it.
+    type Setter = (&'static str, fn(&mut Loads, f64));
+    let set: [Setter; 14] = [
         ("wx", |l, v| l.wx = v),
         ("wy", |l, v| l.wy = v),
         ("mx", |l, v| l.mx = v),
