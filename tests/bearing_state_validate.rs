@@ -1,6 +1,8 @@
 //! `BearingState::validate`'s fast path (both ends clearly inside the bore, no `hypot`)
 //! gives the same verdict as the exact test `hypot(x, y) / δ < 1` it short-cuts, on states
-//! spread across the fast path's edge (0.99 δ) and the wall (δ), at several clearances.
+//! spread across the fast path's edge (0.99 δ) and the wall (δ), at several clearances;
+//! its finiteness test (one sum, issue 28's eighth pass) names the same field as the loop
+//! over the fields; `h_min`'s one-`hypot` path gives the bits of `δ − max` of both.
 
 use bearing_sweep::bearing::{BearingState, End, StateFault};
 
@@ -72,4 +74,164 @@ fn the_fast_path_agrees_with_the_exact_wall_test() {
         inside > 10_000 && through > 10_000,
         "{inside} inside, {through} through"
     );
+}
+
+/// A state with every field `v` except field `k` (JSON order) set to `bad`.
+fn with_field(k: usize, v: f64, bad: f64) -> BearingState {
+    let mut f = [v; 9];
+    f[k] = bad;
+    BearingState {
+        xi: f[0],
+        yi: f[1],
+        xj: f[2],
+        yj: f[3],
+        vxi: f[4],
+        vyi: f[5],
+        vxj: f[6],
+        vyj: f[7],
+        omega: f[8],
+    }
+}
+
+#[test]
+fn a_non_finite_field_is_named_as_before() {
+    let names = ["xi", "yi", "xj", "yj", "vxi", "vyi", "vxj", "vyj", "omega"];
+    for (k, name) in names.iter().enumerate() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            // Finite fields of either sign and zero (`0 · x` is −0 for negative x).
+            for v in [1e-6, -1e-6, 0.0] {
+                let s = with_field(k, v, bad);
+                assert_eq!(
+                    s.validate(1e-3),
+                    Err(StateFault::NonFinite { field: name }),
+                    "field {name} = {bad}, others {v}"
+                );
+            }
+        }
+        // A huge finite field is finite (its `0 · x` is 0): no NonFinite fault.
+        let s = with_field(k, 1e-6, if k < 4 { 1e-6 } else { 1e300 });
+        assert_eq!(s.validate(1e-3), Ok(()), "field {name} huge");
+    }
+}
+
+#[test]
+fn h_min_takes_the_bits_of_both_hypots() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let want = |s: &BearingState, c: f64| c - s.xi.hypot(s.yi).max(s.xj.hypot(s.yj));
+    let mut near = 0;
+    for k in 0..200_000 {
+        // Magnitudes from 1e-170 to 1e170 (squares under- and overflowing at the ends),
+        // and ends equal or a few ulp apart in length every few states.
+        let scale = 10f64.powf(-170.0 + 340.0 * next());
+        let (ri, ai, aj) = (scale * next(), std::f64::consts::TAU * next(), 0.0);
+        let rj = match k % 4 {
+            0 => ri,
+            1 => ri * (1.0 + f64::EPSILON * (8.0 * next() - 4.0).round()),
+            2 => ri * (1.0 + 1e-12 * (2.0 * next() - 1.0)),
+            _ => scale * next(),
+        };
+        let aj = if k % 8 < 4 {
+            ai
+        } else {
+            aj + std::f64::consts::TAU * next()
+        };
+        let s = BearingState {
+            xi: ri * ai.cos(),
+            yi: ri * ai.sin(),
+            xj: rj * aj.cos(),
+            yj: rj * aj.sin(),
+            omega: 1.0,
+            ..BearingState::default()
+        };
+        near += usize::from(k % 4 < 3);
+        let c = scale;
+        let (got, exp) = (s.h_min(c), want(&s, c));
+        assert_eq!(
+            got.to_bits(),
+            exp.to_bits(),
+            "state {s:?}: {got:e} vs {exp:e}"
+        );
+    }
+    assert!(near > 100_000);
+    // Non-finite positions: as the two-hypot formula.
+    for bad in [f64::NAN, f64::INFINITY] {
+        let s = with_field(0, 1e-5, bad);
+        let (got, exp) = (s.h_min(1e-3), want(&s, 1e-3));
+        assert!(got.to_bits() == exp.to_bits() || (got.is_nan() && exp.is_nan()));
+    }
+}
+
+#[test]
+fn finite_or_fault_names_the_first_non_finite_output() {
+    use bearing_sweep::bearing::{FilmFlow, FrictionLaw, Loads};
+    let ok = Loads {
+        wx: -1.0,
+        wy: 2.0,
+        mx: -0.0,
+        my: 3.0,
+        mz: -4.0,
+        friction_coefficient: Some(0.1),
+        sommerfeld: None,
+        h_min: 1e-5,
+        power_loss: 5.0,
+        friction_model: FrictionLaw::Paper,
+        film: FilmFlow {
+            friction_variable: None,
+            ..FilmFlow::default()
+        },
+    };
+    assert_eq!(ok.finite_or_fault(), Ok(ok));
+    // Each output's JSON name and how to set it.
+    type Setter = (&'static str, fn(&mut Loads, f64));
+    let set: [Setter; 14] = [
+        ("wx", |l, v| l.wx = v),
+        ("wy", |l, v| l.wy = v),
+        ("mx", |l, v| l.mx = v),
+        ("my", |l, v| l.my = v),
+        ("mz", |l, v| l.mz = v),
+        ("friction_coefficient", |l, v| {
+            l.friction_coefficient = Some(v)
+        }),
+        ("sommerfeld", |l, v| l.sommerfeld = Some(v)),
+        ("h_min", |l, v| l.h_min = v),
+        ("power_loss", |l, v| l.power_loss = v),
+        ("film.friction_torque_nm", |l, v| {
+            l.film.friction_torque_nm = v
+        }),
+        ("film.power_loss_w", |l, v| l.film.power_loss_w = v),
+        ("film.friction_variable", |l, v| {
+            l.film.friction_variable = Some(v)
+        }),
+        ("film.side_flow_m3_per_s", |l, v| {
+            l.film.side_flow_m3_per_s = v
+        }),
+        ("film.inlet_flow_m3_per_s", |l, v| {
+            l.film.inlet_flow_m3_per_s = v
+        }),
+    ];
+    for (k, (name, f)) in set.iter().enumerate() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut l = ok;
+            f(&mut l, bad);
+            // A later field non-finite too: the first is named.
+            if let Some((_, g)) = set.get(k + 1) {
+                g(&mut l, f64::NAN);
+            }
+            assert_eq!(
+                l.finite_or_fault(),
+                Err(StateFault::Overflow { quantity: name }),
+                "{name} = {bad}"
+            );
+        }
+        // Huge finite values pass.
+        let mut l = ok;
+        f(&mut l, -1e308);
+        assert!(l.finite_or_fault().is_ok(), "{name} huge");
+    }
 }

@@ -510,14 +510,16 @@ impl LoadEvaluator {
             let finite = p.rate_scale > 0.0 && effective_model(b, &req.state) == FilmModel::Finite;
             Ok((p, finite))
         };
+        // Large calls prepare every request on rayon's pool first; the others prepare
+        // each request in the loop below (one pass: no list of prepared requests
+        // written and read back).
+        let serial = requests.len() < PARALLEL_HOST_STATES;
         self.prepared.clear();
-        if requests.len() >= PARALLEL_HOST_STATES {
+        if !serial {
             requests
                 .par_iter()
                 .map(prepare)
                 .collect_into_vec(&mut self.prepared);
-        } else {
-            self.prepared.extend(requests.iter().map(prepare));
         }
         // Large calls find their duplicates in parallel (the map below is serial).
         let parallel_dedupe = self.options.dedupe && requests.len() >= PARALLEL_HOST_STATES;
@@ -527,7 +529,12 @@ impl LoadEvaluator {
             self.packed_at.resize(requests.len(), 0);
         }
         for (k, req) in requests.iter().enumerate() {
-            match self.prepared[k] {
+            let prepared = if serial {
+                prepare(req)
+            } else {
+                self.prepared[k]
+            };
+            match prepared {
                 Ok((p, true)) => {
                     out.push(Err(StateFault::BackendNonFinite));
                     let b = &bearings[req.bearing as usize];
@@ -673,8 +680,25 @@ impl LoadEvaluator {
                 out[k] = r;
             }
         } else {
-            for slot in &self.slots {
-                out[slot.0] = finish(slot);
+            // Each state's loads written in their place and checked there (the same
+            // results as `finish`, without moving the loads twice).
+            for &(k, scale, n) in &self.slots {
+                let o = &mut out[k];
+                if bad[n] {
+                    *o = Err(StateFault::BackendNonFinite);
+                    continue;
+                }
+                let req = &requests[k];
+                *o = Ok(finish_loads_with(
+                    &bearings[req.bearing as usize],
+                    &req.state,
+                    &integrals[n],
+                    scale,
+                    film_of(req.bearing),
+                ));
+                if let Some(fault) = o.as_ref().ok().and_then(Loads::fault) {
+                    *o = Err(fault);
+                }
             }
         }
     }

@@ -48,6 +48,37 @@ impl Loads {
     /// `self` if every number in it is finite, else the overflow fault naming the first
     /// non-finite output (finite inputs cannot give NaN; enormous ones can overflow).
     pub fn finite_or_fault(self) -> Result<Loads, StateFault> {
+        match self.fault() {
+            None => Ok(self),
+            Some(fault) => Err(fault),
+        }
+    }
+
+    /// [`Loads::finite_or_fault`]'s verdict without moving the loads: `None` if every
+    /// number is finite, else the overflow fault naming the first non-finite output.
+    pub fn fault(&self) -> Option<StateFault> {
+        // `0 · x` is ±0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
+        // when all are finite: one branch for the common case (every load of a rotor run),
+        // the fields named only for a failing load (building the named list first cost
+        // ~60 more instructions a load, BENCHMARKS.md "Issue 28, eighth pass").
+        let film = &self.film;
+        let zero = 0.0 * self.wx
+            + 0.0 * self.wy
+            + 0.0 * self.mx
+            + 0.0 * self.my
+            + 0.0 * self.mz
+            + 0.0 * self.friction_coefficient.unwrap_or(0.0)
+            + 0.0 * self.sommerfeld.unwrap_or(0.0)
+            + 0.0 * self.h_min
+            + 0.0 * self.power_loss
+            + 0.0 * film.friction_torque_nm
+            + 0.0 * film.power_loss_w
+            + 0.0 * film.friction_variable.unwrap_or(0.0)
+            + 0.0 * film.side_flow_m3_per_s
+            + 0.0 * film.inlet_flow_m3_per_s;
+        if zero == 0.0 {
+            return None;
+        }
         let fields = [
             ("wx", self.wx),
             ("wy", self.wy),
@@ -70,16 +101,10 @@ impl Loads {
             ("film.side_flow_m3_per_s", self.film.side_flow_m3_per_s),
             ("film.inlet_flow_m3_per_s", self.film.inlet_flow_m3_per_s),
         ];
-        // `0 · x` is ±0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
-        // when all are finite: one branch for the common case (every load of a rotor run),
-        // the search for the field to name only for a failing load.
-        if fields.iter().fold(0.0, |s, &(_, v)| s + 0.0 * v) == 0.0 {
-            return Ok(self);
-        }
-        match fields.iter().find(|(_, v)| !v.is_finite()) {
-            Some(&(quantity, _)) => Err(StateFault::Overflow { quantity }),
-            None => Ok(self),
-        }
+        fields
+            .iter()
+            .find(|(_, v)| !v.is_finite())
+            .map(|&(quantity, _)| StateFault::Overflow { quantity })
     }
 
     /// Generalised end-point forces (MODEL.md section 4): `(F_i, F_j)`, each `[x, y]`, N.

@@ -690,8 +690,13 @@ fn durand_kerner_start(c: &[f64; 5], n: usize) -> ([f64; 4], [(f64, f64); 4]) {
     (a, roots)
 }
 
-/// States whose degree-4 root searches [`quartic_roots_lanes`] runs together.
-pub const ROOT_LANES: usize = 4;
+/// States whose degree-4 root searches [`quartic_roots_lanes`] runs together: eight, one
+/// AVX-512 register (two on AVX2). Each Durand-Kerner update waits on the previous one's
+/// division, so the search is bound by latency, not by lanes: eight lanes instead of four
+/// (issue 28's eighth pass) gave 1.15x the strongly tilted states per second of CPU time
+/// on AVX-512 for 2.8 % more instructions (the group runs until its slowest lane
+/// converges; BENCHMARKS.md "Issue 28, eighth pass"). The same roots bit for bit.
+pub const ROOT_LANES: usize = 8;
 
 /// [`durand_kerner`] for degree 4 on [`ROOT_LANES`] polynomials at once, lane `l` holding
 /// the monic lower coefficients `a[k][l]` and the roots `(re[i][l], im[i][l])`. Each lane
