@@ -27,6 +27,10 @@ use crate::bearing::FilmIntegrals;
 /// The JFO kernel's WGSL source.
 pub const FINITE_JFO_WGSL: &str = include_str!("../../shaders/finite_jfo.wgsl");
 
+/// One state's finished iteration: its field, the sweeps it took, its reported iteration
+/// error and whether that met the tolerance.
+type Solved = (Vec<f64>, u32, f64, bool);
+
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE` in the shader).
 const JOB_STRIDE: usize = 4;
 const OUT_STRIDE: usize = 12;
@@ -208,16 +212,13 @@ impl JfoPipeline {
         reports.resize(jobs.len(), SolveReport::default());
         let mut ladders: Vec<Option<JfoLadder>> =
             jobs.iter().map(|job| JfoLadder::new(job, grid)).collect();
-        loop {
-            // The next grid of the first unfinished ladder; every ladder on it goes along.
-            let Some(next) = ladders
-                .iter()
-                .flatten()
-                .find(|l| !l.done())
-                .map(|l| l.next_grid())
-            else {
-                break;
-            };
+        // The next grid of the first unfinished ladder; every ladder on it goes along.
+        while let Some(next) = ladders
+            .iter()
+            .flatten()
+            .find(|l| !l.done())
+            .map(|l| l.next_grid())
+        {
             let batch: Vec<usize> = (0..jobs.len())
                 .filter(|&k| {
                     ladders[k]
@@ -281,7 +282,7 @@ impl JfoPipeline {
         (nt, nz): (usize, usize),
         max_sweeps: u32,
         tolerance: f64,
-    ) -> Result<Vec<(Vec<f64>, u32, f64, bool)>, BackendError> {
+    ) -> Result<Vec<Solved>, BackendError> {
         let n = nt * (nz + 1);
         let mut solved = Vec::with_capacity(problems.len());
         // Sweeps per dispatch: one invocation marches `rows` rows of `nt` nodes per sweep.

@@ -1219,6 +1219,9 @@ impl FilmRule {
             let len = end - s;
             for (nodes, weights, m) in &self.node_lanes {
                 panel_lanes(self.isa, s, len, &line, nodes, weights, &mut prod);
+                // Node by node, all four sums at each node: the scalar path's order, so
+                // the bits are the same (tests/rule_panel_lanes.rs).
+                #[allow(clippy::needless_range_loop)]
                 for i in 0..*m {
                     acc[0] += prod[0][i];
                     acc[1] += prod[1][i];
