@@ -559,7 +559,9 @@ const FLOOR_C: f64 = 0.25;
 /// multipliers), and the remaining error is the sum of the future changes of that
 /// recurrence, S = ((a + c) D_b + c D_{b−1})/(1 − a − c), in the max norm; at least
 /// |D_b| r/(1 + r) with r = (ω − 1)^block (the least a mode of multiplier modulus ≥ r
-/// can leave). The reported error is never below the rounding floor
+/// can leave), and on the CPU's row-by-row order at least r² |D_{b−1}|/(1 + r) (the same
+/// after the previous block's change: a change that fell faster than r is a rotation
+/// through zero, issue 27 (a), session 35). The reported error is never below the rounding floor
 /// ([`JfoLevel::rounding_floor`]): a tolerance below it is reported as not met, and the
 /// iteration stops once its estimate is at the floor (session 35). Cost: the stop is
 /// decided every `block` sweeps, after at least three blocks; two vector passes per block
