@@ -6,8 +6,8 @@
 //! both ways wherever the true error is above the reference's own level (1e-11): steady
 //! states (aligned, tilted and whirling, max-film feed, an ambient groove with the film
 //! reforming in the land) and time steps of a whirl with the film history; one exception,
-//! judged apart and measured down to 0.15 (the max-film inlet with tilt and squeeze, where
-//! the film reforms in the land before the held column). The squeeze
+//! judged apart and measured down to 0.31 (the max-film inlet with tilt and squeeze, where
+//! the film reforms in the land before the held column; 0.15 before session 35's jfo2 fix). The squeeze
 //! benchmark's steps through rupture and reformation are checked in `tests/jfo_squeeze.rs`
 //! (`iteration_error_honest_through_rupture_and_reformation`).
 
@@ -171,9 +171,13 @@ fn reported_iteration_error_is_within_3x_on_steady_states() {
     let mut ratios = Vec::new();
     // The max-film inlet with tilt and squeeze: some rows' cavitated zones end before the
     // held column and the film reforms in the land (docs/jfo.md "When the two models
-    // agree"); a slow mode hidden under faster ones when the solve stops makes the
-    // estimate low there (measured 0.15-0.31 at tolerances 1e-5 and 1e-8, 1.0-1.2
-    // elsewhere): judged apart, within a factor 8 below and 3 above.
+    // agree"). Session 35 (jfo2): 0.15 (72 × 16, 1e-5) was a rotation through zero at the
+    // max-error node (a φ node next to the reformation) that the fit read as dead modes,
+    // caught by the least error a mode of block multiplier >= r leaves after its previous
+    // change (`BlockStop`): now 0.75 there, 0.49-2.94 in its other runs. Left: 0.31 at
+    // 128 × 32, 1e-5 cold, a slower mode emerging at one front node (its error falling
+    // 0.20, 0.52, 0.64 per block while the fit reads 0.22 and -0.37): judged apart,
+    // within a factor 4 below and 3 above (was 8 below).
     let mut reforming = Vec::new();
     for (nt, nz) in [(72, 16), (128, 32)] {
         for grooved in [false, true] {
@@ -229,7 +233,7 @@ fn reported_iteration_error_is_within_3x_on_steady_states() {
         "reforming in the land: {} judged, ratios {lo:.2} ... {hi:.2}",
         reforming.len()
     );
-    assert!(reforming.len() >= 6 && lo >= 1.0 / 8.0 && hi <= 3.0);
+    assert!(reforming.len() >= 6 && lo >= 1.0 / 4.0 && hi <= 3.0);
 }
 
 /// Time steps of a circular whirl (ε = 0.5 about the bore centre, whirl at 0.3 ω, the

@@ -446,7 +446,7 @@ impl JfoLevel {
         // The floor's estimate once the change stagnated (what a solve that ends at the
         // cap reports: the measured contraction is noise there).
         let mut stalled = None;
-        let mut stop = BlockStop::new(self, omega, tol);
+        let mut stop = BlockStop::new(self, omega, tol, true);
         for sweep in 1..=cap {
             let (dp, pmax, dphi) = self.sweep(omega);
             let change = if pmax > 0.0 { dp / pmax } else { 0.0 }.max(dphi);
@@ -559,7 +559,9 @@ const FLOOR_C: f64 = 0.25;
 /// multipliers), and the remaining error is the sum of the future changes of that
 /// recurrence, S = ((a + c) D_b + c D_{b−1})/(1 − a − c), in the max norm; at least
 /// |D_b| r/(1 + r) with r = (ω − 1)^block (the least a mode of multiplier modulus ≥ r
-/// can leave). The reported error is never below the rounding floor
+/// can leave), and on the CPU's row-by-row order at least r² |D_{b−1}|/(1 + r) (the same
+/// after the previous block's change: a change that fell faster than r is a rotation
+/// through zero, issue 27 (a), session 35). The reported error is never below the rounding floor
 /// ([`JfoLevel::rounding_floor`]): a tolerance below it is reported as not met, and the
 /// iteration stops once its estimate is at the floor (session 35). Cost: the stop is
 /// decided every `block` sweeps, after at least three blocks; two vector passes per block
@@ -574,6 +576,9 @@ pub(crate) struct BlockStop {
     d1: [Vec<f64>; 2],
     d2: [Vec<f64>; 2],
     last_block: f64,
+    /// Whether the least error after the previous block's change applies (the CPU's
+    /// row-by-row order only).
+    prev_floor: bool,
     blocks: u32,
     /// The latest estimate from the changes, and the latest rounding floor computed (0
     /// until computed).
@@ -584,8 +589,11 @@ pub(crate) struct BlockStop {
 }
 
 impl BlockStop {
-    /// The rule for `lvl`'s iteration from its current iterate, SOR factor `omega`.
-    fn new(lvl: &JfoLevel, omega: f64, tol: f64) -> Self {
+    /// The rule for `lvl`'s iteration from its current iterate, SOR factor `omega`;
+    /// `row_order`: the CPU's row-by-row sweep, whose block multipliers have modulus at
+    /// least `(ω − 1)^block` (the previous change's floor applies; not the GPU's zebra
+    /// lines).
+    fn new(lvl: &JfoLevel, omega: f64, tol: f64, row_order: bool) -> Self {
         let block = if omega > 1.0 {
             (0.5_f64.ln() / (omega - 1.0).ln())
                 .ceil()
@@ -602,6 +610,7 @@ impl BlockStop {
             d1: [vec![0.0; n], vec![0.0; n]],
             d2: [vec![0.0; n], vec![0.0; n]],
             last_block: f64::INFINITY,
+            prev_floor: row_order,
             blocks: 0,
             err: f64::INFINITY,
             floor: 0.0,
@@ -678,7 +687,19 @@ impl BlockStop {
                         let s = ((a + c) * db(k) + c * at(d1, k)) / den;
                         m.max(s.abs())
                     });
-                    tail.max(d * r_floor / (1.0 + r_floor))
+                    // Each block multiplier has modulus at least r, so a mode whose change
+                    // was D one block ago still holds at least r² |D|/(1 + r) of error: a
+                    // change that fell faster than r allows (the fit's multipliers then
+                    // read below r) is a rotation through zero or a cancellation, not a
+                    // dead mode (issue 27 (a): the film reforming in the land before the
+                    // held column, estimate 0.15 of the true error without this term).
+                    let prev = if self.prev_floor {
+                        self.last_block * r_floor * r_floor
+                    } else {
+                        0.0
+                    };
+                    let least = (d * r_floor).max(prev) / (1.0 + r_floor);
+                    tail.max(least)
                 } else {
                     // No contraction yet (multipliers near 1).
                     f64::INFINITY
@@ -1306,7 +1327,10 @@ impl JfoProblem {
     pub(crate) fn stop_rule(&self, tol: f64) -> KernelStop {
         let omega = self.omega;
         KernelStop {
-            stop: BlockStop::new(&self.lvl, omega, tol),
+            // The kernel's zebra-line order: its block multipliers are not bounded below
+            // by (ω − 1)^block as the row-by-row order's are (the previous-change floor
+            // read 3.25× the true error there, 128 × 32 whirling at 1e-7): off.
+            stop: BlockStop::new(&self.lvl, omega, tol, false),
             window: (4.0 / (2.0 - omega).max(1e-3)).ceil() as u32 + 20,
             rho_floor: (omega - 1.0).clamp(0.5, 0.9999),
             stalled: None,
