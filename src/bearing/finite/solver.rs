@@ -879,6 +879,26 @@ pub fn ladder_integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Film
     if !nz.is_multiple_of(2) {
         return integrals_on(p, nt, nz, theta0);
     }
+    // Simpson weights over Δζ: 4/3 on odd rows, 2/3 on even ones.
+    row_weighted_integrals(p, nt, nz, theta0, |j| {
+        if j % 2 == 1 {
+            4.0 / 3.0
+        } else {
+            2.0 / 3.0
+        }
+    })
+}
+
+/// `−⅓ Σ_j w(j) Σ_i P_ij (cos θ_i, sin θ_i, ζ_j cos θ_i, ζ_j sin θ_i) Δθ Δζ` over the
+/// interior rows `j` of an `nt × nz` field (node 0 at `theta0`): the rectangle rule in θ
+/// and the row weights `w` in ζ (1: the rectangle rule, exactly, since `1.0 × c == c`).
+fn row_weighted_integrals(
+    p: &[f64],
+    nt: usize,
+    nz: usize,
+    theta0: f64,
+    w: impl Fn(usize) -> f64,
+) -> FilmIntegrals {
     let dt = 2.0 * PI / nt as f64;
     let dz = 1.0 / nz as f64;
     let mut acc = [0.0; 4];
@@ -890,18 +910,17 @@ pub fn ladder_integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Film
         .collect();
     for j in 1..nz {
         let zeta = j as f64 * dz;
-        // Simpson weights over Δζ: 4/3 on odd rows, 2/3 on even ones.
-        let w = if j % 2 == 1 { 4.0 / 3.0 } else { 2.0 / 3.0 };
         let (mut c, mut s) = (0.0, 0.0);
         for (i, &(ci, si)) in trig.iter().enumerate() {
             let v = p[j * nt + i];
             c += v * ci;
             s += v * si;
         }
-        acc[0] += w * c;
-        acc[1] += w * s;
-        acc[2] += w * c * zeta;
-        acc[3] += w * s * zeta;
+        let (c, s) = (w(j) * c, w(j) * s);
+        acc[0] += c;
+        acc[1] += s;
+        acc[2] += c * zeta;
+        acc[3] += s * zeta;
     }
     acc.map(|v| -v * dt * dz / 3.0)
 }
@@ -918,29 +937,7 @@ fn integrals_at(p: &[f64], g: &FiniteGrid, theta0: f64) -> FilmIntegrals {
 
 /// [`integrals_at`] on an `nt × nz` grid.
 pub(super) fn integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> FilmIntegrals {
-    let dt = 2.0 * PI / nt as f64;
-    let dz = 1.0 / nz as f64;
-    let mut acc = [0.0; 4];
-    let trig: Vec<(f64, f64)> = (0..nt)
-        .map(|i| {
-            let th = theta0 + i as f64 * dt;
-            (th.cos(), th.sin())
-        })
-        .collect();
-    for j in 1..nz {
-        let zeta = j as f64 * dz;
-        let (mut c, mut s) = (0.0, 0.0);
-        for (i, &(ci, si)) in trig.iter().enumerate() {
-            let v = p[j * nt + i];
-            c += v * ci;
-            s += v * si;
-        }
-        acc[0] += c;
-        acc[1] += s;
-        acc[2] += c * zeta;
-        acc[3] += s * zeta;
-    }
-    acc.map(|v| -v * dt * dz / 3.0)
+    row_weighted_integrals(p, nt, nz, theta0, |_| 1.0)
 }
 
 /// Integrals of one job from a cold start on the calling thread.
