@@ -39,7 +39,8 @@ use wgpu::util::DeviceExt;
 use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
-    accuracy_ladder, coarser, Coarsen, FiniteGrid, FiniteJob, SolveReport, ALGEBRAIC_FRACTION,
+    accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, SolveReport,
+    ALGEBRAIC_FRACTION,
 };
 use crate::bearing::FilmIntegrals;
 
@@ -375,14 +376,8 @@ impl MultigridPipeline {
             for (s, &k) in chunk.iter().enumerate() {
                 let job = &jobs[k];
                 let e = &job.state.ecc;
-                // Node 0 on the mid-plane's maximum film on the ladder (solver.rs
-                // ladder_start); 0 on explicit grids.
-                let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
-                let theta0 = if accuracy && grid.max_film_inlet && (ex != 0.0 || ey != 0.0) {
-                    (-ey).atan2(-ex)
-                } else {
-                    0.0
-                };
+                // Node 0 on the mid-plane's maximum film on the ladder; 0 on explicit grids.
+                let theta0 = solution_theta0(job, grid);
                 let warm = !accuracy
                     && fields[k].len() == field_stride
                     && fields[k].iter().all(|v| v.is_finite() && *v >= 0.0);

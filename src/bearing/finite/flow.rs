@@ -64,9 +64,21 @@ pub struct FlowIntegrals {
 /// ladder with the `max_film` inlet, the mid-plane's maximum film (the rule of
 /// [`super::FiniteSolver::solve`]); 0 on explicit grids.
 pub fn solution_theta0(job: &FiniteJob, g: &FiniteGrid) -> f64 {
+    if g.accuracy.is_some() {
+        ladder_theta0(job, g.max_film_inlet)
+    } else {
+        0.0
+    }
+}
+
+/// Angle of node 0 on the accuracy ladder, rad: with the `max_film` inlet the mid-plane's
+/// maximum film, `arg(−ε)` of the mean of the end eccentricities (0 for a centred
+/// journal); 0 without it. The one rule of the Swift–Stieber and JFO ladders, on the CPU
+/// and the GPU hosts.
+pub fn ladder_theta0(job: &FiniteJob, max_film_inlet: bool) -> f64 {
     let e = &job.state.ecc;
     let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
-    if g.accuracy.is_some() && g.max_film_inlet && (ex != 0.0 || ey != 0.0) {
+    if max_film_inlet && (ex != 0.0 || ey != 0.0) {
         (-ey).atan2(-ex)
     } else {
         0.0

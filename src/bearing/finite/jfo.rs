@@ -853,13 +853,7 @@ impl JfoSolver {
         // that nearby states share the grid and its node 0 on their own maximum film.
         let held_nt = g.n_theta;
         // The Swift–Stieber ladder's rule: node 0 on the mid-plane's maximum film.
-        let e = &job.state.ecc;
-        let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
-        let theta0 = if g.max_film_inlet && (ex != 0.0 || ey != 0.0) {
-            (-ey).atan2(-ex)
-        } else {
-            0.0
-        };
+        let theta0 = super::ladder_theta0(job, g.max_film_inlet);
         let lvl = &mut self.lvl;
         lvl.updates = 0;
         let mut values = Vec::new();
@@ -1443,15 +1437,8 @@ impl JfoLadder {
     pub(crate) fn new(job: &FiniteJob, g: &FiniteGrid) -> Option<JfoLadder> {
         let spin = job.spin.filter(|s| s.is_finite())?;
         g.accuracy?;
-        // The Swift–Stieber ladder's rule (as `solve_ladder`): node 0 on the mid-plane's
-        // maximum film.
-        let e = &job.state.ecc;
-        let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
-        let theta0 = if g.max_film_inlet && (ex != 0.0 || ey != 0.0) {
-            (-ey).atan2(-ex)
-        } else {
-            0.0
-        };
+        // The Swift–Stieber ladder's rule: node 0 on the mid-plane's maximum film.
+        let theta0 = super::ladder_theta0(job, g.max_film_inlet);
         Some(JfoLadder {
             ladder: accuracy_ladder(job.aspect),
             step: 0,

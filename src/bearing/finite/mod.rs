@@ -16,7 +16,8 @@ pub use error_map::{
     ShortModelError, ERROR_MAP_ASPECTS, ERROR_MAP_ECC,
 };
 pub use flow::{
-    apply_finite_flow, film_flow_of, flow_integrals, solution_grid, solution_theta0, FlowIntegrals,
+    apply_finite_flow, film_flow_of, flow_integrals, ladder_theta0, solution_grid, solution_theta0,
+    FlowIntegrals,
 };
 pub(crate) use jfo::apply_jfo_flow;
 // For the GPU JFO driver (src/backend/finite_jfo.rs): the CPU's discrete problem.

@@ -477,13 +477,7 @@ impl FiniteSolver {
         // for a journal tilted in the plane of its eccentricity), instead of snapped to
         // the nearest column, an irregular first-order error that breaks the Richardson
         // estimate (measured: estimate/true 0.2-8 with snapping, 0.8-1.6 without).
-        let e = &job.state.ecc;
-        let (ex, ey) = (0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]));
-        self.mg.theta0 = if g.max_film_inlet && (ex != 0.0 || ey != 0.0) {
-            (-ey).atan2(-ex)
-        } else {
-            0.0
-        };
+        self.mg.theta0 = super::ladder_theta0(job, g.max_film_inlet);
         self.mg.updates = 0;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
