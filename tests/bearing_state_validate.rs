@@ -2,9 +2,19 @@
 //! gives the same verdict as the exact test `hypot(x, y) / δ < 1` it short-cuts, on states
 //! spread across the fast path's edge (0.99 δ) and the wall (δ), at several clearances;
 //! its finiteness test (one sum, issue 28's eighth pass) names the same field as the loop
-//! over the fields; `h_min`'s one-`hypot` path gives the bits of `δ − max` of both.
+//! over the fields; `h_min`'s and `planar_length`'s `√(x² + y²)` (issue 28's ninth pass)
+//! stay within 2 ulp of the two `hypot`s they replace, and equal them outside their range.
 
-use bearing_sweep::bearing::{BearingState, End, StateFault};
+use bearing_sweep::bearing::{planar_length, BearingState, End, StateFault, PLANAR_RANGE};
+
+/// Distance in units in the last place between two finite numbers of the same sign.
+fn ulps(a: f64, b: f64) -> u64 {
+    assert!(
+        a.is_finite() && b.is_finite() && (a >= 0.0) == (b >= 0.0),
+        "{a} vs {b}"
+    );
+    (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs()
+}
 
 /// The exact rule, as `validate` states it for states past the fast path.
 fn exact(s: &BearingState, c: f64) -> Result<(), StateFault> {
@@ -115,7 +125,7 @@ fn a_non_finite_field_is_named_as_before() {
 }
 
 #[test]
-fn h_min_takes_the_bits_of_both_hypots() {
+fn h_min_is_within_two_ulp_of_both_hypots() {
     let mut seed = 0x9e37_79b9_7f4a_7c15u64;
     let mut next = move || {
         seed = seed
@@ -123,8 +133,9 @@ fn h_min_takes_the_bits_of_both_hypots() {
             .wrapping_add(1_442_695_040_888_963_407);
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
-    let want = |s: &BearingState, c: f64| c - s.xi.hypot(s.yi).max(s.xj.hypot(s.yj));
-    let mut near = 0;
+    // The farther end's length as before issue 28's ninth pass.
+    let far = |s: &BearingState| s.xi.hypot(s.yi).max(s.xj.hypot(s.yj));
+    let (mut near, mut differ, mut worst, mut outside) = (0, 0, 0, 0);
     for k in 0..200_000 {
         // Magnitudes from 1e-170 to 1e170 (squares under- and overflowing at the ends),
         // and ends equal or a few ulp apart in length every few states.
@@ -150,20 +161,89 @@ fn h_min_takes_the_bits_of_both_hypots() {
             ..BearingState::default()
         };
         near += usize::from(k % 4 < 3);
+        // With δ = 0 the result is −(farther length) exactly: compare the lengths.
+        let (got, want) = (-s.h_min(0.0), far(&s));
+        let squares = (s.xi * s.xi + s.yi * s.yi).max(s.xj * s.xj + s.yj * s.yj);
+        if PLANAR_RANGE.contains(&squares) {
+            let u = ulps(got, want);
+            assert!(u <= 2, "state {s:?}: {got:e} vs {want:e}, {u} ulp");
+            differ += usize::from(u > 0);
+            worst = worst.max(u);
+        } else {
+            // Outside the range: the two `hypot`s, bit for bit.
+            assert_eq!(got.to_bits(), want.to_bits(), "state {s:?}");
+            outside += 1;
+        }
+        // Any clearance: δ minus that same length.
         let c = scale;
-        let (got, exp) = (s.h_min(c), want(&s, c));
-        assert_eq!(
-            got.to_bits(),
-            exp.to_bits(),
-            "state {s:?}: {got:e} vs {exp:e}"
-        );
+        assert_eq!(s.h_min(c).to_bits(), (c - got).to_bits(), "state {s:?}");
     }
     assert!(near > 100_000);
+    // Both paths were exercised.
+    assert!(outside > 1000, "{outside} outside");
+    assert!(differ <= 200_000 && worst <= 2);
     // Non-finite positions: as the two-hypot formula.
-    for bad in [f64::NAN, f64::INFINITY] {
-        let s = with_field(0, 1e-5, bad);
-        let (got, exp) = (s.h_min(1e-3), want(&s, 1e-3));
-        assert!(got.to_bits() == exp.to_bits() || (got.is_nan() && exp.is_nan()));
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        for k in 0..4 {
+            let s = with_field(k, 1e-5, bad);
+            let (got, exp) = (s.h_min(1e-3), 1e-3 - far(&s));
+            assert!(
+                got.to_bits() == exp.to_bits() || (got.is_nan() && exp.is_nan()),
+                "field {k} = {bad}: {got} vs {exp}"
+            );
+        }
+    }
+}
+
+#[test]
+fn planar_length_is_within_two_ulp_of_hypot() {
+    let mut seed = 0x2f6b_1d3a_99c4_0e57u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut inside, mut outside, mut differ) = (0, 0, 0);
+    for k in 0..400_000 {
+        // Components from 1e-320 (subnormal) to 1e300 in magnitude, of either sign, one
+        // of them much smaller every few pairs, or exactly zero.
+        let mag = |u: f64| 10f64.powf(-320.0 + 620.0 * u);
+        let x = mag(next()) * if next() < 0.5 { -1.0 } else { 1.0 };
+        let y = match k % 5 {
+            0 => 0.0,
+            1 => x * 1e-9 * next(),
+            _ => mag(next()) * if next() < 0.5 { -1.0 } else { 1.0 },
+        };
+        let (got, want) = (planar_length(x, y), x.hypot(y));
+        if PLANAR_RANGE.contains(&(x * x + y * y)) {
+            let u = ulps(got, want);
+            assert!(u <= 2, "({x:e}, {y:e}): {got:e} vs {want:e}, {u} ulp");
+            inside += 1;
+            differ += usize::from(u > 0);
+        } else {
+            assert_eq!(got.to_bits(), want.to_bits(), "({x:e}, {y:e})");
+            outside += 1;
+        }
+    }
+    // Both paths exercised; `√(x² + y²)` does differ from `hypot` in the last bit on some
+    // (so that the 2 ulp bound, not equality, is what holds).
+    assert!(inside > 50_000 && outside > 50_000 && differ > 100);
+    // Non-finite inputs: `hypot`'s answer (∞ for an infinite component, even with a NaN).
+    for (x, y) in [
+        (f64::INFINITY, f64::NAN),
+        (f64::NAN, 1.0),
+        (f64::NEG_INFINITY, 2.0),
+        (1e300, 1e300),
+        (f64::MAX, f64::MAX),
+        (5e-324, 0.0),
+        (0.0, 0.0),
+    ] {
+        let (got, want) = (planar_length(x, y), x.hypot(y));
+        assert!(
+            got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+            "({x:e}, {y:e}): {got} vs {want}"
+        );
     }
 }
 

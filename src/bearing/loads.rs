@@ -190,6 +190,9 @@ pub fn finish_loads(
 /// coefficients) and every other field is bit for bit the same. For callers that never
 /// read `film` (the rotor's stage evaluations, where those closed forms were ~21 % of
 /// the instructions: BENCHMARKS.md "Issue 28, third pass").
+// Inlined so that the evaluator builds the loads in their place in its output (a call
+// returned them through a stack copy and `memcpy`).
+#[inline]
 pub fn finish_loads_with(
     params: &BearingParams,
     state: &BearingState,
@@ -201,7 +204,9 @@ pub fn finish_loads_with(
     let (wx, wy) = (f * integrals[0], f * integrals[1]);
     let mx = -f * params.length * integrals[3];
     let my = f * params.length * integrals[2];
-    let fr = friction(params, wx.hypot(wy), state.omega);
+    // `|W|` as `√(W_x² + W_y²)` where no square can overflow or underflow (within 2 ulp
+    // of the libm `hypot` used before issue 28's ninth pass; `planar_length`).
+    let fr = friction(params, super::state::planar_length(wx, wy), state.omega);
     let film = if film_outputs {
         short_film_flow(params, state, [wx, wy], [mx, my])
     } else {

@@ -28,5 +28,5 @@ pub use rule::{
     slices_lanes, Accuracy, FilmIntegrals, FilmRule, LaneIsa, Lanes, PackedState, RuleSettings,
     Singularities, ACCURACY_LEVELS, LANES, ROOT_LANES,
 };
-pub use state::{BearingState, End, StateFault};
+pub use state::{planar_length, BearingState, End, StateFault, PLANAR_RANGE};
 pub use thermal::{solve_balance, Balance, ThermalError, ThermalSettings};

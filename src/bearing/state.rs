@@ -128,23 +128,19 @@ impl BearingState {
 
     /// Minimum film thickness `δ − max(|e_i|, |e_j|)`, m (the film is thinnest at an end face).
     pub fn h_min(&self, clearance_m: f64) -> f64 {
-        // The farther end by its squared distance, one `hypot` (a libm call, ~60
-        // instructions) instead of two, where the squares are clearly apart: computed
-        // squares within 4e-16 relative of the true ones (no overflow or underflow in
-        // [1e-300, 1e300]) and apart by 1e-12 put the true lengths apart by 4.9e-13, far
-        // beyond `hypot`'s 1 ulp, so the other `hypot` could not have been the larger and
-        // the result is the same bits. Otherwise (near-equal ends, extreme or non-finite
-        // values) both, as before.
+        // The farther end's length as `√` of the larger squared length where that square
+        // lies in [`PLANAR_RANGE`] (`√` is monotone, so this is the larger of the two
+        // `√(x² + y²)`, each within 2 ulp of `hypot`: [`planar_length`]); a libm `hypot`
+        // (~60 instructions) per end otherwise (extreme or non-finite values). Issue 28's
+        // ninth pass: the last bit can differ from the two `hypot`s used before
+        // (tests/bearing_state_validate.rs checks 2 ulp of the length).
         let si = self.xi * self.xi + self.yi * self.yi;
         let sj = self.xj * self.xj + self.yj * self.yj;
-        // Relative gap between the squares beyond any rounding of theirs or of `hypot`.
-        const APART: f64 = 1.0 + 1e-12;
-        // Range in which the squares neither overflow nor lose precision to underflow.
-        let normal = |s: f64| (1e-300..1e300).contains(&s);
-        let far = if normal(si) && si > sj * APART {
-            self.xi.hypot(self.yi)
-        } else if normal(sj) && sj > si * APART {
-            self.xj.hypot(self.yj)
+        let s = si.max(sj);
+        // `max` ignores a NaN: both compared with it (false for a NaN) so that a
+        // non-finite end goes to `hypot`. The nearer end's square may be 0 or subnormal.
+        let far = if PLANAR_RANGE.contains(&s) && si <= s && sj <= s {
+            s.sqrt()
         } else {
             self.xi.hypot(self.yi).max(self.xj.hypot(self.yj))
         };
@@ -195,5 +191,28 @@ impl BearingState {
             });
         }
         Ok(())
+    }
+}
+
+/// Squared lengths within which [`planar_length`] takes `√(x² + y²)`: no square can overflow
+/// (below 1e300), and the larger square is a normal number (at least half the sum), so a
+/// smaller square's loss to underflow (below 5e-324) is under 1e-23 of the sum, far below
+/// its rounding.
+pub const PLANAR_RANGE: std::ops::Range<f64> = 1e-300..1e300;
+
+/// `√(x² + y²)` (m, N or any unit) as `sqrt(x * x + y * y)` where that sum lies in
+/// [`PLANAR_RANGE`], else libm's `hypot`. Each of the two squares, their sum and the root
+/// is rounded once, so the result is within about 1.5 ulp of the true length, and within
+/// 2 ulp of `hypot` (tests/bearing_state_validate.rs, over 1e-170 to 1e170); ~8
+/// instructions instead of a libm call of ~60 (the friction law's `|W|` and `h_min` on
+/// every load of a rotor run; BENCHMARKS.md "Issue 28, ninth pass"). Non-finite inputs go
+/// to `hypot` (the sum is then NaN or infinite, outside the range).
+#[inline]
+pub fn planar_length(x: f64, y: f64) -> f64 {
+    let s = x * x + y * y;
+    if PLANAR_RANGE.contains(&s) {
+        s.sqrt()
+    } else {
+        x.hypot(y)
     }
 }
