@@ -1,8 +1,6 @@
 //! The batched front end every caller uses: validate and pack on the host, one backend
 //! call for all good states, CPU recomputation of anything non-finite, loads out.
 
-use std::hash::BuildHasherDefault;
-
 use rayon::prelude::*;
 
 use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
@@ -179,6 +177,9 @@ impl EvaluatorOptions {
     }
 }
 
+/// FxHash's odd multiplier (a 64-bit approximation of 2^64 / golden ratio).
+const FX_MULTIPLIER: u64 = 0x51_7c_c1_b7_27_22_0a_95;
+
 /// Hasher of the deduplication keys (bit patterns of packed states): a multiply-rotate
 /// mix of each 8-byte word (the FxHash scheme), several times cheaper than the default
 /// SipHash on 64-byte keys. Keys are our own kernel inputs, not adversarial, so no
@@ -200,8 +201,7 @@ impl std::hash::Hasher for KeyHasher {
     }
 
     fn write_u64(&mut self, v: u64) {
-        // FxHash's odd multiplier (a 64-bit approximation of 2^64 / golden ratio).
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(FX_MULTIPLIER);
     }
 
     fn write_usize(&mut self, v: usize) {
@@ -209,8 +209,62 @@ impl std::hash::Hasher for KeyHasher {
     }
 }
 
-/// The deduplication map: packed-state key to its index in the call's packed list.
-type KeyMap = std::collections::HashMap<[u64; 8], usize, BuildHasherDefault<KeyHasher>>;
+/// The deduplication table of calls below [`PARALLEL_HOST_STATES`]: each distinct packed
+/// state of the call once, found by its key ([`key_of`]). Open addressing with linear
+/// probing over a power-of-two array of slots (`0` empty, else the state's index in the
+/// call's packed list plus one) sized to at least twice the call's requests, so a probe
+/// ends within a few slots. The same verdicts as a map from key to index (equal keys
+/// only), without the general map's entry machinery (~80 instructions a state on the
+/// rotor's calls, BENCHMARKS.md "Issue 28, ninth pass").
+#[derive(Default)]
+struct DedupeTable {
+    slots: Vec<u32>,
+    /// `64 − log2(slots.len())`: the hash's top bits index the table.
+    shift: u32,
+}
+
+impl DedupeTable {
+    /// Empties the table for a call of `requests` requests.
+    fn reset(&mut self, requests: usize) {
+        // Load factor at most 1/2; at least 16 slots.
+        let len = (2 * requests).next_power_of_two().max(16);
+        self.slots.clear();
+        self.slots.resize(len, 0);
+        self.shift = 64 - len.trailing_zeros();
+    }
+
+    /// The index in `packed` of the state with `state`'s key, pushing `state` first if
+    /// there is none: `(index, pushed)`.
+    fn find_or_push(
+        &mut self,
+        packed: &mut Vec<PackedState>,
+        state: &PackedState,
+    ) -> (usize, bool) {
+        let key = key_of(state);
+        let mask = self.slots.len() - 1;
+        // FxHash's step on each word (as `KeyHasher::write_u64`), without the byte-slice
+        // path of `Hash` for arrays.
+        let h = key.iter().fold(0u64, |h, &w| {
+            (h.rotate_left(5) ^ w).wrapping_mul(FX_MULTIPLIER)
+        });
+        let mut i = (h >> self.shift) as usize;
+        loop {
+            let v = self.slots[i];
+            if v == 0 {
+                let n = packed.len();
+                packed.push(*state);
+                // The table holds fewer than 2^32 states (calls below PARALLEL_HOST_STATES).
+                self.slots[i] = (n + 1) as u32;
+                return (n, true);
+            }
+            let n = (v - 1) as usize;
+            if key_of(&packed[n]) == key {
+                return (n, false);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+}
 
 /// Bit pattern of a packed state: the key of identical kernel inputs.
 fn key_of(p: &PackedState) -> [u64; 8] {
@@ -222,7 +276,7 @@ fn key_of(p: &PackedState) -> [u64; 8] {
     k
 }
 
-/// FxHash of a key (as [`KeyHasher`] hashes it in the map).
+/// FxHash of a key (as [`KeyHasher`] hashes it in a map).
 fn key_hash(k: &[u64; 8]) -> u64 {
     use std::hash::{Hash, Hasher};
     let mut h = KeyHasher::default();
@@ -284,7 +338,7 @@ pub struct LoadEvaluator {
     /// Per bearing of the current call: referred to by a request.
     bearing_used: Vec<bool>,
     prepared: Vec<Prepared>,
-    seen: KeyMap,
+    seen: DedupeTable,
     /// Large calls' deduplication ([`first_occurrences`]): first equal request, the
     /// sorted (hash, request) pairs, and each first occurrence's packed index.
     first: Vec<usize>,
@@ -333,7 +387,7 @@ impl LoadEvaluator {
             bearing_ok: Vec::new(),
             bearing_used: Vec::new(),
             prepared: Vec::new(),
-            seen: KeyMap::default(),
+            seen: DedupeTable::default(),
             first: Vec::new(),
             order: Vec::new(),
             packed_at: Vec::new(),
@@ -457,10 +511,13 @@ impl LoadEvaluator {
         requests: &[LoadRequest],
         out: &mut Vec<LoadResult>,
     ) {
+        // One placeholder per request, replaced below by its loads or fault (written in
+        // place: pushing each result moved ~230 bytes through `memcpy`, BENCHMARKS.md
+        // "Issue 28, ninth pass").
         out.clear();
+        out.resize(requests.len(), Err(StateFault::BackendNonFinite));
         self.packed.clear();
         self.slots.clear();
-        self.seen.clear();
         self.finite.clear();
         let mut occurrence: std::collections::HashMap<u32, u32> = Default::default();
         self.stats.calls += 1;
@@ -523,6 +580,9 @@ impl LoadEvaluator {
         }
         // Large calls find their duplicates in parallel (the map below is serial).
         let parallel_dedupe = self.options.dedupe && requests.len() >= PARALLEL_HOST_STATES;
+        if self.options.dedupe && !parallel_dedupe {
+            self.seen.reset(requests.len());
+        }
         if parallel_dedupe {
             first_occurrences(&self.prepared, &mut self.first, &mut self.order);
             self.packed_at.clear();
@@ -536,7 +596,7 @@ impl LoadEvaluator {
             };
             match prepared {
                 Ok((p, true)) => {
-                    out.push(Err(StateFault::BackendNonFinite));
+                    // The placeholder stays until `evaluate_finite` writes the loads.
                     let b = &bearings[req.bearing as usize];
                     let n = occurrence.entry(req.bearing).or_insert(0);
                     self.finite.push(FiniteSlot {
@@ -554,8 +614,7 @@ impl LoadEvaluator {
                     *n += 1;
                 }
                 Ok((p, _)) if p.rate_scale > 0.0 => {
-                    // Placeholder, overwritten below once the integrals are in.
-                    out.push(Err(StateFault::BackendNonFinite));
+                    // The placeholder stays until the integrals are in (below).
                     let n = if parallel_dedupe {
                         let f = self.first[k];
                         if f == k {
@@ -566,11 +625,8 @@ impl LoadEvaluator {
                         }
                         self.packed_at[f]
                     } else if self.options.dedupe {
-                        let next = self.packed.len();
-                        let n = *self.seen.entry(key_of(&p.state)).or_insert(next);
-                        if n == next {
-                            self.packed.push(p.state);
-                        } else {
+                        let (n, pushed) = self.seen.find_or_push(&mut self.packed, &p.state);
+                        if !pushed {
                             self.stats.deduplicated += 1;
                         }
                         n
@@ -581,17 +637,17 @@ impl LoadEvaluator {
                     self.slots.push((k, p.rate_scale, n));
                 }
                 // A film without pressure: its final loads.
-                Ok((_, _)) => out.push(
-                    finish_loads_with(
+                Ok((_, _)) => {
+                    out[k] = finish_loads_with(
                         &bearings[req.bearing as usize],
                         &req.state,
                         &[0.0; 4],
                         0.0,
                         film_of(req.bearing),
                     )
-                    .finite_or_fault(),
-                ),
-                Err(fault) => out.push(Err(fault)),
+                    .finite_or_fault()
+                }
+                Err(fault) => out[k] = Err(fault),
             }
         }
         if !self.finite.is_empty() {
