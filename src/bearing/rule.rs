@@ -413,8 +413,24 @@ fn panel_lanes_avx2(
     panel_lanes_generic(s, len, line, nodes, weights, out)
 }
 
+/// [`panel_lanes_generic`] on the build's baseline instruction set, kept out of line so
+/// that its register setup does not weigh on [`FilmRule::panels`] when a SIMD extension
+/// runs the lanes (~40 instructions a state there, issue 28's ninth pass).
+#[inline(never)]
+fn panel_lanes_baseline(
+    s: f64,
+    len: f64,
+    line: &FilmLine,
+    nodes: &Lanes,
+    weights: &Lanes,
+    out: &mut [Lanes; 4],
+) {
+    panel_lanes_generic(s, len, line, nodes, weights, out)
+}
+
 /// [`panel_lanes_generic`] on instruction set `isa` (dispatched as [`slices_lanes`]; the
 /// same bits on every one).
+#[inline]
 fn panel_lanes(
     isa: LaneIsa,
     s: f64,
@@ -435,7 +451,7 @@ fn panel_lanes(
             // SAFETY: the CPU has AVX2 (checked just above).
             unsafe { panel_lanes_avx2(s, len, line, nodes, weights, out) }
         }
-        _ => panel_lanes_generic(s, len, line, nodes, weights, out),
+        _ => panel_lanes_baseline(s, len, line, nodes, weights, out),
     }
 }
 
