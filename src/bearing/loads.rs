@@ -191,8 +191,9 @@ pub fn finish_loads(
 /// read `film` (the rotor's stage evaluations, where those closed forms were ~21 % of
 /// the instructions: BENCHMARKS.md "Issue 28, third pass").
 // Inlined so that the evaluator builds the loads in their place in its output (a call
-// returned them through a stack copy and `memcpy`).
-#[inline]
+// returned them through a stack temporary and two `memcpy`s of 176 bytes, ~58
+// instructions a state; `#[inline]` alone was not taken).
+#[inline(always)]
 pub fn finish_loads_with(
     params: &BearingParams,
     state: &BearingState,
