@@ -358,8 +358,7 @@ fn panel_lanes_generic(
     line: &FilmLine,
     nodes: &Lanes,
     weights: &Lanes,
-    out: &mut [Lanes; 4],
-) {
+) -> [Lanes; 4] {
     let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = *line;
     let (mut z, mut ex, mut ey, mut rx, mut ry) = (
         [0.0; LANES],
@@ -378,6 +377,9 @@ fn panel_lanes_generic(
     }
     let (mut c, mut sn) = ([0.0; LANES], [0.0; LANES]);
     slices_lanes_generic(&ex, &ey, &rx, &ry, &mut c, &mut sn);
+    // Returned by value (every entry written below): the caller does not clear an
+    // output array for each state.
+    let mut out = [[0.0; LANES]; 4];
     for i in 0..LANES {
         let wg = weights[i] * len * z[i] * (1.0 - z[i]);
         out[0][i] = wg * c[i];
@@ -385,6 +387,7 @@ fn panel_lanes_generic(
         out[2][i] = wg * z[i] * c[i];
         out[3][i] = wg * z[i] * sn[i];
     }
+    out
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -395,9 +398,8 @@ fn panel_lanes_avx512(
     line: &FilmLine,
     nodes: &Lanes,
     weights: &Lanes,
-    out: &mut [Lanes; 4],
-) {
-    panel_lanes_generic(s, len, line, nodes, weights, out)
+) -> [Lanes; 4] {
+    panel_lanes_generic(s, len, line, nodes, weights)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -408,9 +410,8 @@ fn panel_lanes_avx2(
     line: &FilmLine,
     nodes: &Lanes,
     weights: &Lanes,
-    out: &mut [Lanes; 4],
-) {
-    panel_lanes_generic(s, len, line, nodes, weights, out)
+) -> [Lanes; 4] {
+    panel_lanes_generic(s, len, line, nodes, weights)
 }
 
 /// [`panel_lanes_generic`] on the build's baseline instruction set, kept out of line so
@@ -423,9 +424,8 @@ fn panel_lanes_baseline(
     line: &FilmLine,
     nodes: &Lanes,
     weights: &Lanes,
-    out: &mut [Lanes; 4],
-) {
-    panel_lanes_generic(s, len, line, nodes, weights, out)
+) -> [Lanes; 4] {
+    panel_lanes_generic(s, len, line, nodes, weights)
 }
 
 /// [`panel_lanes_generic`] on instruction set `isa` (dispatched as [`slices_lanes`]; the
@@ -438,20 +438,19 @@ fn panel_lanes(
     line: &FilmLine,
     nodes: &Lanes,
     weights: &Lanes,
-    out: &mut [Lanes; 4],
-) {
+) -> [Lanes; 4] {
     match isa {
         #[cfg(target_arch = "x86_64")]
         LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
             // SAFETY: the CPU has AVX-512F (checked just above).
-            unsafe { panel_lanes_avx512(s, len, line, nodes, weights, out) }
+            unsafe { panel_lanes_avx512(s, len, line, nodes, weights) }
         }
         #[cfg(target_arch = "x86_64")]
         LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
             // SAFETY: the CPU has AVX2 (checked just above).
-            unsafe { panel_lanes_avx2(s, len, line, nodes, weights, out) }
+            unsafe { panel_lanes_avx2(s, len, line, nodes, weights) }
         }
-        _ => panel_lanes_baseline(s, len, line, nodes, weights, out),
+        _ => panel_lanes_baseline(s, len, line, nodes, weights),
     }
 }
 
@@ -1159,9 +1158,12 @@ impl FilmRule {
                 out[k] = v;
                 continue;
             }
-            match Singularities::locate_start(state, &self.settings, false) {
-                Located::Done(sing) => out[k] = self.panels(state, &sing).0,
-                Located::Search(p) if p.n == 4 => {
+            let located = Singularities::locate_start(state, &self.settings, false);
+            // Matched by reference: the singularities (128 bytes) are not copied out of
+            // the result for `panels` (~16 instructions a state).
+            match &located {
+                Located::Done(sing) => out[k] = self.panels(state, sing).0,
+                &Located::Search(p) if p.n == 4 => {
                     queue[queued] = Some((k, p));
                     queued += 1;
                     if queued == ROOT_LANES {
@@ -1177,7 +1179,7 @@ impl FilmRule {
                         queued = 0;
                     }
                 }
-                Located::Search(p) => {
+                &Located::Search(p) => {
                     let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
                     out[k] = self.panels(state, &p.finish(&roots, n, sweeps)).0;
                 }
@@ -1224,7 +1226,6 @@ impl FilmRule {
         let mut slices = 0;
         let mut s = 0.0;
         let mut panels = 0;
-        let mut prod = [[0.0; LANES]; 4];
         while s < 1.0 {
             panels += 1;
             let end = if panels >= self.settings.max_panels {
@@ -1234,7 +1235,7 @@ impl FilmRule {
             };
             let len = end - s;
             for (nodes, weights, m) in &self.node_lanes {
-                panel_lanes(self.isa, s, len, &line, nodes, weights, &mut prod);
+                let prod = panel_lanes(self.isa, s, len, &line, nodes, weights);
                 // Node by node, all four sums at each node: the scalar path's order, so
                 // the bits are the same (tests/rule_panel_lanes.rs).
                 #[allow(clippy::needless_range_loop)]
