@@ -369,11 +369,27 @@ const SKIP_MARGIN: f64 = 1e-9;
 
 /// Per aspect ratio `B/D` (its bits), the largest end eccentricity ratio whose short-model
 /// error was looked up.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default)]
 struct ShortSeen {
     len: usize,
     bd_bits: [u64; SHORT_SEEN_SLOTS],
     e_max: [f64; SHORT_SEEN_SLOTS],
+    /// The last skip threshold [`ShortSeen::may_raise`] worked out: the bits of the
+    /// bearing's `(length, radius, clearance)` it is for, and the squared end radius below
+    /// which a state is skipped (`−∞`: never). Cleared whenever [`ShortSeen::seen`] records
+    /// a look-up. A rotor's stage calls alternate few geometries (one, in the workloads of
+    /// issue 28), so most states reuse it instead of working out `B/D` (a division), its
+    /// slot and the threshold again (~60 of the tally's ~105 instructions a state on
+    /// grid9, BENCHMARKS.md "Issue 28, ninth pass"). The same verdicts: the threshold is
+    /// the same expression of the same inputs.
+    threshold: Option<([u64; 3], f64)>,
+}
+
+/// Equal when the looked-up maxima are (the cached threshold is derived from them).
+impl PartialEq for ShortSeen {
+    fn eq(&self, other: &Self) -> bool {
+        self.len == other.len && self.bd_bits == other.bd_bits && self.e_max == other.e_max
+    }
 }
 
 impl ShortSeen {
@@ -383,25 +399,47 @@ impl ShortSeen {
     /// largest so far (the map strictly increases in `ε` below `MAP_LAST_ECC` at a fixed
     /// positive `B/D`). Squared radii instead of `hypot`, with a relative margin of 1e-12
     /// that covers their rounding.
-    fn may_raise(&self, bd: f64, c: f64, s: &BearingState) -> bool {
+    fn may_raise(&mut self, params: &BearingParams, s: &BearingState) -> bool {
+        let key = [
+            params.length.to_bits(),
+            params.radius.to_bits(),
+            params.clearance.to_bits(),
+        ];
+        let skip_below = match self.threshold {
+            Some((k, v)) if k == key => v,
+            _ => {
+                let v = self.skip_below(params.length / (2.0 * params.radius), params.clearance);
+                self.threshold = Some((key, v));
+                v
+            }
+        };
+        let r2 = (s.xi * s.xi + s.yi * s.yi).max(s.xj * s.xj + s.yj * s.yj);
+        // NaN compares false: looked up.
+        let below = r2 < skip_below;
+        !below
+    }
+
+    /// The squared end radius (m²) below which a state in a bearing of aspect `bd` and
+    /// clearance `c` (m) cannot raise the maximum: `lim² (1 − 1e-12)`, `lim = (ε_lim −
+    /// margin) c`; `−∞` where nothing is skipped (no look-up at this aspect yet, or
+    /// unusable `bd`, `c`).
+    fn skip_below(&self, bd: f64, c: f64) -> f64 {
         if !(bd > 0.0 && bd.is_finite() && c > 0.0 && c.is_finite()) {
-            return true;
+            return f64::NEG_INFINITY;
         }
         let Some(k) = (0..self.len).find(|&k| self.bd_bits[k] == bd.to_bits()) else {
-            return true;
+            return f64::NEG_INFINITY;
         };
         let lim = (self.e_max[k].min(MAP_LAST_ECC) - SKIP_MARGIN) * c;
         if lim <= 0.0 {
-            return true;
+            return f64::NEG_INFINITY;
         }
-        let r2 = (s.xi * s.xi + s.yi * s.yi).max(s.xj * s.xj + s.yj * s.yj);
-        // NaN compares false: looked up.
-        let below = r2 < lim * lim * (1.0 - 1e-12);
-        !below
+        lim * lim * (1.0 - 1e-12)
     }
 
     /// Records a looked-up eccentricity `e` for aspect `bd`.
     fn seen(&mut self, bd: f64, e: f64) {
+        self.threshold = None;
         let bits = bd.to_bits();
         if let Some(k) = (0..self.len).find(|&k| self.bd_bits[k] == bits) {
             self.e_max[k] = self.e_max[k].max(e);
@@ -426,11 +464,11 @@ impl SimplificationTally {
             self.finite_states += 1;
         } else {
             self.short_states += 1;
-            let bd = params.length / (2.0 * params.radius);
             // The look-up (two `hypot`s and a bilinear map) was 7 % of a rotor run's
             // instructions (BENCHMARKS.md "Issue 28, eighth pass"); a state less eccentric
             // than one already looked up at the same B/D cannot raise the maximum.
-            if self.short_seen.may_raise(bd, params.clearance, state) {
+            if self.short_seen.may_raise(params, state) {
+                let bd = params.length / (2.0 * params.radius);
                 let (ei, ej) = state.eccentricity_ratios(params.clearance);
                 let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
                 self.short_seen.seen(bd, ei.max(ej));
