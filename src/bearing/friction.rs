@@ -15,6 +15,7 @@ pub struct Friction {
 }
 
 /// Friction for a bearing carrying load `|W|` (N) at relative spin `ω0` (rad/s).
+#[inline]
 pub fn friction(params: &BearingParams, w_abs: f64, omega: f64) -> Friction {
     let phi = params
         .clearance_convention

@@ -56,6 +56,9 @@ impl Loads {
 
     /// [`Loads::finite_or_fault`]'s verdict without moving the loads: `None` if every
     /// number is finite, else the overflow fault naming the first non-finite output.
+    // Inlined into the evaluator's loop (issue 28's ninth pass), the named list kept out
+    // of line.
+    #[inline]
     pub fn fault(&self) -> Option<StateFault> {
         // `0 · x` is ±0 for a finite `x` and NaN for ±∞ or NaN, so the sum is 0 exactly
         // when all are finite: one branch for the common case (every load of a rotor run),
@@ -79,6 +82,13 @@ impl Loads {
         if zero == 0.0 {
             return None;
         }
+        self.first_non_finite()
+    }
+
+    /// The overflow fault naming the first non-finite output, `None` if all are finite.
+    #[cold]
+    #[inline(never)]
+    fn first_non_finite(&self) -> Option<StateFault> {
         let fields = [
             ("wx", self.wx),
             ("wy", self.wy),
@@ -125,6 +135,7 @@ pub struct Packed {
 }
 
 /// Validates `state` and nondimensionalises it for the kernel.
+#[inline]
 pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed, StateFault> {
     state.validate(params.clearance)?;
     let d = params.clearance;

@@ -148,6 +148,7 @@ impl BearingState {
     }
 
     /// Finite inputs and the journal inside the bore at both ends.
+    #[inline]
     pub fn validate(&self, clearance_m: f64) -> Result<(), StateFault> {
         // All finite exactly when this sum of `0 · x` is 0 (NaN otherwise): one test for
         // the common case, the field named only for a failing state.
@@ -161,11 +162,7 @@ impl BearingState {
             + 0.0 * self.vyj
             + 0.0 * self.omega;
         if zero != 0.0 {
-            for (field, value) in self.fields() {
-                if !value.is_finite() {
-                    return Err(StateFault::NonFinite { field });
-                }
-            }
+            self.first_non_finite()?;
         }
         // Fast path: both ends clearly inside the bore (`x² + y² < (0.99 δ)²`, whose
         // rounding, a few ulp, cannot reach the 2 % margin), so `hypot` cannot reach 1;
@@ -177,6 +174,25 @@ impl BearingState {
         {
             return Ok(());
         }
+        self.wall_test(clearance_m)
+    }
+
+    /// The non-finite field named, in the JSON order (`validate` for a state whose sum of
+    /// `0 · x` is not 0; out of line so that `validate` inlines).
+    #[cold]
+    #[inline(never)]
+    fn first_non_finite(&self) -> Result<(), StateFault> {
+        for (field, value) in self.fields() {
+            if !value.is_finite() {
+                return Err(StateFault::NonFinite { field });
+            }
+        }
+        Ok(())
+    }
+
+    /// `validate`'s exact wall test past its fast path.
+    #[inline(never)]
+    fn wall_test(&self, clearance_m: f64) -> Result<(), StateFault> {
         let (ei, ej) = self.eccentricity_ratios(clearance_m);
         if ei >= 1.0 {
             return Err(StateFault::ThroughWall {
