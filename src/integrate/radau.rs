@@ -291,8 +291,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
         buf.clear();
         for &id in &active {
             if vars[id].need_f0 {
-                buf.push(id, tracks[id].t, d)
-                    .copy_from_slice(&y[id * d..(id + 1) * d]);
+                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
             }
         }
         buf.eval(sys, tracks);
@@ -345,8 +344,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 if derived[id] == Some(col) {
                     continue;
                 }
-                let slot = buf.push(id, tracks[id].t, d);
-                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
                 slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
             }
             buf.eval(sys, tracks);
@@ -371,8 +369,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             }
             buf.clear();
             for &id in &retry {
-                let slot = buf.push(id, tracks[id].t, d);
-                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
                 slot[col] -= jacobian_delta(slot[col], scale[id * d + col]);
             }
             buf.eval(sys, tracks);
@@ -451,11 +448,14 @@ pub(crate) fn continue_from<S: BatchSystem>(
             let zb = &mut z[id * d3..(id + 1) * d3];
             if v.have_dense {
                 let al = &dense[id * d3..(id + 1) * d3];
-                for i in 0..3 {
+                let (a1, a23) = al.split_at(d);
+                let (a2, a3) = a23.split_at(d);
+                let (a2, a3) = (&a2[..d], &a3[..d]);
+                for (i, zi) in zb.chunks_exact_mut(d).enumerate() {
                     let th = 1.0 + C[i] * h / v.h_old;
-                    for p in 0..d {
-                        let q = |t: f64| t * (al[p] + t * (al[d + p] + t * al[2 * d + p]));
-                        zb[i * d + p] = q(th) - q(1.0);
+                    for (p, o) in zi.iter_mut().enumerate() {
+                        let q = |t: f64| t * (a1[p] + t * (a2[p] + t * a3[p]));
+                        *o = q(th) - q(1.0);
                     }
                 }
             } else {
@@ -481,11 +481,10 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 if vars[id].newton != Newton::Iterating {
                     continue;
                 }
-                for i in 0..3 {
-                    let slot = buf.push(id, tracks[id].t + C[i] * hs[id], d);
-                    for p in 0..d {
-                        slot[p] = y[id * d + p] + z[id * d3 + i * d + p];
-                    }
+                let yb = &y[id * d..(id + 1) * d];
+                for (i, zi) in z[id * d3..(id + 1) * d3].chunks_exact(d).enumerate() {
+                    let t = tracks[id].t + C[i] * hs[id];
+                    buf.push_from(id, t, yb.iter().zip(zi).map(|(&yv, &zv)| yv + zv));
                 }
             }
             if buf.len() == 0 {
@@ -515,9 +514,17 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 {
                     let (w1, rest) = dw.split_at_mut(d);
                     let (w2, w3) = rest.split_at_mut(d);
+                    // The three stages' slices, so that the loop below indexes within
+                    // slices of length `d` (no bounds checks; the same operations).
+                    let (z1, z23) = zb.split_at(d);
+                    let (z2, z3) = z23.split_at(d);
+                    let (f1, f23) = fs.split_at(d);
+                    let (f2, f3) = f23.split_at(d);
+                    let (w1, w2, w3) = (&mut w1[..d], &mut w2[..d], &mut w3[..d]);
+                    let (z3, f3) = (&z3[..d], &f3[..d]);
                     for p in 0..d {
-                        let zs = [zb[p], zb[d + p], zb[2 * d + p]];
-                        let f = [fs[p], fs[d + p], fs[2 * d + p]];
+                        let zs = [z1[p], z2[p], z3[p]];
+                        let f = [f1[p], f2[p], f3[p]];
                         let tr = |row: &[f64; 3], v: &[f64; 3]| {
                             row[0] * v[0] + row[1] * v[1] + row[2] * v[2]
                         };
@@ -530,17 +537,30 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     lus[id].solve_complex(&red, w2, w3);
                 }
                 let t = &eb.t;
-                for p in 0..d {
-                    let w = [dw[p], dw[d + p], dw[2 * d + p]];
-                    for i in 0..3 {
-                        dz[i * d + p] = t[i][0] * w[0] + t[i][1] * w[1] + t[i][2] * w[2];
+                {
+                    let (w1, w23) = dw.split_at(d);
+                    let (w2, w3) = w23.split_at(d);
+                    let (d1, d23) = dz.split_at_mut(d);
+                    let (d2, d3s) = d23.split_at_mut(d);
+                    let (w2, w3, d1, d2, d3s) = (
+                        &w2[..d],
+                        &w3[..d],
+                        &mut d1[..d],
+                        &mut d2[..d],
+                        &mut d3s[..d],
+                    );
+                    for p in 0..d {
+                        let w = [w1[p], w2[p], w3[p]];
+                        d1[p] = t[0][0] * w[0] + t[0][1] * w[1] + t[0][2] * w[2];
+                        d2[p] = t[1][0] * w[0] + t[1][1] * w[1] + t[1][2] * w[2];
+                        d3s[p] = t[2][0] * w[0] + t[2][1] * w[1] + t[2][2] * w[2];
                     }
                 }
                 let mut sum = 0.0;
                 let wb = &wts[id * d..(id + 1) * d];
-                for i in 0..3 {
-                    for p in 0..d {
-                        sum += (dz[i * d + p] / wb[p]).powi(2);
+                for di in dz.chunks_exact(d) {
+                    for (&dv, &wv) in di.iter().zip(wb) {
+                        sum += (dv / wv).powi(2);
                     }
                 }
                 let norm = (sum / d3 as f64).sqrt();
