@@ -59,6 +59,20 @@ const MAX_NEWTON: usize = 7;
 /// workload), with 0.1 two in five, for 1.6-1.7x fewer right-hand sides at the same error
 /// (BENCHMARKS.md "Issue 28, fourth pass").
 const THETA_JAC: f64 = 0.1;
+/// A variant whose steps on reused Jacobians mostly fail (Newton diverges, the step is
+/// retried with a fresh Jacobian and the failed iterations are wasted) forms one after
+/// every step instead, unless Newton contracted by this much (Hairer's default for cheap
+/// Jacobians). A failed reuse costs ~2 iterations (6 right-hand sides) plus the Jacobian
+/// (10) against the Jacobian alone, so reuse pays while it fails less than ~60 % of the
+/// time; [`REUSE_FAILING`] switches at half. On `sweeps/clearance-viscosity.json`'s
+/// stiffest variants (δ = 1e-4 m) nearly every step reused a Jacobian, failed, and formed
+/// one anyway (BENCHMARKS.md "Issue 28, ninth pass").
+const THETA_JAC_MIN: f64 = 1e-3;
+/// The failure rate of reuse (a moving average, weight [`REUSE_MEMORY`] on the past)
+/// above which a variant stops reusing Jacobians ([`THETA_JAC_MIN`]).
+const REUSE_FAILING: f64 = 0.5;
+/// Weight of the past in a variant's failure rate of reuse: about the last five reuses.
+const REUSE_MEMORY: f64 = 0.8;
 /// Newton stops when its estimated remaining error is below this fraction of the local
 /// error tolerance (the error norm's unit): Hairer's cap on `fnewt`. (His tolerance
 /// transformation `rtol' = 0.1 rtol^(2/3)` makes his stopping level about 3 % of the
@@ -199,6 +213,9 @@ struct Var {
     iters: usize,
     norm_old: f64,
     theta: f64,
+    /// Moving average of the outcome of steps on reused Jacobians (1: Newton failed),
+    /// see [`THETA_JAC_MIN`].
+    reuse_fails: f64,
 }
 
 pub(crate) fn run<S: BatchSystem>(
@@ -273,6 +290,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             iters: 0,
             norm_old: 0.0,
             theta: 0.0,
+            reuse_fails: 0.0,
         })
         .collect();
     let mut hs = vec![0.0; n];
@@ -625,6 +643,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     tr.stats.rejected += 1;
                     if !v.jac_current {
                         v.need_jac = true;
+                        v.reuse_fails = REUSE_MEMORY * v.reuse_fails + (1.0 - REUSE_MEMORY);
                     } else {
                         tr.h = h * NEWTON_SHRINK;
                         if fixed || tr.h < floor {
@@ -689,8 +708,17 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 v.have_dense = true;
                 v.h_old = h;
                 v.need_f0 = true;
+                if !v.jac_current {
+                    // Converged on a reused Jacobian.
+                    v.reuse_fails *= REUSE_MEMORY;
+                }
                 v.jac_current = false;
-                v.need_jac = v.theta > THETA_JAC;
+                let theta_jac = if v.reuse_fails > REUSE_FAILING {
+                    THETA_JAC_MIN
+                } else {
+                    THETA_JAC
+                };
+                v.need_jac = v.theta > theta_jac;
                 let fac = if norm == 0.0 {
                     FAC_MAX
                 } else {
