@@ -6,10 +6,12 @@
 //! next step's Newton then diverged on nearly every step (403 of 425 steps retried with a
 //! fresh Jacobian at rtol 1e-6 over 0.5 s, the failed iterations wasted); a variant whose
 //! reuses mostly fail now forms a Jacobian after every step instead. Checked where it can
-//! fail: that variant's retries stay few and its positions within the tolerance against a
-//! tight reference; a variant where reuse works (clearance 6e-4 m, viscosity 0.005 Pa·s:
-//! 187 Jacobians in 510 steps before) keeps forming one on fewer than half of its steps
-//! (a rule that stopped reusing after any failure formed 415 in 496).
+//! fail, over 0.2 s: that variant's retries stay under a tenth of its steps and its
+//! positions within the tolerance against a tight reference; a variant where reuse works
+//! (clearance 6e-4 m, viscosity 0.005 Pa·s: 187 Jacobians in 510 steps over 0.5 s before)
+//! keeps forming one on fewer than half of its steps (a rule that cut the reuse threshold
+//! after every failure formed 415 in 496 over 0.5 s; BENCHMARKS.md "Issue 28, ninth
+//! pass").
 
 use bearing_sweep::backend::{create_backend, BackendKind, LoadEvaluator};
 use bearing_sweep::bearing::Accuracy;
@@ -69,7 +71,10 @@ fn radau5_forms_jacobians_where_reuse_fails_and_reuses_them_where_it_works() {
     ];
     let rtol = scenes[0].integrator.rtol;
     let got = run(&scenes, 1e-12);
-    let reference = run(&[variant(stiff.0, stiff.1, Method::Dopri5, Some(1e-11))], 1e-12);
+    let reference = run(
+        &[variant(stiff.0, stiff.1, Method::Dopri5, Some(1e-11))],
+        1e-12,
+    );
     for r in got.iter().chain(&reference) {
         assert_eq!(r.status, SimStatus::Finished, "{} {:?}", r.name, r.method);
     }
@@ -90,8 +95,15 @@ fn radau5_forms_jacobians_where_reuse_fails_and_reuses_them_where_it_works() {
     let err = position_error(s, &reference[0]);
     // The tolerance: rtol of the clearance, with a global-error factor of 10.
     let tol = 10.0 * rtol * stiff.0;
-    eprintln!("{}: position error {err:.2e} m (tolerance {tol:.1e} m)", s.name);
-    assert!(err < tol, "{}: position error {err:e} m > {tol:e} m", s.name);
+    eprintln!(
+        "{}: position error {err:.2e} m (tolerance {tol:.1e} m)",
+        s.name
+    );
+    assert!(
+        err < tol,
+        "{}: position error {err:e} m > {tol:e} m",
+        s.name
+    );
     assert!(
         e.stats.jacobians * 2 < e.stats.steps,
         "{}: {} Jacobians in {} steps (reuse given up where it works)",
