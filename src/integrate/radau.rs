@@ -7,7 +7,8 @@
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
-//! Jacobians are reused while Newton converges fast (contraction <= 0.1). What a system
+//! Jacobians are reused while Newton converges fast (contraction <= 0.1), except on a
+//! variant whose reuses mostly fail (then <= 1e-3, Hairer's default). What a system
 //! declares of its structure is used: kinematic rows and quadratures are eliminated from
 //! the Newton systems in closed form (`super::reduced`), and one column of a
 //! scale-invariant block is derived from the others by Euler's relation instead of
