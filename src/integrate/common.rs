@@ -159,6 +159,21 @@ impl<F: Clone> Packed<F> {
         &mut self.ys[n..]
     }
 
+    /// Appends an entry whose state is `state` (no zero fill before the copy) and returns
+    /// its slot.
+    pub(crate) fn push_from(
+        &mut self,
+        id: usize,
+        t: f64,
+        state: impl IntoIterator<Item = f64>,
+    ) -> &mut [f64] {
+        self.ids.push(id);
+        self.ts.push(t);
+        let n = self.ys.len();
+        self.ys.extend(state);
+        &mut self.ys[n..]
+    }
+
     /// Evaluates all entries in one system call; `stats[id]` counts them.
     pub(crate) fn eval<S: BatchSystem<Fault = F>>(&mut self, sys: &mut S, tracks: &mut [Track<F>]) {
         let dim = sys.dim();

@@ -7,7 +7,8 @@
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
-//! Jacobians are reused while Newton converges fast (contraction <= 0.1). What a system
+//! Jacobians are reused while Newton converges fast (contraction <= 0.1), except on a
+//! variant whose reuses mostly fail (then <= 1e-3, Hairer's default). What a system
 //! declares of its structure is used: kinematic rows and quadratures are eliminated from
 //! the Newton systems in closed form (`super::reduced`), and one column of a
 //! scale-invariant block is derived from the others by Euler's relation instead of
@@ -59,6 +60,20 @@ const MAX_NEWTON: usize = 7;
 /// workload), with 0.1 two in five, for 1.6-1.7x fewer right-hand sides at the same error
 /// (BENCHMARKS.md "Issue 28, fourth pass").
 const THETA_JAC: f64 = 0.1;
+/// A variant whose steps on reused Jacobians mostly fail (Newton diverges, the step is
+/// retried with a fresh Jacobian and the failed iterations are wasted) forms one after
+/// every step instead, unless Newton contracted by this much (Hairer's default for cheap
+/// Jacobians). A failed reuse costs ~2 iterations (6 right-hand sides) plus the Jacobian
+/// (10) against the Jacobian alone, so reuse pays while it fails less than ~60 % of the
+/// time; [`REUSE_FAILING`] switches at half. On `sweeps/clearance-viscosity.json`'s
+/// stiffest variants (δ = 1e-4 m) nearly every step reused a Jacobian, failed, and formed
+/// one anyway (BENCHMARKS.md "Issue 28, ninth pass").
+const THETA_JAC_MIN: f64 = 1e-3;
+/// The failure rate of reuse (a moving average, weight [`REUSE_MEMORY`] on the past)
+/// above which a variant stops reusing Jacobians ([`THETA_JAC_MIN`]).
+const REUSE_FAILING: f64 = 0.5;
+/// Weight of the past in a variant's failure rate of reuse: about the last five reuses.
+const REUSE_MEMORY: f64 = 0.8;
 /// Newton stops when its estimated remaining error is below this fraction of the local
 /// error tolerance (the error norm's unit): Hairer's cap on `fnewt`. (His tolerance
 /// transformation `rtol' = 0.1 rtol^(2/3)` makes his stopping level about 3 % of the
@@ -199,6 +214,9 @@ struct Var {
     iters: usize,
     norm_old: f64,
     theta: f64,
+    /// Moving average of the outcome of steps on reused Jacobians (1: Newton failed),
+    /// see [`THETA_JAC_MIN`].
+    reuse_fails: f64,
 }
 
 pub(crate) fn run<S: BatchSystem>(
@@ -273,6 +291,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             iters: 0,
             norm_old: 0.0,
             theta: 0.0,
+            reuse_fails: 0.0,
         })
         .collect();
     let mut hs = vec![0.0; n];
@@ -291,8 +310,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
         buf.clear();
         for &id in &active {
             if vars[id].need_f0 {
-                buf.push(id, tracks[id].t, d)
-                    .copy_from_slice(&y[id * d..(id + 1) * d]);
+                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
             }
         }
         buf.eval(sys, tracks);
@@ -345,8 +363,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 if derived[id] == Some(col) {
                     continue;
                 }
-                let slot = buf.push(id, tracks[id].t, d);
-                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
                 slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
             }
             buf.eval(sys, tracks);
@@ -371,8 +388,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             }
             buf.clear();
             for &id in &retry {
-                let slot = buf.push(id, tracks[id].t, d);
-                slot.copy_from_slice(&y[id * d..(id + 1) * d]);
+                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
                 slot[col] -= jacobian_delta(slot[col], scale[id * d + col]);
             }
             buf.eval(sys, tracks);
@@ -451,11 +467,14 @@ pub(crate) fn continue_from<S: BatchSystem>(
             let zb = &mut z[id * d3..(id + 1) * d3];
             if v.have_dense {
                 let al = &dense[id * d3..(id + 1) * d3];
-                for i in 0..3 {
+                let (a1, a23) = al.split_at(d);
+                let (a2, a3) = a23.split_at(d);
+                let (a2, a3) = (&a2[..d], &a3[..d]);
+                for (i, zi) in zb.chunks_exact_mut(d).enumerate() {
                     let th = 1.0 + C[i] * h / v.h_old;
-                    for p in 0..d {
-                        let q = |t: f64| t * (al[p] + t * (al[d + p] + t * al[2 * d + p]));
-                        zb[i * d + p] = q(th) - q(1.0);
+                    for (p, o) in zi.iter_mut().enumerate() {
+                        let q = |t: f64| t * (a1[p] + t * (a2[p] + t * a3[p]));
+                        *o = q(th) - q(1.0);
                     }
                 }
             } else {
@@ -481,11 +500,10 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 if vars[id].newton != Newton::Iterating {
                     continue;
                 }
-                for i in 0..3 {
-                    let slot = buf.push(id, tracks[id].t + C[i] * hs[id], d);
-                    for p in 0..d {
-                        slot[p] = y[id * d + p] + z[id * d3 + i * d + p];
-                    }
+                let yb = &y[id * d..(id + 1) * d];
+                for (i, zi) in z[id * d3..(id + 1) * d3].chunks_exact(d).enumerate() {
+                    let t = tracks[id].t + C[i] * hs[id];
+                    buf.push_from(id, t, yb.iter().zip(zi).map(|(&yv, &zv)| yv + zv));
                 }
             }
             if buf.len() == 0 {
@@ -515,9 +533,17 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 {
                     let (w1, rest) = dw.split_at_mut(d);
                     let (w2, w3) = rest.split_at_mut(d);
+                    // The three stages' slices, so that the loop below indexes within
+                    // slices of length `d` (no bounds checks; the same operations).
+                    let (z1, z23) = zb.split_at(d);
+                    let (z2, z3) = z23.split_at(d);
+                    let (f1, f23) = fs.split_at(d);
+                    let (f2, f3) = f23.split_at(d);
+                    let (w1, w2, w3) = (&mut w1[..d], &mut w2[..d], &mut w3[..d]);
+                    let (z3, f3) = (&z3[..d], &f3[..d]);
                     for p in 0..d {
-                        let zs = [zb[p], zb[d + p], zb[2 * d + p]];
-                        let f = [fs[p], fs[d + p], fs[2 * d + p]];
+                        let zs = [z1[p], z2[p], z3[p]];
+                        let f = [f1[p], f2[p], f3[p]];
                         let tr = |row: &[f64; 3], v: &[f64; 3]| {
                             row[0] * v[0] + row[1] * v[1] + row[2] * v[2]
                         };
@@ -530,17 +556,30 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     lus[id].solve_complex(&red, w2, w3);
                 }
                 let t = &eb.t;
-                for p in 0..d {
-                    let w = [dw[p], dw[d + p], dw[2 * d + p]];
-                    for i in 0..3 {
-                        dz[i * d + p] = t[i][0] * w[0] + t[i][1] * w[1] + t[i][2] * w[2];
+                {
+                    let (w1, w23) = dw.split_at(d);
+                    let (w2, w3) = w23.split_at(d);
+                    let (d1, d23) = dz.split_at_mut(d);
+                    let (d2, d3s) = d23.split_at_mut(d);
+                    let (w2, w3, d1, d2, d3s) = (
+                        &w2[..d],
+                        &w3[..d],
+                        &mut d1[..d],
+                        &mut d2[..d],
+                        &mut d3s[..d],
+                    );
+                    for p in 0..d {
+                        let w = [w1[p], w2[p], w3[p]];
+                        d1[p] = t[0][0] * w[0] + t[0][1] * w[1] + t[0][2] * w[2];
+                        d2[p] = t[1][0] * w[0] + t[1][1] * w[1] + t[1][2] * w[2];
+                        d3s[p] = t[2][0] * w[0] + t[2][1] * w[1] + t[2][2] * w[2];
                     }
                 }
                 let mut sum = 0.0;
                 let wb = &wts[id * d..(id + 1) * d];
-                for i in 0..3 {
-                    for p in 0..d {
-                        sum += (dz[i * d + p] / wb[p]).powi(2);
+                for di in dz.chunks_exact(d) {
+                    for (&dv, &wv) in di.iter().zip(wb) {
+                        sum += (dv / wv).powi(2);
                     }
                 }
                 let norm = (sum / d3 as f64).sqrt();
@@ -605,6 +644,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     tr.stats.rejected += 1;
                     if !v.jac_current {
                         v.need_jac = true;
+                        v.reuse_fails = REUSE_MEMORY * v.reuse_fails + (1.0 - REUSE_MEMORY);
                     } else {
                         tr.h = h * NEWTON_SHRINK;
                         if fixed || tr.h < floor {
@@ -669,8 +709,17 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 v.have_dense = true;
                 v.h_old = h;
                 v.need_f0 = true;
+                if !v.jac_current {
+                    // Converged on a reused Jacobian.
+                    v.reuse_fails *= REUSE_MEMORY;
+                }
                 v.jac_current = false;
-                v.need_jac = v.theta > THETA_JAC;
+                let theta_jac = if v.reuse_fails > REUSE_FAILING {
+                    THETA_JAC_MIN
+                } else {
+                    THETA_JAC
+                };
+                v.need_jac = v.theta > theta_jac;
                 let fac = if norm == 0.0 {
                     FAC_MAX
                 } else {

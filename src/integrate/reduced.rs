@@ -90,6 +90,9 @@ pub(crate) struct NewtonLu {
     m_im: Vec<f64>,
     r_re: Vec<f64>,
     r_im: Vec<f64>,
+    /// Scratch: the eliminated components' right-hand sides over the shift.
+    q_re: Vec<f64>,
+    q_im: Vec<f64>,
 }
 
 impl NewtonLu {
@@ -174,11 +177,14 @@ impl NewtonLu {
     /// Solves `(γ I − J) x = b` in place (`b`, length `d`, becomes `x`).
     pub(crate) fn solve_real(&mut self, red: &Reduction, b: &mut [f64]) {
         let (n, nk, g) = (red.size(), red.kin.len(), self.gamma);
+        // `b_i / γ` of each eliminated component, once (the same quotient every row used).
+        self.q_re.clear();
+        self.q_re.extend(red.kin.iter().map(|&(i, _)| b[i] / g));
         self.r_re.clear();
         for (a, &r) in red.keep.iter().enumerate() {
             let mut s = b[r];
-            for (k, &(i, _)) in red.kin.iter().enumerate() {
-                s += self.jk[a * nk + k] * (b[i] / g);
+            for (&jv, &q) in self.jk[a * nk..(a + 1) * nk].iter().zip(&self.q_re) {
+                s += jv * q;
             }
             self.r_re.push(s);
         }
@@ -206,13 +212,20 @@ impl NewtonLu {
         let (ir, ii) = (self.alpha / den, -self.beta / den);
         // (u + iv) / σ.
         let over = |u: f64, v: f64| (u * ir - v * ii, u * ii + v * ir);
+        // `b_i / σ` of each eliminated component, once (the same quotient every row used).
+        self.q_re.clear();
+        self.q_im.clear();
+        for &(i, _) in &red.kin {
+            let (qr, qi) = over(br[i], bi[i]);
+            self.q_re.push(qr);
+            self.q_im.push(qi);
+        }
         self.r_re.clear();
         self.r_im.clear();
         for (a, &r) in red.keep.iter().enumerate() {
             let (mut sr, mut si) = (br[r], bi[r]);
-            for (k, &(i, _)) in red.kin.iter().enumerate() {
-                let jv = self.jk[a * nk + k];
-                let (qr, qi) = over(br[i], bi[i]);
+            let q = self.q_re.iter().zip(&self.q_im);
+            for (&jv, (&qr, &qi)) in self.jk[a * nk..(a + 1) * nk].iter().zip(q) {
                 sr += jv * qr;
                 si += jv * qi;
             }
