@@ -23,8 +23,9 @@
 //! coupled one (semi-coarsening keeps point smoothing effective for short and long
 //! bearings). The coarsest grid is solved by projected SOR.
 //!
-//! Full multigrid: each grid starts from the bilinear interpolation of the next coarser
-//! solution, so a solve from cold costs a few V-cycles of the finest grid, linear in the
+//! Full multigrid: each grid starts from the interpolation of the next coarser
+//! solution (cubic on explicit grids, [`prolong_solution_cubic`]; bilinear on the accuracy
+//! ladder, [`prolong_solution`]), so a solve from cold costs a few V-cycles of the finest grid, linear in the
 //! node count, and passes through every coarser grid's solution (the nested solutions the
 //! accuracy control of [`super::solver`] extrapolates from).
 
@@ -790,6 +791,83 @@ pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
                 (0, _) => 0.5 * (u(jc, ic) + u(jc, ic + 1)),
                 (_, 0) => 0.5 * (u(jc, ic) + u(jc + 1, ic)),
                 _ => 0.25 * (u(jc, ic) + u(jc, ic + 1) + u(jc + 1, ic) + u(jc + 1, ic + 1)),
+            };
+            let k = j * fine.nt + i;
+            fine.p[k] = if fine.inv_d[k] == 0.0 {
+                fine.hold[k]
+            } else {
+                v.max(0.0)
+            };
+        }
+    }
+}
+
+/// Cubic interpolation at the midpoint of four equally spaced values `a, b, c, d` (between
+/// `b` and `c`): `(−a + 9b + 9c − d)/16`, fourth order.
+#[inline(always)]
+fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    (9.0 * (b + c) - (a + d)) * (1.0 / 16.0)
+}
+
+/// One-sided cubic interpolation at the midpoint of the first two of four equally spaced
+/// values `a, b, c, d` (between `a` and `b`): `(5a + 15b − 5c + d)/16`, fourth order (the
+/// Lagrange weights at 1/2 of the nodes 0, 1, 2, 3).
+#[inline(always)]
+fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    (5.0 * a + 15.0 * b - 5.0 * c + d) * (1.0 / 16.0)
+}
+
+/// `fine.p = P₄ coarse.p`: the FMG start of an explicit grid by cubic interpolation (the
+/// tensor product of four-point Lagrange interpolation at the midpoints: periodic in θ, in
+/// ζ one-sided next to the end faces, whose rows are 0), clipped at 0; held nodes at their
+/// value. Fourth order, above the discretisation's second: the interpolated coarse
+/// solution's error is then the coarse grid's discretisation error, which one V-cycle
+/// reduces below the fine grid's (the classical FMG condition; bilinear interpolation,
+/// [`prolong_solution`], is itself second order and leaves an `O(h²)` interpolation error
+/// of the size of the discretisation error). Below four coarse rows in ζ (or columns in θ)
+/// the direction falls back to linear interpolation.
+pub(crate) fn prolong_solution_cubic(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let (st, sz) = strides(c);
+    let (cnt, cnz) = (coarse.nt, coarse.nz);
+    let cubic_t = st == 2 && cnt >= 4;
+    let cubic_z = sz == 2 && cnz >= 3;
+    // Coarse row `jc` interpolated in θ at fine column `i`.
+    let row = |jc: usize, i: usize| -> f64 {
+        let u = &coarse.p[jc * cnt..(jc + 1) * cnt];
+        if st == 1 {
+            return u[i];
+        }
+        let (ic, io) = (i / 2, i % 2);
+        if io == 0 {
+            return u[ic];
+        }
+        let next = |k: usize| if k + 1 == cnt { 0 } else { k + 1 };
+        let (i1, i2) = (next(ic), next(next(ic)));
+        if cubic_t {
+            let i0 = if ic == 0 { cnt - 1 } else { ic - 1 };
+            cubic_mid(u[i0], u[ic], u[i1], u[i2])
+        } else {
+            0.5 * (u[ic] + u[i1])
+        }
+    };
+    for j in 1..fine.nz {
+        let (jc, jo) = (j / sz, j % sz);
+        for i in 0..fine.nt {
+            let v = if jo == 0 {
+                row(jc, i)
+            } else if !cubic_z {
+                0.5 * (row(jc, i) + row(jc + 1, i))
+            } else if jc == 0 {
+                cubic_edge(row(0, i), row(1, i), row(2, i), row(3, i))
+            } else if jc + 1 == cnz {
+                cubic_edge(
+                    row(cnz, i),
+                    row(cnz - 1, i),
+                    row(cnz - 2, i),
+                    row(cnz - 3, i),
+                )
+            } else {
+                cubic_mid(row(jc - 1, i), row(jc, i), row(jc + 1, i), row(jc + 2, i))
             };
             let k = j * fine.nt + i;
             fine.p[k] = if fine.inv_d[k] == 0.0 {
