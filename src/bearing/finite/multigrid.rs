@@ -817,6 +817,19 @@ fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
     (5.0 * a + 15.0 * b - 5.0 * c + d) * (1.0 / 16.0)
 }
 
+/// `out[i] = v(i)` clipped at 0, or the held value where `inv` is 0 (a fine row of an
+/// FMG start).
+#[inline(always)]
+fn fill(out: &mut [f64], inv: &[f64], hold: &[f64], v: impl Fn(usize) -> f64) {
+    for i in 0..out.len() {
+        out[i] = if inv[i] == 0.0 {
+            hold[i]
+        } else {
+            v(i).max(0.0)
+        };
+    }
+}
+
 /// `fine.p = P₄ coarse.p`: the FMG start of an explicit grid by cubic interpolation (the
 /// tensor product of four-point Lagrange interpolation at the midpoints: periodic in θ, in
 /// ζ one-sided next to the end faces, whose rows are 0), clipped at 0; held nodes at their
@@ -829,52 +842,55 @@ fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
 pub(crate) fn prolong_solution_cubic(fine: &mut Level, coarse: &Level, c: Coarsen) {
     let (st, sz) = strides(c);
     let (cnt, cnz) = (coarse.nt, coarse.nz);
+    let nt = fine.nt;
     let cubic_t = st == 2 && cnt >= 4;
     let cubic_z = sz == 2 && cnz >= 3;
-    // Coarse row `jc` interpolated in θ at fine column `i`.
-    let row = |jc: usize, i: usize| -> f64 {
+    // First each coarse row interpolated in θ onto the fine columns, into the fine
+    // level's scratch `base` (rows 0 ..= cnz of length nt; restriction overwrites it
+    // before a cycle reads it); then the fine rows from those in ζ.
+    let rows = &mut fine.base[..(cnz + 1) * nt];
+    for jc in 0..=cnz {
         let u = &coarse.p[jc * cnt..(jc + 1) * cnt];
+        let out = &mut rows[jc * nt..(jc + 1) * nt];
         if st == 1 {
-            return u[i];
+            out.copy_from_slice(u);
+            continue;
         }
-        let (ic, io) = (i / 2, i % 2);
-        if io == 0 {
-            return u[ic];
+        for ic in 0..cnt {
+            // Neighbours ic − 1, ic + 1, ic + 2 (periodic), comparisons rather than `%`.
+            let i1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let i2 = if i1 + 1 == cnt { 0 } else { i1 + 1 };
+            out[2 * ic] = u[ic];
+            out[2 * ic + 1] = if cubic_t {
+                let i0 = if ic == 0 { cnt - 1 } else { ic - 1 };
+                cubic_mid(u[i0], u[ic], u[i1], u[i2])
+            } else {
+                0.5 * (u[ic] + u[i1])
+            };
         }
-        let next = |k: usize| if k + 1 == cnt { 0 } else { k + 1 };
-        let (i1, i2) = (next(ic), next(next(ic)));
-        if cubic_t {
-            let i0 = if ic == 0 { cnt - 1 } else { ic - 1 };
-            cubic_mid(u[i0], u[ic], u[i1], u[i2])
-        } else {
-            0.5 * (u[ic] + u[i1])
-        }
-    };
+    }
+    let rows = &fine.base[..(cnz + 1) * nt];
+    let row = |jc: usize| &rows[jc * nt..(jc + 1) * nt];
     for j in 1..fine.nz {
         let (jc, jo) = (j / sz, j % sz);
-        for i in 0..fine.nt {
-            let v = if jo == 0 {
-                row(jc, i)
-            } else if !cubic_z {
-                0.5 * (row(jc, i) + row(jc + 1, i))
-            } else if jc == 0 {
-                cubic_edge(row(0, i), row(1, i), row(2, i), row(3, i))
-            } else if jc + 1 == cnz {
-                cubic_edge(
-                    row(cnz, i),
-                    row(cnz - 1, i),
-                    row(cnz - 2, i),
-                    row(cnz - 3, i),
-                )
-            } else {
-                cubic_mid(row(jc - 1, i), row(jc, i), row(jc + 1, i), row(jc + 2, i))
-            };
-            let k = j * fine.nt + i;
-            fine.p[k] = if fine.inv_d[k] == 0.0 {
-                fine.hold[k]
-            } else {
-                v.max(0.0)
-            };
+        let out = &mut fine.p[j * nt..(j + 1) * nt];
+        let inv = &fine.inv_d[j * nt..(j + 1) * nt];
+        let hold = &fine.hold[j * nt..(j + 1) * nt];
+        if jo == 0 {
+            let a = row(jc);
+            fill(out, inv, hold, |i| a[i]);
+        } else if !cubic_z {
+            let (a, b) = (row(jc), row(jc + 1));
+            fill(out, inv, hold, |i| 0.5 * (a[i] + b[i]));
+        } else if jc == 0 {
+            let (a, b, c, d) = (row(0), row(1), row(2), row(3));
+            fill(out, inv, hold, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else if jc + 1 == cnz {
+            let (a, b, c, d) = (row(cnz), row(cnz - 1), row(cnz - 2), row(cnz - 3));
+            fill(out, inv, hold, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else {
+            let (a, b, c, d) = (row(jc - 1), row(jc), row(jc + 1), row(jc + 2));
+            fill(out, inv, hold, |i| cubic_mid(a[i], b[i], c[i], d[i]));
         }
     }
 }
@@ -1005,7 +1021,11 @@ impl Hierarchy {
         }
         let mut prev = Vec::new();
         let simpson = self.simpson_z;
-        let mut prev_loads = self.levels[l].loads(self.theta0, simpson);
+        // The loads before the first cycle: only the load stop reads them.
+        let mut prev_loads = match stop {
+            Stop::Loads(_) => self.levels[l].loads(self.theta0, simpson),
+            Stop::Field(_) => [0.0; 4],
+        };
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {

@@ -457,15 +457,16 @@ impl FiniteSolver {
 
     /// Probe of the equal-error comparison (examples/mg_equal_error.rs): the fixed grid
     /// `g` from cold by full multigrid as [`FiniteSolver::solve`] does it, then exactly
-    /// `cycles` V-cycles on the grid (no stop test); `observe(node updates so far, field)`
-    /// once the grid is interpolated from the next coarser one's solution, and after each
-    /// of its V-cycles.
+    /// `cycles` V-cycles on the grid (no stop test); `observe(node updates so far, field)`,
+    /// when given, once the grid is interpolated from the next coarser one's solution and
+    /// after each of its V-cycles (without it the cycles run as in `solve`: the cost of
+    /// that work, e.g. under callgrind).
     pub fn fmg_cycles(
         &mut self,
         job: &FiniteJob,
         g: &FiniteGrid,
         cycles: u32,
-        mut observe: impl FnMut(u64, &[f64]),
+        mut observe: Option<&mut dyn FnMut(u64, &[f64])>,
     ) -> (FilmIntegrals, SolveReport) {
         self.mg.theta0 = 0.0;
         self.mg.updates = 0;
@@ -478,10 +479,15 @@ impl FiniteSolver {
         let fmg_stop = Stop::Field(g.tolerance);
         let none = Stop::Field(-1.0);
         let mut res = self.fmg_with(job.aspect, top, fmg_stop, 0, true);
-        observe(self.mg.updates, &self.mg.levels[top].p);
-        for _ in 0..cycles {
-            res = self.mg.iterate(top, job.aspect, none, 1);
+        if let Some(observe) = observe.as_mut() {
             observe(self.mg.updates, &self.mg.levels[top].p);
+            for _ in 0..cycles {
+                res = self.mg.iterate(top, job.aspect, none, 1);
+                observe(self.mg.updates, &self.mg.levels[top].p);
+            }
+        } else {
+            // The same cycles in one call, as `solve` runs them (the cost probe).
+            res = self.mg.iterate(top, job.aspect, none, cycles);
         }
         let p = &self.mg.levels[top].p;
         (integrals_of(p, g), self.report(top, res))
