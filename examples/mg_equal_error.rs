@@ -18,7 +18,8 @@
 //!
 //! `cargo run --release --example mg_equal_error -- [table [GRID …]]` (GRID as 128x32;
 //! default 64x16 128x32 256x64): the tables; writes the oracle's per-state work to
-//! `/tmp/mg_equal_error_NTxNZ.txt` for the run below.
+//! `/tmp/mg_equal_error_NTxNZ.txt` for the run below. With `MGE_DEBUG=1`: each state's
+//! multigrid error over `e_h`, at the FMG start and after its first five V-cycles (stderr).
 //!
 //! `cargo run --release --example mg_equal_error -- prof mg|psor NT NZ`: each state solved
 //! with exactly the oracle's work from that file (multigrid: its V-cycles on the finest
