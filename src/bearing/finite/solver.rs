@@ -466,7 +466,7 @@ impl FiniteSolver {
         job: &FiniteJob,
         g: &FiniteGrid,
         cycles: u32,
-        mut observe: Option<&mut dyn FnMut(u64, &[f64])>,
+        mut observe: FieldObserver<'_>,
     ) -> (FilmIntegrals, SolveReport) {
         self.mg.theta0 = 0.0;
         self.mg.updates = 0;
@@ -852,6 +852,9 @@ impl FiniteSolver {
 /// 125,952 (median state; `cargo run --release --example zeta_probe work`, which also
 /// shows that 0.05 saves nothing: the cycles are whole).
 pub(crate) const ALGEBRAIC_FRACTION: f64 = 0.1;
+
+/// Optional callback of [`FiniteSolver::fmg_cycles`]: `(node updates so far, field)`.
+type FieldObserver<'a> = Option<&'a mut dyn FnMut(u64, &[f64])>;
 
 /// V-cycle limit of one grid (a cycle contracts the error ~10×; far beyond need).
 const MAX_CYCLES: u32 = 200;
