@@ -422,7 +422,7 @@ impl FiniteSolver {
     }
 
     /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
-    /// level, cycles to `tol` on `top`.
+    /// level, cycles to `tol` on `top`, bilinear starts (the accuracy ladder's first grid).
     fn fmg(&mut self, aspect: f64, top: usize, stop: Stop) -> (u32, f64, bool) {
         self.fmg_with(aspect, top, stop, MAX_CYCLES, false)
     }
