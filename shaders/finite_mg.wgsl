@@ -680,12 +680,71 @@ fn prolong_correction(l: u32, top: bool) {
 }
 
 // p = P p_coarse on level l (the full-multigrid start), held nodes at their value.
+// Cubic interpolation at the midpoint of four equally spaced values (between b and c),
+// fourth order (multigrid.rs cubic_mid).
+fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    return (9.0 * (b + c) - (a + d)) * (1.0 / 16.0);
+}
+
+// One-sided cubic at the midpoint of the first two of four values (multigrid.rs cubic_edge).
+fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    return (5.0 * a + 15.0 * b - 5.0 * c + d) * (1.0 / 16.0);
+}
+
+// Row jc of level c's solution at fine column i (θ stride st): the coincident node, or
+// between two the periodic four-point cubic (linear below four columns).
+fn row_cubic(c: u32, jc: u32, i: u32, st: u32) -> f64 {
+    let cnt = nt_of(c);
+    let b = jc * cnt;
+    if st == 1u || i % 2u == 0u {
+        return scr[at(c, A_P, b + i / st)];
+    }
+    let ic = i / 2u;
+    let i1 = (ic + 1u) % cnt;
+    if cnt < 4u {
+        return 0.5 * (scr[at(c, A_P, b + ic)] + scr[at(c, A_P, b + i1)]);
+    }
+    let i0 = (ic + cnt - 1u) % cnt;
+    let i2 = (ic + 2u) % cnt;
+    return cubic_mid(scr[at(c, A_P, b + i0)], scr[at(c, A_P, b + ic)],
+        scr[at(c, A_P, b + i1)], scr[at(c, A_P, b + i2)]);
+}
+
+// Explicit grids' FMG start (multigrid.rs prolong_solution_cubic): the tensor product of
+// four-point cubic interpolation, periodic in θ, one-sided in ζ next to the end rows
+// (linear below three coarse intervals), at fine node (j, i) of level l.
+fn cubic_at(l: u32, j: u32, i: u32) -> f64 {
+    let c = l - 1u;
+    let st = strides(l);
+    let cnz = nz_of(c);
+    let jc = j / st.y;
+    if j % st.y == 0u {
+        return row_cubic(c, jc, i, st.x);
+    }
+    if cnz < 3u {
+        return 0.5 * (row_cubic(c, jc, i, st.x) + row_cubic(c, jc + 1u, i, st.x));
+    }
+    if jc == 0u {
+        return cubic_edge(row_cubic(c, 0u, i, st.x), row_cubic(c, 1u, i, st.x),
+            row_cubic(c, 2u, i, st.x), row_cubic(c, 3u, i, st.x));
+    }
+    if jc + 1u == cnz {
+        return cubic_edge(row_cubic(c, cnz, i, st.x), row_cubic(c, cnz - 1u, i, st.x),
+            row_cubic(c, cnz - 2u, i, st.x), row_cubic(c, cnz - 3u, i, st.x));
+    }
+    return cubic_mid(row_cubic(c, jc - 1u, i, st.x), row_cubic(c, jc, i, st.x),
+        row_cubic(c, jc + 1u, i, st.x), row_cubic(c, jc + 2u, i, st.x));
+}
+
+// The FMG start of level l from level l − 1's solution: cubic on explicit grids (mode 0),
+// bilinear on the accuracy ladder (multigrid.rs prolong_solution).
 fn prolong_solution(l: u32) {
     let c = l - 1u;
     let st = strides(l);
     let nt = nt_of(l);
     let cnt = nt_of(c);
     let interior = interior_of(l);
+    let cubic = params.mode == 0u;
     spent += loops(interior);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
@@ -698,7 +757,9 @@ fn prolong_solution(l: u32) {
         let ic1 = (ic + 1u) % cnt;
         let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
         var v: f64;
-        if jo == 0u && io == 0u {
+        if cubic {
+            v = cubic_at(l, j, i);
+        } else if jo == 0u && io == 0u {
             v = u00;
         } else if jo == 0u {
             v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);

@@ -23,8 +23,9 @@
 //! coupled one (semi-coarsening keeps point smoothing effective for short and long
 //! bearings). The coarsest grid is solved by projected SOR.
 //!
-//! Full multigrid: each grid starts from the bilinear interpolation of the next coarser
-//! solution, so a solve from cold costs a few V-cycles of the finest grid, linear in the
+//! Full multigrid: each grid starts from the interpolation of the next coarser
+//! solution (cubic on explicit grids, [`prolong_solution_cubic`]; bilinear on the accuracy
+//! ladder, [`prolong_solution`]), so a solve from cold costs a few V-cycles of the finest grid, linear in the
 //! node count, and passes through every coarser grid's solution (the nested solutions the
 //! accuracy control of [`super::solver`] extrapolates from).
 
@@ -801,6 +802,99 @@ pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
     }
 }
 
+/// Cubic interpolation at the midpoint of four equally spaced values `a, b, c, d` (between
+/// `b` and `c`): `(−a + 9b + 9c − d)/16`, fourth order.
+#[inline(always)]
+fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    (9.0 * (b + c) - (a + d)) * (1.0 / 16.0)
+}
+
+/// One-sided cubic interpolation at the midpoint of the first two of four equally spaced
+/// values `a, b, c, d` (between `a` and `b`): `(5a + 15b − 5c + d)/16`, fourth order (the
+/// Lagrange weights at 1/2 of the nodes 0, 1, 2, 3).
+#[inline(always)]
+fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    (5.0 * a + 15.0 * b - 5.0 * c + d) * (1.0 / 16.0)
+}
+
+/// `out[i] = v(i)` clipped at 0, or the held value where `inv` is 0 (a fine row of an
+/// FMG start).
+#[inline(always)]
+fn fill(out: &mut [f64], inv: &[f64], hold: &[f64], v: impl Fn(usize) -> f64) {
+    for i in 0..out.len() {
+        out[i] = if inv[i] == 0.0 {
+            hold[i]
+        } else {
+            v(i).max(0.0)
+        };
+    }
+}
+
+/// `fine.p = P₄ coarse.p`: the FMG start of an explicit grid by cubic interpolation (the
+/// tensor product of four-point Lagrange interpolation at the midpoints: periodic in θ, in
+/// ζ one-sided next to the end faces, whose rows are 0), clipped at 0; held nodes at their
+/// value. Fourth order, above the discretisation's second: the interpolated coarse
+/// solution's error is then the coarse grid's discretisation error, which one V-cycle
+/// reduces below the fine grid's (the classical FMG condition; bilinear interpolation,
+/// [`prolong_solution`], is itself second order and leaves an `O(h²)` interpolation error
+/// of the size of the discretisation error). Below four coarse rows in ζ (or columns in θ)
+/// the direction falls back to linear interpolation.
+pub(crate) fn prolong_solution_cubic(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let (st, sz) = strides(c);
+    let (cnt, cnz) = (coarse.nt, coarse.nz);
+    let nt = fine.nt;
+    let cubic_t = st == 2 && cnt >= 4;
+    let cubic_z = sz == 2 && cnz >= 3;
+    // First each coarse row interpolated in θ onto the fine columns, into the fine
+    // level's scratch `base` (rows 0 ..= cnz of length nt; restriction overwrites it
+    // before a cycle reads it); then the fine rows from those in ζ.
+    let rows = &mut fine.base[..(cnz + 1) * nt];
+    for jc in 0..=cnz {
+        let u = &coarse.p[jc * cnt..(jc + 1) * cnt];
+        let out = &mut rows[jc * nt..(jc + 1) * nt];
+        if st == 1 {
+            out.copy_from_slice(u);
+            continue;
+        }
+        for ic in 0..cnt {
+            // Neighbours ic − 1, ic + 1, ic + 2 (periodic), comparisons rather than `%`.
+            let i1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let i2 = if i1 + 1 == cnt { 0 } else { i1 + 1 };
+            out[2 * ic] = u[ic];
+            out[2 * ic + 1] = if cubic_t {
+                let i0 = if ic == 0 { cnt - 1 } else { ic - 1 };
+                cubic_mid(u[i0], u[ic], u[i1], u[i2])
+            } else {
+                0.5 * (u[ic] + u[i1])
+            };
+        }
+    }
+    let rows = &fine.base[..(cnz + 1) * nt];
+    let row = |jc: usize| &rows[jc * nt..(jc + 1) * nt];
+    for j in 1..fine.nz {
+        let (jc, jo) = (j / sz, j % sz);
+        let out = &mut fine.p[j * nt..(j + 1) * nt];
+        let inv = &fine.inv_d[j * nt..(j + 1) * nt];
+        let hold = &fine.hold[j * nt..(j + 1) * nt];
+        if jo == 0 {
+            let a = row(jc);
+            fill(out, inv, hold, |i| a[i]);
+        } else if !cubic_z {
+            let (a, b) = (row(jc), row(jc + 1));
+            fill(out, inv, hold, |i| 0.5 * (a[i] + b[i]));
+        } else if jc == 0 {
+            let (a, b, c, d) = (row(0), row(1), row(2), row(3));
+            fill(out, inv, hold, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else if jc + 1 == cnz {
+            let (a, b, c, d) = (row(cnz), row(cnz - 1), row(cnz - 2), row(cnz - 3));
+            fill(out, inv, hold, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else {
+            let (a, b, c, d) = (row(jc - 1), row(jc), row(jc + 1), row(jc + 2));
+            fill(out, inv, hold, |i| cubic_mid(a[i], b[i], c[i], d[i]));
+        }
+    }
+}
+
 /// A grid hierarchy, coarsest first: `levels[0]` is the coarsest, `levels[l].coarsen`
 /// says how `levels[l]` relates to `levels[l − 1]`.
 #[derive(Default)]
@@ -927,7 +1021,11 @@ impl Hierarchy {
         }
         let mut prev = Vec::new();
         let simpson = self.simpson_z;
-        let mut prev_loads = self.levels[l].loads(self.theta0, simpson);
+        // The loads before the first cycle: only the load stop reads them.
+        let mut prev_loads = match stop {
+            Stop::Loads(_) => self.levels[l].loads(self.theta0, simpson),
+            Stop::Field(_) => [0.0; 4],
+        };
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {

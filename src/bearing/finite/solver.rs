@@ -20,7 +20,7 @@
 
 use std::f64::consts::PI;
 
-use super::multigrid::{prolong_solution, Coarsen, Hierarchy, Stop};
+use super::multigrid::{prolong_solution, prolong_solution_cubic, Coarsen, Hierarchy, Stop};
 use super::{Cavitation, FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
@@ -118,6 +118,12 @@ impl FiniteGrid {
         let cz = 1.0 / (dz * dz);
         let rho = (ct + cz * (PI * dz).cos()) / (ct + cz);
         2.0 / (1.0 + (1.0 - rho * rho).max(0.0).sqrt())
+    }
+
+    /// Load integrals of a field of this grid (node 0 at θ = 0, the rectangle rule: those
+    /// of a fixed-grid solve's result).
+    pub fn integrals(&self, p: &[f64]) -> FilmIntegrals {
+        integrals_of(p, self)
     }
 
     /// Sweep limit: far beyond what a converging solve needs (iterations grow like the
@@ -328,8 +334,9 @@ impl FiniteSolver {
     /// Solves one state by projected full multigrid ([`super::multigrid`]).
     ///
     /// Fixed grid (`g.accuracy` is `None`): from a cold start, full multigrid from the
-    /// coarsest grid (one V-cycle per intermediate grid) and V-cycles on `g`'s grid until
-    /// the estimated iteration error is below `g.tolerance`; with `field` of the grid's
+    /// coarsest grid (one V-cycle per intermediate grid, each grid started from the
+    /// cubic interpolation of the next coarser one's solution) and V-cycles on `g`'s grid
+    /// until the estimated iteration error is below `g.tolerance`; with `field` of the grid's
     /// length (finite, nonnegative: a warm start) V-cycles from it.
     ///
     /// Accuracy mode (`g.accuracy = Some(target)`): the grids of [`accuracy_ladder`]
@@ -415,18 +422,75 @@ impl FiniteSolver {
     }
 
     /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
-    /// level, cycles to `tol` on `top`.
+    /// level, cycles to `tol` on `top`, bilinear starts (the accuracy ladder's first grid).
     fn fmg(&mut self, aspect: f64, top: usize, stop: Stop) -> (u32, f64, bool) {
+        self.fmg_with(aspect, top, stop, MAX_CYCLES, false)
+    }
+
+    /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
+    /// level, at most `top_cycles` on `top` (0: `top` only interpolated); each level
+    /// starts from the next coarser one's solution interpolated cubically
+    /// ([`prolong_solution_cubic`], explicit grids) or bilinearly ([`prolong_solution`],
+    /// the accuracy ladder's first grid, whose estimates are calibrated on it).
+    fn fmg_with(
+        &mut self,
+        aspect: f64,
+        top: usize,
+        stop: Stop,
+        top_cycles: u32,
+        cubic: bool,
+    ) -> (u32, f64, bool) {
         let mut res = self.mg.iterate(0, aspect, stop, MAX_CYCLES);
         for l in 1..=top {
             let (lo, hi) = self.mg.levels.split_at_mut(l);
-            let how = hi[0].coarsen.expect("a finer level has a coarsening");
-            prolong_solution(&mut hi[0], &lo[l - 1], how);
-            res = self
-                .mg
-                .iterate(l, aspect, stop, if l == top { MAX_CYCLES } else { 1 });
+            let c = hi[0].coarsen.expect("a finer level has a coarsening");
+            if cubic {
+                prolong_solution_cubic(&mut hi[0], &lo[l - 1], c);
+            } else {
+                prolong_solution(&mut hi[0], &lo[l - 1], c);
+            }
+            let cycles = if l == top { top_cycles } else { 1 };
+            res = self.mg.iterate(l, aspect, stop, cycles);
         }
         res
+    }
+
+    /// Probe of the equal-error comparison (examples/mg_equal_error.rs): the fixed grid
+    /// `g` from cold by full multigrid as [`FiniteSolver::solve`] does it, then exactly
+    /// `cycles` V-cycles on the grid (no stop test); `observe(node updates so far, field)`,
+    /// when given, once the grid is interpolated from the next coarser one's solution and
+    /// after each of its V-cycles (without it the cycles run as in `solve`: the cost of
+    /// that work, e.g. under callgrind).
+    pub fn fmg_cycles(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        cycles: u32,
+        mut observe: FieldObserver<'_>,
+    ) -> (FilmIntegrals, SolveReport) {
+        self.mg.theta0 = 0.0;
+        self.mg.updates = 0;
+        self.mg.line_freeze = true;
+        self.mg.simpson_z = false;
+        self.mg.build(job, g.n_theta, g.n_z, g);
+        let top = self.mg.levels.len() - 1;
+        // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
+        // on the top grid no stop: only an all-zero change ends its cycles early.
+        let fmg_stop = Stop::Field(g.tolerance);
+        let none = Stop::Field(-1.0);
+        let mut res = self.fmg_with(job.aspect, top, fmg_stop, 0, true);
+        if let Some(observe) = observe.as_mut() {
+            observe(self.mg.updates, &self.mg.levels[top].p);
+            for _ in 0..cycles {
+                res = self.mg.iterate(top, job.aspect, none, 1);
+                observe(self.mg.updates, &self.mg.levels[top].p);
+            }
+        } else {
+            // The same cycles in one call, as `solve` runs them (the cost probe).
+            res = self.mg.iterate(top, job.aspect, none, cycles);
+        }
+        let p = &self.mg.levels[top].p;
+        (integrals_of(p, g), self.report(top, res))
     }
 
     fn report(&self, top: usize, res: (u32, f64, bool)) -> SolveReport {
@@ -461,7 +525,7 @@ impl FiniteSolver {
             self.mg
                 .iterate(top, job.aspect, Stop::Field(g.tolerance), MAX_CYCLES)
         } else {
-            self.fmg(job.aspect, top, Stop::Field(g.tolerance))
+            self.fmg_with(job.aspect, top, Stop::Field(g.tolerance), MAX_CYCLES, true)
         };
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
@@ -666,6 +730,44 @@ impl FiniteSolver {
         g: &FiniteGrid,
         field: &mut Vec<f64>,
     ) -> (FilmIntegrals, SolveReport) {
+        self.psor_run(job, g, field, g.max_sweeps(), |_, _| {})
+    }
+
+    /// Exactly `sweeps` red-black projected SOR sweeps on the fixed grid `g` from `field`
+    /// (as [`FiniteSolver::solve_psor`]: a cold start unless it is a valid field of the
+    /// grid), no stop test; `observe(node updates so far, field)` after each sweep
+    /// ([`FiniteGrid::integrals`] gives its loads). The probe of
+    /// the equal-error comparison (examples/mg_equal_error.rs: the work PSOR needs to get
+    /// within a bound of the converged loads, judged against the truth).
+    pub fn psor_sweeps(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        field: &mut Vec<f64>,
+        sweeps: u32,
+        mut observe: impl FnMut(u64, &[f64]),
+    ) -> (FilmIntegrals, SolveReport) {
+        let probe = FiniteGrid {
+            // No stop: only an all-zero change (an exact fixed point) ends it early.
+            tolerance: -1.0,
+            ..*g
+        };
+        let interior = (g.n_theta * (g.n_z - 1)) as u64;
+        self.psor_run(job, &probe, field, sweeps, |n, p| {
+            observe(n as u64 * interior, p)
+        })
+    }
+
+    /// The PSOR iteration of [`FiniteSolver::solve_psor`], at most `max_sweeps` sweeps,
+    /// `observe` called after each.
+    fn psor_run(
+        &mut self,
+        job: &FiniteJob,
+        g: &FiniteGrid,
+        field: &mut Vec<f64>,
+        max_sweeps: u32,
+        mut observe: impl FnMut(u32, &[f64]),
+    ) -> (FilmIntegrals, SolveReport) {
         let (nt, nz) = (g.n_theta, g.n_z);
         if field.len() != g.field_len() || field.iter().any(|v| !v.is_finite() || *v < 0.0) {
             field.clear();
@@ -681,7 +783,6 @@ impl FiniteSolver {
         };
         // Update history for the measured contraction (five sweeps back).
         let mut hist = [f64::INFINITY; 6];
-        let max_sweeps = g.max_sweeps();
         while report.sweeps < max_sweeps {
             let mut max_dp = 0.0_f64;
             let mut max_p = 0.0_f64;
@@ -715,6 +816,7 @@ impl FiniteSolver {
                 }
             }
             report.sweeps += 1;
+            observe(report.sweeps, p);
             hist.rotate_left(1);
             hist[5] = max_dp;
             // Contraction per sweep: at least SOR's ω − 1, or what the last five showed.
@@ -750,6 +852,9 @@ impl FiniteSolver {
 /// 125,952 (median state; `cargo run --release --example zeta_probe work`, which also
 /// shows that 0.05 saves nothing: the cycles are whole).
 pub(crate) const ALGEBRAIC_FRACTION: f64 = 0.1;
+
+/// Optional callback of [`FiniteSolver::fmg_cycles`]: `(node updates so far, field)`.
+type FieldObserver<'a> = Option<&'a mut dyn FnMut(u64, &[f64])>;
 
 /// V-cycle limit of one grid (a cycle contracts the error ~10×; far beyond need).
 const MAX_CYCLES: u32 = 200;

@@ -1,0 +1,323 @@
+//! PSOR against multigrid at equal error (issue 20, BENCHMARKS.md "Issue 20: PSOR against
+//! multigrid at equal error (session 36)").
+//!
+//! For each of the 32 states of the finite benchmark (`bench_states(32)`, default
+//! settings: max-film inlet) and each explicit grid: the converged reference `v_ref`
+//! ([`FiniteSolver::reference`]: the accuracy ladder's 1024 × 128 Richardson-extrapolated
+//! from 512 × 64, ~1e-5), the grid's discrete solution `v_h` (multigrid to 1e-12) and its
+//! discretisation error `e_h = |v_h − v_ref| / |v_ref|` on the load vector
+//! `(W_x, W_y, M_x/B, M_y/B)`. Then, cold starts for both:
+//!
+//! - **oracle**: the work (relaxation node updates on all grids, counted) after which the
+//!   iterate's load vector stays within `(1 + 0.1) e_h` of `v_ref` (judged against the
+//!   truth; PSOR observed after every sweep, multigrid once the finest grid is
+//!   interpolated and after each of its V-cycles). Also the stricter `|v − v_h| ≤ 0.1 e_h`.
+//! - **own stop rule**: `finite.tolerance` from 1e-2 down; the largest tolerance at which
+//!   every state is within `(1 + 0.1) e_h` of `v_ref` (and every smaller one too), and the
+//!   work there.
+//!
+//! `cargo run --release --example mg_equal_error -- [table [GRID …]]` (GRID as 128x32;
+//! default 64x16 128x32 256x64): the tables; writes the oracle's per-state work to
+//! `/tmp/mg_equal_error_NTxNZ.txt` for the run below. With `MGE_DEBUG=1`: each state's
+//! multigrid error over `e_h`, at the FMG start and after its first five V-cycles (stderr).
+//!
+//! `cargo run --release --example mg_equal_error -- prof mg|psor NT NZ`: each state solved
+//! with exactly the oracle's work from that file (multigrid: its V-cycles on the finest
+//! grid after full multigrid; PSOR: its sweeps), nothing else: the run to put under
+//! `valgrind --tool=callgrind` for instructions at equal error.
+use std::time::Instant;
+
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
+use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState};
+use bearing_sweep::bench::finite::bench_states;
+use rayon::prelude::*;
+
+/// Iteration error allowed on top of the discretisation error (the issue's "equal
+/// error": within (1 + 0.1) × the grid's own error of the truth).
+const MARGIN: f64 = 0.1;
+
+/// Multigrid V-cycles observed on the finest grid after full multigrid (converged far
+/// below the bound: ~0.25 per cycle).
+const MG_CYCLES: u32 = 14;
+
+/// Tolerances of the own-stop scan, loosest first.
+const TOLERANCES: [f64; 15] = [
+    1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10,
+];
+
+struct Case {
+    job: FiniteJob,
+    scale: f64,
+    state: BearingState,
+}
+
+fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn cases() -> (BearingParams, Vec<Case>) {
+    let (p, states) = bench_states(32);
+    let cases = states
+        .iter()
+        .map(|s| {
+            let packed = pack_state(&p, s).expect("valid state");
+            Case {
+                job: FiniteJob::new(&p, &packed),
+                scale: packed.rate_scale,
+                state: *s,
+            }
+        })
+        .collect();
+    (p, cases)
+}
+
+fn grid(nt: u32, nz: u32, tolerance: f64) -> FiniteGrid {
+    FiniteGrid::from(&FiniteSettings {
+        tolerance,
+        ..FiniteSettings::with_grid(nt, nz)
+    })
+}
+
+/// First index from which every entry of `errs` is within `bound` (None: never).
+fn settles(errs: &[f64], bound: f64) -> Option<usize> {
+    let mut k = errs.len();
+    while k > 0 && errs[k - 1] <= bound {
+        k -= 1;
+    }
+    (k < errs.len()).then_some(k)
+}
+
+fn pct(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+fn file(nt: u32, nz: u32) -> String {
+    format!("/tmp/mg_equal_error_{nt}x{nz}.txt")
+}
+
+fn table(grids: &[(u32, u32)]) {
+    let (p, cases) = cases();
+    let lv =
+        |c: &Case, ints: &[f64; 4]| finish_loads(&p, &c.state, ints, c.scale).load_vector(p.length);
+    let g0 = FiniteGrid::for_bearing(&p);
+    let t0 = Instant::now();
+    let reference: Vec<[f64; 4]> = cases
+        .par_iter()
+        .map(|c| {
+            let ints = FiniteSolver::new().reference(&c.job, &g0);
+            finish_loads(&p, &c.state, &ints, c.scale).load_vector(p.length)
+        })
+        .collect();
+    eprintln!("references: {:.1} s", t0.elapsed().as_secs_f64());
+    println!("| grid | e_h median / max | MG oracle updates/state mean (max) | MG top cycles (median, max) | PSOR oracle updates/state mean (max) | PSOR sweeps (median, max) | PSOR/MG oracle | strict (0.1 e_h of v_h) MG / PSOR / ratio |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut own = Vec::new();
+    for &(nt, nz) in grids {
+        let interior = (nt * (nz - 1)) as f64;
+        let mut solver = FiniteSolver::new();
+        let tight = grid(nt, nz, 1e-12);
+        let mut e_h = Vec::new();
+        let mut v_h = Vec::new();
+        for (c, r) in cases.iter().zip(&reference) {
+            let (ints, _) = solver.solve(&c.job, &tight, &mut Vec::new());
+            let v = lv(c, &ints);
+            e_h.push(rel(&v, r));
+            v_h.push(v);
+        }
+        // Oracle traces.
+        let g = grid(nt, nz, FiniteSettings::default().tolerance);
+        let psor_len = 4 * nt;
+        let (mut mg_w, mut mg_c, mut ps_w, mut ps_s) = (vec![], vec![], vec![], vec![]);
+        let (mut mg_ws, mut ps_ws) = (vec![], vec![]);
+        let mut lines = String::new();
+        for (k, c) in cases.iter().enumerate() {
+            let bound = (1.0 + MARGIN) * e_h[k];
+            let strict = MARGIN * e_h[k];
+            let mut trace: Vec<(u64, f64, f64)> = Vec::new();
+            solver.fmg_cycles(
+                &c.job,
+                &g,
+                MG_CYCLES,
+                Some(&mut |w, f: &[f64]| {
+                    let v = lv(c, &g.integrals(f));
+                    // Against the truth, and the iteration error (from v_h), both over |v_ref|.
+                    let n_ref = reference_norm(&reference[k]);
+                    trace.push((
+                        w,
+                        rel(&v, &reference[k]),
+                        rel(&v, &v_h[k]) * reference_norm(&v_h[k]) / n_ref,
+                    ));
+                }),
+            );
+            let truth: Vec<f64> = trace.iter().map(|t| t.1).collect();
+            let iter: Vec<f64> = trace.iter().map(|t| t.2).collect();
+            if std::env::var("MGE_DEBUG").is_ok() {
+                let r: Vec<String> = truth
+                    .iter()
+                    .take(6)
+                    .map(|e| format!("{:.2}", e / e_h[k]))
+                    .collect();
+                eprintln!(
+                    "{nt}x{nz} state {k}: e_h {:.2e} MG err/e_h {}",
+                    e_h[k],
+                    r.join(" ")
+                );
+            }
+            let i = settles(&truth, bound).expect("multigrid reaches the bound");
+            let is = settles(&iter, strict).expect("multigrid reaches the strict bound");
+            mg_w.push(trace[i].0 as f64);
+            mg_c.push(i as f64);
+            mg_ws.push(trace[is].0 as f64);
+            let mut trace: Vec<(u64, f64, f64)> = Vec::new();
+            solver.psor_sweeps(&c.job, &g, &mut Vec::new(), psor_len, |w, f| {
+                let v = lv(c, &g.integrals(f));
+                let n_ref = reference_norm(&reference[k]);
+                trace.push((
+                    w,
+                    rel(&v, &reference[k]),
+                    rel(&v, &v_h[k]) * reference_norm(&v_h[k]) / n_ref,
+                ));
+            });
+            let truth: Vec<f64> = trace.iter().map(|t| t.1).collect();
+            let iter: Vec<f64> = trace.iter().map(|t| t.2).collect();
+            let j = settles(&truth, bound).expect("PSOR reaches the bound");
+            let js = settles(&iter, strict).expect("PSOR reaches the strict bound");
+            ps_w.push(trace[j].0 as f64);
+            ps_s.push((j + 1) as f64);
+            ps_ws.push(trace[js].0 as f64);
+            lines += &format!("{} {}\n", i, j + 1);
+        }
+        std::fs::write(file(nt, nz), lines).expect("write the oracle file");
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+        println!(
+            "| {nt}×{nz} | {:.2e} / {:.2e} | {:.0} ({:.0}) = {:.1} sweeps | {:.0}, {:.0} | {:.0} ({:.0}) = {:.1} sweeps | {:.0}, {:.0} | **{:.2}×** | {:.0} / {:.0} / {:.2}× |",
+            pct(&mut e_h.clone(), 0.5),
+            max(&e_h),
+            mean(&mg_w),
+            max(&mg_w),
+            mean(&mg_w) / interior,
+            pct(&mut mg_c.clone(), 0.5),
+            max(&mg_c),
+            mean(&ps_w),
+            max(&ps_w),
+            mean(&ps_w) / interior,
+            pct(&mut ps_s.clone(), 0.5),
+            max(&ps_s),
+            mean(&ps_w) / mean(&mg_w),
+            mean(&mg_ws),
+            mean(&ps_ws),
+            mean(&ps_ws) / mean(&mg_ws),
+        );
+        // Own stop rule: per tolerance, worst error over the bound and the mean work.
+        for psor in [false, true] {
+            let mut rows = Vec::new();
+            for &tol in &TOLERANCES {
+                let gt = grid(nt, nz, tol);
+                let mut worst = 0.0_f64;
+                let mut work = 0.0;
+                for (k, c) in cases.iter().enumerate() {
+                    let (ints, r) = if psor {
+                        solver.solve_psor(&c.job, &gt, &mut Vec::new())
+                    } else {
+                        solver.solve(&c.job, &gt, &mut Vec::new())
+                    };
+                    let e = rel(&lv(c, &ints), &reference[k]);
+                    worst = worst.max(e / ((1.0 + MARGIN) * e_h[k]));
+                    work += r.sweeps as f64 * interior;
+                }
+                rows.push((tol, worst, work / cases.len() as f64));
+            }
+            // The loosest tolerance from which every tighter one keeps every state within.
+            let mut k = rows.len();
+            while k > 0 && rows[k - 1].1 <= 1.0 {
+                k -= 1;
+            }
+            own.push((nt, nz, psor, rows, k));
+        }
+    }
+    println!();
+    println!("Own stop rule (`finite.tolerance`): worst state's error over (1 + 0.1) e_h, mean node updates per state.");
+    println!();
+    println!("| grid | solver | tolerance: worst / updates … | loosest passing tolerance | updates/state there |");
+    println!("|---|---|---|---|---|");
+    for (nt, nz, psor, rows, k) in &own {
+        let cells: Vec<String> = rows
+            .iter()
+            .map(|(t, w, u)| format!("{t:.0e}: {w:.2} / {u:.0}"))
+            .collect();
+        let (t, u) = rows.get(*k).map_or(("none".to_string(), f64::NAN), |r| {
+            (format!("{:.0e}", r.0), r.2)
+        });
+        println!(
+            "| {nt}×{nz} | {} | {} | {t} | {u:.0} |",
+            if *psor { "PSOR" } else { "MG" },
+            cells.join("; ")
+        );
+    }
+}
+
+fn reference_norm(v: &[f64; 4]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Each state with exactly the oracle's work (see the module doc).
+fn prof(args: &[String]) {
+    let method = args.first().map(String::as_str).unwrap_or("mg");
+    let nt: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
+    let nz: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
+    let work: Vec<(u32, u32)> = std::fs::read_to_string(file(nt, nz))
+        .expect("run the table first: it writes the oracle file")
+        .lines()
+        .map(|l| {
+            let mut it = l.split_whitespace().map(|x| x.parse().expect("a count"));
+            (it.next().expect("mg"), it.next().expect("psor"))
+        })
+        .collect();
+    let (_, cases) = cases();
+    let g = grid(nt, nz, FiniteSettings::default().tolerance);
+    let mut solver = FiniteSolver::new();
+    let mut sweeps_done = 0u64;
+    let start = Instant::now();
+    for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {
+        let (_, r) = if method == "psor" {
+            solver.psor_sweeps(&c.job, &g, &mut Vec::new(), sweeps, |_, _| {})
+        } else {
+            solver.fmg_cycles(&c.job, &g, cycles, None)
+        };
+        sweeps_done += u64::from(r.sweeps);
+    }
+    let s = start.elapsed().as_secs_f64();
+    let n = cases.len() as f64;
+    println!(
+        "{method} {nt}x{nz} oracle work: {:.2} sweeps/state (each state's rounded up; exact \
+         node updates: the table), {:.3} ms/state",
+        sweeps_done as f64 / n,
+        s / n * 1e3
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("prof") => prof(&args[1..]),
+        _ => {
+            let grids: Vec<(u32, u32)> = args
+                .iter()
+                .skip(1)
+                .filter_map(|a| {
+                    let (t, z) = a.split_once('x')?;
+                    Some((t.parse().ok()?, z.parse().ok()?))
+                })
+                .collect();
+            let grids = if grids.is_empty() {
+                vec![(64, 16), (128, 32), (256, 64)]
+            } else {
+                grids
+            };
+            table(&grids);
+        }
+    }
+}
