@@ -4,7 +4,8 @@
 //! field, and the ratio of several error estimates to it.
 //!
 //! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
-//! `split [rules]`, `work`: see each function)
+//! `split [rules]`, `work`, `cycles ACC…`, `fmg1`, `rules ACC LOOSE,cubic|linear,FLOOR…`,
+//! `prof ACC LOOSE,cubic|linear,FLOOR`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
@@ -823,7 +824,65 @@ fn rules(acc: f64) {
     }
 }
 
+/// One rule, the solves only (for `valgrind --tool=callgrind`; issue 20, session 36): the 32
+/// benchmark states at accuracy `acc`, cold starts, one solver, with the ladder rule
+/// `LOOSE,cubic|linear,FLOOR[,REPS]` (`0,linear,0.1`: the rule before session 36 on the
+/// same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
+/// report's whole sweeps give (`mg_cost`'s count).
+fn prof(acc: f64, rule: &str) {
+    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let p = BearingParams {
+        finite: FiniteSettings {
+            accuracy: acc,
+            ..FiniteSettings::default()
+        },
+        ..pb
+    };
+    let v: Vec<&str> = rule.split(',').collect();
+    let mut solver = FiniteSolver::new();
+    solver.ladder_rule = LadderRule {
+        loose: v[0].parse().expect("LOOSE"),
+        cubic_start: v[1] == "cubic",
+        floor: v[2].parse().expect("FLOOR"),
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let jobs: Vec<FiniteJob> = bench
+        .iter()
+        .map(|s| FiniteJob::new(&p, &pack_state(&p, s).unwrap()))
+        .collect();
+    let reps: usize = v.get(3).map_or(1, |r| r.parse().expect("REPS"));
+    let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
+    let mut sum = [0.0; 4];
+    for _ in 0..reps {
+        (exact, whole) = (0, 0);
+        let start = std::time::Instant::now();
+        for job in &jobs {
+            let (ints, r) = solver.solve(job, &g, &mut Vec::new());
+            exact += solver.trace.last().map_or(0, |t| t.updates);
+            whole += r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1));
+            for k in 0..4 {
+                sum[k] += ints[k];
+            }
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    let n = bench.len() as f64;
+    println!(
+        "rule {rule} accuracy {acc:e}: node updates per state {:.0} (exact), {:.0} (whole sweeps); {:.3} ms/state (best of {reps}); load checksum {:?}",
+        exact as f64 / n,
+        whole as f64 / n,
+        best / n * 1e3,
+        sum.map(|x| x / reps as f64)
+    );
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("prof") {
+        let a: Vec<String> = std::env::args().skip(2).collect();
+        prof(a[0].parse().expect("an accuracy"), &a[1]);
+        return;
+    }
     if std::env::args().nth(1).as_deref() == Some("rules") {
         rules(
             std::env::args()

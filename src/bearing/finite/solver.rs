@@ -283,8 +283,13 @@ pub struct FiniteSolver {
     /// solver's rule; probes set others).
     pub ladder_rule: LadderRule,
     /// The grids of the last accuracy-mode solve of the plain or banded film, in order
-    /// (for probes: cycles and work per grid).
+    /// (for probes: cycles and work per grid). On the Simpson-summed ladder their
+    /// `rectangle` sums are not computed (NaN).
     pub trace: Vec<LadderStep>,
+    /// `(cos θ_i, sin θ_i)` of the ladder grids' columns (node 0 at the ladder's angle)
+    /// for the load sums of the per-cycle stop, keyed by `(n_theta, angle)`: computed once
+    /// per grid and state instead of once per sum.
+    trig: Vec<(usize, f64, Vec<(f64, f64)>)>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -682,7 +687,7 @@ impl FiniteSolver {
             self.ladder_grow(job, g, dims, rule.cubic_start);
             let mut cyc = LadderCycles::default();
             let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below);
-            let mut step = self.ladder_step(g, self.mg.levels.len() - 1, res);
+            let mut step = self.ladder_step_of(&cyc, res);
             values.push(step.integrals);
             let est_of = |values: &[FilmIntegrals], simpson: bool| {
                 if !g.layout.is_empty() {
@@ -698,7 +703,7 @@ impl FiniteSolver {
                 // Stopped loosely as an intermediate grid, but it may end the ladder:
                 // on to the floor (the cycles continue, none is repeated).
                 res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
-                step = self.ladder_step(g, self.mg.levels.len() - 1, res);
+                step = self.ladder_step_of(&cyc, res);
                 *values.last_mut().expect("pushed") = step.integrals;
                 est = est_of(&values, self.mg.simpson_z);
             }
@@ -752,6 +757,55 @@ impl FiniteSolver {
         }
     }
 
+    /// The load vector of the ladder's top grid as its level sums it
+    /// ([`super::multigrid::Level::loads`]: Simpson in ζ when `simpson`, else the
+    /// rectangle rule; the same bits), with the column angles from `self.trig`.
+    fn top_loads(&mut self, simpson: bool) -> FilmIntegrals {
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        let (nt, nz, theta0) = (lvl.nt, lvl.nz, self.mg.theta0);
+        if simpson && !nz.is_multiple_of(2) {
+            return lvl.loads(theta0, simpson);
+        }
+        let slot = match self.trig.iter().position(|t| t.0 == nt) {
+            Some(k) => k,
+            None => {
+                self.trig.push((nt, f64::NAN, Vec::new()));
+                self.trig.len() - 1
+            }
+        };
+        let entry = &mut self.trig[slot];
+        // Bitwise: a new state's angle differs (NaN never matches).
+        if entry.1.to_bits() != theta0.to_bits() || entry.2.len() != nt {
+            entry.1 = theta0;
+            entry.2 = column_trig(nt, theta0);
+        }
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        if simpson {
+            row_weighted_with(&lvl.p, nt, nz, &entry.2, simpson_row_weight)
+        } else {
+            row_weighted_with(&lvl.p, nt, nz, &entry.2, |_| 1.0)
+        }
+    }
+
+    /// The ladder step of the top grid after [`FiniteSolver::ladder_cycles`]: its loads
+    /// are the last cycle's (the rectangle sums on the Simpson-summed ladder are not
+    /// computed: NaN).
+    fn ladder_step_of(&self, cyc: &LadderCycles, res: (u32, f64, bool)) -> LadderStep {
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        LadderStep {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
+            integrals: cyc.prev,
+            rectangle: if self.mg.simpson_z {
+                [f64::NAN; 4]
+            } else {
+                cyc.prev
+            },
+            updates: self.mg.updates,
+            result: res,
+        }
+    }
+
     /// V-cycles on the ladder's top grid, continuing `cyc` (a fresh one: the grid's
     /// first cycle), until the estimated iteration error of its load vector (as
     /// [`super::multigrid::Hierarchy::iterate`] estimates it: the last change times the
@@ -785,7 +839,7 @@ impl FiniteSolver {
             // with one cycle its estimate is the change itself (contraction 0.5 assumed).
             let (_, err, _) = self.mg.iterate(top, aspect, Stop::Loads(f64::INFINITY), 1);
             cyc.cycles = 1;
-            cyc.prev = self.mg.levels[top].loads(self.mg.theta0, simpson);
+            cyc.prev = self.top_loads(simpson);
             cyc.last_change = err;
             cyc.err = err;
         }
@@ -795,7 +849,7 @@ impl FiniteSolver {
         while cyc.cycles < MAX_CYCLES {
             self.mg.vcycle(top, aspect);
             cyc.cycles += 1;
-            let now = self.mg.levels[top].loads(self.mg.theta0, simpson);
+            let now = self.top_loads(simpson);
             let d = (0..4).map(|k| (now[k] - cyc.prev[k]).powi(2)).sum::<f64>();
             let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
             let change = if norm > 0.0 { d.sqrt() / norm } else { 0.0 };
@@ -1079,14 +1133,7 @@ pub fn ladder_integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Film
     if !nz.is_multiple_of(2) {
         return integrals_on(p, nt, nz, theta0);
     }
-    // Simpson weights over Δζ: 4/3 on odd rows, 2/3 on even ones.
-    row_weighted_integrals(p, nt, nz, theta0, |j| {
-        if j % 2 == 1 {
-            4.0 / 3.0
-        } else {
-            2.0 / 3.0
-        }
-    })
+    row_weighted_integrals(p, nt, nz, theta0, simpson_row_weight)
 }
 
 /// `−⅓ Σ_j w(j) Σ_i P_ij (cos θ_i, sin θ_i, ζ_j cos θ_i, ζ_j sin θ_i) Δθ Δζ` over the
@@ -1099,15 +1146,40 @@ fn row_weighted_integrals(
     theta0: f64,
     w: impl Fn(usize) -> f64,
 ) -> FilmIntegrals {
+    row_weighted_with(p, nt, nz, &column_trig(nt, theta0), w)
+}
+
+/// `(cos θ_i, sin θ_i)`, `θ_i = theta0 + iΔθ`, of the `nt` columns.
+fn column_trig(nt: usize, theta0: f64) -> Vec<(f64, f64)> {
     let dt = 2.0 * PI / nt as f64;
-    let dz = 1.0 / nz as f64;
-    let mut acc = [0.0; 4];
-    let trig: Vec<(f64, f64)> = (0..nt)
+    (0..nt)
         .map(|i| {
             let th = theta0 + i as f64 * dt;
             (th.cos(), th.sin())
         })
-        .collect();
+        .collect()
+}
+
+/// Simpson's row weight over Δζ: 4/3 on odd rows, 2/3 on even ones.
+fn simpson_row_weight(j: usize) -> f64 {
+    if j % 2 == 1 {
+        4.0 / 3.0
+    } else {
+        2.0 / 3.0
+    }
+}
+
+/// [`row_weighted_integrals`] with the columns' `(cos θ_i, sin θ_i)` given.
+fn row_weighted_with(
+    p: &[f64],
+    nt: usize,
+    nz: usize,
+    trig: &[(f64, f64)],
+    w: impl Fn(usize) -> f64,
+) -> FilmIntegrals {
+    let dt = 2.0 * PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
     for j in 1..nz {
         let zeta = j as f64 * dz;
         let (mut c, mut s) = (0.0, 0.0);
