@@ -4,7 +4,8 @@
 //! field, and the ratio of several error estimates to it.
 //!
 //! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
-//! `split [rules]`, `work`: see each function)
+//! `split [rules]`, `work`, `cycles ACC…`, `fmg1`, `rules ACC LOOSE,cubic|linear,FLOOR…`,
+//! `prof ACC LOOSE,cubic|linear,FLOOR`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
@@ -567,7 +568,340 @@ fn work() {
     }
 }
 
+/// Cycles per ladder grid (issue 20, session 36): on the 32 benchmark states at accuracy
+/// `acc`, the ladder as the solver runs it (`FiniteSolver::ladder`, each grid to
+/// accuracy/10 on the loads) up to 512 × 64: per grid the V-cycles, the node updates it
+/// added, the relative load change from the grid below `d` and the estimate `d/3`; a `*`
+/// marks the grid where the solver stops. Then the mean node updates per grid.
+fn cycles(acc: f64) {
+    use bearing_sweep::bearing::finite::FiniteSettings;
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            accuracy: acc,
+            ..FiniteSettings::default()
+        },
+        ..pb
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let mut sum = vec![0u64; 6];
+    for (k, s) in bench.iter().enumerate() {
+        let packed: Packed = pack_state(&p, s).unwrap();
+        let job = FiniteJob::new(&p, &packed);
+        let mut solver = FiniteSolver::new();
+        let (_, r) = solver.solve(&job, &g, &mut Vec::new());
+        let steps = solver.ladder(&job, &g, 0.1 * acc, true, 6);
+        print!("{k:2}:");
+        let mut last = 0;
+        for (l, st) in steps.iter().enumerate() {
+            let d = if l > 0 {
+                dist(&st.integrals, &steps[l - 1].integrals) / norm(&st.integrals)
+            } else {
+                f64::NAN
+            };
+            let mark = if st.n_theta == r.n_theta as usize {
+                "*"
+            } else {
+                ""
+            };
+            print!(
+                " | {}x{}{mark} c{} u{} d{:.1e} e{:.1e}",
+                st.n_theta,
+                st.n_z,
+                st.result.0,
+                st.updates - last,
+                d,
+                d / 3.0
+            );
+            if st.n_theta <= r.n_theta as usize {
+                sum[l] += st.updates - last;
+            }
+            last = st.updates;
+        }
+        println!();
+    }
+    let n = bench.len() as f64;
+    let means: Vec<String> = sum
+        .iter()
+        .map(|s| format!("{:.0}", *s as f64 / n))
+        .collect();
+    println!(
+        "mean updates per state on each ladder grid (as the solver stops): {}; total {:.0}",
+        means.join(" "),
+        sum.iter().sum::<u64>() as f64 / n
+    );
+}
+
+/// Pure full multigrid on the ladder (issue 20, session 36): on the 12 test and 32
+/// benchmark states, each ladder grid iterated by one V-cycle from the interpolated grid
+/// below (a per-grid stop of 1 on the loads ends every grid after its first cycle)
+/// against the same ladder iterated to 1e-10: per grid, the largest iteration error of the
+/// loads `δ` relative to the next grid's load difference `d₊` (what an intermediate grid's
+/// error enters the estimate through) and to the accuracy 5e-4, and the largest relative
+/// move of the estimate `|v₀ − v₋₁|/3`.
+fn fmg1() {
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let mut all: Vec<(BearingParams, BearingState)> =
+        states(&p).into_iter().map(|(_, s)| (p, s)).collect();
+    for s in bench {
+        all.push((
+            BearingParams {
+                finite: p.finite,
+                ..pb
+            },
+            s,
+        ));
+    }
+    let nl = 6;
+    let mut worst = vec![(0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64); nl];
+    for (p, s) in &all {
+        let g = FiniteGrid::for_bearing(p);
+        let packed: Packed = pack_state(p, s).unwrap();
+        let job = FiniteJob::new(p, &packed);
+        let mut solver = FiniteSolver::new();
+        let tight = solver.ladder(&job, &g, 1e-10, false, nl);
+        let one = solver.ladder(&job, &g, 1.0, true, nl);
+        for l in 0..nl {
+            let n = norm(&tight[l].integrals);
+            let delta = dist(&one[l].integrals, &tight[l].integrals) / n;
+            let dnext = if l + 1 < nl {
+                dist(&tight[l + 1].integrals, &tight[l].integrals) / n
+            } else {
+                f64::NAN
+            };
+            let de = if l > 0 {
+                let a = dist(&one[l].integrals, &one[l - 1].integrals);
+                let b = dist(&tight[l].integrals, &tight[l - 1].integrals);
+                ((a - b) / b).abs()
+            } else {
+                0.0
+            };
+            let w = &mut worst[l];
+            w.0 = w.0.max(delta / dnext);
+            w.1 = w.1.max(delta / 5e-4);
+            w.2 = w.2.max(de);
+            w.3 = w.3.max(delta);
+        }
+    }
+    for (l, w) in worst.iter().enumerate() {
+        println!(
+            "grid {l}: one-cycle load error δ up to {:.3e} ({:.3} of 5e-4, {:.3} of the next grid's difference); estimate moved up to {:.3} of itself",
+            w.3, w.1, w.0, w.2
+        );
+    }
+}
+
+/// The ladder's per-grid stop rule against the one before (issue 20, session 36): on the
+/// 32 benchmark and the 12 test states at accuracy `acc`, for each [`LadderRule`] variant
+/// (`loose` 0 = every grid to accuracy/10; the bilinear or cubic start), node updates per
+/// state (median, mean, largest), the mean V-cycles and node updates per ladder grid, the
+/// largest true error against [`FiniteSolver::reference`], the range of estimate / true
+/// error, and the largest distance of the returned loads from the same grid iterated to
+/// 1e-10 over the accuracy (tests/finite_accuracy.rs allows 0.25).
+fn rules(acc: f64) {
+    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        finite: FiniteSettings {
+            accuracy: acc,
+            ..FiniteSettings::default()
+        },
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let sets: [(&str, BearingParams, Vec<BearingState>); 2] = [
+        (
+            "bench (32)",
+            BearingParams {
+                finite: p.finite,
+                ..pb
+            },
+            bench,
+        ),
+        (
+            "test (12)",
+            p,
+            states(&p).into_iter().map(|x| x.1).collect(),
+        ),
+    ];
+    let variants: Vec<(f64, bool, f64)> = std::env::args()
+        .skip(3)
+        .map(|a| {
+            let v: Vec<&str> = a.split(',').collect();
+            (
+                v[0].parse().expect("a number"),
+                v[1] == "cubic",
+                v.get(2).map_or(0.1, |f| f.parse().expect("a fraction")),
+            )
+        })
+        .collect();
+    for (name, p, states) in sets {
+        let g = FiniteGrid::for_bearing(&p);
+        let mut refs = Vec::new();
+        for s in &states {
+            let packed: Packed = pack_state(&p, s).unwrap();
+            let job = FiniteJob::new(&p, &packed);
+            let mut solver = FiniteSolver::new();
+            let r = solver.reference(&job, &g);
+            let tight = solver.ladder(&job, &g, 1e-10, false, 7);
+            refs.push((r, tight));
+        }
+        for &(loose, cubic_start, floor) in &variants {
+            let (mut ups, mut errs, mut ratios, mut tightd) =
+                (Vec::new(), Vec::new(), Vec::new(), 0.0_f64);
+            let mut per = vec![(0u64, 0u64); 7];
+            for (s, (r, tight)) in states.iter().zip(&refs) {
+                let packed: Packed = pack_state(&p, s).unwrap();
+                let job = FiniteJob::new(&p, &packed);
+                let lv =
+                    |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
+                let mut solver = FiniteSolver::new();
+                solver.ladder_rule = LadderRule {
+                    loose,
+                    cubic_start,
+                    floor,
+                };
+                let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
+                let truth = lv(r);
+                let err = dist(&lv(&ints), &truth) / norm(&truth);
+                errs.push(err);
+                ratios.push(rep.error_estimate / err);
+                let same = tight
+                    .iter()
+                    .find(|t| t.n_theta == rep.n_theta as usize)
+                    .expect("on the ladder");
+                tightd = tightd.max(dist(&ints, &same.integrals) / norm(&same.integrals) / acc);
+                if std::env::var_os("ZETA_PROBE_VERBOSE").is_some() {
+                    let t: Vec<String> = solver
+                        .trace
+                        .iter()
+                        .map(|st| {
+                            format!(
+                                "{}x{} c{} e{:.1e}",
+                                st.n_theta, st.n_z, st.result.0, st.result.1
+                            )
+                        })
+                        .collect();
+                    println!(
+                        "  err {err:.2e} est {:.2e}: {}",
+                        rep.error_estimate,
+                        t.join(" | ")
+                    );
+                }
+                let mut last = 0;
+                for (l, st) in solver.trace.iter().enumerate() {
+                    per[l].0 += st.result.0 as u64;
+                    per[l].1 += st.updates - last;
+                    last = st.updates;
+                }
+                ups.push(last);
+            }
+            ups.sort();
+            errs.sort_by(f64::total_cmp);
+            ratios.sort_by(f64::total_cmp);
+            let n = states.len() as f64;
+            let grids: Vec<String> = per
+                .iter()
+                .map(|(c, u)| format!("{:.2}c/{:.0}", *c as f64 / n, *u as f64 / n))
+                .collect();
+            println!(
+                "{name} acc {acc:e} loose {loose} cubic {cubic_start} floor {floor}: updates median {} mean {:.0} max {}; error max {:.2e}; est/true {:.2}-{:.2}; from tight {:.3} acc; per grid {}",
+                ups[ups.len() / 2],
+                ups.iter().sum::<u64>() as f64 / n,
+                ups[ups.len() - 1],
+                errs[errs.len() - 1],
+                ratios[0],
+                ratios[ratios.len() - 1],
+                tightd,
+                grids.join(" ")
+            );
+        }
+    }
+}
+
+/// One rule, the solves only (for `valgrind --tool=callgrind`; issue 20, session 36): the 32
+/// benchmark states at accuracy `acc`, cold starts, one solver, with the ladder rule
+/// `LOOSE,cubic|linear,FLOOR[,REPS]` (`0,linear,0.1`: the rule before session 36 on the
+/// same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
+/// report's whole sweeps give (`mg_cost`'s count).
+fn prof(acc: f64, rule: &str) {
+    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    let p = BearingParams {
+        finite: FiniteSettings {
+            accuracy: acc,
+            ..FiniteSettings::default()
+        },
+        ..pb
+    };
+    let v: Vec<&str> = rule.split(',').collect();
+    let mut solver = FiniteSolver::new();
+    solver.ladder_rule = LadderRule {
+        loose: v[0].parse().expect("LOOSE"),
+        cubic_start: v[1] == "cubic",
+        floor: v[2].parse().expect("FLOOR"),
+    };
+    let g = FiniteGrid::for_bearing(&p);
+    let jobs: Vec<FiniteJob> = bench
+        .iter()
+        .map(|s| FiniteJob::new(&p, &pack_state(&p, s).unwrap()))
+        .collect();
+    let reps: usize = v.get(3).map_or(1, |r| r.parse().expect("REPS"));
+    let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
+    let mut sum = [0.0; 4];
+    for _ in 0..reps {
+        (exact, whole) = (0, 0);
+        let start = std::time::Instant::now();
+        for job in &jobs {
+            let (ints, r) = solver.solve(job, &g, &mut Vec::new());
+            exact += solver.trace.last().map_or(0, |t| t.updates);
+            whole += r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1));
+            for k in 0..4 {
+                sum[k] += ints[k];
+            }
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    let n = bench.len() as f64;
+    println!(
+        "rule {rule} accuracy {acc:e}: node updates per state {:.0} (exact), {:.0} (whole sweeps); {:.3} ms/state (best of {reps}); load checksum {:?}",
+        exact as f64 / n,
+        whole as f64 / n,
+        best / n * 1e3,
+        sum.map(|x| x / reps as f64)
+    );
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("prof") {
+        let a: Vec<String> = std::env::args().skip(2).collect();
+        prof(a[0].parse().expect("an accuracy"), &a[1]);
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("rules") {
+        rules(
+            std::env::args()
+                .nth(2)
+                .and_then(|a| a.parse().ok())
+                .expect("an accuracy"),
+        );
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("fmg1") {
+        fmg1();
+        return;
+    }
+    if std::env::args().nth(1).as_deref() == Some("cycles") {
+        for a in std::env::args().skip(2) {
+            cycles(a.parse().expect("an accuracy"));
+        }
+        return;
+    }
     if std::env::args().nth(1).as_deref() == Some("work") {
         work();
         return;

@@ -220,6 +220,59 @@ pub struct LadderStep {
     pub result: (u32, f64, bool),
 }
 
+/// How accuracy mode iterates the ladder's grids (plain 360° film, Simpson sums; issue 20
+/// session 36). The defaults are the solver's; the fields exist so that probes
+/// (examples/zeta_probe.rs) can measure the rule against the one before.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LadderRule {
+    /// An intermediate grid `k` stops when the estimated iteration error of its load
+    /// vector is below `loose × |v_k − v_{k−1}| / 4` (relative to `|v_k|`; `|v_k −
+    /// v_{k−1}|/4` is about the next grid's difference, through which alone `v_k` enters
+    /// the estimate), or below `floor × accuracy` if that is larger; a grid whose estimate
+    /// then meets the accuracy is iterated on to `floor × accuracy` before it ends the
+    /// ladder. 0: every grid to `floor × accuracy` (with `floor` = 0.1, the crate's
+    /// `ALGEBRAIC_FRACTION`, and the bilinear start: the rule before session 36, same bits). Dimensionless,
+    /// default [`LADDER_LOOSE`].
+    pub loose: f64,
+    /// Whether a ladder grid starts from its coarser grid's solution interpolated by
+    /// cubics in ζ (one-sided next to the end faces) instead of the bilinear
+    /// interpolation of full multigrid: the linear interpolant's Simpson load sum is the
+    /// coarse grid's trapezoid sum, off by the `Δζ²` quadrature error that Simpson's rule
+    /// removed, which the first V-cycles then have to remove again. Default
+    /// [`LADDER_CUBIC_START`].
+    pub cubic_start: bool,
+    /// The per-grid stop's floor as a fraction of the accuracy: the estimated iteration
+    /// error of the load vector of the grid that ends the ladder is below it.
+    /// Dimensionless, default [`LADDER_FLOOR`].
+    pub floor: f64,
+}
+
+impl Default for LadderRule {
+    fn default() -> Self {
+        LadderRule {
+            loose: LADDER_LOOSE,
+            cubic_start: LADDER_CUBIC_START,
+            floor: LADDER_FLOOR,
+        }
+    }
+}
+
+/// Default of [`LadderRule::loose`]: an intermediate grid's iteration error at most 0.3 of
+/// the next grid's expected difference moves that grid's estimate by at most ~0.1 of
+/// itself. Measured (`zeta_probe rules 5e-4`, 32 benchmark and 12 test states): every
+/// intermediate grid then stops after 2 V-cycles, the least the stop test can measure (1
+/// instead of 0.3 gives the same cycles), estimate / true error 0.45-1.33 as before.
+pub const LADDER_LOOSE: f64 = 0.3;
+/// Default of [`LadderRule::cubic_start`] (measured: 2 V-cycles on 128 × 16 where the
+/// bilinear start took 3; cubics in θ as well took more cycles, not used).
+pub const LADDER_CUBIC_START: bool = true;
+/// Default of [`LadderRule::floor`]: the grid that ends the ladder to accuracy/5 (was /10
+/// for every grid): its returned loads are within 0.06 (benchmark) / 0.10 (test states) of
+/// the accuracy of the same grid iterated to 1e-10 (tests/finite_accuracy.rs allows 0.25),
+/// a V-cycle less on 256 × 32 for most states that end there (mean node updates at the
+/// default 60,328 at /10, 57,158 at /7, 54,221 at /5 and beyond; `zeta_probe rules`).
+pub const LADDER_FLOOR: f64 = 0.2;
+
 /// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
 #[derive(Default)]
 pub struct FiniteSolver {
@@ -242,6 +295,17 @@ pub struct FiniteSolver {
     /// short at accuracy 1e-2). Held grids ([`FiniteSettings::held_grid`]) always sum this
     /// way. Default false: Simpson's rule in ζ ([`ladder_integrals_on`]).
     pub rectangle_ladder: bool,
+    /// How accuracy mode iterates the Simpson-summed ladder's grids (default: the
+    /// solver's rule; probes set others).
+    pub ladder_rule: LadderRule,
+    /// The grids of the last accuracy-mode solve of the plain or banded film, in order
+    /// (for probes: cycles and work per grid). On the Simpson-summed ladder their
+    /// `rectangle` sums are not computed (NaN).
+    pub trace: Vec<LadderStep>,
+    /// `(n_theta, angle of node 0, (cos θ_i, sin θ_i) of the columns)` of the ladder's
+    /// grids, for the load sums of the per-cycle stop: computed once per grid and state
+    /// instead of once per sum.
+    trig: Vec<(usize, f64, Vec<(f64, f64)>)>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -342,7 +406,8 @@ impl FiniteSolver {
     /// Accuracy mode (`g.accuracy = Some(target)`): the grids of [`accuracy_ladder`]
     /// (both directions doubled per step), each iterated from the previous one's
     /// interpolated solution until the estimated iteration error of its load vector is
-    /// below `max(ALGEBRAIC_FRACTION × target, g.tolerance)`, until the Richardson estimate of the load
+    /// below `max(ALGEBRAIC_FRACTION × target, g.tolerance)` (the plain film: the stop of
+    /// [`LadderRule`], by the grid's role), until the Richardson estimate of the load
     /// vector's relative error ([`ladder_estimate`]) is at most `target`; the loads of
     /// the last grid are returned, with the estimate in the report. `field` is not used
     /// as a start (its grid varies); it receives the last grid's solution.
@@ -674,22 +739,50 @@ impl FiniteSolver {
         field: &mut Vec<f64>,
     ) -> (FilmIntegrals, SolveReport) {
         let ladder = accuracy_ladder(job.aspect);
-        let stop = Stop::Loads((ALGEBRAIC_FRACTION * target).max(g.tolerance));
+        let floor = (ALGEBRAIC_FRACTION * target).max(g.tolerance);
+        let stop = Stop::Loads(floor);
         let mut steps = vec![self.ladder_start(job, g, stop)];
         let mut values = vec![steps[0].integrals];
         let mut estimate = f64::INFINITY;
         let mut met = false;
+        // The session-36 rule (`LadderRule`) on the Simpson-summed ladder only: grooves,
+        // arcs and the rectangle ladder of coefficients keep every grid to the floor.
+        let rule = if self.mg.simpson_z {
+            self.ladder_rule
+        } else {
+            LadderRule {
+                loose: 0.0,
+                cubic_start: false,
+                floor: ALGEBRAIC_FRACTION,
+            }
+        };
+        let floor = (rule.floor * target).max(g.tolerance);
         for &dims in &ladder[1..] {
-            let step = self.ladder_next(job, g, dims, stop);
+            let below = values[values.len() - 1];
+            self.ladder_grow(job, g, dims, rule.cubic_start);
+            let mut cyc = LadderCycles::default();
+            let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below);
+            let mut step = self.ladder_step_of(&cyc, res);
             values.push(step.integrals);
-            steps.push(step);
-            let est = if !g.layout.is_empty() {
-                banded_estimate(&values)
-            } else if self.mg.simpson_z {
-                simpson_estimate(&values)
-            } else {
-                ladder_estimate(&values)
+            let est_of = |values: &[FilmIntegrals], simpson: bool| {
+                if !g.layout.is_empty() {
+                    banded_estimate(values)
+                } else if simpson {
+                    simpson_estimate(values)
+                } else {
+                    ladder_estimate(values)
+                }
             };
+            let mut est = est_of(&values, self.mg.simpson_z);
+            if est.is_some_and(|e| e <= target) && res.1 > floor {
+                // Stopped loosely as an intermediate grid, but it may end the ladder:
+                // on to the floor (the cycles continue, none is repeated).
+                res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
+                step = self.ladder_step_of(&cyc, res);
+                *values.last_mut().expect("pushed") = step.integrals;
+                est = est_of(&values, self.mg.simpson_z);
+            }
+            steps.push(step);
             if let Some(e) = est {
                 estimate = e;
                 if e <= target {
@@ -717,7 +810,138 @@ impl FiniteSolver {
         let mut report = self.report(top, result);
         report.error_estimate = estimate;
         report.accuracy_met = met;
+        self.trace.clear();
+        self.trace.extend_from_slice(&steps);
         (integrals, report)
+    }
+
+    /// Adds the ladder's next grid `nt × nz` on top and starts it from the solution
+    /// below: bilinear (full multigrid's interpolation), then with `cubic` the rows
+    /// between the coarse rows again by cubics in ζ (see [`LadderRule::cubic_start`]).
+    fn ladder_grow(&mut self, job: &FiniteJob, g: &FiniteGrid, dims: (usize, usize), cubic: bool) {
+        self.mg.push_finer(job, dims.0, dims.1, g, Coarsen::Both);
+        let top = self.mg.levels.len() - 1;
+        let (lo, hi) = self.mg.levels.split_at_mut(top);
+        prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
+        if cubic {
+            let (nt, nz) = dims;
+            let lvl = &mut self.mg.levels[top];
+            let mut p = std::mem::take(&mut lvl.p);
+            cubic_rows_in_zeta(&mut p, lvl.operator().3, nt, nz);
+            lvl.p = p;
+        }
+    }
+
+    /// The load vector of the ladder's top grid as its level sums it
+    /// ([`super::multigrid::Level::loads`]: Simpson in ζ when `simpson`, else the
+    /// rectangle rule; the same bits), with the column angles from `self.trig`.
+    fn top_loads(&mut self, simpson: bool) -> FilmIntegrals {
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        let (nt, nz, theta0) = (lvl.nt, lvl.nz, self.mg.theta0);
+        if simpson && !nz.is_multiple_of(2) {
+            return lvl.loads(theta0, simpson);
+        }
+        let slot = match self.trig.iter().position(|t| t.0 == nt) {
+            Some(k) => k,
+            None => {
+                self.trig.push((nt, f64::NAN, Vec::new()));
+                self.trig.len() - 1
+            }
+        };
+        let entry = &mut self.trig[slot];
+        // Bitwise: a new state's angle differs (NaN never matches).
+        if entry.1.to_bits() != theta0.to_bits() || entry.2.len() != nt {
+            entry.1 = theta0;
+            entry.2 = column_trig(nt, theta0);
+        }
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        if simpson {
+            row_weighted_with(&lvl.p, nt, nz, &entry.2, simpson_row_weight)
+        } else {
+            row_weighted_with(&lvl.p, nt, nz, &entry.2, |_| 1.0)
+        }
+    }
+
+    /// The ladder step of the top grid after [`FiniteSolver::ladder_cycles`]: its loads
+    /// are the last cycle's (the rectangle sums on the Simpson-summed ladder are not
+    /// computed: NaN).
+    fn ladder_step_of(&self, cyc: &LadderCycles, res: (u32, f64, bool)) -> LadderStep {
+        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
+        LadderStep {
+            n_theta: lvl.nt,
+            n_z: lvl.nz,
+            integrals: cyc.prev,
+            rectangle: if self.mg.simpson_z {
+                [f64::NAN; 4]
+            } else {
+                cyc.prev
+            },
+            updates: self.mg.updates,
+            result: res,
+        }
+    }
+
+    /// V-cycles on the ladder's top grid, continuing `cyc` (a fresh one: the grid's
+    /// first cycle), until the estimated iteration error of its load vector (as
+    /// [`super::multigrid::Hierarchy::iterate`] estimates it: the last change times the
+    /// measured contraction's geometric tail) is below `max(floor, loose × |v − below| /
+    /// 4 / |v|)`; returns (cycles on this grid, estimated error, converged).
+    fn ladder_cycles(
+        &mut self,
+        aspect: f64,
+        cyc: &mut LadderCycles,
+        floor: f64,
+        loose: f64,
+        below: &FilmIntegrals,
+    ) -> (u32, f64, bool) {
+        let top = self.mg.levels.len() - 1;
+        let simpson = self.mg.simpson_z;
+        let tol = |v: &FilmIntegrals| {
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if loose > 0.0 && norm > 0.0 {
+                let d = (0..4)
+                    .map(|k| (v[k] - below[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                // 4: the next grid's difference at second order.
+                floor.max(loose * d / 4.0 / norm)
+            } else {
+                floor
+            }
+        };
+        if cyc.cycles == 0 {
+            // The first cycle through `iterate` (which sets the grid up as the top one);
+            // with one cycle its estimate is the change itself (contraction 0.5 assumed).
+            let (_, err, _) = self.mg.iterate(top, aspect, Stop::Loads(f64::INFINITY), 1);
+            cyc.cycles = 1;
+            cyc.prev = self.top_loads(simpson);
+            cyc.last_change = err;
+            cyc.err = err;
+        }
+        if cyc.last_change == 0.0 || cyc.err <= tol(&cyc.prev) {
+            return (cyc.cycles, cyc.err, true);
+        }
+        while cyc.cycles < MAX_CYCLES {
+            self.mg.vcycle(top, aspect);
+            cyc.cycles += 1;
+            let now = self.top_loads(simpson);
+            let d = (0..4).map(|k| (now[k] - cyc.prev[k]).powi(2)).sum::<f64>();
+            let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let change = if norm > 0.0 { d.sqrt() / norm } else { 0.0 };
+            cyc.prev = now;
+            // As `Hierarchy::iterate`: measured contraction within [0.1, 0.95].
+            let rho = if cyc.last_change.is_finite() && cyc.last_change > 0.0 {
+                (change / cyc.last_change).clamp(0.1, 0.95)
+            } else {
+                0.5
+            };
+            cyc.last_change = change;
+            cyc.err = change * rho / (1.0 - rho);
+            if change == 0.0 || cyc.err <= tol(&now) {
+                return (cyc.cycles, cyc.err, true);
+            }
+        }
+        (cyc.cycles, cyc.err, false)
     }
 
     /// Solves one state by red-black projected SOR on the fixed grid `g` (the solver
@@ -840,7 +1064,10 @@ impl FiniteSolver {
     }
 }
 
-/// Accuracy mode: each grid of the ladder is iterated until the estimated iteration
+/// Accuracy mode with grooves or arcs, the rectangle-summed ladder of coefficients and
+/// equilibria, the first grid of every ladder and the WGSL kernel's ladder (the plain
+/// film's Simpson-summed ladder follows [`LadderRule`] since session 36): each grid of the
+/// ladder is iterated until the estimated iteration
 /// error of its load vector is below this fraction of the requested accuracy (or
 /// `finite.tolerance`, if larger). Iterating further buys nothing: the grid's own
 /// discretisation error is at least the accuracy (all grids but the last) or about it
@@ -858,6 +1085,53 @@ type FieldObserver<'a> = Option<&'a mut dyn FnMut(u64, &[f64])>;
 
 /// V-cycle limit of one grid (a cycle contracts the error ~10×; far beyond need).
 const MAX_CYCLES: u32 = 200;
+
+/// The V-cycle history of one ladder grid ([`FiniteSolver::ladder_cycles`]).
+#[derive(Default)]
+struct LadderCycles {
+    /// V-cycles done on the grid.
+    cycles: u32,
+    /// Load vector after the last cycle.
+    prev: FilmIntegrals,
+    /// Relative load change of the last cycle.
+    last_change: f64,
+    /// Estimated iteration error after the last cycle.
+    err: f64,
+}
+
+/// Re-interpolates the rows of a ladder grid's start that lie between the coarser grid's
+/// rows (odd `j`; the even rows are the coarse solution, interpolated in θ) by cubics in
+/// ζ through the four nearest even rows: `(−1, 9, 9, −1)/16`, next to an end face
+/// `(5, 15, −5, 1)/16` (`nz ≥ 6`) or the quadratic `(3, 6, −1)/8` (`nz = 4`); clipped at
+/// 0; nodes held (`inv_d` 0) keep their value. `nz` even.
+fn cubic_rows_in_zeta(p: &mut [f64], inv_d: &[f64], nt: usize, nz: usize) {
+    let row = |p: &[f64], j: usize, i: usize| p[j * nt + i];
+    for j in (1..nz).step_by(2) {
+        for i in 0..nt {
+            let k = j * nt + i;
+            if inv_d[k] == 0.0 {
+                continue;
+            }
+            let v = if nz < 6 {
+                // Rows 0, 2, 4 (nz = 4; p = 0 on the end rows).
+                let (a, b, c) = if j == 1 { (0, 2, 4) } else { (4, 2, 0) };
+                (3.0 * row(p, a, i) + 6.0 * row(p, b, i) - row(p, c, i)) / 8.0
+            } else if j == 1 {
+                (5.0 * row(p, 0, i) + 15.0 * row(p, 2, i) - 5.0 * row(p, 4, i) + row(p, 6, i))
+                    / 16.0
+            } else if j == nz - 1 {
+                (5.0 * row(p, nz, i) + 15.0 * row(p, nz - 2, i) - 5.0 * row(p, nz - 4, i)
+                    + row(p, nz - 6, i))
+                    / 16.0
+            } else {
+                (-row(p, j - 3, i) + 9.0 * row(p, j - 1, i) + 9.0 * row(p, j + 1, i)
+                    - row(p, j + 3, i))
+                    / 16.0
+            };
+            p[k] = v.max(0.0);
+        }
+    }
+}
 
 /// Grids of the accuracy ladder for aspect `B/r0`, coarsest first: both directions
 /// doubled per step, up to 1024 intervals around. The shape `n_theta/n_z = r` is the
@@ -978,14 +1252,7 @@ pub fn ladder_integrals_on(p: &[f64], nt: usize, nz: usize, theta0: f64) -> Film
     if !nz.is_multiple_of(2) {
         return integrals_on(p, nt, nz, theta0);
     }
-    // Simpson weights over Δζ: 4/3 on odd rows, 2/3 on even ones.
-    row_weighted_integrals(p, nt, nz, theta0, |j| {
-        if j % 2 == 1 {
-            4.0 / 3.0
-        } else {
-            2.0 / 3.0
-        }
-    })
+    row_weighted_integrals(p, nt, nz, theta0, simpson_row_weight)
 }
 
 /// `−⅓ Σ_j w(j) Σ_i P_ij (cos θ_i, sin θ_i, ζ_j cos θ_i, ζ_j sin θ_i) Δθ Δζ` over the
@@ -998,15 +1265,40 @@ fn row_weighted_integrals(
     theta0: f64,
     w: impl Fn(usize) -> f64,
 ) -> FilmIntegrals {
+    row_weighted_with(p, nt, nz, &column_trig(nt, theta0), w)
+}
+
+/// `(cos θ_i, sin θ_i)`, `θ_i = theta0 + iΔθ`, of the `nt` columns.
+fn column_trig(nt: usize, theta0: f64) -> Vec<(f64, f64)> {
     let dt = 2.0 * PI / nt as f64;
-    let dz = 1.0 / nz as f64;
-    let mut acc = [0.0; 4];
-    let trig: Vec<(f64, f64)> = (0..nt)
+    (0..nt)
         .map(|i| {
             let th = theta0 + i as f64 * dt;
             (th.cos(), th.sin())
         })
-        .collect();
+        .collect()
+}
+
+/// Simpson's row weight over Δζ: 4/3 on odd rows, 2/3 on even ones.
+fn simpson_row_weight(j: usize) -> f64 {
+    if j % 2 == 1 {
+        4.0 / 3.0
+    } else {
+        2.0 / 3.0
+    }
+}
+
+/// [`row_weighted_integrals`] with the columns' `(cos θ_i, sin θ_i)` given.
+fn row_weighted_with(
+    p: &[f64],
+    nt: usize,
+    nz: usize,
+    trig: &[(f64, f64)],
+    w: impl Fn(usize) -> f64,
+) -> FilmIntegrals {
+    let dt = 2.0 * PI / nt as f64;
+    let dz = 1.0 / nz as f64;
+    let mut acc = [0.0; 4];
     for j in 1..nz {
         let zeta = j as f64 * dz;
         let (mut c, mut s) = (0.0, 0.0);
