@@ -5,9 +5,11 @@
 //! to tolerance 1e-13, and the reported error must be within a factor 3 of the true one
 //! both ways wherever the true error is above the reference's own level (1e-11): steady
 //! states (aligned, tilted and whirling, max-film feed, an ambient groove with the film
-//! reforming in the land) and time steps of a whirl with the film history; one exception,
-//! judged apart and measured down to 0.31 (the max-film inlet with tilt and squeeze, where
-//! the film reforms in the land before the held column; 0.15 before session 35's jfo2 fix). The squeeze
+//! reforming in the land) and time steps of a whirl with the film history. The max-film
+//! inlet with tilt and squeeze, where the film reforms in the land before the held column,
+//! is listed apart (it read 0.15 before session 35's previous-change floor and 0.31 before
+//! session 36's drift rule, `BlockStop` in src/bearing/finite/jfo.rs) and held to the same
+//! factor 3. The squeeze
 //! benchmark's steps through rupture and reformation are checked in `tests/jfo_squeeze.rs`
 //! (`iteration_error_honest_through_rupture_and_reformation`).
 
@@ -174,10 +176,11 @@ fn reported_iteration_error_is_within_3x_on_steady_states() {
     // agree"). Session 35 (jfo2): 0.15 (72 × 16, 1e-5) was a rotation through zero at the
     // max-error node (a φ node next to the reformation) that the fit read as dead modes,
     // caught by the least error a mode of block multiplier >= r leaves after its previous
-    // change (`BlockStop`): now 0.75 there, 0.49-2.94 in its other runs. Left: 0.31 at
-    // 128 × 32, 1e-5 cold, a slower mode emerging at one front node (its error falling
-    // 0.20, 0.52, 0.64 per block while the fit reads 0.22 and -0.37): judged apart,
-    // within a factor 4 below and 3 above (was 8 below).
+    // change (`BlockStop`): 0.75 there. Session 36: 0.31 at 128 × 32, 1e-5 cold, a slower
+    // mode emerging at one front node (the fit's slowest multiplier grew 0.145 -> 0.374 in
+    // the block of the stop), caught by deferring a stop while that multiplier grows by
+    // more than `DRIFT` (1.5): 1.52 there. Listed apart, held to the same factor 3 (the
+    // bound was 1/4 below before session 36, 1/8 before session 35).
     let mut reforming = Vec::new();
     for (nt, nz) in [(72, 16), (128, 32)] {
         for grooved in [false, true] {
@@ -233,7 +236,10 @@ fn reported_iteration_error_is_within_3x_on_steady_states() {
         "reforming in the land: {} judged, ratios {lo:.2} ... {hi:.2}",
         reforming.len()
     );
-    assert!(reforming.len() >= 6 && lo >= 1.0 / 4.0 && hi <= 3.0);
+    assert!(
+        reforming.len() >= 6 && lo >= 1.0 / 3.0 && hi <= 3.0,
+        "reforming in the land: reported/true {lo:.2} ... {hi:.2}"
+    );
 }
 
 /// Time steps of a circular whirl (ε = 0.5 about the bore centre, whirl at 0.3 ω, the
