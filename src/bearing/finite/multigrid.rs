@@ -31,7 +31,7 @@
 
 use std::f64::consts::PI;
 
-use super::solver::{film, FiniteGrid, FiniteJob};
+use super::solver::{FiniteGrid, FiniteJob};
 use crate::bearing::FilmLayout;
 
 /// Smoothing sweeps before the coarse-grid correction.
@@ -181,6 +181,12 @@ pub(crate) struct Level {
     /// Per row: as a correction grid, the column frozen for the finer grid's inlet line
     /// (see [`freeze`]; `usize::MAX`: none).
     inlet_corr: Vec<usize>,
+    /// `(cos, sin)` of the half-node angles (see [`Level::set_trig`]).
+    trig: Vec<(f64, f64)>,
+    /// `(cos, sin)` of the column angles (the even entries of `trig`).
+    cols: Vec<(f64, f64)>,
+    /// `(n_theta, bits of the angle of node 0)` of `trig` (`n_theta` 0: none yet).
+    trig_of: (usize, u64),
 }
 
 impl Level {
@@ -206,6 +212,7 @@ impl Level {
         max_film_inlet: bool,
         layout: &FilmLayout,
         theta0: f64,
+        coarser: Option<&Level>,
     ) {
         self.nt = nt;
         self.nz = nz;
@@ -216,6 +223,11 @@ impl Level {
         let cz = 1.0 / (dz * dz);
         let e = &job.state.ecc;
         let r = &job.state.rate;
+        // Resized, not zeroed (issue 20, session 36: zeroing was 10 % of a default-accuracy
+        // solve's instructions): the operator's arrays are written in full below, and the
+        // scratch `base` and `r` are written before they are read (restriction, residual,
+        // correction, cubic start). The iterate starts at 0 (the coarsest grid's cold start
+        // and the end rows read it).
         for v in [
             &mut self.ae,
             &mut self.an,
@@ -225,75 +237,172 @@ impl Level {
             &mut self.hold,
             &mut self.f_own,
             &mut self.f,
-            &mut self.p,
             &mut self.base,
             &mut self.r,
         ] {
-            v.clear();
             v.resize(n, 0.0);
         }
-        let trig: Vec<(f64, f64)> = (0..2 * nt)
-            .map(|k| {
-                let th = theta0 + 0.5 * dt * k as f64;
-                (th.cos(), th.sin())
-            })
-            .collect();
+        self.p.clear();
+        self.p.resize(n, 0.0);
+        self.set_trig(theta0, coarser);
         // The held bands' face factors and pressures; none for the plain 360° film (factor
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
-        let east = |k: usize| held.as_ref().map_or(1.0, |h| h.east[k]);
-        let north = |k: usize| held.as_ref().map_or(1.0, |h| h.north[k]);
-        let held_pa = |k: usize| held.as_ref().map_or(-1.0, |h| h.held_pa[k]);
+        self.inlet_col.clear();
+        self.inlet_col.resize(nz + 1, usize::MAX);
+        self.inlet_corr.clear();
+        self.inlet_corr.resize(nz + 1, usize::MAX);
+        let trig = &self.trig;
+        // Row by row on slices (no index checks per node; issue 20, session 36: ~130
+        // instructions per node before); the held bands' face factors and holds applied
+        // afterwards to the stored values, the same products in the same order.
         for j in 0..=nz {
             let zeta = j as f64 * dz;
             let zh = (j as f64 + 0.5) * dz;
             let a = r[0] + (r[2] - r[0]) * zeta;
             let b = r[1] + (r[3] - r[1]) * zeta;
-            for i in 0..nt {
-                let k = j * nt + i;
-                let (cf, sf) = trig[2 * i + 1];
-                let (cn, sn) = trig[2 * i];
-                let hf = film(e, zeta, cf, sf);
-                self.ae[k] = ct * hf * hf * hf * east(k);
-                if j < nz {
-                    let hn = film(e, zh, cn, sn);
-                    self.an[k] = cz * hn * hn * hn * north(k);
+            // The end eccentricities interpolated once per row, on the row (east faces)
+            // and half a row north (north faces): `solver::film`'s arithmetic, the same bits.
+            let ex = e[0] + (e[2] - e[0]) * zeta;
+            let ey = e[1] + (e[3] - e[1]) * zeta;
+            let exh = e[0] + (e[2] - e[0]) * zh;
+            let eyh = e[1] + (e[3] - e[1]) * zh;
+            let row = j * nt;
+            let rows = row..row + nt;
+            {
+                let ae = &mut self.ae[rows.clone()];
+                let an = &mut self.an[rows.clone()];
+                let f_own = &mut self.f_own[rows.clone()];
+                let f = &mut self.f[rows.clone()];
+                // Node angle at 2i, east face at 2i + 1.
+                for ((((ae, an), fo), f), t) in ae
+                    .iter_mut()
+                    .zip(an.iter_mut())
+                    .zip(f_own.iter_mut())
+                    .zip(f.iter_mut())
+                    .zip(trig.chunks_exact(2))
+                {
+                    let ((cn, sn), (cf, sf)) = (t[0], t[1]);
+                    let hf = 1.0 - ex * cf - ey * sf;
+                    *ae = ct * hf * hf * hf;
+                    let hn = 1.0 - exh * cn - eyh * sn;
+                    *an = cz * hn * hn * hn;
+                    let v = -6.0 * (a * sn - b * cn);
+                    *fo = v;
+                    *f = v;
                 }
-                self.f_own[k] = -6.0 * (a * sn - b * cn);
-            }
-        }
-        self.inlet_col.clear();
-        self.inlet_col.resize(nz + 1, usize::MAX);
-        self.inlet_corr.clear();
-        self.inlet_corr.resize(nz + 1, usize::MAX);
-        for j in 1..nz {
-            for i in 0..nt {
-                let k = j * nt + i;
-                let im = if i == 0 { nt - 1 } else { i - 1 };
-                let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
-                self.d[k] = d;
-                self.inv_d_free[k] = 1.0 / d;
-                if held_pa(k) >= 0.0 {
-                    self.inv_d[k] = 0.0;
-                    self.hold[k] = held_pa(k) * job.supply;
-                } else {
-                    self.inv_d[k] = 1.0 / d;
+                // No face north of the last row.
+                if j == nz {
+                    an.fill(0.0);
+                }
+                if let Some(h) = &held {
+                    for (v, w) in ae.iter_mut().zip(&h.east[rows.clone()]) {
+                        *v *= w;
+                    }
+                    if j < nz {
+                        for (v, w) in an.iter_mut().zip(&h.north[rows.clone()]) {
+                            *v *= w;
+                        }
+                    }
                 }
             }
-            if max_film_inlet {
+            // The diagonal of this row (the row south of it is complete): 0 on the end
+            // rows, whose nodes are not unknowns.
+            if j == 0 || j == nz {
+                for v in [
+                    &mut self.d,
+                    &mut self.inv_d,
+                    &mut self.inv_d_free,
+                    &mut self.hold,
+                ] {
+                    v[rows.clone()].fill(0.0);
+                }
+                continue;
+            }
+            {
+                let ae = &self.ae[rows.clone()];
+                let an = &self.an[rows.clone()];
+                let an_s = &self.an[row - nt..row];
+                let d = &mut self.d[rows.clone()];
+                // West face of column 0: column nt − 1's east face (periodic).
+                d[0] = ae[0] + ae[nt - 1] + an[0] + an_s[0];
+                for ((((d, e), w), n), s) in d[1..]
+                    .iter_mut()
+                    .zip(&ae[1..])
+                    .zip(&ae[..nt - 1])
+                    .zip(&an[1..])
+                    .zip(&an_s[1..])
+                {
+                    *d = e + w + n + s;
+                }
+                let inv_d = &mut self.inv_d[rows.clone()];
+                let inv_free = &mut self.inv_d_free[rows.clone()];
+                let hold = &mut self.hold[rows.clone()];
+                for (((d, i), fr), h) in d
+                    .iter()
+                    .zip(inv_d.iter_mut())
+                    .zip(inv_free.iter_mut())
+                    .zip(hold.iter_mut())
+                {
+                    let inv = 1.0 / d;
+                    *i = inv;
+                    *fr = inv;
+                    *h = 0.0;
+                }
+                if let Some(hn) = &held {
+                    for ((pa, i), h) in hn.held_pa[rows.clone()]
+                        .iter()
+                        .zip(inv_d.iter_mut())
+                        .zip(hold.iter_mut())
+                    {
+                        if *pa >= 0.0 {
+                            *i = 0.0;
+                            *h = pa * job.supply;
+                        }
+                    }
+                }
+            }
+            if max_film_inlet && (ex != 0.0 || ey != 0.0) {
                 // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
-                let zeta = j as f64 * dz;
-                let ex = e[0] + (e[2] - e[0]) * zeta;
-                let ey = e[1] + (e[3] - e[1]) * zeta;
-                if ex != 0.0 || ey != 0.0 {
-                    let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
-                    let i = (th / dt).round() as usize % nt;
-                    self.inv_d[j * nt + i] = 0.0;
-                    self.inlet_col[j] = i;
-                }
+                let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                let i = (th / dt).round() as usize % nt;
+                self.inv_d[row + i] = 0.0;
+                self.inlet_col[j] = i;
             }
         }
-        self.f.copy_from_slice(&self.f_own);
+    }
+
+    /// `(cos, sin)` of the half-node angles `theta0 + kΔθ/2`, `k < 2 nt` (faces at odd
+    /// `k`), and of the columns `theta0 + iΔθ` (the load sums). Kept when the grid and
+    /// `theta0` are those of the table (explicit grids: every state); from a `coarser`
+    /// level of the same hierarchy, its table holds this grid's columns (`nt` halved:
+    /// `Δθ_H/2 = Δθ` bitwise, so `(Δθ_H/2)·i = (Δθ/2)·2i` bitwise) or all of it (`nt`
+    /// kept): only the new half of the angles is evaluated (issue 20, session 36; the
+    /// sines and cosines were 3.5 % of a default-accuracy solve).
+    fn set_trig(&mut self, theta0: f64, coarser: Option<&Level>) {
+        let nt = self.nt;
+        if self.trig_of == (nt, theta0.to_bits()) && self.trig.len() == 2 * nt {
+            return;
+        }
+        let dt = 2.0 * PI / nt as f64;
+        let at = |k: usize| {
+            let th = theta0 + 0.5 * dt * k as f64;
+            (th.cos(), th.sin())
+        };
+        self.trig.clear();
+        match coarser.filter(|c| c.trig_of == (c.nt, theta0.to_bits())) {
+            Some(c) if c.nt == nt => self.trig.extend_from_slice(&c.trig),
+            Some(c) if 2 * c.nt == nt => {
+                for (k, &v) in c.trig.iter().enumerate() {
+                    self.trig.push(v);
+                    self.trig.push(at(2 * k + 1));
+                }
+            }
+            _ => self.trig.extend((0..2 * nt).map(at)),
+        }
+        self.cols.clear();
+        self.cols.extend(self.trig.iter().step_by(2));
+        self.trig_of = (nt, theta0.to_bits());
     }
 
     /// The inverse diagonal in force: with the inlet holds when this grid is solved,
@@ -908,7 +1017,8 @@ pub(crate) struct Hierarchy {
     /// ladder adds grids on top per state ([`Hierarchy::push_finer`]) and the next state's
     /// [`Hierarchy::build`] drops them again; allocated afresh each time, the finest
     /// (512 × 64: 11 arrays of 260 kB) came from and went back to the system per state.
-    /// Every array is reset by [`Level::setup`], so a reused level is a fresh one.
+    /// [`Level::setup`] writes every array a cycle reads before it is read, so a reused
+    /// level is a fresh one.
     spare: Vec<Level>,
     /// Whether the correction grids freeze one node per row for the max-film inlet line
     /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
@@ -943,8 +1053,18 @@ impl Hierarchy {
         while self.levels.len() < dims.len() {
             self.levels.push(self.spare.pop().unwrap_or_default());
         }
-        for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
-            lvl.setup(job, a, b, g.max_film_inlet, &g.layout, self.theta0);
+        for (l, &(a, b, how)) in dims.iter().enumerate() {
+            let (lo, hi) = self.levels.split_at_mut(l);
+            let lvl = &mut hi[0];
+            lvl.setup(
+                job,
+                a,
+                b,
+                g.max_film_inlet,
+                &g.layout,
+                self.theta0,
+                lo.last(),
+            );
             lvl.coarsen = how;
         }
     }
@@ -959,7 +1079,8 @@ impl Hierarchy {
         how: Coarsen,
     ) {
         let mut lvl = self.spare.pop().unwrap_or_default();
-        lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0);
+        let below = self.levels.last();
+        lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0, below);
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
     }
@@ -1115,11 +1236,25 @@ impl Level {
 
     /// Load integrals of the iterate, node 0 at angle `theta0`: by Simpson's rule in ζ
     /// when `simpson` (see [`Hierarchy::simpson_z`]), else by the rectangle rule.
+    /// The column angles come from the level's table (the same bits as
+    /// [`super::solver::ladder_integrals_on`]'s and [`super::solver::integrals_on`]'s own,
+    /// see [`Level::set_trig`]) when `theta0` is the level's.
     pub(crate) fn loads(&self, theta0: f64, simpson: bool) -> [f64; 4] {
-        if simpson {
-            super::solver::ladder_integrals_on(&self.p, self.nt, self.nz, theta0)
+        let (nt, nz) = (self.nt, self.nz);
+        if self.trig_of != (nt, theta0.to_bits()) {
+            return if simpson {
+                super::solver::ladder_integrals_on(&self.p, nt, nz, theta0)
+            } else {
+                super::solver::integrals_on(&self.p, nt, nz, theta0)
+            };
+        }
+        // Odd `n_z` (never on the ladder): the rectangle rule, as `ladder_integrals_on`.
+        if simpson && nz.is_multiple_of(2) {
+            super::solver::row_weighted_with(&self.p, nt, nz, &self.cols, |j| {
+                super::solver::simpson_row_weight(j)
+            })
         } else {
-            super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
+            super::solver::row_weighted_with(&self.p, nt, nz, &self.cols, |_| 1.0)
         }
     }
 
