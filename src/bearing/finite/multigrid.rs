@@ -167,6 +167,9 @@ pub(crate) struct Level {
     f_own: Vec<f64>,
     /// Right-hand side in use (own, or the FAS right-hand side as a coarse grid).
     f: Vec<f64>,
+    /// Whether `f` holds `f_own` (set up, or copied back; cleared when a finer grid's
+    /// restriction writes `f`): [`Hierarchy::iterate`] copies only when it does not.
+    f_is_own: bool,
     /// Iterate.
     pub p: Vec<f64>,
     /// Injected fine iterate `u₀` (as a coarse grid) / scratch.
@@ -204,6 +207,11 @@ impl Level {
     /// node on the maximum film so the inlet line is on the grid at every level).
     /// `layout`: the grooves and arcs, held at their pressures (Shortley–Weller faces at
     /// their edges, see [`FilmLayout::held_nodes`]).
+    /// `coarser`: the level below in the same hierarchy, whose angle table this grid's
+    /// shares (see [`Level::set_trig`]); `zero_iterate`: the iterate set to 0 inside too
+    /// (else only on the end rows: see [`Hierarchy::push_finer`]).
+    // The grid, its film and its place in the hierarchy: one call per grid and state.
+    #[allow(clippy::too_many_arguments)]
     pub fn setup(
         &mut self,
         job: &FiniteJob,
@@ -213,6 +221,7 @@ impl Level {
         layout: &FilmLayout,
         theta0: f64,
         coarser: Option<&Level>,
+        zero_iterate: bool,
     ) {
         self.nt = nt;
         self.nz = nz;
@@ -226,8 +235,7 @@ impl Level {
         // Resized, not zeroed (issue 20, session 36: zeroing was 10 % of a default-accuracy
         // solve's instructions): the operator's arrays are written in full below, and the
         // scratch `base` and `r` are written before they are read (restriction, residual,
-        // correction, cubic start). The iterate starts at 0 (the coarsest grid's cold start
-        // and the end rows read it).
+        // correction, cubic start).
         for v in [
             &mut self.ae,
             &mut self.an,
@@ -239,11 +247,19 @@ impl Level {
             &mut self.f,
             &mut self.base,
             &mut self.r,
+            &mut self.p,
         ] {
             v.resize(n, 0.0);
         }
-        self.p.clear();
-        self.p.resize(n, 0.0);
+        self.f_is_own = true;
+        // The iterate: 0 on the end rows always (every cycle reads them), inside only
+        // when `zero_iterate` (see [`Hierarchy::push_finer`]).
+        if zero_iterate {
+            self.p.fill(0.0);
+        } else {
+            self.p[..nt].fill(0.0);
+            self.p[nz * nt..].fill(0.0);
+        }
         self.set_trig(theta0, coarser);
         // The held bands' face factors and pressures; none for the plain 360° film (factor
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
@@ -293,7 +309,9 @@ impl Level {
                 }
                 // No face north of the last row.
                 if j == nz {
-                    an.fill(0.0);
+                    for v in an.iter_mut() {
+                        *v = 0.0;
+                    }
                 }
                 if let Some(h) = &held {
                     for (v, w) in ae.iter_mut().zip(&h.east[rows.clone()]) {
@@ -309,13 +327,14 @@ impl Level {
             // The diagonal of this row (the row south of it is complete): 0 on the end
             // rows, whose nodes are not unknowns.
             if j == 0 || j == nz {
-                for v in [
-                    &mut self.d,
-                    &mut self.inv_d,
-                    &mut self.inv_d_free,
-                    &mut self.hold,
-                ] {
-                    v[rows.clone()].fill(0.0);
+                // One loop of stores, not four `memset`s (see above).
+                for (((d, i), fr), h) in self.d[rows.clone()]
+                    .iter_mut()
+                    .zip(&mut self.inv_d[rows.clone()])
+                    .zip(&mut self.inv_d_free[rows.clone()])
+                    .zip(&mut self.hold[rows.clone()])
+                {
+                    (*d, *i, *fr, *h) = (0.0, 0.0, 0.0, 0.0);
                 }
                 continue;
             }
@@ -537,7 +556,11 @@ impl Level {
             // zero to rounding after the sweep (each node solved, or projected to 0 with
             // a negative residual, which the rule zeroes): written as 0, half the work.
             let mut i = j % 2;
-            out.fill(0.0);
+            // The second colour's zeros, stored (not a `memset` of the row first, whose
+            // first-colour half is overwritten below).
+            for v in out.iter_mut().skip(1 - i).step_by(2) {
+                *v = 0.0;
+            }
             if i == 0 {
                 out[0] = row_ref.at(0, 1, nt - 1);
                 i = 2;
@@ -683,6 +706,7 @@ fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut 
         &coarse.inv_d_free
     };
     let (u, d, ae, an) = (&coarse.base, &coarse.d, &coarse.ae, &coarse.an);
+    coarse.f_is_own = false;
     let out = &mut coarse.f;
     out[..cnt].fill(0.0);
     out[cnz * cnt..].fill(0.0);
@@ -887,26 +911,51 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
 
 /// `fine.p = P coarse.p` (bilinear interpolation of a solution; the FMG start).
 pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
-    let (st, sz) = strides(c);
-    let cnt = coarse.nt;
-    // Column ic + 1 wraps to 0 at the coarse grid's end (a comparison, not `%` per node).
-    let u = |jc: usize, ic: usize| coarse.p[jc * cnt + if ic == cnt { 0 } else { ic }];
+    match c {
+        Coarsen::Both => prolong_solution_on::<2, 2>(fine, coarse),
+        Coarsen::Theta => prolong_solution_on::<2, 1>(fine, coarse),
+        Coarsen::Zeta => prolong_solution_on::<1, 2>(fine, coarse),
+    }
+}
+
+/// [`prolong_solution`] for the strides `ST` in θ and `SZ` in ζ, on row slices, a coarse
+/// column at a time (was: a per-node `match` on both offsets through a closure, 4.4 % of a
+/// default-accuracy solve; issue 20, session 36): the same sums in the same order.
+#[inline(always)]
+fn prolong_solution_on<const ST: usize, const SZ: usize>(fine: &mut Level, coarse: &Level) {
+    let (cnt, nt) = (coarse.nt, fine.nt);
     for j in 1..fine.nz {
-        let (jc, jo) = (j / sz, j % sz);
-        for i in 0..fine.nt {
-            let (ic, io) = (i / st, i % st);
-            let v = match (jo, io) {
-                (0, 0) => u(jc, ic),
-                (0, _) => 0.5 * (u(jc, ic) + u(jc, ic + 1)),
-                (_, 0) => 0.5 * (u(jc, ic) + u(jc + 1, ic)),
-                _ => 0.25 * (u(jc, ic) + u(jc, ic + 1) + u(jc + 1, ic) + u(jc + 1, ic + 1)),
-            };
-            let k = j * fine.nt + i;
-            fine.p[k] = if fine.inv_d[k] == 0.0 {
-                fine.hold[k]
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let c0 = &coarse.p[jc * cnt..(jc + 1) * cnt];
+        // The coarse row above (between two coarse rows), else unused.
+        let c1 = if jo == 1 {
+            &coarse.p[(jc + 1) * cnt..(jc + 2) * cnt]
+        } else {
+            c0
+        };
+        let row = j * nt;
+        let out = &mut fine.p[row..row + nt];
+        let inv = &fine.inv_d[row..row + nt];
+        let hold = &fine.hold[row..row + nt];
+        let mut put = |i: usize, v: f64| {
+            out[i] = if inv[i] == 0.0 { hold[i] } else { v.max(0.0) };
+        };
+        for ic in 0..cnt {
+            // Column ic + 1 wraps to 0 at the coarse grid's end.
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (c0[ic], c0[ic1]);
+            if jo == 0 {
+                put(ST * ic, a);
+                if ST == 2 {
+                    put(2 * ic + 1, 0.5 * (a + b));
+                }
             } else {
-                v.max(0.0)
-            };
+                let (c, d) = (c1[ic], c1[ic1]);
+                put(ST * ic, 0.5 * (a + c));
+                if ST == 2 {
+                    put(2 * ic + 1, 0.25 * (a + b + c + d));
+                }
+            }
         }
     }
 }
@@ -1064,12 +1113,17 @@ impl Hierarchy {
                 &g.layout,
                 self.theta0,
                 lo.last(),
+                true,
             );
             lvl.coarsen = how;
         }
     }
 
-    /// Adds a finer level on top (`how` relates it to the current top).
+    /// Adds a finer level on top (`how` relates it to the current top). Its iterate is 0 on
+    /// the end rows only: the caller writes the interior before a cycle reads it (the
+    /// accuracy ladder's interpolation from the level below, [`prolong_solution`]); zeroed
+    /// too, it was a pass of `memset` over the ladder's largest arrays per state (issue 20,
+    /// session 36).
     pub fn push_finer(
         &mut self,
         job: &FiniteJob,
@@ -1080,7 +1134,16 @@ impl Hierarchy {
     ) {
         let mut lvl = self.spare.pop().unwrap_or_default();
         let below = self.levels.last();
-        lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0, below);
+        lvl.setup(
+            job,
+            nt,
+            nz,
+            g.max_film_inlet,
+            &g.layout,
+            self.theta0,
+            below,
+            false,
+        );
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
     }
@@ -1128,7 +1191,10 @@ impl Hierarchy {
         }
         {
             let lvl = &mut self.levels[l];
-            lvl.f.copy_from_slice(&lvl.f_own);
+            if !lvl.f_is_own {
+                lvl.f.copy_from_slice(&lvl.f_own);
+                lvl.f_is_own = true;
+            }
         }
         for m in (1..=l).rev() {
             if let Some(how) = self.levels[m].coarsen {
