@@ -555,18 +555,19 @@ impl Level {
             // The first colour's nodes ((i + j) even); the second colour's residual is
             // zero to rounding after the sweep (each node solved, or projected to 0 with
             // a negative residual, which the rule zeroes): written as 0, half the work.
+            // The second colour's zeros stored beside the first colour's values (not a
+            // `memset` of the row first, half of it overwritten).
             let mut i = j % 2;
-            // The second colour's zeros, stored (not a `memset` of the row first, whose
-            // first-colour half is overwritten below).
-            for v in out.iter_mut().skip(1 - i).step_by(2) {
-                *v = 0.0;
-            }
-            if i == 0 {
+            if i == 1 {
+                out[0] = 0.0;
+            } else {
                 out[0] = row_ref.at(0, 1, nt - 1);
+                out[1] = 0.0;
                 i = 2;
             }
             while i + 1 < nt {
                 out[i] = row_ref.at(i, i + 1, i - 1);
+                out[i + 1] = 0.0;
                 i += 2;
             }
             if i + 1 == nt {
