@@ -190,6 +190,8 @@ pub(crate) struct Level {
     cols: Vec<(f64, f64)>,
     /// `(n_theta, bits of the angle of node 0)` of `trig` (`n_theta` 0: none yet).
     trig_of: (usize, u64),
+    /// Scratch of [`freeze`]: per column of the finer grid, a held node in reach.
+    held_cols: Vec<bool>,
 }
 
 impl Level {
@@ -888,22 +890,31 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     for jc in 1..coarse.nz {
         let jf = jc * sz;
         let (jlo, jhi) = if sz == 2 { (jf - 1, jf + 1) } else { (jf, jf) };
+        // Per fine column: a held fine node off the inlet line in the rows this coarse
+        // row's stencils reach (once per fine node and row, instead of once per coarse
+        // node and stencil point; issue 20, session 36: the same pattern).
+        let mask = &mut coarse.held_cols;
+        mask.clear();
+        mask.resize(fnt, false);
+        for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
+            let line = fine_inlet.get(j).copied();
+            let row = &fine_inv[j * fnt..(j + 1) * fnt];
+            for (i, (m, v)) in mask.iter_mut().zip(row).enumerate() {
+                *m |= *v == 0.0 && line != Some(i);
+            }
+        }
         for ic in 0..coarse.nt {
             let i0 = ic * st;
-            let cols = [
-                if i0 == 0 { fnt - 1 } else { i0 - 1 },
-                i0,
-                if i0 + 1 == fnt { 0 } else { i0 + 1 },
-            ];
-            let cols = if st == 2 { &cols[..] } else { &cols[1..2] };
             // The fine inlet line's node on this grid; and any node whose stencil
             // touches a held fine node off that line (grooves, arcs).
-            let mut held = coarse.inlet_corr[jc] == ic;
-            for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
-                for &i in cols {
-                    held |= fine_inv[j * fnt + i] == 0.0 && fine_inlet.get(j) != Some(&i);
-                }
-            }
+            let held = coarse.inlet_corr[jc] == ic
+                || if st == 2 {
+                    let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+                    let ip = if i0 + 1 == fnt { 0 } else { i0 + 1 };
+                    mask[im] || mask[i0] || mask[ip]
+                } else {
+                    mask[i0]
+                };
             let k = jc * coarse.nt + ic;
             coarse.inv_d_free[k] = if held { 0.0 } else { 1.0 / coarse.d[k] };
         }
