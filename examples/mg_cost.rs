@@ -102,7 +102,12 @@ fn check() {
         accuracy: a,
         ..FiniteSettings::default()
     };
-    let cases: Vec<(&str, &bearing_sweep::bearing::BearingParams, FiniteSettings, bool)> = vec![
+    let cases: Vec<(
+        &str,
+        &bearing_sweep::bearing::BearingParams,
+        FiniteSettings,
+        bool,
+    )> = vec![
         ("mg 64x16", &p, explicit(64, 16), false),
         ("mg 128x32", &p, explicit(128, 32), false),
         ("acc 2e-3", &p, accuracy(2e-3), false),
