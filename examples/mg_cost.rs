@@ -17,6 +17,9 @@
 //! `... -- prof acc ACCURACY [reps [tolerance]]`: one solver on one setting only (the 32 states, cold
 //! starts), its node updates per state and wall per state and per node update: the run to
 //! put under `valgrind --tool=callgrind` (instructions per state and where they go).
+//!
+//! `cargo run --release --example mg_cost -- check`: checksums of the multigrid's outputs
+//! to the last bit, to compare two builds (see `check`).
 use std::time::Instant;
 
 use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
@@ -76,10 +79,85 @@ fn prof(args: &[String]) {
     );
 }
 
+/// `check`: bit-level checksums of the multigrid paths over the 32 states (explicit
+/// grids cold and warm, the accuracy ladder at three accuracies, the rectangle ladder,
+/// two grooves on both, the converged reference): the sums of the load vectors and of
+/// the error estimates, printed to the last bit, to compare two builds (issue 20,
+/// session 36: the set-up changes keep every output).
+fn check() {
+    use bearing_sweep::bearing::{Groove, Grooves};
+    let (p, states) = bench_states(32);
+    let groove = |angle: f64| Groove {
+        angle,
+        width: 20.0,
+        supply_pressure: 0.0,
+        length: None,
+    };
+    let grooved = bearing_sweep::bearing::BearingParams {
+        grooves: Grooves::new(&[groove(0.0), groove(180.0)]).expect("two grooves"),
+        ..p.clone()
+    };
+    let explicit = |t, z| FiniteSettings::with_grid(t, z);
+    let accuracy = |a| FiniteSettings {
+        accuracy: a,
+        ..FiniteSettings::default()
+    };
+    let cases: Vec<(
+        &str,
+        &bearing_sweep::bearing::BearingParams,
+        FiniteSettings,
+        bool,
+    )> = vec![
+        ("mg 64x16", &p, explicit(64, 16), false),
+        ("mg 128x32", &p, explicit(128, 32), false),
+        ("acc 2e-3", &p, accuracy(2e-3), false),
+        ("acc 5e-4", &p, accuracy(5e-4), false),
+        ("acc 1e-4", &p, accuracy(1e-4), false),
+        ("acc 5e-4 rectangle ladder", &p, accuracy(5e-4), true),
+        ("grooves mg 64x16", &grooved, explicit(64, 16), false),
+        ("grooves acc 5e-4", &grooved, accuracy(5e-4), false),
+    ];
+    for (label, params, settings, rectangle) in cases {
+        let mut g = FiniteGrid::from(&settings);
+        g.layout = FiniteGrid::for_bearing(params).layout;
+        let mut solver = FiniteSolver::new();
+        solver.rectangle_ladder = rectangle;
+        let (mut loads, mut est, mut warm) = ([0.0; 4], 0.0, [0.0; 4]);
+        for s in &states {
+            let job = FiniteJob::new(params, &pack_state(params, s).expect("valid state"));
+            let mut field = Vec::new();
+            let (v, r) = solver.solve(&job, &g, &mut field);
+            // Warm start from its own field (explicit grids read it).
+            let (w, _) = solver.solve(&job, &g, &mut field);
+            for k in 0..4 {
+                loads[k] += v[k];
+                warm[k] += w[k];
+            }
+            est += r.error_estimate + r.iteration_error;
+        }
+        println!("{label}: loads {loads:?} warm {warm:?} estimates {est:?}");
+    }
+    let mut solver = FiniteSolver::new();
+    let g = FiniteGrid::for_bearing(&p);
+    let mut sum = [0.0; 4];
+    for s in states.iter().step_by(8) {
+        let job = FiniteJob::new(&p, &pack_state(&p, s).expect("valid state"));
+        let v = solver.reference(&job, &g);
+        for k in 0..4 {
+            sum[k] += v[k];
+        }
+    }
+    println!("reference (4 states): {sum:?}");
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("prof") {
         prof(&args[1..]);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("check") {
+        check();
         return;
     }
     let reps: usize = std::env::args()

@@ -854,6 +854,9 @@ fn prof(acc: f64, rule: &str) {
     let reps: usize = v.get(3).map_or(1, |r| r.parse().expect("REPS"));
     let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
     let mut sum = [0.0; 4];
+    // The reports' error estimates and grids, summed: with the loads, the bits a set-up
+    // change must keep.
+    let (mut est_sum, mut grid_sum) = (0.0, 0u64);
     for _ in 0..reps {
         (exact, whole) = (0, 0);
         let start = std::time::Instant::now();
@@ -864,16 +867,20 @@ fn prof(acc: f64, rule: &str) {
             for k in 0..4 {
                 sum[k] += ints[k];
             }
+            est_sum += r.error_estimate;
+            grid_sum += r.n_theta as u64 * r.n_z as u64;
         }
         best = best.min(start.elapsed().as_secs_f64());
     }
     let n = bench.len() as f64;
     println!(
-        "rule {rule} accuracy {acc:e}: node updates per state {:.0} (exact), {:.0} (whole sweeps); {:.3} ms/state (best of {reps}); load checksum {:?}",
+        "rule {rule} accuracy {acc:e}: node updates per state {:.0} (exact), {:.0} (whole sweeps); {:.3} ms/state (best of {reps}); load checksum {:?}; estimate checksum {:?}; grid nodes {}",
         exact as f64 / n,
         whole as f64 / n,
         best / n * 1e3,
-        sum.map(|x| x / reps as f64)
+        sum.map(|x| x / reps as f64),
+        est_sum / reps as f64,
+        grid_sum / reps as u64
     );
 }
 

@@ -101,7 +101,7 @@ pub fn flow_integrals(
         return None;
     }
     let mut lvl = Level::default();
-    lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, theta0);
+    lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, theta0, None, true);
     let (ae, an, f, inv_d) = lvl.operator();
     let p = field;
     let dt = 2.0 * PI / nt as f64;

@@ -31,7 +31,7 @@
 
 use std::f64::consts::PI;
 
-use super::solver::{film, FiniteGrid, FiniteJob};
+use super::solver::{FiniteGrid, FiniteJob};
 use crate::bearing::FilmLayout;
 
 /// Smoothing sweeps before the coarse-grid correction.
@@ -167,6 +167,9 @@ pub(crate) struct Level {
     f_own: Vec<f64>,
     /// Right-hand side in use (own, or the FAS right-hand side as a coarse grid).
     f: Vec<f64>,
+    /// Whether `f` holds `f_own` (set up, or copied back; cleared when a finer grid's
+    /// restriction writes `f`): [`Hierarchy::iterate`] copies only when it does not.
+    f_is_own: bool,
     /// Iterate.
     pub p: Vec<f64>,
     /// Injected fine iterate `u₀` (as a coarse grid) / scratch.
@@ -181,6 +184,14 @@ pub(crate) struct Level {
     /// Per row: as a correction grid, the column frozen for the finer grid's inlet line
     /// (see [`freeze`]; `usize::MAX`: none).
     inlet_corr: Vec<usize>,
+    /// `(cos, sin)` of the half-node angles (see [`Level::set_trig`]).
+    trig: Vec<(f64, f64)>,
+    /// `(cos, sin)` of the column angles (the even entries of `trig`).
+    cols: Vec<(f64, f64)>,
+    /// `(n_theta, bits of the angle of node 0)` of `trig` (`n_theta` 0: none yet).
+    trig_of: (usize, u64),
+    /// Scratch of [`freeze`]: per column of the finer grid, a held node in reach.
+    held_cols: Vec<bool>,
 }
 
 impl Level {
@@ -198,6 +209,11 @@ impl Level {
     /// node on the maximum film so the inlet line is on the grid at every level).
     /// `layout`: the grooves and arcs, held at their pressures (Shortley–Weller faces at
     /// their edges, see [`FilmLayout::held_nodes`]).
+    /// `coarser`: the level below in the same hierarchy, whose angle table this grid's
+    /// shares (see [`Level::set_trig`]); `zero_iterate`: the iterate set to 0 inside too
+    /// (else only on the end rows: see [`Hierarchy::push_finer`]).
+    // The grid, its film and its place in the hierarchy: one call per grid and state.
+    #[allow(clippy::too_many_arguments)]
     pub fn setup(
         &mut self,
         job: &FiniteJob,
@@ -206,6 +222,8 @@ impl Level {
         max_film_inlet: bool,
         layout: &FilmLayout,
         theta0: f64,
+        coarser: Option<&Level>,
+        zero_iterate: bool,
     ) {
         self.nt = nt;
         self.nz = nz;
@@ -216,6 +234,10 @@ impl Level {
         let cz = 1.0 / (dz * dz);
         let e = &job.state.ecc;
         let r = &job.state.rate;
+        // Resized, not zeroed (issue 20, session 36: zeroing was 10 % of a default-accuracy
+        // solve's instructions): the operator's arrays are written in full below, and the
+        // scratch `base` and `r` are written before they are read (restriction, residual,
+        // correction, cubic start).
         for v in [
             &mut self.ae,
             &mut self.an,
@@ -225,75 +247,183 @@ impl Level {
             &mut self.hold,
             &mut self.f_own,
             &mut self.f,
-            &mut self.p,
             &mut self.base,
             &mut self.r,
+            &mut self.p,
         ] {
-            v.clear();
             v.resize(n, 0.0);
         }
-        let trig: Vec<(f64, f64)> = (0..2 * nt)
-            .map(|k| {
-                let th = theta0 + 0.5 * dt * k as f64;
-                (th.cos(), th.sin())
-            })
-            .collect();
+        self.f_is_own = true;
+        // The iterate: 0 on the end rows always (every cycle reads them), inside only
+        // when `zero_iterate` (see [`Hierarchy::push_finer`]).
+        if zero_iterate {
+            self.p.fill(0.0);
+        } else {
+            self.p[..nt].fill(0.0);
+            self.p[nz * nt..].fill(0.0);
+        }
+        self.set_trig(theta0, coarser);
         // The held bands' face factors and pressures; none for the plain 360° film (factor
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
-        let east = |k: usize| held.as_ref().map_or(1.0, |h| h.east[k]);
-        let north = |k: usize| held.as_ref().map_or(1.0, |h| h.north[k]);
-        let held_pa = |k: usize| held.as_ref().map_or(-1.0, |h| h.held_pa[k]);
+        self.inlet_col.clear();
+        self.inlet_col.resize(nz + 1, usize::MAX);
+        self.inlet_corr.clear();
+        self.inlet_corr.resize(nz + 1, usize::MAX);
+        let trig = &self.trig;
+        // Row by row on slices (no index checks per node; issue 20, session 36: ~130
+        // instructions per node before); the held bands' face factors and holds applied
+        // afterwards to the stored values, the same products in the same order.
         for j in 0..=nz {
             let zeta = j as f64 * dz;
             let zh = (j as f64 + 0.5) * dz;
             let a = r[0] + (r[2] - r[0]) * zeta;
             let b = r[1] + (r[3] - r[1]) * zeta;
-            for i in 0..nt {
-                let k = j * nt + i;
-                let (cf, sf) = trig[2 * i + 1];
-                let (cn, sn) = trig[2 * i];
-                let hf = film(e, zeta, cf, sf);
-                self.ae[k] = ct * hf * hf * hf * east(k);
-                if j < nz {
-                    let hn = film(e, zh, cn, sn);
-                    self.an[k] = cz * hn * hn * hn * north(k);
+            // The end eccentricities interpolated once per row, on the row (east faces)
+            // and half a row north (north faces): `solver::film`'s arithmetic, the same bits.
+            let ex = e[0] + (e[2] - e[0]) * zeta;
+            let ey = e[1] + (e[3] - e[1]) * zeta;
+            let exh = e[0] + (e[2] - e[0]) * zh;
+            let eyh = e[1] + (e[3] - e[1]) * zh;
+            let row = j * nt;
+            let rows = row..row + nt;
+            {
+                let ae = &mut self.ae[rows.clone()];
+                let an = &mut self.an[rows.clone()];
+                let f_own = &mut self.f_own[rows.clone()];
+                let f = &mut self.f[rows.clone()];
+                // Node angle at 2i, east face at 2i + 1.
+                for ((((ae, an), fo), f), t) in ae
+                    .iter_mut()
+                    .zip(an.iter_mut())
+                    .zip(f_own.iter_mut())
+                    .zip(f.iter_mut())
+                    .zip(trig.chunks_exact(2))
+                {
+                    let ((cn, sn), (cf, sf)) = (t[0], t[1]);
+                    let hf = 1.0 - ex * cf - ey * sf;
+                    *ae = ct * hf * hf * hf;
+                    let hn = 1.0 - exh * cn - eyh * sn;
+                    *an = cz * hn * hn * hn;
+                    let v = -6.0 * (a * sn - b * cn);
+                    *fo = v;
+                    *f = v;
                 }
-                self.f_own[k] = -6.0 * (a * sn - b * cn);
-            }
-        }
-        self.inlet_col.clear();
-        self.inlet_col.resize(nz + 1, usize::MAX);
-        self.inlet_corr.clear();
-        self.inlet_corr.resize(nz + 1, usize::MAX);
-        for j in 1..nz {
-            for i in 0..nt {
-                let k = j * nt + i;
-                let im = if i == 0 { nt - 1 } else { i - 1 };
-                let d = self.ae[k] + self.ae[j * nt + im] + self.an[k] + self.an[k - nt];
-                self.d[k] = d;
-                self.inv_d_free[k] = 1.0 / d;
-                if held_pa(k) >= 0.0 {
-                    self.inv_d[k] = 0.0;
-                    self.hold[k] = held_pa(k) * job.supply;
-                } else {
-                    self.inv_d[k] = 1.0 / d;
+                // No face north of the last row.
+                if j == nz {
+                    for v in an.iter_mut() {
+                        *v = 0.0;
+                    }
+                }
+                if let Some(h) = &held {
+                    for (v, w) in ae.iter_mut().zip(&h.east[rows.clone()]) {
+                        *v *= w;
+                    }
+                    if j < nz {
+                        for (v, w) in an.iter_mut().zip(&h.north[rows.clone()]) {
+                            *v *= w;
+                        }
+                    }
                 }
             }
-            if max_film_inlet {
+            // The diagonal of this row (the row south of it is complete): 0 on the end
+            // rows, whose nodes are not unknowns.
+            if j == 0 || j == nz {
+                // One loop of stores, not four `memset`s (see above).
+                for (((d, i), fr), h) in self.d[rows.clone()]
+                    .iter_mut()
+                    .zip(&mut self.inv_d[rows.clone()])
+                    .zip(&mut self.inv_d_free[rows.clone()])
+                    .zip(&mut self.hold[rows.clone()])
+                {
+                    (*d, *i, *fr, *h) = (0.0, 0.0, 0.0, 0.0);
+                }
+                continue;
+            }
+            {
+                let ae = &self.ae[rows.clone()];
+                let an = &self.an[rows.clone()];
+                let an_s = &self.an[row - nt..row];
+                let d = &mut self.d[rows.clone()];
+                // West face of column 0: column nt − 1's east face (periodic).
+                d[0] = ae[0] + ae[nt - 1] + an[0] + an_s[0];
+                for ((((d, e), w), n), s) in d[1..]
+                    .iter_mut()
+                    .zip(&ae[1..])
+                    .zip(&ae[..nt - 1])
+                    .zip(&an[1..])
+                    .zip(&an_s[1..])
+                {
+                    *d = e + w + n + s;
+                }
+                let inv_d = &mut self.inv_d[rows.clone()];
+                let inv_free = &mut self.inv_d_free[rows.clone()];
+                let hold = &mut self.hold[rows.clone()];
+                for (((d, i), fr), h) in d
+                    .iter()
+                    .zip(inv_d.iter_mut())
+                    .zip(inv_free.iter_mut())
+                    .zip(hold.iter_mut())
+                {
+                    let inv = 1.0 / d;
+                    *i = inv;
+                    *fr = inv;
+                    *h = 0.0;
+                }
+                if let Some(hn) = &held {
+                    for ((pa, i), h) in hn.held_pa[rows.clone()]
+                        .iter()
+                        .zip(inv_d.iter_mut())
+                        .zip(hold.iter_mut())
+                    {
+                        if *pa >= 0.0 {
+                            *i = 0.0;
+                            *h = pa * job.supply;
+                        }
+                    }
+                }
+            }
+            if max_film_inlet && (ex != 0.0 || ey != 0.0) {
                 // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
-                let zeta = j as f64 * dz;
-                let ex = e[0] + (e[2] - e[0]) * zeta;
-                let ey = e[1] + (e[3] - e[1]) * zeta;
-                if ex != 0.0 || ey != 0.0 {
-                    let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
-                    let i = (th / dt).round() as usize % nt;
-                    self.inv_d[j * nt + i] = 0.0;
-                    self.inlet_col[j] = i;
-                }
+                let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                let i = (th / dt).round() as usize % nt;
+                self.inv_d[row + i] = 0.0;
+                self.inlet_col[j] = i;
             }
         }
-        self.f.copy_from_slice(&self.f_own);
+    }
+
+    /// `(cos, sin)` of the half-node angles `theta0 + kΔθ/2`, `k < 2 nt` (faces at odd
+    /// `k`), and of the columns `theta0 + iΔθ` (the load sums). Kept when the grid and
+    /// `theta0` are those of the table (explicit grids: every state); from a `coarser`
+    /// level of the same hierarchy, its table holds this grid's columns (`nt` halved:
+    /// `Δθ_H/2 = Δθ` bitwise, so `(Δθ_H/2)·i = (Δθ/2)·2i` bitwise) or all of it (`nt`
+    /// kept): only the new half of the angles is evaluated (issue 20, session 36; the
+    /// sines and cosines were 3.5 % of a default-accuracy solve).
+    fn set_trig(&mut self, theta0: f64, coarser: Option<&Level>) {
+        let nt = self.nt;
+        if self.trig_of == (nt, theta0.to_bits()) && self.trig.len() == 2 * nt {
+            return;
+        }
+        let dt = 2.0 * PI / nt as f64;
+        let at = |k: usize| {
+            let th = theta0 + 0.5 * dt * k as f64;
+            (th.cos(), th.sin())
+        };
+        self.trig.clear();
+        match coarser.filter(|c| c.trig_of == (c.nt, theta0.to_bits())) {
+            Some(c) if c.nt == nt => self.trig.extend_from_slice(&c.trig),
+            Some(c) if 2 * c.nt == nt => {
+                for (k, &v) in c.trig.iter().enumerate() {
+                    self.trig.push(v);
+                    self.trig.push(at(2 * k + 1));
+                }
+            }
+            _ => self.trig.extend((0..2 * nt).map(at)),
+        }
+        self.cols.clear();
+        self.cols.extend(self.trig.iter().step_by(2));
+        self.trig_of = (nt, theta0.to_bits());
     }
 
     /// The inverse diagonal in force: with the inlet holds when this grid is solved,
@@ -427,14 +557,19 @@ impl Level {
             // The first colour's nodes ((i + j) even); the second colour's residual is
             // zero to rounding after the sweep (each node solved, or projected to 0 with
             // a negative residual, which the rule zeroes): written as 0, half the work.
+            // The second colour's zeros stored beside the first colour's values (not a
+            // `memset` of the row first, half of it overwritten).
             let mut i = j % 2;
-            out.fill(0.0);
-            if i == 0 {
+            if i == 1 {
+                out[0] = 0.0;
+            } else {
                 out[0] = row_ref.at(0, 1, nt - 1);
+                out[1] = 0.0;
                 i = 2;
             }
             while i + 1 < nt {
                 out[i] = row_ref.at(i, i + 1, i - 1);
+                out[i + 1] = 0.0;
                 i += 2;
             }
             if i + 1 == nt {
@@ -574,6 +709,7 @@ fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut 
         &coarse.inv_d_free
     };
     let (u, d, ae, an) = (&coarse.base, &coarse.d, &coarse.ae, &coarse.an);
+    coarse.f_is_own = false;
     let out = &mut coarse.f;
     out[..cnt].fill(0.0);
     out[cnz * cnt..].fill(0.0);
@@ -754,22 +890,31 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     for jc in 1..coarse.nz {
         let jf = jc * sz;
         let (jlo, jhi) = if sz == 2 { (jf - 1, jf + 1) } else { (jf, jf) };
+        // Per fine column: a held fine node off the inlet line in the rows this coarse
+        // row's stencils reach (once per fine node and row, instead of once per coarse
+        // node and stencil point; issue 20, session 36: the same pattern).
+        let mask = &mut coarse.held_cols;
+        mask.clear();
+        mask.resize(fnt, false);
+        for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
+            let line = fine_inlet.get(j).copied();
+            let row = &fine_inv[j * fnt..(j + 1) * fnt];
+            for (i, (m, v)) in mask.iter_mut().zip(row).enumerate() {
+                *m |= *v == 0.0 && line != Some(i);
+            }
+        }
         for ic in 0..coarse.nt {
             let i0 = ic * st;
-            let cols = [
-                if i0 == 0 { fnt - 1 } else { i0 - 1 },
-                i0,
-                if i0 + 1 == fnt { 0 } else { i0 + 1 },
-            ];
-            let cols = if st == 2 { &cols[..] } else { &cols[1..2] };
             // The fine inlet line's node on this grid; and any node whose stencil
             // touches a held fine node off that line (grooves, arcs).
-            let mut held = coarse.inlet_corr[jc] == ic;
-            for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
-                for &i in cols {
-                    held |= fine_inv[j * fnt + i] == 0.0 && fine_inlet.get(j) != Some(&i);
-                }
-            }
+            let held = coarse.inlet_corr[jc] == ic
+                || if st == 2 {
+                    let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+                    let ip = if i0 + 1 == fnt { 0 } else { i0 + 1 };
+                    mask[im] || mask[i0] || mask[ip]
+                } else {
+                    mask[i0]
+                };
             let k = jc * coarse.nt + ic;
             coarse.inv_d_free[k] = if held { 0.0 } else { 1.0 / coarse.d[k] };
         }
@@ -778,26 +923,51 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
 
 /// `fine.p = P coarse.p` (bilinear interpolation of a solution; the FMG start).
 pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
-    let (st, sz) = strides(c);
-    let cnt = coarse.nt;
-    // Column ic + 1 wraps to 0 at the coarse grid's end (a comparison, not `%` per node).
-    let u = |jc: usize, ic: usize| coarse.p[jc * cnt + if ic == cnt { 0 } else { ic }];
+    match c {
+        Coarsen::Both => prolong_solution_on::<2, 2>(fine, coarse),
+        Coarsen::Theta => prolong_solution_on::<2, 1>(fine, coarse),
+        Coarsen::Zeta => prolong_solution_on::<1, 2>(fine, coarse),
+    }
+}
+
+/// [`prolong_solution`] for the strides `ST` in θ and `SZ` in ζ, on row slices, a coarse
+/// column at a time (was: a per-node `match` on both offsets through a closure, 4.4 % of a
+/// default-accuracy solve; issue 20, session 36): the same sums in the same order.
+#[inline(always)]
+fn prolong_solution_on<const ST: usize, const SZ: usize>(fine: &mut Level, coarse: &Level) {
+    let (cnt, nt) = (coarse.nt, fine.nt);
     for j in 1..fine.nz {
-        let (jc, jo) = (j / sz, j % sz);
-        for i in 0..fine.nt {
-            let (ic, io) = (i / st, i % st);
-            let v = match (jo, io) {
-                (0, 0) => u(jc, ic),
-                (0, _) => 0.5 * (u(jc, ic) + u(jc, ic + 1)),
-                (_, 0) => 0.5 * (u(jc, ic) + u(jc + 1, ic)),
-                _ => 0.25 * (u(jc, ic) + u(jc, ic + 1) + u(jc + 1, ic) + u(jc + 1, ic + 1)),
-            };
-            let k = j * fine.nt + i;
-            fine.p[k] = if fine.inv_d[k] == 0.0 {
-                fine.hold[k]
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let c0 = &coarse.p[jc * cnt..(jc + 1) * cnt];
+        // The coarse row above (between two coarse rows), else unused.
+        let c1 = if jo == 1 {
+            &coarse.p[(jc + 1) * cnt..(jc + 2) * cnt]
+        } else {
+            c0
+        };
+        let row = j * nt;
+        let out = &mut fine.p[row..row + nt];
+        let inv = &fine.inv_d[row..row + nt];
+        let hold = &fine.hold[row..row + nt];
+        let mut put = |i: usize, v: f64| {
+            out[i] = if inv[i] == 0.0 { hold[i] } else { v.max(0.0) };
+        };
+        for ic in 0..cnt {
+            // Column ic + 1 wraps to 0 at the coarse grid's end.
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (c0[ic], c0[ic1]);
+            if jo == 0 {
+                put(ST * ic, a);
+                if ST == 2 {
+                    put(2 * ic + 1, 0.5 * (a + b));
+                }
             } else {
-                v.max(0.0)
-            };
+                let (c, d) = (c1[ic], c1[ic1]);
+                put(ST * ic, 0.5 * (a + c));
+                if ST == 2 {
+                    put(2 * ic + 1, 0.25 * (a + b + c + d));
+                }
+            }
         }
     }
 }
@@ -908,7 +1078,8 @@ pub(crate) struct Hierarchy {
     /// ladder adds grids on top per state ([`Hierarchy::push_finer`]) and the next state's
     /// [`Hierarchy::build`] drops them again; allocated afresh each time, the finest
     /// (512 × 64: 11 arrays of 260 kB) came from and went back to the system per state.
-    /// Every array is reset by [`Level::setup`], so a reused level is a fresh one.
+    /// [`Level::setup`] writes every array a cycle reads before it is read, so a reused
+    /// level is a fresh one.
     spare: Vec<Level>,
     /// Whether the correction grids freeze one node per row for the max-film inlet line
     /// (explicit grids, issue 20 pass 3) or every node whose stencil touches it (the
@@ -943,13 +1114,28 @@ impl Hierarchy {
         while self.levels.len() < dims.len() {
             self.levels.push(self.spare.pop().unwrap_or_default());
         }
-        for (lvl, &(a, b, how)) in self.levels.iter_mut().zip(&dims) {
-            lvl.setup(job, a, b, g.max_film_inlet, &g.layout, self.theta0);
+        for (l, &(a, b, how)) in dims.iter().enumerate() {
+            let (lo, hi) = self.levels.split_at_mut(l);
+            let lvl = &mut hi[0];
+            lvl.setup(
+                job,
+                a,
+                b,
+                g.max_film_inlet,
+                &g.layout,
+                self.theta0,
+                lo.last(),
+                true,
+            );
             lvl.coarsen = how;
         }
     }
 
-    /// Adds a finer level on top (`how` relates it to the current top).
+    /// Adds a finer level on top (`how` relates it to the current top). Its iterate is 0 on
+    /// the end rows only: the caller writes the interior before a cycle reads it (the
+    /// accuracy ladder's interpolation from the level below, [`prolong_solution`]); zeroed
+    /// too, it was a pass of `memset` over the ladder's largest arrays per state (issue 20,
+    /// session 36).
     pub fn push_finer(
         &mut self,
         job: &FiniteJob,
@@ -959,7 +1145,17 @@ impl Hierarchy {
         how: Coarsen,
     ) {
         let mut lvl = self.spare.pop().unwrap_or_default();
-        lvl.setup(job, nt, nz, g.max_film_inlet, &g.layout, self.theta0);
+        let below = self.levels.last();
+        lvl.setup(
+            job,
+            nt,
+            nz,
+            g.max_film_inlet,
+            &g.layout,
+            self.theta0,
+            below,
+            false,
+        );
         lvl.coarsen = Some(how);
         self.levels.push(lvl);
     }
@@ -1007,7 +1203,10 @@ impl Hierarchy {
         }
         {
             let lvl = &mut self.levels[l];
-            lvl.f.copy_from_slice(&lvl.f_own);
+            if !lvl.f_is_own {
+                lvl.f.copy_from_slice(&lvl.f_own);
+                lvl.f_is_own = true;
+            }
         }
         for m in (1..=l).rev() {
             if let Some(how) = self.levels[m].coarsen {
@@ -1115,11 +1314,25 @@ impl Level {
 
     /// Load integrals of the iterate, node 0 at angle `theta0`: by Simpson's rule in ζ
     /// when `simpson` (see [`Hierarchy::simpson_z`]), else by the rectangle rule.
+    /// The column angles come from the level's table (the same bits as
+    /// [`super::solver::ladder_integrals_on`]'s and [`super::solver::integrals_on`]'s own,
+    /// see [`Level::set_trig`]) when `theta0` is the level's.
     pub(crate) fn loads(&self, theta0: f64, simpson: bool) -> [f64; 4] {
-        if simpson {
-            super::solver::ladder_integrals_on(&self.p, self.nt, self.nz, theta0)
+        let (nt, nz) = (self.nt, self.nz);
+        if self.trig_of != (nt, theta0.to_bits()) {
+            return if simpson {
+                super::solver::ladder_integrals_on(&self.p, nt, nz, theta0)
+            } else {
+                super::solver::integrals_on(&self.p, nt, nz, theta0)
+            };
+        }
+        // Odd `n_z` (never on the ladder): the rectangle rule, as `ladder_integrals_on`.
+        if simpson && nz.is_multiple_of(2) {
+            super::solver::row_weighted_with(&self.p, nt, nz, &self.cols, |j| {
+                super::solver::simpson_row_weight(j)
+            })
         } else {
-            super::solver::integrals_on(&self.p, self.nt, self.nz, theta0)
+            super::solver::row_weighted_with(&self.p, nt, nz, &self.cols, |_| 1.0)
         }
     }
 

@@ -302,10 +302,6 @@ pub struct FiniteSolver {
     /// (for probes: cycles and work per grid). On the Simpson-summed ladder their
     /// `rectangle` sums are not computed (NaN).
     pub trace: Vec<LadderStep>,
-    /// `(n_theta, angle of node 0, (cos θ_i, sin θ_i) of the columns)` of the ladder's
-    /// grids, for the load sums of the per-cycle stop: computed once per grid and state
-    /// instead of once per sum.
-    trig: Vec<(usize, f64, Vec<(f64, f64)>)>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -616,7 +612,7 @@ impl FiniteSolver {
         self.mg.build(job, ladder[0].0, ladder[0].1, g);
         let top = self.mg.levels.len() - 1;
         let res = self.fmg(job.aspect, top, stop);
-        self.ladder_step(g, top, res)
+        self.ladder_step(top, res)
     }
 
     /// Adds the ladder's next grid `nt × nz` on top, starts it from the interpolated
@@ -633,23 +629,18 @@ impl FiniteSolver {
         let (lo, hi) = self.mg.levels.split_at_mut(top);
         prolong_solution(&mut hi[0], &lo[top - 1], Coarsen::Both);
         let res = self.mg.iterate(top, job.aspect, stop, MAX_CYCLES);
-        self.ladder_step(g, top, res)
+        self.ladder_step(top, res)
     }
 
-    fn ladder_step(&self, g: &FiniteGrid, top: usize, res: (u32, f64, bool)) -> LadderStep {
+    fn ladder_step(&self, top: usize, res: (u32, f64, bool)) -> LadderStep {
         let lvl = &self.mg.levels[top];
-        let grid = FiniteGrid {
-            n_theta: lvl.nt,
-            n_z: lvl.nz,
-            accuracy: None,
-            ..*g
-        };
-        let rectangle = integrals_at(&lvl.p, &grid, self.mg.theta0);
+        // The level's column table (`Level::loads`): the same bits as `integrals_at`.
+        let rectangle = lvl.loads(self.mg.theta0, false);
         LadderStep {
             n_theta: lvl.nt,
             n_z: lvl.nz,
             integrals: if self.mg.simpson_z {
-                ladder_integrals_on(&lvl.p, lvl.nt, lvl.nz, self.mg.theta0)
+                lvl.loads(self.mg.theta0, true)
             } else {
                 rectangle
             },
@@ -834,32 +825,10 @@ impl FiniteSolver {
 
     /// The load vector of the ladder's top grid as its level sums it
     /// ([`super::multigrid::Level::loads`]: Simpson in ζ when `simpson`, else the
-    /// rectangle rule; the same bits), with the column angles from `self.trig`.
+    /// rectangle rule; the same bits).
     fn top_loads(&mut self, simpson: bool) -> FilmIntegrals {
-        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
-        let (nt, nz, theta0) = (lvl.nt, lvl.nz, self.mg.theta0);
-        if simpson && !nz.is_multiple_of(2) {
-            return lvl.loads(theta0, simpson);
-        }
-        let slot = match self.trig.iter().position(|t| t.0 == nt) {
-            Some(k) => k,
-            None => {
-                self.trig.push((nt, f64::NAN, Vec::new()));
-                self.trig.len() - 1
-            }
-        };
-        let entry = &mut self.trig[slot];
-        // Bitwise: a new state's angle differs (NaN never matches).
-        if entry.1.to_bits() != theta0.to_bits() || entry.2.len() != nt {
-            entry.1 = theta0;
-            entry.2 = column_trig(nt, theta0);
-        }
-        let lvl = &self.mg.levels[self.mg.levels.len() - 1];
-        if simpson {
-            row_weighted_with(&lvl.p, nt, nz, &entry.2, simpson_row_weight)
-        } else {
-            row_weighted_with(&lvl.p, nt, nz, &entry.2, |_| 1.0)
-        }
+        // The level's own column table (see `Level::set_trig`): one per grid and state.
+        self.mg.levels[self.mg.levels.len() - 1].loads(self.mg.theta0, simpson)
     }
 
     /// The ladder step of the top grid after [`FiniteSolver::ladder_cycles`]: its loads
@@ -1280,7 +1249,7 @@ fn column_trig(nt: usize, theta0: f64) -> Vec<(f64, f64)> {
 }
 
 /// Simpson's row weight over Δζ: 4/3 on odd rows, 2/3 on even ones.
-fn simpson_row_weight(j: usize) -> f64 {
+pub(super) fn simpson_row_weight(j: usize) -> f64 {
     if j % 2 == 1 {
         4.0 / 3.0
     } else {
@@ -1289,7 +1258,7 @@ fn simpson_row_weight(j: usize) -> f64 {
 }
 
 /// [`row_weighted_integrals`] with the columns' `(cos θ_i, sin θ_i)` given.
-fn row_weighted_with(
+pub(super) fn row_weighted_with(
     p: &[f64],
     nt: usize,
     nz: usize,
