@@ -175,8 +175,8 @@ fn real_eliminate(n: usize, a: &mut [f64], piv: &mut Vec<usize>) -> bool {
 #[inline(always)]
 fn real_solve(n: usize, a: &[f64], piv: &[usize], b: &mut [f64]) {
     let (a, piv, b) = (&a[..n * n], &piv[..n], &mut b[..n]);
-    for k in 0..n {
-        b.swap(k, piv[k]);
+    for (k, &p) in piv.iter().enumerate() {
+        b.swap(k, p);
     }
     for i in 1..n {
         let (done, rest) = b.split_at_mut(i);
@@ -263,9 +263,9 @@ fn complex_eliminate(n: usize, re: &mut [f64], im: &mut [f64], piv: &mut Vec<usi
 fn complex_solve(n: usize, re: &[f64], im: &[f64], piv: &[usize], br: &mut [f64], bi: &mut [f64]) {
     let (re, im, piv) = (&re[..n * n], &im[..n * n], &piv[..n]);
     let (br, bi) = (&mut br[..n], &mut bi[..n]);
-    for k in 0..n {
-        br.swap(k, piv[k]);
-        bi.swap(k, piv[k]);
+    for (k, &p) in piv.iter().enumerate() {
+        br.swap(k, p);
+        bi.swap(k, p);
     }
     for i in 1..n {
         let (done_r, rest_r) = br.split_at_mut(i);
