@@ -975,7 +975,7 @@ fn prolong_solution_on<const ST: usize, const SZ: usize>(fine: &mut Level, coars
 /// Cubic interpolation at the midpoint of four equally spaced values `a, b, c, d` (between
 /// `b` and `c`): `(−a + 9b + 9c − d)/16`, fourth order.
 #[inline(always)]
-fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
+pub(super) fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
     (9.0 * (b + c) - (a + d)) * (1.0 / 16.0)
 }
 
@@ -983,7 +983,7 @@ fn cubic_mid(a: f64, b: f64, c: f64, d: f64) -> f64 {
 /// values `a, b, c, d` (between `a` and `b`): `(5a + 15b − 5c + d)/16`, fourth order (the
 /// Lagrange weights at 1/2 of the nodes 0, 1, 2, 3).
 #[inline(always)]
-fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
+pub(super) fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
     (5.0 * a + 15.0 * b - 5.0 * c + d) * (1.0 / 16.0)
 }
 
@@ -1255,33 +1255,45 @@ impl Hierarchy {
                 }
                 Stop::Loads(_) => {
                     let now = self.levels[l].loads(self.theta0, simpson);
-                    let d = (0..4)
-                        .map(|k| (now[k] - prev_loads[k]).powi(2))
-                        .sum::<f64>();
-                    let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    let change = load_change(&now, &prev_loads);
                     prev_loads = now;
-                    if norm > 0.0 {
-                        d.sqrt() / norm
-                    } else {
-                        0.0
-                    }
+                    change
                 }
             };
-            // Contraction per cycle: measured, at least 0.1 (a typical multigrid
-            // factor), and 0.5 until measured.
-            let rho = if last_change.is_finite() && last_change > 0.0 {
-                (change / last_change).clamp(0.1, 0.95)
-            } else {
-                0.5
-            };
+            err = tail_estimate(change, last_change);
             last_change = change;
-            err = change * rho / (1.0 - rho);
             if change == 0.0 || err <= stop.tolerance() {
                 return (cycle, err, true);
             }
         }
         (max_cycles, err, false)
     }
+}
+
+/// Relative change of a load vector over a cycle, `|now − prev| / |now|` (0 for a zero
+/// vector): what the load stop of [`Hierarchy::iterate`] and the accuracy ladder's
+/// per-grid stop (`FiniteSolver::ladder_cycles`) measure.
+pub(crate) fn load_change(now: &[f64; 4], prev: &[f64; 4]) -> f64 {
+    let d = (0..4).map(|k| (now[k] - prev[k]).powi(2)).sum::<f64>();
+    let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm > 0.0 {
+        d.sqrt() / norm
+    } else {
+        0.0
+    }
+}
+
+/// Estimated iteration error after a cycle that changed the iterate by `change` when the
+/// cycle before changed it by `last_change` (both relative): the geometric tail
+/// `change ρ/(1 − ρ)` of the contraction per cycle `ρ`, measured as `change/last_change`
+/// within [0.1, 0.95] (0.1: a typical multigrid factor), and 0.5 until measured.
+pub(crate) fn tail_estimate(change: f64, last_change: f64) -> f64 {
+    let rho = if last_change.is_finite() && last_change > 0.0 {
+        (change / last_change).clamp(0.1, 0.95)
+    } else {
+        0.5
+    };
+    change * rho / (1.0 - rho)
 }
 
 /// When the V-cycles on a grid stop.

@@ -20,7 +20,10 @@
 
 use std::f64::consts::PI;
 
-use super::multigrid::{prolong_solution, prolong_solution_cubic, Coarsen, Hierarchy, Stop};
+use super::multigrid::{
+    cubic_edge, cubic_mid, load_change, prolong_solution, prolong_solution_cubic, tail_estimate,
+    Coarsen, Hierarchy, Stop,
+};
 use super::{Cavitation, FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
@@ -894,18 +897,11 @@ impl FiniteSolver {
             self.mg.vcycle(top, aspect);
             cyc.cycles += 1;
             let now = self.top_loads(simpson);
-            let d = (0..4).map(|k| (now[k] - cyc.prev[k]).powi(2)).sum::<f64>();
-            let norm = now.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let change = if norm > 0.0 { d.sqrt() / norm } else { 0.0 };
+            let change = load_change(&now, &cyc.prev);
             cyc.prev = now;
-            // As `Hierarchy::iterate`: measured contraction within [0.1, 0.95].
-            let rho = if cyc.last_change.is_finite() && cyc.last_change > 0.0 {
-                (change / cyc.last_change).clamp(0.1, 0.95)
-            } else {
-                0.5
-            };
+            // The estimate of `Hierarchy::iterate`.
+            cyc.err = tail_estimate(change, cyc.last_change);
             cyc.last_change = change;
-            cyc.err = change * rho / (1.0 - rho);
             if change == 0.0 || cyc.err <= tol(&now) {
                 return (cyc.cycles, cyc.err, true);
             }
@@ -1086,16 +1082,21 @@ fn cubic_rows_in_zeta(p: &mut [f64], inv_d: &[f64], nt: usize, nz: usize) {
                 let (a, b, c) = if j == 1 { (0, 2, 4) } else { (4, 2, 0) };
                 (3.0 * row(p, a, i) + 6.0 * row(p, b, i) - row(p, c, i)) / 8.0
             } else if j == 1 {
-                (5.0 * row(p, 0, i) + 15.0 * row(p, 2, i) - 5.0 * row(p, 4, i) + row(p, 6, i))
-                    / 16.0
+                cubic_edge(row(p, 0, i), row(p, 2, i), row(p, 4, i), row(p, 6, i))
             } else if j == nz - 1 {
-                (5.0 * row(p, nz, i) + 15.0 * row(p, nz - 2, i) - 5.0 * row(p, nz - 4, i)
-                    + row(p, nz - 6, i))
-                    / 16.0
+                cubic_edge(
+                    row(p, nz, i),
+                    row(p, nz - 2, i),
+                    row(p, nz - 4, i),
+                    row(p, nz - 6, i),
+                )
             } else {
-                (-row(p, j - 3, i) + 9.0 * row(p, j - 1, i) + 9.0 * row(p, j + 1, i)
-                    - row(p, j + 3, i))
-                    / 16.0
+                cubic_mid(
+                    row(p, j - 3, i),
+                    row(p, j - 1, i),
+                    row(p, j + 1, i),
+                    row(p, j + 3, i),
+                )
             };
             p[k] = v.max(0.0);
         }
