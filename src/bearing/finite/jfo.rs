@@ -61,15 +61,16 @@
 //! multipliers), whose remaining changes sum to the estimate (see `iterate`); checked
 //! within a factor 3 of the true error both ways in tests/jfo_iteration_error.rs and
 //! tests/jfo_squeeze.rs (the single-sweep extrapolation it replaced underrated it up to
-//! 22×); a stop waits while the fit's slowest multiplier is still growing (session 36). Once the change has stopped halving (stagnation), the change times
-//! `(ω − 1)/(2 − ω)`. Every reported error is at least an estimate of the rounding floor
-//! (session 35, `JfoLevel::rounding_floor`): a tolerance below it is reported as not met
+//! 22×); a stop waits while the fit's slowest multiplier is still growing (session 36).
+//! Once the change has stopped halving (stagnation), the change times `(ω − 1)/(2 − ω)`.
+//! Every reported error is at least an estimate of the rounding floor (session 35,
+//! `JfoLevel::rounding_floor`): a tolerance below it is reported as not met
 //! (tests/jfo_squeeze.rs `rounding_floor_is_reported_honestly`). The GPU kernel pauses at
-//! each block end and the same rule (`BlockStop`) decides on its iterate. The node
-//! equation is formed as `r = q − c_φ` from the full node's storage directly (`P = r/d`, `φ = 1 + r/c_φ`), not as a difference of the
-//! time step's `O(12 H/Δτ)` terms: that rounding (1e-12 of `P` at `Δτ = 5e-4`, amplified
-//! 1e4× by a contraction measured on it) stalled the solve near an estimated 1e-8 (issue
-//! 27, docs/jfo.md "Iteration error").
+//! each block end and the same rule (`BlockStop`) decides on its iterate. The node equation
+//! is formed as `r = q − c_φ` from the full node's storage directly (`P = r/d`,
+//! `φ = 1 + r/c_φ`), not as a difference of the time step's `O(12 H/Δτ)` terms: that
+//! rounding (1e-12 of `P` at `Δτ = 5e-4`, amplified 1e4× by a contraction measured on
+//! it) stalled the solve near an estimated 1e-8 (issue 27, docs/jfo.md "Iteration error").
 //!
 //! **Flows** ([`jfo_flow_integrals`]): the JFO equation holds at every free node, in the
 //! cavitated zone too, so the inflow from the held nodes equals the side flow plus the
