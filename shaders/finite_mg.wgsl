@@ -17,9 +17,9 @@
 // kernel since session 37): each grid after the first starts from the bilinear
 // interpolation with its in-between rows redone by cubics in ζ (`cubic_rows_in_zeta`), a
 // grid stops loosely by its role and the grid that ends the ladder at the rule's floor
-// (`stop_tolerance`, `finish_level`). Red-black Gauss-Seidel within a colour is order-independent, so the smoothing is
-// the CPU's exactly; the truncated correction tests its neighbours' signs on the field
-// before the correction (the CPU walks the nodes in order and sees the already corrected
+// (`stop_tolerance`, `finish_level`). Red-black Gauss-Seidel within a colour is
+// order-independent, so the smoothing is the CPU's exactly; the truncated correction tests
+// its neighbours' signs on the field before the correction (the CPU walks the nodes in order and sees the already corrected
 // ones), which changes the path of the iteration where a correction empties a node, not
 // its fixed point: the loads agree to the iteration tolerance.
 //

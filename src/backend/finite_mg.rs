@@ -686,7 +686,7 @@ fn loops(n: usize) -> usize {
 /// strided loop of `I = loops(nodes)` iterations): the entry into a level (right-hand
 /// side, the freezes of the levels below with the inlet line's walks, the loads: ≲ 8 I),
 /// the descent (two sweeps, residual, restriction: ≲ 4 I) or the set-up and prolongation
-/// of a ladder grid (≲ 3 I); 12 I + 400 bounds them all. A grid whose step leaves less
+/// of a ladder grid with its cubic rows in ζ (≲ 3.5 I); 12 I + 400 bounds them all. A grid whose step leaves less
 /// than 2 000 iterations of budget (about 375 000 nodes) is beyond the kernel.
 ///
 /// Cap: an upper bound on the dispatches a state needs, from the kernel's own limits
