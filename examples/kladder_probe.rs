@@ -134,14 +134,10 @@ fn main() {
         .collect();
     let mut same_grid = 0;
     let (mut diff_over_est, mut diff_max) = (0.0_f64, 0.0_f64);
-    let mut rows: Vec<(&str, Vec<SolveReport>, Vec<[f64; 4]>)> = vec![
-        ("GPU kernel", reports.clone(), out.clone()),
-        ("CPU, LadderRule::default()", cpu.clone(), cpu_out.clone()),
-        (
-            "CPU, rule before session 36",
-            cpu_old.clone(),
-            old_out.clone(),
-        ),
+    let rows = [
+        ("GPU kernel", &reports[..], &out[..]),
+        ("CPU, LadderRule::default()", &cpu[..], &cpu_out[..]),
+        ("CPU, rule before session 36", &cpu_old[..], &old_out[..]),
     ];
     for k in 0..jobs.len() {
         let (gv, cv) = (load(k, &out[k]), load(k, &cpu_out[k]));
@@ -179,7 +175,7 @@ fn main() {
          final grids | largest true error | estimate / true |"
     );
     println!("|---|---|---|---|---|");
-    for (label, r, v) in rows.drain(..) {
+    for (label, r, v) in rows {
         let updates: Vec<u64> = r.iter().map(whole).collect();
         let (mut emax, mut lo, mut hi) = (0.0_f64, f64::INFINITY, 0.0_f64);
         for k in 0..jobs.len() {
@@ -192,7 +188,7 @@ fn main() {
         println!(
             "| {label} | {} | {} | {emax:.2e} | {lo:.2}-{hi:.2} |",
             stats(&updates),
-            grids(&r)
+            grids(r)
         );
     }
     println!(
