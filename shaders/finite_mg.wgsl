@@ -13,9 +13,13 @@
 // The same discrete problem, smoother, FAS coarse problem, truncated correction,
 // coarsest-grid projected SOR, stopping rules, full-multigrid start and ladder (grids,
 // per-grid stop on the loads, Richardson estimate, stop at the requested accuracy) as the
-// CPU. Red-black Gauss-Seidel within a colour is order-independent, so the smoothing is
-// the CPU's exactly; the truncated correction tests its neighbours' signs on the field
-// before the correction (the CPU walks the nodes in order and sees the already corrected
+// CPU; on the plain film's ladder the CPU's `LadderRule` (solver.rs, session 36; the
+// kernel since session 37): each grid after the first starts from the bilinear
+// interpolation with its in-between rows redone by cubics in ζ (`cubic_rows_in_zeta`), a
+// grid stops loosely by its role and the grid that ends the ladder at the rule's floor
+// (`stop_tolerance`, `finish_level`). Red-black Gauss-Seidel within a colour is
+// order-independent, so the smoothing is the CPU's exactly; the truncated correction tests
+// its neighbours' signs on the field before the correction (the CPU walks the nodes in order and sees the already corrected
 // ones), which changes the path of the iteration where a correction empties a node, not
 // its fixed point: the loads agree to the iteration tolerance.
 //
@@ -32,11 +36,11 @@ const NO_INLET: u32 = 0xffffffffu;
 // Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
 // theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
 const JOB_STRIDE: u32 = 16u;
-// Per result (stride 86 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// Per result (stride 87 f64): integrals[4], sweeps, iteration error, converged, n_theta,
 // n_z, error estimate, accuracy met, then the state block (OUT_STATE: status first,
 // ST_*: 1 done; 2 the dispatch's grids were not enough for the accuracy, the host solves
 // it again with the full ladder).
-const OUT_STRIDE: u32 = 86u;
+const OUT_STRIDE: u32 = 87u;
 // Arrays of a level (offsets in units of the level's node count).
 const A_AE: u32 = 0u;
 const A_AN: u32 = 1u;
@@ -82,10 +86,22 @@ struct Params {
     // `main`), and beyond which its results are void (ST_OVERRUN).
     budget: u32,
     limit: u32,
-    // Fixed grid: tolerance on the field; ladder: on the loads (max(accuracy/10, tol)).
+    // Ladder grids after the first (plain film, `LadderRule::cubic_start`): 1 when their
+    // start's in-between rows are redone by cubics in ζ.
+    cubic_start: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    // Fixed grid: tolerance on the field; ladder: on the loads of the first grid and its
+    // full-multigrid levels (max(accuracy/10, tol)).
     tolerance: f64,
     // Ladder: requested accuracy.
     accuracy: f64,
+    // Ladder grids after the first: the stop's floor, max(LadderRule::floor × accuracy,
+    // tol), and the loose factor of an intermediate grid (LadderRule::loose; 0: every grid
+    // to the floor, grooves and arcs).
+    floor: f64,
+    loose: f64,
     // Per level: n_theta, n_z, coarsening to the level below, offset in the slot.
     lv: array<vec4<u32>, MAX_LEVELS>,
     // Per level: offset in `trig`, in `geo`, in a state's `inlets`, unused.
@@ -780,6 +796,50 @@ fn prolong_solution(l: u32) {
     workgroupBarrier();
 }
 
+// A ladder grid's start (solver.rs cubic_rows_in_zeta, LadderRule::cubic_start): after
+// the bilinear prolongation, the rows between the coarse rows (odd j; the even rows are the
+// coarse solution, interpolated in θ) again by cubics in ζ through the four nearest even
+// rows, (−1, 9, 9, −1)/16, next to an end face (5, 15, −5, 1)/16 (n_z ≥ 6) or the
+// quadratic (3, 6, −1)/8 through rows 0, 2, 4 (n_z = 4); clipped at 0; held nodes keep
+// their value. Reads even rows only, writes odd ones: order-independent. n_z even.
+fn cubic_rows_in_zeta(l: u32) {
+    let nt = nt_of(l);
+    let nz = nz_of(l);
+    let cnt = nt * (nz / 2u);
+    spent += loops(cnt);
+    for (var m = lid; m < cnt; m += WG) {
+        let j = 2u * (m / nt) + 1u;
+        let i = m % nt;
+        let k = j * nt + i;
+        if scr[at(l, A_INV, k)] == 0.0 {
+            continue;
+        }
+        var v: f64;
+        if nz < 6u {
+            // Rows 0, 2, 4 from the nearer end face (p = 0 on the end rows).
+            var a = 0u;
+            var c = 4u;
+            if j != 1u {
+                a = 4u;
+                c = 0u;
+            }
+            v = (3.0 * scr[at(l, A_P, a * nt + i)] + 6.0 * scr[at(l, A_P, 2u * nt + i)]
+                - scr[at(l, A_P, c * nt + i)]) / 8.0;
+        } else if j == 1u {
+            v = cubic_edge(scr[at(l, A_P, i)], scr[at(l, A_P, 2u * nt + i)],
+                scr[at(l, A_P, 4u * nt + i)], scr[at(l, A_P, 6u * nt + i)]);
+        } else if j == nz - 1u {
+            v = cubic_edge(scr[at(l, A_P, nz * nt + i)], scr[at(l, A_P, (nz - 2u) * nt + i)],
+                scr[at(l, A_P, (nz - 4u) * nt + i)], scr[at(l, A_P, (nz - 6u) * nt + i)]);
+        } else {
+            v = cubic_mid(scr[at(l, A_P, (j - 3u) * nt + i)], scr[at(l, A_P, (j - 1u) * nt + i)],
+                scr[at(l, A_P, (j + 1u) * nt + i)], scr[at(l, A_P, (j + 3u) * nt + i)]);
+        }
+        scr[at(l, A_P, k)] = max(v, 0.0);
+    }
+    workgroupBarrier();
+}
+
 // Fixed grids (multigrid.rs `Hierarchy::line_freeze`): the column of level c's row jc that
 // stands for the max-film inlet line of the solved level t (NO_INLET: none): from t's held
 // column down, per coarsening the coincident node or, between two, the one on the side of
@@ -935,20 +995,21 @@ const PH_OUT: u32 = 6u;
 // The state block of a slot, in `results` from OUT_STATE on (f64 each): status, phase,
 // level, cycle, cycle limit, last change, iteration error, converged, node updates, ladder
 // values kept, estimate, met, V-cycle step, coarsest sweep, coarsest history (6),
-// previous loads (4), ladder loads (48), dispatches run (written last: see OUT_BEGIN).
+// previous loads (4), ladder loads (48), loose factor in force, dispatches run (written
+// last: see OUT_BEGIN).
 const OUT_STATE: u32 = 11u;
-const WS_LEN: u32 = 73u;
+const WS_LEN: u32 = 74u;
 // The dispatch count of the dispatch that last ran the slot, written before its steps: a
 // dispatch whose loops llvmpipe cut short leaves the state's own count (written last)
 // behind it, which the host reports as an error.
-const OUT_BEGIN: u32 = 84u;
+const OUT_BEGIN: u32 = 85u;
 // Status (result 11): 0 running; 1 done; 2 done, more grids needed (host); 3 the
 // dispatch ran more loop iterations than `params.limit` (results void: the host errs).
 const ST_RUN: f64 = 0.0;
 const ST_OVERRUN: f64 = 3.0;
 
 // The state block and OUT_BEGIN (which follows it).
-var<workgroup> ws: array<f64, 74>;
+var<workgroup> ws: array<f64, 75>;
 
 var<private> ph: u32;
 var<private> cur: u32;
@@ -965,6 +1026,9 @@ var<private> cs: u32;
 var<private> hist: array<f64, 6>;
 var<private> prev: array<f64, 4>;
 var<private> vals: array<f64, 48>;
+// Ladder grids after the first: the loose factor of the stop in force (LadderRule::loose
+// while the grid may be an intermediate one, 0 once it is iterated on to the floor).
+var<private> loose_now: f64;
 
 // One sweep of the projected SOR on the coarsest level (0) and its stop test: the solve
 // ends when the estimated change is below `tol` of the largest value or after
@@ -1050,6 +1114,30 @@ fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     return d2 / 3.0 / norm;
 }
 
+// The stop of level t's V-cycles on the estimated iteration error (solver.rs
+// FiniteSolver::ladder_cycles): explicit grids, the ladder's first grid and its
+// full-multigrid levels `params.tolerance`; a ladder grid after the first
+// max(floor, loose × |v − v_below| / 4 / |v|) with v its loads after the last cycle (`prev`)
+// and v_below the grid below's (`|v − v_below|/4`: about the next grid's difference at
+// second order, through which alone v enters the estimate), the floor alone once the grid
+// is iterated on to end the ladder (`loose_now` 0).
+fn stop_tolerance(t: u32) -> f64 {
+    if params.mode == 0u || t <= params.top0 {
+        return params.tolerance;
+    }
+    spent += 8u;
+    let norm = norm4(prev);
+    if loose_now > 0.0 && norm > 0.0 && nv > 0u {
+        var below: array<f64, 4>;
+        for (var q = 0u; q < 4u; q++) {
+            below[q] = vals[4u * (nv - 1u) + q];
+        }
+        // 4: the next grid's difference at second order.
+        return max(params.floor, loose_now * dist4(prev, below) / 4.0 / norm);
+    }
+    return params.floor;
+}
+
 // Level `cur`'s iteration is over (multigrid.rs Hierarchy::iterate returned): the next
 // grid of the full multigrid start (one V-cycle per intermediate level), of the ladder
 // (with its loads, Richardson estimate and stop at the requested accuracy), or done.
@@ -1075,13 +1163,23 @@ fn finish_level() {
         est = -1.0;
     } else {
         let v = loads(cur);
-        if nv < MAX_RUNGS {
+        var n = nv;
+        if n < MAX_RUNGS {
             for (var q = 0u; q < 4u; q++) {
-                vals[4u * nv + q] = v[q];
+                vals[4u * n + q] = v[q];
             }
-            nv += 1u;
+            n += 1u;
         }
-        let e = estimate(vals, nv);
+        let e = estimate(vals, n);
+        if e >= 0.0 && e <= params.accuracy && loose_now > 0.0 && err > params.floor
+            && cyc < maxc {
+            // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
+            // floor (the cycles continue, none is repeated; solver.rs solve_accuracy).
+            loose_now = 0.0;
+            ph = PH_CYCLE;
+            return;
+        }
+        nv = n;
         if e >= 0.0 {
             est = e;
             if e <= params.accuracy {
@@ -1177,7 +1275,7 @@ fn cycle_step() {
         last_change = change;
         err = change * rho / (1.0 - rho);
         vs = 0u;
-        if change == 0.0 || err <= params.tolerance {
+        if change == 0.0 || err <= stop_tolerance(t) {
             conv = true;
             finish_level();
         } else if cyc >= maxc {
@@ -1221,6 +1319,9 @@ fn step(slot: u32, warm: bool) {
             setup(cur);
         }
         prolong_solution(cur);
+        if cur > top0 && params.cubic_start != 0u {
+            cubic_rows_in_zeta(cur);
+        }
         ph = PH_ENTER;
     } else if ph == PH_ENTER {
         // multigrid.rs Hierarchy::iterate: the level's own right-hand side, then the
@@ -1245,6 +1346,11 @@ fn step(slot: u32, warm: bool) {
             err = -1.0;
             cyc = 0u;
             vs = 0u;
+            // A ladder grid after the first may be an intermediate one: the loose stop.
+            loose_now = 0.0;
+            if params.mode != 0u && l > top0 {
+                loose_now = params.loose;
+            }
             ph = PH_CYCLE;
         }
     } else if ph == PH_COARSE {
@@ -1312,14 +1418,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     if st[0] != ST_RUN {
         return;
     }
-    if st[73] != st[72] {
+    if st[74] != st[73] {
         // The last dispatch did not save the state whole (llvmpipe cut its loops).
         if li == 0u {
             results[o + OUT_STATE] = ST_OVERRUN;
         }
         return;
     }
-    let count = st[72] + 1.0;
+    let count = st[73] + 1.0;
     if li == 0u {
         results[o + OUT_BEGIN] = count;
     }
@@ -1345,6 +1451,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     for (var q = 0u; q < 48u; q++) {
         vals[q] = st[24u + q];
     }
+    loose_now = st[72];
     for (var q = 0u; q < 4u; q++) {
         ecc[q] = jobs[jb + q];
         rate[q] = jobs[jb + 4u + q];
@@ -1407,7 +1514,8 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         for (var q = 0u; q < 48u; q++) {
             out[24u + q] = vals[q];
         }
-        out[72] = count;
+        out[72] = loose_now;
+        out[73] = count;
         for (var q = 0u; q < WS_LEN; q++) {
             results[o + OUT_STATE + q] = out[q];
         }

@@ -39,8 +39,8 @@ use wgpu::util::DeviceExt;
 use super::finite_gpu::{compile_pipeline, dispatch_read};
 use super::BackendError;
 use crate::bearing::finite::{
-    accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, SolveReport,
-    ALGEBRAIC_FRACTION,
+    accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, LadderRule,
+    SolveReport, ALGEBRAIC_FRACTION,
 };
 use crate::bearing::FilmIntegrals;
 
@@ -54,13 +54,13 @@ const MAX_RUNGS: usize = 12;
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`: the report, then the resumable
 /// solve's state block from `OUT_STATE`, its status first).
 const JOB_STRIDE: usize = 16;
-const OUT_STRIDE: usize = 86;
+const OUT_STRIDE: usize = 87;
 const OUT_STATE: usize = 11;
-/// The state's own dispatch count (its last entry, `OUT_STATE + 72`) and the count the
+/// The state's own dispatch count (its last entry, `OUT_STATE + 73`) and the count the
 /// last dispatch wrote before its steps (`OUT_BEGIN`): unequal when llvmpipe cut that
 /// dispatch's loops short (the state was not saved whole).
-const OUT_COUNT: usize = OUT_STATE + 72;
-const OUT_BEGIN: usize = 84;
+const OUT_COUNT: usize = OUT_STATE + 73;
+const OUT_BEGIN: usize = 85;
 /// Status of a slot (`ST_*`): running, done, done but more grids needed, overrun.
 const ST_RUN: f64 = 0.0;
 const ST_MORE: f64 = 2.0;
@@ -126,8 +126,12 @@ struct Params {
     max_cycles: u32,
     budget: u32,
     limit: u32,
+    cubic_start: u32,
+    pad: [u32; 3],
     tolerance: f64,
     target: f64,
+    floor: f64,
+    loose: f64,
     lv: [[u32; 4]; MAX_LEVELS],
     lw: [[u32; 4]; MAX_LEVELS],
 }
@@ -362,8 +366,15 @@ impl MultigridPipeline {
             contents: bytemuck::cast_slice(&geo),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        // The first ladder grid (and its full-multigrid levels) to accuracy/10, the grids
+        // after it by the CPU's rule (`ladder_rule`).
         let stop_tol = match grid.accuracy {
             Some(target) => (ALGEBRAIC_FRACTION * target).max(grid.tolerance),
+            None => grid.tolerance,
+        };
+        let rule = ladder_rule(banded);
+        let floor = match grid.accuracy {
+            Some(target) => (rule.floor * target).max(grid.tolerance),
             None => grid.tolerance,
         };
         let (budget, cap_dispatches) = loop_budget(dims)?;
@@ -436,8 +447,12 @@ impl MultigridPipeline {
                 max_cycles: MAX_CYCLES,
                 budget,
                 limit: LOOP_LIMIT,
+                cubic_start: u32::from(rule.cubic_start),
+                pad: [0; 3],
                 tolerance: stop_tol,
                 target: grid.accuracy.unwrap_or(0.0),
+                floor,
+                loose: rule.loose,
                 lv,
                 lw,
             };
@@ -616,6 +631,47 @@ impl MultigridPipeline {
     }
 }
 
+/// How the kernel's ladder iterates its grids after the first: the CPU's rule for the
+/// ladder it runs (src/bearing/finite/solver.rs `FiniteSolver::solve_accuracy`): the plain
+/// 360° film's Simpson-summed ladder [`LadderRule::default`], grooves and arcs every grid
+/// to [`ALGEBRAIC_FRACTION`] of the accuracy from the bilinear start (the rule before
+/// session 36, which the CPU keeps for them). Diagnostics: the environment variable
+/// `BEARING_SWEEP_MG_LADDER_RULE=LOOSE,cubic|linear,FLOOR` (examples/zeta_probe.rs's form)
+/// replaces the plain film's rule (`0,linear,0.1`: the kernel before session 37, bit for
+/// bit); an unparsable value keeps the default.
+fn ladder_rule(banded: bool) -> LadderRule {
+    if banded {
+        return LadderRule {
+            loose: 0.0,
+            cubic_start: false,
+            floor: ALGEBRAIC_FRACTION,
+        };
+    }
+    std::env::var("BEARING_SWEEP_MG_LADDER_RULE")
+        .ok()
+        .and_then(|v| parse_rule(&v))
+        .unwrap_or_default()
+}
+
+/// `LOOSE,cubic|linear,FLOOR` as a [`LadderRule`] (`None` if malformed).
+fn parse_rule(v: &str) -> Option<LadderRule> {
+    let parts: Vec<&str> = v.trim().split(',').map(str::trim).collect();
+    let [loose, start, floor] = parts.as_slice() else {
+        return None;
+    };
+    let cubic_start = match *start {
+        "cubic" => true,
+        "linear" => false,
+        _ => return None,
+    };
+    let (loose, floor) = (loose.parse::<f64>().ok()?, floor.parse::<f64>().ok()?);
+    (loose >= 0.0 && floor > 0.0).then_some(LadderRule {
+        loose,
+        cubic_start,
+        floor,
+    })
+}
+
 /// Loop iterations of a strided loop over `n` nodes for the kernel's invocation 0
 /// (`loops`).
 fn loops(n: usize) -> usize {
@@ -630,7 +686,7 @@ fn loops(n: usize) -> usize {
 /// strided loop of `I = loops(nodes)` iterations): the entry into a level (right-hand
 /// side, the freezes of the levels below with the inlet line's walks, the loads: ≲ 8 I),
 /// the descent (two sweeps, residual, restriction: ≲ 4 I) or the set-up and prolongation
-/// of a ladder grid (≲ 3 I); 12 I + 400 bounds them all. A grid whose step leaves less
+/// of a ladder grid with its cubic rows in ζ (≲ 3.5 I); 12 I + 400 bounds them all. A grid whose step leaves less
 /// than 2 000 iterations of budget (about 375 000 nodes) is beyond the kernel.
 ///
 /// Cap: an upper bound on the dispatches a state needs, from the kernel's own limits
