@@ -476,6 +476,24 @@ fn split() {
                     d2 * rho / (1.0 - rho) / norm(v32) / e
                 );
             }
+            // Session 37: the two-direction model `E = A/n_θ² + B/n_z²` fitted on
+            // v(n/2 × m/2), v(n × m), v(n × 2m): the error of v(n × 2m) is
+            // `(v(n/2×m/2) − v(n×m))/3 − (v(n×m) − v(n×2m))` (vectors).
+            for (c, m, f) in [
+                ((64, 8), (128, 16), (128, 32)),
+                ((128, 16), (256, 32), (256, 64)),
+            ] {
+                let (vc, vm, vf) = (&vals[at(c)], &vals[at(m)], &vals[at(f)]);
+                let est: [f64; 4] =
+                    std::array::from_fn(|k| (vc[k] - vm[k]) / 3.0 - (vm[k] - vf[k]));
+                let e = dist(vf, &truth) / tn;
+                print!(
+                    " | 2d {}x{} e {e:.1e} r {:.2}",
+                    f.0,
+                    f.1,
+                    norm(&est) / norm(vf) / e
+                );
+            }
             // the ζ step's own ratio at 128 × 32, 256 × 64
             for (f, c) in [((128, 32), (128, 16)), ((256, 64), (128, 32))] {
                 let (v, w) = (&vals[at(f)], &vals[at(c)]);
@@ -729,17 +747,7 @@ fn rules(acc: f64) {
             states(&p).into_iter().map(|x| x.1).collect(),
         ),
     ];
-    let variants: Vec<(f64, bool, f64)> = std::env::args()
-        .skip(3)
-        .map(|a| {
-            let v: Vec<&str> = a.split(',').collect();
-            (
-                v[0].parse().expect("a number"),
-                v[1] == "cubic",
-                v.get(2).map_or(0.1, |f| f.parse().expect("a fraction")),
-            )
-        })
-        .collect();
+    let variants: Vec<LadderRule> = std::env::args().skip(3).map(|a| rule_of(&a)).collect();
     for (name, p, states) in sets {
         let g = FiniteGrid::for_bearing(&p);
         let mut refs = Vec::new();
@@ -751,22 +759,42 @@ fn rules(acc: f64) {
             let tight = solver.ladder(&job, &g, 1e-10, false, 7);
             refs.push((r, tight));
         }
-        for &(loose, cubic_start, floor) in &variants {
+        for &rule in &variants {
+            let LadderRule {
+                loose,
+                cubic_start,
+                floor,
+                ..
+            } = rule;
             let (mut ups, mut errs, mut ratios, mut tightd) =
                 (Vec::new(), Vec::new(), Vec::new(), 0.0_f64);
             let mut per = vec![(0u64, 0u64); 7];
+            // Per grid: largest iteration error of the loads over the next grid's (tight)
+            // difference, and the range of the stop's estimate over the iteration error.
+            let mut iter_err = vec![(0.0_f64, f64::INFINITY, 0.0_f64); 7];
             for (s, (r, tight)) in states.iter().zip(&refs) {
                 let packed: Packed = pack_state(&p, s).unwrap();
                 let job = FiniteJob::new(&p, &packed);
                 let lv =
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
-                solver.ladder_rule = LadderRule {
-                    loose,
-                    cubic_start,
-                    floor,
-                };
+                solver.ladder_rule = rule;
+                solver.ladder_extrapolate = std::env::var("ZETA_PROBE_EXTRAP")
+                    .map_or(0.0, |v| v.parse().expect("a factor"));
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
+                for (l, st) in solver.trace.iter().enumerate() {
+                    let t = &tight[l].integrals;
+                    let e = dist(&st.integrals, t) / norm(t);
+                    if l + 1 < tight.len() {
+                        let dn = dist(&tight[l + 1].integrals, t) / norm(t);
+                        iter_err[l].0 = iter_err[l].0.max(e / dn);
+                    }
+                    if l > 0 && e > 0.0 {
+                        let r = st.result.1 / e;
+                        iter_err[l].1 = iter_err[l].1.min(r);
+                        iter_err[l].2 = iter_err[l].2.max(r);
+                    }
+                }
                 let truth = lv(r);
                 let err = dist(&lv(&ints), &truth) / norm(&truth);
                 errs.push(err);
@@ -820,7 +848,33 @@ fn rules(acc: f64) {
                 tightd,
                 grids.join(" ")
             );
+            let it: Vec<String> = iter_err
+                .iter()
+                .take_while(|x| x.1.is_finite() || x.0 > 0.0)
+                .map(|(a, b, c)| format!("{a:.3}/{b:.2}-{c:.2}"))
+                .collect();
+            println!(
+                "   per grid: iteration error over the next grid's difference (largest) / stop estimate over iteration error: {}",
+                it.join(" ")
+            );
         }
+    }
+}
+
+/// A ladder rule from `LOOSE,cubic|linear,FLOOR[,FIRST_RHO[,carry]]` (see [`LadderRule`]).
+fn rule_of(a: &str) -> bearing_sweep::bearing::finite::LadderRule {
+    let v: Vec<&str> = a.split(',').collect();
+    bearing_sweep::bearing::finite::LadderRule {
+        loose: v[0].parse().expect("LOOSE"),
+        cubic_start: v[1] == "cubic",
+        floor: v.get(2).map_or(0.1, |f| f.parse().expect("FLOOR")),
+        // A fourth field ≥ 1 is `prof`'s REPS (the session-36 commands).
+        first_rho: v
+            .get(3)
+            .map(|f| f.parse::<f64>().expect("FIRST_RHO"))
+            .filter(|r| *r < 1.0)
+            .unwrap_or(0.5),
+        carry_rho: v.get(4) == Some(&"carry"),
     }
 }
 
@@ -830,7 +884,7 @@ fn rules(acc: f64) {
 /// same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
 /// report's whole sweeps give (`mg_cost`'s count).
 fn prof(acc: f64, rule: &str) {
-    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
+    use bearing_sweep::bearing::finite::FiniteSettings;
     let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
     let p = BearingParams {
         finite: FiniteSettings {
@@ -841,17 +895,20 @@ fn prof(acc: f64, rule: &str) {
     };
     let v: Vec<&str> = rule.split(',').collect();
     let mut solver = FiniteSolver::new();
-    solver.ladder_rule = LadderRule {
-        loose: v[0].parse().expect("LOOSE"),
-        cubic_start: v[1] == "cubic",
-        floor: v[2].parse().expect("FLOOR"),
-    };
+    solver.ladder_rule = rule_of(rule);
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
         .map(|s| FiniteJob::new(&p, &pack_state(&p, s).unwrap()))
         .collect();
-    let reps: usize = v.get(3).map_or(1, |r| r.parse().expect("REPS"));
+    let reps: usize = std::env::args()
+        .nth(4)
+        .or_else(|| {
+            v.get(3)
+                .filter(|r| r.parse::<f64>().is_ok_and(|x| x >= 1.0))
+                .map(|r| r.to_string())
+        })
+        .map_or(1, |r| r.parse().expect("REPS"));
     let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
     let mut sum = [0.0; 4];
     // The reports' error estimates and grids, summed: with the loads, the bits a set-up
