@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
 //! `split [rules]`, `work`, `cycles ACC…`, `fmg1`, `rules ACC LOOSE,cubic|linear,FLOOR…`,
-//! `prof ACC LOOSE,cubic|linear,FLOOR`: see each function)
+//! `prof ACC LOOSE,cubic|linear,FLOOR [REPS]`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
@@ -779,8 +779,6 @@ fn rules(acc: f64) {
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
                 solver.ladder_rule = rule;
-                solver.ladder_extrapolate = std::env::var("ZETA_PROBE_EXTRAP")
-                    .map_or(0.0, |v| v.parse().expect("a factor"));
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
                 for (l, st) in solver.trace.iter().enumerate() {
                     let t = &tight[l].integrals;
@@ -861,27 +859,20 @@ fn rules(acc: f64) {
     }
 }
 
-/// A ladder rule from `LOOSE,cubic|linear,FLOOR[,FIRST_RHO[,carry]]` (see [`LadderRule`]).
+/// A ladder rule from `LOOSE,cubic|linear[,FLOOR]` (see [`LadderRule`]; FLOOR default 0.1).
 fn rule_of(a: &str) -> bearing_sweep::bearing::finite::LadderRule {
     let v: Vec<&str> = a.split(',').collect();
     bearing_sweep::bearing::finite::LadderRule {
         loose: v[0].parse().expect("LOOSE"),
         cubic_start: v[1] == "cubic",
         floor: v.get(2).map_or(0.1, |f| f.parse().expect("FLOOR")),
-        // A fourth field ≥ 1 is `prof`'s REPS (the session-36 commands).
-        first_rho: v
-            .get(3)
-            .map(|f| f.parse::<f64>().expect("FIRST_RHO"))
-            .filter(|r| *r < 1.0)
-            .unwrap_or(0.5),
-        carry_rho: v.get(4) == Some(&"carry"),
     }
 }
 
 /// One rule, the solves only (for `valgrind --tool=callgrind`; issue 20, session 36): the 32
 /// benchmark states at accuracy `acc`, cold starts, one solver, with the ladder rule
-/// `LOOSE,cubic|linear,FLOOR[,REPS]` (`0,linear,0.1`: the rule before session 36 on the
-/// same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
+/// `LOOSE,cubic|linear,FLOOR[,REPS]` or `... RULE REPS` (`0,linear,0.1`: the rule before
+/// session 36 on the same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
 /// report's whole sweeps give (`mg_cost`'s count).
 fn prof(acc: f64, rule: &str) {
     use bearing_sweep::bearing::finite::FiniteSettings;
@@ -901,13 +892,11 @@ fn prof(acc: f64, rule: &str) {
         .iter()
         .map(|s| FiniteJob::new(&p, &pack_state(&p, s).unwrap()))
         .collect();
-    let reps: usize = std::env::args()
-        .nth(4)
-        .or_else(|| {
-            v.get(3)
-                .filter(|r| r.parse::<f64>().is_ok_and(|x| x >= 1.0))
-                .map(|r| r.to_string())
-        })
+    // REPS as the rule's fourth field (the session-36 commands) or the next argument.
+    let reps: usize = v
+        .get(3)
+        .map(|r| r.to_string())
+        .or_else(|| std::env::args().nth(4))
         .map_or(1, |r| r.parse().expect("REPS"));
     let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
     let mut sum = [0.0; 4];

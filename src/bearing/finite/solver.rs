@@ -248,11 +248,6 @@ pub struct LadderRule {
     /// error of the load vector of the grid that ends the ladder is below it.
     /// Dimensionless, default [`LADDER_FLOOR`].
     pub floor: f64,
-    /// EXPERIMENT: contraction per V-cycle assumed after a grid's first cycle (estimate
-    /// `change × ρ/(1 − ρ)`); 0.5: the change itself (before session 37).
-    pub first_rho: f64,
-    /// EXPERIMENT: use the previous grid's measured contraction for the first cycle.
-    pub carry_rho: bool,
 }
 
 impl Default for LadderRule {
@@ -261,8 +256,6 @@ impl Default for LadderRule {
             loose: LADDER_LOOSE,
             cubic_start: LADDER_CUBIC_START,
             floor: LADDER_FLOOR,
-            first_rho: 0.5,
-            carry_rho: false,
         }
     }
 }
@@ -312,12 +305,6 @@ pub struct FiniteSolver {
     /// (for probes: cycles and work per grid). On the Simpson-summed ladder their
     /// `rectangle` sums are not computed (NaN).
     pub trace: Vec<LadderStep>,
-    /// EXPERIMENT: extrapolation factor of the ladder's start (0: none).
-    pub ladder_extrapolate: f64,
-    /// EXPERIMENT: the field of the grid below the ladder's top as it finished.
-    ladder_prev: Vec<f64>,
-    ladder_prev_dims: (usize, usize),
-    ladder_scratch: Vec<f64>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -761,23 +748,13 @@ impl FiniteSolver {
                 loose: 0.0,
                 cubic_start: false,
                 floor: ALGEBRAIC_FRACTION,
-                first_rho: 0.5,
-                carry_rho: false,
             }
         };
         let floor = (rule.floor * target).max(g.tolerance);
-        let mut rho = rule.first_rho;
-        self.ladder_prev_dims = (0, 0);
         for &dims in &ladder[1..] {
             let below = values[values.len() - 1];
-            if self.mg.simpson_z {
-                self.ladder_extrapolate_top();
-            }
             self.ladder_grow(job, g, dims, rule.cubic_start);
-            let mut cyc = LadderCycles {
-                first_rho: rho,
-                ..LadderCycles::default()
-            };
+            let mut cyc = LadderCycles::default();
             let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below);
             let mut step = self.ladder_step_of(&cyc, res);
             values.push(step.integrals);
@@ -800,9 +777,6 @@ impl FiniteSolver {
                 est = est_of(&values, self.mg.simpson_z);
             }
             steps.push(step);
-            if rule.carry_rho && cyc.rho > 0.0 {
-                rho = cyc.rho;
-            }
             if let Some(e) = est {
                 estimate = e;
                 if e <= target {
@@ -833,48 +807,6 @@ impl FiniteSolver {
         self.trace.clear();
         self.trace.extend_from_slice(&steps);
         (integrals, report)
-    }
-
-    /// EXPERIMENT: before the next grid is started, the top grid's field `u_k` is saved and
-    /// replaced by `u_k + f (u_k − I u_{k−1})` with the difference taken at the nodes of
-    /// grid k−1 and interpolated bilinearly (f = `ladder_extrapolate`), clipped at 0,
-    /// held nodes kept.
-    fn ladder_extrapolate_top(&mut self) {
-        let top = self.mg.levels.len() - 1;
-        let (nt, nz) = (self.mg.levels[top].nt, self.mg.levels[top].nz);
-        let mut saved = std::mem::take(&mut self.ladder_scratch);
-        saved.clear();
-        saved.extend_from_slice(&self.mg.levels[top].p);
-        let f = self.ladder_extrapolate;
-        let (cnt, cnz) = self.ladder_prev_dims;
-        if f > 0.0 && 2 * cnt == nt && 2 * cnz == nz {
-            let prev = &self.ladder_prev;
-            let lvl = &mut self.mg.levels[top];
-            let inv = lvl.operator().3.to_vec();
-            let d = |ic: usize, jc: usize| {
-                let ic = ic % cnt;
-                saved[2 * jc * nt + 2 * ic] - prev[jc * cnt + ic]
-            };
-            for j in 1..nz {
-                for i in 0..nt {
-                    let k = j * nt + i;
-                    if inv[k] == 0.0 {
-                        continue;
-                    }
-                    let (ic, jc) = (i / 2, j / 2);
-                    let v = match (i % 2, j % 2) {
-                        (0, 0) => d(ic, jc),
-                        (1, 0) => 0.5 * (d(ic, jc) + d(ic + 1, jc)),
-                        (0, _) => 0.5 * (d(ic, jc) + d(ic, jc + 1)),
-                        _ => 0.25 * (d(ic, jc) + d(ic + 1, jc) + d(ic, jc + 1) + d(ic + 1, jc + 1)),
-                    };
-                    lvl.p[k] = (saved[k] + f * v).max(0.0);
-                }
-            }
-        }
-        std::mem::swap(&mut self.ladder_prev, &mut saved);
-        self.ladder_scratch = saved;
-        self.ladder_prev_dims = (nt, nz);
     }
 
     /// Adds the ladder's next grid `nt × nz` on top and starts it from the solution
@@ -956,12 +888,7 @@ impl FiniteSolver {
             cyc.cycles = 1;
             cyc.prev = self.top_loads(simpson);
             cyc.last_change = err;
-            let r = cyc.first_rho;
-            cyc.err = if r > 0.0 && r < 1.0 {
-                err * r / (1.0 - r)
-            } else {
-                err
-            };
+            cyc.err = err;
         }
         if cyc.last_change == 0.0 || cyc.err <= tol(&cyc.prev) {
             return (cyc.cycles, cyc.err, true);
@@ -974,9 +901,6 @@ impl FiniteSolver {
             cyc.prev = now;
             // The estimate of `Hierarchy::iterate`.
             cyc.err = tail_estimate(change, cyc.last_change);
-            if cyc.last_change > 0.0 {
-                cyc.rho = (change / cyc.last_change).clamp(0.1, 0.95);
-            }
             cyc.last_change = change;
             if change == 0.0 || cyc.err <= tol(&now) {
                 return (cyc.cycles, cyc.err, true);
@@ -1138,10 +1062,6 @@ struct LadderCycles {
     last_change: f64,
     /// Estimated iteration error after the last cycle.
     err: f64,
-    /// EXPERIMENT: contraction assumed after the first cycle.
-    first_rho: f64,
-    /// EXPERIMENT: last measured contraction (0: none).
-    rho: f64,
 }
 
 /// Re-interpolates the rows of a ladder grid's start that lie between the coarser grid's
