@@ -1070,35 +1070,42 @@ struct LadderCycles {
 /// `(5, 15, −5, 1)/16` (`nz ≥ 6`) or the quadratic `(3, 6, −1)/8` (`nz = 4`); clipped at
 /// 0; nodes held (`inv_d` 0) keep their value. `nz` even.
 fn cubic_rows_in_zeta(p: &mut [f64], inv_d: &[f64], nt: usize, nz: usize) {
-    let row = |p: &[f64], j: usize, i: usize| p[j * nt + i];
+    // Row slices (issue 20, session 37: the per-node row choice and index checks were
+    // most of this pass); the same weights in the same order, the same bits.
     for j in (1..nz).step_by(2) {
-        for i in 0..nt {
-            let k = j * nt + i;
-            if inv_d[k] == 0.0 {
-                continue;
-            }
-            let v = if nz < 6 {
-                // Rows 0, 2, 4 (nz = 4; p = 0 on the end rows).
-                let (a, b, c) = if j == 1 { (0, 2, 4) } else { (4, 2, 0) };
-                (3.0 * row(p, a, i) + 6.0 * row(p, b, i) - row(p, c, i)) / 8.0
-            } else if j == 1 {
-                cubic_edge(row(p, 0, i), row(p, 2, i), row(p, 4, i), row(p, 6, i))
-            } else if j == nz - 1 {
-                cubic_edge(
-                    row(p, nz, i),
-                    row(p, nz - 2, i),
-                    row(p, nz - 4, i),
-                    row(p, nz - 6, i),
-                )
+        // The rows below `j` (even ones read), row `j` (written) and the rows above.
+        let (lo, rest) = p.split_at_mut(j * nt);
+        let (cur, hi) = rest.split_at_mut(nt);
+        let below = |m: usize| &lo[(j - m) * nt..(j - m + 1) * nt];
+        let above = |m: usize| &hi[(m - 1) * nt..m * nt];
+        let inv = &inv_d[j * nt..(j + 1) * nt];
+        if nz < 6 {
+            // Rows 0, 2, 4 (nz = 4; p = 0 on the end rows).
+            let (a, b, c) = if j == 1 {
+                (below(1), above(1), above(3))
             } else {
-                cubic_mid(
-                    row(p, j - 3, i),
-                    row(p, j - 1, i),
-                    row(p, j + 1, i),
-                    row(p, j + 3, i),
-                )
+                (above(1), below(1), below(3))
             };
-            p[k] = v.max(0.0);
+            put_row(cur, inv, |i| (3.0 * a[i] + 6.0 * b[i] - c[i]) / 8.0);
+        } else if j == 1 {
+            let (a, b, c, d) = (below(1), above(1), above(3), above(5));
+            put_row(cur, inv, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else if j == nz - 1 {
+            let (a, b, c, d) = (above(1), below(1), below(3), below(5));
+            put_row(cur, inv, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else {
+            let (a, b, c, d) = (below(3), below(1), above(1), above(3));
+            put_row(cur, inv, |i| cubic_mid(a[i], b[i], c[i], d[i]));
+        }
+    }
+}
+
+/// `out[i] = max(v(i), 0)` where `inv[i]` is not 0 (held nodes keep their value).
+#[inline(always)]
+fn put_row(out: &mut [f64], inv: &[f64], v: impl Fn(usize) -> f64) {
+    for (i, (o, &ik)) in out.iter_mut().zip(inv).enumerate() {
+        if ik != 0.0 {
+            *o = v(i).max(0.0);
         }
     }
 }
