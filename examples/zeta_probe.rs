@@ -603,7 +603,7 @@ fn cycles(acc: f64) {
         ..pb
     };
     let g = FiniteGrid::for_bearing(&p);
-    let mut sum = vec![0u64; 6];
+    let mut sum = [0u64; 6];
     for (k, s) in bench.iter().enumerate() {
         let packed: Packed = pack_state(&p, s).unwrap();
         let job = FiniteJob::new(&p, &packed);
@@ -768,10 +768,10 @@ fn rules(acc: f64) {
             } = rule;
             let (mut ups, mut errs, mut ratios, mut tightd) =
                 (Vec::new(), Vec::new(), Vec::new(), 0.0_f64);
-            let mut per = vec![(0u64, 0u64); 7];
+            let mut per = [(0u64, 0u64); 7];
             // Per grid: largest iteration error of the loads over the next grid's (tight)
             // difference, and the range of the stop's estimate over the iteration error.
-            let mut iter_err = vec![(0.0_f64, f64::INFINITY, 0.0_f64); 7];
+            let mut iter_err = [(0.0_f64, f64::INFINITY, 0.0_f64); 7];
             for (s, (r, tight)) in states.iter().zip(&refs) {
                 let packed: Packed = pack_state(&p, s).unwrap();
                 let job = FiniteJob::new(&p, &packed);
@@ -1054,8 +1054,8 @@ fn main() {
                 }
             }
             print!(" {}:", RULES[ri]);
-            for l in 2..ys.len() {
-                print!(" {:.1e}", errs[ri][l].last().unwrap());
+            for e in errs[ri].iter().take(ys.len()).skip(2) {
+                print!(" {:.1e}", e.last().unwrap());
             }
         }
         println!();
