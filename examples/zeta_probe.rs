@@ -494,6 +494,20 @@ fn split() {
                     norm(&est) / norm(vf) / e
                 );
             }
+            // Session 37: steps of 1.5 (192 × 24 after 128 × 16, 384 × 48 after 256 × 32,
+            // off the nested ladder): their error and the Richardson estimate
+            // |v − v(coarse)| / (1.5² − 1) over it.
+            for (f, c) in [((192, 24), (128, 16)), ((384, 48), (256, 32))] {
+                let v = solve(f.0, f.1);
+                let w = &vals[at(c)];
+                let e = dist(&v, &truth) / tn;
+                print!(
+                    " | 1.5 {}x{} e {e:.1e} r {:.2}",
+                    f.0,
+                    f.1,
+                    dist(&v, w) / 1.25 / norm(&v) / e
+                );
+            }
             // the ζ step's own ratio at 128 × 32, 256 × 64
             for (f, c) in [((128, 32), (128, 16)), ((256, 64), (128, 32))] {
                 let (v, w) = (&vals[at(f)], &vals[at(c)]);
