@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
 //! `split [rules]`, `work`, `cycles ACC…`, `fmg1`, `rules ACC LOOSE,cubic|linear,FLOOR…`,
-//! `prof ACC LOOSE,cubic|linear,FLOOR`: see each function)
+//! `prof ACC LOOSE,cubic|linear,FLOOR [REPS]`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
 use bearing_sweep::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
@@ -476,6 +476,38 @@ fn split() {
                     d2 * rho / (1.0 - rho) / norm(v32) / e
                 );
             }
+            // Session 37: the two-direction model `E = A/n_θ² + B/n_z²` fitted on
+            // v(n/2 × m/2), v(n × m), v(n × 2m): the error of v(n × 2m) is
+            // `(v(n/2×m/2) − v(n×m))/3 − (v(n×m) − v(n×2m))` (vectors).
+            for (c, m, f) in [
+                ((64, 8), (128, 16), (128, 32)),
+                ((128, 16), (256, 32), (256, 64)),
+            ] {
+                let (vc, vm, vf) = (&vals[at(c)], &vals[at(m)], &vals[at(f)]);
+                let est: [f64; 4] =
+                    std::array::from_fn(|k| (vc[k] - vm[k]) / 3.0 - (vm[k] - vf[k]));
+                let e = dist(vf, &truth) / tn;
+                print!(
+                    " | 2d {}x{} e {e:.1e} r {:.2}",
+                    f.0,
+                    f.1,
+                    norm(&est) / norm(vf) / e
+                );
+            }
+            // Session 37: steps of 1.5 (192 × 24 after 128 × 16, 384 × 48 after 256 × 32,
+            // off the nested ladder): their error and the Richardson estimate
+            // |v − v(coarse)| / (1.5² − 1) over it.
+            for (f, c) in [((192, 24), (128, 16)), ((384, 48), (256, 32))] {
+                let v = solve(f.0, f.1);
+                let w = &vals[at(c)];
+                let e = dist(&v, &truth) / tn;
+                print!(
+                    " | 1.5 {}x{} e {e:.1e} r {:.2}",
+                    f.0,
+                    f.1,
+                    dist(&v, w) / 1.25 / norm(&v) / e
+                );
+            }
             // the ζ step's own ratio at 128 × 32, 256 × 64
             for (f, c) in [((128, 32), (128, 16)), ((256, 64), (128, 32))] {
                 let (v, w) = (&vals[at(f)], &vals[at(c)]);
@@ -585,7 +617,7 @@ fn cycles(acc: f64) {
         ..pb
     };
     let g = FiniteGrid::for_bearing(&p);
-    let mut sum = vec![0u64; 6];
+    let mut sum = [0u64; 6];
     for (k, s) in bench.iter().enumerate() {
         let packed: Packed = pack_state(&p, s).unwrap();
         let job = FiniteJob::new(&p, &packed);
@@ -729,17 +761,7 @@ fn rules(acc: f64) {
             states(&p).into_iter().map(|x| x.1).collect(),
         ),
     ];
-    let variants: Vec<(f64, bool, f64)> = std::env::args()
-        .skip(3)
-        .map(|a| {
-            let v: Vec<&str> = a.split(',').collect();
-            (
-                v[0].parse().expect("a number"),
-                v[1] == "cubic",
-                v.get(2).map_or(0.1, |f| f.parse().expect("a fraction")),
-            )
-        })
-        .collect();
+    let variants: Vec<LadderRule> = std::env::args().skip(3).map(|a| rule_of(&a)).collect();
     for (name, p, states) in sets {
         let g = FiniteGrid::for_bearing(&p);
         let mut refs = Vec::new();
@@ -751,22 +773,40 @@ fn rules(acc: f64) {
             let tight = solver.ladder(&job, &g, 1e-10, false, 7);
             refs.push((r, tight));
         }
-        for &(loose, cubic_start, floor) in &variants {
+        for &rule in &variants {
+            let LadderRule {
+                loose,
+                cubic_start,
+                floor,
+                ..
+            } = rule;
             let (mut ups, mut errs, mut ratios, mut tightd) =
                 (Vec::new(), Vec::new(), Vec::new(), 0.0_f64);
-            let mut per = vec![(0u64, 0u64); 7];
+            let mut per = [(0u64, 0u64); 7];
+            // Per grid: largest iteration error of the loads over the next grid's (tight)
+            // difference, and the range of the stop's estimate over the iteration error.
+            let mut iter_err = [(0.0_f64, f64::INFINITY, 0.0_f64); 7];
             for (s, (r, tight)) in states.iter().zip(&refs) {
                 let packed: Packed = pack_state(&p, s).unwrap();
                 let job = FiniteJob::new(&p, &packed);
                 let lv =
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
-                solver.ladder_rule = LadderRule {
-                    loose,
-                    cubic_start,
-                    floor,
-                };
+                solver.ladder_rule = rule;
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
+                for (l, st) in solver.trace.iter().enumerate() {
+                    let t = &tight[l].integrals;
+                    let e = dist(&st.integrals, t) / norm(t);
+                    if l + 1 < tight.len() {
+                        let dn = dist(&tight[l + 1].integrals, t) / norm(t);
+                        iter_err[l].0 = iter_err[l].0.max(e / dn);
+                    }
+                    if l > 0 && e > 0.0 {
+                        let r = st.result.1 / e;
+                        iter_err[l].1 = iter_err[l].1.min(r);
+                        iter_err[l].2 = iter_err[l].2.max(r);
+                    }
+                }
                 let truth = lv(r);
                 let err = dist(&lv(&ints), &truth) / norm(&truth);
                 errs.push(err);
@@ -820,17 +860,36 @@ fn rules(acc: f64) {
                 tightd,
                 grids.join(" ")
             );
+            let it: Vec<String> = iter_err
+                .iter()
+                .take_while(|x| x.1.is_finite() || x.0 > 0.0)
+                .map(|(a, b, c)| format!("{a:.3}/{b:.2}-{c:.2}"))
+                .collect();
+            println!(
+                "   per grid: iteration error over the next grid's difference (largest) / stop estimate over iteration error: {}",
+                it.join(" ")
+            );
         }
+    }
+}
+
+/// A ladder rule from `LOOSE,cubic|linear[,FLOOR]` (see [`LadderRule`]; FLOOR default 0.1).
+fn rule_of(a: &str) -> bearing_sweep::bearing::finite::LadderRule {
+    let v: Vec<&str> = a.split(',').collect();
+    bearing_sweep::bearing::finite::LadderRule {
+        loose: v[0].parse().expect("LOOSE"),
+        cubic_start: v[1] == "cubic",
+        floor: v.get(2).map_or(0.1, |f| f.parse().expect("FLOOR")),
     }
 }
 
 /// One rule, the solves only (for `valgrind --tool=callgrind`; issue 20, session 36): the 32
 /// benchmark states at accuracy `acc`, cold starts, one solver, with the ladder rule
-/// `LOOSE,cubic|linear,FLOOR[,REPS]` (`0,linear,0.1`: the rule before session 36 on the
-/// same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
+/// `LOOSE,cubic|linear,FLOOR[,REPS]` or `... RULE REPS` (`0,linear,0.1`: the rule before
+/// session 36 on the same binary; wall per state the best of REPS, default 1); prints the exact node updates per state (the solver's trace) and those the
 /// report's whole sweeps give (`mg_cost`'s count).
 fn prof(acc: f64, rule: &str) {
-    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
+    use bearing_sweep::bearing::finite::FiniteSettings;
     let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
     let p = BearingParams {
         finite: FiniteSettings {
@@ -841,17 +900,18 @@ fn prof(acc: f64, rule: &str) {
     };
     let v: Vec<&str> = rule.split(',').collect();
     let mut solver = FiniteSolver::new();
-    solver.ladder_rule = LadderRule {
-        loose: v[0].parse().expect("LOOSE"),
-        cubic_start: v[1] == "cubic",
-        floor: v[2].parse().expect("FLOOR"),
-    };
+    solver.ladder_rule = rule_of(rule);
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
         .map(|s| FiniteJob::new(&p, &pack_state(&p, s).unwrap()))
         .collect();
-    let reps: usize = v.get(3).map_or(1, |r| r.parse().expect("REPS"));
+    // REPS as the rule's fourth field (the session-36 commands) or the next argument.
+    let reps: usize = v
+        .get(3)
+        .map(|r| r.to_string())
+        .or_else(|| std::env::args().nth(4))
+        .map_or(1, |r| r.parse().expect("REPS"));
     let (mut exact, mut whole, mut best) = (0u64, 0u64, f64::INFINITY);
     let mut sum = [0.0; 4];
     // The reports' error estimates and grids, summed: with the loads, the bits a set-up
@@ -1008,8 +1068,8 @@ fn main() {
                 }
             }
             print!(" {}:", RULES[ri]);
-            for l in 2..ys.len() {
-                print!(" {:.1e}", errs[ri][l].last().unwrap());
+            for e in errs[ri].iter().take(ys.len()).skip(2) {
+                print!(" {:.1e}", e.last().unwrap());
             }
         }
         println!();

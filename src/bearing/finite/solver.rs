@@ -1030,10 +1030,10 @@ impl FiniteSolver {
 }
 
 /// Accuracy mode with grooves or arcs, the rectangle-summed ladder of coefficients and
-/// equilibria, the first grid of every ladder and the WGSL kernel's ladder (the plain
-/// film's Simpson-summed ladder follows [`LadderRule`] since session 36): each grid of the
-/// ladder is iterated until the estimated iteration
-/// error of its load vector is below this fraction of the requested accuracy (or
+/// equilibria, and the first grid of every ladder (the plain film's Simpson-summed ladder
+/// follows [`LadderRule`] since session 36, on the CPU and, since session 37, in the WGSL
+/// kernel): each grid of the ladder is iterated until the estimated iteration error of its
+/// load vector is below this fraction of the requested accuracy (or
 /// `finite.tolerance`, if larger). Iterating further buys nothing: the grid's own
 /// discretisation error is at least the accuracy (all grids but the last) or about it
 /// (the last). 0.1 (was 0.02 until issue 20 session 35): on the 12 test and 32 benchmark
@@ -1070,35 +1070,42 @@ struct LadderCycles {
 /// `(5, 15, −5, 1)/16` (`nz ≥ 6`) or the quadratic `(3, 6, −1)/8` (`nz = 4`); clipped at
 /// 0; nodes held (`inv_d` 0) keep their value. `nz` even.
 fn cubic_rows_in_zeta(p: &mut [f64], inv_d: &[f64], nt: usize, nz: usize) {
-    let row = |p: &[f64], j: usize, i: usize| p[j * nt + i];
+    // Row slices (issue 20, session 37: the per-node row choice and index checks were
+    // most of this pass); the same weights in the same order, the same bits.
     for j in (1..nz).step_by(2) {
-        for i in 0..nt {
-            let k = j * nt + i;
-            if inv_d[k] == 0.0 {
-                continue;
-            }
-            let v = if nz < 6 {
-                // Rows 0, 2, 4 (nz = 4; p = 0 on the end rows).
-                let (a, b, c) = if j == 1 { (0, 2, 4) } else { (4, 2, 0) };
-                (3.0 * row(p, a, i) + 6.0 * row(p, b, i) - row(p, c, i)) / 8.0
-            } else if j == 1 {
-                cubic_edge(row(p, 0, i), row(p, 2, i), row(p, 4, i), row(p, 6, i))
-            } else if j == nz - 1 {
-                cubic_edge(
-                    row(p, nz, i),
-                    row(p, nz - 2, i),
-                    row(p, nz - 4, i),
-                    row(p, nz - 6, i),
-                )
+        // The rows below `j` (even ones read), row `j` (written) and the rows above.
+        let (lo, rest) = p.split_at_mut(j * nt);
+        let (cur, hi) = rest.split_at_mut(nt);
+        let below = |m: usize| &lo[(j - m) * nt..(j - m + 1) * nt];
+        let above = |m: usize| &hi[(m - 1) * nt..m * nt];
+        let inv = &inv_d[j * nt..(j + 1) * nt];
+        if nz < 6 {
+            // Rows 0, 2, 4 (nz = 4; p = 0 on the end rows).
+            let (a, b, c) = if j == 1 {
+                (below(1), above(1), above(3))
             } else {
-                cubic_mid(
-                    row(p, j - 3, i),
-                    row(p, j - 1, i),
-                    row(p, j + 1, i),
-                    row(p, j + 3, i),
-                )
+                (above(1), below(1), below(3))
             };
-            p[k] = v.max(0.0);
+            put_row(cur, inv, |i| (3.0 * a[i] + 6.0 * b[i] - c[i]) / 8.0);
+        } else if j == 1 {
+            let (a, b, c, d) = (below(1), above(1), above(3), above(5));
+            put_row(cur, inv, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else if j == nz - 1 {
+            let (a, b, c, d) = (above(1), below(1), below(3), below(5));
+            put_row(cur, inv, |i| cubic_edge(a[i], b[i], c[i], d[i]));
+        } else {
+            let (a, b, c, d) = (below(3), below(1), above(1), above(3));
+            put_row(cur, inv, |i| cubic_mid(a[i], b[i], c[i], d[i]));
+        }
+    }
+}
+
+/// `out[i] = max(v(i), 0)` where `inv[i]` is not 0 (held nodes keep their value).
+#[inline(always)]
+fn put_row(out: &mut [f64], inv: &[f64], v: impl Fn(usize) -> f64) {
+    for (i, (o, &ik)) in out.iter_mut().zip(inv).enumerate() {
+        if ik != 0.0 {
+            *o = v(i).max(0.0);
         }
     }
 }
@@ -1269,22 +1276,57 @@ pub(super) fn row_weighted_with(
     let dt = 2.0 * PI / nt as f64;
     let dz = 1.0 / nz as f64;
     let mut acc = [0.0; 4];
-    for j in 1..nz {
-        let zeta = j as f64 * dz;
-        let (mut c, mut s) = (0.0, 0.0);
-        for (i, &(ci, si)) in trig.iter().enumerate() {
-            let v = p[j * nt + i];
-            c += v * ci;
-            s += v * si;
+    let trig = &trig[..nt];
+    // Each row's sums `(Σ P cos θ, Σ P sin θ)` in column order, as one chain per row and
+    // component; four rows at a time (issue 20, session 37): one row's two chains were
+    // bound by the latency of their additions (a load sum per V-cycle; the same sums,
+    // the same bits).
+    let mut rows = [(0.0, 0.0); ROWS_AT_ONCE];
+    let mut j = 1;
+    while j < nz {
+        let m = ROWS_AT_ONCE.min(nz - j);
+        if m == ROWS_AT_ONCE {
+            let r: [&[f64]; ROWS_AT_ONCE] =
+                std::array::from_fn(|q| &p[(j + q) * nt..(j + q + 1) * nt]);
+            let mut cs = [0.0; ROWS_AT_ONCE];
+            let mut ss = [0.0; ROWS_AT_ONCE];
+            for (i, &(ci, si)) in trig.iter().enumerate() {
+                for q in 0..ROWS_AT_ONCE {
+                    let v = r[q][i];
+                    cs[q] += v * ci;
+                    ss[q] += v * si;
+                }
+            }
+            for q in 0..ROWS_AT_ONCE {
+                rows[q] = (cs[q], ss[q]);
+            }
+        } else {
+            for (q, row) in rows.iter_mut().enumerate().take(m) {
+                let (mut c, mut s) = (0.0, 0.0);
+                for (&v, &(ci, si)) in p[(j + q) * nt..(j + q + 1) * nt].iter().zip(trig) {
+                    c += v * ci;
+                    s += v * si;
+                }
+                *row = (c, s);
+            }
         }
-        let (c, s) = (w(j) * c, w(j) * s);
-        acc[0] += c;
-        acc[1] += s;
-        acc[2] += c * zeta;
-        acc[3] += s * zeta;
+        // The rows into the load vector in row order (as before).
+        for (q, &(c, s)) in rows.iter().enumerate().take(m) {
+            let jj = j + q;
+            let zeta = jj as f64 * dz;
+            let (c, s) = (w(jj) * c, w(jj) * s);
+            acc[0] += c;
+            acc[1] += s;
+            acc[2] += c * zeta;
+            acc[3] += s * zeta;
+        }
+        j += m;
     }
     acc.map(|v| -v * dt * dz / 3.0)
 }
+
+/// Rows summed side by side in [`row_weighted_with`] (independent addition chains).
+const ROWS_AT_ONCE: usize = 4;
 
 /// `−⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) dθ dζ` by the rectangle rule.
 pub(crate) fn integrals_of(p: &[f64], g: &FiniteGrid) -> FilmIntegrals {
