@@ -169,6 +169,32 @@ pub trait BatchSystem {
         None
     }
 
+    /// Whether [`BatchSystem::jacobians`] forms any Jacobians (radau5 asks it before
+    /// packing the states for it). Default: `false`.
+    fn has_jacobians(&self) -> bool {
+        false
+    }
+
+    /// Jacobians `∂f/∂y` from the system's own structure, for the variants `ids[k]` at
+    /// time `ts[k]` and state `ys[k * dim..]`, whose derivative there is `f0s[k * dim..]`
+    /// (this call's state was evaluated just before, `f` unchanged since). Where it forms
+    /// one, it writes columns `0..jacobian_dim()` of every row of `jac[k * dim * dim..]`
+    /// (row-major `dim x dim`) and sets `cost[k]` to the right-hand sides' worth of work it
+    /// took (counted in the variant's [`Stats::rhs_evaluations`]); where it leaves
+    /// `cost[k] = None` (as it arrives), radau5 takes forward differences of `f` as
+    /// without this hook. The Jacobian only steers Newton: it has to be close, not exact.
+    /// Default: forms none.
+    fn jacobians(
+        &mut self,
+        _ids: &[usize],
+        _ts: &[f64],
+        _ys: &[f64],
+        _f0s: &[f64],
+        _jac: &mut [f64],
+        _cost: &mut [Option<u64>],
+    ) {
+    }
+
     /// Typical magnitude of each component of variant `id` (the unit of `atol`).
     fn scales(&self, _id: usize, out: &mut [f64]) {
         out.fill(1.0);
