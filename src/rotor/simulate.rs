@@ -1853,3 +1853,154 @@ mod decimation_tests {
         }
     }
 }
+
+#[cfg(test)]
+mod jacobian_tests {
+    use super::super::jacobian::{film_jacobian, load_vector, probes};
+    use super::*;
+    use crate::bearing::{film_loads, Accuracy, FilmRule};
+
+    /// The rigid derivative with every bearing's exact film loads (the rule at `rule`'s
+    /// level), assembled as [`linear_derivative`] does.
+    fn exact_derivative(m: &RotorModel, rule: &FilmRule, y: &[f64], dy: &mut [f64]) {
+        let kin = m.kin(y);
+        let (mut f, mut tau, mut power) = ([0.0; 2], V3::zeros(), 0.0);
+        for geom in &m.bearings {
+            let e = m.end_kin(&kin, geom);
+            let st = m.bearing_state(&kin, &e);
+            let l = film_loads(&geom.params, &st, rule).expect("a valid state");
+            let (fi, fj) = l.end_forces(geom.params.length);
+            add_bearing_loads(
+                &e,
+                fi,
+                fj,
+                l.mz,
+                kin.w_global[2],
+                &mut f,
+                &mut tau,
+                &mut power,
+            );
+        }
+        m.rigid_derivative(y, &kin, f, tau, power, &mut dy[..DIM]);
+    }
+
+    /// The rotor's Jacobian from its bearings' inputs (six film probes a bearing, two
+    /// film columns derived) against central differences of the exact right-hand side,
+    /// on tilted, whirling states of the paper rotor: every entry within 1e-5 of its
+    /// row's largest, at the 1e-12 rule level where differences are clean.
+    #[test]
+    fn the_bearing_jacobian_matches_differences_of_the_right_hand_side() {
+        let scene = super::super::load_scene(
+            r#"{"name": "j", "rotor": {"mass": 1.0, "inertia": [0.01, 0.01, 0.3],
+                "static_unbalance": [0.001, 0.0]},
+              "bearings": [
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": 0.2},
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": -0.1}],
+              "gravity": [0.0, -9.81, 0.0], "spin": "free", "initial": {"spin": 100.0},
+              "film": {"threshold": 1e-6}}"#,
+        )
+        .expect("a scene")
+        .remove(0);
+        assert!(jacobian_from_bearings(&scene, 0));
+        let m = RotorModel::new(&scene);
+        let rule = FilmRule::new(Accuracy::new(1e-12).unwrap().settings());
+        let d = 3e-4;
+        let tilt = |a: f64| (0.5 * a).sin();
+        let states: [[f64; DIM]; 2] = [
+            [
+                0.3 * d,
+                -0.2 * d,
+                0.02,
+                -0.01,
+                1.0,
+                0.2 * tilt(1e-3),
+                -0.1 * tilt(1e-3),
+                0.05,
+                0.4,
+                -0.3,
+                100.0,
+                0.0,
+            ],
+            [
+                -0.5 * d,
+                0.1 * d,
+                -0.03,
+                0.04,
+                0.9,
+                -0.4 * tilt(1e-3),
+                0.3 * tilt(1e-3),
+                -0.3,
+                -0.2,
+                0.5,
+                120.0,
+                0.0,
+            ],
+        ];
+        for y in &states {
+            let kin = m.kin(y);
+            let mut pr = Vec::new();
+            let mut jf = Vec::new();
+            let mut l0 = Vec::new();
+            for geom in &m.bearings {
+                let e = m.end_kin(&kin, geom);
+                let s0 = m.bearing_state(&kin, &e);
+                let p = probes(&s0, geom.params.clearance).expect("probes");
+                let base = load_vector(&film_loads(&geom.params, &s0, &rule).unwrap());
+                let lk: [[f64; 4]; 6] = std::array::from_fn(|n| {
+                    load_vector(&film_loads(&geom.params, &p.states[n], &rule).unwrap())
+                });
+                jf.push(film_jacobian(&p, base, &lk));
+                l0.push(base);
+                pr.push(p);
+            }
+            let mut f0 = [0.0; DIM];
+            let mut lin0 = [0.0; DIM];
+            exact_derivative(&m, &rule, y, &mut f0);
+            linear_derivative(&m, y, &pr, &jf, &l0, &mut lin0);
+            for p in 0..DIM {
+                assert!(
+                    (f0[p] - lin0[p]).abs() <= 1e-12 * f0[p].abs().max(1e-300),
+                    "base derivative {p}: {} against {}",
+                    lin0[p],
+                    f0[p]
+                );
+            }
+            // Columns: the structured one (forward, as `jacobians`) and central
+            // differences of the exact right-hand side with 1e-5 of each scale.
+            let mut jac_s = [[0.0; JAC_DIM]; DIM];
+            let mut jac_c = [[0.0; JAC_DIM]; DIM];
+            for c in 0..JAC_DIM {
+                let mut yc = *y;
+                yc[c] += f64::EPSILON.sqrt() * yc[c].abs().max(m.scales[c]);
+                let del = yc[c] - y[c];
+                let mut fc = [0.0; DIM];
+                linear_derivative(&m, &yc, &pr, &jf, &l0, &mut fc);
+                let h = 1e-5 * m.scales[c];
+                let (mut yp, mut ym) = (*y, *y);
+                yp[c] += h;
+                ym[c] -= h;
+                let (mut fp, mut fm) = ([0.0; DIM], [0.0; DIM]);
+                exact_derivative(&m, &rule, &yp, &mut fp);
+                exact_derivative(&m, &rule, &ym, &mut fm);
+                for p in 0..DIM {
+                    jac_s[p][c] = (fc[p] - lin0[p]) / del;
+                    jac_c[p][c] = (fp[p] - fm[p]) / (yp[c] - ym[c]);
+                }
+            }
+            for p in 0..DIM {
+                // Entries in the error norm's units: column c times its scale.
+                let row = |j: &[[f64; JAC_DIM]; DIM], c: usize| j[p][c] * m.scales[c];
+                let big = (0..JAC_DIM).fold(0.0_f64, |a, c| a.max(row(&jac_c, c).abs()));
+                for c in 0..JAC_DIM {
+                    let err = (row(&jac_s, c) - row(&jac_c, c)).abs();
+                    assert!(
+                        err <= 1e-5 * big,
+                        "J[{p}][{c}] = {} against {} (row scale {big:.3e})",
+                        jac_s[p][c],
+                        jac_c[p][c]
+                    );
+                }
+            }
+        }
+    }
+}
