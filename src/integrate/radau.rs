@@ -3,7 +3,9 @@
 //! `A^-1` (one real `n x n` system `(gamma/h I - J)` and one complex one
 //! `((alpha - i beta)/h I - J)` instead of the real `3n x 3n` one: the same Newton
 //! iterates up to rounding at about a fifth of the factorisation work), the embedded
-//! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians by forward differences
+//! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians from the system's own
+//! structure where it forms them ([`BatchSystem::jacobians`]: a rotor's from its bearings'
+//! inputs), else by forward differences
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.

@@ -13,8 +13,9 @@ pub enum Method {
     #[default]
     Dopri5,
     /// Radau IIA, 3 stages, order 5, L-stable; simplified Newton on the 3n real system,
-    /// forward-difference Jacobians (one batched call per state component), cubic
-    /// collocation dense output.
+    /// Jacobians from the system's structure where it forms them
+    /// ([`BatchSystem::jacobians`]), else by forward differences (one batched call per
+    /// state component), cubic collocation dense output.
     Radau5,
     /// Dopri5 with Hairer's stiffness test per variant: a variant whose steps sit near
     /// dopri5's stability boundary (15 accepted steps with `h |λ| > 2.5`) is handed to

@@ -1897,6 +1897,8 @@ mod jacobian_tests {
                 {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": 0.2},
                 {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": -0.1}],
               "gravity": [0.0, -9.81, 0.0], "spin": "free", "initial": {"spin": 100.0},
+              "integrator": {"method": "radau5", "rtol": 1e-6, "atol": 1e-6, "t_end": 0.1,
+                "sample_interval": 1e-3},
               "film": {"threshold": 1e-6}}"#,
         )
         .expect("a scene")
@@ -1936,7 +1938,14 @@ mod jacobian_tests {
                 0.0,
             ],
         ];
-        for y in &states {
+        for y0 in &states {
+            // G where the journal axis is offset by the state's (x, y) from the bore's:
+            // the body's shaft axis is at −u from G (static unbalance u = 1 mm).
+            let mut y = *y0;
+            let ru = super::super::model::quat_matrix(&y[4..8]) * V3::new(1e-3, 0.0, 0.0);
+            y[0] += ru[0];
+            y[1] += ru[1];
+            let y = &y;
             let kin = m.kin(y);
             let mut pr = Vec::new();
             let mut jf = Vec::new();
