@@ -155,10 +155,10 @@ pub(crate) fn load_vector(l: &crate::bearing::Loads) -> [f64; 4] {
 /// base loads `l0` and the probes' loads `lk` (in [`Probes`]' order).
 pub(crate) fn film_jacobian(pr: &Probes, l0: [f64; 4], lk: &[[f64; 4]; 6]) -> [[f64; 8]; 4] {
     let mut j = [[0.0; 8]; 4];
-    for n in 0..6 {
+    for (n, ln) in lk.iter().enumerate() {
         let c = pr.coordinate[n];
         for o in 0..4 {
-            j[o][c] = (lk[n][o] - l0[o]) / pr.step[n];
+            j[o][c] = (ln[o] - l0[o]) / pr.step[n];
         }
     }
     let p = &pr.base;
