@@ -939,6 +939,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                     .all(|(a, b)| a.to_bits() == b.to_bits());
             let kin = m.kin(y);
             let start = self.jac_probes.len();
+            let req_start = self.jac_requests.len();
             let mut ok = true;
             for (b, geom) in m.bearings.iter().enumerate() {
                 let e = m.end_kin(&kin, geom);
@@ -965,17 +966,9 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                 self.jac_vars.push((k, start));
             } else {
                 // Leave this variant to radau5's columns; drop what it pushed.
-                let keep = self
-                    .jac_vars
-                    .last()
-                    .map_or(0, |&(kk, st)| st + self.models[ids[kk]].bearings.len());
-                self.jac_probes.truncate(keep);
-                self.jac_base.truncate(keep);
-                let req_keep = self.jac_base[..keep]
-                    .iter()
-                    .map(|b| 6 + usize::from(b.is_err()))
-                    .sum();
-                self.jac_requests.truncate(req_keep);
+                self.jac_probes.truncate(start);
+                self.jac_base.truncate(start);
+                self.jac_requests.truncate(req_start);
             }
         }
         if self.jac_requests.is_empty() {
