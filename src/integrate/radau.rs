@@ -3,7 +3,9 @@
 //! `A^-1` (one real `n x n` system `(gamma/h I - J)` and one complex one
 //! `((alpha - i beta)/h I - J)` instead of the real `3n x 3n` one: the same Newton
 //! iterates up to rounding at about a fifth of the factorisation work), the embedded
-//! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians by forward differences
+//! error estimate `(mu/h I - J)^-1 (f0 + (e . Z)/h)`, Jacobians from the system's own
+//! structure where it forms them ([`BatchSystem::jacobians`]: a rotor's from its bearings'
+//! inputs), else by forward differences
 //! (backward for a column whose forward probe leaves the domain, e.g. through the wall)
 //! where each column is ONE batched call over all variants that need a Jacobian, Newton
 //! stage calls batched over all variants (3 entries each), cubic collocation dense output.
@@ -304,6 +306,12 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let mut ended = Vec::new();
     let mut work: Vec<usize> = Vec::new();
     let mut retry: Vec<usize> = Vec::new();
+    // Variants whose Jacobian is formed this round, and the buffers of
+    // [`BatchSystem::jacobians`].
+    let mut formed: Vec<usize> = Vec::new();
+    let mut sj_f0: Vec<f64> = Vec::new();
+    let mut sj_jac: Vec<f64> = Vec::new();
+    let mut sj_cost: Vec<Option<u64>> = Vec::new();
 
     while !active.is_empty() {
         // 1. f(t, y) where the state is new.
@@ -342,9 +350,46 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     .unwrap_or_else(|| initial_step(&y[r.clone()], &f0[r.clone()], &scale[r], s));
             }
         }
-        // 2. Jacobians: one batched call per column.
+        // 2. Jacobians: from the system's structure where it forms them
+        // ([`BatchSystem::jacobians`]), else one batched call per column.
         work.clear();
         work.extend(active.iter().copied().filter(|&id| vars[id].need_jac));
+        formed.clear();
+        formed.extend_from_slice(&work);
+        if sys.has_jacobians() && !work.is_empty() {
+            buf.clear();
+            sj_f0.clear();
+            for &id in &work {
+                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
+                sj_f0.extend_from_slice(&f0[id * d..(id + 1) * d]);
+            }
+            sj_jac.clear();
+            sj_jac.resize(work.len() * d * d, 0.0);
+            sj_cost.clear();
+            sj_cost.resize(work.len(), None);
+            sys.jacobians(
+                &buf.ids,
+                &buf.ts,
+                &buf.ys,
+                &sj_f0,
+                &mut sj_jac,
+                &mut sj_cost,
+            );
+            for (k, &id) in buf.ids.iter().enumerate() {
+                if let Some(c) = sj_cost[k] {
+                    tracks[id].stats.rhs_evaluations += c;
+                    let src = &sj_jac[k * d * d..(k + 1) * d * d];
+                    for p in 0..d {
+                        jac[id][p * d..p * d + jd].copy_from_slice(&src[p * d..p * d + jd]);
+                    }
+                }
+            }
+            let mut k = 0;
+            work.retain(|_| {
+                k += 1;
+                sj_cost[k - 1].is_none()
+            });
+        }
         // Each variant's column of the scale-invariant block derived from the others
         // (Euler's relation): the block's largest component, which is far from zero.
         for &id in &work {
@@ -437,7 +482,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
             }
         }
-        for &id in &work {
+        for &id in &formed {
             let v = &mut vars[id];
             v.need_jac = false;
             v.jac_current = true;

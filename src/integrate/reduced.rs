@@ -174,8 +174,20 @@ impl NewtonLu {
         self.real.singular || self.cplx.singular
     }
 
+    /// Whether `red` is the rigid rotor's reduction (12 components, 11 in the Jacobian, two
+    /// kinematic pairs, 9 kept): the solves then run [`NewtonLu::solve_real_sized`] and
+    /// [`NewtonLu::solve_complex_sized`] with these sizes as constants.
+    fn rotor_sized(red: &Reduction, len: usize) -> bool {
+        red.d == 12 && red.jd == 11 && red.kin.len() == 2 && red.keep.len() == 9 && len == 12
+    }
+
     /// Solves `(γ I − J) x = b` in place (`b`, length `d`, becomes `x`).
     pub(crate) fn solve_real(&mut self, red: &Reduction, b: &mut [f64]) {
+        if Self::rotor_sized(red, b.len()) {
+            // The same operations in the same order with the sizes known (issue 28, tenth
+            // pass: the general loops' bookkeeping was ~40 % of a solve).
+            return self.solve_real_sized::<9, 2, 12, 11>(red, b);
+        }
         let (n, nk, g) = (red.size(), red.kin.len(), self.gamma);
         // `b_i / γ` of each eliminated component, once (the same quotient every row used).
         self.q_re.clear();
@@ -205,8 +217,114 @@ impl NewtonLu {
         debug_assert_eq!(self.r_re.len(), n);
     }
 
+    /// [`NewtonLu::solve_real`] with `N` kept components, `NK` kinematic pairs, `D`
+    /// components and `JD` in the Jacobian as constants (the caller checked them): the
+    /// same operations in the same order, on arrays.
+    #[inline(always)]
+    fn solve_real_sized<const N: usize, const NK: usize, const D: usize, const JD: usize>(
+        &mut self,
+        red: &Reduction,
+        b: &mut [f64],
+    ) {
+        let g = self.gamma;
+        let b: &mut [f64; D] = b.try_into().expect("checked by rotor_sized");
+        let kin: &[(usize, usize); NK] = red.kin[..].try_into().expect("checked");
+        let keep: &[usize; N] = red.keep[..].try_into().expect("checked");
+        let jk = &self.jk[..N * NK];
+        let mut q = [0.0; NK];
+        for k in 0..NK {
+            q[k] = b[kin[k].0] / g;
+        }
+        let mut r = [0.0; N];
+        for a in 0..N {
+            let mut s = b[keep[a]];
+            for k in 0..NK {
+                s += jk[a * NK + k] * q[k];
+            }
+            r[a] = s;
+        }
+        self.real.solve(&mut r);
+        for a in 0..N {
+            b[keep[a]] = r[a];
+        }
+        for &(i, j) in kin {
+            b[i] = (b[i] + b[j]) / g;
+        }
+        for qc in JD..D {
+            let row: &[f64; JD] = self.jq[(qc - JD) * JD..(qc - JD + 1) * JD]
+                .try_into()
+                .expect("JD entries a row");
+            let mut s = b[qc];
+            for c in 0..JD {
+                s += row[c] * b[c];
+            }
+            b[qc] = s / g;
+        }
+    }
+
+    /// [`NewtonLu::solve_complex`] with the sizes as constants, as
+    /// [`NewtonLu::solve_real_sized`].
+    #[inline(always)]
+    fn solve_complex_sized<const N: usize, const NK: usize, const D: usize, const JD: usize>(
+        &mut self,
+        red: &Reduction,
+        br: &mut [f64],
+        bi: &mut [f64],
+    ) {
+        let den = self.alpha * self.alpha + self.beta * self.beta;
+        let (ir, ii) = (self.alpha / den, -self.beta / den);
+        let over = |u: f64, v: f64| (u * ir - v * ii, u * ii + v * ir);
+        let br: &mut [f64; D] = br.try_into().expect("checked by rotor_sized");
+        let bi: &mut [f64; D] = bi.try_into().expect("checked by rotor_sized");
+        let kin: &[(usize, usize); NK] = red.kin[..].try_into().expect("checked");
+        let keep: &[usize; N] = red.keep[..].try_into().expect("checked");
+        let jk = &self.jk[..N * NK];
+        let (mut q_re, mut q_im) = ([0.0; NK], [0.0; NK]);
+        for k in 0..NK {
+            let i = kin[k].0;
+            (q_re[k], q_im[k]) = over(br[i], bi[i]);
+        }
+        let (mut r_re, mut r_im) = ([0.0; N], [0.0; N]);
+        for a in 0..N {
+            let (mut sr, mut si) = (br[keep[a]], bi[keep[a]]);
+            for k in 0..NK {
+                let jv = jk[a * NK + k];
+                sr += jv * q_re[k];
+                si += jv * q_im[k];
+            }
+            r_re[a] = sr;
+            r_im[a] = si;
+        }
+        self.cplx.solve(&mut r_re, &mut r_im);
+        for a in 0..N {
+            br[keep[a]] = r_re[a];
+            bi[keep[a]] = r_im[a];
+        }
+        for &(i, j) in kin {
+            let (qr, qi) = over(br[i] + br[j], bi[i] + bi[j]);
+            br[i] = qr;
+            bi[i] = qi;
+        }
+        for qc in JD..D {
+            let row: &[f64; JD] = self.jq[(qc - JD) * JD..(qc - JD + 1) * JD]
+                .try_into()
+                .expect("JD entries a row");
+            let (mut sr, mut si) = (br[qc], bi[qc]);
+            for c in 0..JD {
+                sr += row[c] * br[c];
+                si += row[c] * bi[c];
+            }
+            let (qr, qi) = over(sr, si);
+            br[qc] = qr;
+            bi[qc] = qi;
+        }
+    }
+
     /// Solves `((α + iβ) I − J) x = b` in place for `b = br + i bi` (length `d` each).
     pub(crate) fn solve_complex(&mut self, red: &Reduction, br: &mut [f64], bi: &mut [f64]) {
+        if Self::rotor_sized(red, br.len()) && bi.len() == 12 {
+            return self.solve_complex_sized::<9, 2, 12, 11>(red, br, bi);
+        }
         let nk = red.kin.len();
         let den = self.alpha * self.alpha + self.beta * self.beta;
         let (ir, ii) = (self.alpha / den, -self.beta / den);

@@ -13,8 +13,9 @@ pub enum Method {
     #[default]
     Dopri5,
     /// Radau IIA, 3 stages, order 5, L-stable; simplified Newton on the 3n real system,
-    /// forward-difference Jacobians (one batched call per state component), cubic
-    /// collocation dense output.
+    /// Jacobians from the system's structure where it forms them
+    /// ([`BatchSystem::jacobians`]), else by forward differences (one batched call per
+    /// state component), cubic collocation dense output.
     Radau5,
     /// Dopri5 with Hairer's stiffness test per variant: a variant whose steps sit near
     /// dopri5's stability boundary (15 accepted steps with `h |λ| > 2.5`) is handed to
@@ -167,6 +168,32 @@ pub trait BatchSystem {
     /// fewer per Jacobian. Default: none.
     fn scale_invariant_block(&self) -> Option<(usize, usize)> {
         None
+    }
+
+    /// Whether [`BatchSystem::jacobians`] forms any Jacobians (radau5 asks it before
+    /// packing the states for it). Default: `false`.
+    fn has_jacobians(&self) -> bool {
+        false
+    }
+
+    /// Jacobians `∂f/∂y` from the system's own structure, for the variants `ids[k]` at
+    /// time `ts[k]` and state `ys[k * dim..]`, whose derivative there is `f0s[k * dim..]`
+    /// (this call's state was evaluated just before, `f` unchanged since). Where it forms
+    /// one, it writes columns `0..jacobian_dim()` of every row of `jac[k * dim * dim..]`
+    /// (row-major `dim x dim`) and sets `cost[k]` to the right-hand sides' worth of work it
+    /// took (counted in the variant's [`Stats::rhs_evaluations`]); where it leaves
+    /// `cost[k] = None` (as it arrives), radau5 takes forward differences of `f` as
+    /// without this hook. The Jacobian only steers Newton: it has to be close, not exact.
+    /// Default: forms none.
+    fn jacobians(
+        &mut self,
+        _ids: &[usize],
+        _ts: &[f64],
+        _ys: &[f64],
+        _f0s: &[f64],
+        _jac: &mut [f64],
+        _cost: &mut [Option<u64>],
+    ) {
     }
 
     /// Typical magnitude of each component of variant `id` (the unit of `atol`).

@@ -3,6 +3,7 @@
 //! ([`RotorModel`]: quaternion attitude, gyroscopic terms, exact end-point film torques
 //! about `G`), and lockstep batched simulation ([`simulate_batch`] → [`SimResult`]).
 
+mod jacobian;
 mod model;
 mod scene;
 pub mod simplifications;

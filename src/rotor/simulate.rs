@@ -692,6 +692,27 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     accepted: std::cell::RefCell<Vec<usize>>,
     /// Time of each request of a film pass.
     times: Vec<f64>,
+    /// Per variant: its Jacobians come from its bearings' own inputs
+    /// ([`BatchSystem::jacobians`], `super::jacobian`): a bearing-model variant of a batch
+    /// without lumped temperatures whose bearings are all short films (no grooves, no
+    /// arcs) and whose states the squeeze drop does not change.
+    jac_ok: Vec<bool>,
+    /// The last right-hand-side call's variants and states (its loads are `results`),
+    /// emptied by a sample call: a Jacobian at one of those states reuses them.
+    last_ids: Vec<usize>,
+    last_ys: Vec<f64>,
+    /// Per variant: its entry in `last_ids` and its first request there.
+    jac_at: Vec<(usize, usize)>,
+    /// The probes of one [`BatchSystem::jacobians`] call: requests, results, each
+    /// bearing's probes and base loads (or the request that evaluates them), and each
+    /// variant's `(entry, first bearing)` in them.
+    jac_requests: Vec<LoadRequest>,
+    jac_results: Vec<LoadResult>,
+    jac_probes: Vec<super::jacobian::Probes>,
+    jac_base: Vec<Result<[f64; 4], usize>>,
+    jac_vars: Vec<(usize, usize)>,
+    jac_film: Vec<[[f64; 8]; 4]>,
+    jac_l0: Vec<[f64; 4]>,
 }
 
 impl<O: SampleObserver> RotorBatch<'_, '_, O> {
@@ -872,6 +893,152 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         Some((super::model::Q, 4))
     }
 
+    fn has_jacobians(&self) -> bool {
+        self.dim == DIM && self.jac_ok.iter().any(|&ok| ok)
+    }
+
+    fn jacobians(
+        &mut self,
+        ids: &[usize],
+        _ts: &[f64],
+        ys: &[f64],
+        _f0s: &[f64],
+        jac: &mut [f64],
+        cost: &mut [Option<u64>],
+    ) {
+        use super::jacobian::{film_jacobian, load_vector, probes};
+        if self.dim != DIM || self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return;
+        }
+        let d = DIM;
+        // Where the last right-hand side's call has each variant (its base loads).
+        self.jac_at.clear();
+        self.jac_at.resize(self.models.len(), (usize::MAX, 0));
+        let mut first = 0;
+        for (k, &id) in self.last_ids.iter().enumerate() {
+            if self.models[id].kind == ModelKind::Bearing {
+                self.jac_at[id] = (k, first);
+                first += self.models[id].bearings.len();
+            }
+        }
+        self.jac_requests.clear();
+        self.jac_probes.clear();
+        self.jac_base.clear();
+        self.jac_vars.clear();
+        for (k, &id) in ids.iter().enumerate() {
+            if !self.jac_ok[id] {
+                continue;
+            }
+            let m = &self.models[id];
+            let y = &ys[k * d..(k + 1) * d];
+            let (entry, first) = self.jac_at[id];
+            let cached = entry != usize::MAX
+                && self.last_ys[entry * d..(entry + 1) * d]
+                    .iter()
+                    .zip(y)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+            let kin = m.kin(y);
+            let start = self.jac_probes.len();
+            let req_start = self.jac_requests.len();
+            let mut ok = true;
+            for (b, geom) in m.bearings.iter().enumerate() {
+                let e = m.end_kin(&kin, geom);
+                let s0 = m.bearing_state(&kin, &e);
+                let Some(pr) = probes(&s0, geom.params.clearance) else {
+                    ok = false;
+                    break;
+                };
+                let bearing = (self.offsets[id] + b) as u32;
+                let base = match cached.then(|| &self.results[first + b]) {
+                    Some(Ok(l)) => Ok(load_vector(l)),
+                    _ => {
+                        self.jac_requests.push(LoadRequest { bearing, state: s0 });
+                        Err(self.jac_requests.len() - 1)
+                    }
+                };
+                self.jac_base.push(base);
+                for state in pr.states {
+                    self.jac_requests.push(LoadRequest { bearing, state });
+                }
+                self.jac_probes.push(pr);
+            }
+            if ok {
+                self.jac_vars.push((k, start));
+            } else {
+                // Leave this variant to radau5's columns; drop what it pushed.
+                self.jac_probes.truncate(start);
+                self.jac_base.truncate(start);
+                self.jac_requests.truncate(req_start);
+            }
+        }
+        if self.jac_requests.is_empty() {
+            return;
+        }
+        self.evaluator.evaluate_planned(
+            &self.params,
+            &self.plan,
+            &self.jac_requests,
+            &mut self.jac_results,
+        );
+        let mut cursor = 0;
+        let mut col = [0.0; DIM];
+        let mut f_base = [0.0; DIM];
+        for &(k, start) in &self.jac_vars {
+            let id = ids[k];
+            let m = &self.models[id];
+            let nb = m.bearings.len();
+            self.jac_film.clear();
+            self.jac_l0.clear();
+            let mut ok = true;
+            let mut evaluated_base = false;
+            for b in 0..nb {
+                let l0 = match self.jac_base[start + b] {
+                    Ok(l) => Some(l),
+                    Err(_) => {
+                        evaluated_base = true;
+                        cursor += 1;
+                        self.jac_results[cursor - 1].as_ref().ok().map(load_vector)
+                    }
+                };
+                let mut lk = [[0.0; 4]; 6];
+                for (n, v) in lk.iter_mut().enumerate() {
+                    match &self.jac_results[cursor + n] {
+                        Ok(l) => *v = load_vector(l),
+                        Err(_) => ok = false,
+                    }
+                }
+                cursor += 6;
+                match l0 {
+                    Some(l0) if ok => {
+                        self.jac_film
+                            .push(film_jacobian(&self.jac_probes[start + b], l0, &lk));
+                        self.jac_l0.push(l0);
+                    }
+                    _ => ok = false,
+                }
+            }
+            if !ok {
+                continue;
+            }
+            let pr = &self.jac_probes[start..start + nb];
+            let y = &ys[k * d..(k + 1) * d];
+            linear_derivative(m, y, pr, &self.jac_film, &self.jac_l0, &mut f_base);
+            let out = &mut jac[k * d * d..(k + 1) * d * d];
+            let mut yc = [0.0; DIM];
+            for c in 0..JAC_DIM {
+                yc.copy_from_slice(y);
+                // radau5's forward-difference increment.
+                yc[c] += f64::EPSILON.sqrt() * yc[c].abs().max(m.scales[c]);
+                let del = yc[c] - y[c];
+                linear_derivative(m, &yc, pr, &self.jac_film, &self.jac_l0, &mut col);
+                for p in 0..d {
+                    out[p * d + c] = (col[p] - f_base[p]) / del;
+                }
+            }
+            cost[k] = Some(6 + u64::from(evaluated_base));
+        }
+    }
+
     fn scales(&self, id: usize, out: &mut [f64]) {
         out[..DIM].copy_from_slice(&self.models[id].scales);
         // Lumped temperatures: unit 1 K (atol × 1 K absolute, rtol of the rise).
@@ -900,6 +1067,13 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             return;
         }
         self.film_pass(ids, ts, ys, true);
+        if self.has_jacobians() {
+            // A Jacobian at one of these states reuses their loads (`jacobians`).
+            self.last_ids.clear();
+            self.last_ids.extend_from_slice(ids);
+            self.last_ys.clear();
+            self.last_ys.extend_from_slice(ys);
+        }
         let mut cursor = 0;
         // Index into `kins` (bearing-model entries only).
         let mut entry = 0;
@@ -965,18 +1139,16 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                             }
                         }
                     }
-                    f[0] += fi[0] + fj[0];
-                    f[1] += fi[1] + fj[1];
-                    // Exact torque about G: end-point forces at the journal end centres.
-                    let ti = e.r_i.cross(&V3::new(fi[0], fi[1], 0.0));
-                    let tj = e.r_j.cross(&V3::new(fj[0], fj[1], 0.0));
-                    tau += ti + tj;
-                    tau.z += l.mz;
-                    power += fi[0] * e.v_i[0]
-                        + fi[1] * e.v_i[1]
-                        + fj[0] * e.v_j[0]
-                        + fj[1] * e.v_j[1]
-                        + l.mz * kin.w_global[2];
+                    add_bearing_loads(
+                        e,
+                        fi,
+                        fj,
+                        l.mz,
+                        kin.w_global[2],
+                        &mut f,
+                        &mut tau,
+                        &mut power,
+                    );
                 }
                 if let Some(fl) = fault {
                     faults[k] = Some(fl);
@@ -1003,6 +1175,8 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     }
 
     fn record(&mut self, ids: &[usize], ts: &[f64], ys: &[f64]) {
+        // The film pass below replaces the loads of the last right-hand side.
+        self.last_ids.clear();
         self.film_pass(ids, ts, ys, false);
         let mut cursor = 0;
         let mut scratch = [0.0; DIM];
@@ -1404,6 +1578,98 @@ fn stored(
     )
 }
 
+/// Whether scene `scene` in a batch with `n_thermal` lumped temperatures gets its
+/// Jacobians from its bearings' own inputs (`super::jacobian`): the bearing model,
+/// short films without grooves or arcs (their loads homogeneous in the rates and
+/// invariant under rotation about the bore axis), no lumped temperatures and no squeeze
+/// drop (which changes the states the film sees).
+fn jacobian_from_bearings(scene: &Scene, n_thermal: usize) -> bool {
+    scene.model == ModelKind::Bearing
+        && n_thermal == 0
+        && !scene.reductions.squeeze_drop.enabled
+        && scene.bearings.iter().all(|b| {
+            let p = b.params();
+            p.model == crate::bearing::FilmModel::Short
+                && p.grooves.is_empty()
+                && p.arcs.is_empty()
+                && p.lubricant.is_none()
+        })
+}
+
+/// Adds one bearing's end-point forces `fi`, `fj` (N) and friction torque `mz` (N·m) at
+/// the end centres `e` to the rotor's total force `f`, torque about `G` `tau` and load
+/// power `power` (`w_z`: the global spin rate).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn add_bearing_loads(
+    e: &EndKin,
+    fi: [f64; 2],
+    fj: [f64; 2],
+    mz: f64,
+    w_z: f64,
+    f: &mut [f64; 2],
+    tau: &mut V3,
+    power: &mut f64,
+) {
+    f[0] += fi[0] + fj[0];
+    f[1] += fi[1] + fj[1];
+    // Exact torque about G: end-point forces at the journal end centres.
+    let ti = e.r_i.cross(&V3::new(fi[0], fi[1], 0.0));
+    let tj = e.r_j.cross(&V3::new(fj[0], fj[1], 0.0));
+    *tau += ti + tj;
+    tau.z += mz;
+    *power += fi[0] * e.v_i[0] + fi[1] * e.v_i[1] + fj[0] * e.v_j[0] + fj[1] * e.v_j[1] + mz * w_z;
+}
+
+/// The rigid-body derivative of model `m` in state `y` with each bearing's film loads
+/// from the linear model about its probes' base (`pr`, `jf`, `l0`: `super::jacobian`);
+/// kinematics, end forces, friction torque and contact exact.
+fn linear_derivative(
+    m: &RotorModel,
+    y: &[f64],
+    pr: &[super::jacobian::Probes],
+    jf: &[[[f64; 8]; 4]],
+    l0: &[[f64; 4]],
+    dy: &mut [f64],
+) {
+    let kin = m.kin(y);
+    let mut f = [0.0; 2];
+    let mut tau = V3::zeros();
+    let mut power = 0.0;
+    for (b, geom) in m.bearings.iter().enumerate() {
+        let e = m.end_kin(&kin, geom);
+        let st = m.bearing_state(&kin, &e);
+        let p = &geom.params;
+        let l = super::jacobian::linear_loads(&pr[b], &jf[b], l0[b], &st, p.clearance);
+        let (wx, wy, mx, my) = (l[0], l[1], l[2], l[3]);
+        let fj0 = [my / p.length, -mx / p.length];
+        let (mut fi, mut fj) = ([wx - fj0[0], wy - fj0[1]], fj0);
+        let mz = crate::bearing::friction(p, crate::bearing::planar_length(wx, wy), st.omega).mz;
+        if let Some(kc) = m.contact {
+            if st.h_min(p.clearance) < m.threshold {
+                let d = p.clearance;
+                let ci = contact_force([st.xi, st.yi], e.v_i, d, m.threshold, kc);
+                let cj = contact_force([st.xj, st.yj], e.v_j, d, m.threshold, kc);
+                for c in 0..2 {
+                    fi[c] += ci[c];
+                    fj[c] += cj[c];
+                }
+            }
+        }
+        add_bearing_loads(
+            &e,
+            fi,
+            fj,
+            mz,
+            kin.w_global[2],
+            &mut f,
+            &mut tau,
+            &mut power,
+        );
+    }
+    m.rigid_derivative(y, &kin, f, tau, power, &mut dy[..DIM]);
+}
+
 fn simulate<O: SampleObserver>(
     scenes: &[Scene],
     evaluator: &mut LoadEvaluator,
@@ -1510,6 +1776,20 @@ fn simulate<O: SampleObserver>(
             cancel,
             accepted: Default::default(),
             times: Vec::new(),
+            jac_ok: idx
+                .iter()
+                .map(|&i| jacobian_from_bearings(&scenes[i], n_thermal))
+                .collect(),
+            last_ids: Vec::new(),
+            last_ys: Vec::new(),
+            jac_at: Vec::new(),
+            jac_requests: Vec::new(),
+            jac_results: Vec::new(),
+            jac_probes: Vec::new(),
+            jac_base: Vec::new(),
+            jac_vars: Vec::new(),
+            jac_film: Vec::new(),
+            jac_l0: Vec::new(),
         };
         batch.below = vec![false; n_bearings];
         // Bearing indices restart per batch: no JFO film history carries over.
@@ -1561,6 +1841,166 @@ mod decimation_tests {
                     assert_eq!((stride, s.len()), (1, n as usize));
                 } else {
                     assert!(s.len() >= cap / 2, "n {n} cap {cap}: {}", s.len());
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod jacobian_tests {
+    use super::super::jacobian::{film_jacobian, load_vector, probes};
+    use super::*;
+    use crate::bearing::{film_loads, Accuracy, FilmRule};
+
+    /// The rigid derivative with every bearing's exact film loads (the rule at `rule`'s
+    /// level), assembled as [`linear_derivative`] does.
+    fn exact_derivative(m: &RotorModel, rule: &FilmRule, y: &[f64], dy: &mut [f64]) {
+        let kin = m.kin(y);
+        let (mut f, mut tau, mut power) = ([0.0; 2], V3::zeros(), 0.0);
+        for geom in &m.bearings {
+            let e = m.end_kin(&kin, geom);
+            let st = m.bearing_state(&kin, &e);
+            let l = film_loads(&geom.params, &st, rule).expect("a valid state");
+            let (fi, fj) = l.end_forces(geom.params.length);
+            add_bearing_loads(
+                &e,
+                fi,
+                fj,
+                l.mz,
+                kin.w_global[2],
+                &mut f,
+                &mut tau,
+                &mut power,
+            );
+        }
+        m.rigid_derivative(y, &kin, f, tau, power, &mut dy[..DIM]);
+    }
+
+    /// The rotor's Jacobian from its bearings' inputs (six film probes a bearing, two
+    /// film columns derived) against central differences of the exact right-hand side,
+    /// on tilted, whirling states of the paper rotor: every entry within 1e-5 of its
+    /// row's largest, at the 1e-12 rule level where differences are clean.
+    #[test]
+    fn the_bearing_jacobian_matches_differences_of_the_right_hand_side() {
+        let scene = super::super::load_scene(
+            r#"{"name": "j", "rotor": {"mass": 1.0, "inertia": [0.01, 0.01, 0.3],
+                "static_unbalance": [0.001, 0.0]},
+              "bearings": [
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": 0.2},
+                {"radius": 0.02, "length": 0.02, "clearance": 0.0003, "viscosity": 0.0242, "axial_position": -0.1}],
+              "gravity": [0.0, -9.81, 0.0], "spin": "free", "initial": {"spin": 100.0},
+              "integrator": {"method": "radau5", "rtol": 1e-6, "atol": 1e-6, "t_end": 0.1,
+                "sample_interval": 1e-3},
+              "film": {"threshold": 1e-6}}"#,
+        )
+        .expect("a scene")
+        .remove(0);
+        assert!(jacobian_from_bearings(&scene, 0));
+        let m = RotorModel::new(&scene);
+        let rule = FilmRule::new(Accuracy::new(1e-12).unwrap().settings());
+        let d = 3e-4;
+        let tilt = |a: f64| (0.5 * a).sin();
+        let states: [[f64; DIM]; 2] = [
+            [
+                0.3 * d,
+                -0.2 * d,
+                0.02,
+                -0.01,
+                1.0,
+                0.2 * tilt(1e-3),
+                -0.1 * tilt(1e-3),
+                0.05,
+                0.4,
+                -0.3,
+                100.0,
+                0.0,
+            ],
+            [
+                -0.5 * d,
+                0.1 * d,
+                -0.03,
+                0.04,
+                0.9,
+                -0.4 * tilt(1e-3),
+                0.3 * tilt(1e-3),
+                -0.3,
+                -0.2,
+                0.5,
+                120.0,
+                0.0,
+            ],
+        ];
+        for y0 in &states {
+            // G where the journal axis is offset by the state's (x, y) from the bore's:
+            // the body's shaft axis is at −u from G (static unbalance u = 1 mm).
+            let mut y = *y0;
+            let ru = super::super::model::quat_matrix(&y[4..8]) * V3::new(1e-3, 0.0, 0.0);
+            y[0] += ru[0];
+            y[1] += ru[1];
+            let y = &y;
+            let kin = m.kin(y);
+            let mut pr = Vec::new();
+            let mut jf = Vec::new();
+            let mut l0 = Vec::new();
+            for geom in &m.bearings {
+                let e = m.end_kin(&kin, geom);
+                let s0 = m.bearing_state(&kin, &e);
+                let p = probes(&s0, geom.params.clearance).expect("probes");
+                let base = load_vector(&film_loads(&geom.params, &s0, &rule).unwrap());
+                let lk: [[f64; 4]; 6] = std::array::from_fn(|n| {
+                    load_vector(&film_loads(&geom.params, &p.states[n], &rule).unwrap())
+                });
+                jf.push(film_jacobian(&p, base, &lk));
+                l0.push(base);
+                pr.push(p);
+            }
+            let mut f0 = [0.0; DIM];
+            let mut lin0 = [0.0; DIM];
+            exact_derivative(&m, &rule, y, &mut f0);
+            linear_derivative(&m, y, &pr, &jf, &l0, &mut lin0);
+            for p in 0..DIM {
+                assert!(
+                    (f0[p] - lin0[p]).abs() <= 1e-12 * f0[p].abs().max(1e-300),
+                    "base derivative {p}: {} against {}",
+                    lin0[p],
+                    f0[p]
+                );
+            }
+            // Columns: the structured one (forward, as `jacobians`) and central
+            // differences of the exact right-hand side with 1e-5 of each scale.
+            let mut jac_s = [[0.0; JAC_DIM]; DIM];
+            let mut jac_c = [[0.0; JAC_DIM]; DIM];
+            for c in 0..JAC_DIM {
+                let mut yc = *y;
+                yc[c] += f64::EPSILON.sqrt() * yc[c].abs().max(m.scales[c]);
+                let del = yc[c] - y[c];
+                let mut fc = [0.0; DIM];
+                linear_derivative(&m, &yc, &pr, &jf, &l0, &mut fc);
+                let h = 1e-5 * m.scales[c];
+                let (mut yp, mut ym) = (*y, *y);
+                yp[c] += h;
+                ym[c] -= h;
+                let (mut fp, mut fm) = ([0.0; DIM], [0.0; DIM]);
+                exact_derivative(&m, &rule, &yp, &mut fp);
+                exact_derivative(&m, &rule, &ym, &mut fm);
+                for p in 0..DIM {
+                    jac_s[p][c] = (fc[p] - lin0[p]) / del;
+                    jac_c[p][c] = (fp[p] - fm[p]) / (yp[c] - ym[c]);
+                }
+            }
+            for p in 0..DIM {
+                // Entries in the error norm's units: column c times its scale.
+                let row = |j: &[[f64; JAC_DIM]; DIM], c: usize| j[p][c] * m.scales[c];
+                let big = (0..JAC_DIM).fold(0.0_f64, |a, c| a.max(row(&jac_c, c).abs()));
+                for c in 0..JAC_DIM {
+                    let err = (row(&jac_s, c) - row(&jac_c, c)).abs();
+                    assert!(
+                        err <= 1e-5 * big,
+                        "J[{p}][{c}] = {} against {} (row scale {big:.3e})",
+                        jac_s[p][c],
+                        jac_c[p][c]
+                    );
                 }
             }
         }
