@@ -18,6 +18,9 @@
 //! starts), its node updates per state and wall per state and per node update: the run to
 //! put under `valgrind --tool=callgrind` (instructions per state and where they go).
 //!
+//! `MG_CYCLE=lines,2,0` (or `points,PRE,POST`): the multigrid's V-cycle on explicit grids
+//! (default `points,2,1`; issue 20, session 37).
+//!
 //! `cargo run --release --example mg_cost -- check`: checksums of the multigrid's outputs
 //! to the last bit, to compare two builds (see `check`).
 use std::time::Instant;
