@@ -31,8 +31,6 @@ use bearing_sweep::bearing::finite::{
 use bearing_sweep::bearing::{finish_loads, pack_state};
 use bearing_sweep::bench::finite::bench_states;
 
-/// `prof`: one solver, one setting (see the module doc).
-
 /// The explicit grids' V-cycle from `MG_CYCLE` (`points|lines,PRE,POST`, e.g.
 /// `lines,2,1`; unset: the default, `points,2,1`; issue 20, session 37).
 fn cycle_from_env() -> MgCycle {
@@ -49,6 +47,7 @@ fn cycle_from_env() -> MgCycle {
     }
 }
 
+/// `prof`: one solver, one setting (see the module doc).
 fn prof(args: &[String]) {
     let (p, states) = bench_states(32);
     let jobs: Vec<_> = states

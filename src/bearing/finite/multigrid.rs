@@ -18,6 +18,11 @@
 //!    node per row for the inlet line, the stencil's reach for grooves and arcs);
 //! 5. `NU_POST` smoothing sweeps.
 //!
+//! Optionally ([`MgCycle`], explicit grids; issue 20 session 37, not the default) the
+//! smoother is zebra line relaxation along ζ on the grids where ζ is the strong direction,
+//! each line's complementarity problem solved exactly ([`line_lcp`]), and the sweeps per
+//! cycle are set (e.g. V(2,0)).
+//!
 //! Coarsening halves both directions where the grid's couplings `cθ = λ/Δθ²` and
 //! `cz = 1/Δζ²` are within a factor [`ANISOTROPY`] of each other, else only the strongly
 //! coupled one (semi-coarsening keeps point smoothing effective for short and long
@@ -1730,9 +1735,9 @@ mod tests {
     /// reference: it converges for any M-matrix, slowly, from any start).
     fn projected_gs(l: &LineScratch, nz: usize) -> Vec<f64> {
         let mut p = l.val.clone();
-        for j in 1..nz {
-            if !l.fixed[j] {
-                p[j] = 0.0;
+        for (v, fixed) in p.iter_mut().zip(&l.fixed).take(nz).skip(1) {
+            if !fixed {
+                *v = 0.0;
             }
         }
         for _ in 0..2_000_000 {
@@ -1758,6 +1763,8 @@ mod tests {
     /// cavitate the ends, the middle, both or nothing, some rows fixed (held or frozen
     /// nodes), starts from 0, from random values and from the solution of a nearby line:
     /// the same solution to rounding, and the complementarity conditions hold.
+    // Rows j − 1, j, j + 1 of several arrays of the line.
+    #[allow(clippy::needless_range_loop)]
     #[test]
     fn line_lcp_matches_projected_gauss_seidel() {
         let mut rng = Lcg(20_37);
