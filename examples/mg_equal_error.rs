@@ -21,13 +21,18 @@
 //! `/tmp/mg_equal_error_NTxNZ.txt` for the run below. With `MGE_DEBUG=1`: each state's
 //! multigrid error over `e_h`, at the FMG start and after its first five V-cycles (stderr).
 //!
+//! `MG_CYCLE=lines,2,1` (or `points,PRE,POST`): the multigrid's V-cycle (default
+//! `points,2,1`); `MGE_BD=1`: the bearing's B/D (default the benchmark's 0.5).
+//!
 //! `cargo run --release --example mg_equal_error -- prof mg|psor NT NZ`: each state solved
 //! with exactly the oracle's work from that file (multigrid: its V-cycles on the finest
 //! grid after full multigrid; PSOR: its sweeps), nothing else: the run to put under
 //! `valgrind --tool=callgrind` for instructions at equal error.
 use std::time::Instant;
 
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
+use bearing_sweep::bearing::finite::{
+    FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle,
+};
 use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState};
 use bearing_sweep::bench::finite::bench_states;
 use rayon::prelude::*;
@@ -45,6 +50,22 @@ const TOLERANCES: [f64; 15] = [
     1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10,
 ];
 
+/// The explicit grids' V-cycle from `MG_CYCLE` (`points|lines,PRE,POST`, e.g.
+/// `lines,2,1`; unset: the default, `points,2,1`; issue 20, session 37).
+fn cycle_from_env() -> MgCycle {
+    let Ok(v) = std::env::var("MG_CYCLE") else {
+        return MgCycle::default();
+    };
+    let parts: Vec<&str> = v.split(',').collect();
+    let num = |k: usize, d: u32| parts.get(k).and_then(|s| s.parse().ok()).unwrap_or(d);
+    let d = MgCycle::default();
+    MgCycle {
+        z_lines: parts.first() == Some(&"lines"),
+        pre: num(1, d.pre),
+        post: num(2, d.post),
+    }
+}
+
 struct Case {
     job: FiniteJob,
     scale: f64,
@@ -57,7 +78,15 @@ fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
 }
 
 fn cases() -> (BearingParams, Vec<Case>) {
-    let (p, states) = bench_states(32);
+    let (mut p, states) = bench_states(32);
+    // `MGE_BD`: the bearing's B/D instead of the benchmark's 0.5 (the grids' anisotropy
+    // `λ/Δθ² : 1/Δζ²` with it; issue 20, session 37).
+    if let Some(bd) = std::env::var("MGE_BD")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
+        p.length = bd * 2.0 * p.radius;
+    }
     let cases = states
         .iter()
         .map(|s| {
@@ -117,6 +146,7 @@ fn table(grids: &[(u32, u32)]) {
     for &(nt, nz) in grids {
         let interior = (nt * (nz - 1)) as f64;
         let mut solver = FiniteSolver::new();
+        solver.cycle = cycle_from_env();
         let tight = grid(nt, nz, 1e-12);
         let mut e_h = Vec::new();
         let mut v_h = Vec::new();
@@ -279,6 +309,7 @@ fn prof(args: &[String]) {
     let (_, cases) = cases();
     let g = grid(nt, nz, FiniteSettings::default().tolerance);
     let mut solver = FiniteSolver::new();
+    solver.cycle = cycle_from_env();
     let mut sweeps_done = 0u64;
     let start = Instant::now();
     for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {

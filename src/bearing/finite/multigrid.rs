@@ -18,6 +18,11 @@
 //!    node per row for the inlet line, the stencil's reach for grooves and arcs);
 //! 5. `NU_POST` smoothing sweeps.
 //!
+//! Optionally ([`MgCycle`], explicit grids; issue 20 session 37, not the default) the
+//! smoother is zebra line relaxation along ζ on the grids where ζ is the strong direction,
+//! each line's complementarity problem solved exactly ([`line_lcp`]), and the sweeps per
+//! cycle are set (e.g. V(2,0)).
+//!
 //! Coarsening halves both directions where the grid's couplings `cθ = λ/Δθ²` and
 //! `cz = 1/Δζ²` are within a factor [`ANISOTROPY`] of each other, else only the strongly
 //! coupled one (semi-coarsening keeps point smoothing effective for short and long
@@ -192,6 +197,19 @@ pub(crate) struct Level {
     trig_of: (usize, u64),
     /// Scratch of [`freeze`]: per column of the finer grid, a held node in reach.
     held_cols: Vec<bool>,
+    /// Whether ζ is the strongly coupled direction on this grid (`1/Δζ² > λ/Δθ²`): the
+    /// line smoother ([`Level::smooth_lines`]) relaxes lines along ζ only then.
+    z_strong: bool,
+    /// Scratch of one ζ-line (see [`LineScratch`]): the lines solved again.
+    line: LineScratch,
+    /// Scratch of [`Level::smooth_lines`] per node: forward-elimination factors, the
+    /// line's right-hand side, the start's active set.
+    cp: Vec<f64>,
+    dp: Vec<f64>,
+    bl: Vec<f64>,
+    act: Vec<bool>,
+    /// Scratch of [`Level::smooth_lines`] per column: solved again by [`line_lcp`].
+    dirty: Vec<bool>,
 }
 
 impl Level {
@@ -232,6 +250,7 @@ impl Level {
         let dz = 1.0 / nz as f64;
         let ct = job.aspect * job.aspect / (dt * dt);
         let cz = 1.0 / (dz * dz);
+        self.z_strong = cz > ct;
         let e = &job.state.ecc;
         let r = &job.state.rate;
         // Resized, not zeroed (issue 20, session 36: zeroing was 10 % of a default-accuracy
@@ -253,6 +272,11 @@ impl Level {
         ] {
             v.resize(n, 0.0);
         }
+        // The line smoother's scratch (written before read, see `Level::smooth_lines`).
+        for v in [&mut self.cp, &mut self.dp, &mut self.bl] {
+            v.resize(n, 0.0);
+        }
+        self.act.resize(n, false);
         self.f_is_own = true;
         // The iterate: 0 on the end rows always (every cycle reads them), inside only
         // when `zero_iterate` (see [`Hierarchy::push_finer`]).
@@ -513,12 +537,189 @@ impl Level {
         (max_dp, max_p)
     }
 
+    /// The line smoother: one zebra sweep of projected line relaxation along ζ, first the
+    /// even columns (lines of constant θ), then the odd ones, each line's discrete
+    /// complementarity problem solved exactly ([`line_lcp`]) with its θ-neighbours'
+    /// current values. Held nodes (solved grid) are set to their value, frozen nodes
+    /// (correction grid) kept, both entering their line's neighbours as fixed values.
+    ///
+    /// Why the fixed point is the same: a field is a fixed point of this sweep iff every
+    /// line solves its LCP given its neighbours, i.e. node by node `p ≥ 0`, `A p − f ≥ 0`,
+    /// `pᵀ(A p − f) = 0` (the line's rows are the grid's rows with the θ-couplings moved
+    /// to the right-hand side): exactly the grid's LCP, the fixed point of the point
+    /// smoother too.
+    fn smooth_lines(&mut self) {
+        let (nt, nz) = (self.nt, self.nz);
+        let n = self.len();
+        let top = self.top;
+        let inv = if top {
+            &self.inv_d[..n]
+        } else {
+            &self.inv_d_free[..n]
+        };
+        let (ae, an, d, f, hold) = (
+            &self.ae[..n],
+            &self.an[..n],
+            &self.d[..n],
+            &self.f[..n],
+            &self.hold[..n],
+        );
+        let p = &mut self.p[..n];
+        let (cp, dp, bl, act) = (
+            &mut self.cp[..n],
+            &mut self.dp[..n],
+            &mut self.bl[..n],
+            &mut self.act[..n],
+        );
+        let dirty = &mut self.dirty;
+        dirty.clear();
+        dirty.resize(nt, false);
+        // Row 0 (end face, p = 0): no elimination factors.
+        cp[..nt].fill(0.0);
+        dp[..nt].fill(0.0);
+        for colour in 0..2 {
+            // All lines of this colour at once, row by row on row slices (independent
+            // lines: no serial chain along a row), the first pass of `line_lcp`'s
+            // active-set iteration from its start: forward elimination, `p_j = dp_j +
+            // cp_j p_{j+1}` ...
+            for j in 1..nz {
+                let row = j * nt;
+                let (ps, pc, pn) = (
+                    &p[row - nt..row],
+                    &p[row..row + nt],
+                    &p[row + nt..row + 2 * nt],
+                );
+                let (cps, cpc) = cp.split_at_mut(row);
+                let (cps, cpc) = (&cps[row - nt..], &mut cpc[..nt]);
+                let (dps, dpc) = dp.split_at_mut(row);
+                let (dps, dpc) = (&dps[row - nt..], &mut dpc[..nt]);
+                let (aer, anr, ans) = (&ae[row..row + nt], &an[row..row + nt], &an[row - nt..row]);
+                let (dr, fr, ir, hr) = (
+                    &d[row..row + nt],
+                    &f[row..row + nt],
+                    &inv[row..row + nt],
+                    &hold[row..row + nt],
+                );
+                let (blr, actr) = (&mut bl[row..row + nt], &mut act[row..row + nt]);
+                // A macro, not a closure (left as a call per node, see `Level::relax`).
+                macro_rules! node {
+                    ($i:expr, $ie:expr, $iw:expr) => {{
+                        let (i, ie, iw) = ($i, $ie, $iw);
+                        if ir[i] == 0.0 {
+                            // Held (solved grid: its value) or frozen (correction grid: kept).
+                            cpc[i] = 0.0;
+                            dpc[i] = if top { hr[i] } else { pc[i] };
+                            actr[i] = false;
+                        } else {
+                            let b = fr[i] + aer[i] * pc[ie] + aer[iw] * pc[iw];
+                            blr[i] = b;
+                            let sn = ans[i];
+                            let a = pc[i] <= 0.0 && -anr[i] * pn[i] - sn * ps[i] - b >= 0.0;
+                            actr[i] = a;
+                            let m = 1.0 / (dr[i] - sn * cps[i]);
+                            (cpc[i], dpc[i]) = if a {
+                                (0.0, 0.0)
+                            } else {
+                                (anr[i] * m, (b + sn * dps[i]) * m)
+                            };
+                        }
+                    }};
+                }
+                let mut i = colour;
+                if i == 0 {
+                    node!(0, 1, nt - 1);
+                    i = 2;
+                }
+                while i + 1 < nt {
+                    node!(i, i + 1, i - 1);
+                    i += 2;
+                }
+                if i + 1 == nt {
+                    node!(i, 0, i - 1);
+                }
+            }
+            // ... back substitution (row n_z is 0), and the test of the row north of it,
+            // now final: a line whose active set would change (an inactive node below 0,
+            // an active one with `A p − f < 0`) is solved again from here by `line_lcp`
+            // (rare: ~1 % of the lines).
+            for j in (1..nz).rev() {
+                let row = j * nt;
+                let (below, rest) = p.split_at_mut(row);
+                let (pc, above) = rest.split_at_mut(nt);
+                let (cpc, dpc) = (&cp[row..row + nt], &dp[row..row + nt]);
+                let pn = &above[..nt];
+                let mut i = colour;
+                while i < nt {
+                    pc[i] = dpc[i] + cpc[i] * pn[i];
+                    i += 2;
+                }
+                // The row north (j + 1 < n_z), between this row and the one above it.
+                let mut check = |jj: usize, south: &[f64], cur: &[f64], north: &[f64]| {
+                    let r = jj * nt;
+                    let (ir, actr, blr) = (&inv[r..r + nt], &act[r..r + nt], &bl[r..r + nt]);
+                    let (anr, ans) = (&an[r..r + nt], &an[r - nt..r]);
+                    let mut i = colour;
+                    while i < nt {
+                        if ir[i] != 0.0 {
+                            let bad = if actr[i] {
+                                -anr[i] * north[i] - ans[i] * south[i] - blr[i] < 0.0
+                            } else {
+                                cur[i] < 0.0
+                            };
+                            dirty[i] |= bad;
+                        }
+                        i += 2;
+                    }
+                };
+                if j + 1 < nz {
+                    check(j + 1, pc, &above[..nt], &above[nt..2 * nt]);
+                }
+                if j == 1 {
+                    check(1, &below[..nt], pc, &above[..nt]);
+                }
+            }
+            let l = &mut self.line;
+            l.resize(nz + 1);
+            let mut i = colour;
+            while i < nt {
+                if dirty[i] {
+                    l.fixed[0] = true;
+                    l.fixed[nz] = true;
+                    l.val[0] = 0.0;
+                    l.val[nz] = 0.0;
+                    l.up[0] = 0.0;
+                    for j in 1..nz {
+                        let k = j * nt + i;
+                        l.up[j] = an[k];
+                        l.fixed[j] = inv[k] == 0.0;
+                        l.diag[j] = d[k];
+                        l.b[j] = bl[k];
+                        l.val[j] = p[k];
+                    }
+                    line_lcp(l, nz);
+                    for j in 1..nz {
+                        p[j * nt + i] = l.val[j];
+                    }
+                }
+                i += 2;
+            }
+        }
+    }
+
     /// `r = f − A p` after a smoothing sweep, zero at held nodes and where the constraint is
     /// active. Row slices as in [`Level::relax`]. Computed at the sweep's first colour only
     /// (see below; issue 20 pass 5: the same cycle counts, iterates equal to rounding).
     /// Out of line (one call per grid and cycle) so that profiles attribute it.
     #[inline(never)]
     fn residual(&mut self) {
+        self.residual_on::<false>();
+    }
+
+    /// [`Level::residual`] after a smoothing sweep of the smoother `LINES` (true:
+    /// [`Level::smooth_lines`], whose odd columns are solved last: the residual at the
+    /// even columns, zero at the odd ones; false: the red-black point sweep's first colour).
+    #[inline(never)]
+    fn residual_on<const LINES: bool>(&mut self) {
         let (nt, nz) = (self.nt, self.nz);
         let n = self.len();
         let inv = if self.top {
@@ -559,7 +760,7 @@ impl Level {
             // a negative residual, which the rule zeroes): written as 0, half the work.
             // The second colour's zeros stored beside the first colour's values (not a
             // `memset` of the row first, half of it overwritten).
-            let mut i = j % 2;
+            let mut i = if LINES { 0 } else { j % 2 };
             if i == 1 {
                 out[0] = 0.0;
             } else {
@@ -617,6 +818,115 @@ impl Level {
         }
         updates
     }
+}
+
+/// Scratch of one line of [`Level::smooth_lines`], rows `0 ..= nz` (rows 0 and `nz`, the
+/// end faces, fixed at 0): the line's tridiagonal LCP
+/// `diag_j p_j − up_j p_{j+1} − up_{j−1} p_{j−1} − b_j = w_j`, `p ≥ 0`, `w ≥ 0`, `p w = 0`
+/// at the free rows, `p_j = val_j` at the fixed ones.
+#[derive(Default)]
+pub(crate) struct LineScratch {
+    /// Diagonal (free rows).
+    pub diag: Vec<f64>,
+    /// Coupling of row j to row j + 1 (the north face coefficient, ≥ 0).
+    pub up: Vec<f64>,
+    /// Right-hand side (free rows; the θ-neighbours' terms included).
+    pub b: Vec<f64>,
+    /// In: the start (free rows) and the fixed values; out: the solution.
+    pub val: Vec<f64>,
+    /// Fixed rows (end faces, held or frozen nodes).
+    pub fixed: Vec<bool>,
+    /// Active set of the primal-dual iteration (free rows held at 0).
+    act: Vec<bool>,
+    /// Forward-elimination factors.
+    cp: Vec<f64>,
+    dp: Vec<f64>,
+}
+
+impl LineScratch {
+    /// Sized for rows `0 ..= nz` (contents unspecified).
+    pub fn resize(&mut self, len: usize) {
+        for v in [
+            &mut self.diag,
+            &mut self.up,
+            &mut self.b,
+            &mut self.val,
+            &mut self.cp,
+            &mut self.dp,
+        ] {
+            v.resize(len, 0.0);
+        }
+        self.fixed.resize(len, false);
+        self.act.resize(len, false);
+    }
+}
+
+/// Solves the line LCP of `l` (rows `0 ..= nz`, see [`LineScratch`]) exactly by the
+/// primal-dual active-set iteration: with the active rows held at 0 and the fixed rows at
+/// their values, the other rows' equations are solved by the Thomas algorithm; then a free
+/// row whose value came out negative becomes active, an active row whose `w` came out
+/// negative becomes free; until the set does not change, when `p ≥ 0` at every free row,
+/// `w = 0` at the inactive ones and `w ≥ 0` at the active ones: the LCP's solution. For an
+/// M-matrix (here: `diag_j ≥ up_j + up_{j−1}`, the θ-faces making it strict) the iteration
+/// terminates (Hintermüller, Ito & Kunisch 2003: monotone after the first step); a line
+/// that is all pressure or all cavitated takes one pass. The start: active where the
+/// current value is 0 and its `w` at the current neighbours is ≥ 0. Returns the passes.
+pub(crate) fn line_lcp(l: &mut LineScratch, nz: usize) -> u32 {
+    // Initial active set from the current values.
+    for j in 1..nz {
+        l.act[j] = !l.fixed[j]
+            && l.val[j] <= 0.0
+            && -l.up[j] * l.val[j + 1] - l.up[j - 1] * l.val[j - 1] - l.b[j] >= 0.0;
+    }
+    // Safety cap: each pass moves at least one row, at most every row twice in practice.
+    let max_passes = 2 * nz as u32 + 2;
+    let mut passes = 0;
+    loop {
+        passes += 1;
+        // Forward elimination: p_j = dp_j + cp_j p_{j+1}.
+        l.cp[0] = 0.0;
+        l.dp[0] = l.val[0];
+        for j in 1..nz {
+            if l.fixed[j] || l.act[j] {
+                l.cp[j] = 0.0;
+                l.dp[j] = if l.fixed[j] { l.val[j] } else { 0.0 };
+            } else {
+                let s = l.up[j - 1];
+                let inv = 1.0 / (l.diag[j] - s * l.cp[j - 1]);
+                l.cp[j] = l.up[j] * inv;
+                l.dp[j] = (l.b[j] + s * l.dp[j - 1]) * inv;
+            }
+        }
+        for j in (1..nz).rev() {
+            l.val[j] = l.dp[j] + l.cp[j] * l.val[j + 1];
+        }
+        let mut changed = false;
+        for j in 1..nz {
+            if l.fixed[j] {
+                continue;
+            }
+            if l.act[j] {
+                let w = -l.up[j] * l.val[j + 1] - l.up[j - 1] * l.val[j - 1] - l.b[j];
+                if w < 0.0 {
+                    l.act[j] = false;
+                    changed = true;
+                }
+            } else if l.val[j] < 0.0 {
+                l.act[j] = true;
+                changed = true;
+            }
+        }
+        if !changed || passes >= max_passes {
+            break;
+        }
+    }
+    // Rounding (or the cap): never a negative pressure.
+    for j in 1..nz {
+        if !l.fixed[j] && l.val[j] < 0.0 {
+            l.val[j] = 0.0;
+        }
+    }
+    passes
 }
 
 /// The next coarser grid of `nt × nz` at aspect `B/r0`, and how it is coarsened; `None`
@@ -1091,6 +1401,33 @@ pub(crate) struct Hierarchy {
     /// plain 360° film, issue 20 pass 4) instead of the rectangle rule (explicit grids,
     /// grooves and arcs); see [`super::solver::ladder_integrals_on`].
     pub simpson_z: bool,
+    /// The V-cycle's smoother and sweeps (see [`MgCycle`]).
+    pub cycle: MgCycle,
+}
+
+/// The V-cycle: smoother and smoothing sweeps (issue 20, session 37).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MgCycle {
+    /// Smooth by zebra ζ-lines ([`Level::smooth_lines`], each line's complementarity
+    /// problem solved exactly) on the grids where ζ is the strongly coupled direction
+    /// (`1/Δζ² > λ/Δθ²`), red-black points elsewhere; false: red-black points everywhere.
+    /// Default false.
+    pub z_lines: bool,
+    /// Smoothing sweeps before the coarse-grid correction (≥ 1: the residual is formed
+    /// after a sweep). Default 2.
+    pub pre: u32,
+    /// Smoothing sweeps after the coarse-grid correction. Default 1.
+    pub post: u32,
+}
+
+impl Default for MgCycle {
+    fn default() -> Self {
+        MgCycle {
+            z_lines: false,
+            pre: NU_PRE,
+            post: NU_POST,
+        }
+    }
 }
 
 impl Hierarchy {
@@ -1168,22 +1505,35 @@ impl Hierarchy {
             return;
         }
         let how = self.levels[l].coarsen.expect("checked");
-        let (nu_pre, nu_post) = (NU_PRE, NU_POST);
+        let (nu_pre, nu_post) = (self.cycle.pre.max(1), self.cycle.post);
         let (lo, hi) = self.levels.split_at_mut(l);
         let fine = &mut hi[0];
         let coarse = &mut lo[l - 1];
+        let lines = self.cycle.z_lines && fine.z_strong;
         for _ in 0..nu_pre {
-            fine.smooth();
+            if lines {
+                fine.smooth_lines();
+            } else {
+                fine.smooth();
+            }
         }
         self.updates += nu_pre as u64 * fine.interior() as u64;
-        fine.residual();
+        if lines {
+            fine.residual_on::<true>();
+        } else {
+            fine.residual();
+        }
         restrict_fas(fine, coarse, how);
         self.vcycle(l - 1, aspect);
         let (lo, hi) = self.levels.split_at_mut(l);
         let fine = &mut hi[0];
         prolong_correction(fine, &mut lo[l - 1], how);
         for _ in 0..nu_post {
-            fine.smooth();
+            if lines {
+                fine.smooth_lines();
+            } else {
+                fine.smooth();
+            }
         }
         self.updates += nu_post as u64 * fine.interior() as u64;
     }
@@ -1360,5 +1710,142 @@ impl Level {
                 self.hold[k]
             };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{line_lcp, LineScratch};
+
+    /// A small linear congruential generator (deterministic, no dependency): uniform in
+    /// [0, 1).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// The same line by projected Gauss–Seidel to a fixed point (the brute-force
+    /// reference: it converges for any M-matrix, slowly, from any start).
+    fn projected_gs(l: &LineScratch, nz: usize) -> Vec<f64> {
+        let mut p = l.val.clone();
+        for (v, fixed) in p.iter_mut().zip(&l.fixed).take(nz).skip(1) {
+            if !fixed {
+                *v = 0.0;
+            }
+        }
+        for _ in 0..2_000_000 {
+            let mut change = 0.0_f64;
+            for j in 1..nz {
+                if l.fixed[j] {
+                    continue;
+                }
+                let v =
+                    ((l.b[j] + l.up[j] * p[j + 1] + l.up[j - 1] * p[j - 1]) / l.diag[j]).max(0.0);
+                change = change.max((v - p[j]).abs());
+                p[j] = v;
+            }
+            if change == 0.0 {
+                break;
+            }
+        }
+        p
+    }
+
+    /// `line_lcp` against projected Gauss–Seidel on random M-matrix lines (diagonal the
+    /// two ζ-couplings plus a random θ share, as on a grid), right-hand sides that
+    /// cavitate the ends, the middle, both or nothing, some rows fixed (held or frozen
+    /// nodes), starts from 0, from random values and from the solution of a nearby line:
+    /// the same solution to rounding, and the complementarity conditions hold.
+    // Rows j − 1, j, j + 1 of several arrays of the line.
+    #[allow(clippy::needless_range_loop)]
+    #[test]
+    fn line_lcp_matches_projected_gauss_seidel() {
+        let mut rng = Lcg(20_37);
+        let mut l = LineScratch::default();
+        let mut passes = Vec::new();
+        for trial in 0..600 {
+            let nz = 3 + (rng.next() * 60.0) as usize;
+            l.resize(nz + 1);
+            let scale = 10f64.powf(4.0 * rng.next() - 1.0);
+            for j in 0..=nz {
+                l.up[j] = if j < nz {
+                    scale * (0.2 + rng.next())
+                } else {
+                    0.0
+                };
+                l.fixed[j] = j == 0 || j == nz;
+                l.val[j] = 0.0;
+            }
+            // Shape of the right-hand side: 0 all positive, 1 cavitated ends, 2 cavitated
+            // middle, 3 random signs, 4 all negative.
+            let shape = trial % 5;
+            for j in 1..nz {
+                l.diag[j] = l.up[j] + l.up[j - 1] + scale * (0.05 + 2.0 * rng.next());
+                let x = j as f64 / nz as f64;
+                let base = match shape {
+                    0 => 1.0,
+                    1 => (0.3 - (x - 0.5).abs()) * 4.0,
+                    2 => ((x - 0.5).abs() - 0.2) * 4.0,
+                    3 => rng.next() - 0.5,
+                    _ => -1.0,
+                };
+                l.b[j] = scale * (base + 0.3 * (rng.next() - 0.5));
+                if rng.next() < 0.05 {
+                    l.fixed[j] = true;
+                    l.val[j] = if rng.next() < 0.5 { 0.0 } else { rng.next() };
+                }
+            }
+            let reference = projected_gs(&l, nz);
+            let start = trial % 3;
+            for j in 1..nz {
+                if !l.fixed[j] {
+                    l.val[j] = match start {
+                        0 => 0.0,
+                        1 => rng.next() * reference.iter().cloned().fold(0.0, f64::max),
+                        _ => reference[j] * (0.9 + 0.2 * rng.next()),
+                    };
+                }
+            }
+            passes.push(line_lcp(&mut l, nz));
+            let top = reference.iter().cloned().fold(1e-300, f64::max);
+            for j in 1..nz {
+                assert!(
+                    (l.val[j] - reference[j]).abs() <= 1e-10 * top,
+                    "trial {trial} (nz {nz}, shape {shape}, start {start}) row {j}: line_lcp \
+                     {} against projected Gauss–Seidel {}",
+                    l.val[j],
+                    reference[j]
+                );
+                if l.fixed[j] {
+                    continue;
+                }
+                // Complementarity: p ≥ 0, w = T p − b ≥ 0, p w = 0 (to rounding).
+                let w = l.diag[j] * l.val[j]
+                    - l.up[j] * l.val[j + 1]
+                    - l.up[j - 1] * l.val[j - 1]
+                    - l.b[j];
+                let wscale = scale * (top + 1.0) * 1e-9;
+                assert!(
+                    l.val[j] >= 0.0 && w >= -wscale,
+                    "trial {trial} row {j}: p {} w {w}",
+                    l.val[j]
+                );
+                assert!(
+                    l.val[j] <= 1e-12 * top || w.abs() <= wscale,
+                    "trial {trial} row {j}: p {} and w {w} both nonzero",
+                    l.val[j]
+                );
+            }
+        }
+        // Finite termination in a few passes (a pass moves rows in and out of the set).
+        let most = passes.iter().copied().max().unwrap_or(0);
+        assert!(most <= 12, "line_lcp took up to {most} passes");
     }
 }

@@ -20,6 +20,7 @@
 
 use std::f64::consts::PI;
 
+pub use super::multigrid::MgCycle;
 use super::multigrid::{
     cubic_edge, cubic_mid, load_change, prolong_solution, prolong_solution_cubic, tail_estimate,
     Coarsen, Hierarchy, Stop,
@@ -305,6 +306,11 @@ pub struct FiniteSolver {
     /// (for probes: cycles and work per grid). On the Simpson-summed ladder their
     /// `rectangle` sums are not computed (NaN).
     pub trace: Vec<LadderStep>,
+    /// The V-cycle of explicit grids ([`FiniteSolver::solve`] with `g.accuracy` `None`,
+    /// [`FiniteSolver::fmg_cycles`]): default the red-black point smoother, V(2,1);
+    /// probes set others (issue 20, session 37). The accuracy ladder always uses the
+    /// default.
+    pub cycle: MgCycle,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -536,6 +542,7 @@ impl FiniteSolver {
         self.mg.updates = 0;
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
+        self.mg.cycle = self.cycle;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -553,6 +560,7 @@ impl FiniteSolver {
             // The same cycles in one call, as `solve` runs them (the cost probe).
             res = self.mg.iterate(top, job.aspect, none, cycles);
         }
+        self.mg.cycle = MgCycle::default();
         let p = &self.mg.levels[top].p;
         (integrals_of(p, g), self.report(top, res))
     }
@@ -582,6 +590,7 @@ impl FiniteSolver {
         self.mg.updates = 0;
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
+        self.mg.cycle = self.cycle;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -593,6 +602,8 @@ impl FiniteSolver {
         };
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
+        // The accuracy ladder keeps the point smoother (see `FiniteSolver::cycle`).
+        self.mg.cycle = MgCycle::default();
         (integrals_of(field, g), self.report(top, res))
     }
 
