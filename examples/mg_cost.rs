@@ -25,27 +25,9 @@
 //! to the last bit, to compare two builds (see `check`).
 use std::time::Instant;
 
-use bearing_sweep::bearing::finite::{
-    FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle,
-};
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
 use bearing_sweep::bearing::{finish_loads, pack_state};
-use bearing_sweep::bench::finite::bench_states;
-
-/// The explicit grids' V-cycle from `MG_CYCLE` (`points|lines,PRE,POST`, e.g.
-/// `lines,2,1`; unset: the default, `points,2,1`; issue 20, session 37).
-fn cycle_from_env() -> MgCycle {
-    let Ok(v) = std::env::var("MG_CYCLE") else {
-        return MgCycle::default();
-    };
-    let parts: Vec<&str> = v.split(',').collect();
-    let num = |k: usize, d: u32| parts.get(k).and_then(|s| s.parse().ok()).unwrap_or(d);
-    let d = MgCycle::default();
-    MgCycle {
-        z_lines: parts.first() == Some(&"lines"),
-        pre: num(1, d.pre),
-        post: num(2, d.post),
-    }
-}
+use bearing_sweep::bench::finite::{bench_states, mg_cycle_from_env};
 
 /// `prof`: one solver, one setting (see the module doc).
 fn prof(args: &[String]) {
@@ -75,7 +57,7 @@ fn prof(args: &[String]) {
         (FiniteGrid::from(&settings), num(3, 1.0) as usize)
     };
     let mut solver = FiniteSolver::new();
-    solver.cycle = cycle_from_env();
+    solver.cycle = mg_cycle_from_env();
     let mut best = f64::INFINITY;
     let mut updates = 0u64;
     for _ in 0..reps.max(1) {
@@ -143,7 +125,7 @@ fn check() {
         let mut g = FiniteGrid::from(&settings);
         g.layout = FiniteGrid::for_bearing(params).layout;
         let mut solver = FiniteSolver::new();
-        solver.cycle = cycle_from_env();
+        solver.cycle = mg_cycle_from_env();
         solver.rectangle_ladder = rectangle;
         let (mut loads, mut est, mut warm) = ([0.0; 4], 0.0, [0.0; 4]);
         for s in &states {
@@ -161,7 +143,7 @@ fn check() {
         println!("{label}: loads {loads:?} warm {warm:?} estimates {est:?}");
     }
     let mut solver = FiniteSolver::new();
-    solver.cycle = cycle_from_env();
+    solver.cycle = mg_cycle_from_env();
     let g = FiniteGrid::for_bearing(&p);
     let mut sum = [0.0; 4];
     for s in states.iter().step_by(8) {
@@ -207,7 +189,7 @@ fn main() {
     for &(t, z) in fixed {
         let g = FiniteGrid::from(&FiniteSettings::with_grid(t, z));
         let mut solver = FiniteSolver::new();
-        solver.cycle = cycle_from_env();
+        solver.cycle = mg_cycle_from_env();
         let mut run = |psor: bool| {
             let mut best = f64::INFINITY;
             let mut sweeps = 0u64;
@@ -264,7 +246,7 @@ fn main() {
             .collect()
     };
     let mut solver = FiniteSolver::new();
-    solver.cycle = cycle_from_env();
+    solver.cycle = mg_cycle_from_env();
     let mut time_it = |g: &FiniteGrid, psor: bool| {
         let mut best = f64::INFINITY;
         let mut updates = 0u64;

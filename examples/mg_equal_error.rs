@@ -30,11 +30,9 @@
 //! `valgrind --tool=callgrind` for instructions at equal error.
 use std::time::Instant;
 
-use bearing_sweep::bearing::finite::{
-    FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle,
-};
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
 use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState};
-use bearing_sweep::bench::finite::bench_states;
+use bearing_sweep::bench::finite::{bench_states, mg_cycle_from_env};
 use rayon::prelude::*;
 
 /// Iteration error allowed on top of the discretisation error (the issue's "equal
@@ -49,22 +47,6 @@ const MG_CYCLES: u32 = 14;
 const TOLERANCES: [f64; 15] = [
     1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10,
 ];
-
-/// The explicit grids' V-cycle from `MG_CYCLE` (`points|lines,PRE,POST`, e.g.
-/// `lines,2,1`; unset: the default, `points,2,1`; issue 20, session 37).
-fn cycle_from_env() -> MgCycle {
-    let Ok(v) = std::env::var("MG_CYCLE") else {
-        return MgCycle::default();
-    };
-    let parts: Vec<&str> = v.split(',').collect();
-    let num = |k: usize, d: u32| parts.get(k).and_then(|s| s.parse().ok()).unwrap_or(d);
-    let d = MgCycle::default();
-    MgCycle {
-        z_lines: parts.first() == Some(&"lines"),
-        pre: num(1, d.pre),
-        post: num(2, d.post),
-    }
-}
 
 struct Case {
     job: FiniteJob,
@@ -146,7 +128,7 @@ fn table(grids: &[(u32, u32)]) {
     for &(nt, nz) in grids {
         let interior = (nt * (nz - 1)) as f64;
         let mut solver = FiniteSolver::new();
-        solver.cycle = cycle_from_env();
+        solver.cycle = mg_cycle_from_env();
         let tight = grid(nt, nz, 1e-12);
         let mut e_h = Vec::new();
         let mut v_h = Vec::new();
@@ -309,7 +291,7 @@ fn prof(args: &[String]) {
     let (_, cases) = cases();
     let g = grid(nt, nz, FiniteSettings::default().tolerance);
     let mut solver = FiniteSolver::new();
-    solver.cycle = cycle_from_env();
+    solver.cycle = mg_cycle_from_env();
     let mut sweeps_done = 0u64;
     let start = Instant::now();
     for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {

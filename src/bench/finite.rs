@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use crate::backend::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
+use crate::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle};
 use crate::bearing::{finish_loads, pack_state, Accuracy, BearingParams, BearingState, FilmModel};
 
 /// Flops per node and sweep of the CPU kernel (coefficients precomputed per solve):
@@ -16,6 +16,24 @@ pub const CPU_FLOPS_PER_NODE_SWEEP: f64 = 17.0;
 /// interpolations (8 each), 4 `H³` (4 each), 4 coefficient scalings, the right-hand side
 /// (8), the diagonal sum and division (4) = 17 + 24 + 16 + 4 + 8 + 4 = 73.
 pub const GPU_FLOPS_PER_NODE_SWEEP: f64 = 73.0;
+
+/// The explicit grids' V-cycle from the environment variable `MG_CYCLE`
+/// (`points|lines,PRE,POST`, e.g. `lines,2,1`; unset or a part missing: the default's,
+/// `points,2,1`), for the probes `examples/mg_cost.rs` and `examples/mg_equal_error.rs`
+/// (issue 20, session 37).
+pub fn mg_cycle_from_env() -> MgCycle {
+    let Ok(v) = std::env::var("MG_CYCLE") else {
+        return MgCycle::default();
+    };
+    let parts: Vec<&str> = v.split(',').collect();
+    let num = |k: usize, d: u32| parts.get(k).and_then(|s| s.parse().ok()).unwrap_or(d);
+    let d = MgCycle::default();
+    MgCycle {
+        z_lines: parts.first() == Some(&"lines"),
+        pre: num(1, d.pre),
+        post: num(2, d.post),
+    }
+}
 
 /// The benchmark's bearing states: the paper's bearing (B/D = 0.5), eccentricities
 /// 0.1..0.9, half of them tilted, a third whirling or squeezing.

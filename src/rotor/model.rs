@@ -444,6 +444,26 @@ pub(crate) fn contact_force(
     [-f * n[0], -f * n[1]]
 }
 
+/// [`contact_force`] at both end centres of bearing state `st` (their velocities from
+/// `e`), added to the end forces `fi`, `fj` (N): the rotor's right-hand side and its
+/// linearised Jacobian model (`super::jacobian`) apply the same contact.
+pub(crate) fn add_contact_forces(
+    st: &BearingState,
+    e: &EndKin,
+    clearance: f64,
+    threshold: f64,
+    kc: (f64, f64),
+    fi: &mut [f64; 2],
+    fj: &mut [f64; 2],
+) {
+    let ci = contact_force([st.xi, st.yi], e.v_i, clearance, threshold, kc);
+    let cj = contact_force([st.xj, st.yj], e.v_j, clearance, threshold, kc);
+    for c in 0..2 {
+        fi[c] += ci[c];
+        fj[c] += cj[c];
+    }
+}
+
 /// `q̇ = ½ q ⊗ (0, ω_body)`, written as `(w, x, y, z)`.
 pub(crate) fn quat_rate(q: &[f64], w: V3, out: &mut [f64]) {
     let rate = Quaternion::new(q[0], q[1], q[2], q[3]) * Quaternion::from_imag(w) * 0.5;

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{contact_force, EndKin, Kin, RotorModel, DIM, JAC_DIM, V3, WORK};
+use super::model::{add_contact_forces, EndKin, Kin, RotorModel, DIM, JAC_DIM, V3, WORK};
 use super::scene::{ModelKind, Scene, SceneError};
 use super::simplifications::{
     variant_report, SimplificationReport, SimplificationSpec, SimplificationTally,
@@ -1130,12 +1130,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                             Some(kc) => {
                                 let st = &self.requests[cursor - 1].state;
                                 let d = geom.params.clearance;
-                                let ci = contact_force([st.xi, st.yi], e.v_i, d, m.threshold, kc);
-                                let cj = contact_force([st.xj, st.yj], e.v_j, d, m.threshold, kc);
-                                for c in 0..2 {
-                                    fi[c] += ci[c];
-                                    fj[c] += cj[c];
-                                }
+                                add_contact_forces(st, e, d, m.threshold, kc, &mut fi, &mut fj);
                             }
                         }
                     }
@@ -1647,13 +1642,7 @@ fn linear_derivative(
         let mz = crate::bearing::friction(p, crate::bearing::planar_length(wx, wy), st.omega).mz;
         if let Some(kc) = m.contact {
             if st.h_min(p.clearance) < m.threshold {
-                let d = p.clearance;
-                let ci = contact_force([st.xi, st.yi], e.v_i, d, m.threshold, kc);
-                let cj = contact_force([st.xj, st.yj], e.v_j, d, m.threshold, kc);
-                for c in 0..2 {
-                    fi[c] += ci[c];
-                    fj[c] += cj[c];
-                }
+                add_contact_forces(&st, &e, p.clearance, m.threshold, kc, &mut fi, &mut fj);
             }
         }
         add_bearing_loads(
