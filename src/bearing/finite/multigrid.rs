@@ -110,7 +110,7 @@ impl RowRef<'_> {
     }
 }
 
-/// One row of a level for the residual (see [`Level::residual`]).
+/// One row of a level for the residual (see [`Level::residual_on`]).
 struct ResidualRow<'a> {
     south: &'a [f64],
     cur: &'a [f64],
@@ -731,72 +731,88 @@ impl Level {
     /// `r = f − A p` after a smoothing sweep, zero at held nodes and where the constraint is
     /// active. Row slices as in [`Level::relax`]. Computed at the sweep's first colour only
     /// (see below; issue 20 pass 5: the same cycle counts, iterates equal to rounding).
-    /// Out of line (one call per grid and cycle) so that profiles attribute it.
-    #[inline(never)]
-    fn residual(&mut self) {
-        self.residual_on::<false>();
-    }
-
-    /// [`Level::residual`] after a smoothing sweep of the smoother `LINES` (true:
-    /// [`Level::smooth_lines`], whose odd columns are solved last: the residual at the
-    /// even columns, zero at the odd ones; false: the red-black point sweep's first colour).
+    /// `LINES`: after the smoother [`Level::smooth_lines`] (true), whose odd columns are
+    /// solved last: the residual at the even columns, zero at the odd ones; after the
+    /// red-black point sweep (false: [`Level::smooth_residual`] fuses it into the sweep):
+    /// at its first colour. Out of line (one call per grid and cycle) so that profiles
+    /// attribute it.
     #[inline(never)]
     fn residual_on<const LINES: bool>(&mut self) {
-        let (nt, nz) = (self.nt, self.nz);
-        let n = self.len();
+        for j in 1..self.nz {
+            self.residual_row::<LINES>(j);
+        }
+    }
+
+    /// The residual of the interior row `j` (see [`Level::residual_on`]): reads the field's
+    /// rows `j − 1 ..= j + 1`, writes row `j` of `r`.
+    #[inline(always)]
+    fn residual_row<const LINES: bool>(&mut self, j: usize) {
+        let nt = self.nt;
+        let row = j * nt;
         let inv = if self.top {
-            &self.inv_d[..n]
+            &self.inv_d[row..row + nt]
         } else {
-            &self.inv_d_free[..n]
+            &self.inv_d_free[row..row + nt]
         };
-        let (ae, an, d, f, p) = (
-            &self.ae[..n],
-            &self.an[..n],
-            &self.d[..n],
-            &self.f[..n],
-            &self.p[..n],
-        );
+        let p = &self.p;
+        let row_ref = ResidualRow {
+            south: &p[row - nt..row],
+            cur: &p[row..row + nt],
+            north: &p[row + nt..row + 2 * nt],
+            ae: &self.ae[row..row + nt],
+            an: &self.an[row..row + nt],
+            an_south: &self.an[row - nt..row],
+            d: &self.d[row..row + nt],
+            f: &self.f[row..row + nt],
+            inv,
+        };
+        let out = &mut self.r[row..row + nt];
+        // The first colour's nodes ((i + j) even); the second colour's residual is
+        // zero to rounding after the sweep (each node solved, or projected to 0 with
+        // a negative residual, which the rule zeroes): written as 0, half the work.
+        // The second colour's zeros stored beside the first colour's values (not a
+        // `memset` of the row first, half of it overwritten).
+        let mut i = if LINES { 0 } else { j % 2 };
+        if i == 1 {
+            out[0] = 0.0;
+        } else {
+            out[0] = row_ref.at(0, 1, nt - 1);
+            out[1] = 0.0;
+            i = 2;
+        }
+        while i + 1 < nt {
+            out[i] = row_ref.at(i, i + 1, i - 1);
+            out[i + 1] = 0.0;
+            i += 2;
+        }
+        if i + 1 == nt {
+            out[i] = row_ref.at(i, 0, i - 1);
+        }
+    }
+
+    /// The smoother's last sweep before a restriction with the residual fused in: the
+    /// fused red-black sweep of [`Level::relax`] at ω = 1, and the residual of row `j − 2`
+    /// right after the second colour on row `j − 1`, when its rows `j − 3 ..= j − 1` are
+    /// final (no later update reads or writes them). The same values as
+    /// [`Level::smooth`] then [`Level::residual_on`], bit for bit, with the rows still in the
+    /// cache from the sweep (one stream of the level's arrays instead of two).
+    #[inline(never)]
+    fn smooth_residual(&mut self) {
+        let nz = self.nz;
+        let mut track = (0.0_f64, 0.0_f64);
         for j in 1..nz {
-            let row = j * nt;
-            let (south, cur, north) = (
-                &p[row - nt..row],
-                &p[row..row + nt],
-                &p[row + nt..row + 2 * nt],
-            );
-            let (aer, anr, ans) = (&ae[row..row + nt], &an[row..row + nt], &an[row - nt..row]);
-            let (dr, fr, ir) = (&d[row..row + nt], &f[row..row + nt], &inv[row..row + nt]);
-            let out = &mut self.r[row..row + nt];
-            let row_ref = ResidualRow {
-                south,
-                cur,
-                north,
-                ae: aer,
-                an: anr,
-                an_south: ans,
-                d: dr,
-                f: fr,
-                inv: ir,
-            };
-            // The first colour's nodes ((i + j) even); the second colour's residual is
-            // zero to rounding after the sweep (each node solved, or projected to 0 with
-            // a negative residual, which the rule zeroes): written as 0, half the work.
-            // The second colour's zeros stored beside the first colour's values (not a
-            // `memset` of the row first, half of it overwritten).
-            let mut i = if LINES { 0 } else { j % 2 };
-            if i == 1 {
-                out[0] = 0.0;
-            } else {
-                out[0] = row_ref.at(0, 1, nt - 1);
-                out[1] = 0.0;
-                i = 2;
+            self.relax_row::<false>(j, 0, 1.0, &mut track);
+            if j >= 2 {
+                self.relax_row::<false>(j - 1, 1, 1.0, &mut track);
             }
-            while i + 1 < nt {
-                out[i] = row_ref.at(i, i + 1, i - 1);
-                out[i + 1] = 0.0;
-                i += 2;
+            if j >= 3 {
+                self.residual_row::<false>(j - 2);
             }
-            if i + 1 == nt {
-                out[i] = row_ref.at(i, 0, i - 1);
+        }
+        if nz >= 2 {
+            self.relax_row::<false>(nz - 1, 1, 1.0, &mut track);
+            for j in nz.saturating_sub(2).max(1)..nz {
+                self.residual_row::<false>(j);
             }
         }
     }
@@ -1532,19 +1548,19 @@ impl Hierarchy {
         let fine = &mut hi[0];
         let coarse = &mut lo[l - 1];
         let lines = self.cycle.z_lines && fine.z_strong;
-        for _ in 0..nu_pre {
-            if lines {
-                fine.smooth_lines();
-            } else {
-                fine.smooth();
-            }
-        }
-        self.updates += nu_pre as u64 * fine.interior() as u64;
         if lines {
+            for _ in 0..nu_pre {
+                fine.smooth_lines();
+            }
             fine.residual_on::<true>();
         } else {
-            fine.residual();
+            // The last pre-smoothing sweep and the residual in one pass (same bits).
+            for _ in 1..nu_pre {
+                fine.smooth();
+            }
+            fine.smooth_residual();
         }
+        self.updates += nu_pre as u64 * fine.interior() as u64;
         restrict_fas(fine, coarse, how);
         self.vcycle(l - 1, aspect);
         let (lo, hi) = self.levels.split_at_mut(l);
