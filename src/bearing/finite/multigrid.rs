@@ -110,7 +110,7 @@ impl RowRef<'_> {
     }
 }
 
-/// One row of a level for the residual (see [`Level::residual_on`]).
+/// One row of a level for the residual (see [`Level::residual`]).
 struct ResidualRow<'a> {
     south: &'a [f64],
     cur: &'a [f64],
@@ -142,34 +142,6 @@ impl ResidualRow<'_> {
         } else {
             v
         }
-    }
-}
-
-/// The residual of the interior row `j` into `out` (see [`Level::residual_on`]; `LINES`:
-/// after the line smoother).
-#[inline(always)]
-fn residual_row<const LINES: bool>(row_ref: &ResidualRow, out: &mut [f64], j: usize) {
-    let nt = out.len();
-    // The first colour's nodes ((i + j) even); the second colour's residual is
-    // zero to rounding after the sweep (each node solved, or projected to 0 with
-    // a negative residual, which the rule zeroes): written as 0, half the work.
-    // The second colour's zeros stored beside the first colour's values (not a
-    // `memset` of the row first, half of it overwritten).
-    let mut i = if LINES { 0 } else { j % 2 };
-    if i == 1 {
-        out[0] = 0.0;
-    } else {
-        out[0] = row_ref.at(0, 1, nt - 1);
-        out[1] = 0.0;
-        i = 2;
-    }
-    while i + 1 < nt {
-        out[i] = row_ref.at(i, i + 1, i - 1);
-        out[i + 1] = 0.0;
-        i += 2;
-    }
-    if i + 1 == nt {
-        out[i] = row_ref.at(i, 0, i - 1);
     }
 }
 
@@ -501,31 +473,17 @@ impl Level {
         self.relax::<false>(1.0);
     }
 
-    /// The red-black sweep, fused: one pass over the rows doing the first colour on row
-    /// `j` and then the second colour on row `j − 1`. The second colour at row `j − 1`
-    /// reads only first-colour nodes of rows `j − 2 ..= j` (its north and south neighbours
-    /// have the other parity; east and west are in its own row), all final by then, and
-    /// the first colour at row `j` reads the second colour of rows `j − 1 ..= j + 1` before
-    /// any of them is updated: every node gets the same operations on the same values as
-    /// in two full colour passes, so the iterates are the same bits, while each row's data
-    /// is streamed through the cache once per sweep instead of twice (issue 20, session 37:
-    /// each colour pass read ≈ 405 KB on 256 × 32 against a 48 KB first-level cache).
-    /// Row slices, the periodic ends of a row outside the inner loop: the inner loop then
-    /// has no wrap test and no bounds check (callgrind, issue 20 pass 5: 60 → 30
-    /// instructions per node update). `TRACK`: whether the largest change and value are
-    /// wanted (a maximum: the same whatever the order of the nodes).
+    /// The red-black sweep, row by row on row slices (this row, the rows south and north,
+    /// the row's coefficients), the periodic ends of a row outside the inner loop: the
+    /// inner loop then has no wrap test and no bounds check (callgrind, issue 20 pass 5:
+    /// 60 → 30 instructions per node update). `TRACK`: whether the largest change and value
+    /// are wanted. The arithmetic and its order are those of the node update before.
+    /// Two full colour passes on purpose: a fused pass (first colour on row `j`, second on
+    /// row `j − 1` or `j − 2`, the residual fused in too) gives the same bits and cuts the
+    /// first-level data misses by 28-37 %, but measured 2-5 % slower in wall (issue 20,
+    /// session 37, BENCHMARKS "the smoother's cache traffic"): the misses hit the
+    /// second-level cache behind the prefetcher; each colour pass's nodes are independent.
     fn relax<const TRACK: bool>(&mut self, omega: f64) -> (f64, f64) {
-        self.relax_fused::<TRACK, false>(omega)
-    }
-
-    /// [`Level::relax`], and with `RES` the residual of [`Level::residual_on`] fused in:
-    /// row `j − 2`'s right after the second colour on row `j − 1`, when its rows
-    /// `j − 3 ..= j − 1` are final (no later update reads or writes them), so the same
-    /// values as the sweep then the residual, bit for bit, with the rows still in the cache.
-    /// The level's arrays are taken as local slices once (a method per row reloaded them
-    /// per node: 2.4 more data reads per node update, cachegrind).
-    #[inline(always)]
-    fn relax_fused<const TRACK: bool, const RES: bool>(&mut self, omega: f64) -> (f64, f64) {
         let (nt, nz) = (self.nt, self.nz);
         let n = self.len();
         let top = self.top;
@@ -534,25 +492,12 @@ impl Level {
         } else {
             &self.inv_d_free[..n]
         };
-        let (ae, an, d, f, hold) = (
-            &self.ae[..n],
-            &self.an[..n],
-            &self.d[..n],
-            &self.f[..n],
-            &self.hold[..n],
-        );
+        let (ae, an, f, hold) = (&self.ae[..n], &self.an[..n], &self.f[..n], &self.hold[..n]);
         let p = &mut self.p[..n];
-        let res = &mut self.r[..];
         let mut max_dp = 0.0_f64;
         let mut max_p = 0.0_f64;
-        // Rows between the first colour's row and the second's: any lag ≥ 1 gives the same
-        // bits; 2 keeps the second colour's loads of first-colour values a row behind their
-        // stores (lag 1 measured slower than the two-pass sweep, lag 2 ...).
-        const LAG: usize = 2;
-        // One colour of the interior row `j`: the nodes with `i + j + colour` even.
-        macro_rules! row {
-            ($j:expr, $colour:expr) => {{
-                let j: usize = $j;
+        for colour in 0..2 {
+            for j in 1..nz {
                 let row = j * nt;
                 let (below, rest) = p.split_at_mut(row);
                 let (cur, above) = rest.split_at_mut(nt);
@@ -566,8 +511,8 @@ impl Level {
                     inv: &inv[row..row + nt],
                     hold: &hold[row..row + nt],
                 };
-                // Inlined by hand (`RowRef::update` is `inline(always)`; a closure here
-                // was left as a call per node).
+                // Inlined by hand (`RowRef::update` is `inline(always)`; a closure here was
+                // left as a call per node).
                 macro_rules! node {
                     ($i:expr, $ip:expr, $im:expr) => {
                         if let Some((old, new)) = r.update(cur, $i, $ip, $im, omega, top) {
@@ -578,8 +523,9 @@ impl Level {
                         }
                     };
                 }
-                // The ends of the row (periodic neighbours) outside the inner loop.
-                let mut i = ($colour + j) % 2;
+                // This colour's nodes of the row: (i + j + colour) even. The ends of the
+                // row (periodic neighbours) outside the inner loop.
+                let mut i = (colour + j) % 2;
                 if i == 0 {
                     node!(0, 1, nt - 1);
                     i = 2;
@@ -591,43 +537,6 @@ impl Level {
                 if i + 1 == nt {
                     node!(i, 0, i - 1);
                 }
-            }};
-        }
-        // The residual of the interior row `j` (see [`Level::residual_on`]).
-        macro_rules! residual {
-            ($j:expr) => {{
-                let j: usize = $j;
-                let row = j * nt;
-                let pr: &[f64] = p;
-                let row_ref = ResidualRow {
-                    south: &pr[row - nt..row],
-                    cur: &pr[row..row + nt],
-                    north: &pr[row + nt..row + 2 * nt],
-                    ae: &ae[row..row + nt],
-                    an: &an[row..row + nt],
-                    an_south: &an[row - nt..row],
-                    d: &d[row..row + nt],
-                    f: &f[row..row + nt],
-                    inv: &inv[row..row + nt],
-                };
-                residual_row::<false>(&row_ref, &mut res[row..row + nt], j);
-            }};
-        }
-        for j in 1..nz {
-            row!(j, 0);
-            if j > LAG {
-                row!(j - LAG, 1);
-            }
-            if RES && j > LAG + 1 {
-                residual!(j - LAG - 1);
-            }
-        }
-        for j in nz.saturating_sub(LAG).max(1)..nz {
-            row!(j, 1);
-        }
-        if RES {
-            for j in nz.saturating_sub(LAG + 1).max(1)..nz {
-                residual!(j);
             }
         }
         (max_dp, max_p)
@@ -805,11 +714,15 @@ impl Level {
     /// `r = f − A p` after a smoothing sweep, zero at held nodes and where the constraint is
     /// active. Row slices as in [`Level::relax`]. Computed at the sweep's first colour only
     /// (see below; issue 20 pass 5: the same cycle counts, iterates equal to rounding).
-    /// `LINES`: after the smoother [`Level::smooth_lines`] (true), whose odd columns are
-    /// solved last: the residual at the even columns, zero at the odd ones; after the
-    /// red-black point sweep (false: [`Level::smooth_residual`] fuses it into the sweep):
-    /// at its first colour. Out of line (one call per grid and cycle) so that profiles
-    /// attribute it.
+    /// Out of line (one call per grid and cycle) so that profiles attribute it.
+    #[inline(never)]
+    fn residual(&mut self) {
+        self.residual_on::<false>();
+    }
+
+    /// [`Level::residual`] after a smoothing sweep of the smoother `LINES` (true:
+    /// [`Level::smooth_lines`], whose odd columns are solved last: the residual at the
+    /// even columns, zero at the odd ones; false: the red-black point sweep's first colour).
     #[inline(never)]
     fn residual_on<const LINES: bool>(&mut self) {
         let (nt, nz) = (self.nt, self.nz);
@@ -828,30 +741,47 @@ impl Level {
         );
         for j in 1..nz {
             let row = j * nt;
+            let (south, cur, north) = (
+                &p[row - nt..row],
+                &p[row..row + nt],
+                &p[row + nt..row + 2 * nt],
+            );
+            let (aer, anr, ans) = (&ae[row..row + nt], &an[row..row + nt], &an[row - nt..row]);
+            let (dr, fr, ir) = (&d[row..row + nt], &f[row..row + nt], &inv[row..row + nt]);
+            let out = &mut self.r[row..row + nt];
             let row_ref = ResidualRow {
-                south: &p[row - nt..row],
-                cur: &p[row..row + nt],
-                north: &p[row + nt..row + 2 * nt],
-                ae: &ae[row..row + nt],
-                an: &an[row..row + nt],
-                an_south: &an[row - nt..row],
-                d: &d[row..row + nt],
-                f: &f[row..row + nt],
-                inv: &inv[row..row + nt],
+                south,
+                cur,
+                north,
+                ae: aer,
+                an: anr,
+                an_south: ans,
+                d: dr,
+                f: fr,
+                inv: ir,
             };
-            residual_row::<LINES>(&row_ref, &mut self.r[row..row + nt], j);
+            // The first colour's nodes ((i + j) even); the second colour's residual is
+            // zero to rounding after the sweep (each node solved, or projected to 0 with
+            // a negative residual, which the rule zeroes): written as 0, half the work.
+            // The second colour's zeros stored beside the first colour's values (not a
+            // `memset` of the row first, half of it overwritten).
+            let mut i = if LINES { 0 } else { j % 2 };
+            if i == 1 {
+                out[0] = 0.0;
+            } else {
+                out[0] = row_ref.at(0, 1, nt - 1);
+                out[1] = 0.0;
+                i = 2;
+            }
+            while i + 1 < nt {
+                out[i] = row_ref.at(i, i + 1, i - 1);
+                out[i + 1] = 0.0;
+                i += 2;
+            }
+            if i + 1 == nt {
+                out[i] = row_ref.at(i, 0, i - 1);
+            }
         }
-    }
-
-    /// The smoother's last sweep before a restriction with the residual fused in: the
-    /// fused red-black sweep of [`Level::relax`] at ω = 1, and the residual of row `j − 2`
-    /// right after the second colour on row `j − 1`, when its rows `j − 3 ..= j − 1` are
-    /// final (no later update reads or writes them). The same values as
-    /// [`Level::smooth`] then [`Level::residual_on`], bit for bit, with the rows still in the
-    /// cache from the sweep (one stream of the level's arrays instead of two).
-    #[inline(never)]
-    fn smooth_residual(&mut self) {
-        self.relax_fused::<false, true>(1.0);
     }
 
     /// Projected SOR on this grid until the change is below `tol` of the largest value.
@@ -1585,19 +1515,19 @@ impl Hierarchy {
         let fine = &mut hi[0];
         let coarse = &mut lo[l - 1];
         let lines = self.cycle.z_lines && fine.z_strong;
-        if lines {
-            for _ in 0..nu_pre {
+        for _ in 0..nu_pre {
+            if lines {
                 fine.smooth_lines();
-            }
-            fine.residual_on::<true>();
-        } else {
-            // The last pre-smoothing sweep and the residual in one pass (same bits).
-            for _ in 1..nu_pre {
+            } else {
                 fine.smooth();
             }
-            fine.smooth_residual();
         }
         self.updates += nu_pre as u64 * fine.interior() as u64;
+        if lines {
+            fine.residual_on::<true>();
+        } else {
+            fine.residual();
+        }
         restrict_fas(fine, coarse, how);
         self.vcycle(l - 1, aspect);
         let (lo, hi) = self.levels.split_at_mut(l);
