@@ -478,6 +478,11 @@ impl Level {
     /// inner loop then has no wrap test and no bounds check (callgrind, issue 20 pass 5:
     /// 60 → 30 instructions per node update). `TRACK`: whether the largest change and value
     /// are wanted. The arithmetic and its order are those of the node update before.
+    /// Two full colour passes on purpose: a fused pass (first colour on row `j`, second on
+    /// row `j − 1` or `j − 2`, the residual fused in too) gives the same bits and cuts the
+    /// first-level data misses by 18-37 %, but measured 1.5-5 % slower in wall (issue 20,
+    /// session 37, BENCHMARKS "the smoother's cache traffic"): the misses hit the
+    /// second-level cache behind the prefetcher; each colour pass's nodes are independent.
     fn relax<const TRACK: bool>(&mut self, omega: f64) -> (f64, f64) {
         let (nt, nz) = (self.nt, self.nz);
         let n = self.len();
