@@ -18,6 +18,27 @@ fn states(p: &BearingParams) -> Vec<(String, BearingState)> {
     finite_states::accuracy_states(p)
 }
 
+/// The probe's two state sets, each with its bearing: the 12 test states of
+/// tests/finite_accuracy.rs on the paper bearing, and the finite benchmark's 32 states on
+/// theirs, both with the finite film at accuracy `acc` (`None`: the default).
+fn test_and_bench(acc: Option<f64>) -> [(BearingParams, Vec<BearingState>); 2] {
+    use bearing_sweep::bearing::finite::FiniteSettings;
+    let mut finite = FiniteSettings::default();
+    if let Some(a) = acc {
+        finite.accuracy = a;
+    }
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        finite,
+        ..BearingParams::paper_table2()
+    };
+    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
+    [
+        (p, states(&p).into_iter().map(|x| x.1).collect()),
+        (BearingParams { finite, ..pb }, bench),
+    ]
+}
+
 fn norm(a: &[f64; 4]) -> f64 {
     a.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -209,31 +230,8 @@ fn aniso() {
 /// true error against [`FiniteSolver::reference`]; median and largest updates, largest
 /// error, range of estimate / true error.
 fn cost(acc: f64) {
-    use bearing_sweep::bearing::finite::FiniteSettings;
-    let p = BearingParams {
-        model: FilmModel::Finite,
-        finite: FiniteSettings {
-            accuracy: acc,
-            ..FiniteSettings::default()
-        },
-        ..BearingParams::paper_table2()
-    };
-    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
-    let sets: [(&str, BearingParams, Vec<BearingState>); 2] = [
-        (
-            "test set (12)",
-            p,
-            states(&p).into_iter().map(|x| x.1).collect(),
-        ),
-        (
-            "bench set (32)",
-            BearingParams {
-                finite: p.finite,
-                ..pb
-            },
-            bench,
-        ),
-    ];
+    let [(pt, test), (pb, bench)] = test_and_bench(Some(acc));
+    let sets = [("test set (12)", pt, test), ("bench set (32)", pb, bench)];
     for (name, p, states) in sets {
         let g = FiniteGrid::for_bearing(&p);
         let (mut ups, mut errs, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
@@ -553,20 +551,10 @@ fn split() {
 /// loads of 128 × 16 (against the same grid at 1e-10) and in its estimate
 /// `|v₀ − v₋₁|/3`, relative to the accuracy 5e-4.
 fn work() {
-    let p = BearingParams {
-        model: FilmModel::Finite,
-        ..BearingParams::paper_table2()
-    };
-    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
-    let mut all: Vec<(BearingParams, BearingState)> =
-        states(&p).into_iter().map(|(_, s)| (p, s)).collect();
-    for s in bench {
-        let b = BearingParams {
-            finite: p.finite,
-            ..pb
-        };
-        all.push((b, s));
-    }
+    let all: Vec<(BearingParams, BearingState)> = test_and_bench(None)
+        .into_iter()
+        .flat_map(|(p, states)| states.into_iter().map(move |s| (p, s)))
+        .collect();
     let acc = 5e-4;
     for frac in [0.02, 0.05, 0.1, 0.2, 0.5] {
         let (mut u16, mut u32_, mut dv, mut de) = (Vec::new(), Vec::new(), 0.0_f64, 0.0_f64);
@@ -673,22 +661,10 @@ fn cycles(acc: f64) {
 /// error enters the estimate through) and to the accuracy 5e-4, and the largest relative
 /// move of the estimate `|v₀ − v₋₁|/3`.
 fn fmg1() {
-    let p = BearingParams {
-        model: FilmModel::Finite,
-        ..BearingParams::paper_table2()
-    };
-    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
-    let mut all: Vec<(BearingParams, BearingState)> =
-        states(&p).into_iter().map(|(_, s)| (p, s)).collect();
-    for s in bench {
-        all.push((
-            BearingParams {
-                finite: p.finite,
-                ..pb
-            },
-            s,
-        ));
-    }
+    let all: Vec<(BearingParams, BearingState)> = test_and_bench(None)
+        .into_iter()
+        .flat_map(|(p, states)| states.into_iter().map(move |s| (p, s)))
+        .collect();
     let nl = 6;
     let mut worst = vec![(0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64); nl];
     for (p, s) in &all {
@@ -736,31 +712,9 @@ fn fmg1() {
 /// error, and the largest distance of the returned loads from the same grid iterated to
 /// 1e-10 over the accuracy (tests/finite_accuracy.rs allows 0.25).
 fn rules(acc: f64) {
-    use bearing_sweep::bearing::finite::{FiniteSettings, LadderRule};
-    let p = BearingParams {
-        model: FilmModel::Finite,
-        finite: FiniteSettings {
-            accuracy: acc,
-            ..FiniteSettings::default()
-        },
-        ..BearingParams::paper_table2()
-    };
-    let (pb, bench) = bearing_sweep::bench::finite::bench_states(32);
-    let sets: [(&str, BearingParams, Vec<BearingState>); 2] = [
-        (
-            "bench (32)",
-            BearingParams {
-                finite: p.finite,
-                ..pb
-            },
-            bench,
-        ),
-        (
-            "test (12)",
-            p,
-            states(&p).into_iter().map(|x| x.1).collect(),
-        ),
-    ];
+    use bearing_sweep::bearing::finite::LadderRule;
+    let [(pt, test), (pb, bench)] = test_and_bench(Some(acc));
+    let sets = [("bench (32)", pb, bench), ("test (12)", pt, test)];
     let variants: Vec<LadderRule> = std::env::args().skip(3).map(|a| rule_of(&a)).collect();
     for (name, p, states) in sets {
         let g = FiniteGrid::for_bearing(&p);

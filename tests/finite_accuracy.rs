@@ -26,10 +26,7 @@ fn states(p: &BearingParams) -> Vec<(String, BearingState)> {
     finite_states::accuracy_states(p)
 }
 
-fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
+use finite_states::rel;
 
 /// The converged reference: the accuracy ladder's 1024 × 128 and 512 × 64 solutions
 /// (same grids, same inlet line on a node, as the solutions tested), iterated to 1e-10,

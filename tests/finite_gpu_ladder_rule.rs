@@ -38,10 +38,7 @@ use bearing_sweep::bearing::finite::{
 };
 use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState, FilmModel};
 
-fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
+use finite_states::rel;
 
 /// The paper's bearing (B/D = 0.5) in accuracy mode at `accuracy`.
 fn bearing(accuracy: f64) -> BearingParams {

@@ -32,10 +32,7 @@ const MG_SWEEPS_CLAIMED: f64 = 7.5;
 /// 5.97 on the 12 test states, 6.66 on the benchmark's 32).
 const RATIO_CLAIMED: f64 = 5.5;
 
-fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
+use finite_states::rel;
 
 /// First index from which every entry of `errs` is within `bound` (None: never).
 fn settles(errs: &[f64], bound: f64) -> Option<usize> {

@@ -15,10 +15,7 @@ use bearing_sweep::bearing::{pack_state, BearingParams, FilmModel};
 #[path = "support/finite_states.rs"]
 mod finite_states;
 
-fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
+use finite_states::rel;
 
 #[test]
 fn line_smoother_keeps_the_discrete_solution() {

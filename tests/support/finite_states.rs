@@ -7,6 +7,13 @@
 
 use bearing_sweep::bearing::{BearingParams, BearingState};
 
+/// Relative distance of load vector `a` from `b`: `|a − b| / |b|` (Euclidean), the
+/// measure of every error of `(W_x, W_y, M_x/B, M_y/B)` in these tests and probes.
+pub fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
 /// The set: (eccentricity ratio of the mid-plane, tilt as end offset over the radial
 /// clearance δ (+ at one end, − at the other), squeeze velocity over δω).
 pub const CASES: [(f64, f64, f64); 12] = [
