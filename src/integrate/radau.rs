@@ -115,9 +115,9 @@ fn share_f0() -> bool {
 /// `0.7^4 ≈ 0.24` of the tolerance instead of `0.9^4 ≈ 0.66`, so the same error is
 /// reached at a ~3x looser tolerance and with it a ~3x looser Newton stop
 /// ([`NEWTON_FRACTION`] of the tolerance): fewer iterations a step at about the same
-/// steps. At equal error ~10 % fewer load evaluations than 0.9 on issue 28's grid9 and
-/// spin256; at the same tolerance up to 8 % more for a 1.7-2.7x smaller error (BENCHMARKS.md "Issue
-/// 28, eleventh pass"). 0.6 gains a little more there but on the stiffest film of
+/// steps. At equal error 10-13 % fewer load evaluations than 0.9 on issue 28's grid9 and
+/// spin256; at the same tolerance up to 8 % more for a 1.7-2.7x smaller error
+/// (BENCHMARKS.md "Issue 28, eleventh pass"). 0.6 gains a little more there but on the stiffest film of
 /// `sweeps/clearance-viscosity.json` (δ = 1e-4 m, μ = 0.1 Pa·s) its smaller steps let
 /// reused Jacobians converge often enough to keep reusing them, with a failed reuse
 /// every fourth step (184 retries in 677 steps, `tests/rotor_jacobian_reuse.rs`).
