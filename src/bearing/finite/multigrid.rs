@@ -1408,6 +1408,43 @@ pub(crate) struct Hierarchy {
     pub simpson_z: bool,
     /// The V-cycle's smoother and sweeps (see [`MgCycle`]).
     pub cycle: MgCycle,
+    /// Where the node updates go, for probes (`None`, the default: not kept; see
+    /// [`WorkShare`]).
+    pub tally: Option<Vec<WorkShare>>,
+    /// The level [`Hierarchy::iterate`] last made the top one (the tally's key).
+    cur_top: usize,
+}
+
+/// What a relaxation's node updates were for (the work breakdown of issue 20, session 38).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum WorkRole {
+    /// The coarsest grid solved as the grid being solved (the first grid of full
+    /// multigrid, or of the accuracy ladder).
+    Solve,
+    /// Smoothing sweeps before the coarse-grid correction on a level.
+    Pre,
+    /// The coarsest grid's solve inside a V-cycle (the coarse-grid correction's end).
+    Coarsest,
+    /// Smoothing sweeps after the coarse-grid correction on a level.
+    Post,
+}
+
+/// One entry of the work breakdown ([`Hierarchy::tally`]): node updates on the grid
+/// `level` in the role `role` while the grid `top` was being solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorkShare {
+    /// The grid being solved `(n_theta, n_z)`.
+    pub top: (usize, usize),
+    /// The grid relaxed `(n_theta, n_z)`.
+    pub level: (usize, usize),
+    /// What for.
+    pub role: WorkRole,
+    /// Relaxation node updates.
+    pub updates: u64,
+    /// Sweeps over the grid (updates over its interior nodes).
+    pub sweeps: u64,
+    /// Calls (smoothing stages, coarsest solves).
+    pub calls: u64,
 }
 
 /// The V-cycle: smoother and smoothing sweeps (issue 20, session 37).
@@ -1436,6 +1473,34 @@ impl Default for MgCycle {
 }
 
 impl Hierarchy {
+    /// Adds `sweeps` sweeps of level `l` in role `role` to the tally, if one is kept.
+    fn count(&mut self, l: usize, role: WorkRole, sweeps: u64) {
+        let Some(t) = self.tally.as_mut() else {
+            return;
+        };
+        let dims = |lvl: &Level| (lvl.nt, lvl.nz);
+        let (top, level) = (dims(&self.levels[self.cur_top]), dims(&self.levels[l]));
+        let updates = sweeps * self.levels[l].interior() as u64;
+        match t
+            .iter_mut()
+            .find(|w| w.top == top && w.level == level && w.role == role)
+        {
+            Some(w) => {
+                w.updates += updates;
+                w.sweeps += sweeps;
+                w.calls += 1;
+            }
+            None => t.push(WorkShare {
+                top,
+                level,
+                role,
+                updates,
+                sweeps,
+                calls: 1,
+            }),
+        }
+    }
+
     /// Builds (reusing allocations) the hierarchy below and including `nt × nz`.
     pub fn build(&mut self, job: &FiniteJob, nt: usize, nz: usize, g: &FiniteGrid) {
         let mut dims = vec![(nt, nz, None)];
@@ -1506,14 +1571,17 @@ impl Hierarchy {
     pub fn vcycle(&mut self, l: usize, aspect: f64) {
         if l == 0 || self.levels[l].coarsen.is_none() {
             // Coarse enough: solve (tight, cheap).
-            self.updates += self.levels[l].solve_coarsest(aspect, 1e-12);
+            let u = self.levels[l].solve_coarsest(aspect, 1e-12);
+            self.updates += u;
+            if self.tally.is_some() {
+                let n = self.levels[l].interior() as u64;
+                self.count(l, WorkRole::Coarsest, u / n.max(1));
+            }
             return;
         }
         let how = self.levels[l].coarsen.expect("checked");
         let (nu_pre, nu_post) = (self.cycle.pre.max(1), self.cycle.post);
-        let (lo, hi) = self.levels.split_at_mut(l);
-        let fine = &mut hi[0];
-        let coarse = &mut lo[l - 1];
+        let fine = &mut self.levels[l];
         let lines = self.cycle.z_lines && fine.z_strong;
         for _ in 0..nu_pre {
             if lines {
@@ -1523,6 +1591,12 @@ impl Hierarchy {
             }
         }
         self.updates += nu_pre as u64 * fine.interior() as u64;
+        if self.tally.is_some() {
+            self.count(l, WorkRole::Pre, nu_pre as u64);
+        }
+        let (lo, hi) = self.levels.split_at_mut(l);
+        let fine = &mut hi[0];
+        let coarse = &mut lo[l - 1];
         if lines {
             fine.residual_on::<true>();
         } else {
@@ -1541,6 +1615,9 @@ impl Hierarchy {
             }
         }
         self.updates += nu_post as u64 * fine.interior() as u64;
+        if self.tally.is_some() {
+            self.count(l, WorkRole::Post, nu_post as u64);
+        }
     }
 
     /// V-cycles on the top level `l` (own right-hand side) until the estimated iteration
@@ -1556,6 +1633,7 @@ impl Hierarchy {
         for (n, lvl) in self.levels.iter_mut().enumerate() {
             lvl.top = n == l;
         }
+        self.cur_top = l;
         {
             let lvl = &mut self.levels[l];
             if !lvl.f_is_own {
@@ -1570,7 +1648,12 @@ impl Hierarchy {
             }
         }
         if l == 0 || self.levels[l].coarsen.is_none() {
-            self.updates += self.levels[l].solve_coarsest(aspect, stop.tolerance());
+            let u = self.levels[l].solve_coarsest(aspect, stop.tolerance());
+            self.updates += u;
+            if self.tally.is_some() {
+                let n = self.levels[l].interior() as u64;
+                self.count(l, WorkRole::Solve, u / n.max(1));
+            }
             return (1, 0.0, true);
         }
         let mut prev = Vec::new();

@@ -400,6 +400,22 @@ impl FiniteSolver {
         }
     }
 
+    /// Keeps (`true`) or drops the breakdown of the multigrid's node updates by grid and
+    /// role ([`FiniteSolver::work_tally`]; for probes, issue 20 session 38). Off by default.
+    pub fn keep_work_tally(&mut self, on: bool) {
+        self.mg.tally = on.then(Vec::new);
+    }
+
+    /// The node updates since [`FiniteSolver::keep_work_tally`] (or the last
+    /// [`FiniteSolver::take_work_tally`]) by grid solved, grid relaxed and role (empty when
+    /// not kept); the tally restarts.
+    pub fn take_work_tally(&mut self) -> Vec<super::WorkShare> {
+        match self.mg.tally.as_mut() {
+            Some(t) => std::mem::take(t),
+            None => Vec::new(),
+        }
+    }
+
     /// Solves one state by projected full multigrid ([`super::multigrid`]).
     ///
     /// Fixed grid (`g.accuracy` is `None`): from a cold start, full multigrid from the
