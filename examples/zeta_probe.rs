@@ -747,6 +747,7 @@ fn rules(acc: f64) {
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
                 solver.ladder_rule = rule;
+                solver.coarsest = coarsest_from_env();
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
                 for (l, st) in solver.trace.iter().enumerate() {
                     let t = &tight[l].integrals;
@@ -855,6 +856,7 @@ fn prof(acc: f64, rule: &str) {
     let v: Vec<&str> = rule.split(',').collect();
     let mut solver = FiniteSolver::new();
     solver.ladder_rule = rule_of(rule);
+    solver.coarsest = coarsest_from_env();
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
@@ -896,6 +898,23 @@ fn prof(acc: f64, rule: &str) {
         est_sum / reps as f64,
         grid_sum / reps as u64
     );
+}
+
+/// The coarsest-grid solve from `ZETA_PROBE_COARSEST` (`field:TOL`, `corr:FRACTION`,
+/// `sweeps:N`; default the solver's; issue 20 session 38), for the modes `where`, `rules`
+/// and `prof`.
+fn coarsest_from_env() -> bearing_sweep::bearing::finite::CoarsestSolve {
+    use bearing_sweep::bearing::finite::CoarsestSolve;
+    let Ok(v) = std::env::var("ZETA_PROBE_COARSEST") else {
+        return CoarsestSolve::default();
+    };
+    let (kind, x) = v.split_once(':').expect("KIND:VALUE");
+    match kind {
+        "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
+        "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
+        "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
+        _ => panic!("ZETA_PROBE_COARSEST: field|corr|sweeps"),
+    }
 }
 
 /// Prints a work breakdown (node updates by grid solved, grid relaxed and role; see
@@ -949,6 +968,7 @@ fn work_where(acc: f64) {
     for (name, p, states) in [("bench (32)", pb, bench), ("test (12)", pt, test)] {
         let g = FiniteGrid::for_bearing(&p);
         let mut solver = FiniteSolver::new();
+        solver.coarsest = coarsest_from_env();
         solver.keep_work_tally(true);
         let mut exact = 0u64;
         for s in &states {

@@ -20,11 +20,11 @@
 
 use std::f64::consts::PI;
 
-pub use super::multigrid::MgCycle;
 use super::multigrid::{
     cubic_edge, cubic_mid, load_change, prolong_solution, prolong_solution_cubic, tail_estimate,
     Coarsen, Hierarchy, Stop,
 };
+pub use super::multigrid::{CoarsestSolve, MgCycle};
 use super::{Cavitation, FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
@@ -311,6 +311,9 @@ pub struct FiniteSolver {
     /// probes set others (issue 20, session 37). The accuracy ladder always uses the
     /// default.
     pub cycle: MgCycle,
+    /// How the multigrid solves its coarsest grid inside a V-cycle (explicit grids and the
+    /// accuracy ladder; default: the solver's; probes set others, issue 20 session 38).
+    pub coarsest: CoarsestSolve,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -559,6 +562,7 @@ impl FiniteSolver {
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
+        self.mg.coarsest = self.coarsest;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -607,6 +611,7 @@ impl FiniteSolver {
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
+        self.mg.coarsest = self.coarsest;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -634,6 +639,7 @@ impl FiniteSolver {
         // estimate (measured: estimate/true 0.2-8 with snapping, 0.8-1.6 without).
         self.mg.theta0 = super::ladder_theta0(job, g.max_film_inlet);
         self.mg.updates = 0;
+        self.mg.coarsest = self.coarsest;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
