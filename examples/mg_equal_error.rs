@@ -23,7 +23,8 @@
 //!
 //! `MG_CYCLE=lines,2,1` (or `points,PRE,POST`): the multigrid's V-cycle (default
 //! `points,2,1`); `MG_COARSEST=corr:0.01` (or `field:TOL`, `sweeps:N`): its coarsest-grid
-//! solve (default the solver's); `MGE_BD=1`: the bearing's B/D (default the benchmark's 0.5).
+//! solve (default the solver's); `MG_BELOW=1,1`: smoothing sweeps on the levels below the
+//! grid being solved (default the cycle's); `MGE_BD=1`: the bearing's B/D (default the benchmark's 0.5).
 //!
 //! `cargo run --release --example mg_equal_error -- where NT NZ`: where the multigrid's
 //! node updates go at the oracle's work (from that file), by grid and role.
@@ -93,6 +94,10 @@ fn mg_solver() -> FiniteSolver {
     use bearing_sweep::bearing::finite::CoarsestSolve;
     let mut solver = FiniteSolver::new();
     solver.cycle = mg_cycle_from_env();
+    if let Ok(v) = std::env::var("MG_BELOW") {
+        let (a, b) = v.split_once(',').expect("PRE,POST");
+        solver.below_top = Some((a.parse().expect("PRE"), b.parse().expect("POST")));
+    }
     if let Ok(v) = std::env::var("MG_COARSEST") {
         let (kind, x) = v.split_once(':').expect("KIND:VALUE");
         solver.coarsest = match kind {

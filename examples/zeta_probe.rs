@@ -748,6 +748,7 @@ fn rules(acc: f64) {
                 let mut solver = FiniteSolver::new();
                 solver.ladder_rule = rule;
                 solver.coarsest = coarsest_from_env();
+                solver.below_top = below_from_env();
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
                 for (l, st) in solver.trace.iter().enumerate() {
                     let t = &tight[l].integrals;
@@ -857,6 +858,7 @@ fn prof(acc: f64, rule: &str) {
     let mut solver = FiniteSolver::new();
     solver.ladder_rule = rule_of(rule);
     solver.coarsest = coarsest_from_env();
+    solver.below_top = below_from_env();
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
@@ -917,6 +919,14 @@ fn coarsest_from_env() -> bearing_sweep::bearing::finite::CoarsestSolve {
     }
 }
 
+/// Smoothing sweeps `PRE,POST` on the levels below the grid being solved from
+/// `ZETA_PROBE_BELOW` (default: the cycle's; issue 20 session 38).
+fn below_from_env() -> Option<(u32, u32)> {
+    let v = std::env::var("ZETA_PROBE_BELOW").ok()?;
+    let (a, b) = v.split_once(',').expect("PRE,POST");
+    Some((a.parse().expect("PRE"), b.parse().expect("POST")))
+}
+
 /// Prints a work breakdown (node updates by grid solved, grid relaxed and role; see
 /// `FiniteSolver::keep_work_tally`) summed over `n` states, as a markdown table with
 /// per-state means; returns the total per state.
@@ -969,6 +979,7 @@ fn work_where(acc: f64) {
         let g = FiniteGrid::for_bearing(&p);
         let mut solver = FiniteSolver::new();
         solver.coarsest = coarsest_from_env();
+        solver.below_top = below_from_env();
         solver.keep_work_tally(true);
         let mut exact = 0u64;
         for s in &states {

@@ -1450,6 +1450,10 @@ pub(crate) struct Hierarchy {
     cur_top: usize,
     /// How the coarsest grid is solved inside a V-cycle.
     pub coarsest: CoarsestSolve,
+    /// Smoothing sweeps (before, after the correction) on the levels below the grid being
+    /// solved, instead of the cycle's (`None`, the default: the cycle's everywhere; a
+    /// probe of cheaper coarse-level smoothing, issue 20 session 38).
+    pub below_top: Option<(u32, u32)>,
 }
 
 /// How the coarsest grid is solved inside a V-cycle (issue 20, session 38; see
@@ -1647,7 +1651,10 @@ impl Hierarchy {
             return;
         }
         let how = self.levels[l].coarsen.expect("checked");
-        let (nu_pre, nu_post) = (self.cycle.pre.max(1), self.cycle.post);
+        let (nu_pre, nu_post) = match self.below_top {
+            Some((pre, post)) if l != self.cur_top => (pre.max(1), post),
+            _ => (self.cycle.pre.max(1), self.cycle.post),
+        };
         let fine = &mut self.levels[l];
         let lines = self.cycle.z_lines && fine.z_strong;
         for _ in 0..nu_pre {

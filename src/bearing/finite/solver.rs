@@ -314,6 +314,9 @@ pub struct FiniteSolver {
     /// How the multigrid solves its coarsest grid inside a V-cycle (explicit grids and the
     /// accuracy ladder; default: the solver's; probes set others, issue 20 session 38).
     pub coarsest: CoarsestSolve,
+    /// Smoothing sweeps on the levels below the grid being solved (`None`, the default:
+    /// the cycle's; probes, issue 20 session 38; see the multigrid's `below_top`).
+    pub below_top: Option<(u32, u32)>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -571,6 +574,7 @@ impl FiniteSolver {
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -620,6 +624,7 @@ impl FiniteSolver {
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -648,6 +653,7 @@ impl FiniteSolver {
         self.mg.theta0 = super::ladder_theta0(job, g.max_film_inlet);
         self.mg.updates = 0;
         self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
