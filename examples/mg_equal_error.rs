@@ -22,7 +22,12 @@
 //! multigrid error over `e_h`, at the FMG start and after its first five V-cycles (stderr).
 //!
 //! `MG_CYCLE=lines,2,1` (or `points,PRE,POST`): the multigrid's V-cycle (default
-//! `points,2,1`); `MGE_BD=1`: the bearing's B/D (default the benchmark's 0.5).
+//! `points,2,1`); `MG_COARSEST=corr:0.01` (or `field:TOL`, `sweeps:N`): its coarsest-grid
+//! solve (default the solver's); `MG_BELOW=1,1`: smoothing sweeps on the levels below the
+//! grid being solved (default the cycle's); `MGE_BD=1`: the bearing's B/D (default the benchmark's 0.5).
+//!
+//! `cargo run --release --example mg_equal_error -- where NT NZ`: where the multigrid's
+//! node updates go at the oracle's work (from that file), by grid and role.
 //!
 //! `cargo run --release --example mg_equal_error -- prof mg|psor NT NZ`: each state solved
 //! with exactly the oracle's work from that file (multigrid: its V-cycles on the finest
@@ -83,6 +88,28 @@ fn cases() -> (BearingParams, Vec<Case>) {
     (p, cases)
 }
 
+/// The multigrid's solver with the V-cycle of `MG_CYCLE` and the coarsest-grid solve of
+/// `MG_COARSEST` (`field:TOL`, `corr:FRACTION`, `sweeps:N`; default the solver's).
+fn mg_solver() -> FiniteSolver {
+    use bearing_sweep::bearing::finite::CoarsestSolve;
+    let mut solver = FiniteSolver::new();
+    solver.cycle = mg_cycle_from_env();
+    if let Ok(v) = std::env::var("MG_BELOW") {
+        let (a, b) = v.split_once(',').expect("PRE,POST");
+        solver.below_top = Some((a.parse().expect("PRE"), b.parse().expect("POST")));
+    }
+    if let Ok(v) = std::env::var("MG_COARSEST") {
+        let (kind, x) = v.split_once(':').expect("KIND:VALUE");
+        solver.coarsest = match kind {
+            "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
+            "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
+            "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
+            _ => panic!("MG_COARSEST: field|corr|sweeps"),
+        };
+    }
+    solver
+}
+
 fn grid(nt: u32, nz: u32, tolerance: f64) -> FiniteGrid {
     FiniteGrid::from(&FiniteSettings {
         tolerance,
@@ -127,8 +154,7 @@ fn table(grids: &[(u32, u32)]) {
     let mut own = Vec::new();
     for &(nt, nz) in grids {
         let interior = (nt * (nz - 1)) as f64;
-        let mut solver = FiniteSolver::new();
-        solver.cycle = mg_cycle_from_env();
+        let mut solver = mg_solver();
         let tight = grid(nt, nz, 1e-12);
         let mut e_h = Vec::new();
         let mut v_h = Vec::new();
@@ -290,8 +316,7 @@ fn prof(args: &[String]) {
         .collect();
     let (_, cases) = cases();
     let g = grid(nt, nz, FiniteSettings::default().tolerance);
-    let mut solver = FiniteSolver::new();
-    solver.cycle = mg_cycle_from_env();
+    let mut solver = mg_solver();
     let mut sweeps_done = 0u64;
     let start = Instant::now();
     for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {
@@ -312,10 +337,86 @@ fn prof(args: &[String]) {
     );
 }
 
+/// Where the multigrid's node updates go at the oracle's work (issue 20, session 38): each
+/// state solved as `prof mg NT NZ` does (the oracle file's V-cycles after full multigrid),
+/// the work broken down by the grid being solved (the FMG start's intermediate grids, then
+/// the top grid), the grid relaxed and the role; per-state means, as a markdown table.
+fn work_where(args: &[String]) {
+    use bearing_sweep::bearing::finite::WorkRole;
+    let nt: u32 = args.first().and_then(|s| s.parse().ok()).unwrap_or(128);
+    let nz: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(32);
+    let work: Vec<u32> = std::fs::read_to_string(file(nt, nz))
+        .expect("run the table first: it writes the oracle file")
+        .lines()
+        .map(|l| {
+            l.split_whitespace()
+                .next()
+                .expect("mg")
+                .parse()
+                .expect("a count")
+        })
+        .collect();
+    let (_, cases) = cases();
+    let g = grid(nt, nz, FiniteSettings::default().tolerance);
+    let mut solver = mg_solver();
+    solver.keep_work_tally(true);
+    let mut sweeps = 0u64;
+    for (c, &cycles) in cases.iter().zip(&work) {
+        sweeps += u64::from(solver.fmg_cycles(&c.job, &g, cycles, None).1.sweeps);
+    }
+    let n = cases.len() as f64;
+    let mut t = solver.take_work_tally();
+    t.sort_by_key(|w| (w.top, w.level, w.role));
+    let total: u64 = t.iter().map(|w| w.updates).sum();
+    println!(
+        "{nt}x{nz} at the oracle's work: {:.0} node updates per state ({:.2} sweeps of the grid; whole sweeps per state {:.2})",
+        total as f64 / n,
+        total as f64 / n / (nt * (nz - 1)) as f64,
+        sweeps as f64 / n
+    );
+    println!("| grid solved | grid relaxed | role | node updates / state | share | calls / state | sweeps / call |");
+    println!("|---|---|---|---|---|---|---|");
+    for w in &t {
+        println!(
+            "| {}×{} | {}×{} | {:?} | {:.0} | {:.1} % | {:.2} | {:.2} |",
+            w.top.0,
+            w.top.1,
+            w.level.0,
+            w.level.1,
+            w.role,
+            w.updates as f64 / n,
+            100.0 * w.updates as f64 / total as f64,
+            w.calls as f64 / n,
+            w.sweeps as f64 / w.calls as f64
+        );
+    }
+    for role in [
+        WorkRole::Solve,
+        WorkRole::Pre,
+        WorkRole::Coarsest,
+        WorkRole::Post,
+    ] {
+        let u: u64 = t.iter().filter(|w| w.role == role).map(|w| w.updates).sum();
+        println!(
+            "  {role:?}: {:.0} per state ({:.1} %)",
+            u as f64 / n,
+            100.0 * u as f64 / total as f64
+        );
+    }
+    let top = (nt as usize, nz as usize);
+    let start: u64 = t.iter().filter(|w| w.top != top).map(|w| w.updates).sum();
+    println!(
+        "  FMG start (grids below {nt}x{nz} as the grid solved): {:.0} per state ({:.1} %)",
+        start as f64 / n,
+        100.0 * start as f64 / total as f64
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("prof") => prof(&args[1..]),
+        Some("where") => work_where(&args[1..]),
         _ => {
             let grids: Vec<(u32, u32)> = args
                 .iter()

@@ -3,7 +3,7 @@
 //! grid, the true error of the load vector summed by several quadratures of the same
 //! field, and the ratio of several error estimates to it.
 //!
-//! `cargo run --release --example zeta_probe` (modes: `cost ACC…`, `aniso`, `extrap`,
+//! `cargo run --release --example zeta_probe` (modes: `where ACC…`, `cost ACC…`, `aniso`, `extrap`,
 //! `split [rules]`, `work`, `cycles ACC…`, `fmg1`, `rules ACC LOOSE,cubic|linear,FLOOR…`,
 //! `prof ACC LOOSE,cubic|linear,FLOOR [REPS]`: see each function)
 use bearing_sweep::bearing::finite::{ladder_estimate, FiniteGrid, FiniteJob, FiniteSolver};
@@ -747,6 +747,8 @@ fn rules(acc: f64) {
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
                 solver.ladder_rule = rule;
+                solver.coarsest = coarsest_from_env();
+                solver.below_top = below_from_env();
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
                 for (l, st) in solver.trace.iter().enumerate() {
                     let t = &tight[l].integrals;
@@ -855,6 +857,8 @@ fn prof(acc: f64, rule: &str) {
     let v: Vec<&str> = rule.split(',').collect();
     let mut solver = FiniteSolver::new();
     solver.ladder_rule = rule_of(rule);
+    solver.coarsest = coarsest_from_env();
+    solver.below_top = below_from_env();
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
@@ -898,7 +902,112 @@ fn prof(acc: f64, rule: &str) {
     );
 }
 
+/// The coarsest-grid solve from `ZETA_PROBE_COARSEST` (`field:TOL`, `corr:FRACTION`,
+/// `sweeps:N`; default the solver's; issue 20 session 38), for the modes `where`, `rules`
+/// and `prof`.
+fn coarsest_from_env() -> bearing_sweep::bearing::finite::CoarsestSolve {
+    use bearing_sweep::bearing::finite::CoarsestSolve;
+    let Ok(v) = std::env::var("ZETA_PROBE_COARSEST") else {
+        return CoarsestSolve::default();
+    };
+    let (kind, x) = v.split_once(':').expect("KIND:VALUE");
+    match kind {
+        "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
+        "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
+        "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
+        _ => panic!("ZETA_PROBE_COARSEST: field|corr|sweeps"),
+    }
+}
+
+/// Smoothing sweeps `PRE,POST` on the levels below the grid being solved from
+/// `ZETA_PROBE_BELOW` (default: the cycle's; issue 20 session 38).
+fn below_from_env() -> Option<(u32, u32)> {
+    let v = std::env::var("ZETA_PROBE_BELOW").ok()?;
+    let (a, b) = v.split_once(',').expect("PRE,POST");
+    Some((a.parse().expect("PRE"), b.parse().expect("POST")))
+}
+
+/// Prints a work breakdown (node updates by grid solved, grid relaxed and role; see
+/// `FiniteSolver::keep_work_tally`) summed over `n` states, as a markdown table with
+/// per-state means; returns the total per state.
+fn print_tally(t: &[bearing_sweep::bearing::finite::WorkShare], n: f64) -> f64 {
+    let mut t = t.to_vec();
+    t.sort_by_key(|w| (w.top, w.level, w.role));
+    let total: u64 = t.iter().map(|w| w.updates).sum();
+    println!("| grid solved | grid relaxed | role | node updates / state | share | calls / state | sweeps / call |");
+    println!("|---|---|---|---|---|---|---|");
+    for w in &t {
+        println!(
+            "| {}×{} | {}×{} | {:?} | {:.0} | {:.1} % | {:.2} | {:.2} |",
+            w.top.0,
+            w.top.1,
+            w.level.0,
+            w.level.1,
+            w.role,
+            w.updates as f64 / n,
+            100.0 * w.updates as f64 / total as f64,
+            w.calls as f64 / n,
+            w.sweeps as f64 / w.calls as f64
+        );
+    }
+    // By role over all grids.
+    use bearing_sweep::bearing::finite::WorkRole;
+    for role in [
+        WorkRole::Solve,
+        WorkRole::Pre,
+        WorkRole::Coarsest,
+        WorkRole::Post,
+    ] {
+        let u: u64 = t.iter().filter(|w| w.role == role).map(|w| w.updates).sum();
+        println!(
+            "  {role:?}: {:.0} per state ({:.1} %)",
+            u as f64 / n,
+            100.0 * u as f64 / total as f64
+        );
+    }
+    total as f64 / n
+}
+
+/// Where the node updates go (issue 20, session 38): the 32 benchmark and the 12 test
+/// states at accuracy `acc` with the default rule, each solve's work broken down by the
+/// ladder grid being solved, the grid relaxed and the role (pre-/post-smoothing, the
+/// coarsest grid's solve inside a V-cycle, the first grid's own solve); the total checked
+/// against the solver's exact count (its trace).
+fn work_where(acc: f64) {
+    let [(pt, test), (pb, bench)] = test_and_bench(Some(acc));
+    for (name, p, states) in [("bench (32)", pb, bench), ("test (12)", pt, test)] {
+        let g = FiniteGrid::for_bearing(&p);
+        let mut solver = FiniteSolver::new();
+        solver.coarsest = coarsest_from_env();
+        solver.below_top = below_from_env();
+        solver.keep_work_tally(true);
+        let mut exact = 0u64;
+        for s in &states {
+            let job = FiniteJob::new(&p, &pack_state(&p, s).unwrap());
+            solver.solve(&job, &g, &mut Vec::new());
+            exact += solver.trace.last().map_or(0, |t| t.updates);
+        }
+        let n = states.len() as f64;
+        println!(
+            "{name}, accuracy {acc:e}: exact node updates per state {:.0}",
+            exact as f64 / n
+        );
+        let total = print_tally(&solver.take_work_tally(), n);
+        assert_eq!(
+            (total * n).round() as u64,
+            exact,
+            "the breakdown sums to the solver's count"
+        );
+    }
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("where") {
+        for a in std::env::args().skip(2) {
+            work_where(a.parse().expect("an accuracy"));
+        }
+        return;
+    }
     if std::env::args().nth(1).as_deref() == Some("prof") {
         let a: Vec<String> = std::env::args().skip(2).collect();
         prof(a[0].parse().expect("an accuracy"), &a[1]);

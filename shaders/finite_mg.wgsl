@@ -55,8 +55,14 @@ const NU_PRE: u32 = 2u;
 const NU_POST: u32 = 1u;
 // Sweep limit of the coarsest-grid projected SOR (multigrid.rs COARSEST_SWEEPS).
 const COARSEST_SWEEPS: u32 = 4000u;
-// Coarsest-grid tolerance inside a V-cycle (multigrid.rs Hierarchy::vcycle).
+// Coarsest-grid tolerance inside a V-cycle, of the field's largest value (multigrid.rs
+// Hierarchy::vcycle), and of the correction's largest value |p − u₀| if that is larger
+// (multigrid.rs COARSEST_CORRECTION; issue 20, session 38).
 const COARSEST_TOL: f64 = 1e-12;
+const COARSEST_CORRECTION: f64 = 0.1;
+// Explicit grids: the first grid of full multigrid solved to at least this tolerance
+// (solver.rs FMG_FIRST_TOLERANCE; issue 20, session 38).
+const FMG_FIRST_TOLERANCE: f64 = 1e-3;
 // Coarsenings (levels' `coarsen`): none (coarsest), both directions, θ only, ζ only.
 const C_NONE: u32 = 0u;
 const C_BOTH: u32 = 1u;
@@ -1030,10 +1036,27 @@ var<private> vals: array<f64, 48>;
 // while the grid may be an intermediate one, 0 once it is iterated on to the floor).
 var<private> loose_now: f64;
 
+// Largest |p − u₀| on the coarsest level (the correction so far; u₀ in A_BASE from the
+// restriction), uniform across the workgroup.
+fn correction_max() -> f64 {
+    let nt = nt_of(0u);
+    let n = interior_of(0u);
+    spent += loops(n);
+    var m: f64 = 0.0;
+    for (var q = lid; q < n; q += WG) {
+        let k = q + nt;
+        m = max(m, abs(scr[at(0u, A_P, k)] - scr[at(0u, A_BASE, k)]));
+    }
+    return reduce_max2(m, 0.0).x;
+}
+
 // One sweep of the projected SOR on the coarsest level (0) and its stop test: the solve
-// ends when the estimated change is below `tol` of the largest value or after
-// COARSEST_SWEEPS (multigrid.rs Level::solve_coarsest). True when the solve is over.
-fn coarsest_step(tol: f64, top: bool) -> bool {
+// ends when the estimated change is below `tol` of the largest value or, with `rel` > 0
+// (inside a V-cycle), below `rel` of the correction's largest value if that is larger
+// (from the second sweep on, the contraction as measured over the last sweep, at least
+// ω − 1), or after COARSEST_SWEEPS (multigrid.rs Level::solve_coarsest). True when the
+// solve is over.
+fn coarsest_step(tol: f64, top: bool, rel: f64) -> bool {
     let omega = omega0;
     let floor = min(omega - 1.0, 0.9999);
     let min_tail = floor / (1.0 - floor);
@@ -1052,7 +1075,17 @@ fn coarsest_step(tol: f64, top: bool) -> bool {
     if cs >= COARSEST_SWEEPS {
         return true;
     }
-    if dp != 0.0 && dp * min_tail > tol * mp {
+    var tol_abs = tol * mp;
+    if rel > 0.0 {
+        tol_abs = max(tol_abs, rel * correction_max());
+        if s >= 1u && dp != 0.0 {
+            let rho1 = min(max(dp / hist[4], omega - 1.0), 0.9999);
+            if dp * rho1 / (1.0 - rho1) <= tol_abs {
+                return true;
+            }
+        }
+    }
+    if dp != 0.0 && dp * min_tail > tol_abs {
         return false;
     }
     var measured: f64 = 0.0;
@@ -1060,7 +1093,7 @@ fn coarsest_step(tol: f64, top: bool) -> bool {
         measured = root5(hist[5] / hist[0]);
     }
     let rho = min(max(measured, omega - 1.0), 0.9999);
-    return dp == 0.0 || (s >= 5u && dp * rho / (1.0 - rho) <= tol * mp);
+    return dp == 0.0 || (s >= 5u && dp * rho / (1.0 - rho) <= tol_abs);
 }
 
 fn start_coarsest() {
@@ -1231,7 +1264,7 @@ fn cycle_step() {
             start_coarsest();
         }
     } else if vs == t + 1u {
-        if coarsest_step(COARSEST_TOL, false) {
+        if coarsest_step(COARSEST_TOL, false, COARSEST_CORRECTION) {
             vs += 1u;
         }
     } else if vs <= 2u * t + 1u {
@@ -1354,7 +1387,13 @@ fn step(slot: u32, warm: bool) {
             ph = PH_CYCLE;
         }
     } else if ph == PH_COARSE {
-        if coarsest_step(params.tolerance, true) {
+        // Explicit grids: the first grid of full multigrid only starts the next one
+        // (solver.rs fmg_with, FMG_FIRST_TOLERANCE).
+        var tol = params.tolerance;
+        if params.mode == 0u && params.top0 > 0u {
+            tol = max(tol, FMG_FIRST_TOLERANCE);
+        }
+        if coarsest_step(tol, true, 0.0) {
             cyc = 1u;
             err = 0.0;
             conv = true;

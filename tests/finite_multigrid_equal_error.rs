@@ -24,13 +24,15 @@ const MARGIN: f64 = 0.1;
 const MG_CYCLES_CLAIMED: usize = 3;
 
 /// Largest mean multigrid work to the bound, in sweeps of the 128 × 32 grid (node
-/// updates on all grids over its interior nodes; measured 6.75 on the 12 test states, 6.6
-/// on the 32 benchmark states; bilinear interpolation needed 9.2 on the benchmark).
-const MG_SWEEPS_CLAIMED: f64 = 7.5;
+/// updates on all grids over its interior nodes; measured 5.80 on the 12 test states, 5.6
+/// on the 32 benchmark states since session 38's coarsest-grid stop, 6.75 and 6.6 before;
+/// bilinear interpolation needed 9.2 on the benchmark).
+const MG_SWEEPS_CLAIMED: f64 = 6.5;
 
 /// Least ratio of projected SOR's mean work to the bound over the multigrid's (measured
-/// 5.97 on the 12 test states, 6.66 on the benchmark's 32).
-const RATIO_CLAIMED: f64 = 5.5;
+/// 6.96 on the 12 test states, 7.83 on the benchmark's 32 since session 38; 5.97 and 6.66
+/// before).
+const RATIO_CLAIMED: f64 = 6.5;
 
 use finite_states::rel;
 
@@ -62,15 +64,16 @@ fn full_multigrid_reaches_discretisation_accuracy_at_128x32() {
 const LINES_CYCLES_CLAIMED: usize = 3;
 
 /// Largest mean work to the bound with the ζ-line smoother and V(2,0), in sweeps of the
-/// 128 × 32 grid (line-node updates counted as node updates; measured 3.82 on the 12 test
-/// states, 3.5 on the benchmark's 32).
-const LINES_SWEEPS_CLAIMED: f64 = 4.0;
+/// 128 × 32 grid (line-node updates counted as node updates; measured 3.27 on the 12 test
+/// states, 3.0 on the benchmark's 32 since session 38; 3.82 and 3.5 before).
+const LINES_SWEEPS_CLAIMED: f64 = 3.6;
 
 /// Least ratio of projected SOR's work to the bound over the multigrid's with the ζ-line
-/// smoother and V(2,0), in node updates (measured 10.56 on the 12 test states, 12.49 on the
-/// benchmark's 32; in instructions it is 6.5×, BENCHMARKS.md "Issue 20: line relaxation in
-/// the multigrid (session 37)": a line update costs ~2.3 point updates).
-const LINES_RATIO_CLAIMED: f64 = 10.0;
+/// smoother and V(2,0), in node updates (measured 12.32 on the 12 test states, 14.72 on the
+/// benchmark's 32 since session 38; 10.56 and 12.49 before; in instructions it was 6.5×,
+/// BENCHMARKS.md "Issue 20: line relaxation in the multigrid (session 37)": a line update
+/// costs ~2.3 point updates).
+const LINES_RATIO_CLAIMED: f64 = 11.0;
 
 /// The option measured in session 37 (not the default): ζ-lines, V(2,0), to the same bound.
 #[test]

@@ -712,9 +712,10 @@ fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
         .ok()
         .and_then(|v| v.trim().parse::<usize>().ok())
         .map_or(budget, |b| b.clamp(1_000, budget));
-    // Coarsest solve: up to 4000 sweeps of ~20 loop iterations (multigrid.rs
-    // COARSEST_SWEEPS).
-    let coarsest = 4_000 * 20;
+    // Coarsest solve: up to 4000 sweeps of ~35 loop iterations (multigrid.rs
+    // COARSEST_SWEEPS; the sweep, its reduction, the history and, inside a V-cycle, the
+    // correction's reduction: `coarsest_step`).
+    let coarsest = 4_000 * 35;
     let cycle: usize = dims.iter().map(|d| 16 * loops(full(d))).sum::<usize>() + coarsest;
     let levels = dims.len();
     let work = levels * (MAX_CYCLES as usize * cycle + 16 * loops(largest));

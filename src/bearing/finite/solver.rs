@@ -20,11 +20,11 @@
 
 use std::f64::consts::PI;
 
-pub use super::multigrid::MgCycle;
 use super::multigrid::{
     cubic_edge, cubic_mid, load_change, prolong_solution, prolong_solution_cubic, tail_estimate,
     Coarsen, Hierarchy, Stop,
 };
+pub use super::multigrid::{CoarsestSolve, MgCycle};
 use super::{Cavitation, FiniteSettings, Inlet};
 use crate::bearing::{
     finish_loads, pack_state, BearingParams, BearingState, FilmIntegrals, FilmLayout, Loads,
@@ -311,6 +311,12 @@ pub struct FiniteSolver {
     /// probes set others (issue 20, session 37). The accuracy ladder always uses the
     /// default.
     pub cycle: MgCycle,
+    /// How the multigrid solves its coarsest grid inside a V-cycle (explicit grids and the
+    /// accuracy ladder; default: the solver's; probes set others, issue 20 session 38).
+    pub coarsest: CoarsestSolve,
+    /// Smoothing sweeps on the levels below the grid being solved (`None`, the default:
+    /// the cycle's; probes, issue 20 session 38; see the multigrid's `below_top`).
+    pub below_top: Option<(u32, u32)>,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -397,6 +403,22 @@ impl FiniteSolver {
                     self.inv_d[j * nt + i] = 0.0;
                 }
             }
+        }
+    }
+
+    /// Keeps (`true`) or drops the breakdown of the multigrid's node updates by grid and
+    /// role ([`FiniteSolver::work_tally`]; for probes, issue 20 session 38). Off by default.
+    pub fn keep_work_tally(&mut self, on: bool) {
+        self.mg.tally = on.then(Vec::new);
+    }
+
+    /// The node updates since [`FiniteSolver::keep_work_tally`] (or the last
+    /// [`FiniteSolver::take_work_tally`]) by grid solved, grid relaxed and role (empty when
+    /// not kept); the tally restarts.
+    pub fn take_work_tally(&mut self) -> Vec<super::WorkShare> {
+        match self.mg.tally.as_mut() {
+            Some(t) => std::mem::take(t),
+            None => Vec::new(),
         }
     }
 
@@ -510,7 +532,15 @@ impl FiniteSolver {
         top_cycles: u32,
         cubic: bool,
     ) -> (u32, f64, bool) {
-        let mut res = self.mg.iterate(0, aspect, stop, MAX_CYCLES);
+        // Explicit grids: the first grid only feeds the next one's interpolated start,
+        // whose error is the first grid's discretisation error (~10 % on 16 × 4): solved
+        // to `FMG_FIRST_TOLERANCE` if that is looser than the grid's tolerance (the
+        // accuracy ladder's first grid is one of its estimate's grids: its own stop).
+        let first = match stop {
+            Stop::Field(t) if cubic && top > 0 => Stop::Field(t.max(FMG_FIRST_TOLERANCE)),
+            s => s,
+        };
+        let mut res = self.mg.iterate(0, aspect, first, MAX_CYCLES);
         for l in 1..=top {
             let (lo, hi) = self.mg.levels.split_at_mut(l);
             let c = hi[0].coarsen.expect("a finer level has a coarsening");
@@ -543,6 +573,8 @@ impl FiniteSolver {
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
+        self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -591,6 +623,8 @@ impl FiniteSolver {
         self.mg.line_freeze = true;
         self.mg.simpson_z = false;
         self.mg.cycle = self.cycle;
+        self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -618,6 +652,8 @@ impl FiniteSolver {
         // estimate (measured: estimate/true 0.2-8 with snapping, 0.8-1.6 without).
         self.mg.theta0 = super::ladder_theta0(job, g.max_film_inlet);
         self.mg.updates = 0;
+        self.mg.coarsest = self.coarsest;
+        self.mg.below_top = self.below_top;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
@@ -1058,6 +1094,13 @@ pub(crate) const ALGEBRAIC_FRACTION: f64 = 0.1;
 
 /// Optional callback of [`FiniteSolver::fmg_cycles`]: `(node updates so far, field)`.
 type FieldObserver<'a> = Option<&'a mut dyn FnMut(u64, &[f64])>;
+
+/// Stop of the first (coarsest) grid of full multigrid on explicit grids: estimated change
+/// of the field below this fraction of its largest value (or the grid's tolerance, if
+/// looser). Its solution is only the next grid's start, which carries the first grid's
+/// discretisation error (~0.1 relative on 16 × 4) anyway (issue 20, session 38: to 1e-8
+/// it took 14 of the 128 × 32 oracle solve's ~5.7 sweeps' worth of 16 × 4 sweeps).
+const FMG_FIRST_TOLERANCE: f64 = 1e-3;
 
 /// V-cycle limit of one grid (a cycle contracts the error ~10×; far beyond need).
 const MAX_CYCLES: u32 = 200;
