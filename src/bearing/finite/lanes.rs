@@ -1,0 +1,744 @@
+//! The multigrid's per-node passes in SIMD lanes (issue 20, session 38): the red-black
+//! smoother, the residual and the truncated correction of [`super::multigrid`], several
+//! nodes per instruction, the same bits as the scalar passes there.
+//!
+//! How, as [`crate::bearing::rule::slices_lanes`]: one generic body per pass, compiled in
+//! `#[target_feature]` copies (AVX-512F: 8 lanes, AVX2: 4) chosen at run time; the build's
+//! baseline runs the scalar passes of [`super::multigrid`] unchanged. The body works on a
+//! vector type ([`simd::Vf`], the intrinsics of `std::arch`), not on `[f64; W]` arrays
+//! left to the compiler: written that way (session 38, first try) the compiler saw that
+//! the other colour's lanes store their own value, dropped them and evaluated this
+//! colour's nodes one by one (scalar code, 13 % slower in wall). Every node's operations
+//! are the scalar pass's, in the same order (no fused multiply-add; `+ − ×` are the same
+//! IEEE operations in a lane; `max(x, 0)` is `maxpd(x, 0)` as the scalar `maxsd(x, 0)`:
+//! `x` where `x > 0`, else `+0`, NaN included):
+//! - red-black is stride 2 within a row: a chunk evaluates `W` consecutive nodes and keeps
+//!   the result in this colour's lanes only (the other colour's lanes store back their own
+//!   value). A colour's update reads only the other colour, so the wasted lanes change
+//!   nothing and the chunk's order does not matter. The row's periodic ends (nodes 0 and
+//!   `nt − 1`, whose neighbours wrap, and which are neighbours of each other when `nt` is
+//!   odd) stay scalar, in the scalar pass's order: node 0 first, `nt − 1` last;
+//! - held and frozen nodes (`inv == 0`) take the scalar branch's value by a select;
+//! - the correction's zone test reads the west neighbour as already corrected (a chain
+//!   along the row): a chunk is evaluated with the uncorrected west values and kept only
+//!   when no lane changed the sign of its value (the only thing the next node's test
+//!   reads); otherwise the chunk is done again node by node.
+//!
+//! The coarsest grid's sweep, which tracks the largest change (`Level::sweep`), stays
+//! scalar.
+
+use std::sync::OnceLock;
+
+use crate::bearing::LaneIsa;
+
+/// The instruction set the passes run on: the widest this CPU has, or a narrower one named
+/// by the environment variable `BEARING_SWEEP_LANES` (`baseline`, `avx2`, `avx512`; a
+/// benchmark knob, read once: the same bits on every one).
+pub(super) fn isa() -> LaneIsa {
+    static ISA: OnceLock<LaneIsa> = OnceLock::new();
+    *ISA.get_or_init(|| {
+        let best = LaneIsa::detect();
+        let rank = |i: LaneIsa| match i {
+            LaneIsa::Baseline => 0,
+            LaneIsa::Avx2 => 1,
+            LaneIsa::Avx512 => 2,
+        };
+        let asked = match std::env::var("BEARING_SWEEP_LANES").as_deref() {
+            Ok("baseline") => LaneIsa::Baseline,
+            Ok("avx2") => LaneIsa::Avx2,
+            _ => LaneIsa::Avx512,
+        };
+        if rank(asked) < rank(best) {
+            asked
+        } else {
+            best
+        }
+    })
+}
+
+/// One grid's operator and right-hand side as row-major slices (`nt` nodes per row,
+/// `nz + 1` rows, the end rows not unknowns), as the passes read them.
+pub(super) struct Grid<'a> {
+    /// Nodes per row (θ).
+    pub nt: usize,
+    /// Intervals in ζ (rows `0..=nz`).
+    pub nz: usize,
+    /// East-face coefficient of each node.
+    pub ae: &'a [f64],
+    /// North-face coefficient of each node.
+    pub an: &'a [f64],
+    /// Diagonal of the operator.
+    pub d: &'a [f64],
+    /// Right-hand side.
+    pub f: &'a [f64],
+    /// Inverse diagonal in force (0: held or frozen).
+    pub inv: &'a [f64],
+    /// Held values.
+    pub hold: &'a [f64],
+    /// Whether the grid is the one being solved (held nodes set to `hold`) or a
+    /// correction grid (frozen nodes kept).
+    pub top: bool,
+}
+
+/// The rows around row `j` of a grid: the row's coefficients and the field south and north
+/// of it, each `nt` long.
+struct Rows<'a> {
+    south: &'a [f64],
+    north: &'a [f64],
+    ae: &'a [f64],
+    an: &'a [f64],
+    an_south: &'a [f64],
+    d: &'a [f64],
+    f: &'a [f64],
+    inv: &'a [f64],
+    hold: &'a [f64],
+}
+
+impl<'a> Rows<'a> {
+    #[inline(always)]
+    fn of(g: &Grid<'a>, south: &'a [f64], north: &'a [f64], j: usize) -> Self {
+        let (nt, row) = (g.nt, j * g.nt);
+        assert!(south.len() == nt && north.len() == nt);
+        Rows {
+            south,
+            north,
+            ae: &g.ae[row..row + nt],
+            an: &g.an[row..row + nt],
+            an_south: &g.an[row - nt..row],
+            d: &g.d[row..row + nt],
+            f: &g.f[row..row + nt],
+            inv: &g.inv[row..row + nt],
+            hold: &g.hold[row..row + nt],
+        }
+    }
+}
+
+/// The scalar smoother's node update (`RowRef::update` at ω = 1, not tracked).
+#[inline(always)]
+fn relax_node(r: &Rows, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
+    let ik = r.inv[i];
+    let old = cur[i];
+    if ik == 0.0 {
+        if top {
+            cur[i] = r.hold[i];
+        }
+        return;
+    }
+    let s =
+        r.ae[i] * cur[ip] + r.ae[im] * cur[im] + r.an[i] * r.north[i] + r.an_south[i] * r.south[i];
+    cur[i] = (old + ((s + r.f[i]) * ik - old)).max(0.0);
+}
+
+/// The scalar residual at node `i` (`ResidualRow::at`).
+#[inline(always)]
+fn residual_node(r: &Rows, cur: &[f64], i: usize, ip: usize, im: usize) -> f64 {
+    if r.inv[i] == 0.0 {
+        return 0.0;
+    }
+    let pk = cur[i];
+    let v = r.f[i] - r.d[i] * pk
+        + r.ae[i] * cur[ip]
+        + r.ae[im] * cur[im]
+        + r.an[i] * r.north[i]
+        + r.an_south[i] * r.south[i];
+    if pk <= 0.0 && v < 0.0 {
+        0.0
+    } else {
+        v
+    }
+}
+
+/// One fine row of the truncated correction: its neighbours' rows and the interpolated
+/// correction `v` at every node of the row, each `nt` long.
+struct CorrRow<'a> {
+    south: &'a [f64],
+    north: &'a [f64],
+    inv: &'a [f64],
+    hold: &'a [f64],
+    v: &'a [f64],
+    /// Rows next to the end faces: the face's p = 0 does not count against the zone.
+    first: bool,
+    last: bool,
+}
+
+/// The scalar correction of node `i` (`prolong_correction_on`'s loop body).
+#[inline(always)]
+fn correct_node(r: &CorrRow, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
+    if r.inv[i] == 0.0 {
+        if top {
+            cur[i] = r.hold[i];
+        }
+        return;
+    }
+    let pk = cur[i];
+    let inside = pk > 0.0
+        && cur[ip] > 0.0
+        && cur[im] > 0.0
+        && (r.last || r.north[i] > 0.0)
+        && (r.first || r.south[i] > 0.0);
+    if inside {
+        cur[i] = (pk + r.v[i]).max(0.0);
+    }
+}
+
+/// The interpolated correction of fine row `j` (the coarse corrections `e0` at the coarse
+/// row `j / SZ`, `e1` the row above, `jo = j mod SZ`), at every node of the row: the scalar
+/// pass's `match` on the offsets, the same sums in the same order.
+#[inline(always)]
+fn interpolate_row<const ST: usize>(e0: &[f64], e1: &[f64], jo: usize, v: &mut [f64]) {
+    let cnt = e0.len();
+    if ST == 2 {
+        for ic in 0..cnt {
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (e0[ic], e0[ic1]);
+            let (x, y) = if jo == 0 {
+                (a, 0.5 * (a + b))
+            } else {
+                let (c, d) = (e1[ic], e1[ic1]);
+                (0.5 * (a + c), 0.25 * (a + b + c + d))
+            };
+            v[2 * ic] = x;
+            v[2 * ic + 1] = y;
+        }
+    } else if jo == 0 {
+        v[..cnt].copy_from_slice(e0);
+    } else {
+        for ((v, a), c) in v.iter_mut().zip(e0).zip(e1) {
+            *v = 0.5 * (a + c);
+        }
+    }
+}
+
+/// The vector types of the lanes and the few operations the passes use.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use std::arch::x86_64::*;
+
+    /// `W` f64 lanes. Every function is `unsafe`: the CPU must have the instruction set
+    /// (the callers are `#[target_feature]` functions), and the loads and stores read and
+    /// write `W` values from the pointer.
+    pub(super) trait Vf: Copy {
+        /// Lanes.
+        const W: usize;
+        /// A lane mask.
+        type M: Copy;
+        unsafe fn load(p: *const f64) -> Self;
+        unsafe fn store(self, p: *mut f64);
+        unsafe fn zero() -> Self;
+        unsafe fn splat(x: f64) -> Self;
+        /// `[prev[W − 1], cur[0], …, cur[W − 2]]`: the west neighbours of `cur`'s nodes
+        /// when `prev` holds the `W` nodes before them.
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self;
+        unsafe fn add(self, o: Self) -> Self;
+        unsafe fn sub(self, o: Self) -> Self;
+        unsafe fn mul(self, o: Self) -> Self;
+        /// `max(self, 0)` as `maxpd(self, 0)`: `self` where `self > 0`, else `+0`.
+        unsafe fn max0(self) -> Self;
+        /// `self == 0`, `self > 0`, `self <= 0`, `self < 0` (ordered: false for NaN).
+        unsafe fn eq0(self) -> Self::M;
+        unsafe fn gt0(self) -> Self::M;
+        unsafe fn le0(self) -> Self::M;
+        unsafe fn lt0(self) -> Self::M;
+        unsafe fn and(a: Self::M, b: Self::M) -> Self::M;
+        unsafe fn xor(a: Self::M, b: Self::M) -> Self::M;
+        /// `m ? a : b` lane by lane.
+        unsafe fn select(m: Self::M, a: Self, b: Self) -> Self;
+        /// `a` in the even lanes, `b` in the odd ones.
+        unsafe fn even(a: Self, b: Self) -> Self;
+        /// Whether any lane is set.
+        unsafe fn any(m: Self::M) -> bool;
+    }
+
+    /// AVX2: four lanes, masks as all-ones lanes.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx2(__m256d);
+
+    impl Vf for Avx2 {
+        const W: usize = 4;
+        type M = __m256d;
+        #[inline(always)]
+        unsafe fn load(p: *const f64) -> Self {
+            Avx2(_mm256_loadu_pd(p))
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f64) {
+            _mm256_storeu_pd(p, self.0)
+        }
+        #[inline(always)]
+        unsafe fn zero() -> Self {
+            Avx2(_mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self {
+            Avx2(_mm256_set1_pd(x))
+        }
+        #[inline(always)]
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self {
+            // [prev2, prev3, cur0, cur1], then [prev3, cur0, cur1, cur2].
+            let t = _mm256_permute2f128_pd::<0x21>(prev.0, cur.0);
+            Avx2(_mm256_shuffle_pd::<0b0101>(t, cur.0))
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            Avx2(_mm256_add_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            Avx2(_mm256_sub_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            Avx2(_mm256_mul_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn max0(self) -> Self {
+            Avx2(_mm256_max_pd(self.0, _mm256_setzero_pd()))
+        }
+        #[inline(always)]
+        unsafe fn eq0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn gt0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_GT_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn le0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn lt0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn and(a: __m256d, b: __m256d) -> __m256d {
+            _mm256_and_pd(a, b)
+        }
+        #[inline(always)]
+        unsafe fn xor(a: __m256d, b: __m256d) -> __m256d {
+            _mm256_xor_pd(a, b)
+        }
+        #[inline(always)]
+        unsafe fn select(m: __m256d, a: Self, b: Self) -> Self {
+            Avx2(_mm256_blendv_pd(b.0, a.0, m))
+        }
+        #[inline(always)]
+        unsafe fn even(a: Self, b: Self) -> Self {
+            // Immediate bit k set: lane k from the second operand.
+            Avx2(_mm256_blend_pd::<0b1010>(a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn any(m: __m256d) -> bool {
+            _mm256_movemask_pd(m) != 0
+        }
+    }
+
+    /// AVX-512F: eight lanes, masks as bits.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx512(__m512d);
+
+    impl Vf for Avx512 {
+        const W: usize = 8;
+        type M = __mmask8;
+        #[inline(always)]
+        unsafe fn load(p: *const f64) -> Self {
+            Avx512(_mm512_loadu_pd(p))
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f64) {
+            _mm512_storeu_pd(p, self.0)
+        }
+        #[inline(always)]
+        unsafe fn zero() -> Self {
+            Avx512(_mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self {
+            Avx512(_mm512_set1_pd(x))
+        }
+        #[inline(always)]
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self {
+            // `valignq`: the 16 lanes `prev : cur` shifted down by 7.
+            Avx512(_mm512_castsi512_pd(_mm512_alignr_epi64::<7>(
+                _mm512_castpd_si512(cur.0),
+                _mm512_castpd_si512(prev.0),
+            )))
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            Avx512(_mm512_add_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            Avx512(_mm512_sub_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            Avx512(_mm512_mul_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn max0(self) -> Self {
+            Avx512(_mm512_max_pd(self.0, _mm512_setzero_pd()))
+        }
+        #[inline(always)]
+        unsafe fn eq0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn gt0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn le0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn lt0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn and(a: __mmask8, b: __mmask8) -> __mmask8 {
+            a & b
+        }
+        #[inline(always)]
+        unsafe fn xor(a: __mmask8, b: __mmask8) -> __mmask8 {
+            a ^ b
+        }
+        #[inline(always)]
+        unsafe fn select(m: __mmask8, a: Self, b: Self) -> Self {
+            // `_mm512_mask_blend_pd(k, x, y)`: `y` where `k` is set.
+            Avx512(_mm512_mask_blend_pd(m, b.0, a.0))
+        }
+        #[inline(always)]
+        unsafe fn even(a: Self, b: Self) -> Self {
+            Avx512(_mm512_mask_blend_pd(0b1010_1010, a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn any(m: __mmask8) -> bool {
+            m != 0
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+use simd::Vf;
+
+/// The smoother on `W` consecutive nodes `i..i + W` of a row: this colour's lanes (the
+/// even ones where `even`, else the odd ones) updated, the others stored unchanged; returns
+/// the nodes' values before. `prev`: the `W` nodes before, as loaded (only its last lane is
+/// read, node `i − 1`'s value). The west neighbours from registers: loaded from memory
+/// they straddle the last chunk's store, which a load cannot be forwarded from and waits
+/// for (measured 2.9× slower than scalar with AVX2); taken from that chunk's result they
+/// chain every chunk to the last one's latency (1.5× slower). A node's west neighbour is
+/// of the other colour, unchanged by the sweep, so the values as loaded are the ones.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `1 ≤ i`, `i + W < nt` (no wrap; every row of `r`
+/// and `cur` is `nt` long).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_chunk<V: Vf>(
+    r: &Rows,
+    cur: &mut [f64],
+    i: usize,
+    top: bool,
+    even: bool,
+    prev: V,
+) -> V {
+    let c = cur.as_mut_ptr().add(i);
+    let (old, e) = (V::load(c), V::load(c.add(1)));
+    let w = V::shift_in(prev, old);
+    let (ae, aw) = (
+        V::load(r.ae.as_ptr().add(i)),
+        V::load(r.ae.as_ptr().add(i - 1)),
+    );
+    let (an, no) = (
+        V::load(r.an.as_ptr().add(i)),
+        V::load(r.north.as_ptr().add(i)),
+    );
+    let (ans, so) = (
+        V::load(r.an_south.as_ptr().add(i)),
+        V::load(r.south.as_ptr().add(i)),
+    );
+    let (f, ik) = (V::load(r.f.as_ptr().add(i)), V::load(r.inv.as_ptr().add(i)));
+    let s = ae.mul(e).add(aw.mul(w)).add(an.mul(no)).add(ans.mul(so));
+    let new = old.add(s.add(f).mul(ik).sub(old)).max0();
+    let keep = if top {
+        V::load(r.hold.as_ptr().add(i))
+    } else {
+        old
+    };
+    let v = V::select(ik.eq0(), keep, new);
+    let out = if even {
+        V::even(v, old)
+    } else {
+        V::even(old, v)
+    };
+    out.store(c);
+    old
+}
+
+/// One red-black projected Gauss–Seidel sweep at ω = 1 (`Level::smooth`) in `V`'s lanes.
+/// The chunks of every row start at node 1, whatever the colour (this colour's lanes odd
+/// or even): a row's loads of the row south, just relaxed, then match that row's stores
+/// exactly (a store forwards to a load of the same place and size; starting at this
+/// colour's first node instead, each load straddled two stores and waited for them:
+/// measured 1.5× slower than scalar with AVX2). Any order of rows gives the same bits: a
+/// colour's update reads only the other colour.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
+    let (nt, nz, top) = (g.nt, g.nz, g.top);
+    let p = &mut p[..nt * (nz + 1)];
+    for colour in 0..2 {
+        for j in 1..nz {
+            let row = j * nt;
+            let (below, rest) = p.split_at_mut(row);
+            let (cur, above) = rest.split_at_mut(nt);
+            let r = Rows::of(g, &below[row - nt..row], &above[..nt], j);
+            // This colour's nodes: i ≡ par (mod 2).
+            let par = (colour + j) % 2;
+            if par == 0 {
+                relax_node(&r, cur, 0, 1, nt - 1, top);
+            }
+            let mut i = 1;
+            if i + V::W < nt {
+                let mut prev = V::splat(cur[0]);
+                while i + V::W < nt {
+                    prev = relax_chunk::<V>(&r, cur, i, top, par == 1, prev);
+                    i += V::W;
+                }
+            }
+            // The rest of the row node by node, the row's last node last.
+            let mut i = if i % 2 == par { i } else { i + 1 };
+            while i + 1 < nt {
+                relax_node(&r, cur, i, i + 1, i - 1, top);
+                i += 2;
+            }
+            if i + 1 == nt {
+                relax_node(&r, cur, i, 0, i - 1, top);
+            }
+        }
+    }
+}
+
+/// The residual on `W` consecutive nodes `i..i + W`, node `i` of the first colour: its
+/// value in the even lanes, 0 in the odd ones.
+///
+/// # Safety
+/// As [`relax_chunk`]; `out` is `nt` long.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize) {
+    let c = cur.as_ptr().add(i);
+    let (pk, e, w) = (V::load(c), V::load(c.add(1)), V::load(c.sub(1)));
+    let (ae, aw) = (
+        V::load(r.ae.as_ptr().add(i)),
+        V::load(r.ae.as_ptr().add(i - 1)),
+    );
+    let (an, no) = (
+        V::load(r.an.as_ptr().add(i)),
+        V::load(r.north.as_ptr().add(i)),
+    );
+    let (ans, so) = (
+        V::load(r.an_south.as_ptr().add(i)),
+        V::load(r.south.as_ptr().add(i)),
+    );
+    let (d, f) = (V::load(r.d.as_ptr().add(i)), V::load(r.f.as_ptr().add(i)));
+    let ik = V::load(r.inv.as_ptr().add(i));
+    let v = f
+        .sub(d.mul(pk))
+        .add(ae.mul(e))
+        .add(aw.mul(w))
+        .add(an.mul(no))
+        .add(ans.mul(so));
+    let zero = V::zero();
+    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
+    let v = V::select(ik.eq0(), zero, v);
+    V::even(v, zero).store(out.as_mut_ptr().add(i));
+}
+
+/// `Level::residual` (the point smoother's: first colour only) in `V`'s lanes.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
+    let (nt, nz) = (g.nt, g.nz);
+    for j in 1..nz {
+        let row = j * nt;
+        let cur = &p[row..row + nt];
+        let r = Rows::of(g, &p[row - nt..row], &p[row + nt..row + 2 * nt], j);
+        let out = &mut res[row..row + nt];
+        let mut i = j % 2;
+        if i == 1 {
+            out[0] = 0.0;
+        } else {
+            out[0] = residual_node(&r, cur, 0, 1, nt - 1);
+            out[1] = 0.0;
+            i = 2;
+        }
+        while i + V::W < nt {
+            residual_chunk::<V>(&r, cur, out, i);
+            i += V::W;
+        }
+        while i + 1 < nt {
+            out[i] = residual_node(&r, cur, i, i + 1, i - 1);
+            out[i + 1] = 0.0;
+            i += 2;
+        }
+        if i + 1 == nt {
+            out[i] = residual_node(&r, cur, i, 0, i - 1);
+        }
+    }
+}
+
+/// The correction on `W` consecutive nodes `i..i + W`; returns the nodes' values before it
+/// (`prev`: those before them, as [`relax_chunk`]), or after it where it was done node by
+/// node. The zone test of node `k` reads node `k − 1` corrected; the lanes read it
+/// uncorrected (no chain from chunk to chunk), which is the same test unless node `k − 1`'s
+/// value changed sign (`> 0` or not): then the chunk is corrected node by node instead,
+/// and the next chunk reads this one's last node corrected.
+///
+/// # Safety
+/// As [`relax_chunk`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool, prev: V) -> V {
+    let c = cur.as_mut_ptr().add(i);
+    let (pk, e) = (V::load(c), V::load(c.add(1)));
+    let w = V::shift_in(prev, pk);
+    let ik = V::load(r.inv.as_ptr().add(i));
+    let mut inside = V::and(pk.gt0(), V::and(e.gt0(), w.gt0()));
+    if !r.last {
+        inside = V::and(inside, V::load(r.north.as_ptr().add(i)).gt0());
+    }
+    if !r.first {
+        inside = V::and(inside, V::load(r.south.as_ptr().add(i)).gt0());
+    }
+    let corrected = pk.add(V::load(r.v.as_ptr().add(i))).max0();
+    let keep = if top {
+        V::load(r.hold.as_ptr().add(i))
+    } else {
+        pk
+    };
+    let val = V::select(ik.eq0(), keep, V::select(inside, corrected, pk));
+    if V::any(V::xor(val.gt0(), pk.gt0())) {
+        for k in i..i + V::W {
+            correct_node(r, cur, k, k + 1, k - 1, top);
+        }
+        // Only the last lane is read (scalar stores, a scalar load: forwarded).
+        V::splat(cur[i + V::W - 1])
+    } else {
+        val.store(c);
+        pk
+    }
+}
+
+/// `prolong_correction_on` in `V`'s lanes: `e` the coarse correction `u_H − u₀` (`cnt`
+/// per coarse row), `scratch` a row of the fine grid.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
+    g: &Grid,
+    p: &mut [f64],
+    e: &[f64],
+    cnt: usize,
+    scratch: &mut Vec<f64>,
+) {
+    let (nt, nz, top) = (g.nt, g.nz, g.top);
+    scratch.resize(nt, 0.0);
+    let vrow = &mut scratch[..nt];
+    for j in 1..nz {
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let crow = jc * cnt;
+        let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
+        interpolate_row::<ST>(e0, e1, jo, vrow);
+        let row = j * nt;
+        let (below, rest) = p.split_at_mut(row);
+        let (cur, above) = rest.split_at_mut(nt);
+        let r = CorrRow {
+            south: &below[row - nt..row],
+            north: &above[..nt],
+            inv: &g.inv[row..row + nt],
+            hold: &g.hold[row..row + nt],
+            v: vrow,
+            first: j == 1,
+            last: j + 1 == nz,
+        };
+        correct_node(&r, cur, 0, 1, nt - 1, top);
+        let mut i = 1;
+        let mut prev = V::splat(cur[0]);
+        while i + V::W < nt {
+            prev = correct_chunk::<V>(&r, cur, i, top, prev);
+            i += V::W;
+        }
+        while i + 1 < nt {
+            correct_node(&r, cur, i, i + 1, i - 1, top);
+            i += 1;
+        }
+        if nt > 1 {
+            correct_node(&r, cur, nt - 1, 0, nt - 2, top);
+        }
+    }
+}
+
+/// A pass `$name(isa, args…) -> bool` running `$generic` in AVX-512F or AVX2 lanes where
+/// `isa` names one the CPU has (true), else nothing (false: the caller runs the scalar
+/// pass).
+macro_rules! dispatch {
+    ($(#[$m:meta])* $name:ident, $generic:ident, [$($cg:ident),*], ($($a:ident: $t:ty),*)) => {
+        $(#[$m])*
+        pub(super) fn $name<$(const $cg: usize),*>(isa: LaneIsa, $($a: $t),*) -> bool {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                unsafe fn wide<$(const $cg: usize),*>($($a: $t),*) {
+                    $generic::<simd::Avx512, $($cg),*>($($a),*)
+                }
+                #[target_feature(enable = "avx2")]
+                unsafe fn narrow<$(const $cg: usize),*>($($a: $t),*) {
+                    $generic::<simd::Avx2, $($cg),*>($($a),*)
+                }
+                match isa {
+                    LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                        // SAFETY: the CPU has AVX-512F (checked just above).
+                        unsafe { wide::<$($cg),*>($($a),*) };
+                        return true;
+                    }
+                    LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                        // SAFETY: the CPU has AVX2 (checked just above).
+                        unsafe { narrow::<$($cg),*>($($a),*) };
+                        return true;
+                    }
+                    _ => {}
+                }
+            }
+            let _ = ($($a),*);
+            false
+        }
+    };
+}
+
+dispatch!(
+    /// [`smooth_generic`] on `isa`; false (nothing done) on the baseline: the caller runs
+    /// the scalar sweep.
+    smooth, smooth_generic, [], (g: &Grid, p: &mut [f64])
+);
+dispatch!(
+    /// [`residual_generic`] on `isa`; false (nothing done) on the baseline.
+    residual, residual_generic, [], (g: &Grid, p: &[f64], res: &mut [f64])
+);
+dispatch!(
+    /// [`correct_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    correct, correct_generic, [ST, SZ],
+    (g: &Grid, p: &mut [f64], e: &[f64], cnt: usize, scratch: &mut Vec<f64>)
+);
