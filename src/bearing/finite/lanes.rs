@@ -245,6 +245,10 @@ mod simd {
         unsafe fn select(m: Self::M, a: Self, b: Self) -> Self;
         /// `a` in the even lanes, `b` in the odd ones.
         unsafe fn even(a: Self, b: Self) -> Self;
+        /// The even lanes of `a` then those of `b` (`x[0], x[2], …` of `x = a : b`).
+        unsafe fn evens(a: Self, b: Self) -> Self;
+        /// The odd lanes of `a` then those of `b`.
+        unsafe fn odds(a: Self, b: Self) -> Self;
         /// Whether any lane is set.
         unsafe fn any(m: Self::M) -> bool;
     }
@@ -326,6 +330,17 @@ mod simd {
         unsafe fn even(a: Self, b: Self) -> Self {
             // Immediate bit k set: lane k from the second operand.
             Avx2(_mm256_blend_pd::<0b1010>(a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn evens(a: Self, b: Self) -> Self {
+            // [a0, b0, a2, b2], then lanes 0, 2, 1, 3.
+            let t = _mm256_unpacklo_pd(a.0, b.0);
+            Avx2(_mm256_permute4x64_pd::<0b11_01_10_00>(t))
+        }
+        #[inline(always)]
+        unsafe fn odds(a: Self, b: Self) -> Self {
+            let t = _mm256_unpackhi_pd(a.0, b.0);
+            Avx2(_mm256_permute4x64_pd::<0b11_01_10_00>(t))
         }
         #[inline(always)]
         unsafe fn any(m: __m256d) -> bool {
@@ -412,6 +427,17 @@ mod simd {
         #[inline(always)]
         unsafe fn even(a: Self, b: Self) -> Self {
             Avx512(_mm512_mask_blend_pd(0b1010_1010, a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn evens(a: Self, b: Self) -> Self {
+            // Index k < 8: lane k of `a`, else lane k − 8 of `b`.
+            let idx = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn odds(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
         }
         #[inline(always)]
         unsafe fn any(m: __mmask8) -> bool {
@@ -690,6 +716,182 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
     }
 }
 
+/// The coarse grid of a restriction: its operator (a [`Grid`] of `cnt × cnz`) and the
+/// arrays it writes.
+pub(super) struct Coarse<'a> {
+    /// The coarse operator (its `f` and `hold` unused).
+    pub g: Grid<'a>,
+    /// Injected fine iterate `u₀`.
+    pub base: &'a mut [f64],
+    /// Coarse iterate (set to `u₀`).
+    pub p: &'a mut [f64],
+    /// FAS right-hand side written.
+    pub f: &'a mut [f64],
+}
+
+/// The scalar FAS right-hand side at coarse node `ic` of a row (`restrict_fas_on`'s loop
+/// body): `rs, rc, rn` the fine residual rows south, at and north of it, `u*` the coarse
+/// `u₀` rows, `r` the coarse operator's row.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn restrict_node<const ST: usize, const SZ: usize>(
+    rs: &[f64],
+    rc: &[f64],
+    rn: &[f64],
+    r: &Rows,
+    uc: &[f64],
+    ic: usize,
+    ip: usize,
+    iw: usize,
+) -> f64 {
+    if r.inv[ic] == 0.0 {
+        return 0.0;
+    }
+    let fnt = rc.len();
+    let i0 = ic * ST;
+    let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+    let along = |x: &[f64]| {
+        if ST == 2 {
+            0.25 * x[im] + 0.5 * x[i0] + 0.25 * x[i0 + 1]
+        } else {
+            x[i0]
+        }
+    };
+    let rr = if SZ == 2 {
+        0.25 * along(rs) + 0.5 * along(rc) + 0.25 * along(rn)
+    } else {
+        along(rc)
+    };
+    let s = r.ae[ic] * uc[ip]
+        + r.ae[iw] * uc[iw]
+        + r.an[ic] * r.north[ic]
+        + r.an_south[ic] * r.south[ic];
+    rr + (r.d[ic] * uc[ic] - s)
+}
+
+/// The fine residual's weighted θ-stencil at the fine columns `2 (i + l)` (`ST = 2`) or
+/// `i + l` of row `x`, lanes `l`.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; the columns read (`ST · i − 1 … ST · (i + W)`) are in
+/// the row.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn along_lanes<V: Vf, const ST: usize>(x: &[f64], i: usize) -> V {
+    let q = x.as_ptr();
+    if ST == 2 {
+        let (a, b) = (V::load(q.add(2 * i)), V::load(q.add(2 * i + V::W)));
+        let (am, bm) = (V::load(q.add(2 * i - 1)), V::load(q.add(2 * i - 1 + V::W)));
+        let (c, e, w) = (V::evens(a, b), V::odds(a, b), V::evens(am, bm));
+        let h = V::splat(0.25);
+        h.mul(w).add(V::splat(0.5).mul(c)).add(h.mul(e))
+    } else {
+        V::load(q.add(i))
+    }
+}
+
+/// `restrict_fas_on` in `V`'s lanes: the injection `u₀` of the fine iterate `p` and the
+/// FAS right-hand side from the fine residual `res` (`fnt` per fine row).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
+    p: &[f64],
+    res: &[f64],
+    fnt: usize,
+    c: &mut Coarse,
+) {
+    let (cnt, cnz) = (c.g.nt, c.g.nz);
+    for jc in 0..=cnz {
+        let (frow, crow) = (jc * SZ * fnt, jc * cnt);
+        let src = &p[frow..frow + fnt];
+        let (base, cp) = (&mut c.base[crow..crow + cnt], &mut c.p[crow..crow + cnt]);
+        if ST == 2 {
+            let mut ic = 0;
+            while ic + V::W <= cnt {
+                let q = src.as_ptr().add(2 * ic);
+                let v = V::evens(V::load(q), V::load(q.add(V::W)));
+                v.store(base.as_mut_ptr().add(ic));
+                v.store(cp.as_mut_ptr().add(ic));
+                ic += V::W;
+            }
+            for ic in ic..cnt {
+                let v = src[2 * ic];
+                base[ic] = v;
+                cp[ic] = v;
+            }
+        } else {
+            base.copy_from_slice(&src[..cnt]);
+            cp.copy_from_slice(&src[..cnt]);
+        }
+    }
+    let u: &[f64] = c.base;
+    let out = &mut *c.f;
+    out[..cnt].fill(0.0);
+    out[cnz * cnt..(cnz + 1) * cnt].fill(0.0);
+    for jc in 1..cnz {
+        let jf = jc * SZ;
+        let crow = jc * cnt;
+        let rc = &res[jf * fnt..(jf + 1) * fnt];
+        let (rs, rn) = if SZ == 2 {
+            (
+                &res[(jf - 1) * fnt..jf * fnt],
+                &res[(jf + 1) * fnt..(jf + 2) * fnt],
+            )
+        } else {
+            (rc, rc)
+        };
+        let uc = &u[crow..crow + cnt];
+        let r = Rows::of(
+            &c.g,
+            &u[crow - cnt..crow],
+            &u[crow + cnt..crow + 2 * cnt],
+            jc,
+        );
+        let outr = &mut out[crow..crow + cnt];
+        outr[0] = restrict_node::<ST, SZ>(rs, rc, rn, &r, uc, 0, 1 % cnt, cnt - 1);
+        let mut ic = 1;
+        while ic + V::W < cnt {
+            let rr = if SZ == 2 {
+                let q = V::splat(0.25);
+                q.mul(along_lanes::<V, ST>(rs, ic))
+                    .add(V::splat(0.5).mul(along_lanes::<V, ST>(rc, ic)))
+                    .add(q.mul(along_lanes::<V, ST>(rn, ic)))
+            } else {
+                along_lanes::<V, ST>(rc, ic)
+            };
+            let k = uc.as_ptr().add(ic);
+            let (u0, ue, uw) = (V::load(k), V::load(k.add(1)), V::load(k.sub(1)));
+            let (ae, aw) = (
+                V::load(r.ae.as_ptr().add(ic)),
+                V::load(r.ae.as_ptr().add(ic - 1)),
+            );
+            let (an, un) = (
+                V::load(r.an.as_ptr().add(ic)),
+                V::load(r.north.as_ptr().add(ic)),
+            );
+            let (ans, us) = (
+                V::load(r.an_south.as_ptr().add(ic)),
+                V::load(r.south.as_ptr().add(ic)),
+            );
+            let (d, ik) = (
+                V::load(r.d.as_ptr().add(ic)),
+                V::load(r.inv.as_ptr().add(ic)),
+            );
+            let s = ae.mul(ue).add(aw.mul(uw)).add(an.mul(un)).add(ans.mul(us));
+            let v = rr.add(d.mul(u0).sub(s));
+            V::select(ik.eq0(), V::zero(), v).store(outr.as_mut_ptr().add(ic));
+            ic += V::W;
+        }
+        for ic in ic.max(1)..cnt {
+            let ip = if ic + 1 == cnt { 0 } else { ic + 1 };
+            outr[ic] = restrict_node::<ST, SZ>(rs, rc, rn, &r, uc, ic, ip, ic - 1);
+        }
+    }
+}
+
 /// A pass `$name(isa, args…) -> bool` running `$generic` in AVX-512F or AVX2 lanes where
 /// `isa` names one the CPU has (true), else nothing (false: the caller runs the scalar
 /// pass).
@@ -741,4 +943,10 @@ dispatch!(
     /// baseline.
     correct, correct_generic, [ST, SZ],
     (g: &Grid, p: &mut [f64], e: &[f64], cnt: usize, scratch: &mut Vec<f64>)
+);
+dispatch!(
+    /// [`restrict_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    restrict, restrict_generic, [ST, SZ],
+    (p: &[f64], res: &[f64], fnt: usize, c: &mut Coarse)
 );

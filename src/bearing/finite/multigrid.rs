@@ -1037,6 +1037,43 @@ fn strides(c: Coarsen) -> (usize, usize) {
 /// callgrind, issue 20 pass 5); the same arithmetic in the same order.
 #[inline(never)]
 fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
+    restrict_fas_with(lanes::isa(), fine, coarse, c);
+}
+
+/// [`restrict_fas`] on the instruction set `isa`: in SIMD lanes ([`lanes::restrict`])
+/// where the CPU has AVX2 or AVX-512F, else the scalar pass; the same bits.
+fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen) {
+    let n = coarse.len();
+    coarse.f_is_own = false;
+    let mut cg = lanes::Coarse {
+        g: lanes::Grid {
+            nt: coarse.nt,
+            nz: coarse.nz,
+            ae: &coarse.ae[..n],
+            an: &coarse.an[..n],
+            d: &coarse.d[..n],
+            f: &coarse.f_own[..n],
+            inv: if coarse.top {
+                &coarse.inv_d[..n]
+            } else {
+                &coarse.inv_d_free[..n]
+            },
+            hold: &coarse.hold[..n],
+            top: coarse.top,
+        },
+        base: &mut coarse.base[..n],
+        p: &mut coarse.p[..n],
+        f: &mut coarse.f[..n],
+    };
+    let (p, r, fnt) = (&fine.p[..fine.len()], &fine.r[..fine.len()], fine.nt);
+    let done = match c {
+        Coarsen::Both => lanes::restrict::<2, 2>(isa, p, r, fnt, &mut cg),
+        Coarsen::Theta => lanes::restrict::<2, 1>(isa, p, r, fnt, &mut cg),
+        Coarsen::Zeta => lanes::restrict::<1, 2>(isa, p, r, fnt, &mut cg),
+    };
+    if done {
+        return;
+    }
     match c {
         Coarsen::Both => restrict_fas_on::<2, 2>(fine, coarse),
         Coarsen::Theta => restrict_fas_on::<2, 1>(fine, coarse),
@@ -1813,7 +1850,9 @@ impl Level {
 
 #[cfg(test)]
 mod tests {
-    use super::{line_lcp, prolong_correction_with, Coarsen, Level, LineScratch};
+    use super::{
+        line_lcp, prolong_correction_with, restrict_fas_with, Coarsen, Level, LineScratch,
+    };
     use crate::bearing::LaneIsa;
 
     /// A small linear congruential generator (deterministic, no dependency): uniform in
@@ -1989,6 +2028,8 @@ mod tests {
         l.inv_d = inv(&mut { held });
         l.inv_d_free = inv(&mut { held });
         l.r = vec![f64::NAN; n];
+        l.base = vec![f64::NAN; n];
+        l.f_own = l.f.clone();
         l
     }
 
@@ -2127,5 +2168,59 @@ mod tests {
             }
         }
         eprintln!("lanes' correction against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The FAS restriction in SIMD lanes against the scalar pass, bit for bit: random fine
+    /// residuals and iterates, random coarse operators with held and frozen nodes, every
+    /// coarsening and row length (θ coarsening: even ones). The injected `u₀`, the coarse
+    /// start and the right-hand side must agree in every bit.
+    #[test]
+    fn lanes_restriction_matches_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=3 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    if nt % st != 0 || nt / st < 1 {
+                        continue;
+                    }
+                    let (cnt, nz) = (nt / st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    for top in [true, false] {
+                        let seed = (t * 1000 + cnz * 10 + sz * 3 + st + top as usize) as u64;
+                        for &isa in &isas {
+                            let mut fine = random_level(seed, nt, nz, top);
+                            let mut rng = Lcg(seed ^ 0xface);
+                            for v in fine.r.iter_mut() {
+                                *v = rng.next() - 0.5;
+                            }
+                            let (mut ca, mut cb) = (
+                                random_level(seed + 7, cnt, cnz, !top),
+                                random_level(seed + 7, cnt, cnz, !top),
+                            );
+                            restrict_fas_with(LaneIsa::Baseline, &fine, &mut ca, c);
+                            restrict_fas_with(isa, &fine, &mut cb, c);
+                            for (what, a, b) in [
+                                ("u0", &ca.base, &cb.base),
+                                ("p", &ca.p, &cb.p),
+                                ("f", &ca.f, &cb.f),
+                            ] {
+                                assert_eq!(
+                                    bits(a),
+                                    bits(b),
+                                    "{isa:?} restriction {c:?} {what}, {nt} x {nz}, top {top}: {b:?} against scalar {a:?}"
+                                );
+                            }
+                            fine.r.clear();
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("lanes' restriction against scalar: {compared} levels ({isas:?})");
     }
 }
