@@ -248,6 +248,121 @@ impl Level {
         coarser: Option<&Level>,
         zero_iterate: bool,
     ) {
+        // The same body compiled for AVX-512F or AVX2 where the CPU has them (issue 20,
+        // session 38): the compiler evaluates its per-node loops (film, faces, diagonal,
+        // `1/d`) in wider registers; no fused multiply-add, so the same bits.
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            #[allow(clippy::too_many_arguments)]
+            fn wide(
+                l: &mut Level,
+                job: &FiniteJob,
+                nt: usize,
+                nz: usize,
+                max_film_inlet: bool,
+                layout: &FilmLayout,
+                theta0: f64,
+                coarser: Option<&Level>,
+                zero_iterate: bool,
+            ) {
+                l.setup_body(
+                    job,
+                    nt,
+                    nz,
+                    max_film_inlet,
+                    layout,
+                    theta0,
+                    coarser,
+                    zero_iterate,
+                )
+            }
+            #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
+            fn narrow(
+                l: &mut Level,
+                job: &FiniteJob,
+                nt: usize,
+                nz: usize,
+                max_film_inlet: bool,
+                layout: &FilmLayout,
+                theta0: f64,
+                coarser: Option<&Level>,
+                zero_iterate: bool,
+            ) {
+                l.setup_body(
+                    job,
+                    nt,
+                    nz,
+                    max_film_inlet,
+                    layout,
+                    theta0,
+                    coarser,
+                    zero_iterate,
+                )
+            }
+            match lanes::isa() {
+                LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                    // SAFETY: the CPU has AVX-512F (checked just above).
+                    return unsafe {
+                        wide(
+                            self,
+                            job,
+                            nt,
+                            nz,
+                            max_film_inlet,
+                            layout,
+                            theta0,
+                            coarser,
+                            zero_iterate,
+                        )
+                    };
+                }
+                LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    return unsafe {
+                        narrow(
+                            self,
+                            job,
+                            nt,
+                            nz,
+                            max_film_inlet,
+                            layout,
+                            theta0,
+                            coarser,
+                            zero_iterate,
+                        )
+                    };
+                }
+                _ => {}
+            }
+        }
+        self.setup_body(
+            job,
+            nt,
+            nz,
+            max_film_inlet,
+            layout,
+            theta0,
+            coarser,
+            zero_iterate,
+        )
+    }
+
+    /// [`Level::setup`]'s body, for each instruction set.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn setup_body(
+        &mut self,
+        job: &FiniteJob,
+        nt: usize,
+        nz: usize,
+        max_film_inlet: bool,
+        layout: &FilmLayout,
+        theta0: f64,
+        coarser: Option<&Level>,
+        zero_iterate: bool,
+    ) {
         self.nt = nt;
         self.nz = nz;
         let n = self.len();
