@@ -249,6 +249,11 @@ mod simd {
         unsafe fn evens(a: Self, b: Self) -> Self;
         /// The odd lanes of `a` then those of `b`.
         unsafe fn odds(a: Self, b: Self) -> Self;
+        /// The first half of `a` and `b` interleaved: `a0, b0, a1, b1, …` (the inverse of
+        /// [`Vf::evens`] and [`Vf::odds`] with [`Vf::zip_hi`]).
+        unsafe fn zip_lo(a: Self, b: Self) -> Self;
+        /// The second half of `a` and `b` interleaved.
+        unsafe fn zip_hi(a: Self, b: Self) -> Self;
         /// Whether any lane is set.
         unsafe fn any(m: Self::M) -> bool;
     }
@@ -341,6 +346,17 @@ mod simd {
         unsafe fn odds(a: Self, b: Self) -> Self {
             let t = _mm256_unpackhi_pd(a.0, b.0);
             Avx2(_mm256_permute4x64_pd::<0b11_01_10_00>(t))
+        }
+        #[inline(always)]
+        unsafe fn zip_lo(a: Self, b: Self) -> Self {
+            // [a0, b0, a2, b2] and [a1, b1, a3, b3]: their low halves.
+            let (lo, hi) = (_mm256_unpacklo_pd(a.0, b.0), _mm256_unpackhi_pd(a.0, b.0));
+            Avx2(_mm256_permute2f128_pd::<0x20>(lo, hi))
+        }
+        #[inline(always)]
+        unsafe fn zip_hi(a: Self, b: Self) -> Self {
+            let (lo, hi) = (_mm256_unpacklo_pd(a.0, b.0), _mm256_unpackhi_pd(a.0, b.0));
+            Avx2(_mm256_permute2f128_pd::<0x31>(lo, hi))
         }
         #[inline(always)]
         unsafe fn any(m: __m256d) -> bool {
@@ -437,6 +453,16 @@ mod simd {
         #[inline(always)]
         unsafe fn odds(a: Self, b: Self) -> Self {
             let idx = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn zip_lo(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn zip_hi(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(15, 7, 14, 6, 13, 5, 12, 4);
             Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
         }
         #[inline(always)]
@@ -665,8 +691,57 @@ unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool
     }
 }
 
+/// [`interpolate_row`] for `ST = 2` in `V`'s lanes: the coarse columns `ic … ic + W − 1`
+/// (not the last, whose east neighbour wraps) `W` at a time, the even and odd fine
+/// columns interleaved by permutes; the rest by [`interpolate_row`]'s arithmetic.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `v` is `2 e0.len()` long and `e1` as long as `e0`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn interpolate_row_lanes<V: Vf>(e0: &[f64], e1: &[f64], jo: usize, v: &mut [f64]) {
+    let cnt = e0.len();
+    assert!(e1.len() == cnt && v.len() == 2 * cnt);
+    let mut ic = 0;
+    let half = V::splat(0.5);
+    while ic + V::W < cnt {
+        let (a, b) = (
+            V::load(e0.as_ptr().add(ic)),
+            V::load(e0.as_ptr().add(ic + 1)),
+        );
+        let (x, y) = if jo == 0 {
+            (a, half.mul(a.add(b)))
+        } else {
+            let (c, d) = (
+                V::load(e1.as_ptr().add(ic)),
+                V::load(e1.as_ptr().add(ic + 1)),
+            );
+            (
+                half.mul(a.add(c)),
+                V::splat(0.25).mul(a.add(b).add(c).add(d)),
+            )
+        };
+        let q = v.as_mut_ptr().add(2 * ic);
+        V::zip_lo(x, y).store(q);
+        V::zip_hi(x, y).store(q.add(V::W));
+        ic += V::W;
+    }
+    for ic in ic..cnt {
+        let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+        let (a, b) = (e0[ic], e0[ic1]);
+        let (x, y) = if jo == 0 {
+            (a, 0.5 * (a + b))
+        } else {
+            let (c, d) = (e1[ic], e1[ic1]);
+            (0.5 * (a + c), 0.25 * (a + b + c + d))
+        };
+        v[2 * ic] = x;
+        v[2 * ic + 1] = y;
+    }
+}
+
 /// `prolong_correction_on` in `V`'s lanes: `e` the coarse correction `u_H − u₀` (`cnt`
-/// per coarse row), `scratch` a row of the fine grid.
+/// per coarse row), `scratch` the interpolated correction (resized to the fine grid).
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
@@ -680,13 +755,22 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
     scratch: &mut Vec<f64>,
 ) {
     let (nt, nz, top) = (g.nt, g.nz, g.top);
-    scratch.resize(nt, 0.0);
-    let vrow = &mut scratch[..nt];
+    // The interpolated correction of every row first, then the rows corrected: the
+    // chunks' loads of a row just written (at other offsets) would wait for its stores.
+    scratch.resize(nt * (nz + 1), 0.0);
     for j in 1..nz {
         let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
         let crow = jc * cnt;
         let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
-        interpolate_row::<ST>(e0, e1, jo, vrow);
+        let vrow = &mut scratch[j * nt..(j + 1) * nt];
+        if ST == 2 {
+            interpolate_row_lanes::<V>(e0, e1, jo, vrow);
+        } else {
+            interpolate_row::<ST>(e0, e1, jo, vrow);
+        }
+    }
+    for j in 1..nz {
+        let vrow = &scratch[j * nt..(j + 1) * nt];
         let row = j * nt;
         let (below, rest) = p.split_at_mut(row);
         let (cur, above) = rest.split_at_mut(nt);

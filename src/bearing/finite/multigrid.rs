@@ -212,8 +212,8 @@ pub(crate) struct Level {
     act: Vec<bool>,
     /// Scratch of [`Level::smooth_lines`] per column: solved again by [`line_lcp`].
     dirty: Vec<bool>,
-    /// Scratch of the lanes' correction ([`lanes::correct`]): one row's interpolated
-    /// correction.
+    /// Scratch of the lanes' correction ([`lanes::correct`]): the interpolated
+    /// correction at every node.
     lane_row: Vec<f64>,
 }
 
