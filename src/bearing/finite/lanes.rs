@@ -27,6 +27,10 @@
 //! The coarsest grid's sweep, which tracks the largest change (`Level::sweep`), stays
 //! scalar.
 
+// Off x86-64 every pass is the scalar one (the dispatch answers false): the row helpers
+// are then unused.
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+
 use std::sync::OnceLock;
 
 use crate::bearing::LaneIsa;
@@ -881,6 +885,7 @@ unsafe fn along_lanes<V: Vf, const ST: usize>(x: &[f64], i: usize) -> V {
 /// The CPU has `V`'s instruction set.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index across several row slices
 unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
     p: &[f64],
     res: &[f64],
