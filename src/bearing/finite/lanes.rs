@@ -981,6 +981,98 @@ unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
     }
 }
 
+/// The coarse solution interpolated to a fine grid (`prolong_solution_on`: bilinear, the
+/// accuracy ladder's start) in `V`'s lanes: `out` the fine iterate, rows `1..nz` written,
+/// held nodes (`inv == 0`) at `hold`, the rest projected; `cp` the coarse iterate (`cnt`
+/// per row).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
+    out: &mut [f64],
+    inv: &[f64],
+    hold: &[f64],
+    nt: usize,
+    nz: usize,
+    cp: &[f64],
+    cnt: usize,
+) {
+    for j in 1..nz {
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let c0 = &cp[jc * cnt..(jc + 1) * cnt];
+        let c1 = if jo == 1 {
+            &cp[(jc + 1) * cnt..(jc + 2) * cnt]
+        } else {
+            c0
+        };
+        let row = j * nt;
+        let (o, ir, hr) = (
+            &mut out[row..row + nt],
+            &inv[row..row + nt],
+            &hold[row..row + nt],
+        );
+        assert!(ST * cnt <= nt);
+        let put_lanes = |o: &mut [f64], k: usize, v: V| {
+            let ik = V::load(ir.as_ptr().add(k));
+            let held = V::load(hr.as_ptr().add(k));
+            V::select(ik.eq0(), held, v.max0()).store(o.as_mut_ptr().add(k));
+        };
+        let half = V::splat(0.5);
+        let mut ic = 0;
+        while ic + V::W < cnt {
+            let a = V::load(c0.as_ptr().add(ic));
+            if ST == 2 {
+                let b = V::load(c0.as_ptr().add(ic + 1));
+                let (x, y) = if jo == 0 {
+                    (a, half.mul(a.add(b)))
+                } else {
+                    let (c, d) = (
+                        V::load(c1.as_ptr().add(ic)),
+                        V::load(c1.as_ptr().add(ic + 1)),
+                    );
+                    (
+                        half.mul(a.add(c)),
+                        V::splat(0.25).mul(a.add(b).add(c).add(d)),
+                    )
+                };
+                put_lanes(o, 2 * ic, V::zip_lo(x, y));
+                put_lanes(o, 2 * ic + V::W, V::zip_hi(x, y));
+            } else {
+                let x = if jo == 0 {
+                    a
+                } else {
+                    half.mul(a.add(V::load(c1.as_ptr().add(ic))))
+                };
+                put_lanes(o, ic, x);
+            }
+            ic += V::W;
+        }
+        // The rest as the scalar pass.
+        let put = |o: &mut [f64], i: usize, v: f64| {
+            o[i] = if ir[i] == 0.0 { hr[i] } else { v.max(0.0) };
+        };
+        for ic in ic..cnt {
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (c0[ic], c0[ic1]);
+            if jo == 0 {
+                put(o, ST * ic, a);
+                if ST == 2 {
+                    put(o, 2 * ic + 1, 0.5 * (a + b));
+                }
+            } else {
+                let (c, d) = (c1[ic], c1[ic1]);
+                put(o, ST * ic, 0.5 * (a + c));
+                if ST == 2 {
+                    put(o, 2 * ic + 1, 0.25 * (a + b + c + d));
+                }
+            }
+        }
+    }
+}
+
 /// A pass `$name(isa, args…) -> bool` running `$generic` in AVX-512F or AVX2 lanes where
 /// `isa` names one the CPU has (true), else nothing (false: the caller runs the scalar
 /// pass).
@@ -1038,4 +1130,10 @@ dispatch!(
     /// baseline.
     restrict, restrict_generic, [ST, SZ],
     (p: &[f64], res: &[f64], fnt: usize, c: &mut Coarse)
+);
+dispatch!(
+    /// [`prolong_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    prolong, prolong_generic, [ST, SZ],
+    (out: &mut [f64], inv: &[f64], hold: &[f64], nt: usize, nz: usize, cp: &[f64], cnt: usize)
 );

@@ -1483,6 +1483,24 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
 
 /// `fine.p = P coarse.p` (bilinear interpolation of a solution; the FMG start).
 pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    prolong_solution_with(lanes::isa(), fine, coarse, c);
+}
+
+/// [`prolong_solution`] on the instruction set `isa`: in SIMD lanes ([`lanes::prolong`])
+/// where the CPU has AVX2 or AVX-512F, else the scalar pass; the same bits.
+fn prolong_solution_with(isa: LaneIsa, fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let n = fine.len();
+    let (nt, nz, cnt) = (fine.nt, fine.nz, coarse.nt);
+    let (out, inv, hold) = (&mut fine.p[..n], &fine.inv_d[..n], &fine.hold[..n]);
+    let cp = &coarse.p[..coarse.len()];
+    let done = match c {
+        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+    };
+    if done {
+        return;
+    }
     match c {
         Coarsen::Both => prolong_solution_on::<2, 2>(fine, coarse),
         Coarsen::Theta => prolong_solution_on::<2, 1>(fine, coarse),
@@ -1966,7 +1984,8 @@ impl Level {
 #[cfg(test)]
 mod tests {
     use super::{
-        line_lcp, prolong_correction_with, restrict_fas_with, Coarsen, Level, LineScratch,
+        line_lcp, prolong_correction_with, prolong_solution_with, restrict_fas_with, Coarsen,
+        Level, LineScratch,
     };
     use crate::bearing::LaneIsa;
 
@@ -2337,5 +2356,47 @@ mod tests {
             }
         }
         eprintln!("lanes' restriction against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The bilinear interpolation of a solution (the accuracy ladder's start) in SIMD lanes
+    /// against the scalar pass, bit for bit: random coarse fields with zeros of both signs,
+    /// fine levels with held nodes, every coarsening and row length.
+    #[test]
+    fn lanes_solution_interpolation_matches_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=3 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    if nt % st != 0 {
+                        continue;
+                    }
+                    let (cnt, nz) = (nt / st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    let seed = (t * 1000 + cnz * 10 + sz * 3 + st) as u64;
+                    for &isa in &isas {
+                        let (mut fa, mut fb) = (
+                            random_level(seed, nt, nz, true),
+                            random_level(seed, nt, nz, true),
+                        );
+                        let coarse = random_level(seed + 11, cnt, cnz, true);
+                        prolong_solution_with(LaneIsa::Baseline, &mut fa, &coarse, c);
+                        prolong_solution_with(isa, &mut fb, &coarse, c);
+                        assert_eq!(
+                            bits(&fa.p),
+                            bits(&fb.p),
+                            "{isa:?} interpolation {c:?}, {nt} x {nz}: {:?} against scalar {:?}",
+                            fb.p,
+                            fa.p
+                        );
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        eprintln!("lanes' interpolation against scalar: {compared} levels ({isas:?})");
     }
 }
