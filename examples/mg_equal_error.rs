@@ -18,7 +18,7 @@
 //!
 //! `cargo run --release --example mg_equal_error -- [table [GRID …]]` (GRID as 128x32;
 //! default 64x16 128x32 256x64): the tables; writes the oracle's per-state work to
-//! `/tmp/mg_equal_error_NTxNZ.txt` for the run below. With `MGE_DEBUG=1`: each state's
+//! `/tmp/mg_equal_error_NTxNZ.txt` (directory `$MGE_DIR` if set) for the run below. With `MGE_DEBUG=1`: each state's
 //! multigrid error over `e_h`, at the FMG start and after its first five V-cycles (stderr).
 //!
 //! `MG_CYCLE=lines,2,1` (or `points,PRE,POST`): the multigrid's V-cycle (default
@@ -131,8 +131,11 @@ fn pct(v: &mut [f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
+/// The oracle file of a grid: in `$MGE_DIR` (default `/tmp`; set it where several runs
+/// share the machine, session 38).
 fn file(nt: u32, nz: u32) -> String {
-    format!("/tmp/mg_equal_error_{nt}x{nz}.txt")
+    let dir = std::env::var("MGE_DIR").unwrap_or_else(|_| "/tmp".into());
+    format!("{dir}/mg_equal_error_{nt}x{nz}.txt")
 }
 
 fn table(grids: &[(u32, u32)]) {

@@ -6,6 +6,7 @@
 mod error_map;
 mod flow;
 mod jfo;
+mod lanes;
 mod map;
 mod multigrid;
 mod settings;

@@ -37,8 +37,10 @@
 
 use std::f64::consts::PI;
 
+use super::lanes;
 use super::solver::{FiniteGrid, FiniteJob};
 use crate::bearing::FilmLayout;
+use crate::bearing::LaneIsa;
 
 /// Smoothing sweeps before the coarse-grid correction.
 const NU_PRE: u32 = 2;
@@ -218,6 +220,9 @@ pub(crate) struct Level {
     act: Vec<bool>,
     /// Scratch of [`Level::smooth_lines`] per column: solved again by [`line_lcp`].
     dirty: Vec<bool>,
+    /// Scratch of the lanes' correction ([`lanes::correct`]): the interpolated
+    /// correction at every node.
+    lane_row: Vec<f64>,
 }
 
 impl Level {
@@ -241,6 +246,121 @@ impl Level {
     // The grid, its film and its place in the hierarchy: one call per grid and state.
     #[allow(clippy::too_many_arguments)]
     pub fn setup(
+        &mut self,
+        job: &FiniteJob,
+        nt: usize,
+        nz: usize,
+        max_film_inlet: bool,
+        layout: &FilmLayout,
+        theta0: f64,
+        coarser: Option<&Level>,
+        zero_iterate: bool,
+    ) {
+        // The same body compiled for AVX-512F or AVX2 where the CPU has them (issue 20,
+        // session 38): the compiler evaluates its per-node loops (film, faces, diagonal,
+        // `1/d`) in wider registers; no fused multiply-add, so the same bits.
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            #[allow(clippy::too_many_arguments)]
+            fn wide(
+                l: &mut Level,
+                job: &FiniteJob,
+                nt: usize,
+                nz: usize,
+                max_film_inlet: bool,
+                layout: &FilmLayout,
+                theta0: f64,
+                coarser: Option<&Level>,
+                zero_iterate: bool,
+            ) {
+                l.setup_body(
+                    job,
+                    nt,
+                    nz,
+                    max_film_inlet,
+                    layout,
+                    theta0,
+                    coarser,
+                    zero_iterate,
+                )
+            }
+            #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
+            fn narrow(
+                l: &mut Level,
+                job: &FiniteJob,
+                nt: usize,
+                nz: usize,
+                max_film_inlet: bool,
+                layout: &FilmLayout,
+                theta0: f64,
+                coarser: Option<&Level>,
+                zero_iterate: bool,
+            ) {
+                l.setup_body(
+                    job,
+                    nt,
+                    nz,
+                    max_film_inlet,
+                    layout,
+                    theta0,
+                    coarser,
+                    zero_iterate,
+                )
+            }
+            match lanes::isa() {
+                LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                    // SAFETY: the CPU has AVX-512F (checked just above).
+                    return unsafe {
+                        wide(
+                            self,
+                            job,
+                            nt,
+                            nz,
+                            max_film_inlet,
+                            layout,
+                            theta0,
+                            coarser,
+                            zero_iterate,
+                        )
+                    };
+                }
+                LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    return unsafe {
+                        narrow(
+                            self,
+                            job,
+                            nt,
+                            nz,
+                            max_film_inlet,
+                            layout,
+                            theta0,
+                            coarser,
+                            zero_iterate,
+                        )
+                    };
+                }
+                _ => {}
+            }
+        }
+        self.setup_body(
+            job,
+            nt,
+            nz,
+            max_film_inlet,
+            layout,
+            theta0,
+            coarser,
+            zero_iterate,
+        )
+    }
+
+    /// [`Level::setup`]'s body, for each instruction set.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn setup_body(
         &mut self,
         job: &FiniteJob,
         nt: usize,
@@ -478,7 +598,31 @@ impl Level {
     /// The smoother of a V-cycle: [`Level::sweep`] at ω = 1 without the largest change
     /// and value, which no cycle reads (same iterates, bit for bit).
     fn smooth(&mut self) {
-        self.relax::<false>(1.0);
+        self.smooth_on(lanes::isa());
+    }
+
+    /// [`Level::smooth`] on the instruction set `isa`: in SIMD lanes ([`lanes::smooth`])
+    /// where the CPU has AVX2 or AVX-512F, else the scalar sweep; the same bits.
+    fn smooth_on(&mut self, isa: LaneIsa) {
+        let n = self.len();
+        let g = lanes::Grid {
+            nt: self.nt,
+            nz: self.nz,
+            ae: &self.ae[..n],
+            an: &self.an[..n],
+            d: &self.d[..n],
+            f: &self.f[..n],
+            inv: if self.top {
+                &self.inv_d[..n]
+            } else {
+                &self.inv_d_free[..n]
+            },
+            hold: &self.hold[..n],
+            top: self.top,
+        };
+        if !lanes::smooth(isa, &g, &mut self.p[..n]) {
+            self.relax::<false>(1.0);
+        }
     }
 
     /// The red-black sweep, row by row on row slices (this row, the rows south and north,
@@ -725,7 +869,32 @@ impl Level {
     /// Out of line (one call per grid and cycle) so that profiles attribute it.
     #[inline(never)]
     fn residual(&mut self) {
-        self.residual_on::<false>();
+        self.residual_lanes(lanes::isa());
+    }
+
+    /// [`Level::residual`] on the instruction set `isa`: in SIMD lanes
+    /// ([`lanes::residual`]) where the CPU has AVX2 or AVX-512F, else the scalar pass; the
+    /// same bits.
+    fn residual_lanes(&mut self, isa: LaneIsa) {
+        let n = self.len();
+        let g = lanes::Grid {
+            nt: self.nt,
+            nz: self.nz,
+            ae: &self.ae[..n],
+            an: &self.an[..n],
+            d: &self.d[..n],
+            f: &self.f[..n],
+            inv: if self.top {
+                &self.inv_d[..n]
+            } else {
+                &self.inv_d_free[..n]
+            },
+            hold: &self.hold[..n],
+            top: self.top,
+        };
+        if !lanes::residual(isa, &g, &self.p[..n], &mut self.r[..n]) {
+            self.residual_on::<false>();
+        }
     }
 
     /// [`Level::residual`] after a smoothing sweep of the smoother `LINES` (true:
@@ -1018,6 +1187,43 @@ fn strides(c: Coarsen) -> (usize, usize) {
 /// callgrind, issue 20 pass 5); the same arithmetic in the same order.
 #[inline(never)]
 fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
+    restrict_fas_with(lanes::isa(), fine, coarse, c);
+}
+
+/// [`restrict_fas`] on the instruction set `isa`: in SIMD lanes ([`lanes::restrict`])
+/// where the CPU has AVX2 or AVX-512F, else the scalar pass; the same bits.
+fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen) {
+    let n = coarse.len();
+    coarse.f_is_own = false;
+    let mut cg = lanes::Coarse {
+        g: lanes::Grid {
+            nt: coarse.nt,
+            nz: coarse.nz,
+            ae: &coarse.ae[..n],
+            an: &coarse.an[..n],
+            d: &coarse.d[..n],
+            f: &coarse.f_own[..n],
+            inv: if coarse.top {
+                &coarse.inv_d[..n]
+            } else {
+                &coarse.inv_d_free[..n]
+            },
+            hold: &coarse.hold[..n],
+            top: coarse.top,
+        },
+        base: &mut coarse.base[..n],
+        p: &mut coarse.p[..n],
+        f: &mut coarse.f[..n],
+    };
+    let (p, r, fnt) = (&fine.p[..fine.len()], &fine.r[..fine.len()], fine.nt);
+    let done = match c {
+        Coarsen::Both => lanes::restrict::<2, 2>(isa, p, r, fnt, &mut cg),
+        Coarsen::Theta => lanes::restrict::<2, 1>(isa, p, r, fnt, &mut cg),
+        Coarsen::Zeta => lanes::restrict::<1, 2>(isa, p, r, fnt, &mut cg),
+    };
+    if done {
+        return;
+    }
     match c {
         Coarsen::Both => restrict_fas_on::<2, 2>(fine, coarse),
         Coarsen::Theta => restrict_fas_on::<2, 1>(fine, coarse),
@@ -1114,6 +1320,47 @@ fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut 
 /// read again before its next descent), not up to four times per fine node.
 #[inline(never)]
 fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen) {
+    prolong_correction_with(lanes::isa(), fine, coarse, c);
+}
+
+/// [`prolong_correction`] on the instruction set `isa`: in SIMD lanes
+/// ([`lanes::correct`]) where the CPU has AVX2 or AVX-512F, else the scalar pass; the same
+/// bits.
+fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c: Coarsen) {
+    let cn = coarse.len();
+    for ((e, p), b) in coarse.r[..cn].iter_mut().zip(&coarse.p).zip(&coarse.base) {
+        *e = p - b;
+    }
+    let n = fine.len();
+    let g = lanes::Grid {
+        nt: fine.nt,
+        nz: fine.nz,
+        ae: &fine.ae[..n],
+        an: &fine.an[..n],
+        d: &fine.d[..n],
+        f: &fine.f[..n],
+        inv: if fine.top {
+            &fine.inv_d[..n]
+        } else {
+            &fine.inv_d_free[..n]
+        },
+        hold: &fine.hold[..n],
+        top: fine.top,
+    };
+    let (p, e, cnt, row) = (
+        &mut fine.p[..n],
+        &coarse.r[..cn],
+        coarse.nt,
+        &mut fine.lane_row,
+    );
+    let done = match c {
+        Coarsen::Both => lanes::correct::<2, 2>(isa, &g, p, e, cnt, row),
+        Coarsen::Theta => lanes::correct::<2, 1>(isa, &g, p, e, cnt, row),
+        Coarsen::Zeta => lanes::correct::<1, 2>(isa, &g, p, e, cnt, row),
+    };
+    if done {
+        return;
+    }
     match c {
         Coarsen::Both => prolong_correction_on::<2, 2>(fine, coarse),
         Coarsen::Theta => prolong_correction_on::<2, 1>(fine, coarse),
@@ -1130,9 +1377,7 @@ fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen) {
 fn prolong_correction_on<const ST: usize, const SZ: usize>(fine: &mut Level, coarse: &mut Level) {
     let cnt = coarse.nt;
     let cn = coarse.len();
-    for ((e, p), b) in coarse.r[..cn].iter_mut().zip(&coarse.p).zip(&coarse.base) {
-        *e = p - b;
-    }
+    // The correction `u_H − u₀` (formed by the caller, `prolong_correction_with`).
     let e = &coarse.r[..cn];
     let (nt, nz, top) = (fine.nt, fine.nz, fine.top);
     let inv = if top { &fine.inv_d } else { &fine.inv_d_free };
@@ -1273,6 +1518,24 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
 
 /// `fine.p = P coarse.p` (bilinear interpolation of a solution; the FMG start).
 pub(crate) fn prolong_solution(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    prolong_solution_with(lanes::isa(), fine, coarse, c);
+}
+
+/// [`prolong_solution`] on the instruction set `isa`: in SIMD lanes ([`lanes::prolong`])
+/// where the CPU has AVX2 or AVX-512F, else the scalar pass; the same bits.
+fn prolong_solution_with(isa: LaneIsa, fine: &mut Level, coarse: &Level, c: Coarsen) {
+    let n = fine.len();
+    let (nt, nz, cnt) = (fine.nt, fine.nz, coarse.nt);
+    let (out, inv, hold) = (&mut fine.p[..n], &fine.inv_d[..n], &fine.hold[..n]);
+    let cp = &coarse.p[..coarse.len()];
+    let done = match c {
+        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+    };
+    if done {
+        return;
+    }
     match c {
         Coarsen::Both => prolong_solution_on::<2, 2>(fine, coarse),
         Coarsen::Theta => prolong_solution_on::<2, 1>(fine, coarse),
@@ -1877,8 +2140,12 @@ impl Level {
 
 #[cfg(test)]
 mod tests {
-    use super::{line_lcp, Hierarchy, Level, LineScratch, COARSEST_CORRECTION};
+    use super::{
+        line_lcp, prolong_correction_with, prolong_solution_with, restrict_fas_with, Coarsen,
+        Hierarchy, Level, LineScratch, COARSEST_CORRECTION,
+    };
     use crate::bearing::finite::{FiniteGrid, FiniteJob};
+    use crate::bearing::LaneIsa;
     use crate::bearing::{pack_state, BearingParams, BearingState, FilmModel};
 
     /// The LCP of a correction grid (`f`, no holds, `inv_d_free`) by projected
@@ -2142,5 +2409,284 @@ mod tests {
         // Finite termination in a few passes (a pass moves rows in and out of the set).
         let most = passes.iter().copied().max().unwrap_or(0);
         assert!(most <= 12, "line_lcp took up to {most} passes");
+    }
+
+    /// A level of `nt × nz` with a random operator, right-hand side and field from `seed`:
+    /// held (solved grid) or frozen (correction grid) nodes where `inv == 0` (a tenth of
+    /// the nodes, both arrays independently), holds of 0, −0 and positive values, a field
+    /// with exact zeros of both signs and small negative values (from a projection's
+    /// roundoff elsewhere), right-hand sides of both signs (relaxed nodes projected to 0).
+    fn random_level(seed: u64, nt: usize, nz: usize, top: bool) -> Level {
+        let mut rng = Lcg(seed);
+        let n = nt * (nz + 1);
+        let mut l = Level {
+            nt,
+            nz,
+            top,
+            ..Level::default()
+        };
+        let mut vals = |f: &mut dyn FnMut(&mut Lcg) -> f64| -> Vec<f64> {
+            (0..n).map(|_| f(&mut rng)).collect()
+        };
+        l.ae = vals(&mut |r| 0.1 + r.next());
+        l.an = vals(&mut |r| 0.1 + r.next());
+        l.d = vals(&mut |r| 0.5 + 4.0 * r.next());
+        l.f = vals(&mut |r| 3.0 * r.next() - 1.2);
+        l.hold = vals(&mut |r| match (r.next() * 3.0) as u32 {
+            0 => 0.0,
+            1 => -0.0,
+            _ => r.next(),
+        });
+        l.p = vals(&mut |r| match (r.next() * 12.0) as u32 {
+            0 => 0.0,
+            1 => -0.0,
+            2 => -1e-3 * r.next(),
+            _ => r.next(),
+        });
+        let held = |r: &mut Lcg| r.next() < 0.1;
+        let mut inv = |held_too: &mut dyn FnMut(&mut Lcg) -> bool| -> Vec<f64> {
+            l.d.iter()
+                .map(|d| if held_too(&mut rng) { 0.0 } else { 1.0 / d })
+                .collect()
+        };
+        l.inv_d = inv(&mut { held });
+        l.inv_d_free = inv(&mut { held });
+        l.r = vec![f64::NAN; n];
+        l.base = vec![f64::NAN; n];
+        l.f_own = l.f.clone();
+        l
+    }
+
+    /// The bits of a field.
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// The instruction sets with SIMD lanes this CPU runs (none: the lanes are not run and
+    /// the scalar passes are the only ones).
+    fn lane_isas() -> Vec<LaneIsa> {
+        let mut v = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                v.push(LaneIsa::Avx2);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                v.push(LaneIsa::Avx512);
+            }
+        }
+        v
+    }
+
+    /// Row lengths: odd and even, shorter than one vector of 4 or 8 lanes, and several
+    /// vectors long with every remainder.
+    const ROW_LENGTHS: [usize; 22] = [
+        2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 16, 17, 18, 20, 24, 31, 32, 33, 64,
+    ];
+
+    /// The smoother and the residual in SIMD lanes against the scalar passes, bit for bit
+    /// (issue 20, session 38): random levels of every row length in [`ROW_LENGTHS`], 2 to 6
+    /// intervals in ζ, solved grids (held nodes set) and correction grids (frozen nodes
+    /// kept), three sweeps each followed by the residual (both colours, fields after
+    /// projections). Any lane off by one bit fails.
+    #[test]
+    fn lanes_smoother_and_residual_match_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for nz in 2..=6 {
+                for top in [true, false] {
+                    let seed = (t * 100 + nz * 2 + top as usize) as u64;
+                    for &isa in &isas {
+                        let mut a = random_level(seed, nt, nz, top);
+                        let mut b = random_level(seed, nt, nz, top);
+                        for sweep in 0..3 {
+                            a.relax::<false>(1.0);
+                            b.smooth_on(isa);
+                            assert_eq!(
+                                bits(&a.p),
+                                bits(&b.p),
+                                "{isa:?} smoother, {nt} x {nz}, top {top}, sweep {sweep}: {:?} against scalar {:?}",
+                                b.p,
+                                a.p
+                            );
+                            a.residual_on::<false>();
+                            b.residual_lanes(isa);
+                            assert_eq!(
+                                bits(&a.r),
+                                bits(&b.r),
+                                "{isa:?} residual, {nt} x {nz}, top {top}, sweep {sweep}: {:?} against scalar {:?}",
+                                b.r,
+                                a.r
+                            );
+                        }
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        eprintln!("lanes against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The truncated correction in SIMD lanes against the scalar pass, bit for bit: random
+    /// fine levels (as above) with a random coarse correction for each coarsening, large
+    /// negative corrections among them so that corrected nodes are projected to 0 inside a
+    /// chunk (the lanes' fallback to node-by-node), held and frozen nodes, odd and even row
+    /// lengths (θ coarsening: even ones only, as [`super::coarser`]).
+    #[test]
+    fn lanes_correction_matches_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=3 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    if nt % st != 0 {
+                        continue;
+                    }
+                    let (cnt, nz) = (nt / st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    for top in [true, false] {
+                        let seed = (t * 1000 + cnz * 10 + sz * 3 + st + top as usize) as u64;
+                        let coarse_of = |seed: u64| {
+                            let mut rng = Lcg(seed ^ 0x5eed);
+                            let cn = cnt * (cnz + 1);
+                            let mut c = Level {
+                                nt: cnt,
+                                nz: cnz,
+                                ..Level::default()
+                            };
+                            c.p = (0..cn).map(|_| rng.next()).collect();
+                            // Corrections mostly small, a fifth large and negative.
+                            c.base =
+                                c.p.iter()
+                                    .map(|p| {
+                                        let big = rng.next() < 0.2;
+                                        p - if big { -2.0 } else { 0.2 * (rng.next() - 0.5) }
+                                    })
+                                    .collect();
+                            c.r = vec![0.0; cn];
+                            c
+                        };
+                        for &isa in &isas {
+                            let (mut fa, mut fb) = (
+                                random_level(seed, nt, nz, top),
+                                random_level(seed, nt, nz, top),
+                            );
+                            let (mut ca, mut cb) = (coarse_of(seed), coarse_of(seed));
+                            prolong_correction_with(LaneIsa::Baseline, &mut fa, &mut ca, c);
+                            prolong_correction_with(isa, &mut fb, &mut cb, c);
+                            assert_eq!(
+                                bits(&fa.p),
+                                bits(&fb.p),
+                                "{isa:?} correction {c:?}, {nt} x {nz}, top {top}: {:?} against scalar {:?}",
+                                fb.p,
+                                fa.p
+                            );
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("lanes' correction against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The FAS restriction in SIMD lanes against the scalar pass, bit for bit: random fine
+    /// residuals and iterates, random coarse operators with held and frozen nodes, every
+    /// coarsening and row length (θ coarsening: even ones). The injected `u₀`, the coarse
+    /// start and the right-hand side must agree in every bit.
+    #[test]
+    fn lanes_restriction_matches_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=3 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    if nt % st != 0 || nt / st < 1 {
+                        continue;
+                    }
+                    let (cnt, nz) = (nt / st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    for top in [true, false] {
+                        let seed = (t * 1000 + cnz * 10 + sz * 3 + st + top as usize) as u64;
+                        for &isa in &isas {
+                            let mut fine = random_level(seed, nt, nz, top);
+                            let mut rng = Lcg(seed ^ 0xface);
+                            for v in fine.r.iter_mut() {
+                                *v = rng.next() - 0.5;
+                            }
+                            let (mut ca, mut cb) = (
+                                random_level(seed + 7, cnt, cnz, !top),
+                                random_level(seed + 7, cnt, cnz, !top),
+                            );
+                            restrict_fas_with(LaneIsa::Baseline, &fine, &mut ca, c);
+                            restrict_fas_with(isa, &fine, &mut cb, c);
+                            for (what, a, b) in [
+                                ("u0", &ca.base, &cb.base),
+                                ("p", &ca.p, &cb.p),
+                                ("f", &ca.f, &cb.f),
+                            ] {
+                                assert_eq!(
+                                    bits(a),
+                                    bits(b),
+                                    "{isa:?} restriction {c:?} {what}, {nt} x {nz}, top {top}: {b:?} against scalar {a:?}"
+                                );
+                            }
+                            fine.r.clear();
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("lanes' restriction against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The bilinear interpolation of a solution (the accuracy ladder's start) in SIMD lanes
+    /// against the scalar pass, bit for bit: random coarse fields with zeros of both signs,
+    /// fine levels with held nodes, every coarsening and row length.
+    #[test]
+    fn lanes_solution_interpolation_matches_scalar_bit_for_bit() {
+        let isas = lane_isas();
+        let mut compared = 0;
+        for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=3 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    if nt % st != 0 {
+                        continue;
+                    }
+                    let (cnt, nz) = (nt / st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    let seed = (t * 1000 + cnz * 10 + sz * 3 + st) as u64;
+                    for &isa in &isas {
+                        let (mut fa, mut fb) = (
+                            random_level(seed, nt, nz, true),
+                            random_level(seed, nt, nz, true),
+                        );
+                        let coarse = random_level(seed + 11, cnt, cnz, true);
+                        prolong_solution_with(LaneIsa::Baseline, &mut fa, &coarse, c);
+                        prolong_solution_with(isa, &mut fb, &coarse, c);
+                        assert_eq!(
+                            bits(&fa.p),
+                            bits(&fb.p),
+                            "{isa:?} interpolation {c:?}, {nt} x {nz}: {:?} against scalar {:?}",
+                            fb.p,
+                            fa.p
+                        );
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        eprintln!("lanes' interpolation against scalar: {compared} levels ({isas:?})");
     }
 }

@@ -1,0 +1,1139 @@
+//! The multigrid's per-node passes in SIMD lanes (issue 20, session 38): the red-black
+//! smoother, the residual and the truncated correction of [`super::multigrid`], several
+//! nodes per instruction, the same bits as the scalar passes there.
+//!
+//! How, as [`crate::bearing::rule::slices_lanes`]: one generic body per pass, compiled in
+//! `#[target_feature]` copies (AVX-512F: 8 lanes, AVX2: 4) chosen at run time; the build's
+//! baseline runs the scalar passes of [`super::multigrid`] unchanged. The body works on a
+//! vector type ([`simd::Vf`], the intrinsics of `std::arch`), not on `[f64; W]` arrays
+//! left to the compiler: written that way (session 38, first try) the compiler saw that
+//! the other colour's lanes store their own value, dropped them and evaluated this
+//! colour's nodes one by one (scalar code, 13 % slower in wall). Every node's operations
+//! are the scalar pass's, in the same order (no fused multiply-add; `+ − ×` are the same
+//! IEEE operations in a lane; `max(x, 0)` is `maxpd(x, 0)` as the scalar `maxsd(x, 0)`:
+//! `x` where `x > 0`, else `+0`, NaN included):
+//! - red-black is stride 2 within a row: a chunk evaluates `W` consecutive nodes and keeps
+//!   the result in this colour's lanes only (the other colour's lanes store back their own
+//!   value). A colour's update reads only the other colour, so the wasted lanes change
+//!   nothing and the chunk's order does not matter. The row's periodic ends (nodes 0 and
+//!   `nt − 1`, whose neighbours wrap, and which are neighbours of each other when `nt` is
+//!   odd) stay scalar, in the scalar pass's order: node 0 first, `nt − 1` last;
+//! - held and frozen nodes (`inv == 0`) take the scalar branch's value by a select;
+//! - the correction's zone test reads the west neighbour as already corrected (a chain
+//!   along the row): a chunk is evaluated with the uncorrected west values and kept only
+//!   when no lane changed the sign of its value (the only thing the next node's test
+//!   reads); otherwise the chunk is done again node by node.
+//!
+//! The coarsest grid's sweep, which tracks the largest change (`Level::sweep`), stays
+//! scalar.
+
+// Off x86-64 every pass is the scalar one (the dispatch answers false): the row helpers
+// are then unused.
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+
+use std::sync::OnceLock;
+
+use crate::bearing::LaneIsa;
+
+/// The instruction set the passes run on: the widest this CPU has, or a narrower one named
+/// by the environment variable `BEARING_SWEEP_LANES` (`baseline`, `avx2`, `avx512`; a
+/// benchmark knob, read once: the same bits on every one).
+pub(super) fn isa() -> LaneIsa {
+    static ISA: OnceLock<LaneIsa> = OnceLock::new();
+    *ISA.get_or_init(|| {
+        let best = LaneIsa::detect();
+        let rank = |i: LaneIsa| match i {
+            LaneIsa::Baseline => 0,
+            LaneIsa::Avx2 => 1,
+            LaneIsa::Avx512 => 2,
+        };
+        let asked = match std::env::var("BEARING_SWEEP_LANES").as_deref() {
+            Ok("baseline") => LaneIsa::Baseline,
+            Ok("avx2") => LaneIsa::Avx2,
+            _ => LaneIsa::Avx512,
+        };
+        if rank(asked) < rank(best) {
+            asked
+        } else {
+            best
+        }
+    })
+}
+
+/// One grid's operator and right-hand side as row-major slices (`nt` nodes per row,
+/// `nz + 1` rows, the end rows not unknowns), as the passes read them.
+pub(super) struct Grid<'a> {
+    /// Nodes per row (θ).
+    pub nt: usize,
+    /// Intervals in ζ (rows `0..=nz`).
+    pub nz: usize,
+    /// East-face coefficient of each node.
+    pub ae: &'a [f64],
+    /// North-face coefficient of each node.
+    pub an: &'a [f64],
+    /// Diagonal of the operator.
+    pub d: &'a [f64],
+    /// Right-hand side.
+    pub f: &'a [f64],
+    /// Inverse diagonal in force (0: held or frozen).
+    pub inv: &'a [f64],
+    /// Held values.
+    pub hold: &'a [f64],
+    /// Whether the grid is the one being solved (held nodes set to `hold`) or a
+    /// correction grid (frozen nodes kept).
+    pub top: bool,
+}
+
+/// The rows around row `j` of a grid: the row's coefficients and the field south and north
+/// of it, each `nt` long.
+struct Rows<'a> {
+    south: &'a [f64],
+    north: &'a [f64],
+    ae: &'a [f64],
+    an: &'a [f64],
+    an_south: &'a [f64],
+    d: &'a [f64],
+    f: &'a [f64],
+    inv: &'a [f64],
+    hold: &'a [f64],
+}
+
+impl<'a> Rows<'a> {
+    #[inline(always)]
+    fn of(g: &Grid<'a>, south: &'a [f64], north: &'a [f64], j: usize) -> Self {
+        let (nt, row) = (g.nt, j * g.nt);
+        assert!(south.len() == nt && north.len() == nt);
+        Rows {
+            south,
+            north,
+            ae: &g.ae[row..row + nt],
+            an: &g.an[row..row + nt],
+            an_south: &g.an[row - nt..row],
+            d: &g.d[row..row + nt],
+            f: &g.f[row..row + nt],
+            inv: &g.inv[row..row + nt],
+            hold: &g.hold[row..row + nt],
+        }
+    }
+}
+
+/// The scalar smoother's node update (`RowRef::update` at ω = 1, not tracked).
+#[inline(always)]
+fn relax_node(r: &Rows, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
+    let ik = r.inv[i];
+    let old = cur[i];
+    if ik == 0.0 {
+        if top {
+            cur[i] = r.hold[i];
+        }
+        return;
+    }
+    let s =
+        r.ae[i] * cur[ip] + r.ae[im] * cur[im] + r.an[i] * r.north[i] + r.an_south[i] * r.south[i];
+    cur[i] = (old + ((s + r.f[i]) * ik - old)).max(0.0);
+}
+
+/// The scalar residual at node `i` (`ResidualRow::at`).
+#[inline(always)]
+fn residual_node(r: &Rows, cur: &[f64], i: usize, ip: usize, im: usize) -> f64 {
+    if r.inv[i] == 0.0 {
+        return 0.0;
+    }
+    let pk = cur[i];
+    let v = r.f[i] - r.d[i] * pk
+        + r.ae[i] * cur[ip]
+        + r.ae[im] * cur[im]
+        + r.an[i] * r.north[i]
+        + r.an_south[i] * r.south[i];
+    if pk <= 0.0 && v < 0.0 {
+        0.0
+    } else {
+        v
+    }
+}
+
+/// One fine row of the truncated correction: its neighbours' rows and the interpolated
+/// correction `v` at every node of the row, each `nt` long.
+struct CorrRow<'a> {
+    south: &'a [f64],
+    north: &'a [f64],
+    inv: &'a [f64],
+    hold: &'a [f64],
+    v: &'a [f64],
+    /// Rows next to the end faces: the face's p = 0 does not count against the zone.
+    first: bool,
+    last: bool,
+}
+
+/// The scalar correction of node `i` (`prolong_correction_on`'s loop body).
+#[inline(always)]
+fn correct_node(r: &CorrRow, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
+    if r.inv[i] == 0.0 {
+        if top {
+            cur[i] = r.hold[i];
+        }
+        return;
+    }
+    let pk = cur[i];
+    let inside = pk > 0.0
+        && cur[ip] > 0.0
+        && cur[im] > 0.0
+        && (r.last || r.north[i] > 0.0)
+        && (r.first || r.south[i] > 0.0);
+    if inside {
+        cur[i] = (pk + r.v[i]).max(0.0);
+    }
+}
+
+/// The interpolated correction of fine row `j` (the coarse corrections `e0` at the coarse
+/// row `j / SZ`, `e1` the row above, `jo = j mod SZ`), at every node of the row: the scalar
+/// pass's `match` on the offsets, the same sums in the same order.
+#[inline(always)]
+fn interpolate_row<const ST: usize>(e0: &[f64], e1: &[f64], jo: usize, v: &mut [f64]) {
+    let cnt = e0.len();
+    if ST == 2 {
+        for ic in 0..cnt {
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (e0[ic], e0[ic1]);
+            let (x, y) = if jo == 0 {
+                (a, 0.5 * (a + b))
+            } else {
+                let (c, d) = (e1[ic], e1[ic1]);
+                (0.5 * (a + c), 0.25 * (a + b + c + d))
+            };
+            v[2 * ic] = x;
+            v[2 * ic + 1] = y;
+        }
+    } else if jo == 0 {
+        v[..cnt].copy_from_slice(e0);
+    } else {
+        for ((v, a), c) in v.iter_mut().zip(e0).zip(e1) {
+            *v = 0.5 * (a + c);
+        }
+    }
+}
+
+/// The vector types of the lanes and the few operations the passes use.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use std::arch::x86_64::*;
+
+    /// `W` f64 lanes. Every function is `unsafe`: the CPU must have the instruction set
+    /// (the callers are `#[target_feature]` functions), and the loads and stores read and
+    /// write `W` values from the pointer.
+    pub(super) trait Vf: Copy {
+        /// Lanes.
+        const W: usize;
+        /// A lane mask.
+        type M: Copy;
+        unsafe fn load(p: *const f64) -> Self;
+        unsafe fn store(self, p: *mut f64);
+        unsafe fn zero() -> Self;
+        unsafe fn splat(x: f64) -> Self;
+        /// `[prev[W − 1], cur[0], …, cur[W − 2]]`: the west neighbours of `cur`'s nodes
+        /// when `prev` holds the `W` nodes before them.
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self;
+        unsafe fn add(self, o: Self) -> Self;
+        unsafe fn sub(self, o: Self) -> Self;
+        unsafe fn mul(self, o: Self) -> Self;
+        /// `max(self, 0)` as `maxpd(self, 0)`: `self` where `self > 0`, else `+0`.
+        unsafe fn max0(self) -> Self;
+        /// `self == 0`, `self > 0`, `self <= 0`, `self < 0` (ordered: false for NaN).
+        unsafe fn eq0(self) -> Self::M;
+        unsafe fn gt0(self) -> Self::M;
+        unsafe fn le0(self) -> Self::M;
+        unsafe fn lt0(self) -> Self::M;
+        unsafe fn and(a: Self::M, b: Self::M) -> Self::M;
+        unsafe fn xor(a: Self::M, b: Self::M) -> Self::M;
+        /// `m ? a : b` lane by lane.
+        unsafe fn select(m: Self::M, a: Self, b: Self) -> Self;
+        /// `a` in the even lanes, `b` in the odd ones.
+        unsafe fn even(a: Self, b: Self) -> Self;
+        /// The even lanes of `a` then those of `b` (`x[0], x[2], …` of `x = a : b`).
+        unsafe fn evens(a: Self, b: Self) -> Self;
+        /// The odd lanes of `a` then those of `b`.
+        unsafe fn odds(a: Self, b: Self) -> Self;
+        /// The first half of `a` and `b` interleaved: `a0, b0, a1, b1, …` (the inverse of
+        /// [`Vf::evens`] and [`Vf::odds`] with [`Vf::zip_hi`]).
+        unsafe fn zip_lo(a: Self, b: Self) -> Self;
+        /// The second half of `a` and `b` interleaved.
+        unsafe fn zip_hi(a: Self, b: Self) -> Self;
+        /// Whether any lane is set.
+        unsafe fn any(m: Self::M) -> bool;
+    }
+
+    /// AVX2: four lanes, masks as all-ones lanes.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx2(__m256d);
+
+    impl Vf for Avx2 {
+        const W: usize = 4;
+        type M = __m256d;
+        #[inline(always)]
+        unsafe fn load(p: *const f64) -> Self {
+            Avx2(_mm256_loadu_pd(p))
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f64) {
+            _mm256_storeu_pd(p, self.0)
+        }
+        #[inline(always)]
+        unsafe fn zero() -> Self {
+            Avx2(_mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self {
+            Avx2(_mm256_set1_pd(x))
+        }
+        #[inline(always)]
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self {
+            // [prev2, prev3, cur0, cur1], then [prev3, cur0, cur1, cur2].
+            let t = _mm256_permute2f128_pd::<0x21>(prev.0, cur.0);
+            Avx2(_mm256_shuffle_pd::<0b0101>(t, cur.0))
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            Avx2(_mm256_add_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            Avx2(_mm256_sub_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            Avx2(_mm256_mul_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn max0(self) -> Self {
+            Avx2(_mm256_max_pd(self.0, _mm256_setzero_pd()))
+        }
+        #[inline(always)]
+        unsafe fn eq0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn gt0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_GT_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn le0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn lt0(self) -> __m256d {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, _mm256_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn and(a: __m256d, b: __m256d) -> __m256d {
+            _mm256_and_pd(a, b)
+        }
+        #[inline(always)]
+        unsafe fn xor(a: __m256d, b: __m256d) -> __m256d {
+            _mm256_xor_pd(a, b)
+        }
+        #[inline(always)]
+        unsafe fn select(m: __m256d, a: Self, b: Self) -> Self {
+            Avx2(_mm256_blendv_pd(b.0, a.0, m))
+        }
+        #[inline(always)]
+        unsafe fn even(a: Self, b: Self) -> Self {
+            // Immediate bit k set: lane k from the second operand.
+            Avx2(_mm256_blend_pd::<0b1010>(a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn evens(a: Self, b: Self) -> Self {
+            // [a0, b0, a2, b2], then lanes 0, 2, 1, 3.
+            let t = _mm256_unpacklo_pd(a.0, b.0);
+            Avx2(_mm256_permute4x64_pd::<0b11_01_10_00>(t))
+        }
+        #[inline(always)]
+        unsafe fn odds(a: Self, b: Self) -> Self {
+            let t = _mm256_unpackhi_pd(a.0, b.0);
+            Avx2(_mm256_permute4x64_pd::<0b11_01_10_00>(t))
+        }
+        #[inline(always)]
+        unsafe fn zip_lo(a: Self, b: Self) -> Self {
+            // [a0, b0, a2, b2] and [a1, b1, a3, b3]: their low halves.
+            let (lo, hi) = (_mm256_unpacklo_pd(a.0, b.0), _mm256_unpackhi_pd(a.0, b.0));
+            Avx2(_mm256_permute2f128_pd::<0x20>(lo, hi))
+        }
+        #[inline(always)]
+        unsafe fn zip_hi(a: Self, b: Self) -> Self {
+            let (lo, hi) = (_mm256_unpacklo_pd(a.0, b.0), _mm256_unpackhi_pd(a.0, b.0));
+            Avx2(_mm256_permute2f128_pd::<0x31>(lo, hi))
+        }
+        #[inline(always)]
+        unsafe fn any(m: __m256d) -> bool {
+            _mm256_movemask_pd(m) != 0
+        }
+    }
+
+    /// AVX-512F: eight lanes, masks as bits.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx512(__m512d);
+
+    impl Vf for Avx512 {
+        const W: usize = 8;
+        type M = __mmask8;
+        #[inline(always)]
+        unsafe fn load(p: *const f64) -> Self {
+            Avx512(_mm512_loadu_pd(p))
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f64) {
+            _mm512_storeu_pd(p, self.0)
+        }
+        #[inline(always)]
+        unsafe fn zero() -> Self {
+            Avx512(_mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self {
+            Avx512(_mm512_set1_pd(x))
+        }
+        #[inline(always)]
+        unsafe fn shift_in(prev: Self, cur: Self) -> Self {
+            // `valignq`: the 16 lanes `prev : cur` shifted down by 7.
+            Avx512(_mm512_castsi512_pd(_mm512_alignr_epi64::<7>(
+                _mm512_castpd_si512(cur.0),
+                _mm512_castpd_si512(prev.0),
+            )))
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            Avx512(_mm512_add_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            Avx512(_mm512_sub_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            Avx512(_mm512_mul_pd(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn max0(self) -> Self {
+            Avx512(_mm512_max_pd(self.0, _mm512_setzero_pd()))
+        }
+        #[inline(always)]
+        unsafe fn eq0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn gt0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn le0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn lt0(self) -> __mmask8 {
+            _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, _mm512_setzero_pd())
+        }
+        #[inline(always)]
+        unsafe fn and(a: __mmask8, b: __mmask8) -> __mmask8 {
+            a & b
+        }
+        #[inline(always)]
+        unsafe fn xor(a: __mmask8, b: __mmask8) -> __mmask8 {
+            a ^ b
+        }
+        #[inline(always)]
+        unsafe fn select(m: __mmask8, a: Self, b: Self) -> Self {
+            // `_mm512_mask_blend_pd(k, x, y)`: `y` where `k` is set.
+            Avx512(_mm512_mask_blend_pd(m, b.0, a.0))
+        }
+        #[inline(always)]
+        unsafe fn even(a: Self, b: Self) -> Self {
+            Avx512(_mm512_mask_blend_pd(0b1010_1010, a.0, b.0))
+        }
+        #[inline(always)]
+        unsafe fn evens(a: Self, b: Self) -> Self {
+            // Index k < 8: lane k of `a`, else lane k − 8 of `b`.
+            let idx = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn odds(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn zip_lo(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn zip_hi(a: Self, b: Self) -> Self {
+            let idx = _mm512_set_epi64(15, 7, 14, 6, 13, 5, 12, 4);
+            Avx512(_mm512_permutex2var_pd(a.0, idx, b.0))
+        }
+        #[inline(always)]
+        unsafe fn any(m: __mmask8) -> bool {
+            m != 0
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+use simd::Vf;
+
+/// The smoother on `W` consecutive nodes `i..i + W` of a row: this colour's lanes (the
+/// even ones where `even`, else the odd ones) updated, the others stored unchanged; returns
+/// the nodes' values before. `prev`: the `W` nodes before, as loaded (only its last lane is
+/// read, node `i − 1`'s value). The west neighbours from registers: loaded from memory
+/// they straddle the last chunk's store, which a load cannot be forwarded from and waits
+/// for (measured 2.9× slower than scalar with AVX2); taken from that chunk's result they
+/// chain every chunk to the last one's latency (1.5× slower). A node's west neighbour is
+/// of the other colour, unchanged by the sweep, so the values as loaded are the ones.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `1 ≤ i`, `i + W < nt` (no wrap; every row of `r`
+/// and `cur` is `nt` long).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_chunk<V: Vf>(
+    r: &Rows,
+    cur: &mut [f64],
+    i: usize,
+    top: bool,
+    even: bool,
+    prev: V,
+) -> V {
+    let c = cur.as_mut_ptr().add(i);
+    let (old, e) = (V::load(c), V::load(c.add(1)));
+    let w = V::shift_in(prev, old);
+    let (ae, aw) = (
+        V::load(r.ae.as_ptr().add(i)),
+        V::load(r.ae.as_ptr().add(i - 1)),
+    );
+    let (an, no) = (
+        V::load(r.an.as_ptr().add(i)),
+        V::load(r.north.as_ptr().add(i)),
+    );
+    let (ans, so) = (
+        V::load(r.an_south.as_ptr().add(i)),
+        V::load(r.south.as_ptr().add(i)),
+    );
+    let (f, ik) = (V::load(r.f.as_ptr().add(i)), V::load(r.inv.as_ptr().add(i)));
+    let s = ae.mul(e).add(aw.mul(w)).add(an.mul(no)).add(ans.mul(so));
+    let new = old.add(s.add(f).mul(ik).sub(old)).max0();
+    let keep = if top {
+        V::load(r.hold.as_ptr().add(i))
+    } else {
+        old
+    };
+    let v = V::select(ik.eq0(), keep, new);
+    let out = if even {
+        V::even(v, old)
+    } else {
+        V::even(old, v)
+    };
+    out.store(c);
+    old
+}
+
+/// One red-black projected Gauss–Seidel sweep at ω = 1 (`Level::smooth`) in `V`'s lanes.
+/// The chunks of every row start at node 1, whatever the colour (this colour's lanes odd
+/// or even): a row's loads of the row south, just relaxed, then match that row's stores
+/// exactly (a store forwards to a load of the same place and size; starting at this
+/// colour's first node instead, each load straddled two stores and waited for them:
+/// measured 1.5× slower than scalar with AVX2). Any order of rows gives the same bits: a
+/// colour's update reads only the other colour.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
+    let (nt, nz, top) = (g.nt, g.nz, g.top);
+    let p = &mut p[..nt * (nz + 1)];
+    for colour in 0..2 {
+        for j in 1..nz {
+            let row = j * nt;
+            let (below, rest) = p.split_at_mut(row);
+            let (cur, above) = rest.split_at_mut(nt);
+            let r = Rows::of(g, &below[row - nt..row], &above[..nt], j);
+            // This colour's nodes: i ≡ par (mod 2).
+            let par = (colour + j) % 2;
+            if par == 0 {
+                relax_node(&r, cur, 0, 1, nt - 1, top);
+            }
+            let mut i = 1;
+            if i + V::W < nt {
+                let mut prev = V::splat(cur[0]);
+                while i + V::W < nt {
+                    prev = relax_chunk::<V>(&r, cur, i, top, par == 1, prev);
+                    i += V::W;
+                }
+            }
+            // The rest of the row node by node, the row's last node last.
+            let mut i = if i % 2 == par { i } else { i + 1 };
+            while i + 1 < nt {
+                relax_node(&r, cur, i, i + 1, i - 1, top);
+                i += 2;
+            }
+            if i + 1 == nt {
+                relax_node(&r, cur, i, 0, i - 1, top);
+            }
+        }
+    }
+}
+
+/// The residual on `W` consecutive nodes `i..i + W`, node `i` of the first colour: its
+/// value in the even lanes, 0 in the odd ones.
+///
+/// # Safety
+/// As [`relax_chunk`]; `out` is `nt` long.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize) {
+    let c = cur.as_ptr().add(i);
+    let (pk, e, w) = (V::load(c), V::load(c.add(1)), V::load(c.sub(1)));
+    let (ae, aw) = (
+        V::load(r.ae.as_ptr().add(i)),
+        V::load(r.ae.as_ptr().add(i - 1)),
+    );
+    let (an, no) = (
+        V::load(r.an.as_ptr().add(i)),
+        V::load(r.north.as_ptr().add(i)),
+    );
+    let (ans, so) = (
+        V::load(r.an_south.as_ptr().add(i)),
+        V::load(r.south.as_ptr().add(i)),
+    );
+    let (d, f) = (V::load(r.d.as_ptr().add(i)), V::load(r.f.as_ptr().add(i)));
+    let ik = V::load(r.inv.as_ptr().add(i));
+    let v = f
+        .sub(d.mul(pk))
+        .add(ae.mul(e))
+        .add(aw.mul(w))
+        .add(an.mul(no))
+        .add(ans.mul(so));
+    let zero = V::zero();
+    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
+    let v = V::select(ik.eq0(), zero, v);
+    V::even(v, zero).store(out.as_mut_ptr().add(i));
+}
+
+/// `Level::residual` (the point smoother's: first colour only) in `V`'s lanes.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
+    let (nt, nz) = (g.nt, g.nz);
+    for j in 1..nz {
+        let row = j * nt;
+        let cur = &p[row..row + nt];
+        let r = Rows::of(g, &p[row - nt..row], &p[row + nt..row + 2 * nt], j);
+        let out = &mut res[row..row + nt];
+        let mut i = j % 2;
+        if i == 1 {
+            out[0] = 0.0;
+        } else {
+            out[0] = residual_node(&r, cur, 0, 1, nt - 1);
+            out[1] = 0.0;
+            i = 2;
+        }
+        while i + V::W < nt {
+            residual_chunk::<V>(&r, cur, out, i);
+            i += V::W;
+        }
+        while i + 1 < nt {
+            out[i] = residual_node(&r, cur, i, i + 1, i - 1);
+            out[i + 1] = 0.0;
+            i += 2;
+        }
+        if i + 1 == nt {
+            out[i] = residual_node(&r, cur, i, 0, i - 1);
+        }
+    }
+}
+
+/// The correction on `W` consecutive nodes `i..i + W`; returns the nodes' values before it
+/// (`prev`: those before them, as [`relax_chunk`]), or after it where it was done node by
+/// node. The zone test of node `k` reads node `k − 1` corrected; the lanes read it
+/// uncorrected (no chain from chunk to chunk), which is the same test unless node `k − 1`'s
+/// value changed sign (`> 0` or not): then the chunk is corrected node by node instead,
+/// and the next chunk reads this one's last node corrected.
+///
+/// # Safety
+/// As [`relax_chunk`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool, prev: V) -> V {
+    let c = cur.as_mut_ptr().add(i);
+    let (pk, e) = (V::load(c), V::load(c.add(1)));
+    let w = V::shift_in(prev, pk);
+    let ik = V::load(r.inv.as_ptr().add(i));
+    let mut inside = V::and(pk.gt0(), V::and(e.gt0(), w.gt0()));
+    if !r.last {
+        inside = V::and(inside, V::load(r.north.as_ptr().add(i)).gt0());
+    }
+    if !r.first {
+        inside = V::and(inside, V::load(r.south.as_ptr().add(i)).gt0());
+    }
+    let corrected = pk.add(V::load(r.v.as_ptr().add(i))).max0();
+    let keep = if top {
+        V::load(r.hold.as_ptr().add(i))
+    } else {
+        pk
+    };
+    let val = V::select(ik.eq0(), keep, V::select(inside, corrected, pk));
+    if V::any(V::xor(val.gt0(), pk.gt0())) {
+        for k in i..i + V::W {
+            correct_node(r, cur, k, k + 1, k - 1, top);
+        }
+        // Only the last lane is read (scalar stores, a scalar load: forwarded).
+        V::splat(cur[i + V::W - 1])
+    } else {
+        val.store(c);
+        pk
+    }
+}
+
+/// [`interpolate_row`] for `ST = 2` in `V`'s lanes: the coarse columns `ic … ic + W − 1`
+/// (not the last, whose east neighbour wraps) `W` at a time, the even and odd fine
+/// columns interleaved by permutes; the rest by [`interpolate_row`]'s arithmetic.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `v` is `2 e0.len()` long and `e1` as long as `e0`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn interpolate_row_lanes<V: Vf>(e0: &[f64], e1: &[f64], jo: usize, v: &mut [f64]) {
+    let cnt = e0.len();
+    assert!(e1.len() == cnt && v.len() == 2 * cnt);
+    let mut ic = 0;
+    let half = V::splat(0.5);
+    while ic + V::W < cnt {
+        let (a, b) = (
+            V::load(e0.as_ptr().add(ic)),
+            V::load(e0.as_ptr().add(ic + 1)),
+        );
+        let (x, y) = if jo == 0 {
+            (a, half.mul(a.add(b)))
+        } else {
+            let (c, d) = (
+                V::load(e1.as_ptr().add(ic)),
+                V::load(e1.as_ptr().add(ic + 1)),
+            );
+            (
+                half.mul(a.add(c)),
+                V::splat(0.25).mul(a.add(b).add(c).add(d)),
+            )
+        };
+        let q = v.as_mut_ptr().add(2 * ic);
+        V::zip_lo(x, y).store(q);
+        V::zip_hi(x, y).store(q.add(V::W));
+        ic += V::W;
+    }
+    for ic in ic..cnt {
+        let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+        let (a, b) = (e0[ic], e0[ic1]);
+        let (x, y) = if jo == 0 {
+            (a, 0.5 * (a + b))
+        } else {
+            let (c, d) = (e1[ic], e1[ic1]);
+            (0.5 * (a + c), 0.25 * (a + b + c + d))
+        };
+        v[2 * ic] = x;
+        v[2 * ic + 1] = y;
+    }
+}
+
+/// `prolong_correction_on` in `V`'s lanes: `e` the coarse correction `u_H − u₀` (`cnt`
+/// per coarse row), `scratch` the interpolated correction (resized to the fine grid).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
+    g: &Grid,
+    p: &mut [f64],
+    e: &[f64],
+    cnt: usize,
+    scratch: &mut Vec<f64>,
+) {
+    let (nt, nz, top) = (g.nt, g.nz, g.top);
+    // The interpolated correction of every row first, then the rows corrected: the
+    // chunks' loads of a row just written (at other offsets) would wait for its stores.
+    scratch.resize(nt * (nz + 1), 0.0);
+    for j in 1..nz {
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let crow = jc * cnt;
+        let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
+        let vrow = &mut scratch[j * nt..(j + 1) * nt];
+        if ST == 2 {
+            interpolate_row_lanes::<V>(e0, e1, jo, vrow);
+        } else {
+            interpolate_row::<ST>(e0, e1, jo, vrow);
+        }
+    }
+    for j in 1..nz {
+        let vrow = &scratch[j * nt..(j + 1) * nt];
+        let row = j * nt;
+        let (below, rest) = p.split_at_mut(row);
+        let (cur, above) = rest.split_at_mut(nt);
+        let r = CorrRow {
+            south: &below[row - nt..row],
+            north: &above[..nt],
+            inv: &g.inv[row..row + nt],
+            hold: &g.hold[row..row + nt],
+            v: vrow,
+            first: j == 1,
+            last: j + 1 == nz,
+        };
+        correct_node(&r, cur, 0, 1, nt - 1, top);
+        let mut i = 1;
+        let mut prev = V::splat(cur[0]);
+        while i + V::W < nt {
+            prev = correct_chunk::<V>(&r, cur, i, top, prev);
+            i += V::W;
+        }
+        while i + 1 < nt {
+            correct_node(&r, cur, i, i + 1, i - 1, top);
+            i += 1;
+        }
+        if nt > 1 {
+            correct_node(&r, cur, nt - 1, 0, nt - 2, top);
+        }
+    }
+}
+
+/// The coarse grid of a restriction: its operator (a [`Grid`] of `cnt × cnz`) and the
+/// arrays it writes.
+pub(super) struct Coarse<'a> {
+    /// The coarse operator (its `f` and `hold` unused).
+    pub g: Grid<'a>,
+    /// Injected fine iterate `u₀`.
+    pub base: &'a mut [f64],
+    /// Coarse iterate (set to `u₀`).
+    pub p: &'a mut [f64],
+    /// FAS right-hand side written.
+    pub f: &'a mut [f64],
+}
+
+/// The scalar FAS right-hand side at coarse node `ic` of a row (`restrict_fas_on`'s loop
+/// body): `rs, rc, rn` the fine residual rows south, at and north of it, `u*` the coarse
+/// `u₀` rows, `r` the coarse operator's row.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn restrict_node<const ST: usize, const SZ: usize>(
+    rs: &[f64],
+    rc: &[f64],
+    rn: &[f64],
+    r: &Rows,
+    uc: &[f64],
+    ic: usize,
+    ip: usize,
+    iw: usize,
+) -> f64 {
+    if r.inv[ic] == 0.0 {
+        return 0.0;
+    }
+    let fnt = rc.len();
+    let i0 = ic * ST;
+    let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+    let along = |x: &[f64]| {
+        if ST == 2 {
+            0.25 * x[im] + 0.5 * x[i0] + 0.25 * x[i0 + 1]
+        } else {
+            x[i0]
+        }
+    };
+    let rr = if SZ == 2 {
+        0.25 * along(rs) + 0.5 * along(rc) + 0.25 * along(rn)
+    } else {
+        along(rc)
+    };
+    let s = r.ae[ic] * uc[ip]
+        + r.ae[iw] * uc[iw]
+        + r.an[ic] * r.north[ic]
+        + r.an_south[ic] * r.south[ic];
+    rr + (r.d[ic] * uc[ic] - s)
+}
+
+/// The fine residual's weighted θ-stencil at the fine columns `2 (i + l)` (`ST = 2`) or
+/// `i + l` of row `x`, lanes `l`.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; the columns read (`ST · i − 1 … ST · (i + W)`) are in
+/// the row.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn along_lanes<V: Vf, const ST: usize>(x: &[f64], i: usize) -> V {
+    let q = x.as_ptr();
+    if ST == 2 {
+        let (a, b) = (V::load(q.add(2 * i)), V::load(q.add(2 * i + V::W)));
+        let (am, bm) = (V::load(q.add(2 * i - 1)), V::load(q.add(2 * i - 1 + V::W)));
+        let (c, e, w) = (V::evens(a, b), V::odds(a, b), V::evens(am, bm));
+        let h = V::splat(0.25);
+        h.mul(w).add(V::splat(0.5).mul(c)).add(h.mul(e))
+    } else {
+        V::load(q.add(i))
+    }
+}
+
+/// `restrict_fas_on` in `V`'s lanes: the injection `u₀` of the fine iterate `p` and the
+/// FAS right-hand side from the fine residual `res` (`fnt` per fine row).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index across several row slices
+unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
+    p: &[f64],
+    res: &[f64],
+    fnt: usize,
+    c: &mut Coarse,
+) {
+    let (cnt, cnz) = (c.g.nt, c.g.nz);
+    for jc in 0..=cnz {
+        let (frow, crow) = (jc * SZ * fnt, jc * cnt);
+        let src = &p[frow..frow + fnt];
+        let (base, cp) = (&mut c.base[crow..crow + cnt], &mut c.p[crow..crow + cnt]);
+        if ST == 2 {
+            let mut ic = 0;
+            while ic + V::W <= cnt {
+                let q = src.as_ptr().add(2 * ic);
+                let v = V::evens(V::load(q), V::load(q.add(V::W)));
+                v.store(base.as_mut_ptr().add(ic));
+                v.store(cp.as_mut_ptr().add(ic));
+                ic += V::W;
+            }
+            for ic in ic..cnt {
+                let v = src[2 * ic];
+                base[ic] = v;
+                cp[ic] = v;
+            }
+        } else {
+            base.copy_from_slice(&src[..cnt]);
+            cp.copy_from_slice(&src[..cnt]);
+        }
+    }
+    let u: &[f64] = c.base;
+    let out = &mut *c.f;
+    out[..cnt].fill(0.0);
+    out[cnz * cnt..(cnz + 1) * cnt].fill(0.0);
+    for jc in 1..cnz {
+        let jf = jc * SZ;
+        let crow = jc * cnt;
+        let rc = &res[jf * fnt..(jf + 1) * fnt];
+        let (rs, rn) = if SZ == 2 {
+            (
+                &res[(jf - 1) * fnt..jf * fnt],
+                &res[(jf + 1) * fnt..(jf + 2) * fnt],
+            )
+        } else {
+            (rc, rc)
+        };
+        let uc = &u[crow..crow + cnt];
+        let r = Rows::of(
+            &c.g,
+            &u[crow - cnt..crow],
+            &u[crow + cnt..crow + 2 * cnt],
+            jc,
+        );
+        let outr = &mut out[crow..crow + cnt];
+        outr[0] = restrict_node::<ST, SZ>(rs, rc, rn, &r, uc, 0, 1 % cnt, cnt - 1);
+        let mut ic = 1;
+        while ic + V::W < cnt {
+            let rr = if SZ == 2 {
+                let q = V::splat(0.25);
+                q.mul(along_lanes::<V, ST>(rs, ic))
+                    .add(V::splat(0.5).mul(along_lanes::<V, ST>(rc, ic)))
+                    .add(q.mul(along_lanes::<V, ST>(rn, ic)))
+            } else {
+                along_lanes::<V, ST>(rc, ic)
+            };
+            let k = uc.as_ptr().add(ic);
+            let (u0, ue, uw) = (V::load(k), V::load(k.add(1)), V::load(k.sub(1)));
+            let (ae, aw) = (
+                V::load(r.ae.as_ptr().add(ic)),
+                V::load(r.ae.as_ptr().add(ic - 1)),
+            );
+            let (an, un) = (
+                V::load(r.an.as_ptr().add(ic)),
+                V::load(r.north.as_ptr().add(ic)),
+            );
+            let (ans, us) = (
+                V::load(r.an_south.as_ptr().add(ic)),
+                V::load(r.south.as_ptr().add(ic)),
+            );
+            let (d, ik) = (
+                V::load(r.d.as_ptr().add(ic)),
+                V::load(r.inv.as_ptr().add(ic)),
+            );
+            let s = ae.mul(ue).add(aw.mul(uw)).add(an.mul(un)).add(ans.mul(us));
+            let v = rr.add(d.mul(u0).sub(s));
+            V::select(ik.eq0(), V::zero(), v).store(outr.as_mut_ptr().add(ic));
+            ic += V::W;
+        }
+        for ic in ic.max(1)..cnt {
+            let ip = if ic + 1 == cnt { 0 } else { ic + 1 };
+            outr[ic] = restrict_node::<ST, SZ>(rs, rc, rn, &r, uc, ic, ip, ic - 1);
+        }
+    }
+}
+
+/// The coarse solution interpolated to a fine grid (`prolong_solution_on`: bilinear, the
+/// accuracy ladder's start) in `V`'s lanes: `out` the fine iterate, rows `1..nz` written,
+/// held nodes (`inv == 0`) at `hold`, the rest projected; `cp` the coarse iterate (`cnt`
+/// per row).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
+    out: &mut [f64],
+    inv: &[f64],
+    hold: &[f64],
+    nt: usize,
+    nz: usize,
+    cp: &[f64],
+    cnt: usize,
+) {
+    for j in 1..nz {
+        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+        let c0 = &cp[jc * cnt..(jc + 1) * cnt];
+        let c1 = if jo == 1 {
+            &cp[(jc + 1) * cnt..(jc + 2) * cnt]
+        } else {
+            c0
+        };
+        let row = j * nt;
+        let (o, ir, hr) = (
+            &mut out[row..row + nt],
+            &inv[row..row + nt],
+            &hold[row..row + nt],
+        );
+        assert!(ST * cnt <= nt);
+        let put_lanes = |o: &mut [f64], k: usize, v: V| {
+            let ik = V::load(ir.as_ptr().add(k));
+            let held = V::load(hr.as_ptr().add(k));
+            V::select(ik.eq0(), held, v.max0()).store(o.as_mut_ptr().add(k));
+        };
+        let half = V::splat(0.5);
+        let mut ic = 0;
+        while ic + V::W < cnt {
+            let a = V::load(c0.as_ptr().add(ic));
+            if ST == 2 {
+                let b = V::load(c0.as_ptr().add(ic + 1));
+                let (x, y) = if jo == 0 {
+                    (a, half.mul(a.add(b)))
+                } else {
+                    let (c, d) = (
+                        V::load(c1.as_ptr().add(ic)),
+                        V::load(c1.as_ptr().add(ic + 1)),
+                    );
+                    (
+                        half.mul(a.add(c)),
+                        V::splat(0.25).mul(a.add(b).add(c).add(d)),
+                    )
+                };
+                put_lanes(o, 2 * ic, V::zip_lo(x, y));
+                put_lanes(o, 2 * ic + V::W, V::zip_hi(x, y));
+            } else {
+                let x = if jo == 0 {
+                    a
+                } else {
+                    half.mul(a.add(V::load(c1.as_ptr().add(ic))))
+                };
+                put_lanes(o, ic, x);
+            }
+            ic += V::W;
+        }
+        // The rest as the scalar pass.
+        let put = |o: &mut [f64], i: usize, v: f64| {
+            o[i] = if ir[i] == 0.0 { hr[i] } else { v.max(0.0) };
+        };
+        for ic in ic..cnt {
+            let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
+            let (a, b) = (c0[ic], c0[ic1]);
+            if jo == 0 {
+                put(o, ST * ic, a);
+                if ST == 2 {
+                    put(o, 2 * ic + 1, 0.5 * (a + b));
+                }
+            } else {
+                let (c, d) = (c1[ic], c1[ic1]);
+                put(o, ST * ic, 0.5 * (a + c));
+                if ST == 2 {
+                    put(o, 2 * ic + 1, 0.25 * (a + b + c + d));
+                }
+            }
+        }
+    }
+}
+
+/// A pass `$name(isa, args…) -> bool` running `$generic` in AVX-512F or AVX2 lanes where
+/// `isa` names one the CPU has (true), else nothing (false: the caller runs the scalar
+/// pass).
+macro_rules! dispatch {
+    ($(#[$m:meta])* $name:ident, $generic:ident, [$($cg:ident),*], ($($a:ident: $t:ty),*)) => {
+        $(#[$m])*
+        pub(super) fn $name<$(const $cg: usize),*>(isa: LaneIsa, $($a: $t),*) -> bool {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                unsafe fn wide<$(const $cg: usize),*>($($a: $t),*) {
+                    $generic::<simd::Avx512, $($cg),*>($($a),*)
+                }
+                #[target_feature(enable = "avx2")]
+                unsafe fn narrow<$(const $cg: usize),*>($($a: $t),*) {
+                    $generic::<simd::Avx2, $($cg),*>($($a),*)
+                }
+                match isa {
+                    LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                        // SAFETY: the CPU has AVX-512F (checked just above).
+                        unsafe { wide::<$($cg),*>($($a),*) };
+                        return true;
+                    }
+                    LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                        // SAFETY: the CPU has AVX2 (checked just above).
+                        unsafe { narrow::<$($cg),*>($($a),*) };
+                        return true;
+                    }
+                    _ => {}
+                }
+            }
+            let _ = ($($a),*);
+            false
+        }
+    };
+}
+
+dispatch!(
+    /// [`smooth_generic`] on `isa`; false (nothing done) on the baseline: the caller runs
+    /// the scalar sweep.
+    smooth, smooth_generic, [], (g: &Grid, p: &mut [f64])
+);
+dispatch!(
+    /// [`residual_generic`] on `isa`; false (nothing done) on the baseline.
+    residual, residual_generic, [], (g: &Grid, p: &[f64], res: &mut [f64])
+);
+dispatch!(
+    /// [`correct_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    correct, correct_generic, [ST, SZ],
+    (g: &Grid, p: &mut [f64], e: &[f64], cnt: usize, scratch: &mut Vec<f64>)
+);
+dispatch!(
+    /// [`restrict_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    restrict, restrict_generic, [ST, SZ],
+    (p: &[f64], res: &[f64], fnt: usize, c: &mut Coarse)
+);
+dispatch!(
+    /// [`prolong_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
+    /// baseline.
+    prolong, prolong_generic, [ST, SZ],
+    (out: &mut [f64], inv: &[f64], hold: &[f64], nt: usize, nz: usize, cp: &[f64], cnt: usize)
+);
