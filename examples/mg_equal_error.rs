@@ -345,7 +345,6 @@ fn prof(args: &[String]) {
 /// the work broken down by the grid being solved (the FMG start's intermediate grids, then
 /// the top grid), the grid relaxed and the role; per-state means, as a markdown table.
 fn work_where(args: &[String]) {
-    use bearing_sweep::bearing::finite::WorkRole;
     let nt: u32 = args.first().and_then(|s| s.parse().ok()).unwrap_or(128);
     let nz: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(32);
     let work: Vec<u32> = std::fs::read_to_string(file(nt, nz))
@@ -368,8 +367,7 @@ fn work_where(args: &[String]) {
         sweeps += u64::from(solver.fmg_cycles(&c.job, &g, cycles, None).1.sweeps);
     }
     let n = cases.len() as f64;
-    let mut t = solver.take_work_tally();
-    t.sort_by_key(|w| (w.top, w.level, w.role));
+    let t = solver.take_work_tally();
     let total: u64 = t.iter().map(|w| w.updates).sum();
     println!(
         "{nt}x{nz} at the oracle's work: {:.0} node updates per state ({:.2} sweeps of the grid; whole sweeps per state {:.2})",
@@ -377,35 +375,7 @@ fn work_where(args: &[String]) {
         total as f64 / n / (nt * (nz - 1)) as f64,
         sweeps as f64 / n
     );
-    println!("| grid solved | grid relaxed | role | node updates / state | share | calls / state | sweeps / call |");
-    println!("|---|---|---|---|---|---|---|");
-    for w in &t {
-        println!(
-            "| {}×{} | {}×{} | {:?} | {:.0} | {:.1} % | {:.2} | {:.2} |",
-            w.top.0,
-            w.top.1,
-            w.level.0,
-            w.level.1,
-            w.role,
-            w.updates as f64 / n,
-            100.0 * w.updates as f64 / total as f64,
-            w.calls as f64 / n,
-            w.sweeps as f64 / w.calls as f64
-        );
-    }
-    for role in [
-        WorkRole::Solve,
-        WorkRole::Pre,
-        WorkRole::Coarsest,
-        WorkRole::Post,
-    ] {
-        let u: u64 = t.iter().filter(|w| w.role == role).map(|w| w.updates).sum();
-        println!(
-            "  {role:?}: {:.0} per state ({:.1} %)",
-            u as f64 / n,
-            100.0 * u as f64 / total as f64
-        );
-    }
+    print!("{}", bearing_sweep::bench::finite::work_tally_table(&t, n));
     let top = (nt as usize, nz as usize);
     let start: u64 = t.iter().filter(|w| w.top != top).map(|w| w.updates).sum();
     println!(

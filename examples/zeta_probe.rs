@@ -927,47 +927,6 @@ fn below_from_env() -> Option<(u32, u32)> {
     Some((a.parse().expect("PRE"), b.parse().expect("POST")))
 }
 
-/// Prints a work breakdown (node updates by grid solved, grid relaxed and role; see
-/// `FiniteSolver::keep_work_tally`) summed over `n` states, as a markdown table with
-/// per-state means; returns the total per state.
-fn print_tally(t: &[bearing_sweep::bearing::finite::WorkShare], n: f64) -> f64 {
-    let mut t = t.to_vec();
-    t.sort_by_key(|w| (w.top, w.level, w.role));
-    let total: u64 = t.iter().map(|w| w.updates).sum();
-    println!("| grid solved | grid relaxed | role | node updates / state | share | calls / state | sweeps / call |");
-    println!("|---|---|---|---|---|---|---|");
-    for w in &t {
-        println!(
-            "| {}×{} | {}×{} | {:?} | {:.0} | {:.1} % | {:.2} | {:.2} |",
-            w.top.0,
-            w.top.1,
-            w.level.0,
-            w.level.1,
-            w.role,
-            w.updates as f64 / n,
-            100.0 * w.updates as f64 / total as f64,
-            w.calls as f64 / n,
-            w.sweeps as f64 / w.calls as f64
-        );
-    }
-    // By role over all grids.
-    use bearing_sweep::bearing::finite::WorkRole;
-    for role in [
-        WorkRole::Solve,
-        WorkRole::Pre,
-        WorkRole::Coarsest,
-        WorkRole::Post,
-    ] {
-        let u: u64 = t.iter().filter(|w| w.role == role).map(|w| w.updates).sum();
-        println!(
-            "  {role:?}: {:.0} per state ({:.1} %)",
-            u as f64 / n,
-            100.0 * u as f64 / total as f64
-        );
-    }
-    total as f64 / n
-}
-
 /// Where the node updates go (issue 20, session 38): the 32 benchmark and the 12 test
 /// states at accuracy `acc` with the default rule, each solve's work broken down by the
 /// ladder grid being solved, the grid relaxed and the role (pre-/post-smoothing, the
@@ -992,7 +951,12 @@ fn work_where(acc: f64) {
             "{name}, accuracy {acc:e}: exact node updates per state {:.0}",
             exact as f64 / n
         );
-        let total = print_tally(&solver.take_work_tally(), n);
+        let tally = solver.take_work_tally();
+        print!(
+            "{}",
+            bearing_sweep::bench::finite::work_tally_table(&tally, n)
+        );
+        let total = tally.iter().map(|w| w.updates).sum::<u64>() as f64 / n;
         assert_eq!(
             (total * n).round() as u64,
             exact,

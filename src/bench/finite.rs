@@ -5,7 +5,9 @@
 use std::time::Instant;
 
 use crate::backend::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
-use crate::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle};
+use crate::bearing::finite::{
+    FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle, WorkRole, WorkShare,
+};
 use crate::bearing::{finish_loads, pack_state, Accuracy, BearingParams, BearingState, FilmModel};
 
 /// Flops per node and sweep of the CPU kernel (coefficients precomputed per solve):
@@ -33,6 +35,50 @@ pub fn mg_cycle_from_env() -> MgCycle {
         pre: num(1, d.pre),
         post: num(2, d.post),
     }
+}
+
+/// A multigrid work tally (`FiniteSolver::keep_work_tally`) summed over `n` states as a
+/// markdown table, node updates by grid solved, grid relaxed and role with per-state means,
+/// then the shares by role over all grids: the probes `examples/zeta_probe.rs` (`where`) and
+/// `examples/mg_equal_error.rs` (`where`), issue 20, session 38.
+pub fn work_tally_table(tally: &[WorkShare], n: f64) -> String {
+    use std::fmt::Write;
+    let mut t = tally.to_vec();
+    t.sort_by_key(|w| (w.top, w.level, w.role));
+    let total: u64 = t.iter().map(|w| w.updates).sum();
+    let mut out = String::new();
+    out.push_str("| grid solved | grid relaxed | role | node updates / state | share | calls / state | sweeps / call |\n");
+    out.push_str("|---|---|---|---|---|---|---|\n");
+    for w in &t {
+        let _ = writeln!(
+            out,
+            "| {}×{} | {}×{} | {:?} | {:.0} | {:.1} % | {:.2} | {:.2} |",
+            w.top.0,
+            w.top.1,
+            w.level.0,
+            w.level.1,
+            w.role,
+            w.updates as f64 / n,
+            100.0 * w.updates as f64 / total as f64,
+            w.calls as f64 / n,
+            w.sweeps as f64 / w.calls as f64
+        );
+    }
+    for role in [
+        WorkRole::Solve,
+        WorkRole::Pre,
+        WorkRole::Coarsest,
+        WorkRole::Post,
+    ] {
+        let u: u64 = t.iter().filter(|w| w.role == role).map(|w| w.updates).sum();
+        let _ = writeln!(
+            out,
+            "  {role:?}: {:.0} per state ({:.1} %)",
+            u as f64 / n,
+            100.0 * u as f64 / total as f64
+        );
+    }
+    out
 }
 
 /// The benchmark's bearing states: the paper's bearing (B/D = 0.5), eccentricities
