@@ -2093,7 +2093,9 @@ impl Hierarchy {
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {
-            if let Stop::Field(_) = stop {
+            // The field before the cycle: copied before the first, and by the field stop's
+            // loop after each (`change_and_max`: one pass over the field less per cycle).
+            if let (Stop::Field(_), 1) = (stop, cycle) {
                 prev.clear();
                 prev.extend_from_slice(&self.levels[l].p);
             }
@@ -2105,7 +2107,7 @@ impl Hierarchy {
                 Stop::Field(_) => {
                     // Widened (issue 20 session 38: this test was a fifth of a 128 × 32
                     // solve's instructions after the passes went into lanes).
-                    let (change, max_p) = lanes::widened(ChangeAndMax(p, &prev));
+                    let (change, max_p) = lanes::widened(ChangeAndMax(p, &mut prev));
                     if max_p > 0.0 {
                         change / max_p
                     } else {
@@ -2134,8 +2136,9 @@ impl Hierarchy {
 /// [`lanes::widened`]) folded at the end. A maximum does not depend on the order it is
 /// taken in (`d ≥ +0`; a `−0` field value never beats the `+0` start; comparisons, not
 /// `f64::max`, whose NaN rule kept the loop scalar: the field is finite), so these are the
-/// same maxima, bit for bit, as one running maximum (issue 20, session 38).
-struct ChangeAndMax<'a>(&'a [f64], &'a [f64]);
+/// same maxima, bit for bit, as one running maximum (issue 20, session 38). `prev` is
+/// left equal to `p` (the next cycle's `prev`).
+struct ChangeAndMax<'a>(&'a [f64], &'a mut [f64]);
 
 impl lanes::Widen for ChangeAndMax<'_> {
     type Out = (f64, f64);
@@ -2147,22 +2150,26 @@ impl lanes::Widen for ChangeAndMax<'_> {
 
 /// [`ChangeAndMax`]'s body.
 #[inline(always)]
-fn change_and_max(p: &[f64], prev: &[f64]) -> (f64, f64) {
+fn change_and_max(p: &[f64], prev: &mut [f64]) -> (f64, f64) {
     const CHAINS: usize = 8;
     let (mut ch, mut mp) = ([0.0_f64; CHAINS], [0.0_f64; CHAINS]);
-    let (pc, qc) = (p.chunks_exact(CHAINS), prev.chunks_exact(CHAINS));
-    let (pr, qr) = (pc.remainder(), qc.remainder());
-    for (a, b) in pc.zip(qc) {
+    let n = p.len().min(prev.len());
+    let (p, prev) = (&p[..n], &mut prev[..n]);
+    let (pc, mut qc) = (p.chunks_exact(CHAINS), prev.chunks_exact_mut(CHAINS));
+    let pr = pc.remainder();
+    for (a, b) in pc.zip(&mut qc) {
         for k in 0..CHAINS {
             let d = (a[k] - b[k]).abs();
             ch[k] = if d > ch[k] { d } else { ch[k] };
             mp[k] = if a[k] > mp[k] { a[k] } else { mp[k] };
+            b[k] = a[k];
         }
     }
-    for (a, b) in pr.iter().zip(qr) {
-        let d = (a - b).abs();
+    for (a, b) in pr.iter().zip(qc.into_remainder()) {
+        let d = (*a - *b).abs();
         ch[0] = if d > ch[0] { d } else { ch[0] };
         mp[0] = if *a > mp[0] { *a } else { mp[0] };
+        *b = *a;
     }
     let fold = |v: [f64; CHAINS]| v.iter().fold(0.0_f64, |m, &x| if x > m { x } else { m });
     (fold(ch), fold(mp))
@@ -2963,16 +2970,20 @@ mod tests {
                 _ => rng.next(),
             };
             let p: Vec<f64> = (0..n).map(|_| val()).collect();
-            let q: Vec<f64> = (0..n).map(|_| val()).collect();
+            let mut q: Vec<f64> = (0..n).map(|_| val()).collect();
             let (mut ch, mut mp) = (0.0_f64, 0.0_f64);
             for (a, b) in p.iter().zip(&q) {
                 let d = (a - b).abs();
                 ch = if d > ch { d } else { ch };
                 mp = if *a > mp { *a } else { mp };
             }
-            assert_eq!(change_and_max(&p, &q).0.to_bits(), ch.to_bits());
+            let q0 = q.clone();
+            assert_eq!(change_and_max(&p, &mut q).0.to_bits(), ch.to_bits());
+            assert_eq!(bits(&q), bits(&p), "the next cycle's copy");
             for &isa in &isas {
-                let (c, m) = lanes::widened_on(isa, ChangeAndMax(&p, &q));
+                let mut q = q0.clone();
+                let (c, m) = lanes::widened_on(isa, ChangeAndMax(&p, &mut q));
+                assert_eq!(bits(&q), bits(&p), "{isa:?} {n}: the next cycle's copy");
                 assert_eq!(
                     (c.to_bits(), m.to_bits()),
                     (ch.to_bits(), mp.to_bits()),
