@@ -1567,7 +1567,7 @@ fn freeze_body(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
             continue;
         }
         let mask = &mask[..fnt];
-        for ic in 0..cnt {
+        for (ic, o) in out.iter_mut().enumerate() {
             let i0 = ic * st;
             // The fine inlet line's node on this grid; and any node whose stencil
             // touches a held fine node off that line (grooves, arcs).
@@ -1579,7 +1579,7 @@ fn freeze_body(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
                 } else {
                     mask[i0]
                 };
-            out[ic] = if held { 0.0 } else { free(ic) };
+            *o = if held { 0.0 } else { free(ic) };
         }
     }
 }
