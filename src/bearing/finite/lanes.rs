@@ -60,6 +60,53 @@ pub(super) fn isa() -> LaneIsa {
     })
 }
 
+/// A pass of plain Rust loops that [`widened`] compiles for AVX-512F or AVX2: `run` must be
+/// `#[inline(always)]` (and what it calls), so that its body is compiled inside each copy.
+pub(super) trait Widen {
+    /// What the pass returns.
+    type Out;
+    /// The pass.
+    fn run(self) -> Self::Out;
+}
+
+/// `job.run()` compiled for AVX-512F or AVX2 where [`isa`] picks one (else as built): the
+/// compiler widens plain Rust loops by itself, as it does `Level::setup`'s. The same bits on
+/// every instruction set: the compiler keeps each operation and its order (Rust does not
+/// fuse or reassociate floating-point arithmetic), only the registers are wider.
+#[inline(always)]
+pub(super) fn widened<J: Widen>(job: J) -> J::Out {
+    widened_on(isa(), job)
+}
+
+/// [`widened`] on the instruction set `isa` (the unit tests compare them).
+#[inline(always)]
+pub(super) fn widened_on<J: Widen>(isa: LaneIsa, job: J) -> J::Out {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx512f")]
+        fn wide<J: Widen>(job: J) -> J::Out {
+            job.run()
+        }
+        #[target_feature(enable = "avx2")]
+        fn narrow<J: Widen>(job: J) -> J::Out {
+            job.run()
+        }
+        match isa {
+            LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                // SAFETY: the CPU has AVX-512F (checked just above).
+                return unsafe { wide(job) };
+            }
+            LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                // SAFETY: the CPU has AVX2 (checked just above).
+                return unsafe { narrow(job) };
+            }
+            _ => {}
+        }
+    }
+    let _ = isa;
+    job.run()
+}
+
 /// One grid's operator and right-hand side as row-major slices (`nt` nodes per row,
 /// `nz + 1` rows, the end rows not unknowns), as the passes read them.
 pub(super) struct Grid<'a> {

@@ -1450,6 +1450,35 @@ fn prolong_correction_on<const ST: usize, const SZ: usize>(fine: &mut Level, coa
 ///   correction missed it and the cycle contracted by ~0.5 instead of ~0.25 (issue 20
 ///   pass 3: 128 × 32, max-film inlet, 83 → 42 sweeps on average; examples/mg_probe.rs).
 fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
+    // Widened by the compiler (issue 20, session 38: inlined into `Hierarchy::iterate`,
+    // it was most of that function's own instructions at 128 × 32).
+    lanes::widened(Freeze {
+        fine,
+        coarse,
+        how,
+        line,
+    })
+}
+
+/// [`freeze`]'s arguments, for [`lanes::widened`].
+struct Freeze<'a> {
+    fine: &'a Level,
+    coarse: &'a mut Level,
+    how: Coarsen,
+    line: bool,
+}
+
+impl lanes::Widen for Freeze<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        freeze_body(self.fine, self.coarse, self.how, self.line)
+    }
+}
+
+/// [`freeze`]'s body, for each instruction set.
+#[inline(always)]
+fn freeze_body(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     let (st, sz) = strides(how);
     let fine_inv = fine.inv();
     let fnt = fine.nt;
@@ -1488,21 +1517,61 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
         // Per fine column: a held fine node off the inlet line in the rows this coarse
         // row's stencils reach (once per fine node and row, instead of once per coarse
         // node and stencil point; issue 20, session 36: the same pattern).
+        // Built only once a row holds a node off the line (`any`): the plain film holds
+        // the inlet line alone, and its rows are only counted (a reduction the compiler
+        // widens; issue 20, session 38: the mask and the loop below were most of
+        // `Hierarchy::iterate`'s own instructions at 128 × 32).
         let mask = &mut coarse.held_cols;
-        mask.clear();
-        mask.resize(fnt, false);
+        let mut any = false;
         for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
-            let line = fine_inlet.get(j).copied();
+            let line = fine_inlet.get(j).copied().filter(|&i| i < fnt);
             let row = &fine_inv[j * fnt..(j + 1) * fnt];
-            for (i, (m, v)) in mask.iter_mut().zip(row).enumerate() {
-                *m |= *v == 0.0 && line != Some(i);
+            let zeros = row.iter().filter(|v| **v == 0.0).count();
+            if zeros == line.map_or(0, |i| usize::from(row[i] == 0.0)) {
+                continue;
+            }
+            if !any {
+                mask.clear();
+                mask.resize(fnt, false);
+                any = true;
+            }
+            // Every held node, then the inlet line's node put back as it was before this
+            // row: the same mask as `|= held && i != line`, without the index test.
+            let before = line.map(|i| mask[i]);
+            for (m, v) in mask.iter_mut().zip(row) {
+                *m |= *v == 0.0;
+            }
+            if let (Some(i), Some(b)) = (line, before) {
+                mask[i] = b;
             }
         }
-        for ic in 0..coarse.nt {
+        let cnt = coarse.nt;
+        let row = jc * cnt..(jc + 1) * cnt;
+        let (inv_c, d_c) = (&coarse.inv_d[row.clone()], &coarse.d[row.clone()]);
+        let out = &mut coarse.inv_d_free[row];
+        let line_c = coarse.inlet_corr[jc];
+        // `1/d`: the coarse grid's own `inv_d` holds it wherever it is not 0
+        // (`Level::setup` writes `1/d` or 0 there), the same bits without the division.
+        let free = |k: usize| {
+            if inv_c[k] != 0.0 {
+                inv_c[k]
+            } else {
+                1.0 / d_c[k]
+            }
+        };
+        if !any {
+            // Only the inlet line's node is held on this row.
+            for (ic, o) in out.iter_mut().enumerate() {
+                *o = if line_c == ic { 0.0 } else { free(ic) };
+            }
+            continue;
+        }
+        let mask = &mask[..fnt];
+        for (ic, o) in out.iter_mut().enumerate() {
             let i0 = ic * st;
             // The fine inlet line's node on this grid; and any node whose stencil
             // touches a held fine node off that line (grooves, arcs).
-            let held = coarse.inlet_corr[jc] == ic
+            let held = line_c == ic
                 || if st == 2 {
                     let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
                     let ip = if i0 + 1 == fnt { 0 } else { i0 + 1 };
@@ -1510,8 +1579,7 @@ fn freeze(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
                 } else {
                     mask[i0]
                 };
-            let k = jc * coarse.nt + ic;
-            coarse.inv_d_free[k] = if held { 0.0 } else { 1.0 / coarse.d[k] };
+            *o = if held { 0.0 } else { free(ic) };
         }
     }
 }
@@ -1623,6 +1691,28 @@ fn fill(out: &mut [f64], inv: &[f64], hold: &[f64], v: impl Fn(usize) -> f64) {
 /// of the size of the discretisation error). Below four coarse rows in ζ (or columns in θ)
 /// the direction falls back to linear interpolation.
 pub(crate) fn prolong_solution_cubic(fine: &mut Level, coarse: &Level, c: Coarsen) {
+    // Widened by the compiler (issue 20, session 38).
+    lanes::widened(CubicStart { fine, coarse, c })
+}
+
+/// [`prolong_solution_cubic`]'s arguments, for [`lanes::widened`].
+struct CubicStart<'a> {
+    fine: &'a mut Level,
+    coarse: &'a Level,
+    c: Coarsen,
+}
+
+impl lanes::Widen for CubicStart<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        prolong_solution_cubic_body(self.fine, self.coarse, self.c)
+    }
+}
+
+/// [`prolong_solution_cubic`]'s body, for each instruction set.
+#[inline(always)]
+fn prolong_solution_cubic_body(fine: &mut Level, coarse: &Level, c: Coarsen) {
     let (st, sz) = strides(c);
     let (cnt, cnz) = (coarse.nt, coarse.nz);
     let nt = fine.nt;
@@ -2003,7 +2093,9 @@ impl Hierarchy {
         let mut last_change = f64::INFINITY;
         let mut err = f64::INFINITY;
         for cycle in 1..=max_cycles {
-            if let Stop::Field(_) = stop {
+            // The field before the cycle: copied before the first, and by the field stop's
+            // loop after each (`change_and_max`: one pass over the field less per cycle).
+            if let (Stop::Field(_), 1) = (stop, cycle) {
                 prev.clear();
                 prev.extend_from_slice(&self.levels[l].p);
             }
@@ -2013,31 +2105,9 @@ impl Hierarchy {
             // the load integrals over their norm.
             let change = match stop {
                 Stop::Field(_) => {
-                    // Comparisons, not `f64::max` (its NaN rule kept the loop scalar; the
-                    // field is finite), in four independent maxima that the compiler keeps
-                    // in SIMD registers: a maximum does not depend on the order it is taken
-                    // in (`d ≥ +0`; a `−0` field value never beats the `+0` start), so
-                    // these are the same maxima, bit for bit, as one running maximum
-                    // (issue 20 session 38: this test was a fifth of a 128 × 32 solve's
-                    // instructions after the passes went into lanes).
-                    let (mut ch, mut mp) = ([0.0_f64; 4], [0.0_f64; 4]);
-                    let (pc, qc) = (p.chunks_exact(4), prev.chunks_exact(4));
-                    let (pr, qr) = (pc.remainder(), qc.remainder());
-                    for (a, b) in pc.zip(qc) {
-                        for k in 0..4 {
-                            let d = (a[k] - b[k]).abs();
-                            ch[k] = if d > ch[k] { d } else { ch[k] };
-                            mp[k] = if a[k] > mp[k] { a[k] } else { mp[k] };
-                        }
-                    }
-                    for (a, b) in pr.iter().zip(qr) {
-                        let d = (a - b).abs();
-                        ch[0] = if d > ch[0] { d } else { ch[0] };
-                        mp[0] = if *a > mp[0] { *a } else { mp[0] };
-                    }
-                    let fold =
-                        |v: [f64; 4]| v.iter().fold(0.0_f64, |m, &x| if x > m { x } else { m });
-                    let (change, max_p) = (fold(ch), fold(mp));
+                    // Widened (issue 20 session 38: this test was a fifth of a 128 × 32
+                    // solve's instructions after the passes went into lanes).
+                    let (change, max_p) = lanes::widened(ChangeAndMax(p, &mut prev));
                     if max_p > 0.0 {
                         change / max_p
                     } else {
@@ -2059,6 +2129,50 @@ impl Hierarchy {
         }
         (max_cycles, err, false)
     }
+}
+
+/// The largest `|p − prev|` and the largest `p` (from `+0`): the field stop's change and
+/// maximum, in eight independent maxima (two AVX2 registers or one AVX-512 register once
+/// [`lanes::widened`]) folded at the end. A maximum does not depend on the order it is
+/// taken in (`d ≥ +0`; a `−0` field value never beats the `+0` start; comparisons, not
+/// `f64::max`, whose NaN rule kept the loop scalar: the field is finite), so these are the
+/// same maxima, bit for bit, as one running maximum (issue 20, session 38). `prev` is
+/// left equal to `p` (the next cycle's `prev`).
+struct ChangeAndMax<'a>(&'a [f64], &'a mut [f64]);
+
+impl lanes::Widen for ChangeAndMax<'_> {
+    type Out = (f64, f64);
+    #[inline(always)]
+    fn run(self) -> (f64, f64) {
+        change_and_max(self.0, self.1)
+    }
+}
+
+/// [`ChangeAndMax`]'s body.
+#[inline(always)]
+fn change_and_max(p: &[f64], prev: &mut [f64]) -> (f64, f64) {
+    const CHAINS: usize = 8;
+    let (mut ch, mut mp) = ([0.0_f64; CHAINS], [0.0_f64; CHAINS]);
+    let n = p.len().min(prev.len());
+    let (p, prev) = (&p[..n], &mut prev[..n]);
+    let (pc, mut qc) = (p.chunks_exact(CHAINS), prev.chunks_exact_mut(CHAINS));
+    let pr = pc.remainder();
+    for (a, b) in pc.zip(&mut qc) {
+        for k in 0..CHAINS {
+            let d = (a[k] - b[k]).abs();
+            ch[k] = if d > ch[k] { d } else { ch[k] };
+            mp[k] = if a[k] > mp[k] { a[k] } else { mp[k] };
+            b[k] = a[k];
+        }
+    }
+    for (a, b) in pr.iter().zip(qc.into_remainder()) {
+        let d = (*a - *b).abs();
+        ch[0] = if d > ch[0] { d } else { ch[0] };
+        mp[0] = if *a > mp[0] { *a } else { mp[0] };
+        *b = *a;
+    }
+    let fold = |v: [f64; CHAINS]| v.iter().fold(0.0_f64, |m, &x| if x > m { x } else { m });
+    (fold(ch), fold(mp))
 }
 
 /// Relative change of a load vector over a cycle, `|now − prev| / |now|` (0 for a zero
@@ -2157,8 +2271,9 @@ impl Level {
 #[cfg(test)]
 mod tests {
     use super::{
-        line_lcp, prolong_correction_with, prolong_solution_with, restrict_fas_with, Coarsen,
-        Hierarchy, Level, LineScratch, COARSEST_CORRECTION,
+        change_and_max, lanes, line_lcp, prolong_correction_with, prolong_solution_with,
+        restrict_fas_with, ChangeAndMax, Coarsen, CubicStart, Freeze, Hierarchy, Level,
+        LineScratch, COARSEST_CORRECTION,
     };
     use crate::bearing::finite::{FiniteGrid, FiniteJob};
     use crate::bearing::LaneIsa;
@@ -2704,5 +2819,210 @@ mod tests {
             }
         }
         eprintln!("lanes' interpolation against scalar: {compared} levels ({isas:?})");
+    }
+
+    /// The coarse grids' frozen nodes as `freeze` found them before session 38 (written
+    /// out here: a mask of held fine columns per coarse row built node by node with the
+    /// inlet line's test, and `1/d` divided for every free coarse node): the reference of
+    /// the widened `freeze`.
+    fn freeze_reference(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
+        let (st, sz) = super::strides(how);
+        let fine_inv = fine.inv();
+        let fnt = fine.nt;
+        let fine_inlet: &[usize] = if !line {
+            &[]
+        } else if fine.top {
+            &fine.inlet_col
+        } else {
+            &fine.inlet_corr
+        };
+        for jc in 1..coarse.nz {
+            let jf = jc * sz;
+            let fi = fine_inlet.get(jf).copied().unwrap_or(usize::MAX);
+            coarse.inlet_corr[jc] = if fi == usize::MAX {
+                usize::MAX
+            } else if st == 1 || fi % 2 == 0 {
+                fi / st
+            } else {
+                let left = fi - 1;
+                let right = if fi + 1 == fnt { 0 } else { fi + 1 };
+                if fine.f_own[jf * fnt + left] <= fine.f_own[jf * fnt + right] {
+                    left / 2
+                } else {
+                    right / 2
+                }
+            };
+        }
+        for jc in 1..coarse.nz {
+            let jf = jc * sz;
+            let (jlo, jhi) = if sz == 2 { (jf - 1, jf + 1) } else { (jf, jf) };
+            let mut mask = vec![false; fnt];
+            for j in jlo.max(1)..=jhi.min(fine.nz - 1) {
+                let line = fine_inlet.get(j).copied();
+                for (i, m) in mask.iter_mut().enumerate() {
+                    *m |= fine_inv[j * fnt + i] == 0.0 && line != Some(i);
+                }
+            }
+            for ic in 0..coarse.nt {
+                let i0 = ic * st;
+                let held = coarse.inlet_corr[jc] == ic
+                    || if st == 2 {
+                        let im = if i0 == 0 { fnt - 1 } else { i0 - 1 };
+                        let ip = if i0 + 1 == fnt { 0 } else { i0 + 1 };
+                        mask[im] || mask[i0] || mask[ip]
+                    } else {
+                        mask[i0]
+                    };
+                let k = jc * coarse.nt + ic;
+                coarse.inv_d_free[k] = if held { 0.0 } else { 1.0 / coarse.d[k] };
+            }
+        }
+    }
+
+    /// The widened `freeze` (inlet-only rows counted, the mask without the line test, `1/d`
+    /// from the coarse `inv_d`) against [`freeze_reference`], bit for bit, on the build's
+    /// instruction set and on every SIMD one the CPU has: every coarsening and row length,
+    /// solved and correction fine grids, inlet lines on and off the coarse nodes or absent,
+    /// fine grids with held nodes off the line (a tenth) and with the line held alone (the
+    /// counted path), coarse grids with their own held nodes (`inv_d` 0: `1/d` divided).
+    #[test]
+    fn widened_freeze_matches_reference_bit_for_bit() {
+        let mut isas = lane_isas();
+        isas.push(LaneIsa::Baseline);
+        let mut compared = 0;
+        for (t, &cnt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 2..=4 {
+                for how in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    for (top, line_only, line) in [
+                        (true, false, true),
+                        (false, false, true),
+                        (true, true, true),
+                        (false, true, true),
+                        (true, false, false),
+                    ] {
+                        let (st, sz) = super::strides(how);
+                        let (fnt, fnz) = (cnt * st, cnz * sz);
+                        let seed = (t * 1000 + cnz * 100 + st * 10 + sz) as u64;
+                        let make = || {
+                            let mut fine = random_level(seed, fnt, fnz, top);
+                            let mut rng = Lcg(seed + 7);
+                            let cols: Vec<usize> = (0..=fnz)
+                                .map(|_| match (rng.next() * 4.0) as usize {
+                                    0 => usize::MAX,
+                                    _ => ((rng.next() * fnt as f64) as usize).min(fnt - 1),
+                                })
+                                .collect();
+                            if line_only {
+                                // Only the line held: every other fine node free.
+                                for (k, v) in fine.inv_d.iter_mut().enumerate() {
+                                    let (j, i) = (k / fnt, k % fnt);
+                                    *v = if cols[j] == i { 0.0 } else { 1.0 / fine.d[k] };
+                                }
+                                fine.inv_d_free = fine.inv_d.clone();
+                            }
+                            fine.inlet_col = cols.clone();
+                            fine.inlet_corr = cols;
+                            let mut coarse = random_level(seed + 3, cnt, cnz, false);
+                            coarse.inlet_corr = vec![usize::MAX; cnz + 1];
+                            (fine, coarse)
+                        };
+                        let (fine, mut want) = make();
+                        freeze_reference(&fine, &mut want, how, line);
+                        for &isa in &isas {
+                            let (fine, mut got) = make();
+                            lanes::widened_on(
+                                isa,
+                                Freeze {
+                                    fine: &fine,
+                                    coarse: &mut got,
+                                    how,
+                                    line,
+                                },
+                            );
+                            assert_eq!(
+                                bits(&got.inv_d_free),
+                                bits(&want.inv_d_free),
+                                "{isa:?} freeze {how:?}, coarse {cnt} x {cnz}, top {top}, \
+                                 line only {line_only}, line {line}"
+                            );
+                            assert_eq!(got.inlet_corr, want.inlet_corr);
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("widened freeze against the reference: {compared} levels ({isas:?})");
+    }
+
+    /// The field stop's maxima in eight chains, widened, against one running maximum (the
+    /// same bits: a maximum is order-free), and the widened cubic FMG start against the
+    /// same body as built, bit for bit: fields with zeros of both signs, every length.
+    #[test]
+    fn widened_stop_and_cubic_start_match_bit_for_bit() {
+        let mut isas = lane_isas();
+        isas.push(LaneIsa::Baseline);
+        for n in 0..70 {
+            let mut rng = Lcg(n as u64 + 5);
+            let mut val = || match (rng.next() * 6.0) as u32 {
+                0 => 0.0,
+                1 => -0.0,
+                _ => rng.next(),
+            };
+            let p: Vec<f64> = (0..n).map(|_| val()).collect();
+            let mut q: Vec<f64> = (0..n).map(|_| val()).collect();
+            let (mut ch, mut mp) = (0.0_f64, 0.0_f64);
+            for (a, b) in p.iter().zip(&q) {
+                let d = (a - b).abs();
+                ch = if d > ch { d } else { ch };
+                mp = if *a > mp { *a } else { mp };
+            }
+            let q0 = q.clone();
+            assert_eq!(change_and_max(&p, &mut q).0.to_bits(), ch.to_bits());
+            assert_eq!(bits(&q), bits(&p), "the next cycle's copy");
+            for &isa in &isas {
+                let mut q = q0.clone();
+                let (c, m) = lanes::widened_on(isa, ChangeAndMax(&p, &mut q));
+                assert_eq!(bits(&q), bits(&p), "{isa:?} {n}: the next cycle's copy");
+                assert_eq!(
+                    (c.to_bits(), m.to_bits()),
+                    (ch.to_bits(), mp.to_bits()),
+                    "{isa:?} {n}"
+                );
+            }
+        }
+        for (t, &cnt) in ROW_LENGTHS.iter().enumerate() {
+            for cnz in 1..=5 {
+                for c in [Coarsen::Both, Coarsen::Theta, Coarsen::Zeta] {
+                    let (st, sz) = super::strides(c);
+                    let (nt, nz) = (cnt * st, cnz * sz);
+                    if nz < 2 {
+                        continue;
+                    }
+                    let seed = (t * 100 + cnz * 10 + st * 3 + sz) as u64;
+                    let coarse = random_level(seed + 1, cnt, cnz, true);
+                    let mut want = random_level(seed, nt, nz, true);
+                    want.base = vec![0.0; want.p.len()];
+                    super::prolong_solution_cubic_body(&mut want, &coarse, c);
+                    for &isa in &isas {
+                        let mut got = random_level(seed, nt, nz, true);
+                        got.base = vec![0.0; got.p.len()];
+                        lanes::widened_on(
+                            isa,
+                            CubicStart {
+                                fine: &mut got,
+                                coarse: &coarse,
+                                c,
+                            },
+                        );
+                        assert_eq!(
+                            bits(&got.p),
+                            bits(&want.p),
+                            "{isa:?} cubic {c:?} {nt} x {nz}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
