@@ -1126,6 +1126,8 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
 macro_rules! dispatch {
     ($(#[$m:meta])* $name:ident, $generic:ident, [$($cg:ident),*], ($($a:ident: $t:ty),*)) => {
         $(#[$m])*
+        // The pass's own arguments plus the instruction set: as many as the scalar pass takes.
+        #[allow(clippy::too_many_arguments)]
         pub(super) fn $name<$(const $cg: usize),*>(isa: LaneIsa, $($a: $t),*) -> bool {
             #[cfg(target_arch = "x86_64")]
             {
