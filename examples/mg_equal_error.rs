@@ -91,22 +91,11 @@ fn cases() -> (BearingParams, Vec<Case>) {
 /// The multigrid's solver with the V-cycle of `MG_CYCLE` and the coarsest-grid solve of
 /// `MG_COARSEST` (`field:TOL`, `corr:FRACTION`, `sweeps:N`; default the solver's).
 fn mg_solver() -> FiniteSolver {
-    use bearing_sweep::bearing::finite::CoarsestSolve;
+    use bearing_sweep::bench::finite::{below_from_env, coarsest_from_env};
     let mut solver = FiniteSolver::new();
     solver.cycle = mg_cycle_from_env();
-    if let Ok(v) = std::env::var("MG_BELOW") {
-        let (a, b) = v.split_once(',').expect("PRE,POST");
-        solver.below_top = Some((a.parse().expect("PRE"), b.parse().expect("POST")));
-    }
-    if let Ok(v) = std::env::var("MG_COARSEST") {
-        let (kind, x) = v.split_once(':').expect("KIND:VALUE");
-        solver.coarsest = match kind {
-            "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
-            "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
-            "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
-            _ => panic!("MG_COARSEST: field|corr|sweeps"),
-        };
-    }
+    solver.below_top = below_from_env("MG_BELOW");
+    solver.coarsest = coarsest_from_env("MG_COARSEST");
     solver
 }
 

@@ -747,8 +747,9 @@ fn rules(acc: f64) {
                     |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
                 let mut solver = FiniteSolver::new();
                 solver.ladder_rule = rule;
-                solver.coarsest = coarsest_from_env();
-                solver.below_top = below_from_env();
+                solver.coarsest =
+                    bearing_sweep::bench::finite::coarsest_from_env("ZETA_PROBE_COARSEST");
+                solver.below_top = bearing_sweep::bench::finite::below_from_env("ZETA_PROBE_BELOW");
                 let (ints, rep) = solver.solve(&job, &g, &mut Vec::new());
                 for (l, st) in solver.trace.iter().enumerate() {
                     let t = &tight[l].integrals;
@@ -857,8 +858,8 @@ fn prof(acc: f64, rule: &str) {
     let v: Vec<&str> = rule.split(',').collect();
     let mut solver = FiniteSolver::new();
     solver.ladder_rule = rule_of(rule);
-    solver.coarsest = coarsest_from_env();
-    solver.below_top = below_from_env();
+    solver.coarsest = bearing_sweep::bench::finite::coarsest_from_env("ZETA_PROBE_COARSEST");
+    solver.below_top = bearing_sweep::bench::finite::below_from_env("ZETA_PROBE_BELOW");
     let g = FiniteGrid::for_bearing(&p);
     let jobs: Vec<FiniteJob> = bench
         .iter()
@@ -902,31 +903,6 @@ fn prof(acc: f64, rule: &str) {
     );
 }
 
-/// The coarsest-grid solve from `ZETA_PROBE_COARSEST` (`field:TOL`, `corr:FRACTION`,
-/// `sweeps:N`; default the solver's; issue 20 session 38), for the modes `where`, `rules`
-/// and `prof`.
-fn coarsest_from_env() -> bearing_sweep::bearing::finite::CoarsestSolve {
-    use bearing_sweep::bearing::finite::CoarsestSolve;
-    let Ok(v) = std::env::var("ZETA_PROBE_COARSEST") else {
-        return CoarsestSolve::default();
-    };
-    let (kind, x) = v.split_once(':').expect("KIND:VALUE");
-    match kind {
-        "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
-        "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
-        "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
-        _ => panic!("ZETA_PROBE_COARSEST: field|corr|sweeps"),
-    }
-}
-
-/// Smoothing sweeps `PRE,POST` on the levels below the grid being solved from
-/// `ZETA_PROBE_BELOW` (default: the cycle's; issue 20 session 38).
-fn below_from_env() -> Option<(u32, u32)> {
-    let v = std::env::var("ZETA_PROBE_BELOW").ok()?;
-    let (a, b) = v.split_once(',').expect("PRE,POST");
-    Some((a.parse().expect("PRE"), b.parse().expect("POST")))
-}
-
 /// Where the node updates go (issue 20, session 38): the 32 benchmark and the 12 test
 /// states at accuracy `acc` with the default rule, each solve's work broken down by the
 /// ladder grid being solved, the grid relaxed and the role (pre-/post-smoothing, the
@@ -937,8 +913,8 @@ fn work_where(acc: f64) {
     for (name, p, states) in [("bench (32)", pb, bench), ("test (12)", pt, test)] {
         let g = FiniteGrid::for_bearing(&p);
         let mut solver = FiniteSolver::new();
-        solver.coarsest = coarsest_from_env();
-        solver.below_top = below_from_env();
+        solver.coarsest = bearing_sweep::bench::finite::coarsest_from_env("ZETA_PROBE_COARSEST");
+        solver.below_top = bearing_sweep::bench::finite::below_from_env("ZETA_PROBE_BELOW");
         solver.keep_work_tally(true);
         let mut exact = 0u64;
         for s in &states {

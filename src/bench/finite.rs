@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use crate::backend::{CpuBackend, FilmBackend, GpuBackend, GpuOptions, LoadEvaluator, LoadRequest};
 use crate::bearing::finite::{
-    FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle, WorkRole, WorkShare,
+    CoarsestSolve, FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, MgCycle, WorkRole,
+    WorkShare,
 };
 use crate::bearing::{finish_loads, pack_state, Accuracy, BearingParams, BearingState, FilmModel};
 
@@ -79,6 +80,32 @@ pub fn work_tally_table(tally: &[WorkShare], n: f64) -> String {
         );
     }
     out
+}
+
+/// The coarsest-grid solve from the environment variable `var` (`field:TOL`,
+/// `corr:FRACTION`, `sweeps:N`; unset: the solver's default), for the probes
+/// `examples/zeta_probe.rs` (`ZETA_PROBE_COARSEST`) and `examples/mg_equal_error.rs`
+/// (`MG_COARSEST`), issue 20, session 38.
+pub fn coarsest_from_env(var: &str) -> CoarsestSolve {
+    let Ok(v) = std::env::var(var) else {
+        return CoarsestSolve::default();
+    };
+    let (kind, x) = v.split_once(':').expect("KIND:VALUE");
+    match kind {
+        "field" => CoarsestSolve::Field(x.parse().expect("a tolerance")),
+        "corr" => CoarsestSolve::Correction(x.parse().expect("a fraction")),
+        "sweeps" => CoarsestSolve::Sweeps(x.parse().expect("a count")),
+        _ => panic!("{var}: field|corr|sweeps"),
+    }
+}
+
+/// Smoothing sweeps `PRE,POST` on the levels below the grid being solved from the
+/// environment variable `var` (unset: the cycle's), for the same probes (`ZETA_PROBE_BELOW`,
+/// `MG_BELOW`).
+pub fn below_from_env(var: &str) -> Option<(u32, u32)> {
+    let v = std::env::var(var).ok()?;
+    let (a, b) = v.split_once(',').expect("PRE,POST");
+    Some((a.parse().expect("PRE"), b.parse().expect("POST")))
 }
 
 /// The benchmark's bearing states: the paper's bearing (B/D = 0.5), eccentricities
