@@ -1120,8 +1120,8 @@ fn dist4(a: array<f64, 4>, b: array<f64, 4>) -> f64 {
     return sqrt(s);
 }
 
-// Richardson estimate of the last of `n` ladder values (solver.rs simpson_estimate and,
-// with held bands, banded_estimate); negative below three grids.
+// The bound the ladder stops on for the last of `n` ladder values (solver.rs
+// simpson_stop_bound and, with held bands, banded_estimate); negative below three grids.
 fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     if n < 3u {
         return -1.0;
@@ -1143,8 +1143,32 @@ fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     if params.banded != 0u {
         return 1.5 * max(d2, 0.25 * d1) / norm;
     }
-    // Second order (loads summed by Simpson in ζ, see `loads`).
-    return d2 / 3.0 / norm;
+    // Second order (loads summed by Simpson in ζ, see `loads`), the last pair's and the
+    // pair two grids back carried to the last grid: 3 = 2² − 1, 48 = 4² (2² − 1).
+    var bound = d2 / 3.0;
+    if n >= 4u {
+        var z: array<f64, 4>;
+        for (var q = 0u; q < 4u; q++) {
+            z[q] = vals[4u * (n - 4u) + q];
+        }
+        bound = max(bound, dist4(a, z) / 48.0);
+    }
+    return bound / norm;
+}
+
+// The estimate reported with the bound `e` of `estimate` (solver.rs solve_accuracy): with
+// held bands the bound itself, else √(bound × last pair's d₂/3).
+fn reported(vals: array<f64, 48>, n: u32, e: f64) -> f64 {
+    if e <= 0.0 || params.banded != 0u {
+        return e;
+    }
+    var b: array<f64, 4>;
+    var c: array<f64, 4>;
+    for (var q = 0u; q < 4u; q++) {
+        b[q] = vals[4u * (n - 2u) + q];
+        c[q] = vals[4u * (n - 1u) + q];
+    }
+    return sqrt(e * dist4(c, b) / 3.0 / norm4(c));
 }
 
 // The stop of level t's V-cycles on the estimated iteration error (solver.rs
@@ -1214,7 +1238,7 @@ fn finish_level() {
         }
         nv = n;
         if e >= 0.0 {
-            est = e;
+            est = reported(vals, n, e);
             if e <= params.accuracy {
                 met = true;
                 ph = PH_DONE;

@@ -805,17 +805,21 @@ impl FiniteSolver {
             let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below);
             let mut step = self.ladder_step_of(&cyc, res);
             values.push(step.integrals);
+            // (the bound the ladder stops on, the estimate it reports): one and the same
+            // but on the Simpson-summed ladder of the plain film (`simpson_stop_bound`).
             let est_of = |values: &[FilmIntegrals], simpson: bool| {
                 if !g.layout.is_empty() {
-                    banded_estimate(values)
+                    banded_estimate(values).map(|e| (e, e))
                 } else if simpson {
-                    simpson_estimate(values)
+                    simpson_stop_bound(values)
+                        .zip(simpson_estimate(values))
+                        .map(|(b, e)| (b, (b * e).sqrt()))
                 } else {
-                    ladder_estimate(values)
+                    ladder_estimate(values).map(|e| (e, e))
                 }
             };
             let mut est = est_of(&values, self.mg.simpson_z);
-            if est.is_some_and(|e| e <= target) && res.1 > floor {
+            if est.is_some_and(|e| e.0 <= target) && res.1 > floor {
                 // Stopped loosely as an intermediate grid, but it may end the ladder:
                 // on to the floor (the cycles continue, none is repeated).
                 res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
@@ -824,9 +828,9 @@ impl FiniteSolver {
                 est = est_of(&values, self.mg.simpson_z);
             }
             steps.push(step);
-            if let Some(e) = est {
+            if let Some((bound, e)) = est {
                 estimate = e;
-                if e <= target {
+                if bound <= target {
                     met = true;
                     break;
                 }
@@ -1269,6 +1273,46 @@ pub fn simpson_estimate(values: &[FilmIntegrals]) -> Option<f64> {
     }
     // 3 = 2² − 1: Richardson at second order.
     Some(d2 / 3.0 / norm)
+}
+
+/// The bound the Simpson-summed ladder of the plain film stops on (issue 20, session 39):
+/// the larger of the last pair's second-order Richardson estimate and the one of the pair
+/// two grids back carried to the last grid, `max(d₀/3, d₋₂/48)` relative to `|v₀|` (`dₖ`
+/// the difference of a pair; 48 = 4²(2² − 1): the error falls ×1/4 per grid at second
+/// order), the last pair alone on the third grid. On erratic ladders (high ε: the peak
+/// and the film's rupture line under-resolved) the last difference alone can be a lucky
+/// small one: stopped on [`simpson_estimate`], the default 5e-4 left aligned states at ε
+/// 0.83-0.86 1.1-1.45e-3 off on 128 × 16 and a squeezed ε 0.91 2.4e-3 off, estimates
+/// 0.13-0.44 × the truth (examples/bench_worst.rs; tests/finite_accuracy.rs
+/// `default_within_1e3_on_a_dense_eccentricity_scan`). Measured on 3,800 states
+/// (BENCHMARKS.md "Issue 20: the default's promise on dense scans, session 39"): largest
+/// error at 5e-4 6.99e-4, node updates +10-13 %; adding the pair one grid back
+/// (`d₋₁/12`) cost +27-35 % for no state's gain. `None` below three grids.
+/// The estimate reported with it is the geometric mean `√(bound × simpson_estimate)`:
+/// between the last pair's (too low on erratic ladders) and the bound (up to ~5× high),
+/// and at most the bound, so a met accuracy reports an estimate below it.
+pub fn simpson_stop_bound(values: &[FilmIntegrals]) -> Option<f64> {
+    let n = values.len();
+    if n < 3 {
+        return None;
+    }
+    let norm = values[n - 1].iter().map(|x| x * x).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        return Some(0.0);
+    }
+    let d = |i: usize| {
+        (0..4)
+            .map(|k| (values[i][k] - values[i - 1][k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    // 3 = 2² − 1 and 48 = 4²(2² − 1): the pair's Richardson estimate, carried two grids
+    // on for the older pair.
+    let mut b = d(n - 1) / 3.0;
+    if n >= 4 {
+        b = b.max(d(n - 3) / 48.0);
+    }
+    Some(b / norm)
 }
 
 /// Load integrals of an accuracy-ladder field (`nt × nz`, node 0 at `theta0`, `nz`
