@@ -136,6 +136,19 @@ pub fn prepare_simulator(
                     threads,
                 )?;
                 (b, (!notices.is_empty()).then(|| notices.join("\n")))
+            } else if choice.backend == BackendKind::Auto {
+                // A sweep with the finite film (or `auto` films): the CPU, whatever the
+                // adapter. Measured on an H200 (BENCHMARKS.md "Issue 20: the finite film on
+                // a hardware GPU, session 39"): its multigrid kernel solves 35-68x fewer
+                // default-accuracy states per second than the host's 16 CPU threads, and a
+                // 256-variant finite-film sweep finished no variant in 45 s on it against
+                // 7 s on the CPU. `--backend gpu` still runs it there.
+                let (b, notices) = crate::backend::chosen_cpu(
+                    BackendKind::Auto,
+                    choice.accuracy.level(),
+                    FINITE_SWEEP_ON_CPU.into(),
+                );
+                (b, Some(notices.join("\n")))
             } else {
                 create_backend(choice.backend, choice.accuracy.level())?
             };
@@ -170,6 +183,10 @@ pub fn prepare_simulator(
         }
     }
 }
+
+/// Reason of `auto`'s choice for a rotor sweep that uses the finite film.
+const FINITE_SWEEP_ON_CPU: &str = "the sweep uses the finite film, whose GPU kernel is \
+     slower than the CPU backend (use --backend gpu to run it there)";
 
 /// Whether every variant of a rotor sweep uses the short film: no bearing of the base
 /// scene names another model and no axis sets a bearing's `model` (or a whole bearing).
