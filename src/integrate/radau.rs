@@ -367,6 +367,12 @@ pub(crate) fn continue_from<S: BatchSystem>(
     }
 }
 
+/// The `NS` consecutive slices of length `d` of a stage-major vector `v` (`NS * d` long).
+#[inline(always)]
+fn stage_slices<const NS: usize>(v: &[f64], d: usize) -> [&[f64]; NS] {
+    std::array::from_fn(|k| &v[k * d..(k + 1) * d])
+}
+
 /// [`continue_from`] by the `NS`-stage method `tab`.
 fn continue_with<S: BatchSystem, const NS: usize>(
     tab: &Tableau<NS>,
@@ -647,15 +653,15 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             // Newton start: the previous collocation polynomial, extrapolated.
             let zb = &mut z[id * d3..(id + 1) * d3];
             if v.have_dense {
-                let al = &dense[id * d3..(id + 1) * d3];
+                let al = stage_slices::<NS>(&dense[id * d3..(id + 1) * d3], d);
                 for (i, zi) in zb.chunks_exact_mut(d).enumerate() {
                     let th = 1.0 + tab.c[i] * h / v.h_old;
-                    for (p, o) in zi.iter_mut().enumerate() {
+                    for (p, o) in zi[..d].iter_mut().enumerate() {
                         // t (a_1 + t (a_2 + … t a_NS)).
                         let q = |t: f64| {
-                            let mut acc = al[(NS - 1) * d + p];
+                            let mut acc = al[NS - 1][p];
                             for r in (0..NS - 1).rev() {
-                                acc = al[r * d + p] + t * acc;
+                                acc = al[r][p] + t * acc;
                             }
                             t * acc
                         };
@@ -731,18 +737,22 @@ fn continue_with<S: BatchSystem, const NS: usize>(
                     acc
                 };
                 {
-                    let dw = &mut dw[..d3];
-                    let (zb, fs) = (&zb[..d3], &fs[..d3]);
+                    // Each stage's slice of length `d`, so that the loop below indexes
+                    // within them (no bounds checks).
+                    let zs_k = stage_slices::<NS>(zb, d);
+                    let fs_k = stage_slices::<NS>(fs, d);
+                    let mut chunks = dw[..d3].chunks_exact_mut(d);
+                    let ws: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
                     for p in 0..d {
-                        let zs: [f64; NS] = std::array::from_fn(|k| zb[k * d + p]);
-                        let f: [f64; NS] = std::array::from_fn(|k| fs[k * d + p]);
+                        let zs: [f64; NS] = std::array::from_fn(|k| zs_k[k][p]);
+                        let f: [f64; NS] = std::array::from_fn(|k| fs_k[k][p]);
                         let wz: [f64; NS] = std::array::from_fn(|k| tr(&ti[k], &zs));
-                        dw[p] = tr(&ti[0], &f) - gh * wz[0];
+                        ws[0][p] = tr(&ti[0], &f) - gh * wz[0];
                         for (q, &(ah, bh)) in sh[..np].iter().enumerate() {
                             let i = 1 + 2 * q;
-                            dw[i * d + p] = tr(&ti[i], &f) - (ah * wz[i] + bh * wz[i + 1]);
-                            dw[(i + 1) * d + p] =
-                                tr(&ti[i + 1], &f) - (ah * wz[i + 1] - bh * wz[i]);
+                            ws[i][p] = tr(&ti[i], &f) - (ah * wz[i] + bh * wz[i + 1]);
+                            ws[i + 1][p] = tr(&ti[i + 1], &f) - (ah * wz[i + 1] - bh * wz[i]);
                         }
                     }
                     let (w1, mut rest) = dw.split_at_mut(d);
@@ -756,11 +766,14 @@ fn continue_with<S: BatchSystem, const NS: usize>(
                 }
                 let t = &tab.t;
                 {
-                    let (dw, dz) = (&dw[..d3], &mut dz[..d3]);
+                    let ws = stage_slices::<NS>(&dw, d);
+                    let mut chunks = dz[..d3].chunks_exact_mut(d);
+                    let ds: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
                     for p in 0..d {
-                        let w: [f64; NS] = std::array::from_fn(|k| dw[k * d + p]);
+                        let w: [f64; NS] = std::array::from_fn(|k| ws[k][p]);
                         for i in 0..NS {
-                            dz[i * d + p] = tr(&t[i], &w);
+                            ds[i][p] = tr(&t[i], &w);
                         }
                     }
                 }
@@ -859,13 +872,17 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             }
             let zb = &z[id * d3..(id + 1) * d3];
             let yb = &y[id * d..(id + 1) * d];
-            for p in 0..d {
-                ynew[p] = yb[p] + zb[(NS - 1) * d + p];
-                let mut ze = tab.ez[0] * zb[p];
-                for k in 1..NS {
-                    ze += tab.ez[k] * zb[k * d + p];
+            {
+                let zs = stage_slices::<NS>(zb, d);
+                let (ynew, errv, f0v) = (&mut ynew[..d], &mut errv[..d], &f0[id * d..(id + 1) * d]);
+                for p in 0..d {
+                    ynew[p] = yb[p] + zs[NS - 1][p];
+                    let mut ze = tab.ez[0] * zs[0][p];
+                    for k in 1..NS {
+                        ze += tab.ez[k] * zs[k][p];
+                    }
+                    errv[p] = f0v[p] + ze / h;
                 }
-                errv[p] = f0[id * d + p] + ze / h;
             }
             lus[id].solve_real(&red, &mut errv);
             let norm = if fixed {
@@ -884,19 +901,24 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             }
             let safety = SAFETY * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + v.iters) as f64;
             if norm <= 1.0 {
-                let al = &mut dense[id * d3..(id + 1) * d3];
-                for p in 0..d {
-                    for r in 0..NS {
-                        al[r * d + p] = (0..NS).map(|i| tab.vinv[r][i] * zb[i * d + p]).sum();
+                {
+                    let zs = stage_slices::<NS>(zb, d);
+                    let mut chunks = dense[id * d3..(id + 1) * d3].chunks_exact_mut(d);
+                    let al: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
+                    for p in 0..d {
+                        for r in 0..NS {
+                            al[r][p] = (0..NS).map(|i| tab.vinv[r][i] * zs[i][p]).sum();
+                        }
                     }
                 }
                 {
-                    let al = &*al;
+                    let al = stage_slices::<NS>(&dense[id * d3..(id + 1) * d3], d);
                     tr.emit(id, s, t0, h, d, &mut rec, |th, out| {
-                        for (p, o) in out.iter_mut().enumerate() {
-                            let mut acc = al[(NS - 1) * d + p];
+                        for (p, o) in out[..d].iter_mut().enumerate() {
+                            let mut acc = al[NS - 1][p];
                             for r in (0..NS - 1).rev() {
-                                acc = al[r * d + p] + th * acc;
+                                acc = al[r][p] + th * acc;
                             }
                             *o = yb[p] + th * acc;
                         }
