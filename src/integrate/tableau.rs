@@ -50,7 +50,7 @@ fn interior_nodes(s: usize) -> Vec<f64> {
     let mut p = vec![0.0; 2 * s];
     let mut binom = 1.0;
     for k in 0..=s {
-        let sign = if (s - k) % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if (s - k).is_multiple_of(2) { 1.0 } else { -1.0 };
         p[k + s - 1] = sign * binom;
         binom = binom * (s - k) as f64 / (k + 1) as f64;
     }
