@@ -11,7 +11,7 @@
 //! saturates in a limit cycle at ε ≈ 0.7 (docs/whirl.md).
 //!
 //! The whirl's frequency and growth rate are properties of the physics: dopri5 at
-//! tolerances 1e-5 .. 1e-10, rk4 at steps 1e-4 .. 2.5e-5 s and radau5 agree on them. A
+//! tolerances 1e-5 .. 1e-10, rk4 at steps 1e-4 .. 2.5e-5 s, radau5 and radau9 agree on them. A
 //! numerical blow-up (rk4 beyond its stability limit on the film's damping) grows at a
 //! rate set by the step size and whirls at no physical frequency.
 //!
@@ -96,13 +96,15 @@ fn whirl_frequency_and_growth_rate_do_not_depend_on_tolerance_or_step() {
         scenes.push(s);
         labels.push(format!("rk4 h = {h:e} s"));
     }
-    for tol in [1e-6, 1e-9] {
-        let mut s = base.clone();
-        s.integrator.method = Method::Radau5;
-        s.integrator.rtol = tol;
-        s.integrator.atol = ATOL_OF_RTOL * tol;
-        scenes.push(s);
-        labels.push(format!("radau5 rtol = {tol:e}"));
+    for method in [Method::Radau5, Method::Radau9] {
+        for tol in [1e-6, 1e-9] {
+            let mut s = base.clone();
+            s.integrator.method = method;
+            s.integrator.rtol = tol;
+            s.integrator.atol = ATOL_OF_RTOL * tol;
+            scenes.push(s);
+            labels.push(format!("{} rtol = {tol:e}", method.name()));
+        }
     }
     let rs = run(&scenes);
     let mut fits = Vec::new();

@@ -357,7 +357,15 @@ pub(crate) fn run<S: BatchSystem>(
         notify(sys, &tracks, &mut ended);
     }
     if !handed.is_empty() {
-        super::radau::continue_from(sys, &mut y, settings, &mut tracks, handed, start);
+        super::radau::continue_from(
+            sys,
+            &mut y,
+            settings,
+            &mut tracks,
+            handed,
+            start,
+            super::radau::Stages::Three,
+        );
     }
     tracks.into_iter().map(|t| (t.status, t.stats)).collect()
 }

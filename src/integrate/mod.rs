@@ -17,6 +17,7 @@ mod radau;
 mod reduced;
 mod rk4;
 mod system;
+mod tableau;
 
 pub use common::sample_count;
 pub use system::{run_batch, BatchSystem, Method, Settings, Stats, Status};

@@ -27,7 +27,7 @@ use super::common::{
     admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
 };
-use super::reduced::{NewtonLu, Reduction};
+use super::reduced::{NewtonLu, Reduction, MAX_PAIRS};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 const SQ6: f64 = 2.449_489_742_783_178;
@@ -229,6 +229,74 @@ fn collocation_inverse() -> Matrix3<f64> {
         .expect("distinct nodes make the Vandermonde matrix invertible")
 }
 
+/// Which Radau IIA method runs: 3 stages (radau5, order 5) or 5 (radau9, order 9).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Stages {
+    Three,
+    Five,
+}
+
+/// What the step needs of an `NS`-stage Radau IIA method: radau5's closed forms
+/// ([`Tableau::radau5`]) or radau9's derived constants ([`Tableau::radau9`]).
+struct Tableau<const NS: usize> {
+    /// Nodes (the last is 1).
+    c: [f64; NS],
+    /// Weights of `Z` in the error estimate.
+    ez: [f64; NS],
+    /// The eigenbasis of `A^-1` and its inverse ([`Eigenbasis`]).
+    t: [[f64; NS]; NS],
+    ti: [[f64; NS]; NS],
+    /// The real eigenvalue of `A^-1`.
+    gamma: f64,
+    /// `(α_k, β_k)` of `T^-1 A^-1 T`'s complex blocks `[[α, β], [−β, α]]`, the first
+    /// `(NS − 1)/2` used.
+    pairs: [(f64, f64); MAX_PAIRS],
+    /// Stage increments to the collocation polynomial's coefficients.
+    vinv: [[f64; NS]; NS],
+    /// Exponent of the step proposal `err^expo`: the error estimate is `O(h^(NS+1))`.
+    expo: f64,
+}
+
+impl Tableau<3> {
+    fn radau5() -> Self {
+        let eb = eigenbasis();
+        let vinv = collocation_inverse();
+        let mut pairs = [(0.0, 0.0); MAX_PAIRS];
+        pairs[0] = (eb.alpha, eb.beta);
+        Tableau {
+            c: C,
+            ez: EZ,
+            t: eb.t,
+            ti: eb.ti,
+            gamma: eb.gamma,
+            pairs,
+            vinv: std::array::from_fn(|i| std::array::from_fn(|j| vinv[(i, j)])),
+            expo: -0.25,
+        }
+    }
+}
+
+impl Tableau<5> {
+    /// Radau IIA with 5 stages (order 9), from [`super::tableau::radau_iia`].
+    fn radau9() -> Self {
+        let k = super::tableau::radau_iia(5);
+        let arr = |v: &[f64]| -> [f64; 5] { std::array::from_fn(|i| v[i]) };
+        let mat = |m: &[Vec<f64>]| -> [[f64; 5]; 5] { std::array::from_fn(|i| arr(&m[i])) };
+        let mut pairs = [(0.0, 0.0); MAX_PAIRS];
+        pairs[..2].copy_from_slice(&k.pairs);
+        Tableau {
+            c: arr(&k.c),
+            ez: arr(&k.ez),
+            t: mat(&k.t),
+            ti: mat(&k.ti),
+            gamma: k.gamma,
+            pairs,
+            vinv: mat(&k.vinv),
+            expo: -1.0 / 6.0,
+        }
+    }
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Newton {
     Iterating,
@@ -265,6 +333,7 @@ pub(crate) fn run<S: BatchSystem>(
     y0: &[f64],
     settings: &[Settings],
     start: Instant,
+    stages: Stages,
 ) -> Vec<(Status<S::Fault>, Stats)> {
     let d = sys.dim();
     let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
@@ -274,7 +343,7 @@ pub(crate) fn run<S: BatchSystem>(
     let active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
     rec.flush_records(sys);
     notify(sys, &tracks, &mut ended);
-    continue_from(sys, &mut y, settings, &mut tracks, active, start);
+    continue_from(sys, &mut y, settings, &mut tracks, active, start, stages);
     tracks.into_iter().map(|t| (t.status, t.stats)).collect()
 }
 
@@ -288,15 +357,37 @@ pub(crate) fn continue_from<S: BatchSystem>(
     y: &mut [f64],
     settings: &[Settings],
     tracks: &mut [Track<S::Fault>],
+    active: Vec<usize>,
+    start: Instant,
+    stages: Stages,
+) {
+    match stages {
+        Stages::Three => continue_with(&Tableau::radau5(), sys, y, settings, tracks, active, start),
+        Stages::Five => continue_with(&Tableau::radau9(), sys, y, settings, tracks, active, start),
+    }
+}
+
+/// The `NS` consecutive slices of length `d` of a stage-major vector `v` (`NS * d` long).
+#[inline(always)]
+fn stage_slices<const NS: usize>(v: &[f64], d: usize) -> [&[f64]; NS] {
+    std::array::from_fn(|k| &v[k * d..(k + 1) * d])
+}
+
+/// [`continue_from`] by the `NS`-stage method `tab`.
+fn continue_with<S: BatchSystem, const NS: usize>(
+    tab: &Tableau<NS>,
+    sys: &mut S,
+    y: &mut [f64],
+    settings: &[Settings],
+    tracks: &mut [Track<S::Fault>],
     mut active: Vec<usize>,
     start: Instant,
 ) {
     let n = settings.len();
     let d = sys.dim();
     let jd = sys.jacobian_dim().min(d);
-    let d3 = 3 * d;
-    let eb = eigenbasis();
-    let vinv = collocation_inverse();
+    let d3 = NS * d;
+    let np = (NS - 1) / 2;
     // The Newton systems on the components that need a dense LU (positions whose rate is
     // a velocity and quadratures eliminated in closed form: `super::reduced`).
     let red = Reduction::new(d, jd, sys.kinematic_pairs());
@@ -550,7 +641,11 @@ pub(crate) fn continue_from<S: BatchSystem>(
             hs[id] = h;
             let v = &mut vars[id];
             if v.need_lu || h != v.h_lu {
-                lus[id].factor(&red, eb.gamma / h, eb.alpha / h, -eb.beta / h, &jac[id]);
+                let mut shifts = [(0.0, 0.0); MAX_PAIRS];
+                for (o, &(a, b)) in shifts.iter_mut().zip(&tab.pairs[..np]) {
+                    *o = (a / h, -b / h);
+                }
+                lus[id].factor(&red, tab.gamma / h, &shifts[..np], &jac[id]);
                 tracks[id].stats.factorizations += 1;
                 v.need_lu = false;
                 v.h_lu = h;
@@ -558,14 +653,18 @@ pub(crate) fn continue_from<S: BatchSystem>(
             // Newton start: the previous collocation polynomial, extrapolated.
             let zb = &mut z[id * d3..(id + 1) * d3];
             if v.have_dense {
-                let al = &dense[id * d3..(id + 1) * d3];
-                let (a1, a23) = al.split_at(d);
-                let (a2, a3) = a23.split_at(d);
-                let (a2, a3) = (&a2[..d], &a3[..d]);
+                let al = stage_slices::<NS>(&dense[id * d3..(id + 1) * d3], d);
                 for (i, zi) in zb.chunks_exact_mut(d).enumerate() {
-                    let th = 1.0 + C[i] * h / v.h_old;
-                    for (p, o) in zi.iter_mut().enumerate() {
-                        let q = |t: f64| t * (a1[p] + t * (a2[p] + t * a3[p]));
+                    let th = 1.0 + tab.c[i] * h / v.h_old;
+                    for (p, o) in zi[..d].iter_mut().enumerate() {
+                        // t (a_1 + t (a_2 + … t a_NS)).
+                        let q = |t: f64| {
+                            let mut acc = al[NS - 1][p];
+                            for r in (0..NS - 1).rev() {
+                                acc = al[r][p] + t * acc;
+                            }
+                            t * acc
+                        };
                         *o = q(th) - q(1.0);
                     }
                 }
@@ -586,7 +685,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             }
             work.push(id);
         }
-        // 4. Newton, all variants' three stages in one call per iteration.
+        // 4. Newton, all variants' stages in one call per iteration.
         for iter in 0..MAX_NEWTON {
             buf.clear();
             for &id in &work {
@@ -595,7 +694,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
                 let yb = &y[id * d..(id + 1) * d];
                 for (i, zi) in z[id * d3..(id + 1) * d3].chunks_exact(d).enumerate() {
-                    let t = tracks[id].t + C[i] * hs[id];
+                    let t = tracks[id].t + tab.c[i] * hs[id];
                     buf.push_from(id, t, yb.iter().zip(zi).map(|(&yv, &zv)| yv + zv));
                 }
             }
@@ -609,63 +708,73 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 let s = &settings[id];
                 let h = hs[id];
                 let v = &mut vars[id];
-                let fault = (0..3).find_map(|i| buf.faults[e + i].clone());
+                let fault = (0..NS).find_map(|i| buf.faults[e + i].clone());
                 if let Some(f) = fault {
                     tracks[id].fault = Some(f);
                     v.newton = Newton::Fault;
-                    e += 3;
+                    e += NS;
                     continue;
                 }
-                let fs = &buf.dys[e * d..(e + 3) * d];
+                let fs = &buf.dys[e * d..(e + NS) * d];
                 let zb = &mut z[id * d3..(id + 1) * d3];
                 // (I - h A (x) J) dZ = -Z + h (A (x) I) F in the eigenbasis: with
                 // W = (T^-1 (x) I) Z and G = (T^-1 (x) I) F, (Lambda/h (x) I - I (x) J) dW =
-                // G - (Lambda/h (x) I) W, one real and one complex n x n system; dZ = T dW.
-                let ti = &eb.ti;
-                let (gh, ah, bh) = (eb.gamma / h, eb.alpha / h, eb.beta / h);
-                {
-                    let (w1, rest) = dw.split_at_mut(d);
-                    let (w2, w3) = rest.split_at_mut(d);
-                    // The three stages' slices, so that the loop below indexes within
-                    // slices of length `d` (no bounds checks; the same operations).
-                    let (z1, z23) = zb.split_at(d);
-                    let (z2, z3) = z23.split_at(d);
-                    let (f1, f23) = fs.split_at(d);
-                    let (f2, f3) = f23.split_at(d);
-                    let (w1, w2, w3) = (&mut w1[..d], &mut w2[..d], &mut w3[..d]);
-                    let (z3, f3) = (&z3[..d], &f3[..d]);
-                    for p in 0..d {
-                        let zs = [z1[p], z2[p], z3[p]];
-                        let f = [f1[p], f2[p], f3[p]];
-                        let tr = |row: &[f64; 3], v: &[f64; 3]| {
-                            row[0] * v[0] + row[1] * v[1] + row[2] * v[2]
-                        };
-                        let (wz1, wz2, wz3) = (tr(&ti[0], &zs), tr(&ti[1], &zs), tr(&ti[2], &zs));
-                        w1[p] = tr(&ti[0], &f) - gh * wz1;
-                        w2[p] = tr(&ti[1], &f) - (ah * wz2 + bh * wz3);
-                        w3[p] = tr(&ti[2], &f) - (ah * wz3 - bh * wz2);
-                    }
-                    lus[id].solve_real(&red, w1);
-                    lus[id].solve_complex(&red, w2, w3);
+                // G - (Lambda/h (x) I) W, one real and (NS - 1)/2 complex n x n systems;
+                // dZ = T dW.
+                let ti = &tab.ti;
+                let gh = tab.gamma / h;
+                let mut sh = [(0.0, 0.0); MAX_PAIRS];
+                for (o, &(a, b)) in sh.iter_mut().zip(&tab.pairs[..np]) {
+                    *o = (a / h, b / h);
                 }
-                let t = &eb.t;
+                // Row · vector, summed from the first term (the same operations as
+                // radau5's written-out sums).
+                let tr = |row: &[f64; NS], v: &[f64; NS]| {
+                    let mut acc = row[0] * v[0];
+                    for k in 1..NS {
+                        acc += row[k] * v[k];
+                    }
+                    acc
+                };
                 {
-                    let (w1, w23) = dw.split_at(d);
-                    let (w2, w3) = w23.split_at(d);
-                    let (d1, d23) = dz.split_at_mut(d);
-                    let (d2, d3s) = d23.split_at_mut(d);
-                    let (w2, w3, d1, d2, d3s) = (
-                        &w2[..d],
-                        &w3[..d],
-                        &mut d1[..d],
-                        &mut d2[..d],
-                        &mut d3s[..d],
-                    );
+                    // Each stage's slice of length `d`, so that the loop below indexes
+                    // within them (no bounds checks).
+                    let zs_k = stage_slices::<NS>(zb, d);
+                    let fs_k = stage_slices::<NS>(fs, d);
+                    let mut chunks = dw[..d3].chunks_exact_mut(d);
+                    let ws: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
                     for p in 0..d {
-                        let w = [w1[p], w2[p], w3[p]];
-                        d1[p] = t[0][0] * w[0] + t[0][1] * w[1] + t[0][2] * w[2];
-                        d2[p] = t[1][0] * w[0] + t[1][1] * w[1] + t[1][2] * w[2];
-                        d3s[p] = t[2][0] * w[0] + t[2][1] * w[1] + t[2][2] * w[2];
+                        let zs: [f64; NS] = std::array::from_fn(|k| zs_k[k][p]);
+                        let f: [f64; NS] = std::array::from_fn(|k| fs_k[k][p]);
+                        let wz: [f64; NS] = std::array::from_fn(|k| tr(&ti[k], &zs));
+                        ws[0][p] = tr(&ti[0], &f) - gh * wz[0];
+                        for (q, &(ah, bh)) in sh[..np].iter().enumerate() {
+                            let i = 1 + 2 * q;
+                            ws[i][p] = tr(&ti[i], &f) - (ah * wz[i] + bh * wz[i + 1]);
+                            ws[i + 1][p] = tr(&ti[i + 1], &f) - (ah * wz[i + 1] - bh * wz[i]);
+                        }
+                    }
+                    let (w1, mut rest) = dw.split_at_mut(d);
+                    lus[id].solve_real(&red, w1);
+                    for q in 0..np {
+                        let (wr, tail) = rest.split_at_mut(d);
+                        let (wi, tail) = tail.split_at_mut(d);
+                        lus[id].solve_complex(&red, q, wr, wi);
+                        rest = tail;
+                    }
+                }
+                let t = &tab.t;
+                {
+                    let ws = stage_slices::<NS>(&dw, d);
+                    let mut chunks = dz[..d3].chunks_exact_mut(d);
+                    let ds: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
+                    for p in 0..d {
+                        let w: [f64; NS] = std::array::from_fn(|k| ws[k][p]);
+                        for i in 0..NS {
+                            ds[i][p] = tr(&t[i], &w);
+                        }
                     }
                 }
                 let mut sum = 0.0;
@@ -680,7 +789,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 v.iters = iter + 1;
                 if !norm.is_finite() {
                     v.newton = Newton::Failed;
-                    e += 3;
+                    e += NS;
                     continue;
                 }
                 if iter > 0 {
@@ -688,14 +797,14 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     v.theta = theta;
                     if theta >= 0.99 {
                         v.newton = Newton::Failed;
-                        e += 3;
+                        e += NS;
                         continue;
                     }
                     v.eta = theta / (1.0 - theta);
                     let left = (MAX_NEWTON - 1 - iter) as i32;
                     if theta.powi(left) / (1.0 - theta) * norm > tol {
                         v.newton = Newton::Failed;
-                        e += 3;
+                        e += NS;
                         continue;
                     }
                 } else {
@@ -708,13 +817,14 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 if norm == 0.0 || v.eta * norm <= tol {
                     v.newton = Newton::Converged;
                     // The last stage-3 point and `f` there ([`share_f0`]).
-                    s3[id * d..(id + 1) * d].copy_from_slice(&buf.ys[(e + 2) * d..(e + 3) * d]);
-                    f3[id * d..(id + 1) * d].copy_from_slice(&fs[2 * d..3 * d]);
+                    s3[id * d..(id + 1) * d]
+                        .copy_from_slice(&buf.ys[(e + NS - 1) * d..(e + NS) * d]);
+                    f3[id * d..(id + 1) * d].copy_from_slice(&fs[(NS - 1) * d..NS * d]);
                     v.have_f3 = true;
                 } else if iter + 1 == MAX_NEWTON {
                     v.newton = Newton::Failed;
                 }
-                e += 3;
+                e += NS;
             }
         }
         // 5. Error estimate, accept or reject.
@@ -762,10 +872,17 @@ pub(crate) fn continue_from<S: BatchSystem>(
             }
             let zb = &z[id * d3..(id + 1) * d3];
             let yb = &y[id * d..(id + 1) * d];
-            for p in 0..d {
-                ynew[p] = yb[p] + zb[2 * d + p];
-                let ze = (EZ[0] * zb[p] + EZ[1] * zb[d + p] + EZ[2] * zb[2 * d + p]) / h;
-                errv[p] = f0[id * d + p] + ze;
+            {
+                let zs = stage_slices::<NS>(zb, d);
+                let (ynew, errv, f0v) = (&mut ynew[..d], &mut errv[..d], &f0[id * d..(id + 1) * d]);
+                for p in 0..d {
+                    ynew[p] = yb[p] + zs[NS - 1][p];
+                    let mut ze = tab.ez[0] * zs[0][p];
+                    for k in 1..NS {
+                        ze += tab.ez[k] * zs[k][p];
+                    }
+                    errv[p] = f0v[p] + ze / h;
+                }
             }
             lus[id].solve_real(&red, &mut errv);
             let norm = if fixed {
@@ -784,17 +901,26 @@ pub(crate) fn continue_from<S: BatchSystem>(
             }
             let safety = SAFETY * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + v.iters) as f64;
             if norm <= 1.0 {
-                let al = &mut dense[id * d3..(id + 1) * d3];
-                for p in 0..d {
-                    for r in 0..3 {
-                        al[r * d + p] = (0..3).map(|i| vinv[(r, i)] * zb[i * d + p]).sum();
+                {
+                    let zs = stage_slices::<NS>(zb, d);
+                    let mut chunks = dense[id * d3..(id + 1) * d3].chunks_exact_mut(d);
+                    let al: [&mut [f64]; NS] =
+                        std::array::from_fn(|_| chunks.next().expect("NS stages"));
+                    for p in 0..d {
+                        for r in 0..NS {
+                            al[r][p] = (0..NS).map(|i| tab.vinv[r][i] * zs[i][p]).sum();
+                        }
                     }
                 }
                 {
-                    let al = &*al;
+                    let al = stage_slices::<NS>(&dense[id * d3..(id + 1) * d3], d);
                     tr.emit(id, s, t0, h, d, &mut rec, |th, out| {
-                        for (p, o) in out.iter_mut().enumerate() {
-                            *o = yb[p] + th * (al[p] + th * (al[d + p] + th * al[2 * d + p]));
+                        for (p, o) in out[..d].iter_mut().enumerate() {
+                            let mut acc = al[NS - 1][p];
+                            for r in (0..NS - 1).rev() {
+                                acc = al[r][p] + th * acc;
+                            }
+                            *o = yb[p] + th * acc;
                         }
                     });
                 }
@@ -838,7 +964,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 let fac = if norm == 0.0 {
                     FAC_MAX
                 } else {
-                    (safety * norm.powf(-0.25)).clamp(FAC_MIN, FAC_MAX)
+                    (safety * norm.powf(tab.expo)).clamp(FAC_MIN, FAC_MAX)
                 };
                 tr.h = if fixed {
                     s.fixed_step.unwrap_or(h)
@@ -854,7 +980,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             } else {
                 tr.stats.rejected += 1;
                 tr.last_rejected = true;
-                tr.h = h * (safety * norm.powf(-0.25)).max(FAC_MIN);
+                tr.h = h * (safety * norm.powf(tab.expo)).max(FAC_MIN);
                 if tr.h < floor {
                     let step = tr.h;
                     end(tr, Status::StepSizeTooSmall { time: t0, step }, start);
@@ -1013,6 +1139,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// radau5's closed forms against [`super::super::tableau::radau_iia`] at 3 stages:
+    /// the derivation radau9 uses reproduces them.
+    #[test]
+    fn derived_constants_reproduce_radau5s_closed_forms() {
+        let k = super::super::tableau::radau_iia(3);
+        let tab = Tableau::radau5();
+        for i in 0..3 {
+            assert!((k.c[i] - C[i]).abs() < 1e-15, "c[{i}]");
+            assert!(
+                (k.ez[i] - EZ[i]).abs() < 1e-12 * EZ[i].abs(),
+                "ez[{i}]: {} against {}",
+                k.ez[i],
+                EZ[i]
+            );
+            for j in 0..3 {
+                assert!((k.a[i][j] - A[i][j]).abs() < 1e-15, "a[{i}][{j}]");
+                assert!(
+                    (k.vinv[i][j] - tab.vinv[i][j]).abs() < 1e-12,
+                    "vinv[{i}][{j}]"
+                );
+            }
+        }
+        assert!((k.gamma - tab.gamma).abs() < 1e-13, "gamma");
+        assert!((k.pairs[0].0 - tab.pairs[0].0).abs() < 1e-13, "alpha");
+        assert!(
+            (k.pairs[0].1.abs() - tab.pairs[0].1.abs()).abs() < 1e-13,
+            "beta"
+        );
     }
 
     #[test]

@@ -70,16 +70,22 @@ impl Reduction {
     }
 }
 
-/// The factorisations of one variant's `γ I − J` (real `γ`) and `(α + iβ) I − J`, with
-/// the Jacobian entries the eliminations need.
+/// Complex shifts a [`NewtonLu`] holds at most: one for radau5 (3 stages), two for
+/// radau9 (5 stages: one real eigenvalue and two complex pairs).
+pub(crate) const MAX_PAIRS: usize = 2;
+
+/// The factorisations of one variant's `γ I − J` (real `γ`) and `(α_k + iβ_k) I − J` for
+/// each complex shift `k` (one for radau5, two for radau9), with the Jacobian entries the
+/// eliminations need.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct NewtonLu {
     real: RealLu,
-    cplx: ComplexLu,
-    /// The real shift `γ` and the complex one `(α, β)` of the last factorisation.
+    cplx: [ComplexLu; MAX_PAIRS],
+    /// The real shift `γ` and the complex ones `(α_k, β_k)` of the last factorisation.
     gamma: f64,
-    alpha: f64,
-    beta: f64,
+    shifts: [(f64, f64); MAX_PAIRS],
+    /// Complex shifts factorised.
+    pairs: usize,
     /// `J_{keep[a], i}` for each kinematic pair `(i, _)`, row-major `size x kin.len()`.
     jk: Vec<f64>,
     /// The quadrature rows of `J`, columns `0..jd`, row-major.
@@ -96,21 +102,24 @@ pub(crate) struct NewtonLu {
 }
 
 impl NewtonLu {
-    /// Factorises `γ I − J` and `(α + iβ) I − J` (`jac` row-major `d x d`) reduced by
-    /// `red`.
+    /// Factorises `γ I − J` and `(α_k + iβ_k) I − J` for each `(α_k, β_k)` of `pairs`
+    /// (at most [`MAX_PAIRS`]; `jac` row-major `d x d`) reduced by `red`.
     pub(crate) fn factor(
         &mut self,
         red: &Reduction,
         gamma: f64,
-        alpha: f64,
-        beta: f64,
+        pairs: &[(f64, f64)],
         jac: &[f64],
     ) {
         let (d, n, nk) = (red.d, red.size(), red.kin.len());
         debug_assert_eq!(jac.len(), d * d);
+        assert!(
+            pairs.len() <= MAX_PAIRS,
+            "at most {MAX_PAIRS} complex shifts"
+        );
         self.gamma = gamma;
-        self.alpha = alpha;
-        self.beta = beta;
+        self.pairs = pairs.len();
+        self.shifts[..pairs.len()].copy_from_slice(pairs);
         self.jk.clear();
         for &r in &red.keep {
             for &(i, _) in &red.kin {
@@ -146,32 +155,34 @@ impl NewtonLu {
             }
         }
         self.real.factor_matrix(&mut self.m_re, n);
-        // Complex: σ = α + iβ, 1/σ = (α − iβ) / (α² + β²).
-        let den = alpha * alpha + beta * beta;
-        let (ir, ii) = (alpha / den, -beta / den);
-        self.m_re.clear();
-        self.m_re.extend_from_slice(&self.base);
-        self.m_im.clear();
-        self.m_im.resize(n * n, 0.0);
-        let rows = self
-            .m_re
-            .chunks_exact_mut(n)
-            .zip(self.m_im.chunks_exact_mut(n));
-        for (a, (row_r, row_i)) in rows.enumerate() {
-            row_r[a] += alpha;
-            row_i[a] = beta;
-            let jk = &self.jk[a * nk..(a + 1) * nk];
-            for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
-                row_r[red.pos[j]] -= jv * ir;
-                row_i[red.pos[j]] -= jv * ii;
+        for (k, &(alpha, beta)) in pairs.iter().enumerate() {
+            // Complex: σ = α + iβ, 1/σ = (α − iβ) / (α² + β²).
+            let den = alpha * alpha + beta * beta;
+            let (ir, ii) = (alpha / den, -beta / den);
+            self.m_re.clear();
+            self.m_re.extend_from_slice(&self.base);
+            self.m_im.clear();
+            self.m_im.resize(n * n, 0.0);
+            let rows = self
+                .m_re
+                .chunks_exact_mut(n)
+                .zip(self.m_im.chunks_exact_mut(n));
+            for (a, (row_r, row_i)) in rows.enumerate() {
+                row_r[a] += alpha;
+                row_i[a] = beta;
+                let jk = &self.jk[a * nk..(a + 1) * nk];
+                for (&jv, &(_, j)) in jk.iter().zip(&red.kin) {
+                    row_r[red.pos[j]] -= jv * ir;
+                    row_i[red.pos[j]] -= jv * ii;
+                }
             }
+            self.cplx[k].factor_matrix(&mut self.m_re, &mut self.m_im, n);
         }
-        self.cplx.factor_matrix(&mut self.m_re, &mut self.m_im, n);
     }
 
     /// The last factorisation met a zero pivot or a non-finite entry.
     pub(crate) fn singular(&self) -> bool {
-        self.real.singular || self.cplx.singular
+        self.real.singular || self.cplx[..self.pairs].iter().any(|c| c.singular)
     }
 
     /// Whether `red` is the rigid rotor's reduction (12 components, 11 in the Jacobian, two
@@ -268,11 +279,13 @@ impl NewtonLu {
     fn solve_complex_sized<const N: usize, const NK: usize, const D: usize, const JD: usize>(
         &mut self,
         red: &Reduction,
+        pair: usize,
         br: &mut [f64],
         bi: &mut [f64],
     ) {
-        let den = self.alpha * self.alpha + self.beta * self.beta;
-        let (ir, ii) = (self.alpha / den, -self.beta / den);
+        let (alpha, beta) = self.shifts[pair];
+        let den = alpha * alpha + beta * beta;
+        let (ir, ii) = (alpha / den, -beta / den);
         let over = |u: f64, v: f64| (u * ir - v * ii, u * ii + v * ir);
         let br: &mut [f64; D] = br.try_into().expect("checked by rotor_sized");
         let bi: &mut [f64; D] = bi.try_into().expect("checked by rotor_sized");
@@ -295,7 +308,7 @@ impl NewtonLu {
             r_re[a] = sr;
             r_im[a] = si;
         }
-        self.cplx.solve(&mut r_re, &mut r_im);
+        self.cplx[pair].solve(&mut r_re, &mut r_im);
         for a in 0..N {
             br[keep[a]] = r_re[a];
             bi[keep[a]] = r_im[a];
@@ -320,14 +333,23 @@ impl NewtonLu {
         }
     }
 
-    /// Solves `((α + iβ) I − J) x = b` in place for `b = br + i bi` (length `d` each).
-    pub(crate) fn solve_complex(&mut self, red: &Reduction, br: &mut [f64], bi: &mut [f64]) {
+    /// Solves `((α_k + iβ_k) I − J) x = b` in place for `b = br + i bi` (length `d` each),
+    /// `k = pair` (below the number of shifts factorised).
+    pub(crate) fn solve_complex(
+        &mut self,
+        red: &Reduction,
+        pair: usize,
+        br: &mut [f64],
+        bi: &mut [f64],
+    ) {
+        debug_assert!(pair < self.pairs);
         if Self::rotor_sized(red, br.len()) && bi.len() == 12 {
-            return self.solve_complex_sized::<9, 2, 12, 11>(red, br, bi);
+            return self.solve_complex_sized::<9, 2, 12, 11>(red, pair, br, bi);
         }
         let nk = red.kin.len();
-        let den = self.alpha * self.alpha + self.beta * self.beta;
-        let (ir, ii) = (self.alpha / den, -self.beta / den);
+        let (alpha, beta) = self.shifts[pair];
+        let den = alpha * alpha + beta * beta;
+        let (ir, ii) = (alpha / den, -beta / den);
         // (u + iv) / σ.
         let over = |u: f64, v: f64| (u * ir - v * ii, u * ii + v * ir);
         // `b_i / σ` of each eliminated component, once (the same quotient every row used).
@@ -350,7 +372,7 @@ impl NewtonLu {
             self.r_re.push(sr);
             self.r_im.push(si);
         }
-        self.cplx.solve(&mut self.r_re, &mut self.r_im);
+        self.cplx[pair].solve(&mut self.r_re, &mut self.r_im);
         for (a, &r) in red.keep.iter().enumerate() {
             br[r] = self.r_re[a];
             bi[r] = self.r_im[a];
@@ -411,7 +433,8 @@ mod tests {
             let h = 10f64.powf(-5.0 * (rng(&mut seed) + 1.0) / 2.0);
             let (g, a, b) = (3.637 / h, 2.681 / h, 3.050 / h);
             let mut lu = NewtonLu::default();
-            lu.factor(&red, g, a, b, &j);
+            // The second shift as radau9's second pair (a different matrix).
+            lu.factor(&red, g, &[(a, b), (0.5 * a, 2.0 * b)], &j);
             assert!(!lu.singular());
             let b0: Vec<f64> = (0..d).map(|_| rng(&mut seed)).collect();
             let b1: Vec<f64> = (0..d).map(|_| rng(&mut seed)).collect();
@@ -429,22 +452,25 @@ mod tests {
                     want[k]
                 );
             }
-            let mut fc = ComplexLu::default();
-            fc.factor_shifted(a, b, &j, d);
-            let (mut wr, mut wi) = (b0.clone(), b1.clone());
-            fc.solve(&mut wr, &mut wi);
-            let (mut gr, mut gi) = (b0.clone(), b1.clone());
-            lu.solve_complex(&red, &mut gr, &mut gi);
-            let size = wr.iter().chain(&wi).fold(0.0_f64, |m, v| m.max(v.abs()));
-            for k in 0..d {
-                assert!(
-                    (gr[k] - wr[k]).abs() <= 1e-12 * size && (gi[k] - wi[k]).abs() <= 1e-12 * size,
-                    "case {case}, complex x[{k}]: ({}, {}) against ({}, {})",
-                    gr[k],
-                    gi[k],
-                    wr[k],
-                    wi[k]
-                );
+            for (pair, (sa, sb)) in [(a, b), (0.5 * a, 2.0 * b)].into_iter().enumerate() {
+                let mut fc = ComplexLu::default();
+                fc.factor_shifted(sa, sb, &j, d);
+                let (mut wr, mut wi) = (b0.clone(), b1.clone());
+                fc.solve(&mut wr, &mut wi);
+                let (mut gr, mut gi) = (b0.clone(), b1.clone());
+                lu.solve_complex(&red, pair, &mut gr, &mut gi);
+                let size = wr.iter().chain(&wi).fold(0.0_f64, |m, v| m.max(v.abs()));
+                for k in 0..d {
+                    assert!(
+                        (gr[k] - wr[k]).abs() <= 1e-12 * size
+                            && (gi[k] - wi[k]).abs() <= 1e-12 * size,
+                        "case {case}, pair {pair}, complex x[{k}]: ({}, {}) against ({}, {})",
+                        gr[k],
+                        gi[k],
+                        wr[k],
+                        wi[k]
+                    );
+                }
             }
         }
     }
@@ -461,13 +487,13 @@ mod tests {
         let mut lu = NewtonLu::default();
         let mut j = vec![0.0; 16];
         j[5] = f64::NAN;
-        lu.factor(&full, 1.0, 1.0, 1.0, &j);
+        lu.factor(&full, 1.0, &[(1.0, 1.0)], &j);
         assert!(lu.singular(), "NaN entry not flagged");
         // γ I − J singular: J = γ I.
         let j: Vec<f64> = (0..16)
             .map(|k| if k % 5 == 0 { 2.0 } else { 0.0 })
             .collect();
-        lu.factor(&full, 2.0, 1.0, 1.0, &j);
+        lu.factor(&full, 2.0, &[(1.0, 1.0)], &j);
         assert!(lu.singular(), "zero pivot not flagged");
     }
 }

@@ -30,6 +30,14 @@ pub enum Method {
     /// step (first-same-as-last) and 3 more on steps with a sample inside. For tight
     /// tolerances, where its order 8 takes far fewer steps than dopri5.
     Dop853,
+    /// Radau IIA, 5 stages, order 9, L-stable: radau5's machinery (simplified Newton in
+    /// the eigenbasis of `A^-1`, here one real and two complex `n x n` systems, the same
+    /// Jacobians and their reuse) with RADAU's embedded order-5 error estimate and
+    /// quintic collocation dense output. For tight tolerances on stiff variants: on the
+    /// rotor its steps are held by Newton's convergence near 25 a revolution, so it
+    /// takes 2-2.6x fewer right-hand sides than radau5 at rtol 1e-8 to 1e-9 and none
+    /// fewer at 1e-6 (BENCHMARKS.md "Issue 28, twelfth pass").
+    Radau9,
 }
 
 impl Method {
@@ -41,6 +49,7 @@ impl Method {
             Method::Auto => "auto",
             Method::Rk4 => "rk4",
             Method::Dop853 => "dop853",
+            Method::Radau9 => "radau9",
         }
     }
 }
@@ -250,7 +259,8 @@ pub fn run_batch<S: BatchSystem>(
     match method {
         Method::Dopri5 => super::dopri::run(sys, y0, settings, start, false),
         Method::Auto => super::dopri::run(sys, y0, settings, start, true),
-        Method::Radau5 => super::radau::run(sys, y0, settings, start),
+        Method::Radau5 => super::radau::run(sys, y0, settings, start, super::radau::Stages::Three),
+        Method::Radau9 => super::radau::run(sys, y0, settings, start, super::radau::Stages::Five),
         Method::Rk4 => super::rk4::run(sys, y0, settings, start),
         Method::Dop853 => super::dop853::run(sys, y0, settings, start),
     }
