@@ -171,19 +171,27 @@ pub(crate) struct Level {
     inv_d: Vec<f64>,
     /// Held value of each held node (0 elsewhere and at the inlet).
     hold: Vec<f64>,
+    /// Whether `hold` is known to be 0 everywhere (set up for a film without held bands):
+    /// [`Level::setup`] then leaves it as it is (issue 20, session 39: a store per node
+    /// and state, the same zeros).
+    hold_zero: bool,
     /// Inverse diagonal as a correction grid: its own inlet column is not held (it
     /// differs from the fine grid's; held, it would feed a correction `0 − u₀` back even
     /// at the fine solution); nodes next to a held fine node are frozen at `u₀` (0 here,
-    /// set per V-cycle, skipped by the smoother).
+    /// skipped by the smoother). Inside written by [`freeze`] (at each
+    /// [`Hierarchy::iterate`]) before any cycle reads it; 0 on the end rows.
     inv_d_free: Vec<f64>,
     /// Whether this grid is the one being solved (holds apply) or a correction grid.
     top: bool,
     /// This grid's own right-hand side `f = −rhs` (when it is the finest grid solved).
     f_own: Vec<f64>,
-    /// Right-hand side in use (own, or the FAS right-hand side as a coarse grid).
+    /// The FAS right-hand side as a coarse grid (written by a finer grid's restriction).
     f: Vec<f64>,
-    /// Whether `f` holds `f_own` (set up, or copied back; cleared when a finer grid's
-    /// restriction writes `f`): [`Hierarchy::iterate`] copies only when it does not.
+    /// Whether the right-hand side in use is `f_own` (set up, or made the grid solved by
+    /// [`Hierarchy::iterate`]) or `f` (cleared when a finer grid's restriction writes
+    /// `f`): every reader picks by it. Before issue 20 session 39 `f` was always the one in use,
+    /// written as a copy of `f_own` by `setup` (a store per node and state) and copied
+    /// back by `iterate`: the same values.
     f_is_own: bool,
     /// Iterate.
     pub p: Vec<f64>,
@@ -393,18 +401,16 @@ impl Level {
             &mut self.inv_d_free,
             &mut self.hold,
             &mut self.f_own,
-            &mut self.f,
             &mut self.base,
             &mut self.r,
             &mut self.p,
         ] {
             v.resize(n, 0.0);
         }
-        // The line smoother's scratch (written before read, see `Level::smooth_lines`).
-        for v in [&mut self.cp, &mut self.dp, &mut self.bl] {
-            v.resize(n, 0.0);
-        }
-        self.act.resize(n, false);
+        // Sized where first written, not here (issue 20, session 39: each array is a
+        // store per node when first allocated, and the first state of a run pays its
+        // pages): the FAS right-hand side `f` by the restriction onto this grid, the line
+        // smoother's scratch by `Level::smooth_lines`.
         self.f_is_own = true;
         // The iterate: 0 on the end rows always (every cycle reads them), inside only
         // when `zero_iterate` (see [`Hierarchy::push_finer`]).
@@ -418,6 +424,8 @@ impl Level {
         // The held bands' face factors and pressures; none for the plain 360° film (factor
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
+        // The holds are all 0 without held bands: written only when not already so.
+        let write_hold = held.is_some() || !self.hold_zero;
         self.inlet_col.clear();
         self.inlet_col.resize(nz + 1, usize::MAX);
         self.inlet_corr.clear();
@@ -443,13 +451,11 @@ impl Level {
                 let ae = &mut self.ae[rows.clone()];
                 let an = &mut self.an[rows.clone()];
                 let f_own = &mut self.f_own[rows.clone()];
-                let f = &mut self.f[rows.clone()];
                 // Node angle at 2i, east face at 2i + 1.
-                for ((((ae, an), fo), f), t) in ae
+                for (((ae, an), fo), t) in ae
                     .iter_mut()
                     .zip(an.iter_mut())
                     .zip(f_own.iter_mut())
-                    .zip(f.iter_mut())
                     .zip(trig.chunks_exact(2))
                 {
                     let ((cn, sn), (cf, sf)) = (t[0], t[1]);
@@ -457,9 +463,7 @@ impl Level {
                     *ae = ct * hf * hf * hf;
                     let hn = 1.0 - exh * cn - eyh * sn;
                     *an = cz * hn * hn * hn;
-                    let v = -6.0 * (a * sn - b * cn);
-                    *fo = v;
-                    *f = v;
+                    *fo = -6.0 * (a * sn - b * cn);
                 }
                 // No face north of the last row.
                 if j == nz {
@@ -481,14 +485,16 @@ impl Level {
             // The diagonal of this row (the row south of it is complete): 0 on the end
             // rows, whose nodes are not unknowns.
             if j == 0 || j == nz {
-                // One loop of stores, not four `memset`s (see above).
-                for (((d, i), fr), h) in self.d[rows.clone()]
+                // One loop of stores, not several `memset`s (see above).
+                for ((d, i), fr) in self.d[rows.clone()]
                     .iter_mut()
                     .zip(&mut self.inv_d[rows.clone()])
                     .zip(&mut self.inv_d_free[rows.clone()])
-                    .zip(&mut self.hold[rows.clone()])
                 {
-                    (*d, *i, *fr, *h) = (0.0, 0.0, 0.0, 0.0);
+                    (*d, *i, *fr) = (0.0, 0.0, 0.0);
+                }
+                if write_hold {
+                    self.hold[rows.clone()].fill(0.0);
                 }
                 continue;
             }
@@ -509,18 +515,15 @@ impl Level {
                     *d = e + w + n + s;
                 }
                 let inv_d = &mut self.inv_d[rows.clone()];
-                let inv_free = &mut self.inv_d_free[rows.clone()];
                 let hold = &mut self.hold[rows.clone()];
-                for (((d, i), fr), h) in d
-                    .iter()
-                    .zip(inv_d.iter_mut())
-                    .zip(inv_free.iter_mut())
-                    .zip(hold.iter_mut())
-                {
-                    let inv = 1.0 / d;
-                    *i = inv;
-                    *fr = inv;
-                    *h = 0.0;
+                // `inv_d_free` inside: written by `freeze` before the grid serves as a
+                // correction grid (issue 20, session 39: it was `1/d` here, a store per
+                // node and state that `freeze` overwrote or no one read).
+                for (d, i) in d.iter().zip(inv_d.iter_mut()) {
+                    *i = 1.0 / d;
+                }
+                if write_hold {
+                    hold.fill(0.0);
                 }
                 if let Some(hn) = &held {
                     for ((pa, i), h) in hn.held_pa[rows.clone()]
@@ -543,6 +546,7 @@ impl Level {
                 self.inlet_col[j] = i;
             }
         }
+        self.hold_zero = held.is_none();
     }
 
     /// `(cos, sin)` of the half-node angles `theta0 + kΔθ/2`, `k < 2 nt` (faces at odd
@@ -611,7 +615,11 @@ impl Level {
             ae: &self.ae[..n],
             an: &self.an[..n],
             d: &self.d[..n],
-            f: &self.f[..n],
+            f: if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             inv: if self.top {
                 &self.inv_d[..n]
             } else {
@@ -644,7 +652,12 @@ impl Level {
         } else {
             &self.inv_d_free[..n]
         };
-        let (ae, an, f, hold) = (&self.ae[..n], &self.an[..n], &self.f[..n], &self.hold[..n]);
+        let f = if self.f_is_own {
+            &self.f_own[..n]
+        } else {
+            &self.f[..n]
+        };
+        let (ae, an, hold) = (&self.ae[..n], &self.an[..n], &self.hold[..n]);
         let p = &mut self.p[..n];
         let mut max_dp = 0.0_f64;
         let mut max_p = 0.0_f64;
@@ -718,9 +731,19 @@ impl Level {
             &self.ae[..n],
             &self.an[..n],
             &self.d[..n],
-            &self.f[..n],
+            if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             &self.hold[..n],
         );
+        // Its scratch (written before read), sized here: the point smoother's runs never
+        // allocate it.
+        for v in [&mut self.cp, &mut self.dp, &mut self.bl] {
+            v.resize(n, 0.0);
+        }
+        self.act.resize(n, false);
         let p = &mut self.p[..n];
         let (cp, dp, bl, act) = (
             &mut self.cp[..n],
@@ -883,7 +906,11 @@ impl Level {
             ae: &self.ae[..n],
             an: &self.an[..n],
             d: &self.d[..n],
-            f: &self.f[..n],
+            f: if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             inv: if self.top {
                 &self.inv_d[..n]
             } else {
@@ -913,7 +940,11 @@ impl Level {
             &self.ae[..n],
             &self.an[..n],
             &self.d[..n],
-            &self.f[..n],
+            if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             &self.p[..n],
         );
         for j in 1..nz {
@@ -1195,6 +1226,8 @@ fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
 fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen) {
     let n = coarse.len();
     coarse.f_is_own = false;
+    // Written in full below (sized here, not by `Level::setup`).
+    coarse.f.resize(n, 0.0);
     let mut cg = lanes::Coarse {
         g: lanes::Grid {
             nt: coarse.nt,
@@ -1338,7 +1371,11 @@ fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c
         ae: &fine.ae[..n],
         an: &fine.an[..n],
         d: &fine.d[..n],
-        f: &fine.f[..n],
+        f: if fine.f_is_own {
+            &fine.f_own[..n]
+        } else {
+            &fine.f[..n]
+        },
         inv: if fine.top {
             &fine.inv_d[..n]
         } else {
@@ -1948,7 +1985,11 @@ impl Hierarchy {
                 &g.layout,
                 self.theta0,
                 lo.last(),
-                true,
+                // The coarsest grid's solve starts from 0; every finer grid's iterate is
+                // written before it is read (the FMG start's interpolation, a warm start's
+                // `load_field`, or a finer grid's restriction; issue 20, session 39: the
+                // zeroing was a pass of `memset` over every level per state).
+                l == 0,
             );
             lvl.coarsen = how;
         }
@@ -2062,11 +2103,8 @@ impl Hierarchy {
         }
         self.cur_top = l;
         {
-            let lvl = &mut self.levels[l];
-            if !lvl.f_is_own {
-                lvl.f.copy_from_slice(&lvl.f_own);
-                lvl.f_is_own = true;
-            }
+            // Its own right-hand side (no copy: see `Level::f_is_own`).
+            self.levels[l].f_is_own = true;
         }
         for m in (1..=l).rev() {
             if let Some(how) = self.levels[m].coarsen {
@@ -2359,7 +2397,14 @@ mod tests {
             assert_eq!(h.levels.len(), 1, "{nt}×{nz} is a coarsest grid");
             let lvl = &mut h.levels[0];
             lvl.top = false;
-            lvl.f.copy_from_slice(&lvl.f_own);
+            lvl.f = lvl.f_own.clone();
+            // The correction grid's inverse diagonal without holds (`freeze`'s, with no
+            // finer grid: 1/d inside, 0 on the end rows).
+            lvl.inv_d_free = lvl
+                .d
+                .iter()
+                .map(|d| if *d != 0.0 { 1.0 / d } else { 0.0 })
+                .collect();
             let exact = level_pgs(lvl, &vec![0.0; lvl.len()]);
             let peak = exact.iter().fold(0.0_f64, |m, v| m.max(*v));
             // u₀: the solution with a smooth error and node noise, some nodes cavitated
