@@ -178,8 +178,9 @@ pub(crate) struct Level {
     /// Inverse diagonal as a correction grid: its own inlet column is not held (it
     /// differs from the fine grid's; held, it would feed a correction `0 − u₀` back even
     /// at the fine solution); nodes next to a held fine node are frozen at `u₀` (0 here,
-    /// skipped by the smoother). Inside written by [`freeze`] (at each
-    /// [`Hierarchy::iterate`]) before any cycle reads it; 0 on the end rows.
+    /// skipped by the smoother). Sized and written inside by [`freeze`] (at each
+    /// [`Hierarchy::iterate`]) before any cycle reads it (no pass reads its end rows):
+    /// the finest grid, never a correction grid, has none (issue 20, session 39).
     inv_d_free: Vec<f64>,
     /// Whether this grid is the one being solved (holds apply) or a correction grid.
     top: bool,
@@ -398,7 +399,6 @@ impl Level {
             &mut self.an,
             &mut self.d,
             &mut self.inv_d,
-            &mut self.inv_d_free,
             &mut self.hold,
             &mut self.f_own,
             &mut self.base,
@@ -486,12 +486,11 @@ impl Level {
             // rows, whose nodes are not unknowns.
             if j == 0 || j == nz {
                 // One loop of stores, not several `memset`s (see above).
-                for ((d, i), fr) in self.d[rows.clone()]
+                for (d, i) in self.d[rows.clone()]
                     .iter_mut()
                     .zip(&mut self.inv_d[rows.clone()])
-                    .zip(&mut self.inv_d_free[rows.clone()])
                 {
-                    (*d, *i, *fr) = (0.0, 0.0, 0.0);
+                    (*d, *i) = (0.0, 0.0);
                 }
                 if write_hold {
                     self.hold[rows.clone()].fill(0.0);
@@ -1517,6 +1516,9 @@ impl lanes::Widen for Freeze<'_> {
 #[inline(always)]
 fn freeze_body(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     let (st, sz) = strides(how);
+    // Sized here (not by `Level::setup`): every row read below the end rows is written.
+    let n = coarse.len();
+    coarse.inv_d_free.resize(n, 0.0);
     let fine_inv = fine.inv();
     let fnt = fine.nt;
     // Without `line` (see `Hierarchy::line_freeze`): no inlet line, the stencil rule for
@@ -1844,6 +1846,8 @@ pub(crate) struct Hierarchy {
     /// solved, instead of the cycle's (`None`, the default: the cycle's everywhere; a
     /// probe of cheaper coarse-level smoothing, issue 20 session 38).
     pub below_top: Option<(u32, u32)>,
+    /// Scratch of [`Hierarchy::iterate`]'s field stop: the field before the cycle.
+    prev: Vec<f64>,
 }
 
 /// How the coarsest grid is solved inside a V-cycle (issue 20, session 38; see
@@ -2098,20 +2102,7 @@ impl Hierarchy {
         stop: Stop,
         max_cycles: u32,
     ) -> (u32, f64, bool) {
-        for (n, lvl) in self.levels.iter_mut().enumerate() {
-            lvl.top = n == l;
-        }
-        self.cur_top = l;
-        {
-            // Its own right-hand side (no copy: see `Level::f_is_own`).
-            self.levels[l].f_is_own = true;
-        }
-        for m in (1..=l).rev() {
-            if let Some(how) = self.levels[m].coarsen {
-                let (lo, hi) = self.levels.split_at_mut(m);
-                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
-            }
-        }
+        self.make_top(l);
         if l == 0 || self.levels[l].coarsen.is_none() {
             let u = self.levels[l].solve_coarsest(aspect, stop.tolerance(), 0.0, None);
             self.updates += u;
@@ -2121,7 +2112,9 @@ impl Hierarchy {
             }
             return (1, 0.0, true);
         }
-        let mut prev = Vec::new();
+        // The field before a cycle, kept between calls (issue 20, session 39: allocated
+        // per call it was a `malloc` and `free` of the grid's size).
+        let mut prev = std::mem::take(&mut self.prev);
         let simpson = self.simpson_z;
         // The loads before the first cycle: only the load stop reads them.
         let mut prev_loads = match stop {
@@ -2162,10 +2155,43 @@ impl Hierarchy {
             err = tail_estimate(change, last_change);
             last_change = change;
             if change == 0.0 || err <= stop.tolerance() {
+                self.prev = prev;
                 return (cycle, err, true);
             }
         }
+        self.prev = prev;
         (max_cycles, err, false)
+    }
+
+    /// One V-cycle on level `l` made the top one, as [`Hierarchy::iterate`] with one cycle
+    /// does it, without its stop test (the change over the cycle, which only decides
+    /// whether to stop and what to report): full multigrid's intermediate grids, whose
+    /// one cycle's report no one reads (issue 20, session 39: the field's copy and the
+    /// test's pass on each). The same fields, bit for bit.
+    pub fn cycle_once(&mut self, l: usize, aspect: f64, stop: Stop) {
+        if l == 0 || self.levels[l].coarsen.is_none() {
+            self.iterate(l, aspect, stop, 1);
+            return;
+        }
+        self.make_top(l);
+        self.vcycle(l, aspect);
+    }
+
+    /// Makes level `l` the one solved: its holds and own right-hand side in force, the
+    /// levels below it frozen as its correction grids (see [`freeze`]).
+    fn make_top(&mut self, l: usize) {
+        for (n, lvl) in self.levels.iter_mut().enumerate() {
+            lvl.top = n == l;
+        }
+        self.cur_top = l;
+        // Its own right-hand side (no copy: see `Level::f_is_own`).
+        self.levels[l].f_is_own = true;
+        for m in (1..=l).rev() {
+            if let Some(how) = self.levels[m].coarsen {
+                let (lo, hi) = self.levels.split_at_mut(m);
+                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
+            }
+        }
     }
 }
 

@@ -551,12 +551,12 @@ impl FiniteSolver {
             } else {
                 prolong_solution(&mut hi[0], &lo[l - 1], c);
             }
-            let (cycles, stop) = if l == top {
-                (top_cycles, top_stop)
+            if l == top {
+                res = self.mg.iterate(l, aspect, top_stop, top_cycles);
             } else {
-                (1, stop)
-            };
-            res = self.mg.iterate(l, aspect, stop, cycles);
+                // Its one cycle's stop test decides nothing (issue 20, session 39).
+                self.mg.cycle_once(l, aspect, stop);
+            }
         }
         res
     }
