@@ -208,6 +208,12 @@ pub(crate) struct Level {
     /// Per row: as a correction grid, the column frozen for the finer grid's inlet line
     /// (see [`freeze`]; `usize::MAX`: none).
     inlet_corr: Vec<usize>,
+    /// Per row: `(εx, εy, angle)` of the maximum-film line as [`Level::setup`] last found
+    /// it (NaN angle: none), and the `theta0` it was found for: a finer grid's row with
+    /// the same `(εx, εy)` bits and `theta0` takes the angle instead of an `atan2` (issue
+    /// 20, session 39: the same bits, half the `atan2` calls of a hierarchy).
+    inlet_angles: Vec<(f64, f64, f64)>,
+    inlet_theta0: u64,
     /// `(cos, sin)` of the half-node angles (see [`Level::set_trig`]).
     trig: Vec<(f64, f64)>,
     /// `(cos, sin)` of the column angles (the even entries of `trig`).
@@ -430,6 +436,13 @@ impl Level {
         self.inlet_col.resize(nz + 1, usize::MAX);
         self.inlet_corr.clear();
         self.inlet_corr.resize(nz + 1, usize::MAX);
+        // The coarser grid's inlet angles, by its row at this row's ζ where there is one.
+        let below = coarser
+            .filter(|c| max_film_inlet && c.inlet_theta0 == theta0.to_bits() && c.nz > 0)
+            .filter(|c| c.inlet_angles.len() == c.nz + 1 && nz.is_multiple_of(c.nz));
+        self.inlet_angles.clear();
+        self.inlet_angles.resize(nz + 1, (0.0, 0.0, f64::NAN));
+        self.inlet_theta0 = theta0.to_bits();
         let trig = &self.trig;
         // Row by row on slices (no index checks per node; issue 20, session 36: ~130
         // instructions per node before); the held bands' face factors and holds applied
@@ -538,8 +551,21 @@ impl Level {
                 }
             }
             if max_film_inlet && (ex != 0.0 || ey != 0.0) {
-                // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
-                let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero. The
+                // angle of the coarser grid's row where its `(εx, εy)` are these bits.
+                let same = |&(x, y, t): &(f64, f64, f64)| {
+                    (x.to_bits() == ex.to_bits() && y.to_bits() == ey.to_bits() && !t.is_nan())
+                        .then_some(t)
+                };
+                let th = below
+                    .and_then(|c| {
+                        let s = nz / c.nz;
+                        (j % s == 0).then(|| c.inlet_angles[j / s])
+                    })
+                    .as_ref()
+                    .and_then(same)
+                    .unwrap_or_else(|| ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI));
+                self.inlet_angles[j] = (ex, ey, th);
                 let i = (th / dt).round() as usize % nt;
                 self.inv_d[row + i] = 0.0;
                 self.inlet_col[j] = i;
@@ -2382,6 +2408,56 @@ mod tests {
     /// of the correction's largest value `max |p − u₀|` of the exact solution (projected
     /// Gauss–Seidel to a fixed point), and the solve takes fewer sweeps than the 1e-12
     /// stop before it.
+    /// The inlet line's angles taken from the coarser grid's rows (`Hierarchy::build`) are
+    /// those each grid finds alone (every row by `atan2`), bit for bit, and so are its held
+    /// columns and inverse diagonal: journals tilted out of the plane of their
+    /// eccentricity, whose inlet column moves along ζ.
+    #[test]
+    fn inlet_angles_from_the_coarser_grid_match_each_grid_alone() {
+        let mut rng = Lcg(20_39);
+        let p = BearingParams {
+            model: FilmModel::Finite,
+            ..BearingParams::paper_table2()
+        };
+        let d = p.clearance;
+        let mut rows = 0;
+        for trial in 0..40 {
+            let (ei, ej) = (0.05 + 0.9 * rng.next(), 0.05 + 0.9 * rng.next());
+            let (ai, aj) = (6.3 * rng.next(), 6.3 * rng.next());
+            let state = BearingState {
+                xi: ei * d * ai.cos(),
+                yi: ei * d * ai.sin(),
+                xj: ej * d * aj.cos(),
+                yj: ej * d * aj.sin(),
+                vxi: 0.0,
+                vyi: 0.0,
+                vxj: 0.0,
+                vyj: 0.0,
+                omega: 400.0,
+            };
+            let job = FiniteJob::new(&p, &pack_state(&p, &state).expect("a valid state"));
+            let (nt, nz) = [(128, 32), (64, 16), (96, 24), (128, 8)][trial % 4];
+            let g = FiniteGrid {
+                max_film_inlet: true,
+                ..FiniteGrid::for_bearing(&p)
+            };
+            let mut h = Hierarchy::default();
+            h.build(&job, nt, nz, &g);
+            for lvl in &h.levels {
+                let mut alone = Level::default();
+                alone.setup(&job, lvl.nt, lvl.nz, true, &g.layout, 0.0, None, true);
+                let angles = |l: &Level| -> Vec<u64> {
+                    l.inlet_angles.iter().map(|a| a.2.to_bits()).collect()
+                };
+                assert_eq!(angles(lvl), angles(&alone), "{nt} x {nz}, trial {trial}");
+                assert_eq!(lvl.inlet_col, alone.inlet_col);
+                assert_eq!(bits(&lvl.inv_d), bits(&alone.inv_d));
+                rows += lvl.inlet_col.iter().filter(|c| **c != usize::MAX).count();
+            }
+        }
+        assert!(rows > 1000, "{rows} rows with an inlet node");
+    }
+
     #[test]
     fn coarsest_correction_stop_is_within_its_bound() {
         let mut rng = Lcg(20_38);
