@@ -1872,8 +1872,6 @@ pub(crate) struct Hierarchy {
     /// solved, instead of the cycle's (`None`, the default: the cycle's everywhere; a
     /// probe of cheaper coarse-level smoothing, issue 20 session 38).
     pub below_top: Option<(u32, u32)>,
-    /// Scratch of [`Hierarchy::iterate`]'s field stop: the field before the cycle.
-    prev: Vec<f64>,
 }
 
 /// How the coarsest grid is solved inside a V-cycle (issue 20, session 38; see
@@ -2138,9 +2136,6 @@ impl Hierarchy {
             }
             return (1, 0.0, true);
         }
-        // The field before a cycle, kept between calls (issue 20, session 39: allocated
-        // per call it was a `malloc` and `free` of the grid's size).
-        let mut prev = std::mem::take(&mut self.prev);
         let simpson = self.simpson_z;
         // The loads before the first cycle: only the load stop reads them.
         let mut prev_loads = match stop {
@@ -2152,19 +2147,25 @@ impl Hierarchy {
         for cycle in 1..=max_cycles {
             // The field before the cycle: copied before the first, and by the field stop's
             // loop after each (`change_and_max`: one pass over the field less per cycle).
+            // In the grid's own `base` (its `u₀` as a coarse grid: unused while it is the
+            // grid solved, written by the restriction before it serves as one again;
+            // issue 20, session 39: a vector of the grid's size was allocated per call).
             if let (Stop::Field(_), 1) = (stop, cycle) {
-                prev.clear();
-                prev.extend_from_slice(&self.levels[l].p);
+                let lvl = &mut self.levels[l];
+                let n = lvl.len();
+                lvl.base[..n].copy_from_slice(&lvl.p[..n]);
             }
             self.vcycle(l, aspect);
-            let p = &self.levels[l].p;
+            let lvl = &mut self.levels[l];
+            let n = lvl.len();
+            let (p, prev) = (&lvl.p[..n], &mut lvl.base[..n]);
             // The change of this cycle, relative: of the field over its maximum, or of
             // the load integrals over their norm.
             let change = match stop {
                 Stop::Field(_) => {
                     // Widened (issue 20 session 38: this test was a fifth of a 128 × 32
                     // solve's instructions after the passes went into lanes).
-                    let (change, max_p) = lanes::widened(ChangeAndMax(p, &mut prev));
+                    let (change, max_p) = lanes::widened(ChangeAndMax(p, prev));
                     if max_p > 0.0 {
                         change / max_p
                     } else {
@@ -2181,11 +2182,9 @@ impl Hierarchy {
             err = tail_estimate(change, last_change);
             last_change = change;
             if change == 0.0 || err <= stop.tolerance() {
-                self.prev = prev;
                 return (cycle, err, true);
             }
         }
-        self.prev = prev;
         (max_cycles, err, false)
     }
 
