@@ -400,6 +400,13 @@ impl Level {
         // solve's instructions): the operator's arrays are written in full below, and the
         // scratch `base` and `r` are written before they are read (restriction, residual,
         // correction, cubic start).
+        // The holds, when they must grow: a zeroed allocation (`calloc`), whose fresh
+        // pages the system maps as they are first read, without writing them as
+        // `resize` does; a film without held bands only reads them (issue 20, session
+        // 39: a run's first state faulted them in by the writes).
+        if self.hold.capacity() < n {
+            self.hold = vec![0.0; n];
+        }
         for v in [
             &mut self.ae,
             &mut self.an,
