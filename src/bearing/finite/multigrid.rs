@@ -171,19 +171,28 @@ pub(crate) struct Level {
     inv_d: Vec<f64>,
     /// Held value of each held node (0 elsewhere and at the inlet).
     hold: Vec<f64>,
+    /// Whether `hold` is known to be 0 everywhere (set up for a film without held bands):
+    /// [`Level::setup`] then leaves it as it is (issue 20, session 39: a store per node
+    /// and state, the same zeros).
+    hold_zero: bool,
     /// Inverse diagonal as a correction grid: its own inlet column is not held (it
     /// differs from the fine grid's; held, it would feed a correction `0 − u₀` back even
     /// at the fine solution); nodes next to a held fine node are frozen at `u₀` (0 here,
-    /// set per V-cycle, skipped by the smoother).
+    /// skipped by the smoother). Sized and written inside by [`freeze`] (at each
+    /// [`Hierarchy::iterate`]) before any cycle reads it (no pass reads its end rows):
+    /// the finest grid, never a correction grid, has none (issue 20, session 39).
     inv_d_free: Vec<f64>,
     /// Whether this grid is the one being solved (holds apply) or a correction grid.
     top: bool,
     /// This grid's own right-hand side `f = −rhs` (when it is the finest grid solved).
     f_own: Vec<f64>,
-    /// Right-hand side in use (own, or the FAS right-hand side as a coarse grid).
+    /// The FAS right-hand side as a coarse grid (written by a finer grid's restriction).
     f: Vec<f64>,
-    /// Whether `f` holds `f_own` (set up, or copied back; cleared when a finer grid's
-    /// restriction writes `f`): [`Hierarchy::iterate`] copies only when it does not.
+    /// Whether the right-hand side in use is `f_own` (set up, or made the grid solved by
+    /// [`Hierarchy::iterate`]) or `f` (cleared when a finer grid's restriction writes
+    /// `f`): every reader picks by it. Before issue 20 session 39 `f` was always the one in use,
+    /// written as a copy of `f_own` by `setup` (a store per node and state) and copied
+    /// back by `iterate`: the same values.
     f_is_own: bool,
     /// Iterate.
     pub p: Vec<f64>,
@@ -199,6 +208,12 @@ pub(crate) struct Level {
     /// Per row: as a correction grid, the column frozen for the finer grid's inlet line
     /// (see [`freeze`]; `usize::MAX`: none).
     inlet_corr: Vec<usize>,
+    /// Per row: `(εx, εy, angle)` of the maximum-film line as [`Level::setup`] last found
+    /// it (NaN angle: none), and the `theta0` it was found for: a finer grid's row with
+    /// the same `(εx, εy)` bits and `theta0` takes the angle instead of an `atan2` (issue
+    /// 20, session 39: the same bits, half the `atan2` calls of a hierarchy).
+    inlet_angles: Vec<(f64, f64, f64)>,
+    inlet_theta0: u64,
     /// `(cos, sin)` of the half-node angles (see [`Level::set_trig`]).
     trig: Vec<(f64, f64)>,
     /// `(cos, sin)` of the column angles (the even entries of `trig`).
@@ -385,26 +400,30 @@ impl Level {
         // solve's instructions): the operator's arrays are written in full below, and the
         // scratch `base` and `r` are written before they are read (restriction, residual,
         // correction, cubic start).
+        // The holds, when they must grow: a zeroed allocation (`calloc`), whose fresh
+        // pages the system maps as they are first read, without writing them as
+        // `resize` does; a film without held bands only reads them (issue 20, session
+        // 39: a run's first state faulted them in by the writes).
+        if self.hold.capacity() < n {
+            self.hold = vec![0.0; n];
+        }
         for v in [
             &mut self.ae,
             &mut self.an,
             &mut self.d,
             &mut self.inv_d,
-            &mut self.inv_d_free,
             &mut self.hold,
             &mut self.f_own,
-            &mut self.f,
             &mut self.base,
             &mut self.r,
             &mut self.p,
         ] {
             v.resize(n, 0.0);
         }
-        // The line smoother's scratch (written before read, see `Level::smooth_lines`).
-        for v in [&mut self.cp, &mut self.dp, &mut self.bl] {
-            v.resize(n, 0.0);
-        }
-        self.act.resize(n, false);
+        // Sized where first written, not here (issue 20, session 39: each array is a
+        // store per node when first allocated, and the first state of a run pays its
+        // pages): the FAS right-hand side `f` by the restriction onto this grid, the line
+        // smoother's scratch by `Level::smooth_lines`.
         self.f_is_own = true;
         // The iterate: 0 on the end rows always (every cycle reads them), inside only
         // when `zero_iterate` (see [`Hierarchy::push_finer`]).
@@ -418,10 +437,19 @@ impl Level {
         // The held bands' face factors and pressures; none for the plain 360° film (factor
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
+        // The holds are all 0 without held bands: written only when not already so.
+        let write_hold = held.is_some() || !self.hold_zero;
         self.inlet_col.clear();
         self.inlet_col.resize(nz + 1, usize::MAX);
         self.inlet_corr.clear();
         self.inlet_corr.resize(nz + 1, usize::MAX);
+        // The coarser grid's inlet angles, by its row at this row's ζ where there is one.
+        let below = coarser
+            .filter(|c| max_film_inlet && c.inlet_theta0 == theta0.to_bits() && c.nz > 0)
+            .filter(|c| c.inlet_angles.len() == c.nz + 1 && nz.is_multiple_of(c.nz));
+        self.inlet_angles.clear();
+        self.inlet_angles.resize(nz + 1, (0.0, 0.0, f64::NAN));
+        self.inlet_theta0 = theta0.to_bits();
         let trig = &self.trig;
         // Row by row on slices (no index checks per node; issue 20, session 36: ~130
         // instructions per node before); the held bands' face factors and holds applied
@@ -443,13 +471,11 @@ impl Level {
                 let ae = &mut self.ae[rows.clone()];
                 let an = &mut self.an[rows.clone()];
                 let f_own = &mut self.f_own[rows.clone()];
-                let f = &mut self.f[rows.clone()];
                 // Node angle at 2i, east face at 2i + 1.
-                for ((((ae, an), fo), f), t) in ae
+                for (((ae, an), fo), t) in ae
                     .iter_mut()
                     .zip(an.iter_mut())
                     .zip(f_own.iter_mut())
-                    .zip(f.iter_mut())
                     .zip(trig.chunks_exact(2))
                 {
                     let ((cn, sn), (cf, sf)) = (t[0], t[1]);
@@ -457,9 +483,7 @@ impl Level {
                     *ae = ct * hf * hf * hf;
                     let hn = 1.0 - exh * cn - eyh * sn;
                     *an = cz * hn * hn * hn;
-                    let v = -6.0 * (a * sn - b * cn);
-                    *fo = v;
-                    *f = v;
+                    *fo = -6.0 * (a * sn - b * cn);
                 }
                 // No face north of the last row.
                 if j == nz {
@@ -481,14 +505,15 @@ impl Level {
             // The diagonal of this row (the row south of it is complete): 0 on the end
             // rows, whose nodes are not unknowns.
             if j == 0 || j == nz {
-                // One loop of stores, not four `memset`s (see above).
-                for (((d, i), fr), h) in self.d[rows.clone()]
+                // One loop of stores, not several `memset`s (see above).
+                for (d, i) in self.d[rows.clone()]
                     .iter_mut()
                     .zip(&mut self.inv_d[rows.clone()])
-                    .zip(&mut self.inv_d_free[rows.clone()])
-                    .zip(&mut self.hold[rows.clone()])
                 {
-                    (*d, *i, *fr, *h) = (0.0, 0.0, 0.0, 0.0);
+                    (*d, *i) = (0.0, 0.0);
+                }
+                if write_hold {
+                    self.hold[rows.clone()].fill(0.0);
                 }
                 continue;
             }
@@ -509,18 +534,15 @@ impl Level {
                     *d = e + w + n + s;
                 }
                 let inv_d = &mut self.inv_d[rows.clone()];
-                let inv_free = &mut self.inv_d_free[rows.clone()];
                 let hold = &mut self.hold[rows.clone()];
-                for (((d, i), fr), h) in d
-                    .iter()
-                    .zip(inv_d.iter_mut())
-                    .zip(inv_free.iter_mut())
-                    .zip(hold.iter_mut())
-                {
-                    let inv = 1.0 / d;
-                    *i = inv;
-                    *fr = inv;
-                    *h = 0.0;
+                // `inv_d_free` inside: written by `freeze` before the grid serves as a
+                // correction grid (issue 20, session 39: it was `1/d` here, a store per
+                // node and state that `freeze` overwrote or no one read).
+                for (d, i) in d.iter().zip(inv_d.iter_mut()) {
+                    *i = 1.0 / d;
+                }
+                if write_hold {
+                    hold.fill(0.0);
                 }
                 if let Some(hn) = &held {
                     for ((pa, i), h) in hn.held_pa[rows.clone()]
@@ -536,13 +558,27 @@ impl Level {
                 }
             }
             if max_film_inlet && (ex != 0.0 || ey != 0.0) {
-                // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero.
-                let th = ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI);
+                // The column nearest the maximum film, angle arg(−ε(ζ)), held at zero. The
+                // angle of the coarser grid's row where its `(εx, εy)` are these bits.
+                let same = |&(x, y, t): &(f64, f64, f64)| {
+                    (x.to_bits() == ex.to_bits() && y.to_bits() == ey.to_bits() && !t.is_nan())
+                        .then_some(t)
+                };
+                let th = below
+                    .and_then(|c| {
+                        let s = nz / c.nz;
+                        (j % s == 0).then(|| c.inlet_angles[j / s])
+                    })
+                    .as_ref()
+                    .and_then(same)
+                    .unwrap_or_else(|| ((-ey).atan2(-ex) - theta0).rem_euclid(2.0 * PI));
+                self.inlet_angles[j] = (ex, ey, th);
                 let i = (th / dt).round() as usize % nt;
                 self.inv_d[row + i] = 0.0;
                 self.inlet_col[j] = i;
             }
         }
+        self.hold_zero = held.is_none();
     }
 
     /// `(cos, sin)` of the half-node angles `theta0 + kΔθ/2`, `k < 2 nt` (faces at odd
@@ -611,7 +647,11 @@ impl Level {
             ae: &self.ae[..n],
             an: &self.an[..n],
             d: &self.d[..n],
-            f: &self.f[..n],
+            f: if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             inv: if self.top {
                 &self.inv_d[..n]
             } else {
@@ -644,7 +684,12 @@ impl Level {
         } else {
             &self.inv_d_free[..n]
         };
-        let (ae, an, f, hold) = (&self.ae[..n], &self.an[..n], &self.f[..n], &self.hold[..n]);
+        let f = if self.f_is_own {
+            &self.f_own[..n]
+        } else {
+            &self.f[..n]
+        };
+        let (ae, an, hold) = (&self.ae[..n], &self.an[..n], &self.hold[..n]);
         let p = &mut self.p[..n];
         let mut max_dp = 0.0_f64;
         let mut max_p = 0.0_f64;
@@ -718,9 +763,19 @@ impl Level {
             &self.ae[..n],
             &self.an[..n],
             &self.d[..n],
-            &self.f[..n],
+            if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             &self.hold[..n],
         );
+        // Its scratch (written before read), sized here: the point smoother's runs never
+        // allocate it.
+        for v in [&mut self.cp, &mut self.dp, &mut self.bl] {
+            v.resize(n, 0.0);
+        }
+        self.act.resize(n, false);
         let p = &mut self.p[..n];
         let (cp, dp, bl, act) = (
             &mut self.cp[..n],
@@ -883,7 +938,11 @@ impl Level {
             ae: &self.ae[..n],
             an: &self.an[..n],
             d: &self.d[..n],
-            f: &self.f[..n],
+            f: if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             inv: if self.top {
                 &self.inv_d[..n]
             } else {
@@ -913,7 +972,11 @@ impl Level {
             &self.ae[..n],
             &self.an[..n],
             &self.d[..n],
-            &self.f[..n],
+            if self.f_is_own {
+                &self.f_own[..n]
+            } else {
+                &self.f[..n]
+            },
             &self.p[..n],
         );
         for j in 1..nz {
@@ -1195,6 +1258,8 @@ fn restrict_fas(fine: &Level, coarse: &mut Level, c: Coarsen) {
 fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen) {
     let n = coarse.len();
     coarse.f_is_own = false;
+    // Written in full below (sized here, not by `Level::setup`).
+    coarse.f.resize(n, 0.0);
     let mut cg = lanes::Coarse {
         g: lanes::Grid {
             nt: coarse.nt,
@@ -1338,7 +1403,11 @@ fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c
         ae: &fine.ae[..n],
         an: &fine.an[..n],
         d: &fine.d[..n],
-        f: &fine.f[..n],
+        f: if fine.f_is_own {
+            &fine.f_own[..n]
+        } else {
+            &fine.f[..n]
+        },
         inv: if fine.top {
             &fine.inv_d[..n]
         } else {
@@ -1480,6 +1549,9 @@ impl lanes::Widen for Freeze<'_> {
 #[inline(always)]
 fn freeze_body(fine: &Level, coarse: &mut Level, how: Coarsen, line: bool) {
     let (st, sz) = strides(how);
+    // Sized here (not by `Level::setup`): every row read below the end rows is written.
+    let n = coarse.len();
+    coarse.inv_d_free.resize(n, 0.0);
     let fine_inv = fine.inv();
     let fnt = fine.nt;
     // Without `line` (see `Hierarchy::line_freeze`): no inlet line, the stencil rule for
@@ -1948,7 +2020,11 @@ impl Hierarchy {
                 &g.layout,
                 self.theta0,
                 lo.last(),
-                true,
+                // The coarsest grid's solve starts from 0; every finer grid's iterate is
+                // written before it is read (the FMG start's interpolation, a warm start's
+                // `load_field`, or a finer grid's restriction; issue 20, session 39: the
+                // zeroing was a pass of `memset` over every level per state).
+                l == 0,
             );
             lvl.coarsen = how;
         }
@@ -2057,23 +2133,7 @@ impl Hierarchy {
         stop: Stop,
         max_cycles: u32,
     ) -> (u32, f64, bool) {
-        for (n, lvl) in self.levels.iter_mut().enumerate() {
-            lvl.top = n == l;
-        }
-        self.cur_top = l;
-        {
-            let lvl = &mut self.levels[l];
-            if !lvl.f_is_own {
-                lvl.f.copy_from_slice(&lvl.f_own);
-                lvl.f_is_own = true;
-            }
-        }
-        for m in (1..=l).rev() {
-            if let Some(how) = self.levels[m].coarsen {
-                let (lo, hi) = self.levels.split_at_mut(m);
-                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
-            }
-        }
+        self.make_top(l);
         if l == 0 || self.levels[l].coarsen.is_none() {
             let u = self.levels[l].solve_coarsest(aspect, stop.tolerance(), 0.0, None);
             self.updates += u;
@@ -2083,7 +2143,6 @@ impl Hierarchy {
             }
             return (1, 0.0, true);
         }
-        let mut prev = Vec::new();
         let simpson = self.simpson_z;
         // The loads before the first cycle: only the load stop reads them.
         let mut prev_loads = match stop {
@@ -2095,19 +2154,25 @@ impl Hierarchy {
         for cycle in 1..=max_cycles {
             // The field before the cycle: copied before the first, and by the field stop's
             // loop after each (`change_and_max`: one pass over the field less per cycle).
+            // In the grid's own `base` (its `u₀` as a coarse grid: unused while it is the
+            // grid solved, written by the restriction before it serves as one again;
+            // issue 20, session 39: a vector of the grid's size was allocated per call).
             if let (Stop::Field(_), 1) = (stop, cycle) {
-                prev.clear();
-                prev.extend_from_slice(&self.levels[l].p);
+                let lvl = &mut self.levels[l];
+                let n = lvl.len();
+                lvl.base[..n].copy_from_slice(&lvl.p[..n]);
             }
             self.vcycle(l, aspect);
-            let p = &self.levels[l].p;
+            let lvl = &mut self.levels[l];
+            let n = lvl.len();
+            let (p, prev) = (&lvl.p[..n], &mut lvl.base[..n]);
             // The change of this cycle, relative: of the field over its maximum, or of
             // the load integrals over their norm.
             let change = match stop {
                 Stop::Field(_) => {
                     // Widened (issue 20 session 38: this test was a fifth of a 128 × 32
                     // solve's instructions after the passes went into lanes).
-                    let (change, max_p) = lanes::widened(ChangeAndMax(p, &mut prev));
+                    let (change, max_p) = lanes::widened(ChangeAndMax(p, prev));
                     if max_p > 0.0 {
                         change / max_p
                     } else {
@@ -2128,6 +2193,37 @@ impl Hierarchy {
             }
         }
         (max_cycles, err, false)
+    }
+
+    /// One V-cycle on level `l` made the top one, as [`Hierarchy::iterate`] with one cycle
+    /// does it, without its stop test (the change over the cycle, which only decides
+    /// whether to stop and what to report): full multigrid's intermediate grids, whose
+    /// one cycle's report no one reads (issue 20, session 39: the field's copy and the
+    /// test's pass on each). The same fields, bit for bit.
+    pub fn cycle_once(&mut self, l: usize, aspect: f64, stop: Stop) {
+        if l == 0 || self.levels[l].coarsen.is_none() {
+            self.iterate(l, aspect, stop, 1);
+            return;
+        }
+        self.make_top(l);
+        self.vcycle(l, aspect);
+    }
+
+    /// Makes level `l` the one solved: its holds and own right-hand side in force, the
+    /// levels below it frozen as its correction grids (see [`freeze`]).
+    fn make_top(&mut self, l: usize) {
+        for (n, lvl) in self.levels.iter_mut().enumerate() {
+            lvl.top = n == l;
+        }
+        self.cur_top = l;
+        // Its own right-hand side (no copy: see `Level::f_is_own`).
+        self.levels[l].f_is_own = true;
+        for m in (1..=l).rev() {
+            if let Some(how) = self.levels[m].coarsen {
+                let (lo, hi) = self.levels.split_at_mut(m);
+                freeze(&hi[0], &mut lo[m - 1], how, self.line_freeze);
+            }
+        }
     }
 }
 
@@ -2318,6 +2414,56 @@ mod tests {
     /// of the correction's largest value `max |p − u₀|` of the exact solution (projected
     /// Gauss–Seidel to a fixed point), and the solve takes fewer sweeps than the 1e-12
     /// stop before it.
+    /// The inlet line's angles taken from the coarser grid's rows (`Hierarchy::build`) are
+    /// those each grid finds alone (every row by `atan2`), bit for bit, and so are its held
+    /// columns and inverse diagonal: journals tilted out of the plane of their
+    /// eccentricity, whose inlet column moves along ζ.
+    #[test]
+    fn inlet_angles_from_the_coarser_grid_match_each_grid_alone() {
+        let mut rng = Lcg(20_39);
+        let p = BearingParams {
+            model: FilmModel::Finite,
+            ..BearingParams::paper_table2()
+        };
+        let d = p.clearance;
+        let mut rows = 0;
+        for trial in 0..40 {
+            let (ei, ej) = (0.05 + 0.9 * rng.next(), 0.05 + 0.9 * rng.next());
+            let (ai, aj) = (6.3 * rng.next(), 6.3 * rng.next());
+            let state = BearingState {
+                xi: ei * d * ai.cos(),
+                yi: ei * d * ai.sin(),
+                xj: ej * d * aj.cos(),
+                yj: ej * d * aj.sin(),
+                vxi: 0.0,
+                vyi: 0.0,
+                vxj: 0.0,
+                vyj: 0.0,
+                omega: 400.0,
+            };
+            let job = FiniteJob::new(&p, &pack_state(&p, &state).expect("a valid state"));
+            let (nt, nz) = [(128, 32), (64, 16), (96, 24), (128, 8)][trial % 4];
+            let g = FiniteGrid {
+                max_film_inlet: true,
+                ..FiniteGrid::for_bearing(&p)
+            };
+            let mut h = Hierarchy::default();
+            h.build(&job, nt, nz, &g);
+            for lvl in &h.levels {
+                let mut alone = Level::default();
+                alone.setup(&job, lvl.nt, lvl.nz, true, &g.layout, 0.0, None, true);
+                let angles = |l: &Level| -> Vec<u64> {
+                    l.inlet_angles.iter().map(|a| a.2.to_bits()).collect()
+                };
+                assert_eq!(angles(lvl), angles(&alone), "{nt} x {nz}, trial {trial}");
+                assert_eq!(lvl.inlet_col, alone.inlet_col);
+                assert_eq!(bits(&lvl.inv_d), bits(&alone.inv_d));
+                rows += lvl.inlet_col.iter().filter(|c| **c != usize::MAX).count();
+            }
+        }
+        assert!(rows > 1000, "{rows} rows with an inlet node");
+    }
+
     #[test]
     fn coarsest_correction_stop_is_within_its_bound() {
         let mut rng = Lcg(20_38);
@@ -2359,7 +2505,14 @@ mod tests {
             assert_eq!(h.levels.len(), 1, "{nt}×{nz} is a coarsest grid");
             let lvl = &mut h.levels[0];
             lvl.top = false;
-            lvl.f.copy_from_slice(&lvl.f_own);
+            lvl.f = lvl.f_own.clone();
+            // The correction grid's inverse diagonal without holds (`freeze`'s, with no
+            // finer grid: 1/d inside, 0 on the end rows).
+            lvl.inv_d_free = lvl
+                .d
+                .iter()
+                .map(|d| if *d != 0.0 { 1.0 / d } else { 0.0 })
+                .collect();
             let exact = level_pgs(lvl, &vec![0.0; lvl.len()]);
             let peak = exact.iter().fold(0.0_f64, |m, v| m.max(*v));
             // u₀: the solution with a smooth error and node noise, some nodes cavitated

@@ -516,11 +516,12 @@ impl FiniteSolver {
     /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
     /// level, cycles to `tol` on `top`, bilinear starts (the accuracy ladder's first grid).
     fn fmg(&mut self, aspect: f64, top: usize, stop: Stop) -> (u32, f64, bool) {
-        self.fmg_with(aspect, top, stop, MAX_CYCLES, false)
+        self.fmg_with(aspect, top, stop, stop, MAX_CYCLES, false)
     }
 
     /// Full multigrid from the bottom level to `top`: one V-cycle on each intermediate
-    /// level, at most `top_cycles` on `top` (0: `top` only interpolated); each level
+    /// level, at most `top_cycles` on `top` (0: `top` only interpolated) with the stop
+    /// `top_stop` (`stop` below it); each level
     /// starts from the next coarser one's solution interpolated cubically
     /// ([`prolong_solution_cubic`], explicit grids) or bilinearly ([`prolong_solution`],
     /// the accuracy ladder's first grid, whose estimates are calibrated on it).
@@ -529,6 +530,7 @@ impl FiniteSolver {
         aspect: f64,
         top: usize,
         stop: Stop,
+        top_stop: Stop,
         top_cycles: u32,
         cubic: bool,
     ) -> (u32, f64, bool) {
@@ -549,8 +551,12 @@ impl FiniteSolver {
             } else {
                 prolong_solution(&mut hi[0], &lo[l - 1], c);
             }
-            let cycles = if l == top { top_cycles } else { 1 };
-            res = self.mg.iterate(l, aspect, stop, cycles);
+            if l == top {
+                res = self.mg.iterate(l, aspect, top_stop, top_cycles);
+            } else {
+                // Its one cycle's stop test decides nothing (issue 20, session 39).
+                self.mg.cycle_once(l, aspect, stop);
+            }
         }
         res
     }
@@ -581,20 +587,35 @@ impl FiniteSolver {
         // on the top grid no stop: only an all-zero change ends its cycles early.
         let fmg_stop = Stop::Field(g.tolerance);
         let none = Stop::Field(-1.0);
-        let mut res = self.fmg_with(job.aspect, top, fmg_stop, 0, true);
-        if let Some(observe) = observe.as_mut() {
-            observe(self.mg.updates, &self.mg.levels[top].p);
-            for _ in 0..cycles {
-                res = self.mg.iterate(top, job.aspect, none, 1);
+        let res = match observe.as_mut() {
+            Some(observe) => {
+                let mut res = self.fmg_with(job.aspect, top, fmg_stop, none, 0, true);
                 observe(self.mg.updates, &self.mg.levels[top].p);
+                for _ in 0..cycles {
+                    res = self.mg.iterate(top, job.aspect, none, 1);
+                    observe(self.mg.updates, &self.mg.levels[top].p);
+                }
+                res
             }
-        } else {
-            // The same cycles in one call, as `solve` runs them (the cost probe).
-            res = self.mg.iterate(top, job.aspect, none, cycles);
-        }
+            // The cost probe: the top grid's cycles in the call that interpolates it, as
+            // `solve` runs them (one `iterate` on the top grid: its coarse grids frozen
+            // once; issue 20, session 39: a second call redid those freezes, work `solve`
+            // does not do). The single-level grid keeps its second call (its first solves).
+            None if top > 0 => self.fmg_with(job.aspect, top, fmg_stop, none, cycles, true),
+            None => {
+                self.fmg_with(job.aspect, top, fmg_stop, none, 0, true);
+                self.mg.iterate(top, job.aspect, none, cycles)
+            }
+        };
         self.mg.cycle = MgCycle::default();
-        let p = &self.mg.levels[top].p;
-        (integrals_of(p, g), self.report(top, res))
+        (self.top_integrals(top), self.report(top, res))
+    }
+
+    /// [`integrals_of`] the top level's iterate, from the level's table of column angles
+    /// (the same bits, see [`super::multigrid::Level::loads`]; issue 20, session 39: `integrals_of` evaluates
+    /// a sine and cosine per column and state).
+    fn top_integrals(&self, top: usize) -> FilmIntegrals {
+        self.mg.levels[top].loads(self.mg.theta0, false)
     }
 
     fn report(&self, top: usize, res: (u32, f64, bool)) -> SolveReport {
@@ -632,13 +653,14 @@ impl FiniteSolver {
             self.mg
                 .iterate(top, job.aspect, Stop::Field(g.tolerance), MAX_CYCLES)
         } else {
-            self.fmg_with(job.aspect, top, Stop::Field(g.tolerance), MAX_CYCLES, true)
+            let stop = Stop::Field(g.tolerance);
+            self.fmg_with(job.aspect, top, stop, stop, MAX_CYCLES, true)
         };
         field.clear();
         field.extend_from_slice(&self.mg.levels[top].p);
         // The accuracy ladder keeps the point smoother (see `FiniteSolver::cycle`).
         self.mg.cycle = MgCycle::default();
-        (integrals_of(field, g), self.report(top, res))
+        (self.top_integrals(top), self.report(top, res))
     }
 
     /// Starts the accuracy ladder: node 0 on the mid-plane's maximum film (max-film
