@@ -1307,9 +1307,10 @@ pub fn simpson_estimate(values: &[FilmIntegrals]) -> Option<f64> {
 /// 0.83-0.86 1.1-1.45e-3 off on 128 × 16 and a squeezed ε 0.91 2.4e-3 off, estimates
 /// 0.13-0.44 × the truth (examples/bench_worst.rs; tests/finite_accuracy.rs
 /// `default_within_1e3_on_a_dense_eccentricity_scan`). Measured on 3,800 states
-/// (BENCHMARKS.md "Issue 20: the default's promise on dense scans, session 39"): largest
-/// error at 5e-4 6.99e-4, node updates +10-13 %; adding the pair one grid back
-/// (`d₋₁/12`) cost +27-35 % for no state's gain. `None` below three grids.
+/// (BENCHMARKS.md "Issue 20: the default's promise on dense scans, session 39"): none
+/// above 1e-3 at 5e-4, the largest 7.2e-4, for +4-13 % node updates (replayed ladders);
+/// adding the pair one grid back (`d₋₁/12`) cost +27-35 % and brought no further state
+/// under 1e-3. `None` below three grids.
 /// The estimate reported with it is the geometric mean `√(bound × simpson_estimate)`:
 /// between the last pair's (too low on erratic ladders) and the bound (up to ~5× high),
 /// and at most the bound, so a met accuracy reports an estimate below it.
