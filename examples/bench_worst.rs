@@ -6,9 +6,13 @@
 //! extrapolated from 512×64) and, for the worst states, how far that reference is from the
 //! next extrapolate down (512×64 from 256×32: the reference's own error is below that).
 //!
-//! `cargo run --release --example bench_worst [N] [TOP]` (N = 1024, TOP = 12).
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSolver};
-use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, FilmModel};
+//! `cargo run --release --example bench_worst [N] [TOP]` (N = 1024, TOP = 12); modes
+//! `ladder K…` and `replay N ACC…` (see each function); `BW_SCAN`, `BW_SET`, `BW_ACC`
+//! choose the states and the accuracy (see [`states_from_env`] and `main`).
+use bearing_sweep::bearing::finite::{
+    simpson_estimate, simpson_stop_bound, FiniteGrid, FiniteJob, FiniteSolver, LadderStep,
+};
+use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState, FilmModel};
 use bearing_sweep::bench::finite::bench_states;
 use rayon::prelude::*;
 
@@ -19,15 +23,45 @@ mod finite_states;
 /// grid it stopped on, and the reference's own step (1024 × 128 extrapolate minus 512 × 64's).
 type Row = (usize, f64, f64, (u32, u32), f64);
 
-fn rel(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let d: f64 = (0..4).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    d / b.iter().map(|x| x * x).sum::<f64>().sqrt()
+use finite_states::rel;
+
+/// The full ladder of one state, every grid to 1e-10 (`FiniteSolver::ladder`), its grids'
+/// Simpson-summed load vectors and the reference: the 1024 × 128 and 512 × 64
+/// rectangle-summed loads Richardson-extrapolated, as `FiniteSolver::reference`.
+struct FullLadder {
+    steps: Vec<LadderStep>,
+    loads: Vec<[f64; 4]>,
+    truth: [f64; 4],
+    /// The reference's own step: its distance from the extrapolate one grid down (512 × 64
+    /// from 256 × 32), relative; the reference's error is below it.
+    ref_step: f64,
+}
+
+fn full_ladder(p: &BearingParams, grid: &FiniteGrid, s: &BearingState) -> Option<FullLadder> {
+    let packed = pack_state(p, s).ok()?;
+    let job = FiniteJob::new(p, &packed);
+    let lv = |i: &[f64; 4]| finish_loads(p, s, i, packed.rate_scale).load_vector(p.length);
+    let steps = FiniteSolver::new().ladder(&job, grid, 1e-10, false, usize::MAX);
+    let m = steps.len();
+    let x = |a: usize| -> [f64; 4] {
+        let (f, c) = (lv(&steps[a].rectangle), lv(&steps[a - 1].rectangle));
+        std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0)
+    };
+    let truth = x(m - 1);
+    let ref_step = rel(&truth, &x(m - 2));
+    let loads = steps.iter().map(|t| lv(&t.integrals)).collect();
+    Some(FullLadder {
+        steps,
+        loads,
+        truth,
+        ref_step,
+    })
 }
 
 /// The probe's states: `bench_states(n)`, or with BW_SCAN=E0,E1,STEP a dense scan of ε
 /// (each aligned and tilted 0.25, still, vx 0.02 δω and vy −0.03 δω at one end, and
 /// vy −0.03, vx 0.02, vy +0.03 δω at both ends), at angle 0.7 rad.
-fn states_from_env(n: usize) -> (BearingParams, Vec<bearing_sweep::bearing::BearingState>) {
+fn states_from_env(n: usize) -> (BearingParams, Vec<BearingState>) {
     let (p0, mut states) = bench_states(n);
     // BW_SET=test: the 12 states of tests/finite_accuracy.rs.
     if std::env::var("BW_SET").as_deref() == Ok("test") {
@@ -54,7 +88,7 @@ fn states_from_env(n: usize) -> (BearingParams, Vec<bearing_sweep::bearing::Bear
                     (0.0, 0.03, true),
                 ] {
                     let j = if both { 1.0 } else { 0.0 };
-                    states.push(bearing_sweep::bearing::BearingState {
+                    states.push(BearingState {
                         xi: e * d * c,
                         yi: e * d * sn,
                         xj: e * d * (1.0 - tilt) * c,
@@ -85,18 +119,13 @@ fn ladder(ks: &[usize]) {
     };
     let grid = FiniteGrid::for_bearing(&p);
     for &k in ks {
-        let s = &states[k];
-        let packed = pack_state(&p, s).unwrap();
-        let job = FiniteJob::new(&p, &packed);
-        let mut solver = FiniteSolver::new();
-        let lv = |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
-        let steps = solver.ladder(&job, &grid, 1e-10, false, usize::MAX);
-        let m = steps.len();
-        let (f, c) = (lv(&steps[m - 1].rectangle), lv(&steps[m - 2].rectangle));
-        let truth: [f64; 4] = std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0);
-        let simp = &steps;
+        let FullLadder {
+            steps: simp,
+            loads: v,
+            truth,
+            ..
+        } = full_ladder(&p, &grid, &states[k]).expect("a valid state");
         println!("state {k}: truth {:?}", truth);
-        let v: Vec<[f64; 4]> = simp.iter().map(|t| lv(&t.integrals)).collect();
         for i in 0..v.len() {
             let d = |a: &[f64; 4], b: &[f64; 4]| rel(a, b);
             let d2 = if i > 0 { d(&v[i], &v[i - 1]) } else { f64::NAN };
@@ -133,60 +162,91 @@ fn ladder(ks: &[usize]) {
     }
 }
 
-/// `dump N`: per state (of [`states_from_env`]) one JSON line: ε, tilt, velocities, the
-/// reference (1024×128 extrapolated, rectangle sums) and each ladder grid's Simpson-summed
-/// load vector (every grid to 1e-10): for offline study of stop rules and estimates.
-fn dump(n: usize) {
+/// `replay N ACC…`: each state's full ladder (of [`states_from_env`]) replayed through the
+/// stop rules of the plain film's accuracy mode at each accuracy: the last pair's
+/// estimate alone (before session 39: [`simpson_estimate`] at most ACC) and the stop bound
+/// ([`simpson_stop_bound`], reporting `√(bound × estimate)`), and that bound with the pair
+/// one grid back too (`d₋₁/12`; measured, not taken). Per rule: states above 1e-3,
+/// the largest error, the reported estimate over the true error (states with errors above
+/// 3e-5, the reference's level), the grid nodes summed over the ladder per state (the
+/// work's measure) and the stopping grids. Every grid iterated to 1e-10 (the solver stops
+/// each grid at its floor instead, so its own counts differ slightly).
+fn replay(n: usize, accs: &[f64]) {
     let (p0, states) = states_from_env(n);
     let p = BearingParams {
         model: FilmModel::Finite,
         ..p0
     };
     let grid = FiniteGrid::for_bearing(&p);
-    let lines: Vec<String> = states
+    let ladders: Vec<FullLadder> = states
         .par_iter()
-        .filter_map(|s| {
-            let packed = pack_state(&p, s).ok()?;
-            let job = FiniteJob::new(&p, &packed);
-            let lv = |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
-            let steps = FiniteSolver::new().ladder(&job, &grid, 1e-10, false, usize::MAX);
-            let m = steps.len();
-            let (f, c) = (lv(&steps[m - 1].rectangle), lv(&steps[m - 2].rectangle));
-            let truth: [f64; 4] = std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0);
-            let levels: Vec<String> = steps
-                .iter()
-                .map(|t| {
-                    let v = lv(&t.integrals);
-                    format!("[{},{},{:e},{:e},{:e},{:e}]", t.n_theta, t.n_z, v[0], v[1], v[2], v[3])
-                })
-                .collect();
-            let d = p.clearance;
-            Some(format!(
-                "{{\"e\":{:e},\"ej\":{:e},\"vx\":{:e},\"vy\":{:e},\"truth\":[{:e},{:e},{:e},{:e}],\"levels\":[{}]}}",
-                s.xi.hypot(s.yi) / d,
-                s.xj.hypot(s.yj) / d,
-                s.vxi / (d * s.omega),
-                s.vyi / (d * s.omega),
-                truth[0],
-                truth[1],
-                truth[2],
-                truth[3],
-                levels.join(",")
-            ))
-        })
+        .filter_map(|s| full_ladder(&p, &grid, s))
         .collect();
-    for l in lines {
-        println!("{l}");
+    for &acc in accs {
+        for rule in ["estimate", "bound", "three pairs"] {
+            let (mut over, mut worst, mut nodes) = (0, 0.0f64, 0usize);
+            let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+            let mut grids: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+            for l in &ladders {
+                let vals: Vec<[f64; 4]> = l.steps.iter().map(|t| t.integrals).collect();
+                let judge = |k: usize| {
+                    let e = simpson_estimate(&vals[..=k])?;
+                    let mut b = simpson_stop_bound(&vals[..=k])?;
+                    if rule == "three pairs" && k >= 3 {
+                        // The alternative measured and not taken: the pair one grid back
+                        // too, carried one grid on at second order (12 = 4 (2² − 1)).
+                        let norm = vals[k].iter().map(|x| x * x).sum::<f64>().sqrt();
+                        let d1 = (0..4)
+                            .map(|q| (vals[k - 1][q] - vals[k - 2][q]).powi(2))
+                            .sum::<f64>()
+                            .sqrt();
+                        b = b.max(d1 / 12.0 / norm);
+                    }
+                    Some(if rule == "estimate" {
+                        (e, e)
+                    } else {
+                        (b, (b * e).sqrt())
+                    })
+                };
+                let stop = (2..vals.len())
+                    .find(|&k| judge(k).is_some_and(|(b, _)| b <= acc))
+                    .unwrap_or(vals.len() - 1);
+                let err = rel(&l.loads[stop], &l.truth);
+                let reported = judge(stop).map_or(f64::NAN, |(_, e)| e);
+                over += usize::from(err > 1e-3);
+                worst = worst.max(err);
+                if err > 3e-5 {
+                    lo = lo.min(reported / err);
+                    hi = hi.max(reported / err);
+                }
+                nodes += l.steps[..=stop]
+                    .iter()
+                    .map(|t| t.n_theta * t.n_z)
+                    .sum::<usize>();
+                let t = &l.steps[stop];
+                *grids.entry((t.n_theta, t.n_z)).or_default() += 1;
+            }
+            println!(
+                "accuracy {acc:.0e}, stop on the {rule}: {} states, {over} above 1e-3, largest {worst:.2e}, \
+                 reported/true {lo:.2}-{hi:.2}, grid nodes per state {:.0}, grids {grids:?}",
+                ladders.len(),
+                nodes as f64 / ladders.len() as f64
+            );
+        }
     }
 }
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    if std::env::args().nth(1).as_deref() == Some("dump") {
+    if std::env::args().nth(1).as_deref() == Some("replay") {
         let n = std::env::args()
             .nth(2)
             .map_or(1024, |s| s.parse().expect("N"));
-        return dump(n);
+        let accs: Vec<f64> = std::env::args()
+            .skip(3)
+            .map(|a| a.parse().expect("ACC"))
+            .collect();
+        return replay(n, &accs);
     }
     if std::env::args().nth(1).as_deref() == Some("ladder") {
         let ks: Vec<usize> = args.skip(1).map(|a| a.parse().expect("K")).collect();
@@ -215,21 +275,13 @@ fn main() {
             let mut solver = FiniteSolver::new();
             let (ints, rep) = solver.solve(&job, &grid, &mut Vec::new());
             let v = finish_loads(&p, s, &ints, packed.rate_scale).load_vector(p.length);
-            let steps = solver.ladder(&job, &grid, 1e-10, false, usize::MAX);
-            let m = steps.len();
-            let lv = |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
-            let x = |a: usize| -> [f64; 4] {
-                let (f, c) = (lv(&steps[a].rectangle), lv(&steps[a - 1].rectangle));
-                std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0)
-            };
-            let reference = x(m - 1);
-            let ref_step = rel(&reference, &x(m - 2));
+            let full = full_ladder(&p, &grid, s)?;
             Some((
                 k,
-                rel(&v, &reference),
+                rel(&v, &full.truth),
                 rep.error_estimate,
                 (rep.n_theta, rep.n_z),
-                ref_step,
+                full.ref_step,
             ))
         })
         .collect();
