@@ -72,6 +72,17 @@ const ST_OVERRUN: f64 = 3.0;
 /// cut with a budget of 40 000 counted iterations and ran right with 30 000), so the
 /// limit is 65 535 / 2.2; a dispatch that counts more is void.
 const LOOP_LIMIT: u32 = 30_000;
+
+/// The loop limit in force: [`LOOP_LIMIT`], or (diagnostics, for hardware GPUs that have
+/// no loop cap) the environment variable `BEARING_SWEEP_MG_LOOP_LIMIT`, at least
+/// [`LOOP_LIMIT`]. The arithmetic is the same whatever the limit (the kernel is
+/// resumable); only the number of dispatches and read-backs changes.
+fn loop_limit() -> u32 {
+    std::env::var("BEARING_SWEEP_MG_LOOP_LIMIT")
+        .ok()
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .map_or(LOOP_LIMIT, |l| l.clamp(LOOP_LIMIT, u32::MAX / 4))
+}
 /// Loop iterations reserved for the truncated correction's candidates on top of a step's
 /// parallel loops: their sort (≤ 3 × 513 at the list's 512) and walk by one invocation
 /// (≤ 8 per candidate), ~5 600 at a full list; beyond the list, the in-place walk over the
@@ -446,7 +457,7 @@ impl MultigridPipeline {
                 more: u32::from(group.n_levels < group.dims.len()),
                 max_cycles: MAX_CYCLES,
                 budget,
-                limit: LOOP_LIMIT,
+                limit: loop_limit(),
                 cubic_start: u32::from(rule.cubic_start),
                 pad: [0; 3],
                 tolerance: stop_tol,
@@ -569,6 +580,7 @@ impl MultigridPipeline {
             )));
         }
         let mut dispatched = 0u32;
+        let started = std::time::Instant::now();
         loop {
             // Results (binding 4) only, until every slot is done.
             let res = dispatch_read(
@@ -594,13 +606,19 @@ impl MultigridPipeline {
                         format!("{s}:{}/{}/{}/{}/{}", r[1], r[2], r[3], r[12], r[13])
                     })
                     .collect();
-                eprintln!("mg dispatches {dispatched}: running {}", running.join(" "));
+                eprintln!(
+                    "mg dispatches {dispatched} ({:.3} ms, {n} states): running {} {}",
+                    started.elapsed().as_secs_f64() * 1e3,
+                    running.len(),
+                    running[..running.len().min(8)].join(" ")
+                );
             }
             let cut = |s: usize| res[s * OUT_STRIDE + OUT_COUNT] != res[s * OUT_STRIDE + OUT_BEGIN];
             if let Some(s) = (0..n).find(|&s| status(s) == ST_OVERRUN || cut(s)) {
                 return Err(BackendError::Device(format!(
-                    "the finite-film multigrid kernel ran past its loop limit ({LOOP_LIMIT} \
-                     iterations per dispatch) on state {s} of {n}: its loads are void"
+                    "the finite-film multigrid kernel ran past its loop limit ({} \
+                     iterations per dispatch) on state {s} of {n}: its loads are void",
+                    loop_limit()
                 )));
             }
             if (0..n).all(|s| status(s) != ST_RUN) {
@@ -698,7 +716,7 @@ fn loops(n: usize) -> usize {
 fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
     let largest = dims.iter().map(full).max().unwrap_or(0);
     let step = 12 * loops(largest) + 400;
-    let free = (LOOP_LIMIT - SERIAL_RESERVE) as usize;
+    let free = (loop_limit() - SERIAL_RESERVE) as usize;
     if step + 2_000 > free {
         return Err(BackendError::Device(format!(
             "the finite-film multigrid kernel solves grids of at most ~375 000 nodes \
