@@ -7,9 +7,13 @@
 //! `cargo run --release --example mg_probe -- [n_theta n_z] [none|max] [states]`
 //! (defaults: the grids 64 × 16, 128 × 32, 256 × 64, max-film inlet, 32 states).
 //!
-//! `cargo run --release --example mg_probe -- gpu N_THETA N_Z`: the same states on the
-//! multigrid kernel (shaders/finite_mg.wgsl, any f64 adapter, lavapipe here): work per state
-//! on the GPU and the CPU, and the largest relative difference of their load vectors.
+//! `cargo run --release --example mg_probe -- gpu N_THETA N_Z [states]`: the same states
+//! (32 by default) on the multigrid kernel (shaders/finite_mg.wgsl, any f64 adapter,
+//! lavapipe here): work per state on the GPU and the CPU, and the largest relative
+//! difference of their load vectors. `mg_probe acc ACCURACY [states]`: accuracy mode.
+//! With `BEARING_SWEEP_MG_COUNT=1` both also print the kernel's tally per state (its chain
+//! of barriers by part of the solve, serial loops, sweeps: src/backend/finite_mg.rs
+//! `TALLY_NAMES`), mean and largest over the states, and the GPU call's wall time.
 //!
 //! `cargo run --release --example mg_probe -- aniso`: which direction's discretisation
 //! error dominates at 256 × 32 (B/D = 0.5): relative load-vector errors of 256 × 32,
@@ -192,7 +196,41 @@ fn shapes() {
     }
 }
 
-fn gpu(nt: u32, nz: u32) {
+/// Diagnostics: the multigrid kernel's tally of the last `n` states it solved (collected
+/// under `BEARING_SWEEP_MG_COUNT`), mean and largest per state, as a markdown table.
+fn print_tally(n: usize, label: &str) {
+    #[cfg(feature = "gpu")]
+    {
+        if std::env::var_os("BEARING_SWEEP_MG_COUNT").is_none() {
+            return;
+        }
+        let (names, rows) = bearing_sweep::backend::take_mg_tally();
+        let rows = &rows[rows.len().saturating_sub(n)..];
+        let m = rows.len().max(1) as f64;
+        let stat = |f: &dyn Fn(&[f64]) -> f64| {
+            let v: Vec<f64> = rows.iter().map(|r| f(r)).collect();
+            (
+                v.iter().sum::<f64>() / m,
+                v.iter().fold(0.0_f64, |a, b| a.max(*b)),
+            )
+        };
+        println!(
+            "| {label}, {} states | mean per state | largest |",
+            rows.len()
+        );
+        println!("|---|---|---|");
+        let (a, b) = stat(&|r| r[..10].iter().sum());
+        println!("| **chain: barriers, all parts** | **{a:.0}** | **{b:.0}** |");
+        for (q, name) in names.iter().enumerate() {
+            let (a, b) = stat(&|r| r[q]);
+            println!("| {name} | {a:.1} | {b:.0} |");
+        }
+    }
+    #[cfg(not(feature = "gpu"))]
+    let _ = (n, label);
+}
+
+fn gpu(nt: u32, nz: u32, n_states: usize) {
     use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
     let options = GpuOptions {
         precision: Some(Precision::F64),
@@ -205,17 +243,24 @@ fn gpu(nt: u32, nz: u32) {
             return;
         }
     };
-    let (p, states) = bench_states(32);
+    let (p, states) = bench_states(n_states);
     let jobs: Vec<FiniteJob> = states
         .iter()
         .map(|s| FiniteJob::of_state(&p, &pack_state(&p, s).expect("valid state"), s.omega))
         .collect();
     let g = FiniteGrid::from(&FiniteSettings::with_grid(nt, nz));
-    let mut fields = vec![Vec::new(); jobs.len()];
     let (mut out, mut reports) = (Vec::new(), Vec::new());
-    backend
-        .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
-        .expect("the multigrid kernel runs");
+    // A warm-up call (pipeline creation), then a timed one.
+    let mut wall = 0.0;
+    for _ in 0..2 {
+        let mut fields = vec![Vec::new(); jobs.len()];
+        let t = std::time::Instant::now();
+        backend
+            .integrate_finite(&jobs, &g, &mut fields, &mut out, &mut reports)
+            .expect("the multigrid kernel runs");
+        wall = t.elapsed().as_secs_f64();
+    }
+    print_tally(jobs.len(), &format!("{nt}×{nz}"));
     let mut solver = FiniteSolver::new();
     let (mut gsum, mut csum, mut diff, mut gmax) = (0u64, 0u64, 0.0_f64, 0u32);
     for (k, job) in jobs.iter().enumerate() {
@@ -232,9 +277,11 @@ fn gpu(nt: u32, nz: u32) {
     }
     let n = jobs.len() as f64;
     println!(
-        "| {nt}×{nz} | GPU sweeps mean {:.1} (max {gmax}) | CPU {:.1} | max load diff {diff:.1e} |",
+        "| {nt}×{nz} | GPU sweeps mean {:.1} (max {gmax}) | CPU {:.1} | max load diff {diff:.1e} | GPU call {:.1} ms, {} states |",
         gsum as f64 / n,
-        csum as f64 / n
+        csum as f64 / n,
+        wall * 1e3,
+        jobs.len()
     );
 }
 
@@ -376,6 +423,7 @@ fn gpu_acc(accuracy: f64, n: usize) {
         (t.elapsed().as_secs_f64(), out, reports)
     };
     let (tg, out, reports) = run(&mut backend);
+    print_tally(jobs.len(), &format!("accuracy {accuracy:e}"));
     let (tc, want, wr) = run(&mut cpu_backend);
     let nj = jobs.len() as f64;
     let mut diff = 0.0_f64;
@@ -414,7 +462,11 @@ fn main() {
     if args.first().map(String::as_str) == Some("gpu") {
         let nt = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
         let nz = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(32);
-        gpu(nt, nz);
+        gpu(
+            nt,
+            nz,
+            args.get(3).and_then(|s| s.parse().ok()).unwrap_or(32),
+        );
         return;
     }
     if args.first().map(String::as_str) == Some("acc") {

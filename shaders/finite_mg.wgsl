@@ -36,11 +36,11 @@ const NO_INLET: u32 = 0xffffffffu;
 // Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
 // theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
 const JOB_STRIDE: u32 = 16u;
-// Per result (stride 87 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// Per result (stride 111 f64): integrals[4], sweeps, iteration error, converged, n_theta,
 // n_z, error estimate, accuracy met, then the state block (OUT_STATE: status first,
 // ST_*: 1 done; 2 the dispatch's grids were not enough for the accuracy, the host solves
-// it again with the full ladder).
-const OUT_STRIDE: u32 = 87u;
+// it again with the full ladder), then the diagnostic tally (OUT_TALLY, N_TALLY f64).
+const OUT_STRIDE: u32 = 111u;
 // Arrays of a level (offsets in units of the level's node count).
 const A_AE: u32 = 0u;
 const A_AN: u32 = 1u;
@@ -161,6 +161,55 @@ var<private> spent: u32;
 // Loop iterations of invocation 0's serial walks (prolong_correction, `emptied`).
 var<private> serial: u32;
 
+// Diagnostics (BEARING_SWEEP_MG_COUNT, src/backend/finite_mg.rs `Tally`): counts of this
+// dispatch, added to the slot's tally block (OUT_TALLY) at its end. T_* below: the
+// barriers (workgroupBarrier and workgroupUniformLoad, each one step of the state's chain)
+// per part of the solve, then serial iterations and events. Uniform except the serial
+// counts (invocation 0's, which is the one that writes the block).
+const N_TALLY: u32 = 24u;
+const OUT_TALLY: u32 = 87u;
+// Barriers by part: set-up of the first grid's levels (PH_INIT); a next grid's set-up and
+// prolongation (PH_PREP); a level's entry (PH_ENTER: own right-hand side, freezes, loads);
+// the coarsest grid solved by itself (PH_COARSE); a V-cycle's start and descent; its
+// coarsest solve; its ascent; its stop test with the level's finish (loads, estimate);
+// the field and report out (PH_DONE); the dispatch's own state in and out.
+const T_INIT: u32 = 0u;
+const T_PREP: u32 = 1u;
+const T_ENTER: u32 = 2u;
+const T_COARSE: u32 = 3u;
+const T_DESCENT: u32 = 4u;
+const T_CSOLVE: u32 = 5u;
+const T_ASCENT: u32 = 6u;
+const T_STOP: u32 = 7u;
+const T_DONE: u32 = 8u;
+const T_MAIN: u32 = 9u;
+// Serial chains: the candidates' sort (each invocation's inner loop), the walk over them,
+// the in-place walk beyond the list; then coarsest sweeps inside V-cycles and alone,
+// V-cycles, dispatches that ran the slot, truncated corrections, their candidates,
+// relaxation sweeps (any level), reductions; invocation 0's loop iterations.
+const T_SORT: u32 = 10u;
+const T_WALK: u32 = 11u;
+const T_INPLACE: u32 = 12u;
+const T_CSWEEPS: u32 = 13u;
+const T_COARSE_SWEEPS: u32 = 14u;
+const T_CYCLES: u32 = 15u;
+const T_DISPATCHES: u32 = 16u;
+const T_CORRECTIONS: u32 = 17u;
+const T_CANDIDATES: u32 = 18u;
+const T_SWEEPS: u32 = 19u;
+const T_REDUCTIONS: u32 = 20u;
+// Loop iterations of invocation 0 as the budget counts them (`spent`, all dispatches).
+const T_SPENT: u32 = 21u;
+var<private> tally: array<u32, N_TALLY>;
+// The part the barriers count to (T_INIT .. T_MAIN).
+var<private> cat: u32;
+
+// A workgroup barrier, counted.
+fn bar() {
+    tally[cat] += 1u;
+    workgroupBarrier();
+}
+
 // Iterations of a loop `for (var m = lid; m < n; m += WG)` for invocation 0, plus its
 // exit test.
 fn loops(n: u32) -> u32 {
@@ -243,43 +292,47 @@ fn neighbours(l: u32, a: u32, j: u32, i: u32) -> f64 {
 
 // Max-reduction of (a, b) over the workgroup; uniform results.
 fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
+    tally[T_REDUCTIONS] += 1u;
     // log2(WG) halvings and the exit test.
     spent += 9u;
     red[lid] = a;
     red[WG + lid] = b;
-    workgroupBarrier();
+    bar();
     for (var s = WG / 2u; s > 0u; s = s / 2u) {
         if lid < s {
             red[lid] = max(red[lid], red[lid + s]);
             red[WG + lid] = max(red[WG + lid], red[WG + lid + s]);
         }
-        workgroupBarrier();
+        bar();
     }
     if lid == 0u {
         wu[0] = red[0];
         wu[1] = red[WG];
     }
+    tally[cat] += 1u;
     let x = workgroupUniformLoad(&wu[0]);
+    tally[cat] += 1u;
     let y = workgroupUniformLoad(&wu[1]);
-    workgroupBarrier();
+    bar();
     return vec2<f64>(x, y);
 }
 
 // Sum-reduction of four values; uniform results.
 fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
+    tally[T_REDUCTIONS] += 1u;
     // The 4-value loops around and inside log2(WG) halvings.
     spent += 64u;
     for (var q = 0u; q < 4u; q++) {
         red[q * WG + lid] = v[q];
     }
-    workgroupBarrier();
+    bar();
     for (var s = WG / 2u; s > 0u; s = s / 2u) {
         if lid < s {
             for (var q = 0u; q < 4u; q++) {
                 red[q * WG + lid] += red[q * WG + lid + s];
             }
         }
-        workgroupBarrier();
+        bar();
     }
     if lid == 0u {
         for (var q = 0u; q < 4u; q++) {
@@ -287,11 +340,15 @@ fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
         }
     }
     var out: array<f64, 4>;
+    tally[cat] += 1u;
     out[0] = workgroupUniformLoad(&wu[0]);
+    tally[cat] += 1u;
     out[1] = workgroupUniformLoad(&wu[1]);
+    tally[cat] += 1u;
     out[2] = workgroupUniformLoad(&wu[2]);
+    tally[cat] += 1u;
     out[3] = workgroupUniformLoad(&wu[3]);
-    workgroupBarrier();
+    bar();
     return out;
 }
 
@@ -335,7 +392,7 @@ fn setup(l: u32) {
         scr[at(l, A_BASE, k)] = 0.0;
         scr[at(l, A_R, k)] = 0.0;
     }
-    workgroupBarrier();
+    bar();
     let interior = interior_of(l);
     let io = ib + params.lw[l].z;
     for (var m = lid; m < interior; m += WG) {
@@ -353,7 +410,7 @@ fn setup(l: u32) {
         }
         scr[at(l, A_INV, k)] = select(1.0 / d, 0.0, held);
     }
-    workgroupBarrier();
+    bar();
 }
 
 // One red-black projected SOR sweep of level l with factor omega (1: Gauss-Seidel);
@@ -368,6 +425,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
     var my_dp: f64 = 0.0;
     var my_p: f64 = 0.0;
     spent += 1u + 2u * loops(cnt);
+    tally[T_SWEEPS] += 1u;
     for (var colour = 0u; colour < 2u; colour++) {
         for (var m = lid; m < cnt; m += WG) {
             let j = 1u + m / half;
@@ -390,7 +448,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
             my_dp = max(my_dp, abs(new_p - old));
             my_p = max(my_p, new_p);
         }
-        workgroupBarrier();
+        bar();
     }
     if want {
         return reduce_max2(my_dp, my_p);
@@ -427,7 +485,7 @@ fn residual(l: u32, top: bool) {
         }
         scr[at(l, A_R, k)] = r;
     }
-    workgroupBarrier();
+    bar();
 }
 
 // Strides of level l's coarsening in (θ, ζ).
@@ -459,7 +517,7 @@ fn restrict_fas(l: u32) {
         scr[at(c, A_BASE, kc)] = v;
         scr[at(c, A_P, kc)] = v;
     }
-    workgroupBarrier();
+    bar();
     for (var kc = lid; kc < nc; kc += WG) {
         let jc = kc / cnt;
         let ic = kc % cnt;
@@ -479,7 +537,7 @@ fn restrict_fas(l: u32) {
         }
         scr[at(c, A_F, kc)] = out;
     }
-    workgroupBarrier();
+    bar();
 }
 
 // The θ-stencil of the full weighting on fine row j at column i0.
@@ -579,7 +637,7 @@ fn prolong_correction(l: u32, top: bool) {
     }
     serial = 0u;
     spent += 2u * loops(interior) + 2u;
-    workgroupBarrier();
+    bar();
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         let pk = scr[at(l, A_P, k)];
@@ -599,16 +657,20 @@ fn prolong_correction(l: u32, top: bool) {
         }
         scr[at(l, A_R, k)] = v;
     }
-    workgroupBarrier();
+    bar();
     if lid == 0u {
         wn = atomicLoad(&ncand);
     }
+    tally[cat] += 1u;
     let n = workgroupUniformLoad(&wn);
+    tally[T_CORRECTIONS] += 1u;
+    tally[T_CANDIDATES] += n;
     if n > CAND_CAP {
         // Too many: the CPU's walk, in place, by one invocation.
         if lid == 0u {
             let nz = nz_of(l);
             wcost = nt * nz;
+            tally[T_INPLACE] += nt * nz - nt;
             for (var k = nt; k < nt * nz; k++) {
                 if scr[at(l, ia, k)] == 0.0 {
                     if top {
@@ -620,6 +682,7 @@ fn prolong_correction(l: u32, top: bool) {
                 }
             }
         }
+        tally[cat] += 1u;
         spent += workgroupUniformLoad(&wcost);
         return;
     }
@@ -627,6 +690,7 @@ fn prolong_correction(l: u32, top: bool) {
         // Sort the candidates by node: each one's rank in the list (all invocations), into
         // cand_zero, then back.
         spent += loops(n) * (n + 1u) + loops(n) + 2u;
+        tally[T_SORT] += ((n + WG - 1u) / WG) * n;
         for (var a = lid; a < n; a += WG) {
             let x = cand[a];
             var r = 0u;
@@ -637,11 +701,11 @@ fn prolong_correction(l: u32, top: bool) {
             }
             cand_zero[r] = x;
         }
-        workgroupBarrier();
+        bar();
         for (var a = lid; a < n; a += WG) {
             cand[a] = cand_zero[a];
         }
-        workgroupBarrier();
+        bar();
     }
     if n > 0u && lid == 0u {
         // Walk them in node order: shut out (unchanged) where an earlier neighbour was
@@ -691,14 +755,16 @@ fn prolong_correction(l: u32, top: bool) {
     }
     if lid == 0u {
         wcost = serial;
+        tally[T_WALK] += serial;
     }
-    workgroupBarrier();
+    bar();
+    tally[cat] += 1u;
     spent += workgroupUniformLoad(&wcost);
     for (var m = lid; m < interior; m += WG) {
         let k = m + nt;
         scr[at(l, A_P, k)] = scr[at(l, A_R, k)];
     }
-    workgroupBarrier();
+    bar();
 }
 
 // p = P p_coarse on level l (the full-multigrid start), held nodes at their value.
@@ -799,7 +865,7 @@ fn prolong_solution(l: u32) {
         }
         scr[at(l, A_P, k)] = v;
     }
-    workgroupBarrier();
+    bar();
 }
 
 // A ladder grid's start (solver.rs cubic_rows_in_zeta, LadderRule::cubic_start): after
@@ -843,7 +909,7 @@ fn cubic_rows_in_zeta(l: u32) {
         }
         scr[at(l, A_P, k)] = max(v, 0.0);
     }
-    workgroupBarrier();
+    bar();
 }
 
 // Fixed grids (multigrid.rs `Hierarchy::line_freeze`): the column of level c's row jc that
@@ -925,7 +991,7 @@ fn freeze(l: u32, top: bool, t: u32) {
         }
         scr[at(c, A_INVF, kc)] = select(1.0 / diag(c, jc, ic), 0.0, held);
     }
-    workgroupBarrier();
+    bar();
 }
 
 // Load integrals −⅓ (∬P cos θ, ∬P sin θ, ∬P ζ cos θ, ∬P ζ sin θ) of level l's iterate:
@@ -1265,17 +1331,21 @@ fn cycle_step() {
     let nt = nt_of(t);
     let interior = interior_of(t);
     let field_stop = params.mode == 0u;
+    cat = T_STOP;
     if vs == 0u {
+        cat = T_DESCENT;
+        tally[T_CYCLES] += 1u;
         cyc += 1u;
         if field_stop {
             spent += loops(interior);
             for (var m = lid; m < interior; m += WG) {
                 scr[at(t, A_BASE, m + nt)] = scr[at(t, A_P, m + nt)];
             }
-            workgroupBarrier();
+            bar();
         }
         vs = 1u;
     } else if vs <= t {
+        cat = T_DESCENT;
         let m = t + 1u - vs;
         for (var s = 0u; s < NU_PRE; s++) {
             sweep(m, 1.0, m == t, false);
@@ -1288,10 +1358,13 @@ fn cycle_step() {
             start_coarsest();
         }
     } else if vs == t + 1u {
+        cat = T_CSOLVE;
+        tally[T_CSWEEPS] += 1u;
         if coarsest_step(COARSEST_TOL, false, COARSEST_CORRECTION) {
             vs += 1u;
         }
     } else if vs <= 2u * t + 1u {
+        cat = T_ASCENT;
         let m = vs - t - 1u;
         prolong_correction(m, m == t);
         for (var s = 0u; s < NU_POST; s++) {
@@ -1346,6 +1419,7 @@ fn cycle_step() {
 fn step(slot: u32, warm: bool) {
     let top0 = params.top0;
     if ph == PH_INIT {
+        cat = T_INIT;
         spent += top0 + 1u;
         for (var l = 0u; l <= top0; l++) {
             setup(l);
@@ -1367,11 +1441,12 @@ fn step(slot: u32, warm: bool) {
                 }
                 scr[at(top0, A_P, k)] = v;
             }
-            workgroupBarrier();
+            bar();
             cur = top0;
         }
         ph = PH_ENTER;
     } else if ph == PH_PREP {
+        cat = T_PREP;
         if cur > top0 {
             setup(cur);
         }
@@ -1381,6 +1456,7 @@ fn step(slot: u32, warm: bool) {
         }
         ph = PH_ENTER;
     } else if ph == PH_ENTER {
+        cat = T_ENTER;
         // multigrid.rs Hierarchy::iterate: the level's own right-hand side, then the
         // freezes of its correction grids.
         let l = cur;
@@ -1390,7 +1466,7 @@ fn step(slot: u32, warm: bool) {
         for (var k = lid; k < n; k += WG) {
             scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
         }
-        workgroupBarrier();
+        bar();
         for (var m = l; m >= 1u; m--) {
             freeze(m, m == l, l);
         }
@@ -1411,6 +1487,8 @@ fn step(slot: u32, warm: bool) {
             ph = PH_CYCLE;
         }
     } else if ph == PH_COARSE {
+        cat = T_COARSE;
+        tally[T_COARSE_SWEEPS] += 1u;
         // Explicit grids: the first grid of full multigrid only starts the next one
         // (solver.rs fmg_with, FMG_FIRST_TOLERANCE).
         var tol = params.tolerance;
@@ -1426,6 +1504,7 @@ fn step(slot: u32, warm: bool) {
     } else if ph == PH_CYCLE {
         cycle_step();
     } else if ph == PH_DONE {
+        cat = T_DONE;
         // Field of the last grid out, loads, report.
         let n = full_of(cur);
         let fb = slot * params.field_stride;
@@ -1468,6 +1547,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         return;
     }
     lid = li;
+    cat = T_MAIN;
     sb = slot * params.stride;
     jb = slot * JOB_STRIDE;
     ib = slot * params.inlet_stride;
@@ -1477,6 +1557,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
             ws[q] = results[o + OUT_STATE + q];
         }
     }
+    tally[cat] += 1u;
     let st = workgroupUniformLoad(&ws);
     if st[0] != ST_RUN {
         return;
@@ -1528,11 +1609,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         wu[0] = jobs[jb + 10u];
         wu[1] = jobs[jb + 14u];
     }
+    tally[cat] += 1u;
     omega0 = workgroupUniformLoad(&wu[0]);
+    tally[cat] += 1u;
     let warm = workgroupUniformLoad(&wu[1]) > 0.5;
-    workgroupBarrier();
-    // The loops above (the state in, its copy out below) and this one's exit test.
-    spent = 2u * WS_LEN + 96u;
+    bar();
+    // The loops above (the state in, its copy and the tally out below) and this one's
+    // exit test.
+    spent = 2u * WS_LEN + N_TALLY + 96u;
 
     loop {
         if ph == PH_OUT || spent >= params.budget {
@@ -1541,6 +1625,9 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         spent += 1u;
         step(slot, warm);
     }
+    cat = T_MAIN;
+    tally[T_DISPATCHES] += 1u;
+    tally[T_SPENT] = spent;
 
     if lid == 0u {
         var status = ST_RUN;
@@ -1581,6 +1668,9 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         out[73] = count;
         for (var q = 0u; q < WS_LEN; q++) {
             results[o + OUT_STATE + q] = out[q];
+        }
+        for (var q = 0u; q < N_TALLY; q++) {
+            results[o + OUT_TALLY + q] += f64(tally[q]);
         }
     }
 }

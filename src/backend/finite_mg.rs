@@ -54,8 +54,39 @@ const MAX_RUNGS: usize = 12;
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`: the report, then the resumable
 /// solve's state block from `OUT_STATE`, its status first).
 const JOB_STRIDE: usize = 16;
-const OUT_STRIDE: usize = 87;
+const OUT_STRIDE: usize = 111;
 const OUT_STATE: usize = 11;
+/// The kernel's diagnostic tally of a slot (`OUT_TALLY`, `N_TALLY` f64): see [`TALLY_NAMES`].
+const OUT_TALLY: usize = 87;
+const N_TALLY: usize = 24;
+/// What the tally counts (the shader's `T_*`): barriers (each a step of the state's
+/// chain of dependent steps) per part of the solve, then serial loop iterations of
+/// invocation 0 and events. Kept per state under `BEARING_SWEEP_MG_COUNT` ([`take_tally`]).
+const TALLY_NAMES: [&str; 22] = [
+    "bar init",
+    "bar prep",
+    "bar enter",
+    "bar coarse",
+    "bar descent",
+    "bar csolve",
+    "bar ascent",
+    "bar stop",
+    "bar done",
+    "bar main",
+    "sort iters",
+    "walk iters",
+    "in-place iters",
+    "cycle coarsest sweeps",
+    "coarse-phase sweeps",
+    "V-cycles",
+    "dispatches",
+    "corrections",
+    "candidates",
+    "sweeps",
+    "reductions",
+    "loop iters (spent)",
+];
+const _: () = assert!(TALLY_NAMES.len() <= N_TALLY && OUT_TALLY + N_TALLY == OUT_STRIDE);
 /// The state's own dispatch count (its last entry, `OUT_STATE + 73`) and the count the
 /// last dispatch wrote before its steps (`OUT_BEGIN`): unequal when llvmpipe cut that
 /// dispatch's loops short (the state was not saved whole).
@@ -198,10 +229,14 @@ struct Group<'a> {
 impl MultigridPipeline {
     /// Compiles the kernel; a validation error is returned, not raised.
     pub(crate) fn new(device: &wgpu::Device) -> Result<Self, BackendError> {
+        // Diagnostics: a kernel source from a file (experiments without a rebuild).
+        let source = std::env::var("BEARING_SWEEP_MG_WGSL")
+            .ok()
+            .and_then(|path| std::fs::read_to_string(path).ok());
         let pipeline = compile_pipeline(
             device,
             "finite_mg.wgsl",
-            FINITE_MG_WGSL,
+            source.as_deref().unwrap_or(FINITE_MG_WGSL),
             "finite film multigrid kernel",
             "the finite-film multigrid kernel",
         )?;
@@ -635,7 +670,7 @@ impl MultigridPipeline {
         }
         // Fields (binding 3), then results (binding 4): one more dispatch, which every
         // slot leaves at once (done).
-        dispatch_read(
+        let vals = dispatch_read(
             device,
             queue,
             timeout,
@@ -645,7 +680,36 @@ impl MultigridPipeline {
             1,
             &[3, 4],
             "finite-film multigrid",
-        )
+        )?;
+        if std::env::var_os("BEARING_SWEEP_MG_COUNT").is_some() {
+            let res = &vals[n * params.field_stride as usize..];
+            keep_tally(res, n);
+        }
+        Ok(vals)
+    }
+}
+
+/// Diagnostics (`BEARING_SWEEP_MG_COUNT`): the kernel's tally of the states solved since
+/// the last [`take_tally`], one row of [`TALLY_NAMES`] per state.
+static TALLY: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
+
+/// Diagnostics: the tally rows collected under `BEARING_SWEEP_MG_COUNT` (emptied), with the
+/// counters' names; each row's counts are per state, summed over its dispatches.
+pub fn take_tally() -> (Vec<&'static str>, Vec<Vec<f64>>) {
+    let rows = TALLY
+        .lock()
+        .map(|mut t| std::mem::take(&mut *t))
+        .unwrap_or_default();
+    (TALLY_NAMES.to_vec(), rows)
+}
+
+/// Keeps the tally of a chunk's `n` states (`res`: their result blocks).
+fn keep_tally(res: &[f64], n: usize) {
+    if let Ok(mut t) = TALLY.lock() {
+        for s in 0..n {
+            let o = s * OUT_STRIDE + OUT_TALLY;
+            t.push(res[o..o + TALLY_NAMES.len()].to_vec());
+        }
     }
 }
 

@@ -27,6 +27,8 @@ pub use evaluator::{
     DEFAULT_CPU_BELOW, PARALLEL_HOST_STATES,
 };
 pub use finite::effective_model;
+#[cfg(feature = "gpu")]
+pub use finite_mg::take_tally as take_mg_tally;
 pub use gpu::GpuBackend;
 pub use gpu_kernel::{
     check_lanes, kernel_source, kernel_source_lanes, relative_difference, GpuOptions, GpuTiming,
