@@ -225,6 +225,10 @@ fn print_tally(n: usize, label: &str) {
             let (a, b) = stat(&|r| r[q]);
             println!("| {name} | {a:.1} | {b:.0} |");
         }
+        // Loops over device memory: all counted iterations but the reductions' (workgroup
+        // memory).
+        let (a, b) = stat(&|r| r[21] - r[22]);
+        println!("| **loop iters over device memory** | **{a:.0}** | **{b:.0}** |");
     }
     #[cfg(not(feature = "gpu"))]
     let _ = (n, label);

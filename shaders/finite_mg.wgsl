@@ -27,7 +27,13 @@
 // half grid step of every level (`trig`), cos/sin of the state's node-0 angle (rotation by
 // the angle-addition formulas), the coarsest grid's SOR factor and the inlet columns.
 
+// Invocations per workgroup (one workgroup per state) and log2 of it: the host sets both
+// per adapter (src/backend/finite_mg.rs `workgroup_size`: 256 on llvmpipe, whose loop cap
+// the budget is calibrated on; 1024 on hardware GPUs, which run a large level's strided
+// loops in a quarter of the iterations per invocation). Same arithmetic for any size
+// except the order of the loads' sums (`reduce_sum4`).
 const WG: u32 = 256u;
+const LOG2_WG: u32 = 8u;
 // Levels of a hierarchy (coarse levels of the first grid plus the ladder's grids).
 const MAX_LEVELS: u32 = 24u;
 // Ladder grids (src/bearing/finite/solver.rs accuracy_ladder: at most 7 below 1024 around).
@@ -129,8 +135,12 @@ struct Params {
 // Per slot: the levels' arrays.
 @group(0) @binding(7) var<storage, read_write> scr: array<f64>;
 
-var<workgroup> red: array<f64, 1024>;
+var<workgroup> red: array<f64, 2u * WG>;
 var<workgroup> wu: array<f64, 4>;
+// reduce_max2's fan-in (WG/FAN ≤ 64 partial maxima) and its result.
+const FAN: u32 = 1u << ((LOG2_WG + 1u) / 2u);
+var<workgroup> wm: array<vec2<f64>, 64>;
+var<workgroup> wv: vec2<f64>;
 // Correction candidates that the truncated correction would empty (prolong_correction),
 // and the sort's scratch.
 const CAND_CAP: u32 = 512u;
@@ -200,6 +210,9 @@ const T_SWEEPS: u32 = 19u;
 const T_REDUCTIONS: u32 = 20u;
 // Loop iterations of invocation 0 as the budget counts them (`spent`, all dispatches).
 const T_SPENT: u32 = 21u;
+// Of those, the reductions' loops over workgroup memory (the rest: loops over the levels'
+// nodes in device memory, and the serial walks).
+const T_RED_SPENT: u32 = 22u;
 var<private> tally: array<u32, N_TALLY>;
 // The part the barriers count to (T_INIT .. T_MAIN).
 var<private> cat: u32;
@@ -290,64 +303,84 @@ fn neighbours(l: u32, a: u32, j: u32, i: u32) -> f64 {
         + scr[at(l, A_AN, k - nt)] * scr[at(l, a, k - nt)];
 }
 
-// Max-reduction of (a, b) over the workgroup; uniform results.
+// Max-reduction of (a, b) over the workgroup; uniform results. Two rounds of FAN values
+// (WG/FAN invocations take FAN each, then invocation 0 their WG/FAN maxima): three
+// barriers where a halving tree takes log2(WG) + 4 (the maximum is exact in any order).
 fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
     tally[T_REDUCTIONS] += 1u;
-    // log2(WG) halvings and the exit test.
-    spent += 9u;
+    // The two rounds' loops and their exit tests.
+    spent += FAN + WG / FAN + 2u;
+    tally[T_RED_SPENT] += FAN + WG / FAN + 2u;
     red[lid] = a;
     red[WG + lid] = b;
     bar();
-    for (var s = WG / 2u; s > 0u; s = s / 2u) {
-        if lid < s {
-            red[lid] = max(red[lid], red[lid + s]);
-            red[WG + lid] = max(red[WG + lid], red[WG + lid + s]);
+    let parts = WG / FAN;
+    if lid < parts {
+        var x = red[lid * FAN];
+        var y = red[WG + lid * FAN];
+        for (var q = 1u; q < FAN; q++) {
+            x = max(x, red[lid * FAN + q]);
+            y = max(y, red[WG + lid * FAN + q]);
         }
-        bar();
+        wm[lid] = vec2<f64>(x, y);
     }
-    if lid == 0u {
-        wu[0] = red[0];
-        wu[1] = red[WG];
-    }
-    tally[cat] += 1u;
-    let x = workgroupUniformLoad(&wu[0]);
-    tally[cat] += 1u;
-    let y = workgroupUniformLoad(&wu[1]);
     bar();
-    return vec2<f64>(x, y);
+    if lid == 0u {
+        var v = wm[0];
+        for (var q = 1u; q < parts; q++) {
+            v = max(v, wm[q]);
+        }
+        wv = v;
+    }
+    // No barrier after: the next writes to red, wm and wv are two barriers away.
+    tally[cat] += 1u;
+    return workgroupUniformLoad(&wv);
 }
 
-// Sum-reduction of four values; uniform results.
+// Sum-reduction of four values; uniform results. The upper half of the workgroup hands
+// its values to the lower half (the tree's first halving: the same sums in the same order
+// as a tree over all WG, in half the workgroup memory), then a tree over WG/2.
 fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
     tally[T_REDUCTIONS] += 1u;
     // The 4-value loops around and inside log2(WG) halvings.
-    spent += 64u;
-    for (var q = 0u; q < 4u; q++) {
-        red[q * WG + lid] = v[q];
+    spent += 8u * (LOG2_WG + 1u);
+    tally[T_RED_SPENT] += 8u * (LOG2_WG + 1u);
+    let h = WG / 2u;
+    var a = v;
+    if lid >= h {
+        for (var q = 0u; q < 4u; q++) {
+            red[q * h + lid - h] = a[q];
+        }
     }
     bar();
-    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+    if lid < h {
+        for (var q = 0u; q < 4u; q++) {
+            a[q] += red[q * h + lid];
+        }
+    }
+    bar();
+    if lid < h {
+        for (var q = 0u; q < 4u; q++) {
+            red[q * h + lid] = a[q];
+        }
+    }
+    bar();
+    for (var s = h / 2u; s > 0u; s = s / 2u) {
         if lid < s {
             for (var q = 0u; q < 4u; q++) {
-                red[q * WG + lid] += red[q * WG + lid + s];
+                red[q * h + lid] += red[q * h + lid + s];
             }
         }
         bar();
     }
     if lid == 0u {
         for (var q = 0u; q < 4u; q++) {
-            wu[q] = red[q * WG];
+            wu[q] = red[q * h];
         }
     }
-    var out: array<f64, 4>;
+    // One barrier for the four (the whole array at once).
     tally[cat] += 1u;
-    out[0] = workgroupUniformLoad(&wu[0]);
-    tally[cat] += 1u;
-    out[1] = workgroupUniformLoad(&wu[1]);
-    tally[cat] += 1u;
-    out[2] = workgroupUniformLoad(&wu[2]);
-    tally[cat] += 1u;
-    out[3] = workgroupUniformLoad(&wu[3]);
+    let out = workgroupUniformLoad(&wu);
     bar();
     return out;
 }
@@ -415,8 +448,14 @@ fn setup(l: u32) {
 
 // One red-black projected SOR sweep of level l with factor omega (1: Gauss-Seidel);
 // `top`: the solved grid (holds applied) or a correction grid (frozen nodes skipped).
-// Returns the largest change and value when `want` (else zeros, no reduction).
-fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
+// Returns, when `want` (else zeros, no reduction), the largest change and the coarsest
+// solve's stop scale: the largest value times `tol`, or with `rel` > 0 the larger of that
+// and `rel` times the largest correction |p − u₀| (u₀ in A_BASE; a correction grid's
+// frozen node keeps p = u₀; the held nodes of the solved grid, `top`, count by their value
+// only: `rel` is for correction grids), in one reduction (tol·max p = max tol·p exactly:
+// rounding is monotone). multigrid.rs Level::solve_coarsest's scale, without the second
+// pass over the level that its correction's maximum took here before.
+fn sweep(l: u32, omega: f64, top: bool, want: bool, tol: f64, rel: f64) -> vec2<f64> {
     let nt = nt_of(l);
     let nz = nz_of(l);
     let half = nt / 2u;
@@ -438,7 +477,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
                     let h = hold_of(l, k);
                     scr[at(l, A_P, k)] = h;
                     my_dp = max(my_dp, abs(h - old));
-                    my_p = max(my_p, h);
+                    my_p = max(my_p, tol * h);
                 }
                 continue;
             }
@@ -446,7 +485,10 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool) -> vec2<f64> {
             let new_p = max(old + omega * ((s + scr[at(l, A_F, k)]) * ik - old), 0.0);
             scr[at(l, A_P, k)] = new_p;
             my_dp = max(my_dp, abs(new_p - old));
-            my_p = max(my_p, new_p);
+            my_p = max(my_p, tol * new_p);
+            if want && rel > 0.0 {
+                my_p = max(my_p, rel * abs(new_p - scr[at(l, A_BASE, k)]));
+            }
         }
         bar();
     }
@@ -1102,20 +1144,6 @@ var<private> vals: array<f64, 48>;
 // while the grid may be an intermediate one, 0 once it is iterated on to the floor).
 var<private> loose_now: f64;
 
-// Largest |p − u₀| on the coarsest level (the correction so far; u₀ in A_BASE from the
-// restriction), uniform across the workgroup.
-fn correction_max() -> f64 {
-    let nt = nt_of(0u);
-    let n = interior_of(0u);
-    spent += loops(n);
-    var m: f64 = 0.0;
-    for (var q = lid; q < n; q += WG) {
-        let k = q + nt;
-        m = max(m, abs(scr[at(0u, A_P, k)] - scr[at(0u, A_BASE, k)]));
-    }
-    return reduce_max2(m, 0.0).x;
-}
-
 // One sweep of the projected SOR on the coarsest level (0) and its stop test: the solve
 // ends when the estimated change is below `tol` of the largest value or, with `rel` > 0
 // (inside a V-cycle), below `rel` of the correction's largest value if that is larger
@@ -1126,9 +1154,8 @@ fn coarsest_step(tol: f64, top: bool, rel: f64) -> bool {
     let omega = omega0;
     let floor = min(omega - 1.0, 0.9999);
     let min_tail = floor / (1.0 - floor);
-    let r = sweep(0u, omega, top, true);
+    let r = sweep(0u, omega, top, true, tol, rel);
     let dp = r.x;
-    let mp = r.y;
     updates += f64(interior_of(0u));
     // The history shift and root5's Newton steps.
     spent += 8u;
@@ -1141,9 +1168,9 @@ fn coarsest_step(tol: f64, top: bool, rel: f64) -> bool {
     if cs >= COARSEST_SWEEPS {
         return true;
     }
-    var tol_abs = tol * mp;
+    // max(tol × largest value, rel × largest correction) from the sweep's reduction.
+    let tol_abs = r.y;
     if rel > 0.0 {
-        tol_abs = max(tol_abs, rel * correction_max());
         if s >= 1u && dp != 0.0 {
             let rho1 = min(max(dp / hist[4], omega - 1.0), 0.9999);
             if dp * rho1 / (1.0 - rho1) <= tol_abs {
@@ -1348,7 +1375,7 @@ fn cycle_step() {
         cat = T_DESCENT;
         let m = t + 1u - vs;
         for (var s = 0u; s < NU_PRE; s++) {
-            sweep(m, 1.0, m == t, false);
+            sweep(m, 1.0, m == t, false, 0.0, 0.0);
         }
         updates += f64(NU_PRE * interior_of(m));
         residual(m, m == t);
@@ -1368,7 +1395,7 @@ fn cycle_step() {
         let m = vs - t - 1u;
         prolong_correction(m, m == t);
         for (var s = 0u; s < NU_POST; s++) {
-            sweep(m, 1.0, m == t, false);
+            sweep(m, 1.0, m == t, false, 0.0, 0.0);
         }
         updates += f64(NU_POST * interior_of(m));
         vs += 1u;
@@ -1540,7 +1567,7 @@ fn step(slot: u32, warm: bool) {
 // large grids early with wrong loads (BENCHMARKS "Issue 20/26: the multigrid kernel").
 // A dispatch that counted more than the limit marks its slot ST_OVERRUN: the host reports
 // an error instead of loads a cut loop may have spoiled.
-@compute @workgroup_size(256)
+@compute @workgroup_size(WG)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let slot = wid.x + wid.y * 65535u;
     if slot >= params.count {

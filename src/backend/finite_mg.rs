@@ -62,7 +62,7 @@ const N_TALLY: usize = 24;
 /// What the tally counts (the shader's `T_*`): barriers (each a step of the state's
 /// chain of dependent steps) per part of the solve, then serial loop iterations of
 /// invocation 0 and events. Kept per state under `BEARING_SWEEP_MG_COUNT` ([`take_tally`]).
-const TALLY_NAMES: [&str; 22] = [
+const TALLY_NAMES: [&str; 23] = [
     "bar init",
     "bar prep",
     "bar enter",
@@ -85,6 +85,7 @@ const TALLY_NAMES: [&str; 22] = [
     "sweeps",
     "reductions",
     "loop iters (spent)",
+    "of which reductions",
 ];
 const _: () = assert!(TALLY_NAMES.len() <= N_TALLY && OUT_TALLY + N_TALLY == OUT_STRIDE);
 /// The state's own dispatch count (its last entry, `OUT_STATE + 73`) and the count the
@@ -104,15 +105,31 @@ const ST_OVERRUN: f64 = 3.0;
 /// limit is 65 535 / 2.2; a dispatch that counts more is void.
 const LOOP_LIMIT: u32 = 30_000;
 
-/// The loop limit in force: [`LOOP_LIMIT`], or (diagnostics, for hardware GPUs that have
-/// no loop cap) the environment variable `BEARING_SWEEP_MG_LOOP_LIMIT`, at least
-/// [`LOOP_LIMIT`]. The arithmetic is the same whatever the limit (the kernel is
-/// resumable); only the number of dispatches and read-backs changes.
-fn loop_limit() -> u32 {
+/// Loop iterations per dispatch on hardware GPUs, which have no loop cap: ten times
+/// [`LOOP_LIMIT`], so that a solve that needs several dispatches on llvmpipe (accuracy
+/// 1e-4, the ladder's large grids) needs fewer dispatches and read-backs, while one
+/// dispatch stays well under the device timeout (the counted iterations ran at ~2 µs
+/// each on the H200, session 39's 128 × 32: ~0.6 s a dispatch at most, the poll
+/// timeout is 120 s). The same arithmetic whatever the limit (the kernel is resumable).
+const HARDWARE_LOOP_LIMIT: u32 = 300_000;
+
+/// The loop limit in force: [`LOOP_LIMIT`] on a software adapter (llvmpipe),
+/// [`HARDWARE_LOOP_LIMIT`] on a hardware one, or (diagnostics) the environment variable
+/// `BEARING_SWEEP_MG_LOOP_LIMIT`, at least [`LOOP_LIMIT`]. The arithmetic is the same
+/// whatever the limit (the kernel is resumable); only the number of dispatches and
+/// read-backs changes.
+fn loop_limit(software: bool) -> u32 {
     std::env::var("BEARING_SWEEP_MG_LOOP_LIMIT")
         .ok()
         .and_then(|v| v.trim().parse::<u32>().ok())
-        .map_or(LOOP_LIMIT, |l| l.clamp(LOOP_LIMIT, u32::MAX / 4))
+        .map_or(
+            if software {
+                LOOP_LIMIT
+            } else {
+                HARDWARE_LOOP_LIMIT
+            },
+            |l| l.clamp(LOOP_LIMIT, u32::MAX / 4),
+        )
 }
 /// Loop iterations reserved for the truncated correction's candidates on top of a step's
 /// parallel loops: their sort (≤ 3 × 513 at the list's 512) and walk by one invocation
@@ -120,8 +137,56 @@ fn loop_limit() -> u32 {
 /// level's nodes (4 096 at 128 × 32; larger grids overrun: an error). 5 000 was too few: a
 /// squeezed JFO start state at 128 × 32 overran it (tests/finite_gpu_jfo.rs).
 const SERIAL_RESERVE: u32 = 10_000;
-/// Workgroup size of the kernel (`WG`).
-const WG: usize = 256;
+/// Workgroup size of the kernel (`WG`) on llvmpipe (lavapipe), whose loop cap
+/// [`LOOP_LIMIT`] was calibrated at this size, and on adapters without room for more.
+const WG: u32 = 256;
+/// Workgroup size on hardware GPUs (where the limits allow it): a state's strided loops over
+/// a large level take a quarter of the iterations per invocation, and each iteration is a
+/// chain of dependent device-memory reads (issue 20, session 40: the kernel is bound by
+/// its per-state chain on the H200, not by arithmetic).
+const HARDWARE_WG: u32 = 1024;
+
+/// The kernel's workgroup size on `device`: `BEARING_SWEEP_MG_WG` (diagnostics: a power of
+/// two from 64 to 1024 within the device's limits), else [`WG`] on a software adapter and
+/// [`HARDWARE_WG`] on a hardware one whose limits allow it (invocations per workgroup and
+/// workgroup memory, ~21 KiB at 1024: the reductions' 2 × WG f64 and the candidate lists).
+fn workgroup_size(device: &wgpu::Device) -> u32 {
+    let limits = device.limits();
+    let fits = |wg: u32| {
+        wg.is_power_of_two()
+            && (64..=1024).contains(&wg)
+            && wg <= limits.max_compute_invocations_per_workgroup
+            && wg <= limits.max_compute_workgroup_size_x
+            && 16 * wg + 6 * 1024 <= limits.max_compute_workgroup_storage_size
+    };
+    if let Some(wg) = std::env::var("BEARING_SWEEP_MG_WG")
+        .ok()
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .filter(|&wg| fits(wg))
+    {
+        return wg;
+    }
+    let software = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
+    if !software && fits(HARDWARE_WG) {
+        HARDWARE_WG
+    } else {
+        WG
+    }
+}
+
+/// The kernel's source for workgroup size `wg` (its `WG` and `LOG2_WG`).
+fn kernel_source(base: &str, wg: u32) -> Result<String, BackendError> {
+    let (a, b) = ("const WG: u32 = 256u;", "const LOG2_WG: u32 = 8u;");
+    if !base.contains(a) || !base.contains(b) {
+        return Err(BackendError::Device(
+            "the finite-film multigrid kernel's source lacks its WG constants".into(),
+        ));
+    }
+    Ok(base.replace(a, &format!("const WG: u32 = {wg}u;")).replace(
+        b,
+        &format!("const LOG2_WG: u32 = {}u;", wg.trailing_zeros()),
+    ))
+}
 /// Dispatches per submission (between read-backs of the status flags).
 const REPEAT: u32 = 8;
 /// Arrays per level in a slot's scratch (face coefficients ×2, inverse diagonals ×2,
@@ -215,6 +280,14 @@ fn full(d: &Dims) -> usize {
 /// The compiled multigrid pipeline on one device.
 pub(crate) struct MultigridPipeline {
     pipeline: wgpu::ComputePipeline,
+    /// Its workgroup size ([`workgroup_size`]) and loop limit per dispatch ([`loop_limit`]).
+    wg: u32,
+    limit: u32,
+    /// The scratch buffer of the last chunk, reused by the next chunks and calls while it
+    /// is large enough (allocating and clearing hundreds of MiB per call cost more than
+    /// the kernel in accuracy mode): the kernel writes every array of a level in its
+    /// set-up before reading it, so a reused scratch gives the same results.
+    scratch: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
 /// One dispatch group: jobs (indices into the call) sharing a hierarchy.
@@ -233,14 +306,22 @@ impl MultigridPipeline {
         let source = std::env::var("BEARING_SWEEP_MG_WGSL")
             .ok()
             .and_then(|path| std::fs::read_to_string(path).ok());
+        let wg = workgroup_size(device);
+        let source = kernel_source(source.as_deref().unwrap_or(FINITE_MG_WGSL), wg)?;
         let pipeline = compile_pipeline(
             device,
             "finite_mg.wgsl",
-            source.as_deref().unwrap_or(FINITE_MG_WGSL),
+            &source,
             "finite film multigrid kernel",
             "the finite-film multigrid kernel",
         )?;
-        Ok(MultigridPipeline { pipeline })
+        let software = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
+        Ok(MultigridPipeline {
+            pipeline,
+            wg,
+            limit: loop_limit(software),
+            scratch: std::sync::Mutex::new(None),
+        })
     }
 
     /// Solves `jobs` on `grid` (fixed or accuracy mode, Swift–Stieber); `fields[k]` of the
@@ -423,7 +504,7 @@ impl MultigridPipeline {
             Some(target) => (rule.floor * target).max(grid.tolerance),
             None => grid.tolerance,
         };
-        let (budget, cap_dispatches) = loop_budget(dims)?;
+        let (budget, cap_dispatches) = loop_budget(dims, self.wg as usize, self.limit)?;
         let mut redo = Vec::new();
         for chunk in group.members.chunks(slots) {
             let n = chunk.len();
@@ -492,7 +573,7 @@ impl MultigridPipeline {
                 more: u32::from(group.n_levels < group.dims.len()),
                 max_cycles: MAX_CYCLES,
                 budget,
-                limit: loop_limit(),
+                limit: self.limit,
                 cubic_start: u32::from(rule.cubic_start),
                 pad: [0; 3],
                 tolerance: stop_tol,
@@ -502,7 +583,8 @@ impl MultigridPipeline {
                 lv,
                 lw,
             };
-            let vals = self.dispatch(
+            let any_warm = job_data.chunks(JOB_STRIDE).any(|j| j[14] > 0.5);
+            let (fv, rv) = self.dispatch(
                 device,
                 queue,
                 timeout,
@@ -510,11 +592,10 @@ impl MultigridPipeline {
                 &[&trig_buf, &geo_buf],
                 &job_data,
                 &inlets,
-                &field_data,
+                any_warm.then_some(field_data.as_slice()),
                 (n * stride * 8) as u64,
                 cap_dispatches,
             )?;
-            let (fv, rv) = vals.split_at(n * field_stride);
             for (s, &k) in chunk.iter().enumerate() {
                 let r = &rv[s * OUT_STRIDE..(s + 1) * OUT_STRIDE];
                 if r[OUT_STATE] == ST_MORE {
@@ -524,8 +605,7 @@ impl MultigridPipeline {
                 let (nt, nz) = (r[7] as usize, r[8] as usize);
                 out[k] = [r[0], r[1], r[2], r[3]];
                 fields[k].clear();
-                fields[k]
-                    .extend_from_slice(&fv[s * field_stride..s * field_stride + nt * (nz + 1)]);
+                fields[k].extend_from_slice(&fv[s]);
                 reports[k] = SolveReport {
                     sweeps: r[4] as u32,
                     iteration_error: r[5],
@@ -547,8 +627,11 @@ impl MultigridPipeline {
     }
 
     /// One chunk's solve: uploads, dispatches the resumable kernel until every slot's
-    /// status is set (at most `cap_dispatches` dispatches), reads back `fields` followed by
-    /// the results. A slot still running after the cap, or one whose dispatch overran the
+    /// status is set (at most `cap_dispatches` dispatches), reads back the results and each
+    /// slot's field on its last grid (`n_theta × (n_z + 1)` values, the slot's result 7
+    /// and 8; not the whole stride of the ladder's largest grid). `field_data`: the warm
+    /// starts (`None`: no slot has one; the fields buffer is then only cleared, on the
+    /// device). A slot still running after the cap, or one whose dispatch overran the
     /// loop limit, is an error.
     #[allow(clippy::too_many_arguments)]
     fn dispatch(
@@ -560,11 +643,13 @@ impl MultigridPipeline {
         shared: &[&wgpu::Buffer; 2],
         job_data: &[f64],
         inlets: &[u32],
-        field_data: &[f64],
+        field_data: Option<&[f64]>,
         scratch_bytes: u64,
         cap_dispatches: u32,
-    ) -> Result<Vec<f64>, BackendError> {
+    ) -> Result<(Vec<Vec<f64>>, Vec<f64>), BackendError> {
         let n = params.count as usize;
+        let trace = std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some();
+        let started = std::time::Instant::now();
         // An empty inlet table (no max-film inlet) still needs a binding.
         let inl: Vec<u32> = if inlets.is_empty() {
             vec![NO_INLET]
@@ -580,6 +665,42 @@ impl MultigridPipeline {
             })
         };
         let st = wgpu::BufferUsages::STORAGE;
+        let field_bytes = (n * params.field_stride as usize * 8) as u64;
+        let fields_buf = match field_data {
+            Some(data) => init(
+                "finite mg fields",
+                bytemuck::cast_slice(data),
+                st | wgpu::BufferUsages::COPY_SRC,
+            ),
+            // Cleared by the device (wgpu's zero initialisation), not uploaded.
+            None => device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("finite mg fields"),
+                size: field_bytes.max(8),
+                usage: st | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+        };
+        let scratch = {
+            let mut kept = self
+                .scratch
+                .lock()
+                .map_err(|_| BackendError::Device("finite-film scratch lock".into()))?;
+            match kept.as_ref() {
+                Some(b) if b.size() >= scratch_bytes.max(8) => b.clone(),
+                _ => {
+                    // The old one first, so that both are never held at once.
+                    *kept = None;
+                    let b = device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("finite mg scratch"),
+                        size: scratch_bytes.max(8),
+                        usage: st,
+                        mapped_at_creation: false,
+                    });
+                    *kept = Some(b.clone());
+                    b
+                }
+            }
+        };
         // Every buffer lives across the dispatches (the solve's state is in them).
         let bufs = vec![
             init(
@@ -589,11 +710,7 @@ impl MultigridPipeline {
             ),
             shared[0].clone(),
             init("finite mg jobs", bytemuck::cast_slice(job_data), st),
-            init(
-                "finite mg fields",
-                bytemuck::cast_slice(field_data),
-                st | wgpu::BufferUsages::COPY_SRC,
-            ),
+            fields_buf,
             // Zeros: every slot at its first phase, status running.
             init(
                 "finite mg results",
@@ -602,21 +719,20 @@ impl MultigridPipeline {
             ),
             init("finite mg inlets", bytemuck::cast_slice(&inl), st),
             shared[1].clone(),
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("finite mg scratch"),
-                size: scratch_bytes.max(8),
-                usage: st,
-                mapped_at_creation: false,
-            }),
+            scratch,
         ];
         if let Some(e) = pollster::block_on(scope.pop()) {
+            // Not kept: the next call allocates afresh.
+            if let Ok(mut kept) = self.scratch.lock() {
+                *kept = None;
+            }
             return Err(BackendError::Device(format!(
                 "allocating the finite-film multigrid's buffers for {n} states: {e}"
             )));
         }
+        let buffers_ms = started.elapsed().as_secs_f64() * 1e3;
         let mut dispatched = 0u32;
-        let started = std::time::Instant::now();
-        loop {
+        let res = loop {
             // Results (binding 4) only, until every slot is done.
             let res = dispatch_read(
                 device,
@@ -631,7 +747,7 @@ impl MultigridPipeline {
             )?;
             dispatched += REPEAT;
             let status = |s: usize| res[s * OUT_STRIDE + OUT_STATE];
-            if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
+            if trace {
                 // Diagnostics: per running state, phase, level, cycle, V-cycle step and
                 // coarsest sweep after this round.
                 let running: Vec<String> = (0..n)
@@ -653,11 +769,11 @@ impl MultigridPipeline {
                 return Err(BackendError::Device(format!(
                     "the finite-film multigrid kernel ran past its loop limit ({} \
                      iterations per dispatch) on state {s} of {n}: its loads are void",
-                    loop_limit()
+                    self.limit
                 )));
             }
             if (0..n).all(|s| status(s) != ST_RUN) {
-                break;
+                break res;
             }
             if dispatched >= cap_dispatches {
                 let s = (0..n).find(|&s| status(s) == ST_RUN).unwrap_or(0);
@@ -667,26 +783,112 @@ impl MultigridPipeline {
                      cycle limits allow, so it would not terminate)"
                 )));
             }
+        };
+        let kernel_ms = started.elapsed().as_secs_f64() * 1e3 - buffers_ms;
+        // Each slot's field on its last grid (none for a slot the host solves again).
+        let stride = params.field_stride as u64;
+        let ranges: Vec<(u64, u64)> = (0..n)
+            .map(|s| {
+                let r = &res[s * OUT_STRIDE..];
+                let len = if r[OUT_STATE] == ST_MORE {
+                    0
+                } else {
+                    (r[7] as u64 * (r[8] as u64 + 1)).min(stride)
+                };
+                (s as u64 * stride, len)
+            })
+            .collect();
+        let flat = read_ranges(device, queue, timeout, &bufs[3], &ranges)?;
+        let mut at = 0;
+        let fields: Vec<Vec<f64>> = ranges
+            .iter()
+            .map(|&(_, len)| {
+                let f = flat[at..at + len as usize].to_vec();
+                at += len as usize;
+                f
+            })
+            .collect();
+        if trace {
+            eprintln!(
+                "mg chunk of {n} states: buffers {buffers_ms:.3} ms, dispatches and status \
+                 {kernel_ms:.3} ms ({dispatched} dispatches), fields read {:.3} ms ({} KiB of \
+                 {} KiB), workgroup {}",
+                started.elapsed().as_secs_f64() * 1e3 - buffers_ms - kernel_ms,
+                flat.len() * 8 / 1024,
+                field_bytes / 1024,
+                self.wg
+            );
         }
-        // Fields (binding 3), then results (binding 4): one more dispatch, which every
-        // slot leaves at once (done).
-        let vals = dispatch_read(
-            device,
-            queue,
-            timeout,
-            &self.pipeline,
-            |_| bufs.clone(),
-            n as u32,
-            1,
-            &[3, 4],
-            "finite-film multigrid",
-        )?;
         if std::env::var_os("BEARING_SWEEP_MG_COUNT").is_some() {
-            let res = &vals[n * params.field_stride as usize..];
-            keep_tally(res, n);
+            keep_tally(&res, n);
         }
-        Ok(vals)
+        Ok((fields, res))
     }
+}
+
+/// Reads `ranges` (offset, length, in f64) of `buf` (`COPY_SRC`) back, concatenated.
+fn read_ranges(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    timeout: Duration,
+    buf: &wgpu::Buffer,
+    ranges: &[(u64, u64)],
+) -> Result<Vec<f64>, BackendError> {
+    let total: u64 = ranges.iter().map(|r| r.1).sum();
+    if total == 0 {
+        return Ok(Vec::new());
+    }
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("finite mg fields readback"),
+        size: total * 8,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    let mut at = 0;
+    for &(offset, len) in ranges.iter().filter(|r| r.1 > 0) {
+        enc.copy_buffer_to_buffer(buf, offset * 8, &readback, at * 8, len * 8);
+        at += len;
+    }
+    let sub = queue.submit(Some(enc.finish()));
+    let (tx, rx) = std::sync::mpsc::channel();
+    readback.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(sub),
+            timeout: Some(timeout),
+        })
+        .map_err(|e| {
+            BackendError::Device(format!(
+                "waiting for the finite-film multigrid's fields (timeout {timeout:?}): {e}"
+            ))
+        })?;
+    let mapped = match rx.try_recv() {
+        Ok(r) => r,
+        Err(_) => {
+            let _ = device.poll(wgpu::PollType::Poll);
+            rx.try_recv().map_err(|_| {
+                BackendError::Device(
+                    "the finite-film multigrid's fields never became readable".into(),
+                )
+            })?
+        }
+    };
+    mapped.map_err(|e| {
+        BackendError::Device(format!(
+            "reading the finite-film multigrid's fields back: {e}"
+        ))
+    })?;
+    let vals = {
+        let view = readback.get_mapped_range(..).map_err(|e| {
+            BackendError::Device(format!("mapping the finite-film multigrid's fields: {e}"))
+        })?;
+        bytemuck::cast_slice::<u8, f64>(&view).to_vec()
+    };
+    readback.unmap();
+    Ok(vals)
 }
 
 /// Diagnostics (`BEARING_SWEEP_MG_COUNT`): the kernel's tally of the states solved since
@@ -756,8 +958,8 @@ fn parse_rule(v: &str) -> Option<LadderRule> {
 
 /// Loop iterations of a strided loop over `n` nodes for the kernel's invocation 0
 /// (`loops`).
-fn loops(n: usize) -> usize {
-    n.div_ceil(WG) + 1
+fn loops(n: usize, wg: usize) -> usize {
+    n.div_ceil(wg) + 1
 }
 
 /// The kernel's per-dispatch budget for a hierarchy and the cap on dispatches of a state.
@@ -777,10 +979,11 @@ fn loops(n: usize) -> usize {
 /// that does not finish does at least. A state not done then does not terminate (a
 /// defect): an error, not loads. (Far above what states need: at 1024 × 128 the cap is
 /// thousands of dispatches, a state needs tens.)
-fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
+fn loop_budget(dims: &[Dims], wg: usize, limit: u32) -> Result<(u32, u32), BackendError> {
+    let loops = |n| loops(n, wg);
     let largest = dims.iter().map(full).max().unwrap_or(0);
     let step = 12 * loops(largest) + 400;
-    let free = (loop_limit() - SERIAL_RESERVE) as usize;
+    let free = (limit - SERIAL_RESERVE) as usize;
     if step + 2_000 > free {
         return Err(BackendError::Device(format!(
             "the finite-film multigrid kernel solves grids of at most ~375 000 nodes \
@@ -794,10 +997,10 @@ fn loop_budget(dims: &[Dims]) -> Result<(u32, u32), BackendError> {
         .ok()
         .and_then(|v| v.trim().parse::<usize>().ok())
         .map_or(budget, |b| b.clamp(1_000, budget));
-    // Coarsest solve: up to 4000 sweeps of ~35 loop iterations (multigrid.rs
-    // COARSEST_SWEEPS; the sweep, its reduction, the history and, inside a V-cycle, the
-    // correction's reduction: `coarsest_step`).
-    let coarsest = 4_000 * 35;
+    // Coarsest solve: up to 4000 sweeps of ≲ 90 loop iterations at any workgroup size
+    // (multigrid.rs COARSEST_SWEEPS; the sweep, its reduction's two rounds of fan-in, the
+    // history: `coarsest_step`).
+    let coarsest = 4_000 * 90;
     let cycle: usize = dims.iter().map(|d| 16 * loops(full(d))).sum::<usize>() + coarsest;
     let levels = dims.len();
     let work = levels * (MAX_CYCLES as usize * cycle + 16 * loops(largest));
