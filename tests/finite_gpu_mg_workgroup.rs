@@ -1,0 +1,177 @@
+//! The multigrid kernel's per-adapter settings (shaders/finite_mg.wgsl, issue 20,
+//! session 40), forced on lavapipe by the driver's diagnostic switches:
+//! - the hardware loop limit per dispatch (`BEARING_SWEEP_MG_LOOP_LIMIT`, here 2 000 000
+//!   against llvmpipe's 30 000): fewer dispatches, the same loads, work counts, error
+//!   estimates and fields, bit for bit (the kernel is resumable: the same arithmetic in
+//!   the same order however the solve is split);
+//! - the hardware workgroup size (`BEARING_SWEEP_MG_WG=1024` against llvmpipe's 256):
+//!   the same sweeps, grids and verdicts, loads and fields equal to rounding (only the
+//!   loads' sums run in another order; measured 3.2e-16 relative on 8 states ×
+//!   5 settings with `mg_probe dump`), within [`REL_TOL`].
+//!
+//! Lavapipe allows 1024 invocations and 32 KiB of workgroup memory, so the 1024 path runs
+//! here (the kernel needs ~22 KiB at 1024); on an adapter that does not allow it the
+//! driver keeps 256 and the second comparison is between equal settings. Runs on whatever
+//! f64 adapter wgpu finds (lavapipe on CI); skips with a notice without one, fails with
+//! `BEARING_SWEEP_REQUIRE_GPU=1`. One test in its own binary: it sets the process
+//! environment, which no other test here reads concurrently (the settings are read when
+//! a backend builds its multigrid pipeline, so each setting gets a fresh backend).
+
+mod common;
+
+use bearing_sweep::backend::{FilmBackend, GpuBackend};
+use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, SolveReport};
+use bearing_sweep::bearing::{pack_state, BearingParams, BearingState, FilmModel};
+
+/// Relative tolerance of the 1024-invocation kernel's loads (on the load vector's norm)
+/// and fields (on the field's largest value) against the 256-invocation kernel's: a few
+/// hundred roundings of the sums' order, far below any solver tolerance (1e-8).
+const REL_TOL: f64 = 1e-13;
+
+type Solved = (Vec<[f64; 4]>, Vec<SolveReport>, Vec<Vec<f64>>);
+
+/// Loads, reports and fields of `states` solved on a fresh backend's kernel at the
+/// bearing's grid (`None`: no f64 adapter).
+fn solve(p: &BearingParams, states: &[BearingState]) -> Option<Solved> {
+    let mut backend: GpuBackend = common::gpu_f64_or_skip("finite-film multigrid GPU")?;
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(p, &pack_state(p, s).unwrap(), s.omega))
+        .collect();
+    let grid = FiniteGrid::for_bearing(p);
+    let mut fields = vec![Vec::new(); jobs.len()];
+    let (mut out, mut reports) = (Vec::new(), Vec::new());
+    backend
+        .integrate_finite(&jobs, &grid, &mut fields, &mut out, &mut reports)
+        .expect("the multigrid kernel runs");
+    Some((out, reports, fields))
+}
+
+fn paper(finite: FiniteSettings) -> BearingParams {
+    BearingParams {
+        model: FilmModel::Finite,
+        finite,
+        ..BearingParams::paper_table2()
+    }
+}
+
+#[test]
+fn hardware_loop_limit_and_workgroup_size_give_the_same_solution() {
+    let d = BearingParams::paper_table2().clearance;
+    let states = [
+        BearingState {
+            xi: 0.8 * d,
+            yi: 0.1 * d,
+            xj: 0.8 * d,
+            yj: 0.1 * d,
+            omega: 100.0,
+            ..BearingState::default()
+        },
+        BearingState {
+            xi: 0.4 * d,
+            yi: -0.2 * d,
+            xj: -0.1 * d,
+            yj: -0.5 * d,
+            vyi: -0.1 * d * 100.0,
+            omega: 100.0,
+            ..BearingState::default()
+        },
+    ];
+    std::env::remove_var("BEARING_SWEEP_MG_LOOP_LIMIT");
+    std::env::remove_var("BEARING_SWEEP_MG_WG");
+
+    // The loop limit: 512 × 64 takes several dispatches at llvmpipe's limit, one at 2e6.
+    let p = paper(FiniteSettings {
+        n_theta: Some(512),
+        n_z: Some(64),
+        tolerance: 1e-9,
+        ..FiniteSettings::default()
+    });
+    let Some(base) = solve(&p, &states) else {
+        return;
+    };
+    std::env::set_var("BEARING_SWEEP_MG_LOOP_LIMIT", "2000000");
+    let large = solve(&p, &states).expect("adapter found above");
+    std::env::remove_var("BEARING_SWEEP_MG_LOOP_LIMIT");
+    for k in 0..states.len() {
+        for q in 0..4 {
+            assert_eq!(
+                large.0[k][q].to_bits(),
+                base.0[k][q].to_bits(),
+                "loop limit 2e6: state {k}, load {q}: {:e}, expected {:e} (bit for bit)",
+                large.0[k][q],
+                base.0[k][q]
+            );
+        }
+        let (a, b) = (&base.1[k], &large.1[k]);
+        assert_eq!(
+            (b.sweeps, b.n_theta, b.n_z, b.converged),
+            (a.sweeps, a.n_theta, a.n_z, a.converged),
+            "loop limit 2e6: state {k}: work, grid and verdict"
+        );
+        assert_eq!(
+            b.iteration_error.to_bits(),
+            a.iteration_error.to_bits(),
+            "loop limit 2e6: state {k}: iteration error {:e}, expected {:e}",
+            b.iteration_error,
+            a.iteration_error
+        );
+        assert_eq!(
+            large.2[k].len(),
+            base.2[k].len(),
+            "loop limit 2e6: state {k}"
+        );
+        if let Some(i) = (0..base.2[k].len()).find(|&i| large.2[k][i] != base.2[k][i]) {
+            panic!(
+                "loop limit 2e6: state {k}: field node {i}: {:e}, expected {:e} (bit for bit)",
+                large.2[k][i], base.2[k][i]
+            );
+        }
+    }
+
+    // The workgroup size, on an explicit grid and on the accuracy ladder.
+    let cases = [
+        ("explicit 128×32", paper(FiniteSettings::with_grid(128, 32))),
+        (
+            "accuracy 5e-4 (the ladder)",
+            paper(FiniteSettings {
+                accuracy: 5e-4,
+                ..FiniteSettings::default()
+            }),
+        ),
+    ];
+    for (label, p) in cases {
+        let base = solve(&p, &states).expect("adapter found above");
+        std::env::set_var("BEARING_SWEEP_MG_WG", "1024");
+        let wide = solve(&p, &states).expect("adapter found above");
+        std::env::remove_var("BEARING_SWEEP_MG_WG");
+        for k in 0..states.len() {
+            let norm = base.0[k].iter().map(|v| v * v).sum::<f64>().sqrt();
+            for q in 0..4 {
+                let (got, want) = (wide.0[k][q], base.0[k][q]);
+                assert!(
+                    (got - want).abs() <= REL_TOL * norm,
+                    "{label}, workgroup 1024: state {k}, load {q}: {got:e}, expected {want:e}, \
+                     tolerance {:e}",
+                    REL_TOL * norm
+                );
+            }
+            let (a, b) = (&base.1[k], &wide.1[k]);
+            assert_eq!(
+                (b.sweeps, b.n_theta, b.n_z, b.converged, b.accuracy_met),
+                (a.sweeps, a.n_theta, a.n_z, a.converged, a.accuracy_met),
+                "{label}, workgroup 1024: state {k}: work, grid and verdicts"
+            );
+            assert_eq!(wide.2[k].len(), base.2[k].len(), "{label}: state {k}");
+            let top = base.2[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for (i, (got, want)) in wide.2[k].iter().zip(&base.2[k]).enumerate() {
+                assert!(
+                    (got - want).abs() <= REL_TOL * top,
+                    "{label}, workgroup 1024: state {k}, field node {i}: {got:e}, expected \
+                     {want:e}, tolerance {:e}",
+                    REL_TOL * top
+                );
+            }
+        }
+    }
+}
