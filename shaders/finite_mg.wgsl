@@ -42,11 +42,11 @@ const NO_INLET: u32 = 0xffffffffu;
 // Per job (stride 16 f64): ecc[4], rate[4], aspect B/r0, supply, coarsest SOR factor,
 // theta0, cos theta0, sin theta0, warm (1: `fields` holds a start), unused.
 const JOB_STRIDE: u32 = 16u;
-// Per result (stride 111 f64): integrals[4], sweeps, iteration error, converged, n_theta,
+// Per result (stride 121 f64): integrals[4], sweeps, iteration error, converged, n_theta,
 // n_z, error estimate, accuracy met, then the state block (OUT_STATE: status first,
 // ST_*: 1 done; 2 the dispatch's grids were not enough for the accuracy, the host solves
 // it again with the full ladder), then the diagnostic tally (OUT_TALLY, N_TALLY f64).
-const OUT_STRIDE: u32 = 111u;
+const OUT_STRIDE: u32 = 121u;
 // Arrays of a level (offsets in units of the level's node count).
 const A_AE: u32 = 0u;
 const A_AN: u32 = 1u;
@@ -176,7 +176,7 @@ var<private> serial: u32;
 // barriers (workgroupBarrier and workgroupUniformLoad, each one step of the state's chain)
 // per part of the solve, then serial iterations and events. Uniform except the serial
 // counts (invocation 0's, which is the one that writes the block).
-const N_TALLY: u32 = 24u;
+const N_TALLY: u32 = 34u;
 const OUT_TALLY: u32 = 87u;
 // Barriers by part: set-up of the first grid's levels (PH_INIT); a next grid's set-up and
 // prolongation (PH_PREP); a level's entry (PH_ENTER: own right-hand side, freezes, loads);
@@ -213,6 +213,9 @@ const T_SPENT: u32 = 21u;
 // Of those, the reductions' loops over workgroup memory (the rest: loops over the levels'
 // nodes in device memory, and the serial walks).
 const T_RED_SPENT: u32 = 22u;
+// Then invocation 0's loop iterations (`spent`) by part, T_INIT .. T_MAIN from here on
+// (the part a step ends in; the reductions' loops included).
+const T_SPENT_PART: u32 = 24u;
 var<private> tally: array<u32, N_TALLY>;
 // The part the barriers count to (T_INIT .. T_MAIN).
 var<private> cat: u32;
@@ -501,6 +504,7 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool, tol: f64, rel: f64) -> vec2<
 // r = f − A p at the interior of level l after a sweep, zero at held nodes and where the
 // constraint is active (multigrid.rs Level::residual): computed at the sweep's first colour
 // ((i + j) even); the second colour's is zero to rounding after the sweep, written as 0.
+// No barrier: `restrict_fas` runs it beside the injection, before its own.
 fn residual(l: u32, top: bool) {
     let nt = nt_of(l);
     let interior = interior_of(l);
@@ -527,7 +531,6 @@ fn residual(l: u32, top: bool) {
         }
         scr[at(l, A_R, k)] = r;
     }
-    bar();
 }
 
 // Strides of level l's coarsening in (θ, ζ).
@@ -543,8 +546,12 @@ fn strides(l: u32) -> vec2<u32> {
 }
 
 // The FAS coarse problem of fine level l on level l − 1: u0 = injection of the iterate
-// (also the coarse start), f_H = A_H u0 + R r (full weighting), zero at frozen nodes.
-fn restrict_fas(l: u32) {
+// (also the coarse start), f_H = A_H u0 + R r (full weighting), zero at frozen nodes; the
+// residual r of level l (`residual`, `top`: l is the solved grid) in the same pass as the
+// injection (it writes the fine A_R, the injection the coarse A_BASE and A_P from the fine
+// A_P, which neither changes): one barrier less than after each (multigrid.rs
+// Level::residual, then restrict).
+fn restrict_fas(l: u32, top: bool) {
     let c = l - 1u;
     let st = strides(l);
     let fnt = nt_of(l);
@@ -559,6 +566,7 @@ fn restrict_fas(l: u32) {
         scr[at(c, A_BASE, kc)] = v;
         scr[at(c, A_P, kc)] = v;
     }
+    residual(l, top);
     bar();
     for (var kc = lid; kc < nc; kc += WG) {
         let jc = kc / cnt;
@@ -1378,8 +1386,7 @@ fn cycle_step() {
             sweep(m, 1.0, m == t, false, 0.0, 0.0);
         }
         updates += f64(NU_PRE * interior_of(m));
-        residual(m, m == t);
-        restrict_fas(m);
+        restrict_fas(m, m == t);
         vs += 1u;
         if vs == t + 1u {
             start_coarsest();
@@ -1445,6 +1452,7 @@ fn cycle_step() {
 // One step of the solve (a phase's unit of work), then the phase that follows.
 fn step(slot: u32, warm: bool) {
     let top0 = params.top0;
+    let before = spent;
     if ph == PH_INIT {
         cat = T_INIT;
         spent += top0 + 1u;
@@ -1557,6 +1565,7 @@ fn step(slot: u32, warm: bool) {
         spent += 8u;
         ph = PH_OUT;
     }
+    tally[T_SPENT_PART + cat] += spent - before;
 }
 
 // Resumable: a dispatch runs steps of the solve until its loop iterations reach
@@ -1654,6 +1663,12 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     }
     cat = T_MAIN;
     tally[T_DISPATCHES] += 1u;
+    // The state in and out, and the loop's exit tests (spent minus the steps' parts).
+    var steps = 0u;
+    for (var q = T_INIT; q < T_MAIN; q++) {
+        steps += tally[T_SPENT_PART + q];
+    }
+    tally[T_SPENT_PART + T_MAIN] = spent - steps;
     tally[T_SPENT] = spent;
 
     if lid == 0u {

@@ -54,15 +54,15 @@ const MAX_RUNGS: usize = 12;
 /// f64 per job and per result (`JOB_STRIDE`, `OUT_STRIDE`: the report, then the resumable
 /// solve's state block from `OUT_STATE`, its status first).
 const JOB_STRIDE: usize = 16;
-const OUT_STRIDE: usize = 111;
+const OUT_STRIDE: usize = 121;
 const OUT_STATE: usize = 11;
 /// The kernel's diagnostic tally of a slot (`OUT_TALLY`, `N_TALLY` f64): see [`TALLY_NAMES`].
 const OUT_TALLY: usize = 87;
-const N_TALLY: usize = 24;
+const N_TALLY: usize = 34;
 /// What the tally counts (the shader's `T_*`): barriers (each a step of the state's
 /// chain of dependent steps) per part of the solve, then serial loop iterations of
 /// invocation 0 and events. Kept per state under `BEARING_SWEEP_MG_COUNT` ([`take_tally`]).
-const TALLY_NAMES: [&str; 23] = [
+const TALLY_NAMES: [&str; 34] = [
     "bar init",
     "bar prep",
     "bar enter",
@@ -86,6 +86,17 @@ const TALLY_NAMES: [&str; 23] = [
     "reductions",
     "loop iters (spent)",
     "of which reductions",
+    "unused",
+    "iters init",
+    "iters prep",
+    "iters enter",
+    "iters coarse",
+    "iters descent",
+    "iters csolve",
+    "iters ascent",
+    "iters stop",
+    "iters done",
+    "iters main",
 ];
 const _: () = assert!(TALLY_NAMES.len() <= N_TALLY && OUT_TALLY + N_TALLY == OUT_STRIDE);
 /// The state's own dispatch count (its last entry, `OUT_STATE + 73`) and the count the
@@ -680,11 +691,13 @@ impl MultigridPipeline {
                 mapped_at_creation: false,
             }),
         };
+        // Held to the end of the chunk: a second caller on this pipeline (none today: a
+        // backend's pipelines serve its own `&mut self` calls) waits instead of sharing it.
+        let mut kept = self
+            .scratch
+            .lock()
+            .map_err(|_| BackendError::Device("finite-film scratch lock".into()))?;
         let scratch = {
-            let mut kept = self
-                .scratch
-                .lock()
-                .map_err(|_| BackendError::Device("finite-film scratch lock".into()))?;
             match kept.as_ref() {
                 Some(b) if b.size() >= scratch_bytes.max(8) => b.clone(),
                 _ => {
@@ -723,9 +736,7 @@ impl MultigridPipeline {
         ];
         if let Some(e) = pollster::block_on(scope.pop()) {
             // Not kept: the next call allocates afresh.
-            if let Ok(mut kept) = self.scratch.lock() {
-                *kept = None;
-            }
+            *kept = None;
             return Err(BackendError::Device(format!(
                 "allocating the finite-film multigrid's buffers for {n} states: {e}"
             )));
@@ -822,6 +833,7 @@ impl MultigridPipeline {
         if std::env::var_os("BEARING_SWEEP_MG_COUNT").is_some() {
             keep_tally(&res, n);
         }
+        drop(kept);
         Ok((fields, res))
     }
 }
