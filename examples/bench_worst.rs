@@ -549,6 +549,14 @@ fn main() {
         ratios[ratios.len() - 1],
         ratios.len()
     );
+    // Reported estimates above the accuracy (possible since session 40).
+    let over: Vec<&Row> = rows.iter().filter(|r| r.2 > p.finite.accuracy).collect();
+    println!(
+        "reported estimate above the accuracy on {} states, largest {:.2}× the accuracy (its true error {:.2e})",
+        over.len(),
+        over.iter().map(|r| r.2).fold(0.0, f64::max) / p.finite.accuracy,
+        over.iter().max_by(|a, b| a.2.total_cmp(&b.2)).map_or(f64::NAN, |r| r.1)
+    );
     // The returned loads' iteration error (against the same grid to 1e-10).
     let mut its: Vec<f64> = rows.iter().map(|r| r.6 / p.finite.accuracy).collect();
     its.sort_by(|a, b| a.total_cmp(b));
