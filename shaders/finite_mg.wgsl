@@ -1257,19 +1257,31 @@ fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
     return bound / norm;
 }
 
-// The estimate reported with the bound `e` of `estimate` (solver.rs solve_accuracy): with
-// held bands the bound itself, else √(bound × last pair's d₂/3).
-fn reported(vals: array<f64, 48>, n: u32, e: f64) -> f64 {
-    if e <= 0.0 || params.banded != 0u {
+// The estimate reported with the bound `e` of `estimate` (solver.rs simpson_reported):
+// with held bands the bound itself, else √(max(bound, d₁/12) × d₂/3) + the level's
+// estimated iteration error `it` (d₁ the pair one back carried one grid on at second
+// order: 12 = 4 (2² − 1)).
+fn reported(vals: array<f64, 48>, n: u32, e: f64, it: f64) -> f64 {
+    if e < 0.0 || params.banded != 0u {
         return e;
     }
+    var a: array<f64, 4>;
     var b: array<f64, 4>;
     var c: array<f64, 4>;
     for (var q = 0u; q < 4u; q++) {
+        a[q] = vals[4u * (n - 3u) + q];
         b[q] = vals[4u * (n - 2u) + q];
         c[q] = vals[4u * (n - 1u) + q];
     }
-    return sqrt(e * dist4(c, b) / 3.0 / norm4(c));
+    let norm = norm4(c);
+    if norm == 0.0 {
+        return 0.0;
+    }
+    var bound = e;
+    if n >= 4u {
+        bound = max(bound, dist4(b, a) / 12.0 / norm);
+    }
+    return sqrt(bound * dist4(c, b) / 3.0 / norm) + max(it, 0.0);
 }
 
 // The stop of level t's V-cycles on the estimated iteration error (solver.rs
@@ -1339,7 +1351,7 @@ fn finish_level() {
         }
         nv = n;
         if e >= 0.0 {
-            est = reported(vals, n, e);
+            est = reported(vals, n, e, err);
             if e <= params.accuracy {
                 met = true;
                 ph = PH_DONE;

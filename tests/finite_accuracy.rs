@@ -69,10 +69,10 @@ fn estimate_is_honest_and_default_within_1e3() {
             let err = rel(&v, &want);
             println!("{label} accuracy {accuracy:.0e}: estimate {est:.2e}, true {err:.2e}");
             assert!(met, "{label}: accuracy {accuracy} not met (estimate {est})");
-            assert!(
-                est <= accuracy,
-                "index {index} ({label}): estimate {est} above the accuracy {accuracy}"
-            );
+            // No `est <= accuracy`: since session 40 the reported estimate counts the pair
+            // one grid back and the last grid's iteration error, which the stop bound
+            // does not, and may exceed the accuracy where the true error does (ε = 0.6
+            // at 5e-4: estimate 6.1e-4); its honesty is what is checked.
             assert!(
                 err <= 3.0 * est && est <= 3.0 * err,
                 "index {index} ({label}) at accuracy {accuracy}: true error {err:.3e}, \
@@ -148,6 +148,100 @@ fn default_within_1e3_on_a_dense_eccentricity_scan() {
         cases.len(),
         bad.join("\n")
     );
+}
+
+/// The reported estimate is honest at high eccentricity (issue 20, session 40): within a
+/// factor 3 of the true error, both ways, at the default accuracy, on aligned journals at
+/// ε 0.9075-0.9375 (still, whirling, squeezed at both ends) and tilted ones at ε 0.9 and
+/// 0.95, against a reference finer than the one above where the multigrid gets there: the
+/// ladder carried to 2048 × 256 ([`FiniteSolver::ladder_beyond`]), the rectangle sums of
+/// its finest grid whose grids all iterated to an estimated field error ≤ 1e-7
+/// extrapolated with the grid below's, and the reference's own step (its distance from
+/// the extrapolate one grid down) below 1/10 of the error judged (asserted, so a
+/// reference that is not converged fails the test rather than judging).
+/// The aligned states are those where session 39's `√(bound × d₀/3)` was 0.09-0.24 × the
+/// true error (examples/bench_worst.rs `truth`, BENCHMARKS.md "Issue 20: an honest
+/// estimate at high eccentricity, session 40"): this test fails on it.
+#[test]
+fn estimate_is_honest_at_high_eccentricity() {
+    use rayon::prelude::*;
+    let p = bearing(FiniteSettings::default());
+    let d = p.clearance;
+    let (c, s) = (finite_states::ANGLE.cos(), finite_states::ANGLE.sin());
+    let w = finite_states::OMEGA;
+    // (ε of end i, tilt: 1 − ε_j/ε_i, (vx, vy)/δω at end i, the same at end j too).
+    let cases: [(f64, f64, (f64, f64), bool); 8] = [
+        (0.9325, 0.0, (0.0, 0.0), false),
+        (0.915, 0.0, (0.0, -0.03), true),
+        (0.9375, 0.0, (0.02, 0.0), false),
+        (0.93, 0.0, (0.0, 0.0), false),
+        (0.945, 0.0, (0.0, -0.03), true),
+        (0.95, 0.25, (0.0, 0.0), false),
+        (0.90, 0.25, (0.02, 0.0), true),
+        (0.95, 0.25, (0.0, -0.03), true),
+    ];
+    let g = FiniteGrid::for_bearing(&p);
+    let rows: Vec<(f64, f64, f64, f64)> = cases
+        .par_iter()
+        .map(|&(e, tilt, (vx, vy), both)| {
+            let j = if both { 1.0 } else { 0.0 };
+            let st = BearingState {
+                xi: e * d * c,
+                yi: e * d * s,
+                xj: e * (1.0 - tilt) * d * c,
+                yj: e * (1.0 - tilt) * d * s,
+                vxi: vx * d * w,
+                vyi: vy * d * w,
+                vxj: j * vx * d * w,
+                vyj: j * vy * d * w,
+                omega: w,
+            };
+            let (v, est, _) = at_accuracy(&p, &st, FiniteSettings::default().accuracy);
+            let packed = pack_state(&p, &st).unwrap();
+            let job = FiniteJob::new(&p, &packed);
+            let steps = FiniteSolver::new().ladder_beyond(&job, &g, 1e-10, 1);
+            let lv =
+                |i: &[f64; 4]| finish_loads(&p, &st, i, packed.rate_scale).load_vector(p.length);
+            let x = |a: usize| -> [f64; 4] {
+                let (f, c) = (lv(&steps[a].rectangle), lv(&steps[a - 1].rectangle));
+                std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0)
+            };
+            // The finest grid up to which every grid iterated to 1e-7 (the multigrid's
+            // 200 V-cycles leave some states' 2048 × 256 above it: tilted ε 0.95).
+            let top = (1..steps.len())
+                .rev()
+                .find(|&a| steps[..=a].iter().all(|t| t.result.1 <= 1e-7))
+                .unwrap_or(steps.len() - 1);
+            let worst_iteration = steps[..=top].iter().map(|t| t.result.1).fold(0.0, f64::max);
+            let reference = x(top);
+            (
+                rel(&v, &reference),
+                est,
+                rel(&x(top - 1), &reference),
+                worst_iteration,
+            )
+        })
+        .collect();
+    let mut bad = Vec::new();
+    for (index, (case, &(err, est, ref_step, it))) in cases.iter().zip(&rows).enumerate() {
+        println!(
+            "{case:?}: true error {err:.3e}, estimate {est:.3e} ({:.2}x), reference step {ref_step:.2e}, \
+             largest iteration error {it:.1e}",
+            est / err
+        );
+        assert!(
+            it <= 1e-7 && ref_step <= 0.1 * err,
+            "index {index} {case:?}: the reference is not converged enough to judge: iteration \
+             error {it:.2e} (tolerance 1e-7), its own step {ref_step:.2e} against the error \
+             judged {err:.2e} (tolerance 1/10)"
+        );
+        if !(err <= 3.0 * est && est <= 3.0 * err) {
+            bad.push(format!(
+                "index {index} {case:?}: estimate {est:.3e}, true error {err:.3e}, tolerance factor 3 both ways"
+            ));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
 /// Projected multigrid and projected SOR solve the same complementarity problem: on
