@@ -129,6 +129,10 @@ pub(super) struct Grid<'a> {
     /// Whether the grid is the one being solved (held nodes set to `hold`) or a
     /// correction grid (frozen nodes kept).
     pub top: bool,
+    /// Whether `hold` is `+0` everywhere (`Level::hold_zero`: a film without held bands):
+    /// the passes then take `+0` for it and never read it (session 40: a load per chunk,
+    /// and the array's pages are not touched).
+    pub hold_zero: bool,
 }
 
 /// The rows around row `j` of a grid: the row's coefficients and the field south and north
@@ -527,7 +531,7 @@ mod simd {
 use simd::Vf;
 
 /// The smoother on `W` consecutive nodes `i..i + W` of a row: this colour's lanes (the
-/// even ones where `even`, else the odd ones) updated, the others stored unchanged; returns
+/// even ones where `EVEN`, else the odd ones) updated, the others stored unchanged; returns
 /// the nodes' values before. `prev`: the `W` nodes before, as loaded (only its last lane is
 /// read, node `i − 1`'s value). The west neighbours from registers: loaded from memory
 /// they straddle the last chunk's store, which a load cannot be forwarded from and waits
@@ -535,17 +539,23 @@ use simd::Vf;
 /// chain every chunk to the last one's latency (1.5× slower). A node's west neighbour is
 /// of the other colour, unchanged by the sweep, so the values as loaded are the ones.
 ///
+/// `TOP` (the grid solved: held nodes take `hold`, else frozen nodes keep their value),
+/// `EVEN` and `HOLD0` are constants of the row's loop (session 40: tested per chunk, they
+/// were 4 of its 32 AVX2 instructions). `HOLD0` (`TOP` with `hold` all `+0`): no select
+/// at all, for the update itself is `+0` where `inv = 0`: `(s + f)·0` is `±0` (or NaN
+/// where `s + f` is not finite), `old + (±0 − old)` is `old − old = +0` in
+/// round-to-nearest for a finite `old` (NaN for an infinite one), and `maxpd(·, 0)` gives
+/// `+0` for a zero and a NaN alike: the scalar pass's `hold[i] = +0`, the same bits.
+///
 /// # Safety
 /// The CPU has `V`'s instruction set; `1 ≤ i`, `i + W < nt` (no wrap; every row of `r`
 /// and `cur` is `nt` long).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn relax_chunk<V: Vf>(
+unsafe fn relax_chunk<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
     r: &Rows,
     cur: &mut [f64],
     i: usize,
-    top: bool,
-    even: bool,
     prev: V,
 ) -> V {
     let c = cur.as_mut_ptr().add(i);
@@ -566,19 +576,46 @@ unsafe fn relax_chunk<V: Vf>(
     let (f, ik) = (V::load(r.f.as_ptr().add(i)), V::load(r.inv.as_ptr().add(i)));
     let s = ae.mul(e).add(aw.mul(w)).add(an.mul(no)).add(ans.mul(so));
     let new = old.add(s.add(f).mul(ik).sub(old)).max0();
-    let keep = if top {
-        V::load(r.hold.as_ptr().add(i))
+    let v = if TOP && HOLD0 {
+        new
     } else {
-        old
+        let keep = if TOP {
+            V::load(r.hold.as_ptr().add(i))
+        } else {
+            old
+        };
+        V::select(ik.eq0(), keep, new)
     };
-    let v = V::select(ik.eq0(), keep, new);
-    let out = if even {
+    let out = if EVEN {
         V::even(v, old)
     } else {
         V::even(old, v)
     };
     out.store(c);
     old
+}
+
+/// The chunks of a row from node 1 ([`relax_chunk`] while `i + W < nt`); returns the first
+/// node after them.
+///
+/// # Safety
+/// As [`relax_chunk`]: the CPU has `V`'s instruction set, every row is `nt` long.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_chunks<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
+    r: &Rows,
+    cur: &mut [f64],
+) -> usize {
+    let nt = cur.len();
+    let mut i = 1;
+    if i + V::W < nt {
+        let mut prev = V::splat(cur[0]);
+        while i + V::W < nt {
+            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, cur, i, prev);
+            i += V::W;
+        }
+    }
+    i
 }
 
 /// One red-black projected Gauss–Seidel sweep at ω = 1 (`Level::smooth`) in `V`'s lanes.
@@ -595,6 +632,7 @@ unsafe fn relax_chunk<V: Vf>(
 #[inline(always)]
 unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
     let (nt, nz, top) = (g.nt, g.nz, g.top);
+    let hold0 = top && g.hold_zero;
     let p = &mut p[..nt * (nz + 1)];
     for colour in 0..2 {
         for j in 1..nz {
@@ -607,14 +645,14 @@ unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
             if par == 0 {
                 relax_node(&r, cur, 0, 1, nt - 1, top);
             }
-            let mut i = 1;
-            if i + V::W < nt {
-                let mut prev = V::splat(cur[0]);
-                while i + V::W < nt {
-                    prev = relax_chunk::<V>(&r, cur, i, top, par == 1, prev);
-                    i += V::W;
-                }
-            }
+            let i = match (top, par == 1, hold0) {
+                (true, true, true) => relax_chunks::<V, true, true, true>(&r, cur),
+                (true, false, true) => relax_chunks::<V, true, false, true>(&r, cur),
+                (true, true, false) => relax_chunks::<V, true, true, false>(&r, cur),
+                (true, false, false) => relax_chunks::<V, true, false, false>(&r, cur),
+                (false, true, _) => relax_chunks::<V, false, true, false>(&r, cur),
+                (false, false, _) => relax_chunks::<V, false, false, false>(&r, cur),
+            };
             // The rest of the row node by node, the row's last node last.
             let mut i = if i % 2 == par { i } else { i + 1 };
             while i + 1 < nt {

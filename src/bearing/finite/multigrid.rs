@@ -659,6 +659,7 @@ impl Level {
             },
             hold: &self.hold[..n],
             top: self.top,
+            hold_zero: self.hold_zero,
         };
         if !lanes::smooth(isa, &g, &mut self.p[..n]) {
             self.relax::<false>(1.0);
@@ -950,6 +951,7 @@ impl Level {
             },
             hold: &self.hold[..n],
             top: self.top,
+            hold_zero: self.hold_zero,
         };
         if !lanes::residual(isa, &g, &self.p[..n], &mut self.r[..n]) {
             self.residual_on::<false>();
@@ -1275,6 +1277,7 @@ fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen)
             },
             hold: &coarse.hold[..n],
             top: coarse.top,
+            hold_zero: coarse.hold_zero,
         },
         base: &mut coarse.base[..n],
         p: &mut coarse.p[..n],
@@ -1415,6 +1418,7 @@ fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c
         },
         hold: &fine.hold[..n],
         top: fine.top,
+        hold_zero: fine.hold_zero,
     };
     let (p, e, cnt, row) = (
         &mut fine.p[..n],
@@ -2772,25 +2776,33 @@ mod tests {
     /// (issue 20, session 38): random levels of every row length in [`ROW_LENGTHS`], 2 to 6
     /// intervals in ζ, solved grids (held nodes set) and correction grids (frozen nodes
     /// kept), three sweeps each followed by the residual (both colours, fields after
-    /// projections). Any lane off by one bit fails.
+    /// projections); solved grids also with every hold `+0` and known so
+    /// (`Level::hold_zero`: the lanes' smoother then has no select; session 40). Any lane
+    /// off by one bit fails.
     #[test]
     fn lanes_smoother_and_residual_match_scalar_bit_for_bit() {
         let isas = lane_isas();
         let mut compared = 0;
         for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
             for nz in 2..=6 {
-                for top in [true, false] {
+                for (top, hold0) in [(true, false), (true, true), (false, false)] {
                     let seed = (t * 100 + nz * 2 + top as usize) as u64;
                     for &isa in &isas {
                         let mut a = random_level(seed, nt, nz, top);
                         let mut b = random_level(seed, nt, nz, top);
+                        if hold0 {
+                            for l in [&mut a, &mut b] {
+                                l.hold.fill(0.0);
+                                l.hold_zero = true;
+                            }
+                        }
                         for sweep in 0..3 {
                             a.relax::<false>(1.0);
                             b.smooth_on(isa);
                             assert_eq!(
                                 bits(&a.p),
                                 bits(&b.p),
-                                "{isa:?} smoother, {nt} x {nz}, top {top}, sweep {sweep}: {:?} against scalar {:?}",
+                                "{isa:?} smoother, {nt} x {nz}, top {top}, hold 0 {hold0}, sweep {sweep}: {:?} against scalar {:?}",
                                 b.p,
                                 a.p
                             );
