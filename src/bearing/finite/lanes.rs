@@ -147,6 +147,8 @@ struct Rows<'a> {
     f: &'a [f64],
     inv: &'a [f64],
     hold: &'a [f64],
+    /// The grid solved with every hold `+0` ([`Grid::hold_zero`]): `hold` is not read.
+    hold0: bool,
 }
 
 impl<'a> Rows<'a> {
@@ -164,6 +166,7 @@ impl<'a> Rows<'a> {
             f: &g.f[row..row + nt],
             inv: &g.inv[row..row + nt],
             hold: &g.hold[row..row + nt],
+            hold0: g.top && g.hold_zero,
         }
     }
 }
@@ -175,7 +178,7 @@ fn relax_node(r: &Rows, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bo
     let old = cur[i];
     if ik == 0.0 {
         if top {
-            cur[i] = r.hold[i];
+            cur[i] = if r.hold0 { 0.0 } else { r.hold[i] };
         }
         return;
     }
@@ -210,6 +213,8 @@ struct CorrRow<'a> {
     north: &'a [f64],
     inv: &'a [f64],
     hold: &'a [f64],
+    /// As [`Rows::hold0`].
+    hold0: bool,
     v: &'a [f64],
     /// Rows next to the end faces: the face's p = 0 does not count against the zone.
     first: bool,
@@ -221,7 +226,7 @@ struct CorrRow<'a> {
 fn correct_node(r: &CorrRow, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
     if r.inv[i] == 0.0 {
         if top {
-            cur[i] = r.hold[i];
+            cur[i] = if r.hold0 { 0.0 } else { r.hold[i] };
         }
         return;
     }
@@ -749,7 +754,13 @@ unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
 /// As [`relax_chunk`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool, prev: V) -> V {
+unsafe fn correct_chunk<V: Vf, const TOP: bool, const HOLD0: bool>(
+    r: &CorrRow,
+    cur: &mut [f64],
+    i: usize,
+    prev: V,
+) -> V {
+    let top = TOP;
     let c = cur.as_mut_ptr().add(i);
     let (pk, e) = (V::load(c), V::load(c.add(1)));
     let w = V::shift_in(prev, pk);
@@ -762,7 +773,9 @@ unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool
         inside = V::and(inside, V::load(r.south.as_ptr().add(i)).gt0());
     }
     let corrected = pk.add(V::load(r.v.as_ptr().add(i))).max0();
-    let keep = if top {
+    let keep = if TOP && HOLD0 {
+        V::zero()
+    } else if TOP {
         V::load(r.hold.as_ptr().add(i))
     } else {
         pk
@@ -858,8 +871,30 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
             interpolate_row::<ST>(e0, e1, jo, vrow);
         }
     }
+    let scratch = &scratch[..];
+    // The grid's role and its holds as constants of the chunks' loop (session 40).
+    match (top, top && g.hold_zero) {
+        (true, true) => correct_rows::<V, true, true>(g, p, scratch),
+        (true, false) => correct_rows::<V, true, false>(g, p, scratch),
+        (false, _) => correct_rows::<V, false, false>(g, p, scratch),
+    }
+}
+
+/// The rows of [`correct_generic`] once `v` (the interpolated correction of every node)
+/// is written: `TOP` and `HOLD0` as [`relax_chunk`]'s.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_rows<V: Vf, const TOP: bool, const HOLD0: bool>(
+    g: &Grid,
+    p: &mut [f64],
+    v: &[f64],
+) {
+    let (nt, nz, top) = (g.nt, g.nz, TOP);
     for j in 1..nz {
-        let vrow = &scratch[j * nt..(j + 1) * nt];
+        let vrow = &v[j * nt..(j + 1) * nt];
         let row = j * nt;
         let (below, rest) = p.split_at_mut(row);
         let (cur, above) = rest.split_at_mut(nt);
@@ -868,6 +903,7 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
             north: &above[..nt],
             inv: &g.inv[row..row + nt],
             hold: &g.hold[row..row + nt],
+            hold0: HOLD0,
             v: vrow,
             first: j == 1,
             last: j + 1 == nz,
@@ -876,7 +912,7 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
         let mut i = 1;
         let mut prev = V::splat(cur[0]);
         while i + V::W < nt {
-            prev = correct_chunk::<V>(&r, cur, i, top, prev);
+            prev = correct_chunk::<V, TOP, HOLD0>(&r, cur, i, prev);
             i += V::W;
         }
         while i + 1 < nt {
@@ -1068,8 +1104,8 @@ unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
 
 /// The coarse solution interpolated to a fine grid (`prolong_solution_on`: bilinear, the
 /// accuracy ladder's start) in `V`'s lanes: `out` the fine iterate, rows `1..nz` written,
-/// held nodes (`inv == 0`) at `hold`, the rest projected; `cp` the coarse iterate (`cnt`
-/// per row).
+/// held nodes (`inv == 0`) at `hold` (`+0` without reading it where `hold_zero`), the rest
+/// projected; `cp` the coarse iterate (`cnt` per row).
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
@@ -1080,6 +1116,7 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
     out: &mut [f64],
     inv: &[f64],
     hold: &[f64],
+    hold_zero: bool,
     nt: usize,
     nz: usize,
     cp: &[f64],
@@ -1102,7 +1139,11 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
         assert!(ST * cnt <= nt);
         let put_lanes = |o: &mut [f64], k: usize, v: V| {
             let ik = V::load(ir.as_ptr().add(k));
-            let held = V::load(hr.as_ptr().add(k));
+            let held = if hold_zero {
+                V::zero()
+            } else {
+                V::load(hr.as_ptr().add(k))
+            };
             V::select(ik.eq0(), held, v.max0()).store(o.as_mut_ptr().add(k));
         };
         let half = V::splat(0.5);
@@ -1137,7 +1178,13 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
         }
         // The rest as the scalar pass.
         let put = |o: &mut [f64], i: usize, v: f64| {
-            o[i] = if ir[i] == 0.0 { hr[i] } else { v.max(0.0) };
+            o[i] = if ir[i] != 0.0 {
+                v.max(0.0)
+            } else if hold_zero {
+                0.0
+            } else {
+                hr[i]
+            };
         };
         for ic in ic..cnt {
             let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
@@ -1222,5 +1269,5 @@ dispatch!(
     /// [`prolong_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
     /// baseline.
     prolong, prolong_generic, [ST, SZ],
-    (out: &mut [f64], inv: &[f64], hold: &[f64], nt: usize, nz: usize, cp: &[f64], cnt: usize)
+    (out: &mut [f64], inv: &[f64], hold: &[f64], hold_zero: bool, nt: usize, nz: usize, cp: &[f64], cnt: usize)
 );

@@ -404,8 +404,12 @@ impl Level {
         // pages the system maps as they are first read, without writing them as
         // `resize` does; a film without held bands only reads them (issue 20, session
         // 39: a run's first state faulted them in by the writes).
+        // Known to be `+0` then (session 40: the first state's setup wrote them, as
+        // `hold_zero` was not yet set, and so faulted their pages in after all).
+        let mut hold_zero = self.hold_zero;
         if self.hold.capacity() < n {
             self.hold = vec![0.0; n];
+            hold_zero = true;
         }
         for v in [
             &mut self.ae,
@@ -438,7 +442,7 @@ impl Level {
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
         // The holds are all 0 without held bands: written only when not already so.
-        let write_hold = held.is_some() || !self.hold_zero;
+        let write_hold = held.is_some() || !hold_zero;
         self.inlet_col.clear();
         self.inlet_col.resize(nz + 1, usize::MAX);
         self.inlet_corr.clear();
@@ -1671,11 +1675,12 @@ fn prolong_solution_with(isa: LaneIsa, fine: &mut Level, coarse: &Level, c: Coar
     let n = fine.len();
     let (nt, nz, cnt) = (fine.nt, fine.nz, coarse.nt);
     let (out, inv, hold) = (&mut fine.p[..n], &fine.inv_d[..n], &fine.hold[..n]);
+    let h0 = fine.hold_zero;
     let cp = &coarse.p[..coarse.len()];
     let done = match c {
-        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
-        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, nt, nz, cp, cnt),
-        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
+        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
+        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
     };
     if done {
         return;
@@ -1745,15 +1750,25 @@ pub(super) fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
 }
 
 /// `out[i] = v(i)` clipped at 0, or the held value where `inv` is 0 (a fine row of an
-/// FMG start).
+/// FMG start): `hold[i]`, or `+0` where `hold` is `None` (every hold `+0`,
+/// `Level::hold_zero`: the array not read; session 40).
 #[inline(always)]
-fn fill(out: &mut [f64], inv: &[f64], hold: &[f64], v: impl Fn(usize) -> f64) {
-    for i in 0..out.len() {
-        out[i] = if inv[i] == 0.0 {
-            hold[i]
-        } else {
-            v(i).max(0.0)
-        };
+fn fill(out: &mut [f64], inv: &[f64], hold: Option<&[f64]>, v: impl Fn(usize) -> f64) {
+    match hold {
+        Some(hold) => {
+            for i in 0..out.len() {
+                out[i] = if inv[i] == 0.0 {
+                    hold[i]
+                } else {
+                    v(i).max(0.0)
+                };
+            }
+        }
+        None => {
+            for i in 0..out.len() {
+                out[i] = if inv[i] == 0.0 { 0.0 } else { v(i).max(0.0) };
+            }
+        }
     }
 }
 
@@ -1824,7 +1839,7 @@ fn prolong_solution_cubic_body(fine: &mut Level, coarse: &Level, c: Coarsen) {
         let (jc, jo) = (j / sz, j % sz);
         let out = &mut fine.p[j * nt..(j + 1) * nt];
         let inv = &fine.inv_d[j * nt..(j + 1) * nt];
-        let hold = &fine.hold[j * nt..(j + 1) * nt];
+        let hold = (!fine.hold_zero).then(|| &fine.hold[j * nt..(j + 1) * nt]);
         if jo == 0 {
             let a = row(jc);
             fill(out, inv, hold, |i| a[i]);
@@ -2750,6 +2765,13 @@ mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
+    /// Every hold `+0` and the level told so (`Level::hold_zero`, a film without held
+    /// bands: the lanes and the FMG starts then take `+0` without reading `hold`).
+    fn zero_holds(l: &mut Level) {
+        l.hold.fill(0.0);
+        l.hold_zero = true;
+    }
+
     /// The instruction sets with SIMD lanes this CPU runs (none: the lanes are not run and
     /// the scalar passes are the only ones).
     fn lane_isas() -> Vec<LaneIsa> {
@@ -2791,10 +2813,8 @@ mod tests {
                         let mut a = random_level(seed, nt, nz, top);
                         let mut b = random_level(seed, nt, nz, top);
                         if hold0 {
-                            for l in [&mut a, &mut b] {
-                                l.hold.fill(0.0);
-                                l.hold_zero = true;
-                            }
+                            zero_holds(&mut a);
+                            zero_holds(&mut b);
                         }
                         for sweep in 0..3 {
                             a.relax::<false>(1.0);
@@ -2828,7 +2848,8 @@ mod tests {
     /// fine levels (as above) with a random coarse correction for each coarsening, large
     /// negative corrections among them so that corrected nodes are projected to 0 inside a
     /// chunk (the lanes' fallback to node-by-node), held and frozen nodes, odd and even row
-    /// lengths (θ coarsening: even ones only, as [`super::coarser`]).
+    /// lengths (θ coarsening: even ones only, as [`super::coarser`]); solved grids also with
+    /// every hold `+0` and known so (session 40).
     #[test]
     fn lanes_correction_matches_scalar_bit_for_bit() {
         let isas = lane_isas();
@@ -2844,7 +2865,7 @@ mod tests {
                     if nz < 2 {
                         continue;
                     }
-                    for top in [true, false] {
+                    for (top, hold0) in [(true, false), (true, true), (false, false)] {
                         let seed = (t * 1000 + cnz * 10 + sz * 3 + st + top as usize) as u64;
                         let coarse_of = |seed: u64| {
                             let mut rng = Lcg(seed ^ 0x5eed);
@@ -2871,13 +2892,17 @@ mod tests {
                                 random_level(seed, nt, nz, top),
                                 random_level(seed, nt, nz, top),
                             );
+                            if hold0 {
+                                zero_holds(&mut fa);
+                                zero_holds(&mut fb);
+                            }
                             let (mut ca, mut cb) = (coarse_of(seed), coarse_of(seed));
                             prolong_correction_with(LaneIsa::Baseline, &mut fa, &mut ca, c);
                             prolong_correction_with(isa, &mut fb, &mut cb, c);
                             assert_eq!(
                                 bits(&fa.p),
                                 bits(&fb.p),
-                                "{isa:?} correction {c:?}, {nt} x {nz}, top {top}: {:?} against scalar {:?}",
+                                "{isa:?} correction {c:?}, {nt} x {nz}, top {top}, hold 0 {hold0}: {:?} against scalar {:?}",
                                 fb.p,
                                 fa.p
                             );
@@ -2946,7 +2971,8 @@ mod tests {
 
     /// The bilinear interpolation of a solution (the accuracy ladder's start) in SIMD lanes
     /// against the scalar pass, bit for bit: random coarse fields with zeros of both signs,
-    /// fine levels with held nodes, every coarsening and row length.
+    /// fine levels with held nodes (random holds, or every hold `+0` and known so), every
+    /// coarsening and row length.
     #[test]
     fn lanes_solution_interpolation_matches_scalar_bit_for_bit() {
         let isas = lane_isas();
@@ -2963,18 +2989,22 @@ mod tests {
                         continue;
                     }
                     let seed = (t * 1000 + cnz * 10 + sz * 3 + st) as u64;
-                    for &isa in &isas {
+                    for (&isa, hold0) in isas.iter().flat_map(|i| [(i, false), (i, true)]) {
                         let (mut fa, mut fb) = (
                             random_level(seed, nt, nz, true),
                             random_level(seed, nt, nz, true),
                         );
+                        if hold0 {
+                            zero_holds(&mut fa);
+                            zero_holds(&mut fb);
+                        }
                         let coarse = random_level(seed + 11, cnt, cnz, true);
                         prolong_solution_with(LaneIsa::Baseline, &mut fa, &coarse, c);
                         prolong_solution_with(isa, &mut fb, &coarse, c);
                         assert_eq!(
                             bits(&fa.p),
                             bits(&fb.p),
-                            "{isa:?} interpolation {c:?}, {nt} x {nz}: {:?} against scalar {:?}",
+                            "{isa:?} interpolation {c:?}, {nt} x {nz}, hold 0 {hold0}: {:?} against scalar {:?}",
                             fb.p,
                             fa.p
                         );
@@ -3184,6 +3214,29 @@ mod tests {
                             bits(&got.p),
                             bits(&want.p),
                             "{isa:?} cubic {c:?} {nt} x {nz}"
+                        );
+                    }
+                    // Every hold +0: read as such (`hold_zero` false) against not read.
+                    let mut want = random_level(seed, nt, nz, true);
+                    want.base = vec![0.0; want.p.len()];
+                    want.hold.fill(0.0);
+                    super::prolong_solution_cubic_body(&mut want, &coarse, c);
+                    for &isa in &isas {
+                        let mut got = random_level(seed, nt, nz, true);
+                        got.base = vec![0.0; got.p.len()];
+                        zero_holds(&mut got);
+                        lanes::widened_on(
+                            isa,
+                            CubicStart {
+                                fine: &mut got,
+                                coarse: &coarse,
+                                c,
+                            },
+                        );
+                        assert_eq!(
+                            bits(&got.p),
+                            bits(&want.p),
+                            "{isa:?} cubic {c:?} {nt} x {nz}, holds +0"
                         );
                     }
                 }
