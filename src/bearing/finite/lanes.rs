@@ -146,9 +146,6 @@ struct Rows<'a> {
     d: &'a [f64],
     f: &'a [f64],
     inv: &'a [f64],
-    hold: &'a [f64],
-    /// The grid solved with every hold `+0` ([`Grid::hold_zero`]): `hold` is not read.
-    hold0: bool,
 }
 
 impl<'a> Rows<'a> {
@@ -165,26 +162,50 @@ impl<'a> Rows<'a> {
             d: &g.d[row..row + nt],
             f: &g.f[row..row + nt],
             inv: &g.inv[row..row + nt],
-            hold: &g.hold[row..row + nt],
-            hold0: g.top && g.hold_zero,
         }
     }
 }
 
+/// Row `j` of a grid for the smoother, as pointers to the row's first node: the field's
+/// row and the rows south and north of it, the row's coefficients (session 40: slices,
+/// each with its bounds checks per row, were a fifth of the smoother's instructions
+/// outside its chunks, which are a quarter of the whole at 128 × 32 with AVX2).
+#[derive(Clone, Copy)]
+struct RowPtr {
+    cur: *mut f64,
+    south: *const f64,
+    north: *const f64,
+    ae: *const f64,
+    an: *const f64,
+    an_south: *const f64,
+    f: *const f64,
+    inv: *const f64,
+    hold: *const f64,
+    /// The grid solved with every hold `+0` ([`Grid::hold_zero`]): `hold` is not read.
+    hold0: bool,
+}
+
 /// The scalar smoother's node update (`RowRef::update` at ω = 1, not tracked).
+///
+/// # Safety
+/// `i`, `ip`, `im` are nodes of the row (`< nt`); every pointer of `r` has `nt` values
+/// (`hold` read only when `top` and not `r.hold0`).
 #[inline(always)]
-fn relax_node(r: &Rows, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
-    let ik = r.inv[i];
-    let old = cur[i];
+unsafe fn relax_node(r: &RowPtr, i: usize, ip: usize, im: usize, top: bool) {
+    let ik = *r.inv.add(i);
+    let c = r.cur;
+    let old = *c.add(i);
     if ik == 0.0 {
         if top {
-            cur[i] = if r.hold0 { 0.0 } else { r.hold[i] };
+            *c.add(i) = if r.hold0 { 0.0 } else { *r.hold.add(i) };
         }
         return;
     }
-    let s =
-        r.ae[i] * cur[ip] + r.ae[im] * cur[im] + r.an[i] * r.north[i] + r.an_south[i] * r.south[i];
-    cur[i] = (old + ((s + r.f[i]) * ik - old)).max(0.0);
+    let s = *r.ae.add(i) * *c.add(ip)
+        + *r.ae.add(im) * *c.add(im)
+        + *r.an.add(i) * *r.north.add(i)
+        + *r.an_south.add(i) * *r.south.add(i);
+    *c.add(i) = (old + ((s + *r.f.add(i)) * ik - old)).max(0.0);
 }
 
 /// The scalar residual at node `i` (`ResidualRow::at`).
@@ -213,7 +234,7 @@ struct CorrRow<'a> {
     north: &'a [f64],
     inv: &'a [f64],
     hold: &'a [f64],
-    /// As [`Rows::hold0`].
+    /// As [`RowPtr::hold0`].
     hold0: bool,
     v: &'a [f64],
     /// Rows next to the end faces: the face's p = 0 does not count against the zone.
@@ -558,37 +579,23 @@ use simd::Vf;
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn relax_chunk<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
-    r: &Rows,
-    cur: &mut [f64],
+    r: &RowPtr,
     i: usize,
     prev: V,
 ) -> V {
-    let c = cur.as_mut_ptr().add(i);
+    let c = r.cur.add(i);
     let (old, e) = (V::load(c), V::load(c.add(1)));
     let w = V::shift_in(prev, old);
-    let (ae, aw) = (
-        V::load(r.ae.as_ptr().add(i)),
-        V::load(r.ae.as_ptr().add(i - 1)),
-    );
-    let (an, no) = (
-        V::load(r.an.as_ptr().add(i)),
-        V::load(r.north.as_ptr().add(i)),
-    );
-    let (ans, so) = (
-        V::load(r.an_south.as_ptr().add(i)),
-        V::load(r.south.as_ptr().add(i)),
-    );
-    let (f, ik) = (V::load(r.f.as_ptr().add(i)), V::load(r.inv.as_ptr().add(i)));
+    let (ae, aw) = (V::load(r.ae.add(i)), V::load(r.ae.add(i - 1)));
+    let (an, no) = (V::load(r.an.add(i)), V::load(r.north.add(i)));
+    let (ans, so) = (V::load(r.an_south.add(i)), V::load(r.south.add(i)));
+    let (f, ik) = (V::load(r.f.add(i)), V::load(r.inv.add(i)));
     let s = ae.mul(e).add(aw.mul(w)).add(an.mul(no)).add(ans.mul(so));
     let new = old.add(s.add(f).mul(ik).sub(old)).max0();
     let v = if TOP && HOLD0 {
         new
     } else {
-        let keep = if TOP {
-            V::load(r.hold.as_ptr().add(i))
-        } else {
-            old
-        };
+        let keep = if TOP { V::load(r.hold.add(i)) } else { old };
         V::select(ik.eq0(), keep, new)
     };
     let out = if EVEN {
@@ -608,15 +615,14 @@ unsafe fn relax_chunk<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: boo
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn relax_chunks<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
-    r: &Rows,
-    cur: &mut [f64],
+    r: &RowPtr,
+    nt: usize,
 ) -> usize {
-    let nt = cur.len();
     let mut i = 1;
     if i + V::W < nt {
-        let mut prev = V::splat(cur[0]);
+        let mut prev = V::splat(*r.cur);
         while i + V::W < nt {
-            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, cur, i, prev);
+            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev);
             i += V::W;
         }
     }
@@ -638,34 +644,49 @@ unsafe fn relax_chunks<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bo
 unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
     let (nt, nz, top) = (g.nt, g.nz, g.top);
     let hold0 = top && g.hold_zero;
-    let p = &mut p[..nt * (nz + 1)];
+    let n = nt * (nz + 1);
+    // Every row `0..=nz` of every array is there (the pointers below stay inside).
+    assert!(nz >= 1 && p.len() >= n && g.ae.len() >= n && g.an.len() >= n);
+    assert!(g.f.len() >= n && g.inv.len() >= n && (hold0 || g.hold.len() >= n));
+    // The field through one pointer only: every row's reads and writes derive from it
+    // (no slices of `p` alive while it is written).
+    let pp = p.as_mut_ptr();
     for colour in 0..2 {
         for j in 1..nz {
             let row = j * nt;
-            let (below, rest) = p.split_at_mut(row);
-            let (cur, above) = rest.split_at_mut(nt);
-            let r = Rows::of(g, &below[row - nt..row], &above[..nt], j);
+            let r = RowPtr {
+                cur: pp.add(row),
+                south: pp.add(row - nt),
+                north: pp.add(row + nt),
+                ae: g.ae.as_ptr().add(row),
+                an: g.an.as_ptr().add(row),
+                an_south: g.an.as_ptr().add(row - nt),
+                f: g.f.as_ptr().add(row),
+                inv: g.inv.as_ptr().add(row),
+                hold: g.hold.as_ptr().wrapping_add(row),
+                hold0,
+            };
             // This colour's nodes: i ≡ par (mod 2).
             let par = (colour + j) % 2;
             if par == 0 {
-                relax_node(&r, cur, 0, 1, nt - 1, top);
+                relax_node(&r, 0, 1 % nt, nt - 1, top);
             }
             let i = match (top, par == 1, hold0) {
-                (true, true, true) => relax_chunks::<V, true, true, true>(&r, cur),
-                (true, false, true) => relax_chunks::<V, true, false, true>(&r, cur),
-                (true, true, false) => relax_chunks::<V, true, true, false>(&r, cur),
-                (true, false, false) => relax_chunks::<V, true, false, false>(&r, cur),
-                (false, true, _) => relax_chunks::<V, false, true, false>(&r, cur),
-                (false, false, _) => relax_chunks::<V, false, false, false>(&r, cur),
+                (true, true, true) => relax_chunks::<V, true, true, true>(&r, nt),
+                (true, false, true) => relax_chunks::<V, true, false, true>(&r, nt),
+                (true, true, false) => relax_chunks::<V, true, true, false>(&r, nt),
+                (true, false, false) => relax_chunks::<V, true, false, false>(&r, nt),
+                (false, true, _) => relax_chunks::<V, false, true, false>(&r, nt),
+                (false, false, _) => relax_chunks::<V, false, false, false>(&r, nt),
             };
             // The rest of the row node by node, the row's last node last.
             let mut i = if i % 2 == par { i } else { i + 1 };
             while i + 1 < nt {
-                relax_node(&r, cur, i, i + 1, i - 1, top);
+                relax_node(&r, i, i + 1, i - 1, top);
                 i += 2;
             }
             if i + 1 == nt {
-                relax_node(&r, cur, i, 0, i - 1, top);
+                relax_node(&r, i, 0, i - 1, top);
             }
         }
     }
@@ -842,8 +863,20 @@ unsafe fn interpolate_row_lanes<V: Vf>(e0: &[f64], e1: &[f64], jo: usize, v: &mu
     }
 }
 
+/// Rows of the interpolated correction kept at a time by [`correct_generic`] (a ring).
+const CORR_RING: usize = 4;
+/// How many rows ahead of the row being corrected [`correct_generic`] interpolates: the
+/// chunks' loads of a row just written (at other offsets) would wait for its stores; two
+/// rows of correction later they are long written. Below [`CORR_RING`], so the row being
+/// written is never one still to be read.
+const CORR_AHEAD: usize = 2;
+
 /// `prolong_correction_on` in `V`'s lanes: `e` the coarse correction `u_H − u₀` (`cnt`
-/// per coarse row), `scratch` the interpolated correction (resized to the fine grid).
+/// per coarse row), `scratch` the interpolated correction of [`CORR_RING`] rows (a ring,
+/// row `j` in slot `j mod CORR_RING`, written [`CORR_AHEAD`] rows ahead of the row
+/// corrected). Session 40: it held every row of the fine grid, interpolated before the
+/// first row was corrected: an array of the fine grid's size whose pages the first state
+/// of a run faulted in (~2 µs each on the 2-core VM), for the same values.
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
@@ -856,45 +889,73 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
     cnt: usize,
     scratch: &mut Vec<f64>,
 ) {
-    let (nt, nz, top) = (g.nt, g.nz, g.top);
-    // The interpolated correction of every row first, then the rows corrected: the
-    // chunks' loads of a row just written (at other offsets) would wait for its stores.
-    scratch.resize(nt * (nz + 1), 0.0);
-    for j in 1..nz {
-        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
-        let crow = jc * cnt;
-        let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
-        let vrow = &mut scratch[j * nt..(j + 1) * nt];
-        if ST == 2 {
-            interpolate_row_lanes::<V>(e0, e1, jo, vrow);
-        } else {
-            interpolate_row::<ST>(e0, e1, jo, vrow);
-        }
+    let (nt, top) = (g.nt, g.top);
+    if scratch.len() < CORR_RING * nt {
+        scratch.resize(CORR_RING * nt, 0.0);
     }
-    let scratch = &scratch[..];
+    let ring = &mut scratch[..CORR_RING * nt];
     // The grid's role and its holds as constants of the chunks' loop (session 40).
     match (top, top && g.hold_zero) {
-        (true, true) => correct_rows::<V, true, true>(g, p, scratch),
-        (true, false) => correct_rows::<V, true, false>(g, p, scratch),
-        (false, _) => correct_rows::<V, false, false>(g, p, scratch),
+        (true, true) => correct_rows::<V, ST, SZ, true, true>(g, p, e, cnt, ring),
+        (true, false) => correct_rows::<V, ST, SZ, true, false>(g, p, e, cnt, ring),
+        (false, _) => correct_rows::<V, ST, SZ, false, false>(g, p, e, cnt, ring),
     }
 }
 
-/// The rows of [`correct_generic`] once `v` (the interpolated correction of every node)
-/// is written: `TOP` and `HOLD0` as [`relax_chunk`]'s.
+/// The interpolated correction of fine row `j` into its slot of the ring.
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn correct_rows<V: Vf, const TOP: bool, const HOLD0: bool>(
+unsafe fn interpolate_into<V: Vf, const ST: usize, const SZ: usize>(
+    e: &[f64],
+    cnt: usize,
+    j: usize,
+    ring: &mut [f64],
+) {
+    let nt = ring.len() / CORR_RING;
+    let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+    let crow = jc * cnt;
+    let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
+    let slot = j % CORR_RING;
+    let vrow = &mut ring[slot * nt..(slot + 1) * nt];
+    if ST == 2 {
+        interpolate_row_lanes::<V>(e0, e1, jo, vrow);
+    } else {
+        interpolate_row::<ST>(e0, e1, jo, vrow);
+    }
+}
+
+/// The rows of [`correct_generic`]: `TOP` and `HOLD0` as [`relax_chunk`]'s.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_rows<
+    V: Vf,
+    const ST: usize,
+    const SZ: usize,
+    const TOP: bool,
+    const HOLD0: bool,
+>(
     g: &Grid,
     p: &mut [f64],
-    v: &[f64],
+    e: &[f64],
+    cnt: usize,
+    ring: &mut [f64],
 ) {
     let (nt, nz, top) = (g.nt, g.nz, TOP);
+    for j in 1..(1 + CORR_AHEAD).min(nz) {
+        interpolate_into::<V, ST, SZ>(e, cnt, j, ring);
+    }
     for j in 1..nz {
-        let vrow = &v[j * nt..(j + 1) * nt];
+        if j + CORR_AHEAD < nz {
+            interpolate_into::<V, ST, SZ>(e, cnt, j + CORR_AHEAD, ring);
+        }
+        let slot = j % CORR_RING;
+        let vrow = &ring[slot * nt..(slot + 1) * nt];
         let row = j * nt;
         let (below, rest) = p.split_at_mut(row);
         let (cur, above) = rest.split_at_mut(nt);

@@ -236,7 +236,7 @@ pub(crate) struct Level {
     /// Scratch of [`Level::smooth_lines`] per column: solved again by [`line_lcp`].
     dirty: Vec<bool>,
     /// Scratch of the lanes' correction ([`lanes::correct`]): the interpolated
-    /// correction at every node.
+    /// correction of a few rows at a time (a ring; every node's before session 40).
     lane_row: Vec<f64>,
 }
 
