@@ -337,6 +337,8 @@ mod simd {
         unsafe fn zip_hi(a: Self, b: Self) -> Self;
         /// Whether any lane is set.
         unsafe fn any(m: Self::M) -> bool;
+        /// `self` with its last lane `x`.
+        unsafe fn with_last(self, x: f64) -> Self;
     }
 
     /// AVX2: four lanes, masks as all-ones lanes.
@@ -442,6 +444,10 @@ mod simd {
         #[inline(always)]
         unsafe fn any(m: __m256d) -> bool {
             _mm256_movemask_pd(m) != 0
+        }
+        #[inline(always)]
+        unsafe fn with_last(self, x: f64) -> Self {
+            Avx2(_mm256_blend_pd::<0b1000>(self.0, _mm256_set1_pd(x)))
         }
     }
 
@@ -550,6 +556,10 @@ mod simd {
         unsafe fn any(m: __mmask8) -> bool {
             m != 0
         }
+        #[inline(always)]
+        unsafe fn with_last(self, x: f64) -> Self {
+            Avx512(_mm512_mask_blend_pd(0b1000_0000, self.0, _mm512_set1_pd(x)))
+        }
     }
 }
 
@@ -573,20 +583,36 @@ use simd::Vf;
 /// round-to-nearest for a finite `old` (NaN for an infinite one), and `maxpd(·, 0)` gives
 /// `+0` for a zero and a NaN alike: the scalar pass's `hold[i] = +0`, the same bits.
 ///
+/// `wrap`: the chunk holding node 0 (`first`: its west face and neighbour wrap, the
+/// neighbour from `prev`) or node `nt − 1` (`last`: its east neighbour wraps), see
+/// [`relax_row_whole`].
+///
 /// # Safety
 /// The CPU has `V`'s instruction set; `1 ≤ i`, `i + W < nt` (no wrap; every row of `r`
-/// and `cur` is `nt` long).
+/// is `nt` long), or `i = 0` with `wrap.first`, or `i + W = nt` with `wrap.last` (then
+/// the field's next row is there: its first node is read, not used).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn relax_chunk<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
     r: &RowPtr,
     i: usize,
     prev: V,
+    wrap: Wrap,
 ) -> V {
     let c = r.cur.add(i);
-    let (old, e) = (V::load(c), V::load(c.add(1)));
+    let (old, mut e) = (V::load(c), V::load(c.add(1)));
+    if wrap.last {
+        // Node `nt − 1`'s east neighbour is node 0 (the load's last lane: the next row's).
+        e = e.with_last(*r.cur);
+    }
     let w = V::shift_in(prev, old);
-    let (ae, aw) = (V::load(r.ae.add(i)), V::load(r.ae.add(i - 1)));
+    let ae = V::load(r.ae.add(i));
+    let aw = if wrap.first {
+        // Node 0's west face is node `nt − 1`'s east face.
+        V::shift_in(V::splat(*r.ae.add(wrap.nt - 1)), ae)
+    } else {
+        V::load(r.ae.add(i - 1))
+    };
     let (an, no) = (V::load(r.an.add(i)), V::load(r.north.add(i)));
     let (ans, so) = (V::load(r.an_south.add(i)), V::load(r.south.add(i)));
     let (f, ik) = (V::load(r.f.add(i)), V::load(r.inv.add(i)));
@@ -622,15 +648,68 @@ unsafe fn relax_chunks<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bo
     if i + V::W < nt {
         let mut prev = V::splat(*r.cur);
         while i + V::W < nt {
-            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev);
+            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev, Wrap::NONE);
             i += V::W;
         }
     }
     i
 }
 
+/// Which row ends a chunk holds (see [`relax_chunk`]).
+#[derive(Clone, Copy)]
+struct Wrap {
+    first: bool,
+    last: bool,
+    /// Nodes per row.
+    nt: usize,
+}
+
+impl Wrap {
+    const NONE: Wrap = Wrap {
+        first: false,
+        last: false,
+        nt: 0,
+    };
+}
+
+/// A whole row in chunks from node 0 when `nt` is a multiple of `W` (session 40): the
+/// first chunk takes node 0's west neighbour and face from the row's end, the last one
+/// node `nt − 1`'s east neighbour from node 0; no node by node, no scalar row ends (they
+/// were ~75 of the ~140 AVX2 instructions per row and colour outside the chunks). The
+/// same updates: `nt` even, so nodes 0 and `nt − 1` are of different colours (the scalar
+/// pass's order between them, node 0 first, does not matter), and each node's sums are the
+/// scalar pass's in its order. The chunks' offsets are the same in every row and colour,
+/// so a row's loads of its neighbour rows still match their stores (see
+/// [`smooth_generic`]).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `nt` is a positive multiple of `W`, and the field's
+/// row after this one is there (rows `1..nz` of `nz + 1`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_row_whole<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
+    r: &RowPtr,
+    nt: usize,
+) {
+    let prev = V::splat(*r.cur.add(nt - 1));
+    let last = nt - V::W;
+    let ends = |first, last| Wrap { first, last, nt };
+    if last == 0 {
+        relax_chunk::<V, TOP, EVEN, HOLD0>(r, 0, prev, ends(true, true));
+        return;
+    }
+    let mut prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, 0, prev, ends(true, false));
+    let mut i = V::W;
+    while i < last {
+        prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev, Wrap::NONE);
+        i += V::W;
+    }
+    relax_chunk::<V, TOP, EVEN, HOLD0>(r, last, prev, ends(false, true));
+}
+
 /// One red-black projected Gauss–Seidel sweep at ω = 1 (`Level::smooth`) in `V`'s lanes.
-/// The chunks of every row start at node 1, whatever the colour (this colour's lanes odd
+/// The chunks of every row start at the same node (0 where `nt` is a multiple of `W`,
+/// [`relax_row_whole`]; else 1), whatever the colour (this colour's lanes odd
 /// or even): a row's loads of the row south, just relaxed, then match that row's stores
 /// exactly (a store forwards to a load of the same place and size; starting at this
 /// colour's first node instead, each load straddled two stores and waited for them:
@@ -651,6 +730,9 @@ unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
     // The field through one pointer only: every row's reads and writes derive from it
     // (no slices of `p` alive while it is written).
     let pp = p.as_mut_ptr();
+    // Whole rows in chunks from node 0 (every grid of the 128 × 32 hierarchy), else the
+    // chunks from node 1 and the row's ends node by node.
+    let whole = nt % V::W == 0;
     for colour in 0..2 {
         for j in 1..nz {
             let row = j * nt;
@@ -668,6 +750,18 @@ unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
             };
             // This colour's nodes: i ≡ par (mod 2).
             let par = (colour + j) % 2;
+            if whole {
+                // Lane 0 is node 0: this colour's lanes are the even ones where par = 0.
+                match (top, par == 0, hold0) {
+                    (true, true, true) => relax_row_whole::<V, true, true, true>(&r, nt),
+                    (true, false, true) => relax_row_whole::<V, true, false, true>(&r, nt),
+                    (true, true, false) => relax_row_whole::<V, true, true, false>(&r, nt),
+                    (true, false, false) => relax_row_whole::<V, true, false, false>(&r, nt),
+                    (false, true, _) => relax_row_whole::<V, false, true, false>(&r, nt),
+                    (false, false, _) => relax_row_whole::<V, false, false, false>(&r, nt),
+                }
+                continue;
+            }
             if par == 0 {
                 relax_node(&r, 0, 1 % nt, nt - 1, top);
             }
