@@ -822,6 +822,90 @@ unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize
     V::even(v, zero).store(out.as_mut_ptr().add(i));
 }
 
+/// The residual on the `W` nodes `i..i + W` of row `j` (`c`: the field at the row's node
+/// 0, `o` the output's), the first colour's lanes (odd ones where `ODD`) kept, 0 in the
+/// others; `FIRST`: `i = 0` (node 0's west face and neighbour from the row's end), `LAST`:
+/// `i + W = nt` (node `nt − 1`'s east neighbour is node 0; the load's last lane, the next
+/// row's first node, is replaced). The scalar `residual_node`'s sums in its order.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; the grid's arrays hold rows `j − 1 ..= j + 1`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_chunk_whole<V: Vf, const ODD: bool, const FIRST: bool, const LAST: bool>(
+    g: &Grid,
+    c: *const f64,
+    o: *mut f64,
+    row: usize,
+    i: usize,
+) {
+    let nt = g.nt;
+    let q = c.add(i);
+    let pk = V::load(q);
+    let mut e = V::load(q.add(1));
+    if LAST {
+        e = e.with_last(*c);
+    }
+    let ae = V::load(g.ae.as_ptr().add(row + i));
+    let (w, aw) = if FIRST {
+        (
+            V::shift_in(V::splat(*c.add(nt - 1)), pk),
+            V::shift_in(V::splat(*g.ae.as_ptr().add(row + nt - 1)), ae),
+        )
+    } else {
+        (V::load(q.sub(1)), V::load(g.ae.as_ptr().add(row + i - 1)))
+    };
+    let (an, no) = (V::load(g.an.as_ptr().add(row + i)), V::load(q.add(nt)));
+    let (ans, so) = (V::load(g.an.as_ptr().add(row - nt + i)), V::load(q.sub(nt)));
+    let (d, f) = (
+        V::load(g.d.as_ptr().add(row + i)),
+        V::load(g.f.as_ptr().add(row + i)),
+    );
+    let ik = V::load(g.inv.as_ptr().add(row + i));
+    let v = f
+        .sub(d.mul(pk))
+        .add(ae.mul(e))
+        .add(aw.mul(w))
+        .add(an.mul(no))
+        .add(ans.mul(so));
+    let zero = V::zero();
+    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
+    let v = V::select(ik.eq0(), zero, v);
+    let out = if ODD {
+        V::even(zero, v)
+    } else {
+        V::even(v, zero)
+    };
+    out.store(o.add(i));
+}
+
+/// Row `j` of [`residual_generic`] in whole chunks from node 0 when `nt` is a multiple of
+/// `W` (session 40, as the smoother's `relax_row_whole`): no scalar row ends. The first
+/// colour's nodes are those with `i ≡ j (mod 2)`: the odd lanes on odd rows.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `nt` is a positive multiple of `W`; `1 ≤ j < nz`;
+/// the grid's arrays, `p` and `out` hold all `nz + 1` rows.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_row_whole<V: Vf, const ODD: bool>(g: &Grid, p: &[f64], out: *mut f64, j: usize) {
+    let nt = g.nt;
+    let row = j * nt;
+    let (c, o) = (p.as_ptr().add(row), out.add(row));
+    let last = nt - V::W;
+    if last == 0 {
+        residual_chunk_whole::<V, ODD, true, true>(g, c, o, row, 0);
+        return;
+    }
+    residual_chunk_whole::<V, ODD, true, false>(g, c, o, row, 0);
+    let mut i = V::W;
+    while i < last {
+        residual_chunk_whole::<V, ODD, false, false>(g, c, o, row, i);
+        i += V::W;
+    }
+    residual_chunk_whole::<V, ODD, false, true>(g, c, o, row, last);
+}
+
 /// `Level::residual` (the point smoother's: first colour only) in `V`'s lanes.
 ///
 /// # Safety
@@ -830,6 +914,21 @@ unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize
 #[inline(always)]
 unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
     let (nt, nz) = (g.nt, g.nz);
+    if nt % V::W == 0 && nz >= 1 {
+        // Whole rows from node 0 (session 40; see `residual_row_whole`).
+        let n = nt * (nz + 1);
+        assert!(p.len() >= n && res.len() >= n && g.ae.len() >= n && g.an.len() >= n);
+        assert!(g.d.len() >= n && g.f.len() >= n && g.inv.len() >= n);
+        let out = res.as_mut_ptr();
+        for j in 1..nz {
+            if j % 2 == 1 {
+                residual_row_whole::<V, true>(g, p, out, j);
+            } else {
+                residual_row_whole::<V, false>(g, p, out, j);
+            }
+        }
+        return;
+    }
     for j in 1..nz {
         let row = j * nt;
         let cur = &p[row..row + nt];
