@@ -324,7 +324,12 @@ fn prof(args: &[String]) {
     }
     let (mut first, mut best) = (0.0, f64::INFINITY);
     let (mut sweeps_done, mut sum) = (0u64, [0.0; 4]);
+    let faults_before = minor_faults();
+    let mut first_faults = 0;
     for pass in 0..passes.max(1) {
+        if pass == 1 {
+            first_faults = minor_faults() - faults_before;
+        }
         (sweeps_done, sum) = (0, [0.0; 4]);
         let start = Instant::now();
         for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {
@@ -357,7 +362,28 @@ fn prof(args: &[String]) {
             best / n * 1e3
         );
     }
+    if passes <= 1 {
+        first_faults = minor_faults() - faults_before;
+    }
     println!("  load checksum {:?}", sum.map(f64::to_bits));
+    // The first pass's page faults (its arrays' pages as first touched: ~2 µs each on
+    // the 2-core VM; issue 20, session 40).
+    if std::env::var("MGE_FAULTS").is_ok() {
+        println!("  minor page faults in the first pass: {first_faults}");
+    }
+}
+
+/// The process's minor page faults so far (`/proc/self/stat`, field 10; 0 where there is
+/// no such file).
+fn minor_faults() -> u64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            // After the command's name in parentheses: state is field 3, minflt field 10.
+            let rest = &s[s.rfind(')')? + 2..];
+            rest.split_whitespace().nth(7)?.parse().ok()
+        })
+        .unwrap_or(0)
 }
 
 /// Where the multigrid's node updates go at the oracle's work (issue 20, session 38): each

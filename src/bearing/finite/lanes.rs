@@ -129,6 +129,10 @@ pub(super) struct Grid<'a> {
     /// Whether the grid is the one being solved (held nodes set to `hold`) or a
     /// correction grid (frozen nodes kept).
     pub top: bool,
+    /// Whether `hold` is `+0` everywhere (`Level::hold_zero`: a film without held bands):
+    /// the passes then take `+0` for it and never read it (session 40: a load per chunk,
+    /// and the array's pages are not touched).
+    pub hold_zero: bool,
 }
 
 /// The rows around row `j` of a grid: the row's coefficients and the field south and north
@@ -142,7 +146,6 @@ struct Rows<'a> {
     d: &'a [f64],
     f: &'a [f64],
     inv: &'a [f64],
-    hold: &'a [f64],
 }
 
 impl<'a> Rows<'a> {
@@ -159,25 +162,50 @@ impl<'a> Rows<'a> {
             d: &g.d[row..row + nt],
             f: &g.f[row..row + nt],
             inv: &g.inv[row..row + nt],
-            hold: &g.hold[row..row + nt],
         }
     }
 }
 
+/// Row `j` of a grid for the smoother, as pointers to the row's first node: the field's
+/// row and the rows south and north of it, the row's coefficients (session 40: slices,
+/// each with its bounds checks per row, were a fifth of the smoother's instructions
+/// outside its chunks, which are a quarter of the whole at 128 × 32 with AVX2).
+#[derive(Clone, Copy)]
+struct RowPtr {
+    cur: *mut f64,
+    south: *const f64,
+    north: *const f64,
+    ae: *const f64,
+    an: *const f64,
+    an_south: *const f64,
+    f: *const f64,
+    inv: *const f64,
+    hold: *const f64,
+    /// The grid solved with every hold `+0` ([`Grid::hold_zero`]): `hold` is not read.
+    hold0: bool,
+}
+
 /// The scalar smoother's node update (`RowRef::update` at ω = 1, not tracked).
+///
+/// # Safety
+/// `i`, `ip`, `im` are nodes of the row (`< nt`); every pointer of `r` has `nt` values
+/// (`hold` read only when `top` and not `r.hold0`).
 #[inline(always)]
-fn relax_node(r: &Rows, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
-    let ik = r.inv[i];
-    let old = cur[i];
+unsafe fn relax_node(r: &RowPtr, i: usize, ip: usize, im: usize, top: bool) {
+    let ik = *r.inv.add(i);
+    let c = r.cur;
+    let old = *c.add(i);
     if ik == 0.0 {
         if top {
-            cur[i] = r.hold[i];
+            *c.add(i) = if r.hold0 { 0.0 } else { *r.hold.add(i) };
         }
         return;
     }
-    let s =
-        r.ae[i] * cur[ip] + r.ae[im] * cur[im] + r.an[i] * r.north[i] + r.an_south[i] * r.south[i];
-    cur[i] = (old + ((s + r.f[i]) * ik - old)).max(0.0);
+    let s = *r.ae.add(i) * *c.add(ip)
+        + *r.ae.add(im) * *c.add(im)
+        + *r.an.add(i) * *r.north.add(i)
+        + *r.an_south.add(i) * *r.south.add(i);
+    *c.add(i) = (old + ((s + *r.f.add(i)) * ik - old)).max(0.0);
 }
 
 /// The scalar residual at node `i` (`ResidualRow::at`).
@@ -206,6 +234,8 @@ struct CorrRow<'a> {
     north: &'a [f64],
     inv: &'a [f64],
     hold: &'a [f64],
+    /// As [`RowPtr::hold0`].
+    hold0: bool,
     v: &'a [f64],
     /// Rows next to the end faces: the face's p = 0 does not count against the zone.
     first: bool,
@@ -217,7 +247,7 @@ struct CorrRow<'a> {
 fn correct_node(r: &CorrRow, cur: &mut [f64], i: usize, ip: usize, im: usize, top: bool) {
     if r.inv[i] == 0.0 {
         if top {
-            cur[i] = r.hold[i];
+            cur[i] = if r.hold0 { 0.0 } else { r.hold[i] };
         }
         return;
     }
@@ -307,6 +337,8 @@ mod simd {
         unsafe fn zip_hi(a: Self, b: Self) -> Self;
         /// Whether any lane is set.
         unsafe fn any(m: Self::M) -> bool;
+        /// `self` with its last lane `x`.
+        unsafe fn with_last(self, x: f64) -> Self;
     }
 
     /// AVX2: four lanes, masks as all-ones lanes.
@@ -412,6 +444,10 @@ mod simd {
         #[inline(always)]
         unsafe fn any(m: __m256d) -> bool {
             _mm256_movemask_pd(m) != 0
+        }
+        #[inline(always)]
+        unsafe fn with_last(self, x: f64) -> Self {
+            Avx2(_mm256_blend_pd::<0b1000>(self.0, _mm256_set1_pd(x)))
         }
     }
 
@@ -520,6 +556,10 @@ mod simd {
         unsafe fn any(m: __mmask8) -> bool {
             m != 0
         }
+        #[inline(always)]
+        unsafe fn with_last(self, x: f64) -> Self {
+            Avx512(_mm512_mask_blend_pd(0b1000_0000, self.0, _mm512_set1_pd(x)))
+        }
     }
 }
 
@@ -527,7 +567,7 @@ mod simd {
 use simd::Vf;
 
 /// The smoother on `W` consecutive nodes `i..i + W` of a row: this colour's lanes (the
-/// even ones where `even`, else the odd ones) updated, the others stored unchanged; returns
+/// even ones where `EVEN`, else the odd ones) updated, the others stored unchanged; returns
 /// the nodes' values before. `prev`: the `W` nodes before, as loaded (only its last lane is
 /// read, node `i − 1`'s value). The west neighbours from registers: loaded from memory
 /// they straddle the last chunk's store, which a load cannot be forwarded from and waits
@@ -535,44 +575,56 @@ use simd::Vf;
 /// chain every chunk to the last one's latency (1.5× slower). A node's west neighbour is
 /// of the other colour, unchanged by the sweep, so the values as loaded are the ones.
 ///
+/// `TOP` (the grid solved: held nodes take `hold`, else frozen nodes keep their value),
+/// `EVEN` and `HOLD0` are constants of the row's loop (session 40: tested per chunk, they
+/// were 4 of its 32 AVX2 instructions). `HOLD0` (`TOP` with `hold` all `+0`): no select
+/// at all, for the update itself is `+0` where `inv = 0`: `(s + f)·0` is `±0` (or NaN
+/// where `s + f` is not finite), `old + (±0 − old)` is `old − old = +0` in
+/// round-to-nearest for a finite `old` (NaN for an infinite one), and `maxpd(·, 0)` gives
+/// `+0` for a zero and a NaN alike: the scalar pass's `hold[i] = +0`, the same bits.
+///
+/// `wrap`: the chunk holding node 0 (`first`: its west face and neighbour wrap, the
+/// neighbour from `prev`) or node `nt − 1` (`last`: its east neighbour wraps), see
+/// [`relax_row_whole`].
+///
 /// # Safety
 /// The CPU has `V`'s instruction set; `1 ≤ i`, `i + W < nt` (no wrap; every row of `r`
-/// and `cur` is `nt` long).
+/// is `nt` long), or `i = 0` with `wrap.first`, or `i + W = nt` with `wrap.last` (then
+/// the field's next row is there: its first node is read, not used).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn relax_chunk<V: Vf>(
-    r: &Rows,
-    cur: &mut [f64],
+unsafe fn relax_chunk<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
+    r: &RowPtr,
     i: usize,
-    top: bool,
-    even: bool,
     prev: V,
+    wrap: Wrap,
 ) -> V {
-    let c = cur.as_mut_ptr().add(i);
-    let (old, e) = (V::load(c), V::load(c.add(1)));
+    let c = r.cur.add(i);
+    let (old, mut e) = (V::load(c), V::load(c.add(1)));
+    if wrap.last {
+        // Node `nt − 1`'s east neighbour is node 0 (the load's last lane: the next row's).
+        e = e.with_last(*r.cur);
+    }
     let w = V::shift_in(prev, old);
-    let (ae, aw) = (
-        V::load(r.ae.as_ptr().add(i)),
-        V::load(r.ae.as_ptr().add(i - 1)),
-    );
-    let (an, no) = (
-        V::load(r.an.as_ptr().add(i)),
-        V::load(r.north.as_ptr().add(i)),
-    );
-    let (ans, so) = (
-        V::load(r.an_south.as_ptr().add(i)),
-        V::load(r.south.as_ptr().add(i)),
-    );
-    let (f, ik) = (V::load(r.f.as_ptr().add(i)), V::load(r.inv.as_ptr().add(i)));
+    let ae = V::load(r.ae.add(i));
+    let aw = if wrap.first {
+        // Node 0's west face is node `nt − 1`'s east face.
+        V::shift_in(V::splat(*r.ae.add(wrap.nt - 1)), ae)
+    } else {
+        V::load(r.ae.add(i - 1))
+    };
+    let (an, no) = (V::load(r.an.add(i)), V::load(r.north.add(i)));
+    let (ans, so) = (V::load(r.an_south.add(i)), V::load(r.south.add(i)));
+    let (f, ik) = (V::load(r.f.add(i)), V::load(r.inv.add(i)));
     let s = ae.mul(e).add(aw.mul(w)).add(an.mul(no)).add(ans.mul(so));
     let new = old.add(s.add(f).mul(ik).sub(old)).max0();
-    let keep = if top {
-        V::load(r.hold.as_ptr().add(i))
+    let v = if TOP && HOLD0 {
+        new
     } else {
-        old
+        let keep = if TOP { V::load(r.hold.add(i)) } else { old };
+        V::select(ik.eq0(), keep, new)
     };
-    let v = V::select(ik.eq0(), keep, new);
-    let out = if even {
+    let out = if EVEN {
         V::even(v, old)
     } else {
         V::even(old, v)
@@ -581,8 +633,83 @@ unsafe fn relax_chunk<V: Vf>(
     old
 }
 
+/// The chunks of a row from node 1 ([`relax_chunk`] while `i + W < nt`); returns the first
+/// node after them.
+///
+/// # Safety
+/// As [`relax_chunk`]: the CPU has `V`'s instruction set, every row is `nt` long.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_chunks<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
+    r: &RowPtr,
+    nt: usize,
+) -> usize {
+    let mut i = 1;
+    if i + V::W < nt {
+        let mut prev = V::splat(*r.cur);
+        while i + V::W < nt {
+            prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev, Wrap::NONE);
+            i += V::W;
+        }
+    }
+    i
+}
+
+/// Which row ends a chunk holds (see [`relax_chunk`]).
+#[derive(Clone, Copy)]
+struct Wrap {
+    first: bool,
+    last: bool,
+    /// Nodes per row.
+    nt: usize,
+}
+
+impl Wrap {
+    const NONE: Wrap = Wrap {
+        first: false,
+        last: false,
+        nt: 0,
+    };
+}
+
+/// A whole row in chunks from node 0 when `nt` is a multiple of `W` (session 40): the
+/// first chunk takes node 0's west neighbour and face from the row's end, the last one
+/// node `nt − 1`'s east neighbour from node 0; no node by node, no scalar row ends (they
+/// were ~75 of the ~140 AVX2 instructions per row and colour outside the chunks). The
+/// same updates: `nt` even, so nodes 0 and `nt − 1` are of different colours (the scalar
+/// pass's order between them, node 0 first, does not matter), and each node's sums are the
+/// scalar pass's in its order. The chunks' offsets are the same in every row and colour,
+/// so a row's loads of its neighbour rows still match their stores (see
+/// [`smooth_generic`]).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `nt` is a positive multiple of `W`, and the field's
+/// row after this one is there (rows `1..nz` of `nz + 1`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn relax_row_whole<V: Vf, const TOP: bool, const EVEN: bool, const HOLD0: bool>(
+    r: &RowPtr,
+    nt: usize,
+) {
+    let prev = V::splat(*r.cur.add(nt - 1));
+    let last = nt - V::W;
+    let ends = |first, last| Wrap { first, last, nt };
+    if last == 0 {
+        relax_chunk::<V, TOP, EVEN, HOLD0>(r, 0, prev, ends(true, true));
+        return;
+    }
+    let mut prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, 0, prev, ends(true, false));
+    let mut i = V::W;
+    while i < last {
+        prev = relax_chunk::<V, TOP, EVEN, HOLD0>(r, i, prev, Wrap::NONE);
+        i += V::W;
+    }
+    relax_chunk::<V, TOP, EVEN, HOLD0>(r, last, prev, ends(false, true));
+}
+
 /// One red-black projected Gauss–Seidel sweep at ω = 1 (`Level::smooth`) in `V`'s lanes.
-/// The chunks of every row start at node 1, whatever the colour (this colour's lanes odd
+/// The chunks of every row start at the same node (0 where `nt` is a multiple of `W`,
+/// [`relax_row_whole`]; else 1), whatever the colour (this colour's lanes odd
 /// or even): a row's loads of the row south, just relaxed, then match that row's stores
 /// exactly (a store forwards to a load of the same place and size; starting at this
 /// colour's first node instead, each load straddled two stores and waited for them:
@@ -595,34 +722,65 @@ unsafe fn relax_chunk<V: Vf>(
 #[inline(always)]
 unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
     let (nt, nz, top) = (g.nt, g.nz, g.top);
-    let p = &mut p[..nt * (nz + 1)];
+    let hold0 = top && g.hold_zero;
+    let n = nt * (nz + 1);
+    // Every row `0..=nz` of every array is there (the pointers below stay inside).
+    assert!(nz >= 1 && p.len() >= n && g.ae.len() >= n && g.an.len() >= n);
+    assert!(g.f.len() >= n && g.inv.len() >= n && (hold0 || g.hold.len() >= n));
+    // The field through one pointer only: every row's reads and writes derive from it
+    // (no slices of `p` alive while it is written).
+    let pp = p.as_mut_ptr();
+    // Whole rows in chunks from node 0 (every grid of the 128 × 32 hierarchy), else the
+    // chunks from node 1 and the row's ends node by node.
+    let whole = nt % V::W == 0;
     for colour in 0..2 {
         for j in 1..nz {
             let row = j * nt;
-            let (below, rest) = p.split_at_mut(row);
-            let (cur, above) = rest.split_at_mut(nt);
-            let r = Rows::of(g, &below[row - nt..row], &above[..nt], j);
+            let r = RowPtr {
+                cur: pp.add(row),
+                south: pp.add(row - nt),
+                north: pp.add(row + nt),
+                ae: g.ae.as_ptr().add(row),
+                an: g.an.as_ptr().add(row),
+                an_south: g.an.as_ptr().add(row - nt),
+                f: g.f.as_ptr().add(row),
+                inv: g.inv.as_ptr().add(row),
+                hold: g.hold.as_ptr().wrapping_add(row),
+                hold0,
+            };
             // This colour's nodes: i ≡ par (mod 2).
             let par = (colour + j) % 2;
-            if par == 0 {
-                relax_node(&r, cur, 0, 1, nt - 1, top);
-            }
-            let mut i = 1;
-            if i + V::W < nt {
-                let mut prev = V::splat(cur[0]);
-                while i + V::W < nt {
-                    prev = relax_chunk::<V>(&r, cur, i, top, par == 1, prev);
-                    i += V::W;
+            if whole {
+                // Lane 0 is node 0: this colour's lanes are the even ones where par = 0.
+                match (top, par == 0, hold0) {
+                    (true, true, true) => relax_row_whole::<V, true, true, true>(&r, nt),
+                    (true, false, true) => relax_row_whole::<V, true, false, true>(&r, nt),
+                    (true, true, false) => relax_row_whole::<V, true, true, false>(&r, nt),
+                    (true, false, false) => relax_row_whole::<V, true, false, false>(&r, nt),
+                    (false, true, _) => relax_row_whole::<V, false, true, false>(&r, nt),
+                    (false, false, _) => relax_row_whole::<V, false, false, false>(&r, nt),
                 }
+                continue;
             }
+            if par == 0 {
+                relax_node(&r, 0, 1 % nt, nt - 1, top);
+            }
+            let i = match (top, par == 1, hold0) {
+                (true, true, true) => relax_chunks::<V, true, true, true>(&r, nt),
+                (true, false, true) => relax_chunks::<V, true, false, true>(&r, nt),
+                (true, true, false) => relax_chunks::<V, true, true, false>(&r, nt),
+                (true, false, false) => relax_chunks::<V, true, false, false>(&r, nt),
+                (false, true, _) => relax_chunks::<V, false, true, false>(&r, nt),
+                (false, false, _) => relax_chunks::<V, false, false, false>(&r, nt),
+            };
             // The rest of the row node by node, the row's last node last.
             let mut i = if i % 2 == par { i } else { i + 1 };
             while i + 1 < nt {
-                relax_node(&r, cur, i, i + 1, i - 1, top);
+                relax_node(&r, i, i + 1, i - 1, top);
                 i += 2;
             }
             if i + 1 == nt {
-                relax_node(&r, cur, i, 0, i - 1, top);
+                relax_node(&r, i, 0, i - 1, top);
             }
         }
     }
@@ -664,6 +822,90 @@ unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize
     V::even(v, zero).store(out.as_mut_ptr().add(i));
 }
 
+/// The residual on the `W` nodes `i..i + W` of row `j` (`c`: the field at the row's node
+/// 0, `o` the output's), the first colour's lanes (odd ones where `ODD`) kept, 0 in the
+/// others; `FIRST`: `i = 0` (node 0's west face and neighbour from the row's end), `LAST`:
+/// `i + W = nt` (node `nt − 1`'s east neighbour is node 0; the load's last lane, the next
+/// row's first node, is replaced). The scalar `residual_node`'s sums in its order.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; the grid's arrays hold rows `j − 1 ..= j + 1`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_chunk_whole<V: Vf, const ODD: bool, const FIRST: bool, const LAST: bool>(
+    g: &Grid,
+    c: *const f64,
+    o: *mut f64,
+    row: usize,
+    i: usize,
+) {
+    let nt = g.nt;
+    let q = c.add(i);
+    let pk = V::load(q);
+    let mut e = V::load(q.add(1));
+    if LAST {
+        e = e.with_last(*c);
+    }
+    let ae = V::load(g.ae.as_ptr().add(row + i));
+    let (w, aw) = if FIRST {
+        (
+            V::shift_in(V::splat(*c.add(nt - 1)), pk),
+            V::shift_in(V::splat(*g.ae.as_ptr().add(row + nt - 1)), ae),
+        )
+    } else {
+        (V::load(q.sub(1)), V::load(g.ae.as_ptr().add(row + i - 1)))
+    };
+    let (an, no) = (V::load(g.an.as_ptr().add(row + i)), V::load(q.add(nt)));
+    let (ans, so) = (V::load(g.an.as_ptr().add(row - nt + i)), V::load(q.sub(nt)));
+    let (d, f) = (
+        V::load(g.d.as_ptr().add(row + i)),
+        V::load(g.f.as_ptr().add(row + i)),
+    );
+    let ik = V::load(g.inv.as_ptr().add(row + i));
+    let v = f
+        .sub(d.mul(pk))
+        .add(ae.mul(e))
+        .add(aw.mul(w))
+        .add(an.mul(no))
+        .add(ans.mul(so));
+    let zero = V::zero();
+    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
+    let v = V::select(ik.eq0(), zero, v);
+    let out = if ODD {
+        V::even(zero, v)
+    } else {
+        V::even(v, zero)
+    };
+    out.store(o.add(i));
+}
+
+/// Row `j` of [`residual_generic`] in whole chunks from node 0 when `nt` is a multiple of
+/// `W` (session 40, as the smoother's `relax_row_whole`): no scalar row ends. The first
+/// colour's nodes are those with `i ≡ j (mod 2)`: the odd lanes on odd rows.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set; `nt` is a positive multiple of `W`; `1 ≤ j < nz`;
+/// the grid's arrays, `p` and `out` hold all `nz + 1` rows.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_row_whole<V: Vf, const ODD: bool>(g: &Grid, p: &[f64], out: *mut f64, j: usize) {
+    let nt = g.nt;
+    let row = j * nt;
+    let (c, o) = (p.as_ptr().add(row), out.add(row));
+    let last = nt - V::W;
+    if last == 0 {
+        residual_chunk_whole::<V, ODD, true, true>(g, c, o, row, 0);
+        return;
+    }
+    residual_chunk_whole::<V, ODD, true, false>(g, c, o, row, 0);
+    let mut i = V::W;
+    while i < last {
+        residual_chunk_whole::<V, ODD, false, false>(g, c, o, row, i);
+        i += V::W;
+    }
+    residual_chunk_whole::<V, ODD, false, true>(g, c, o, row, last);
+}
+
 /// `Level::residual` (the point smoother's: first colour only) in `V`'s lanes.
 ///
 /// # Safety
@@ -672,6 +914,21 @@ unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize
 #[inline(always)]
 unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
     let (nt, nz) = (g.nt, g.nz);
+    if nt % V::W == 0 && nz >= 1 {
+        // Whole rows from node 0 (session 40; see `residual_row_whole`).
+        let n = nt * (nz + 1);
+        assert!(p.len() >= n && res.len() >= n && g.ae.len() >= n && g.an.len() >= n);
+        assert!(g.d.len() >= n && g.f.len() >= n && g.inv.len() >= n);
+        let out = res.as_mut_ptr();
+        for j in 1..nz {
+            if j % 2 == 1 {
+                residual_row_whole::<V, true>(g, p, out, j);
+            } else {
+                residual_row_whole::<V, false>(g, p, out, j);
+            }
+        }
+        return;
+    }
     for j in 1..nz {
         let row = j * nt;
         let cur = &p[row..row + nt];
@@ -711,7 +968,13 @@ unsafe fn residual_generic<V: Vf>(g: &Grid, p: &[f64], res: &mut [f64]) {
 /// As [`relax_chunk`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool, prev: V) -> V {
+unsafe fn correct_chunk<V: Vf, const TOP: bool, const HOLD0: bool>(
+    r: &CorrRow,
+    cur: &mut [f64],
+    i: usize,
+    prev: V,
+) -> V {
+    let top = TOP;
     let c = cur.as_mut_ptr().add(i);
     let (pk, e) = (V::load(c), V::load(c.add(1)));
     let w = V::shift_in(prev, pk);
@@ -724,7 +987,9 @@ unsafe fn correct_chunk<V: Vf>(r: &CorrRow, cur: &mut [f64], i: usize, top: bool
         inside = V::and(inside, V::load(r.south.as_ptr().add(i)).gt0());
     }
     let corrected = pk.add(V::load(r.v.as_ptr().add(i))).max0();
-    let keep = if top {
+    let keep = if TOP && HOLD0 {
+        V::zero()
+    } else if TOP {
         V::load(r.hold.as_ptr().add(i))
     } else {
         pk
@@ -791,8 +1056,20 @@ unsafe fn interpolate_row_lanes<V: Vf>(e0: &[f64], e1: &[f64], jo: usize, v: &mu
     }
 }
 
+/// Rows of the interpolated correction kept at a time by [`correct_generic`] (a ring).
+const CORR_RING: usize = 4;
+/// How many rows ahead of the row being corrected [`correct_generic`] interpolates: the
+/// chunks' loads of a row just written (at other offsets) would wait for its stores; two
+/// rows of correction later they are long written. Below [`CORR_RING`], so the row being
+/// written is never one still to be read.
+const CORR_AHEAD: usize = 2;
+
 /// `prolong_correction_on` in `V`'s lanes: `e` the coarse correction `u_H − u₀` (`cnt`
-/// per coarse row), `scratch` the interpolated correction (resized to the fine grid).
+/// per coarse row), `scratch` the interpolated correction of [`CORR_RING`] rows (a ring,
+/// row `j` in slot `j mod CORR_RING`, written [`CORR_AHEAD`] rows ahead of the row
+/// corrected). Session 40: it held every row of the fine grid, interpolated before the
+/// first row was corrected: an array of the fine grid's size whose pages the first state
+/// of a run faulted in (~2 µs each on the 2-core VM), for the same values.
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
@@ -805,23 +1082,73 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
     cnt: usize,
     scratch: &mut Vec<f64>,
 ) {
-    let (nt, nz, top) = (g.nt, g.nz, g.top);
-    // The interpolated correction of every row first, then the rows corrected: the
-    // chunks' loads of a row just written (at other offsets) would wait for its stores.
-    scratch.resize(nt * (nz + 1), 0.0);
-    for j in 1..nz {
-        let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
-        let crow = jc * cnt;
-        let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
-        let vrow = &mut scratch[j * nt..(j + 1) * nt];
-        if ST == 2 {
-            interpolate_row_lanes::<V>(e0, e1, jo, vrow);
-        } else {
-            interpolate_row::<ST>(e0, e1, jo, vrow);
-        }
+    let (nt, top) = (g.nt, g.top);
+    if scratch.len() < CORR_RING * nt {
+        scratch.resize(CORR_RING * nt, 0.0);
+    }
+    let ring = &mut scratch[..CORR_RING * nt];
+    // The grid's role and its holds as constants of the chunks' loop (session 40).
+    match (top, top && g.hold_zero) {
+        (true, true) => correct_rows::<V, ST, SZ, true, true>(g, p, e, cnt, ring),
+        (true, false) => correct_rows::<V, ST, SZ, true, false>(g, p, e, cnt, ring),
+        (false, _) => correct_rows::<V, ST, SZ, false, false>(g, p, e, cnt, ring),
+    }
+}
+
+/// The interpolated correction of fine row `j` into its slot of the ring.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn interpolate_into<V: Vf, const ST: usize, const SZ: usize>(
+    e: &[f64],
+    cnt: usize,
+    j: usize,
+    ring: &mut [f64],
+) {
+    let nt = ring.len() / CORR_RING;
+    let (jc, jo) = if SZ == 2 { (j / 2, j % 2) } else { (j, 0) };
+    let crow = jc * cnt;
+    let (e0, e1) = (&e[crow..crow + cnt], &e[crow + cnt..crow + 2 * cnt]);
+    let slot = j % CORR_RING;
+    let vrow = &mut ring[slot * nt..(slot + 1) * nt];
+    if ST == 2 {
+        interpolate_row_lanes::<V>(e0, e1, jo, vrow);
+    } else {
+        interpolate_row::<ST>(e0, e1, jo, vrow);
+    }
+}
+
+/// The rows of [`correct_generic`]: `TOP` and `HOLD0` as [`relax_chunk`]'s.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn correct_rows<
+    V: Vf,
+    const ST: usize,
+    const SZ: usize,
+    const TOP: bool,
+    const HOLD0: bool,
+>(
+    g: &Grid,
+    p: &mut [f64],
+    e: &[f64],
+    cnt: usize,
+    ring: &mut [f64],
+) {
+    let (nt, nz, top) = (g.nt, g.nz, TOP);
+    for j in 1..(1 + CORR_AHEAD).min(nz) {
+        interpolate_into::<V, ST, SZ>(e, cnt, j, ring);
     }
     for j in 1..nz {
-        let vrow = &scratch[j * nt..(j + 1) * nt];
+        if j + CORR_AHEAD < nz {
+            interpolate_into::<V, ST, SZ>(e, cnt, j + CORR_AHEAD, ring);
+        }
+        let slot = j % CORR_RING;
+        let vrow = &ring[slot * nt..(slot + 1) * nt];
         let row = j * nt;
         let (below, rest) = p.split_at_mut(row);
         let (cur, above) = rest.split_at_mut(nt);
@@ -830,6 +1157,7 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
             north: &above[..nt],
             inv: &g.inv[row..row + nt],
             hold: &g.hold[row..row + nt],
+            hold0: HOLD0,
             v: vrow,
             first: j == 1,
             last: j + 1 == nz,
@@ -838,7 +1166,7 @@ unsafe fn correct_generic<V: Vf, const ST: usize, const SZ: usize>(
         let mut i = 1;
         let mut prev = V::splat(cur[0]);
         while i + V::W < nt {
-            prev = correct_chunk::<V>(&r, cur, i, top, prev);
+            prev = correct_chunk::<V, TOP, HOLD0>(&r, cur, i, prev);
             i += V::W;
         }
         while i + 1 < nt {
@@ -1030,8 +1358,8 @@ unsafe fn restrict_generic<V: Vf, const ST: usize, const SZ: usize>(
 
 /// The coarse solution interpolated to a fine grid (`prolong_solution_on`: bilinear, the
 /// accuracy ladder's start) in `V`'s lanes: `out` the fine iterate, rows `1..nz` written,
-/// held nodes (`inv == 0`) at `hold`, the rest projected; `cp` the coarse iterate (`cnt`
-/// per row).
+/// held nodes (`inv == 0`) at `hold` (`+0` without reading it where `hold_zero`), the rest
+/// projected; `cp` the coarse iterate (`cnt` per row).
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
@@ -1042,6 +1370,7 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
     out: &mut [f64],
     inv: &[f64],
     hold: &[f64],
+    hold_zero: bool,
     nt: usize,
     nz: usize,
     cp: &[f64],
@@ -1064,7 +1393,11 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
         assert!(ST * cnt <= nt);
         let put_lanes = |o: &mut [f64], k: usize, v: V| {
             let ik = V::load(ir.as_ptr().add(k));
-            let held = V::load(hr.as_ptr().add(k));
+            let held = if hold_zero {
+                V::zero()
+            } else {
+                V::load(hr.as_ptr().add(k))
+            };
             V::select(ik.eq0(), held, v.max0()).store(o.as_mut_ptr().add(k));
         };
         let half = V::splat(0.5);
@@ -1099,7 +1432,13 @@ unsafe fn prolong_generic<V: Vf, const ST: usize, const SZ: usize>(
         }
         // The rest as the scalar pass.
         let put = |o: &mut [f64], i: usize, v: f64| {
-            o[i] = if ir[i] == 0.0 { hr[i] } else { v.max(0.0) };
+            o[i] = if ir[i] != 0.0 {
+                v.max(0.0)
+            } else if hold_zero {
+                0.0
+            } else {
+                hr[i]
+            };
         };
         for ic in ic..cnt {
             let ic1 = if ic + 1 == cnt { 0 } else { ic + 1 };
@@ -1184,5 +1523,5 @@ dispatch!(
     /// [`prolong_generic`] on `isa` for the strides `ST`, `SZ`; false (nothing done) on the
     /// baseline.
     prolong, prolong_generic, [ST, SZ],
-    (out: &mut [f64], inv: &[f64], hold: &[f64], nt: usize, nz: usize, cp: &[f64], cnt: usize)
+    (out: &mut [f64], inv: &[f64], hold: &[f64], hold_zero: bool, nt: usize, nz: usize, cp: &[f64], cnt: usize)
 );

@@ -236,7 +236,7 @@ pub(crate) struct Level {
     /// Scratch of [`Level::smooth_lines`] per column: solved again by [`line_lcp`].
     dirty: Vec<bool>,
     /// Scratch of the lanes' correction ([`lanes::correct`]): the interpolated
-    /// correction at every node.
+    /// correction of a few rows at a time (a ring; every node's before session 40).
     lane_row: Vec<f64>,
 }
 
@@ -404,8 +404,12 @@ impl Level {
         // pages the system maps as they are first read, without writing them as
         // `resize` does; a film without held bands only reads them (issue 20, session
         // 39: a run's first state faulted them in by the writes).
+        // Known to be `+0` then (session 40: the first state's setup wrote them, as
+        // `hold_zero` was not yet set, and so faulted their pages in after all).
+        let mut hold_zero = self.hold_zero;
         if self.hold.capacity() < n {
             self.hold = vec![0.0; n];
+            hold_zero = true;
         }
         for v in [
             &mut self.ae,
@@ -438,7 +442,7 @@ impl Level {
         // 1, exact, and no three arrays of the grid's size to allocate and fill).
         let held = (!layout.is_empty()).then(|| layout.held_nodes(nt, nz, theta0));
         // The holds are all 0 without held bands: written only when not already so.
-        let write_hold = held.is_some() || !self.hold_zero;
+        let write_hold = held.is_some() || !hold_zero;
         self.inlet_col.clear();
         self.inlet_col.resize(nz + 1, usize::MAX);
         self.inlet_corr.clear();
@@ -659,6 +663,7 @@ impl Level {
             },
             hold: &self.hold[..n],
             top: self.top,
+            hold_zero: self.hold_zero,
         };
         if !lanes::smooth(isa, &g, &mut self.p[..n]) {
             self.relax::<false>(1.0);
@@ -950,6 +955,7 @@ impl Level {
             },
             hold: &self.hold[..n],
             top: self.top,
+            hold_zero: self.hold_zero,
         };
         if !lanes::residual(isa, &g, &self.p[..n], &mut self.r[..n]) {
             self.residual_on::<false>();
@@ -1275,6 +1281,7 @@ fn restrict_fas_with(isa: LaneIsa, fine: &Level, coarse: &mut Level, c: Coarsen)
             },
             hold: &coarse.hold[..n],
             top: coarse.top,
+            hold_zero: coarse.hold_zero,
         },
         base: &mut coarse.base[..n],
         p: &mut coarse.p[..n],
@@ -1415,6 +1422,7 @@ fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c
         },
         hold: &fine.hold[..n],
         top: fine.top,
+        hold_zero: fine.hold_zero,
     };
     let (p, e, cnt, row) = (
         &mut fine.p[..n],
@@ -1667,11 +1675,12 @@ fn prolong_solution_with(isa: LaneIsa, fine: &mut Level, coarse: &Level, c: Coar
     let n = fine.len();
     let (nt, nz, cnt) = (fine.nt, fine.nz, coarse.nt);
     let (out, inv, hold) = (&mut fine.p[..n], &fine.inv_d[..n], &fine.hold[..n]);
+    let h0 = fine.hold_zero;
     let cp = &coarse.p[..coarse.len()];
     let done = match c {
-        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
-        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, nt, nz, cp, cnt),
-        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, nt, nz, cp, cnt),
+        Coarsen::Both => lanes::prolong::<2, 2>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
+        Coarsen::Theta => lanes::prolong::<2, 1>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
+        Coarsen::Zeta => lanes::prolong::<1, 2>(isa, out, inv, hold, h0, nt, nz, cp, cnt),
     };
     if done {
         return;
@@ -1741,15 +1750,25 @@ pub(super) fn cubic_edge(a: f64, b: f64, c: f64, d: f64) -> f64 {
 }
 
 /// `out[i] = v(i)` clipped at 0, or the held value where `inv` is 0 (a fine row of an
-/// FMG start).
+/// FMG start): `hold[i]`, or `+0` where `hold` is `None` (every hold `+0`,
+/// `Level::hold_zero`: the array not read; session 40).
 #[inline(always)]
-fn fill(out: &mut [f64], inv: &[f64], hold: &[f64], v: impl Fn(usize) -> f64) {
-    for i in 0..out.len() {
-        out[i] = if inv[i] == 0.0 {
-            hold[i]
-        } else {
-            v(i).max(0.0)
-        };
+fn fill(out: &mut [f64], inv: &[f64], hold: Option<&[f64]>, v: impl Fn(usize) -> f64) {
+    match hold {
+        Some(hold) => {
+            for i in 0..out.len() {
+                out[i] = if inv[i] == 0.0 {
+                    hold[i]
+                } else {
+                    v(i).max(0.0)
+                };
+            }
+        }
+        None => {
+            for i in 0..out.len() {
+                out[i] = if inv[i] == 0.0 { 0.0 } else { v(i).max(0.0) };
+            }
+        }
     }
 }
 
@@ -1820,7 +1839,7 @@ fn prolong_solution_cubic_body(fine: &mut Level, coarse: &Level, c: Coarsen) {
         let (jc, jo) = (j / sz, j % sz);
         let out = &mut fine.p[j * nt..(j + 1) * nt];
         let inv = &fine.inv_d[j * nt..(j + 1) * nt];
-        let hold = &fine.hold[j * nt..(j + 1) * nt];
+        let hold = (!fine.hold_zero).then(|| &fine.hold[j * nt..(j + 1) * nt]);
         if jo == 0 {
             let a = row(jc);
             fill(out, inv, hold, |i| a[i]);
@@ -2746,6 +2765,13 @@ mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
+    /// Every hold `+0` and the level told so (`Level::hold_zero`, a film without held
+    /// bands: the lanes and the FMG starts then take `+0` without reading `hold`).
+    fn zero_holds(l: &mut Level) {
+        l.hold.fill(0.0);
+        l.hold_zero = true;
+    }
+
     /// The instruction sets with SIMD lanes this CPU runs (none: the lanes are not run and
     /// the scalar passes are the only ones).
     fn lane_isas() -> Vec<LaneIsa> {
@@ -2772,25 +2798,31 @@ mod tests {
     /// (issue 20, session 38): random levels of every row length in [`ROW_LENGTHS`], 2 to 6
     /// intervals in ζ, solved grids (held nodes set) and correction grids (frozen nodes
     /// kept), three sweeps each followed by the residual (both colours, fields after
-    /// projections). Any lane off by one bit fails.
+    /// projections); solved grids also with every hold `+0` and known so
+    /// (`Level::hold_zero`: the lanes' smoother then has no select; session 40). Any lane
+    /// off by one bit fails.
     #[test]
     fn lanes_smoother_and_residual_match_scalar_bit_for_bit() {
         let isas = lane_isas();
         let mut compared = 0;
         for (t, &nt) in ROW_LENGTHS.iter().enumerate() {
             for nz in 2..=6 {
-                for top in [true, false] {
+                for (top, hold0) in [(true, false), (true, true), (false, false)] {
                     let seed = (t * 100 + nz * 2 + top as usize) as u64;
                     for &isa in &isas {
                         let mut a = random_level(seed, nt, nz, top);
                         let mut b = random_level(seed, nt, nz, top);
+                        if hold0 {
+                            zero_holds(&mut a);
+                            zero_holds(&mut b);
+                        }
                         for sweep in 0..3 {
                             a.relax::<false>(1.0);
                             b.smooth_on(isa);
                             assert_eq!(
                                 bits(&a.p),
                                 bits(&b.p),
-                                "{isa:?} smoother, {nt} x {nz}, top {top}, sweep {sweep}: {:?} against scalar {:?}",
+                                "{isa:?} smoother, {nt} x {nz}, top {top}, hold 0 {hold0}, sweep {sweep}: {:?} against scalar {:?}",
                                 b.p,
                                 a.p
                             );
@@ -2816,7 +2848,8 @@ mod tests {
     /// fine levels (as above) with a random coarse correction for each coarsening, large
     /// negative corrections among them so that corrected nodes are projected to 0 inside a
     /// chunk (the lanes' fallback to node-by-node), held and frozen nodes, odd and even row
-    /// lengths (θ coarsening: even ones only, as [`super::coarser`]).
+    /// lengths (θ coarsening: even ones only, as [`super::coarser`]); solved grids also with
+    /// every hold `+0` and known so (session 40).
     #[test]
     fn lanes_correction_matches_scalar_bit_for_bit() {
         let isas = lane_isas();
@@ -2832,7 +2865,7 @@ mod tests {
                     if nz < 2 {
                         continue;
                     }
-                    for top in [true, false] {
+                    for (top, hold0) in [(true, false), (true, true), (false, false)] {
                         let seed = (t * 1000 + cnz * 10 + sz * 3 + st + top as usize) as u64;
                         let coarse_of = |seed: u64| {
                             let mut rng = Lcg(seed ^ 0x5eed);
@@ -2859,13 +2892,17 @@ mod tests {
                                 random_level(seed, nt, nz, top),
                                 random_level(seed, nt, nz, top),
                             );
+                            if hold0 {
+                                zero_holds(&mut fa);
+                                zero_holds(&mut fb);
+                            }
                             let (mut ca, mut cb) = (coarse_of(seed), coarse_of(seed));
                             prolong_correction_with(LaneIsa::Baseline, &mut fa, &mut ca, c);
                             prolong_correction_with(isa, &mut fb, &mut cb, c);
                             assert_eq!(
                                 bits(&fa.p),
                                 bits(&fb.p),
-                                "{isa:?} correction {c:?}, {nt} x {nz}, top {top}: {:?} against scalar {:?}",
+                                "{isa:?} correction {c:?}, {nt} x {nz}, top {top}, hold 0 {hold0}: {:?} against scalar {:?}",
                                 fb.p,
                                 fa.p
                             );
@@ -2934,7 +2971,8 @@ mod tests {
 
     /// The bilinear interpolation of a solution (the accuracy ladder's start) in SIMD lanes
     /// against the scalar pass, bit for bit: random coarse fields with zeros of both signs,
-    /// fine levels with held nodes, every coarsening and row length.
+    /// fine levels with held nodes (random holds, or every hold `+0` and known so), every
+    /// coarsening and row length.
     #[test]
     fn lanes_solution_interpolation_matches_scalar_bit_for_bit() {
         let isas = lane_isas();
@@ -2951,18 +2989,22 @@ mod tests {
                         continue;
                     }
                     let seed = (t * 1000 + cnz * 10 + sz * 3 + st) as u64;
-                    for &isa in &isas {
+                    for (&isa, hold0) in isas.iter().flat_map(|i| [(i, false), (i, true)]) {
                         let (mut fa, mut fb) = (
                             random_level(seed, nt, nz, true),
                             random_level(seed, nt, nz, true),
                         );
+                        if hold0 {
+                            zero_holds(&mut fa);
+                            zero_holds(&mut fb);
+                        }
                         let coarse = random_level(seed + 11, cnt, cnz, true);
                         prolong_solution_with(LaneIsa::Baseline, &mut fa, &coarse, c);
                         prolong_solution_with(isa, &mut fb, &coarse, c);
                         assert_eq!(
                             bits(&fa.p),
                             bits(&fb.p),
-                            "{isa:?} interpolation {c:?}, {nt} x {nz}: {:?} against scalar {:?}",
+                            "{isa:?} interpolation {c:?}, {nt} x {nz}, hold 0 {hold0}: {:?} against scalar {:?}",
                             fb.p,
                             fa.p
                         );
@@ -3172,6 +3214,29 @@ mod tests {
                             bits(&got.p),
                             bits(&want.p),
                             "{isa:?} cubic {c:?} {nt} x {nz}"
+                        );
+                    }
+                    // Every hold +0: read as such (`hold_zero` false) against not read.
+                    let mut want = random_level(seed, nt, nz, true);
+                    want.base = vec![0.0; want.p.len()];
+                    want.hold.fill(0.0);
+                    super::prolong_solution_cubic_body(&mut want, &coarse, c);
+                    for &isa in &isas {
+                        let mut got = random_level(seed, nt, nz, true);
+                        got.base = vec![0.0; got.p.len()];
+                        zero_holds(&mut got);
+                        lanes::widened_on(
+                            isa,
+                            CubicStart {
+                                fine: &mut got,
+                                coarse: &coarse,
+                                c,
+                            },
+                        );
+                        assert_eq!(
+                            bits(&got.p),
+                            bits(&want.p),
+                            "{isa:?} cubic {c:?} {nt} x {nz}, holds +0"
                         );
                     }
                 }
