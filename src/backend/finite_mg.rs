@@ -151,11 +151,15 @@ const SERIAL_RESERVE: u32 = 10_000;
 /// Workgroup size of the kernel (`WG`) on llvmpipe (lavapipe), whose loop cap
 /// [`LOOP_LIMIT`] was calibrated at this size, and on adapters without room for more.
 const WG: u32 = 256;
-/// Workgroup size on hardware GPUs (where the limits allow it): a state's strided loops over
-/// a large level take a quarter of the iterations per invocation, and each iteration is a
-/// chain of dependent device-memory reads (issue 20, session 40: the kernel is bound by
-/// its per-state chain on the H200, not by arithmetic).
-const HARDWARE_WG: u32 = 1024;
+/// Workgroup size on hardware GPUs (where the limits allow it). Measured on the H200
+/// (BENCHMARKS.md "Issue 20: the multigrid kernel on the H200, session 40"; raw outputs in
+/// reports/h200/raw/s40/), states/s at 64 | 1024 states per call: 256 invocations
+/// 3,090 | 6,609 at the default accuracy, 3,280 | 12,371 at 128 × 32, 1,108 | 1,543 at
+/// 1e-4; 1024 invocations 2,043 | 5,787, 2,214 | 9,831, 1,355 | 1,710. A quarter of the
+/// strided iterations per invocation did not pay for 64 registers per invocation and 4×
+/// the threads per reduction: 256 wins two settings of three at both sizes.
+/// `BEARING_SWEEP_MG_WG` overrides it.
+const HARDWARE_WG: u32 = 256;
 
 /// The kernel's workgroup size on `device`: `BEARING_SWEEP_MG_WG` (diagnostics: a power of
 /// two from 64 to 1024 within the device's limits), else [`WG`] on a software adapter and

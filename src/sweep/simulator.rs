@@ -139,10 +139,12 @@ pub fn prepare_simulator(
             } else if choice.backend == BackendKind::Auto {
                 // A sweep with the finite film (or `auto` films): the CPU, whatever the
                 // adapter. Measured on an H200 (BENCHMARKS.md "Issue 20: the finite film on
-                // a hardware GPU, session 39"): its multigrid kernel solves 35-68x fewer
-                // default-accuracy states per second than the host's 16 CPU threads, and a
-                // 256-variant finite-film sweep finished no variant in 45 s on it against
-                // 7 s on the CPU. `--backend gpu` still runs it there.
+                // a hardware GPU, session 39" and "... the multigrid kernel on the H200,
+                // session 40"): its multigrid kernel solved 35-68x fewer default-accuracy
+                // states per second than the host's 16 CPU threads in session 39, still
+                // 4.5-5.2x fewer after session 40's cuts, and a 256-variant finite-film
+                // sweep finished no variant in 45 s on it against 7 s on the CPU (session
+                // 39). `--backend gpu` still runs it there.
                 let (b, notices) = crate::backend::chosen_cpu(
                     BackendKind::Auto,
                     choice.accuracy.level(),
