@@ -29,8 +29,8 @@
 
 // Invocations per workgroup (one workgroup per state) and log2 of it: the host sets both
 // per adapter (src/backend/finite_mg.rs `workgroup_size`: 256 on llvmpipe, whose loop cap
-// the budget is calibrated on; 1024 on hardware GPUs, which run a large level's strided
-// loops in a quarter of the iterations per invocation). Same arithmetic for any size
+// the budget is calibrated on, and on hardware GPUs, where 256 beat 1024 on the H200 in two
+// settings of three; `BEARING_SWEEP_MG_WG` overrides it). Same arithmetic for any size
 // except the order of the loads' sums (`reduce_sum4`).
 const WG: u32 = 256u;
 const LOG2_WG: u32 = 8u;

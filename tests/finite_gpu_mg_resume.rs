@@ -14,54 +14,15 @@
 
 mod common;
 
-use bearing_sweep::backend::{FilmBackend, GpuBackend};
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, SolveReport};
-use bearing_sweep::bearing::{pack_state, BearingParams, BearingState, FilmModel};
-
-/// Loads, reports and fields of `states` solved on the kernel at the bearing's grid.
-fn solve(
-    backend: &mut GpuBackend,
-    p: &BearingParams,
-    states: &[BearingState],
-) -> (Vec<[f64; 4]>, Vec<SolveReport>, Vec<Vec<f64>>) {
-    let jobs: Vec<FiniteJob> = states
-        .iter()
-        .map(|s| FiniteJob::of_state(p, &pack_state(p, s).unwrap(), s.omega))
-        .collect();
-    let grid = FiniteGrid::for_bearing(p);
-    let mut fields = vec![Vec::new(); jobs.len()];
-    let (mut out, mut reports) = (Vec::new(), Vec::new());
-    backend
-        .integrate_finite(&jobs, &grid, &mut fields, &mut out, &mut reports)
-        .expect("the multigrid kernel runs");
-    (out, reports, fields)
-}
+use bearing_sweep::bearing::finite::FiniteSettings;
+use bearing_sweep::bearing::{BearingParams, FilmModel};
 
 #[test]
 fn a_smaller_dispatch_budget_gives_the_same_bits() {
     let Some(mut backend) = common::gpu_f64_or_skip("finite-film multigrid GPU") else {
         return;
     };
-    let d = BearingParams::paper_table2().clearance;
-    let states = [
-        BearingState {
-            xi: 0.8 * d,
-            yi: 0.1 * d,
-            xj: 0.8 * d,
-            yj: 0.1 * d,
-            omega: 100.0,
-            ..BearingState::default()
-        },
-        BearingState {
-            xi: 0.4 * d,
-            yi: -0.2 * d,
-            xj: -0.1 * d,
-            yj: -0.5 * d,
-            vyi: -0.1 * d * 100.0,
-            omega: 100.0,
-            ..BearingState::default()
-        },
-    ];
+    let states = common::two_finite_states();
     let cases = [
         (
             "explicit 512×64",
@@ -87,9 +48,9 @@ fn a_smaller_dispatch_budget_gives_the_same_bits() {
             ..BearingParams::paper_table2()
         };
         std::env::remove_var("BEARING_SWEEP_MG_BUDGET");
-        let (loads, reports, fields) = solve(&mut backend, &p, &states);
+        let (loads, reports, fields) = common::solve_finite_cold(&mut backend, &p, &states);
         std::env::set_var("BEARING_SWEEP_MG_BUDGET", "1000");
-        let (loads_b, reports_b, fields_b) = solve(&mut backend, &p, &states);
+        let (loads_b, reports_b, fields_b) = common::solve_finite_cold(&mut backend, &p, &states);
         std::env::remove_var("BEARING_SWEEP_MG_BUDGET");
         for k in 0..states.len() {
             for q in 0..4 {

@@ -4,7 +4,8 @@
 //!   against llvmpipe's 30 000): fewer dispatches, the same loads, work counts, error
 //!   estimates and fields, bit for bit (the kernel is resumable: the same arithmetic in
 //!   the same order however the solve is split);
-//! - the hardware workgroup size (`BEARING_SWEEP_MG_WG=1024` against llvmpipe's 256):
+//! - a workgroup of 1024 invocations (`BEARING_SWEEP_MG_WG=1024`; the default is 256 on
+//!   llvmpipe and on hardware, where 256 beat 1024 on the H200) against 256:
 //!   the same sweeps, grids and verdicts, loads and fields equal to rounding (only the
 //!   loads' sums run in another order; measured 3.2e-16 relative on 8 states ×
 //!   5 settings with `mg_probe dump`), within [`REL_TOL`].
@@ -19,32 +20,20 @@
 
 mod common;
 
-use bearing_sweep::backend::{FilmBackend, GpuBackend};
-use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, SolveReport};
-use bearing_sweep::bearing::{pack_state, BearingParams, BearingState, FilmModel};
+use bearing_sweep::backend::GpuBackend;
+use bearing_sweep::bearing::finite::FiniteSettings;
+use bearing_sweep::bearing::{BearingParams, BearingState, FilmModel};
 
 /// Relative tolerance of the 1024-invocation kernel's loads (on the load vector's norm)
 /// and fields (on the field's largest value) against the 256-invocation kernel's: a few
 /// hundred roundings of the sums' order, far below any solver tolerance (1e-8).
 const REL_TOL: f64 = 1e-13;
 
-type Solved = (Vec<[f64; 4]>, Vec<SolveReport>, Vec<Vec<f64>>);
-
 /// Loads, reports and fields of `states` solved on a fresh backend's kernel at the
 /// bearing's grid (`None`: no f64 adapter).
-fn solve(p: &BearingParams, states: &[BearingState]) -> Option<Solved> {
+fn solve(p: &BearingParams, states: &[BearingState]) -> Option<common::FiniteSolved> {
     let mut backend: GpuBackend = common::gpu_f64_or_skip("finite-film multigrid GPU")?;
-    let jobs: Vec<FiniteJob> = states
-        .iter()
-        .map(|s| FiniteJob::of_state(p, &pack_state(p, s).unwrap(), s.omega))
-        .collect();
-    let grid = FiniteGrid::for_bearing(p);
-    let mut fields = vec![Vec::new(); jobs.len()];
-    let (mut out, mut reports) = (Vec::new(), Vec::new());
-    backend
-        .integrate_finite(&jobs, &grid, &mut fields, &mut out, &mut reports)
-        .expect("the multigrid kernel runs");
-    Some((out, reports, fields))
+    Some(common::solve_finite_cold(&mut backend, p, states))
 }
 
 fn paper(finite: FiniteSettings) -> BearingParams {
@@ -57,26 +46,7 @@ fn paper(finite: FiniteSettings) -> BearingParams {
 
 #[test]
 fn hardware_loop_limit_and_workgroup_size_give_the_same_solution() {
-    let d = BearingParams::paper_table2().clearance;
-    let states = [
-        BearingState {
-            xi: 0.8 * d,
-            yi: 0.1 * d,
-            xj: 0.8 * d,
-            yj: 0.1 * d,
-            omega: 100.0,
-            ..BearingState::default()
-        },
-        BearingState {
-            xi: 0.4 * d,
-            yi: -0.2 * d,
-            xj: -0.1 * d,
-            yj: -0.5 * d,
-            vyi: -0.1 * d * 100.0,
-            omega: 100.0,
-            ..BearingState::default()
-        },
-    ];
+    let states = common::two_finite_states();
     std::env::remove_var("BEARING_SWEEP_MG_LOOP_LIMIT");
     std::env::remove_var("BEARING_SWEEP_MG_WG");
 

@@ -537,3 +537,56 @@ pub fn gpu_f64_or_skip(what: &str) -> Option<bearing_sweep::backend::GpuBackend>
         }
     }
 }
+
+/// Loads, reports and fields of a finite-film solve on a backend.
+pub type FiniteSolved = (
+    Vec<FilmIntegrals>,
+    Vec<bearing_sweep::bearing::finite::SolveReport>,
+    Vec<Vec<f64>>,
+);
+
+/// Loads, reports and fields of `states` solved cold by `backend`'s finite-film path at the
+/// bearing's grid (explicit or accuracy mode, as `p.finite` says).
+pub fn solve_finite_cold<B: bearing_sweep::backend::FilmBackend>(
+    backend: &mut B,
+    p: &BearingParams,
+    states: &[BearingState],
+) -> FiniteSolved {
+    use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob};
+    let jobs: Vec<FiniteJob> = states
+        .iter()
+        .map(|s| FiniteJob::of_state(p, &pack_state(p, s).unwrap(), s.omega))
+        .collect();
+    let grid = FiniteGrid::for_bearing(p);
+    let mut fields = vec![Vec::new(); jobs.len()];
+    let (mut out, mut reports) = (Vec::new(), Vec::new());
+    backend
+        .integrate_finite(&jobs, &grid, &mut fields, &mut out, &mut reports)
+        .expect("the finite-film solve runs");
+    (out, reports, fields)
+}
+
+/// Two states of the paper's bearing for the multigrid kernel's equal-result tests: an
+/// aligned journal at ε ≈ 0.81, and a tilted, squeezed one.
+pub fn two_finite_states() -> [BearingState; 2] {
+    let d = BearingParams::paper_table2().clearance;
+    [
+        BearingState {
+            xi: 0.8 * d,
+            yi: 0.1 * d,
+            xj: 0.8 * d,
+            yj: 0.1 * d,
+            omega: 100.0,
+            ..BearingState::default()
+        },
+        BearingState {
+            xi: 0.4 * d,
+            yi: -0.2 * d,
+            xj: -0.1 * d,
+            yj: -0.5 * d,
+            vyi: -0.1 * d * 100.0,
+            omega: 100.0,
+            ..BearingState::default()
+        },
+    ]
+}

@@ -786,6 +786,27 @@ unsafe fn smooth_generic<V: Vf>(g: &Grid, p: &mut [f64]) {
     }
 }
 
+/// The residual's value at nodes `pk` with neighbours `[east, west, north, south]`, face
+/// coefficients `a` in the same order, diagonal `d`, right-hand side `f` and inverse
+/// diagonal `ik`: the scalar `residual_node`'s sums in its order, 0 where the node is held
+/// (`ik` = 0) or where the projection holds it (`pk ≤ 0` and the residual negative).
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn residual_value<V: Vf>(pk: V, nb: [V; 4], a: [V; 4], d: V, f: V, ik: V) -> V {
+    let v = f
+        .sub(d.mul(pk))
+        .add(a[0].mul(nb[0]))
+        .add(a[1].mul(nb[1]))
+        .add(a[2].mul(nb[2]))
+        .add(a[3].mul(nb[3]));
+    let zero = V::zero();
+    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
+    V::select(ik.eq0(), zero, v)
+}
+
 /// The residual on `W` consecutive nodes `i..i + W`, node `i` of the first colour: its
 /// value in the even lanes, 0 in the odd ones.
 ///
@@ -810,15 +831,8 @@ unsafe fn residual_chunk<V: Vf>(r: &Rows, cur: &[f64], out: &mut [f64], i: usize
     );
     let (d, f) = (V::load(r.d.as_ptr().add(i)), V::load(r.f.as_ptr().add(i)));
     let ik = V::load(r.inv.as_ptr().add(i));
-    let v = f
-        .sub(d.mul(pk))
-        .add(ae.mul(e))
-        .add(aw.mul(w))
-        .add(an.mul(no))
-        .add(ans.mul(so));
+    let v = residual_value(pk, [e, w, no, so], [ae, aw, an, ans], d, f, ik);
     let zero = V::zero();
-    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
-    let v = V::select(ik.eq0(), zero, v);
     V::even(v, zero).store(out.as_mut_ptr().add(i));
 }
 
@@ -862,15 +876,8 @@ unsafe fn residual_chunk_whole<V: Vf, const ODD: bool, const FIRST: bool, const 
         V::load(g.f.as_ptr().add(row + i)),
     );
     let ik = V::load(g.inv.as_ptr().add(row + i));
-    let v = f
-        .sub(d.mul(pk))
-        .add(ae.mul(e))
-        .add(aw.mul(w))
-        .add(an.mul(no))
-        .add(ans.mul(so));
+    let v = residual_value(pk, [e, w, no, so], [ae, aw, an, ans], d, f, ik);
     let zero = V::zero();
-    let v = V::select(V::and(pk.le0(), v.lt0()), zero, v);
-    let v = V::select(ik.eq0(), zero, v);
     let out = if ODD {
         V::even(zero, v)
     } else {
