@@ -316,11 +316,15 @@ fn prof(args: &[String]) {
     let g = grid(nt, nz, FiniteSettings::default().tolerance);
     let mut solver = mg_solver();
     // The process's one-time CPU feature detection (`cpuid`, which traps in a virtual
-    // machine: ~35 µs here) before the clock, as the program's start is: a cost per
-    // process, not per state, that only the multigrid's lanes paid inside the first pass
-    // (issue 20, session 39; `MGE_DETECT_IN_PASS=1`: inside it, as before).
+    // machine: ~35 µs here) and the lanes' choice by timed solves (session 41) before the
+    // clock, as the program's start is: a cost per process, not per state, that only the
+    // multigrid's lanes paid inside the first pass (issue 20, session 39;
+    // `MGE_DETECT_IN_PASS=1`: inside it, as before).
     if std::env::var("MGE_DETECT_IN_PASS").is_err() {
-        let _ = bearing_sweep::bearing::LaneIsa::detect();
+        let isa = bearing_sweep::bearing::finite::multigrid_lanes();
+        if std::env::var("MGE_SHOW_LANES").is_ok() {
+            eprintln!("lanes: {isa:?}");
+        }
     }
     let (mut first, mut best) = (0.0, f64::INFINITY);
     let (mut sweeps_done, mut sum) = (0u64, [0.0; 4]);

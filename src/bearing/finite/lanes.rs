@@ -35,10 +35,18 @@ use std::sync::OnceLock;
 
 use crate::bearing::LaneIsa;
 
-/// The instruction set the passes run on: the widest this CPU has, or a narrower one named
-/// by the environment variable `BEARING_SWEEP_LANES` (`baseline`, `avx2`, `avx512`; a
-/// benchmark knob, read once: the same bits on every one).
+/// The instruction set the passes run on: where the CPU has both AVX-512F and AVX2, the
+/// faster of the two on this CPU, measured once per process ([`super::calibrate`]: cold
+/// 128 × 32 solves, 5-20 ms: on two hosts of the same VM type either one won, by 3 % and
+/// 13 %; BENCHMARKS.md "Issue 20, session 41: the lanes chosen by measurement"), else the
+/// widest it has; a narrower one named by the
+/// environment variable `BEARING_SWEEP_LANES` (`baseline`, `avx2`, `avx512`; a benchmark
+/// knob, read once) is taken as asked. The same bits on every one, so the choice changes
+/// only the time.
 pub(super) fn isa() -> LaneIsa {
+    if let Some(forced) = FORCED.with(|f| f.get()) {
+        return forced;
+    }
     static ISA: OnceLock<LaneIsa> = OnceLock::new();
     *ISA.get_or_init(|| {
         let best = LaneIsa::detect();
@@ -50,6 +58,8 @@ pub(super) fn isa() -> LaneIsa {
         let asked = match std::env::var("BEARING_SWEEP_LANES").as_deref() {
             Ok("baseline") => LaneIsa::Baseline,
             Ok("avx2") => LaneIsa::Avx2,
+            Ok("avx512") => return best,
+            _ if best == LaneIsa::Avx512 => return super::calibrate::faster(),
             _ => LaneIsa::Avx512,
         };
         if rank(asked) < rank(best) {
@@ -58,6 +68,20 @@ pub(super) fn isa() -> LaneIsa {
             best
         }
     })
+}
+
+thread_local! {
+    /// The instruction set [`on_isa`] holds on this thread while it runs its closure.
+    static FORCED: std::cell::Cell<Option<LaneIsa>> = const { std::cell::Cell::new(None) };
+}
+
+/// `f()` with every pass on this thread on instruction set `isa` (one the CPU has): the
+/// calibration's timed solves, which must not ask [`isa`] while it is being chosen.
+pub(super) fn on_isa<R>(isa: LaneIsa, f: impl FnOnce() -> R) -> R {
+    let before = FORCED.with(|c| c.replace(Some(isa)));
+    let out = f();
+    FORCED.with(|c| c.set(before));
+    out
 }
 
 /// A pass of plain Rust loops that [`widened`] compiles for AVX-512F or AVX2: `run` must be

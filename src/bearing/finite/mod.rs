@@ -3,6 +3,7 @@
 //! requested accuracy (issue 20); settings, solvers, loads,
 //! the short-bearing model-error map and the `auto` model choice. See docs/finite-film.md.
 
+mod calibrate;
 mod error_map;
 mod flow;
 mod jfo;
@@ -39,3 +40,11 @@ pub use solver::{
     simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
     LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR, LADDER_LOOSE,
 };
+
+/// The instruction set the multigrid's passes run on in this process (chosen on first use:
+/// the faster of AVX-512F and AVX2 where the CPU has both, by a few milliseconds of timed
+/// solves; see `BEARING_SWEEP_LANES`). Probes call it before their clock, as the program's
+/// start pays it once.
+pub fn multigrid_lanes() -> crate::bearing::LaneIsa {
+    lanes::isa()
+}
