@@ -5,7 +5,11 @@
 //!
 //! One workgroup per state, every level of its hierarchy in a storage buffer. States are
 //! grouped by their hierarchy (grid sizes and coarsenings depend on the aspect `B/r0`);
-//! each group is dispatched in chunks bounded by a scratch budget.
+//! each group is dispatched in chunks bounded by a scratch budget per device
+//! ([`scratch_budget`]); on hardware an accuracy-mode group too large for one chunk runs
+//! in passes on growing ladders instead ([`tiered`]). The device buffers are kept between
+//! chunks and calls ([`Kept`]), and the fields are read back only when the caller wants
+//! them (`fields_wanted`: a warm start, film friction and flow).
 //!
 //! **Resumable.** llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in
 //! all; one dispatch of the whole solve ran past that at 512 × 128 and beyond (1024 × 128:
@@ -219,7 +223,7 @@ const SOFTWARE_SCRATCH_BUDGET: u64 = 2 << 30;
 /// device (its limit is a 32-bit count of bytes). It holds a call of 1024 default-accuracy
 /// states in one chunk (the ladder of B/D = 0.5 through 512 × 64: ~3.1 MB per state with
 /// its field; the states that need more grids run again in chunks of the whole ladder,
-/// ~12.4 MB per state: [`MultigridPipeline::run`]), and a card with less memory fails
+/// ~12.4 MB per state, in passes: [`MultigridPipeline::run`]), and a card with less memory fails
 /// the allocation with an error (the evaluator then recomputes on the CPU with a notice).
 const HARDWARE_SCRATCH_BUDGET: u64 = 4 << 30;
 
@@ -243,12 +247,12 @@ fn scratch_budget(software: bool) -> u64 {
         )
 }
 
-/// Whether accuracy mode runs a group that does not fit one chunk in two passes (the
-/// ladder first up to the largest grid at which the whole group fits one chunk, then the
-/// states that need more grids again with the whole ladder): on hardware GPUs, where one
-/// chunk of many states keeps the device busy and every chunk costs round trips; not on
-/// llvmpipe, whose time is the arithmetic (the second pass repeats ~1/4 of a rerun state's
-/// work). `BEARING_SWEEP_MG_TIERED=0|1` overrides (diagnostics, tests). The loads are the
+/// Whether accuracy mode runs a group that does not fit one chunk in passes (the ladder
+/// first up to the largest grid at which the whole group fits one chunk, then the states
+/// that need more grids again on a larger ladder: [`MultigridPipeline::run`]): on hardware
+/// GPUs, where one chunk of many states keeps the device busy and every chunk costs round
+/// trips; not on llvmpipe, whose time is the arithmetic (a rerun repeats ~1/4 of the
+/// state's work, its lower grids). `BEARING_SWEEP_MG_TIERED=0|1` overrides (diagnostics, tests). The loads are the
 /// same bits either way: the kernel's ladder does not depend on the grids above the one
 /// it stops at, and a rerun state starts from scratch.
 fn tiered(software: bool) -> bool {
@@ -467,8 +471,10 @@ impl MultigridPipeline {
     ///
     /// Accuracy mode on a group too large for one chunk (with [`tiered`]): a first pass
     /// runs the ladder up to the largest grid at which the whole group fits one chunk
-    /// (at least three grids, the first estimate), and the states whose estimate is still
-    /// above the accuracy there run again from scratch with the whole ladder, in chunks.
+    /// (at least three grids, the first estimate); the states whose estimate is still
+    /// above the accuracy there run again from scratch, on the largest ladder at which
+    /// they fit one chunk (else on one grid more, in chunks), and so on, until the rest
+    /// fits one chunk of the whole ladder or the whole ladder is reached (in chunks).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn run(
         &self,
@@ -530,42 +536,50 @@ impl MultigridPipeline {
             let budget = scratch_budget(self.software);
             let limits = device.limits();
             let mut members = members;
-            if grid.accuracy.is_some()
+            // Passes on the lower ladder while the group does not fit one chunk: each to
+            // the largest grid at which all its states do, else (in chunks) to the next
+            // grid, beyond the pass before (the first at least three grids, the first
+            // estimate).
+            let mut reached = *top0 + 2;
+            while grid.accuracy.is_some()
                 && tiered(self.software)
+                && !members.is_empty()
                 && chunk_slots(&dims[..n_levels], budget, &limits) < members.len()
             {
-                // The first pass's ladder: the largest that holds the group in one chunk.
-                let first = (*top0 + 3..n_levels)
+                let fits = (reached + 1..n_levels)
                     .rev()
                     .find(|&m| chunk_slots(&dims[..m], budget, &limits) >= members.len());
-                if let Some(m) = first {
-                    let pass = Group {
-                        dims,
-                        top0: *top0,
-                        n_levels: m,
-                        members,
-                    };
-                    members = self.dispatch_group(
-                        device,
-                        queue,
-                        timeout,
-                        jobs,
-                        grid,
-                        &pass,
-                        fields,
-                        fields_wanted,
-                        out,
-                        reports,
-                    )?;
-                    if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
-                        let (t, z, _) = dims[m - 1];
-                        eprintln!(
-                            "mg first pass to {t}×{z} of {} states: {} run again with the \
-                             whole ladder",
-                            pass.members.len(),
-                            members.len()
-                        );
-                    }
+                let m = match fits {
+                    Some(m) => m,
+                    None if reached + 1 < n_levels => reached + 1,
+                    None => break,
+                };
+                let pass = Group {
+                    dims,
+                    top0: *top0,
+                    n_levels: m,
+                    members,
+                };
+                members = self.dispatch_group(
+                    device,
+                    queue,
+                    timeout,
+                    jobs,
+                    grid,
+                    &pass,
+                    fields,
+                    fields_wanted,
+                    out,
+                    reports,
+                )?;
+                reached = m;
+                if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
+                    let (t, z, _) = dims[m - 1];
+                    eprintln!(
+                        "mg pass to {t}×{z} of {} states: {} run again on a larger ladder",
+                        pass.members.len(),
+                        members.len()
+                    );
                 }
             }
             if members.is_empty() {
@@ -949,11 +963,17 @@ impl MultigridPipeline {
                 resource: buf.as_entire_binding(),
             })
             .collect();
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("finite mg bindings"),
             layout: &self.pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "binding the finite-film multigrid's buffers for {n} states: {e}"
+            )));
+        }
         let buffers_ms = started.elapsed().as_secs_f64() * 1e3;
         let mut dispatched = 0u32;
         let res = loop {
