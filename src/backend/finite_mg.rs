@@ -384,6 +384,16 @@ pub(crate) struct MultigridPipeline {
     /// The device buffers of the last chunks, reused by the next chunks and calls
     /// ([`Kept`]).
     kept: std::sync::Mutex<Kept>,
+    /// The last hierarchy's trig and grooves' tables ([`MultigridPipeline::tables`]).
+    tables: std::sync::Mutex<Option<Tables>>,
+}
+
+/// A hierarchy's trig and grooves' tables on the device, with what they were built from.
+struct Tables {
+    dims: Vec<Dims>,
+    grid: FiniteGrid,
+    trig: wgpu::Buffer,
+    geo: wgpu::Buffer,
 }
 
 /// Device buffers a pipeline keeps between chunks and calls, each grown to the largest
@@ -435,6 +445,9 @@ struct Group<'a> {
     top0: usize,
     /// Levels used in this pass (`dims[..n_levels]`).
     n_levels: usize,
+    /// Levels within the device's range (`dims[..range]`: those of the last pass), whose
+    /// tables the passes share.
+    range: usize,
     members: Vec<usize>,
 }
 
@@ -461,6 +474,7 @@ impl MultigridPipeline {
             limit: loop_limit(software),
             software,
             kept: std::sync::Mutex::new(Kept::default()),
+            tables: std::sync::Mutex::new(None),
         })
     }
 
@@ -558,6 +572,7 @@ impl MultigridPipeline {
                     dims,
                     top0: *top0,
                     n_levels: m,
+                    range: n_levels,
                     members,
                 };
                 members = self.dispatch_group(
@@ -589,6 +604,7 @@ impl MultigridPipeline {
                 dims,
                 top0: *top0,
                 n_levels,
+                range: n_levels,
                 members,
             };
             on_cpu.extend(self.dispatch_group(
@@ -624,6 +640,64 @@ impl MultigridPipeline {
         Ok(())
     }
 
+    /// The kernel's trig table (cos, sin at half steps per level) and grooves' table (face
+    /// factors and held pressures per node of each level; one zero without grooves) of the
+    /// whole hierarchy `dims` on `grid`'s layout, kept while they stay the same (every pass
+    /// and call of a sweep): a pass's level table indexes their first levels, at the same
+    /// offsets as the whole hierarchy's.
+    fn tables(
+        &self,
+        device: &wgpu::Device,
+        dims: &[Dims],
+        grid: &FiniteGrid,
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer), BackendError> {
+        let mut kept = self
+            .tables
+            .lock()
+            .map_err(|_| BackendError::Device("finite-film multigrid tables lock".into()))?;
+        if let Some(t) = kept.as_ref().filter(|t| t.dims == dims && t.grid == *grid) {
+            return Ok((t.trig.clone(), t.geo.clone()));
+        }
+        let banded = !grid.layout.is_empty();
+        let mut trig: Vec<f64> = Vec::new();
+        let mut geo: Vec<f64> = Vec::new();
+        for d in dims {
+            let dt = 2.0 * PI / d.0 as f64;
+            for k in 0..2 * d.0 {
+                let th = 0.5 * dt * k as f64;
+                trig.push(th.cos());
+                trig.push(th.sin());
+            }
+            if banded {
+                // Grooves and arcs replace the inlet line: node 0 at angle 0.
+                let held = grid.layout.held_nodes(d.0, d.1, 0.0);
+                for k in 0..full(d) {
+                    geo.extend_from_slice(&[held.east[k], held.north[k], held.held_pa[k]]);
+                }
+            }
+        }
+        if geo.is_empty() {
+            geo.push(0.0);
+        }
+        let trig = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg trig"),
+            contents: bytemuck::cast_slice(&trig),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let geo = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg grooves"),
+            contents: bytemuck::cast_slice(&geo),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        *kept = Some(Tables {
+            dims: dims.to_vec(),
+            grid: *grid,
+            trig: trig.clone(),
+            geo: geo.clone(),
+        });
+        Ok((trig, geo))
+    }
+
     /// Dispatches one group in chunks; returns the members that need more grids.
     #[allow(clippy::too_many_arguments)]
     fn dispatch_group(
@@ -645,8 +719,6 @@ impl MultigridPipeline {
         let mut lv = [[0u32; 4]; MAX_LEVELS];
         let mut lw = [[0u32; 4]; MAX_LEVELS];
         let (mut so, mut to, mut go, mut io) = (0usize, 0usize, 0usize, 0usize);
-        let mut trig: Vec<f64> = Vec::new();
-        let mut geo: Vec<f64> = Vec::new();
         let banded = !grid.layout.is_empty();
         for (l, d) in dims.iter().enumerate() {
             let coarsen = match d.2 {
@@ -658,26 +730,13 @@ impl MultigridPipeline {
             lv[l] = [d.0 as u32, d.1 as u32, coarsen, so as u32];
             lw[l] = [to as u32, go as u32, io as u32, 0];
             so += ARRAYS * full(d);
-            let dt = 2.0 * PI / d.0 as f64;
-            for k in 0..2 * d.0 {
-                let th = 0.5 * dt * k as f64;
-                trig.push(th.cos());
-                trig.push(th.sin());
-            }
             to += 4 * d.0;
             if banded {
-                // Grooves and arcs replace the inlet line: node 0 at angle 0.
-                let held = grid.layout.held_nodes(d.0, d.1, 0.0);
-                for k in 0..full(d) {
-                    geo.extend_from_slice(&[held.east[k], held.north[k], held.held_pa[k]]);
-                }
                 go += 3 * full(d);
             }
             io += d.1 + 1;
         }
-        if geo.is_empty() {
-            geo.push(0.0);
-        }
+        let (trig_buf, geo_buf) = self.tables(device, &group.dims[..group.range], grid)?;
         let (stride, field_stride) = slot_strides(dims);
         debug_assert_eq!(stride, so);
         let inlet_stride = io;
@@ -689,16 +748,6 @@ impl MultigridPipeline {
                 (stride * 8) >> 20
             )));
         }
-        let trig_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("finite mg trig"),
-            contents: bytemuck::cast_slice(&trig),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let geo_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("finite mg grooves"),
-            contents: bytemuck::cast_slice(&geo),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
         // The first ladder grid (and its full-multigrid levels) to accuracy/10, the grids
         // after it by the CPU's rule (`ladder_rule`).
         let stop_tol = match grid.accuracy {
