@@ -805,6 +805,13 @@ impl LoadEvaluator {
                 .collect();
             self.stats.finite_states += jobs.len() as u64;
             self.stats.integrated += jobs.len() as u64;
+            // The fields come back only where something uses them (a device backend's
+            // read-back can cost more than its kernel): the next call's warm start
+            // (explicit grids; accuracy mode starts from its ladder, never from a kept
+            // field), film friction and flow, JFO films.
+            let fields_wanted = (self.warm_start && grid.accuracy.is_none())
+                || grid.cavitation == crate::bearing::finite::Cavitation::Jfo
+                || group.iter().any(|s| film_of(requests[s.request].bearing));
             let timed: Vec<(u32, usize, f64)> = group
                 .iter()
                 .map(|s| (s.key.0, s.request, s.rate_scale))
@@ -831,10 +838,14 @@ impl LoadEvaluator {
                     }
                     self.stats.cpu_recomputed += jobs.len() as u64;
                 }
-            } else if let Err(e) =
-                self.backend
-                    .integrate_finite(&jobs, &grid, &mut fields, &mut ints, &mut reports)
-            {
+            } else if let Err(e) = self.backend.integrate_finite_with(
+                &jobs,
+                &grid,
+                &mut fields,
+                fields_wanted,
+                &mut ints,
+                &mut reports,
+            ) {
                 // Once per distinct reason: a rotor run makes thousands of calls.
                 let why = e.to_string();
                 if self.finite_fallbacks.insert(why.clone()) {
@@ -907,7 +918,7 @@ impl LoadEvaluator {
                     "notice: {recomputed} non-finite finite-film results recomputed on the CPU"
                 ));
             }
-            if self.warm_start {
+            if self.warm_start && fields_wanted {
                 let kept: usize = self.warm.values().map(|(f, _)| f.len()).sum();
                 if kept + fields.len() * grid.field_len() <= WARM_BUDGET_F64 {
                     for (slot, f) in group.iter().zip(fields) {

@@ -92,14 +92,16 @@ impl FinitePipeline {
         let mut start =
             |j: &[FiniteJob], g: &FiniteGrid, f: &mut [Vec<f64>], r: &mut Vec<SolveReport>| {
                 let mut ints = Vec::new();
-                self.run(device, queue, timeout, j, g, f, &mut ints, r)
+                self.run(device, queue, timeout, j, g, f, true, &mut ints, r)
             };
         jfo.run(
             device, queue, timeout, jobs, grid, fields, histories, &mut start, out, reports,
         )
     }
 
-    /// Solves `jobs` on `grid`; `fields[k]` of the grid's length is job k's warm start.
+    /// Solves `jobs` on `grid`; `fields[k]` of the grid's length is job k's warm start,
+    /// and receives its solution if `fields_wanted` (otherwise it is left empty and the
+    /// fields are not read back from the device: the same loads and reports).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn run(
         &self,
@@ -109,6 +111,7 @@ impl FinitePipeline {
         jobs: &[FiniteJob],
         grid: &FiniteGrid,
         fields: &mut [Vec<f64>],
+        fields_wanted: bool,
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
@@ -150,7 +153,17 @@ impl FinitePipeline {
                 }
                 slot.clone().expect("built above")
             };
-            return mg.run(device, queue, timeout, jobs, grid, fields, out, reports);
+            return mg.run(
+                device,
+                queue,
+                timeout,
+                jobs,
+                grid,
+                fields,
+                fields_wanted,
+                out,
+                reports,
+            );
         }
         out.clear();
         reports.clear();
@@ -254,7 +267,8 @@ impl FinitePipeline {
                     geo_buf.clone(),
                 ]
             };
-            // Fields (binding 3), then results (binding 4).
+            // Fields (binding 3, if wanted), then results (binding 4).
+            let read: &[usize] = if fields_wanted { &[3, 4] } else { &[4] };
             let vals = dispatch_read(
                 device,
                 queue,
@@ -263,14 +277,17 @@ impl FinitePipeline {
                 make,
                 n as u32,
                 1,
-                &[3, 4],
+                read,
                 "finite-film",
             )?;
+            let read_fields = if fields_wanted { n * full } else { 0 };
             for (k, f) in fchunk.iter_mut().enumerate() {
                 f.clear();
-                f.extend_from_slice(&vals[k * full..(k + 1) * full]);
+                if fields_wanted {
+                    f.extend_from_slice(&vals[k * full..(k + 1) * full]);
+                }
             }
-            let res = &vals[n * full..];
+            let res = &vals[read_fields..];
             for k in 0..n {
                 let r = &res[k * OUT_STRIDE..(k + 1) * OUT_STRIDE];
                 out.push([r[0], r[1], r[2], r[3]]);
@@ -385,9 +402,27 @@ pub(crate) fn dispatch_read(
             "dispatching {groups} {what} states: {e}"
         )));
     }
+    map_read(device, sub, &readback, total.max(8), timeout, what)
+}
+
+/// The read-back's tail shared by the finite-film drivers: waits (at most `timeout`)
+/// for submission `sub`, maps the first `bytes` of `readback` (`MAP_READ`, filled by a
+/// copy in that submission), returns them as f64 and unmaps it, so that the buffer can be
+/// reused. `what` names the work in error messages.
+pub(crate) fn map_read(
+    device: &wgpu::Device,
+    sub: wgpu::SubmissionIndex,
+    readback: &wgpu::Buffer,
+    bytes: u64,
+    timeout: Duration,
+    what: &str,
+) -> Result<Vec<f64>, BackendError> {
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
     let done: Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>> = Arc::new(Mutex::new(None));
     let d = done.clone();
-    readback.map_async(wgpu::MapMode::Read, .., move |r| {
+    readback.map_async(wgpu::MapMode::Read, ..bytes, move |r| {
         if let Ok(mut g) = d.lock() {
             *g = Some(r);
         }
@@ -422,7 +457,7 @@ pub(crate) fn dispatch_read(
     }
     let vals = {
         let view = readback
-            .get_mapped_range(..)
+            .get_mapped_range(..bytes)
             .map_err(|e| BackendError::Device(format!("mapping the {what} results: {e}")))?;
         bytemuck::cast_slice::<u8, f64>(&view).to_vec()
     };

@@ -5,7 +5,11 @@
 //!
 //! One workgroup per state, every level of its hierarchy in a storage buffer. States are
 //! grouped by their hierarchy (grid sizes and coarsenings depend on the aspect `B/r0`);
-//! each group is dispatched in chunks bounded by a scratch budget.
+//! each group is dispatched in chunks bounded by a scratch budget per device
+//! ([`scratch_budget`]); on hardware an accuracy-mode group too large for one chunk runs
+//! in passes on growing ladders instead ([`tiered`]). The device buffers are kept between
+//! chunks and calls ([`Kept`]), and the fields are read back only when the caller wants
+//! them (`fields_wanted`: a warm start, film friction and flow).
 //!
 //! **Resumable.** llvmpipe (lavapipe) ends a shader's loops after 65 535 iterations in
 //! all; one dispatch of the whole solve ran past that at 512 × 128 and beyond (1024 × 128:
@@ -36,7 +40,7 @@ use std::time::Duration;
 
 use wgpu::util::DeviceExt;
 
-use super::finite_gpu::{compile_pipeline, dispatch_read};
+use super::finite_gpu::{compile_pipeline, map_read};
 use super::BackendError;
 use crate::bearing::finite::{
     accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, LadderRule,
@@ -211,12 +215,89 @@ const ARRAYS: usize = 8;
 const NO_INLET: u32 = u32::MAX;
 /// V-cycle limit of one grid (src/bearing/finite/solver.rs `MAX_CYCLES`).
 const MAX_CYCLES: u32 = 200;
-/// Device memory for one dispatch's scratch, fields and results, bytes (capped by the
-/// device's buffer limits): 2 GiB holds ~700 states at the default accuracy.
-const SCRATCH_BUDGET: u64 = 2 << 30;
+/// Device memory one chunk's scratch and fields may take on a software adapter
+/// (llvmpipe: host memory), bytes; the storage binding limit caps it further (128 MiB on
+/// llvmpipe: ~10 states of the B/D = 0.5 ladder per chunk).
+const SOFTWARE_SCRATCH_BUDGET: u64 = 2 << 30;
+/// The same on a hardware GPU: 4 GiB, the most one storage binding can hold on any Vulkan
+/// device (its limit is a 32-bit count of bytes). It holds a call of 1024 default-accuracy
+/// states in one chunk (the ladder of B/D = 0.5 through 512 × 64: ~3.1 MB per state with
+/// its field; the states that need more grids run again in chunks of the whole ladder,
+/// ~12.4 MB per state, in passes: [`MultigridPipeline::run`]), and a card with less memory fails
+/// the allocation with an error (the evaluator then recomputes on the CPU with a notice).
+const HARDWARE_SCRATCH_BUDGET: u64 = 4 << 30;
+
+/// Device memory one chunk's scratch and fields may take, bytes: [`SOFTWARE_SCRATCH_BUDGET`]
+/// or [`HARDWARE_SCRATCH_BUDGET`], or (diagnostics, tests) `BEARING_SWEEP_MG_SCRATCH_MIB`
+/// (MiB, at least 1). The device's storage binding and buffer limits cap each buffer
+/// further ([`chunk_slots`]). A pipeline keeps its buffers between calls, at most one
+/// chunk's: this budget, the same again in read-back staging for the fields, and the jobs,
+/// results and inlets (~1.3 KiB per state) bound its device memory, per call and per run.
+fn scratch_budget(software: bool) -> u64 {
+    std::env::var("BEARING_SWEEP_MG_SCRATCH_MIB")
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .map_or(
+            if software {
+                SOFTWARE_SCRATCH_BUDGET
+            } else {
+                HARDWARE_SCRATCH_BUDGET
+            },
+            |mib| mib.clamp(1, 1 << 30) << 20,
+        )
+}
+
+/// Whether accuracy mode runs a group that does not fit one chunk in passes (the ladder
+/// first up to the largest grid at which the whole group fits one chunk, then the states
+/// that need more grids again on a larger ladder: [`MultigridPipeline::run`]): on hardware
+/// GPUs, where one chunk of many states keeps the device busy and every chunk costs round
+/// trips; not on llvmpipe, whose time is the arithmetic (a rerun repeats ~1/4 of the
+/// state's work, its lower grids). `BEARING_SWEEP_MG_TIERED=0|1` overrides (diagnostics, tests). The loads are the
+/// same bits either way: the kernel's ladder does not depend on the grids above the one
+/// it stops at, and a rerun state starts from scratch.
+fn tiered(software: bool) -> bool {
+    match std::env::var("BEARING_SWEEP_MG_TIERED")
+        .ok()
+        .as_deref()
+        .map(str::trim)
+    {
+        Some("1") => true,
+        Some("0") => false,
+        _ => !software,
+    }
+}
+
+/// A slot's scratch and field on the hierarchy `dims`, f64: 8 arrays per level, and the
+/// last level's field.
+fn slot_strides(dims: &[Dims]) -> (usize, usize) {
+    (
+        ARRAYS * dims.iter().map(full).sum::<usize>(),
+        dims.last().map_or(0, full),
+    )
+}
+
+/// States per chunk on the hierarchy `dims`: within `budget` bytes of scratch and fields,
+/// each buffer within the device's storage binding and buffer limits, at most
+/// [`MAX_SLOTS`]; 0 if one state's scratch is beyond the limits.
+fn chunk_slots(dims: &[Dims], budget: u64, limits: &wgpu::Limits) -> usize {
+    let (stride, field_stride) = slot_strides(dims);
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let (scratch, field) = ((stride * 8) as u64, (field_stride * 8).max(8) as u64);
+    if scratch > binding {
+        return 0;
+    }
+    (budget / (scratch + field))
+        .min(binding / scratch)
+        .min(binding / field)
+        .clamp(1, MAX_SLOTS as u64) as usize
+}
+
 /// States per dispatch at most (bounds one dispatch's run time under the device timeout
-/// on a software device).
+/// on a software device; within one row of workgroups, 65 535).
 const MAX_SLOTS: usize = 4096;
+const _: () = assert!(MAX_SLOTS <= 65_535);
 /// Largest grid (nodes with the end rows) the kernel solves: see the module docs, "Range"
 /// (a step of the largest level within the loop budget allows ~375 000 nodes; about 70 %
 /// of that leaves a dispatch room for more than one such step: 2048 × 129 and 1024 × 257,
@@ -298,11 +379,64 @@ pub(crate) struct MultigridPipeline {
     /// Its workgroup size ([`workgroup_size`]) and loop limit per dispatch ([`loop_limit`]).
     wg: u32,
     limit: u32,
-    /// The scratch buffer of the last chunk, reused by the next chunks and calls while it
-    /// is large enough (allocating and clearing hundreds of MiB per call cost more than
-    /// the kernel in accuracy mode): the kernel writes every array of a level in its
-    /// set-up before reading it, so a reused scratch gives the same results.
-    scratch: std::sync::Mutex<Option<wgpu::Buffer>>,
+    /// Whether the device is a software adapter (llvmpipe).
+    software: bool,
+    /// The device buffers of the last chunks, reused by the next chunks and calls
+    /// ([`Kept`]).
+    kept: std::sync::Mutex<Kept>,
+    /// The last hierarchy's trig and grooves' tables ([`MultigridPipeline::tables`]).
+    tables: std::sync::Mutex<Option<Tables>>,
+}
+
+/// A hierarchy's trig and grooves' tables on the device, with what they were built from.
+struct Tables {
+    dims: Vec<Dims>,
+    grid: FiniteGrid,
+    trig: wgpu::Buffer,
+    geo: wgpu::Buffer,
+}
+
+/// Device buffers a pipeline keeps between chunks and calls, each grown to the largest
+/// chunk yet (so at most one chunk's: [`scratch_budget`]): allocating them per chunk cost
+/// ~5 ms a chunk on the H200 (session 40), as much as the kernel. Reuse gives the same
+/// results: the kernel writes every array of a level of the scratch in its set-up before
+/// reading it, reads a slot's field only for a warm start (uploaded for that chunk), and
+/// the results are cleared on the device before each chunk.
+#[derive(Default)]
+struct Kept {
+    params: Option<wgpu::Buffer>,
+    jobs: Option<wgpu::Buffer>,
+    fields: Option<wgpu::Buffer>,
+    results: Option<wgpu::Buffer>,
+    inlets: Option<wgpu::Buffer>,
+    scratch: Option<wgpu::Buffer>,
+    /// `MAP_READ` staging for the results (each round of dispatches) and the fields.
+    results_read: Option<wgpu::Buffer>,
+    fields_read: Option<wgpu::Buffer>,
+}
+
+/// `slot`'s buffer if it holds `bytes`, else a new one of `bytes` (the old one dropped
+/// first, so that both are never held at once), kept in `slot`.
+fn grown(
+    slot: &mut Option<wgpu::Buffer>,
+    device: &wgpu::Device,
+    label: &str,
+    bytes: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let bytes = bytes.max(8);
+    if let Some(b) = slot.as_ref().filter(|b| b.size() >= bytes) {
+        return b.clone();
+    }
+    *slot = None;
+    let b = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes,
+        usage,
+        mapped_at_creation: false,
+    });
+    *slot = Some(b.clone());
+    b
 }
 
 /// One dispatch group: jobs (indices into the call) sharing a hierarchy.
@@ -311,6 +445,9 @@ struct Group<'a> {
     top0: usize,
     /// Levels used in this pass (`dims[..n_levels]`).
     n_levels: usize,
+    /// Levels within the device's range (`dims[..range]`: those of the last pass), whose
+    /// tables the passes share.
+    range: usize,
     members: Vec<usize>,
 }
 
@@ -335,12 +472,23 @@ impl MultigridPipeline {
             pipeline,
             wg,
             limit: loop_limit(software),
-            scratch: std::sync::Mutex::new(None),
+            software,
+            kept: std::sync::Mutex::new(Kept::default()),
+            tables: std::sync::Mutex::new(None),
         })
     }
 
     /// Solves `jobs` on `grid` (fixed or accuracy mode, Swift–Stieber); `fields[k]` of the
-    /// grid's length is job k's warm start on a fixed grid, and receives its solution.
+    /// grid's length is job k's warm start on a fixed grid, and receives its solution if
+    /// `fields_wanted` (otherwise it is left empty and no field is read back: the same
+    /// loads and reports).
+    ///
+    /// Accuracy mode on a group too large for one chunk (with [`tiered`]): a first pass
+    /// runs the ladder up to the largest grid at which the whole group fits one chunk
+    /// (at least three grids, the first estimate); the states whose estimate is still
+    /// above the accuracy there run again from scratch, on the largest ladder at which
+    /// they fit one chunk (else on one grid more, in chunks), and so on, until the rest
+    /// fits one chunk of the whole ladder or the whole ladder is reached (in chunks).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn run(
         &self,
@@ -350,6 +498,7 @@ impl MultigridPipeline {
         jobs: &[FiniteJob],
         grid: &FiniteGrid,
         fields: &mut [Vec<f64>],
+        fields_wanted: bool,
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
@@ -398,14 +547,77 @@ impl MultigridPipeline {
                 on_cpu.extend(members);
                 continue;
             }
+            let budget = scratch_budget(self.software);
+            let limits = device.limits();
+            let mut members = members;
+            // Passes on the lower ladder while the group does not fit one chunk: each to
+            // the largest grid at which all its states do, else (in chunks) to the next
+            // grid, beyond the pass before (the first at least three grids, the first
+            // estimate).
+            let mut reached = *top0 + 2;
+            while grid.accuracy.is_some()
+                && tiered(self.software)
+                && !members.is_empty()
+                && chunk_slots(&dims[..n_levels], budget, &limits) < members.len()
+            {
+                let fits = (reached + 1..n_levels)
+                    .rev()
+                    .find(|&m| chunk_slots(&dims[..m], budget, &limits) >= members.len());
+                let m = match fits {
+                    Some(m) => m,
+                    None if reached + 1 < n_levels => reached + 1,
+                    None => break,
+                };
+                let pass = Group {
+                    dims,
+                    top0: *top0,
+                    n_levels: m,
+                    range: n_levels,
+                    members,
+                };
+                members = self.dispatch_group(
+                    device,
+                    queue,
+                    timeout,
+                    jobs,
+                    grid,
+                    &pass,
+                    fields,
+                    fields_wanted,
+                    out,
+                    reports,
+                )?;
+                reached = m;
+                if std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some() {
+                    let (t, z, _) = dims[m - 1];
+                    eprintln!(
+                        "mg pass to {t}×{z} of {} states: {} run again on a larger ladder",
+                        pass.members.len(),
+                        members.len()
+                    );
+                }
+            }
+            if members.is_empty() {
+                continue;
+            }
             let group = Group {
                 dims,
                 top0: *top0,
                 n_levels,
+                range: n_levels,
                 members,
             };
             on_cpu.extend(self.dispatch_group(
-                device, queue, timeout, jobs, grid, &group, fields, out, reports,
+                device,
+                queue,
+                timeout,
+                jobs,
+                grid,
+                &group,
+                fields,
+                fields_wanted,
+                out,
+                reports,
             )?);
         }
         if !on_cpu.is_empty() {
@@ -422,10 +634,68 @@ impl MultigridPipeline {
             for (k, v, r, f) in solved {
                 out[k] = v;
                 reports[k] = r;
-                fields[k] = f;
+                fields[k] = if fields_wanted { f } else { Vec::new() };
             }
         }
         Ok(())
+    }
+
+    /// The kernel's trig table (cos, sin at half steps per level) and grooves' table (face
+    /// factors and held pressures per node of each level; one zero without grooves) of the
+    /// whole hierarchy `dims` on `grid`'s layout, kept while they stay the same (every pass
+    /// and call of a sweep): a pass's level table indexes their first levels, at the same
+    /// offsets as the whole hierarchy's.
+    fn tables(
+        &self,
+        device: &wgpu::Device,
+        dims: &[Dims],
+        grid: &FiniteGrid,
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer), BackendError> {
+        let mut kept = self
+            .tables
+            .lock()
+            .map_err(|_| BackendError::Device("finite-film multigrid tables lock".into()))?;
+        if let Some(t) = kept.as_ref().filter(|t| t.dims == dims && t.grid == *grid) {
+            return Ok((t.trig.clone(), t.geo.clone()));
+        }
+        let banded = !grid.layout.is_empty();
+        let mut trig: Vec<f64> = Vec::new();
+        let mut geo: Vec<f64> = Vec::new();
+        for d in dims {
+            let dt = 2.0 * PI / d.0 as f64;
+            for k in 0..2 * d.0 {
+                let th = 0.5 * dt * k as f64;
+                trig.push(th.cos());
+                trig.push(th.sin());
+            }
+            if banded {
+                // Grooves and arcs replace the inlet line: node 0 at angle 0.
+                let held = grid.layout.held_nodes(d.0, d.1, 0.0);
+                for k in 0..full(d) {
+                    geo.extend_from_slice(&[held.east[k], held.north[k], held.held_pa[k]]);
+                }
+            }
+        }
+        if geo.is_empty() {
+            geo.push(0.0);
+        }
+        let trig = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg trig"),
+            contents: bytemuck::cast_slice(&trig),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let geo = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("finite mg grooves"),
+            contents: bytemuck::cast_slice(&geo),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        *kept = Some(Tables {
+            dims: dims.to_vec(),
+            grid: *grid,
+            trig: trig.clone(),
+            geo: geo.clone(),
+        });
+        Ok((trig, geo))
     }
 
     /// Dispatches one group in chunks; returns the members that need more grids.
@@ -439,6 +709,7 @@ impl MultigridPipeline {
         grid: &FiniteGrid,
         group: &Group,
         fields: &mut [Vec<f64>],
+        fields_wanted: bool,
         out: &mut [FilmIntegrals],
         reports: &mut [SolveReport],
     ) -> Result<Vec<usize>, BackendError> {
@@ -448,8 +719,6 @@ impl MultigridPipeline {
         let mut lv = [[0u32; 4]; MAX_LEVELS];
         let mut lw = [[0u32; 4]; MAX_LEVELS];
         let (mut so, mut to, mut go, mut io) = (0usize, 0usize, 0usize, 0usize);
-        let mut trig: Vec<f64> = Vec::new();
-        let mut geo: Vec<f64> = Vec::new();
         let banded = !grid.layout.is_empty();
         for (l, d) in dims.iter().enumerate() {
             let coarsen = match d.2 {
@@ -461,53 +730,24 @@ impl MultigridPipeline {
             lv[l] = [d.0 as u32, d.1 as u32, coarsen, so as u32];
             lw[l] = [to as u32, go as u32, io as u32, 0];
             so += ARRAYS * full(d);
-            let dt = 2.0 * PI / d.0 as f64;
-            for k in 0..2 * d.0 {
-                let th = 0.5 * dt * k as f64;
-                trig.push(th.cos());
-                trig.push(th.sin());
-            }
             to += 4 * d.0;
             if banded {
-                // Grooves and arcs replace the inlet line: node 0 at angle 0.
-                let held = grid.layout.held_nodes(d.0, d.1, 0.0);
-                for k in 0..full(d) {
-                    geo.extend_from_slice(&[held.east[k], held.north[k], held.held_pa[k]]);
-                }
                 go += 3 * full(d);
             }
             io += d.1 + 1;
         }
-        if geo.is_empty() {
-            geo.push(0.0);
-        }
-        let stride = so;
+        let (trig_buf, geo_buf) = self.tables(device, &group.dims[..group.range], grid)?;
+        let (stride, field_stride) = slot_strides(dims);
+        debug_assert_eq!(stride, so);
         let inlet_stride = io;
-        let field_stride = full(&dims[dims.len() - 1]);
-        let limits = device.limits();
-        let cap = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            .min(SCRATCH_BUDGET);
-        let per_slot = ((stride + field_stride) * 8) as u64;
-        let slots = ((cap / per_slot) as usize).clamp(1, MAX_SLOTS);
-        if (stride * 8) as u64 > cap {
+        let slots = chunk_slots(dims, scratch_budget(self.software), &device.limits());
+        if slots == 0 {
             return Err(BackendError::Device(format!(
                 "the finite-film multigrid needs {} MiB per state, more than the device's \
                  buffer limit",
                 (stride * 8) >> 20
             )));
         }
-        let trig_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("finite mg trig"),
-            contents: bytemuck::cast_slice(&trig),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let geo_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("finite mg grooves"),
-            contents: bytemuck::cast_slice(&geo),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
         // The first ladder grid (and its full-multigrid levels) to accuracy/10, the grids
         // after it by the CPU's rule (`ladder_rule`).
         let stop_tol = match grid.accuracy {
@@ -610,6 +850,7 @@ impl MultigridPipeline {
                 any_warm.then_some(field_data.as_slice()),
                 (n * stride * 8) as u64,
                 cap_dispatches,
+                fields_wanted,
             )?;
             for (s, &k) in chunk.iter().enumerate() {
                 let r = &rv[s * OUT_STRIDE..(s + 1) * OUT_STRIDE];
@@ -620,7 +861,9 @@ impl MultigridPipeline {
                 let (nt, nz) = (r[7] as usize, r[8] as usize);
                 out[k] = [r[0], r[1], r[2], r[3]];
                 fields[k].clear();
-                fields[k].extend_from_slice(&fv[s]);
+                if let Some(f) = fv.get(s) {
+                    fields[k].extend_from_slice(f);
+                }
                 reports[k] = SolveReport {
                     sweeps: r[4] as u32,
                     iteration_error: r[5],
@@ -642,12 +885,13 @@ impl MultigridPipeline {
     }
 
     /// One chunk's solve: uploads, dispatches the resumable kernel until every slot's
-    /// status is set (at most `cap_dispatches` dispatches), reads back the results and each
-    /// slot's field on its last grid (`n_theta × (n_z + 1)` values, the slot's result 7
-    /// and 8; not the whole stride of the ladder's largest grid). `field_data`: the warm
-    /// starts (`None`: no slot has one; the fields buffer is then only cleared, on the
-    /// device). A slot still running after the cap, or one whose dispatch overran the
-    /// loop limit, is an error.
+    /// status is set (at most `cap_dispatches` dispatches), reads back the results and, if
+    /// `fields_wanted`, each slot's field on its last grid (`n_theta × (n_z + 1)` values,
+    /// the slot's result 7 and 8; not the whole stride of the ladder's largest grid; none
+    /// without: an empty list). `field_data`: the warm starts (`None`: no slot has one;
+    /// the kernel then reads no field). The buffers are the pipeline's [`Kept`] ones,
+    /// written with `write_buffer`. A slot still running after the cap, or one whose
+    /// dispatch overran the loop limit, is an error.
     #[allow(clippy::too_many_arguments)]
     fn dispatch(
         &self,
@@ -661,105 +905,154 @@ impl MultigridPipeline {
         field_data: Option<&[f64]>,
         scratch_bytes: u64,
         cap_dispatches: u32,
+        fields_wanted: bool,
     ) -> Result<(Vec<Vec<f64>>, Vec<f64>), BackendError> {
+        const WHAT: &str = "finite-film multigrid";
         let n = params.count as usize;
         let trace = std::env::var_os("BEARING_SWEEP_MG_TRACE").is_some();
         let started = std::time::Instant::now();
         // An empty inlet table (no max-film inlet) still needs a binding.
-        let inl: Vec<u32> = if inlets.is_empty() {
-            vec![NO_INLET]
+        let inl: &[u32] = if inlets.is_empty() {
+            &[NO_INLET]
         } else {
-            inlets.to_vec()
+            inlets
         };
-        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let init = |label, data: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: data,
-                usage,
-            })
-        };
-        let st = wgpu::BufferUsages::STORAGE;
         let field_bytes = (n * params.field_stride as usize * 8) as u64;
-        let fields_buf = match field_data {
-            Some(data) => init(
-                "finite mg fields",
-                bytemuck::cast_slice(data),
-                st | wgpu::BufferUsages::COPY_SRC,
-            ),
-            // Cleared by the device (wgpu's zero initialisation), not uploaded.
-            None => device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("finite mg fields"),
-                size: field_bytes.max(8),
-                usage: st | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-        };
+        let result_bytes = (n * OUT_STRIDE * 8) as u64;
         // Held to the end of the chunk: a second caller on this pipeline (none today: a
         // backend's pipelines serve its own `&mut self` calls) waits instead of sharing it.
         let mut kept = self
-            .scratch
+            .kept
             .lock()
-            .map_err(|_| BackendError::Device("finite-film scratch lock".into()))?;
-        let scratch = {
-            match kept.as_ref() {
-                Some(b) if b.size() >= scratch_bytes.max(8) => b.clone(),
-                _ => {
-                    // The old one first, so that both are never held at once.
-                    *kept = None;
-                    let b = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("finite mg scratch"),
-                        size: scratch_bytes.max(8),
-                        usage: st,
-                        mapped_at_creation: false,
-                    });
-                    *kept = Some(b.clone());
-                    b
-                }
-            }
-        };
-        // Every buffer lives across the dispatches (the solve's state is in them).
-        let bufs = vec![
-            init(
-                "finite mg params",
-                bytemuck::bytes_of(params),
-                wgpu::BufferUsages::UNIFORM,
-            ),
-            shared[0].clone(),
-            init("finite mg jobs", bytemuck::cast_slice(job_data), st),
-            fields_buf,
-            // Zeros: every slot at its first phase, status running.
-            init(
-                "finite mg results",
-                bytemuck::cast_slice(&vec![0.0_f64; n * OUT_STRIDE]),
-                st | wgpu::BufferUsages::COPY_SRC,
-            ),
-            init("finite mg inlets", bytemuck::cast_slice(&inl), st),
-            shared[1].clone(),
-            scratch,
-        ];
+            .map_err(|_| BackendError::Device("finite-film multigrid buffers lock".into()))?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let st = wgpu::BufferUsages::STORAGE;
+        let dst = wgpu::BufferUsages::COPY_DST;
+        let src = wgpu::BufferUsages::COPY_SRC;
+        let read = wgpu::BufferUsages::MAP_READ | dst;
+        let k = &mut *kept;
+        let params_buf = grown(
+            &mut k.params,
+            device,
+            "finite mg params",
+            std::mem::size_of::<Params>() as u64,
+            wgpu::BufferUsages::UNIFORM | dst,
+        );
+        let jobs_buf = grown(
+            &mut k.jobs,
+            device,
+            "finite mg jobs",
+            (job_data.len() * 8) as u64,
+            st | dst,
+        );
+        let fields_buf = grown(
+            &mut k.fields,
+            device,
+            "finite mg fields",
+            field_bytes,
+            st | src | dst,
+        );
+        let results_buf = grown(
+            &mut k.results,
+            device,
+            "finite mg results",
+            result_bytes,
+            st | src | dst,
+        );
+        let inlets_buf = grown(
+            &mut k.inlets,
+            device,
+            "finite mg inlets",
+            (inl.len() * 4) as u64,
+            st | dst,
+        );
+        let scratch = grown(
+            &mut k.scratch,
+            device,
+            "finite mg scratch",
+            scratch_bytes,
+            st,
+        );
+        let results_read = grown(
+            &mut k.results_read,
+            device,
+            "finite mg results readback",
+            result_bytes,
+            read,
+        );
         if let Some(e) = pollster::block_on(scope.pop()) {
             // Not kept: the next call allocates afresh.
-            *kept = None;
+            *k = Kept::default();
             return Err(BackendError::Device(format!(
                 "allocating the finite-film multigrid's buffers for {n} states: {e}"
+            )));
+        }
+        queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(params));
+        queue.write_buffer(&jobs_buf, 0, bytemuck::cast_slice(job_data));
+        queue.write_buffer(&inlets_buf, 0, bytemuck::cast_slice(inl));
+        if let Some(data) = field_data {
+            queue.write_buffer(&fields_buf, 0, bytemuck::cast_slice(data));
+        }
+        // Every buffer lives across the dispatches (the solve's state is in them).
+        let bufs = [
+            &params_buf,
+            shared[0],
+            &jobs_buf,
+            &fields_buf,
+            &results_buf,
+            &inlets_buf,
+            shared[1],
+            &scratch,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = bufs
+            .iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("finite mg bindings"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(BackendError::Device(format!(
+                "binding the finite-film multigrid's buffers for {n} states: {e}"
             )));
         }
         let buffers_ms = started.elapsed().as_secs_f64() * 1e3;
         let mut dispatched = 0u32;
         let res = loop {
-            // Results (binding 4) only, until every slot is done.
-            let res = dispatch_read(
-                device,
-                queue,
-                timeout,
-                &self.pipeline,
-                |_| bufs.clone(),
-                n as u32,
-                REPEAT,
-                &[4],
-                "finite-film multigrid",
-            )?;
+            // Results only, until every slot is done.
+            let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let mut enc =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            if dispatched == 0 {
+                // Zeros: every slot at its first phase, status running.
+                enc.clear_buffer(&results_buf, 0, Some(result_bytes));
+            }
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(WHAT),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                for _ in 0..REPEAT {
+                    pass.dispatch_workgroups(n as u32, 1, 1);
+                }
+            }
+            enc.copy_buffer_to_buffer(&results_buf, 0, &results_read, 0, result_bytes);
+            let sub = queue.submit(Some(enc.finish()));
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(BackendError::Device(format!(
+                    "dispatching {n} {WHAT} states: {e}"
+                )));
+            }
+            let res = map_read(device, sub, &results_read, result_bytes, timeout, WHAT)?;
             dispatched += REPEAT;
             let status = |s: usize| res[s * OUT_STRIDE + OUT_STATE];
             if trace {
@@ -805,7 +1098,7 @@ impl MultigridPipeline {
         let ranges: Vec<(u64, u64)> = (0..n)
             .map(|s| {
                 let r = &res[s * OUT_STRIDE..];
-                let len = if r[OUT_STATE] == ST_MORE {
+                let len = if !fields_wanted || r[OUT_STATE] == ST_MORE {
                     0
                 } else {
                     (r[7] as u64 * (r[8] as u64 + 1)).min(stride)
@@ -813,24 +1106,56 @@ impl MultigridPipeline {
                 (s as u64 * stride, len)
             })
             .collect();
-        let flat = read_ranges(device, queue, timeout, &bufs[3], &ranges)?;
+        let total: u64 = ranges.iter().map(|r| r.1).sum();
+        let flat = if total == 0 {
+            Vec::new()
+        } else {
+            let staging = grown(
+                &mut k.fields_read,
+                device,
+                "finite mg fields readback",
+                total * 8,
+                read,
+            );
+            let mut enc =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            let mut at = 0;
+            for &(offset, len) in ranges.iter().filter(|r| r.1 > 0) {
+                enc.copy_buffer_to_buffer(&fields_buf, offset * 8, &staging, at * 8, len * 8);
+                at += len;
+            }
+            let sub = queue.submit(Some(enc.finish()));
+            map_read(
+                device,
+                sub,
+                &staging,
+                total * 8,
+                timeout,
+                "finite-film multigrid fields",
+            )?
+        };
         let mut at = 0;
-        let fields: Vec<Vec<f64>> = ranges
-            .iter()
-            .map(|&(_, len)| {
-                let f = flat[at..at + len as usize].to_vec();
-                at += len as usize;
-                f
-            })
-            .collect();
+        let fields: Vec<Vec<f64>> = if fields_wanted {
+            ranges
+                .iter()
+                .map(|&(_, len)| {
+                    let f = flat[at..at + len as usize].to_vec();
+                    at += len as usize;
+                    f
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         if trace {
             eprintln!(
                 "mg chunk of {n} states: buffers {buffers_ms:.3} ms, dispatches and status \
                  {kernel_ms:.3} ms ({dispatched} dispatches), fields read {:.3} ms ({} KiB of \
-                 {} KiB), workgroup {}",
+                 {} KiB{}), workgroup {}",
                 started.elapsed().as_secs_f64() * 1e3 - buffers_ms - kernel_ms,
                 flat.len() * 8 / 1024,
                 field_bytes / 1024,
+                if fields_wanted { "" } else { ", not wanted" },
                 self.wg
             );
         }
@@ -840,71 +1165,6 @@ impl MultigridPipeline {
         drop(kept);
         Ok((fields, res))
     }
-}
-
-/// Reads `ranges` (offset, length, in f64) of `buf` (`COPY_SRC`) back, concatenated.
-fn read_ranges(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    timeout: Duration,
-    buf: &wgpu::Buffer,
-    ranges: &[(u64, u64)],
-) -> Result<Vec<f64>, BackendError> {
-    let total: u64 = ranges.iter().map(|r| r.1).sum();
-    if total == 0 {
-        return Ok(Vec::new());
-    }
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("finite mg fields readback"),
-        size: total * 8,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    let mut at = 0;
-    for &(offset, len) in ranges.iter().filter(|r| r.1 > 0) {
-        enc.copy_buffer_to_buffer(buf, offset * 8, &readback, at * 8, len * 8);
-        at += len;
-    }
-    let sub = queue.submit(Some(enc.finish()));
-    let (tx, rx) = std::sync::mpsc::channel();
-    readback.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::Wait {
-            submission_index: Some(sub),
-            timeout: Some(timeout),
-        })
-        .map_err(|e| {
-            BackendError::Device(format!(
-                "waiting for the finite-film multigrid's fields (timeout {timeout:?}): {e}"
-            ))
-        })?;
-    let mapped = match rx.try_recv() {
-        Ok(r) => r,
-        Err(_) => {
-            let _ = device.poll(wgpu::PollType::Poll);
-            rx.try_recv().map_err(|_| {
-                BackendError::Device(
-                    "the finite-film multigrid's fields never became readable".into(),
-                )
-            })?
-        }
-    };
-    mapped.map_err(|e| {
-        BackendError::Device(format!(
-            "reading the finite-film multigrid's fields back: {e}"
-        ))
-    })?;
-    let vals = {
-        let view = readback.get_mapped_range(..).map_err(|e| {
-            BackendError::Device(format!("mapping the finite-film multigrid's fields: {e}"))
-        })?;
-        bytemuck::cast_slice::<u8, f64>(&view).to_vec()
-    };
-    readback.unmap();
-    Ok(vals)
 }
 
 /// Diagnostics (`BEARING_SWEEP_MG_COUNT`): the kernel's tally of the states solved since

@@ -876,6 +876,18 @@ impl FilmBackend for GpuBackend {
         out: &mut Vec<FilmIntegrals>,
         reports: &mut Vec<SolveReport>,
     ) -> Result<(), BackendError> {
+        self.integrate_finite_with(jobs, grid, fields, true, out, reports)
+    }
+
+    fn integrate_finite_with(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        fields_wanted: bool,
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
         self.check_fault()?;
         if self.precision != Precision::F64 {
             return Err(BackendError::Device(
@@ -893,6 +905,7 @@ impl FilmBackend for GpuBackend {
             jobs,
             grid,
             fields,
+            fields_wanted,
             out,
             reports,
         )

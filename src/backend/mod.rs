@@ -133,6 +133,28 @@ pub trait FilmBackend: Send {
         Ok(())
     }
 
+    /// As [`FilmBackend::integrate_finite`], with the caller saying whether it uses the
+    /// fields (a warm start of its next call, film friction and flow, a JFO history):
+    /// with `fields_wanted` false every `fields[k]` comes back empty, and a device backend
+    /// skips reading them back (on a hardware GPU the read-back cost more than the kernel:
+    /// BENCHMARKS.md, session 40). Loads and reports are the same bits either way. The
+    /// default solves with the fields and drops them.
+    fn integrate_finite_with(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        fields_wanted: bool,
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.integrate_finite(jobs, grid, fields, out, reports)?;
+        if !fields_wanted {
+            fields.iter_mut().for_each(Vec::clear);
+        }
+        Ok(())
+    }
+
     /// Mass-conserving (JFO) films on the fixed `grid` with a film history per job (issue
     /// 27, rotor runs: `histories[k]` `None` is a steady film, an empty slice all steady),
     /// otherwise as [`FilmBackend::integrate_finite`]. The default is the CPU JFO solver on
@@ -470,6 +492,18 @@ impl FilmBackend for Chosen {
     ) -> Result<(), BackendError> {
         self.backend
             .integrate_finite(jobs, grid, fields, out, reports)
+    }
+    fn integrate_finite_with(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        fields_wanted: bool,
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.backend
+            .integrate_finite_with(jobs, grid, fields, fields_wanted, out, reports)
     }
     fn integrate_finite_jfo(
         &mut self,

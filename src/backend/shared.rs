@@ -390,6 +390,25 @@ impl FilmBackend for SharedBackend {
             .integrate_finite(jobs, grid, fields, out, reports)
     }
 
+    fn integrate_finite_with(
+        &mut self,
+        jobs: &[FiniteJob],
+        grid: &FiniteGrid,
+        fields: &mut [Vec<f64>],
+        fields_wanted: bool,
+        out: &mut Vec<FilmIntegrals>,
+        reports: &mut Vec<SolveReport>,
+    ) -> Result<(), BackendError> {
+        self.dispatcher.lock_backend(0).integrate_finite_with(
+            jobs,
+            grid,
+            fields,
+            fields_wanted,
+            out,
+            reports,
+        )
+    }
+
     fn integrate_finite_jfo(
         &mut self,
         jobs: &[FiniteJob],
