@@ -405,6 +405,86 @@ fn truth(n: usize) {
     );
 }
 
+/// `stall NT NZ CYCLES`: why the multigrid stops contracting on fine grids at high ε
+/// (issue 20 session 41). Per state of [`states_from_env`]: the explicit grid `NT × NZ`
+/// from cold by full multigrid ([`FiniteSolver::fmg_cycles`]), then CYCLES V-cycles; per
+/// cycle the field's change over its maximum, the observed contraction, the nodes whose
+/// active/free status flipped, and where the largest change is (column, row, its
+/// pressure over the maximum). `BW_CT=1`: with [`FiniteSolver::coarse_truncation`].
+/// `BW_LADDER=1`: instead the ladder carried to NT ([`FiniteSolver::ladder_beyond`],
+/// which truncates the coarse side), its log from NT × NZ on.
+fn stall(nt: usize, nz: usize, cycles: u32) {
+    let (p0, states) = states_from_env(1);
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..p0
+    };
+    let mut grid = FiniteGrid::for_bearing(&p);
+    grid.n_theta = nt;
+    grid.n_z = nz;
+    grid.accuracy = None;
+    for (k, s) in states.iter().enumerate() {
+        let Ok(packed) = pack_state(&p, s) else {
+            continue;
+        };
+        let job = FiniteJob::new(&p, &packed);
+        if std::env::var("BW_LADDER").is_ok() {
+            // The ladder's way (node 0 on the maximum film, the stencil freeze, bilinear
+            // starts), carried past 1024 × 128 to NT: the log of the grids from NT × NZ.
+            let mut solver = FiniteSolver::new();
+            solver.keep_cycle_log(true);
+            let ladder = FiniteGrid::for_bearing(&p);
+            let extra = (nt / 1024).max(1).ilog2() as usize;
+            solver.ladder_beyond(&job, &ladder, 1e-10, extra);
+            for c in solver
+                .take_cycle_log()
+                .iter()
+                .filter(|c| c.grid.0 >= nt && c.cycle <= cycles)
+            {
+                println!(
+                    "k {k} {}x{} cycle {:3} change {:.3e} flips {:5} at ({}, {}) p/max {:.3e}",
+                    c.grid.0, c.grid.1, c.cycle, c.change, c.flips, c.at.0, c.at.1, c.at.2
+                );
+            }
+            continue;
+        }
+        let mut prev: Vec<f64> = Vec::new();
+        let mut last = f64::NAN;
+        let mut cycle = 0;
+        let mut observe = |updates: u64, f: &[f64]| {
+            let maxp = f.iter().cloned().fold(0.0, f64::max);
+            if !prev.is_empty() {
+                let (mut dm, mut at) = (0.0f64, 0usize);
+                let mut flips = 0;
+                for (i, (a, b)) in f.iter().zip(&prev).enumerate() {
+                    let d = (a - b).abs();
+                    if d > dm {
+                        dm = d;
+                        at = i;
+                    }
+                    flips += usize::from((*a > 0.0) != (*b > 0.0));
+                }
+                let ch = dm / maxp;
+                println!(
+                    "k {k} cycle {cycle:3} updates {updates:>10} change {ch:.3e} ratio {:.3} flips {flips:5} at ({}, {}) p/max {:.3e}",
+                    ch / last,
+                    at % nt,
+                    at / nt,
+                    f[at] / maxp
+                );
+                last = ch;
+            }
+            cycle += 1;
+            prev.clear();
+            prev.extend_from_slice(f);
+        };
+        // BW_CT=1: the coarse side of the correction truncated too (session 41's fix).
+        let mut solver = FiniteSolver::new();
+        solver.coarse_truncation = std::env::var("BW_CT").is_ok();
+        solver.fmg_cycles(&job, &grid, cycles, Some(&mut observe));
+    }
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     if std::env::args().nth(1).as_deref() == Some("truth") {
@@ -412,6 +492,13 @@ fn main() {
             .nth(2)
             .map_or(1024, |s| s.parse().expect("N"));
         return truth(n);
+    }
+    if std::env::args().nth(1).as_deref() == Some("stall") {
+        let a: Vec<usize> = std::env::args()
+            .skip(2)
+            .map(|s| s.parse().expect("NT NZ CYCLES"))
+            .collect();
+        return stall(a[0], a[1], a[2] as u32);
     }
     if std::env::args().nth(1).as_deref() == Some("replay") {
         let n = std::env::args()

@@ -29,7 +29,7 @@ pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MA
 // For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
 #[cfg(feature = "gpu")]
 pub(crate) use multigrid::{coarser, Coarsen};
-pub use multigrid::{WorkRole, WorkShare};
+pub use multigrid::{CycleLog, WorkRole, WorkShare};
 pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 #[cfg(feature = "gpu")]
 pub(crate) use solver::ALGEBRAIC_FRACTION;

@@ -322,6 +322,14 @@ pub struct FiniteSolver {
     /// Smoothing sweeps on the levels below the grid being solved (`None`, the default:
     /// the cycle's; probes, issue 20 session 38; see the multigrid's `below_top`).
     pub below_top: Option<(u32, u32)>,
+    /// Explicit grids: the coarse-grid correction truncated on the coarse side too (the
+    /// multigrid's `coarse_truncation`; issue 20 session 41). Without it the V-cycle
+    /// stalls in a limit cycle of the free boundary on grids finer than 1024 × 128 at high
+    /// eccentricity (ε 0.9, 4096 × 512: every state tried; the solve then reports
+    /// `converged: false`); with it those grids contract by ~0.5 per cycle. Default false:
+    /// the WGSL kernel mirrors the correction without it (the accuracy ladder never uses
+    /// it). [`FiniteSolver::ladder_beyond`] always uses it.
+    pub coarse_truncation: bool,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -422,6 +430,22 @@ impl FiniteSolver {
     /// not kept); the tally restarts.
     pub fn take_work_tally(&mut self) -> Vec<super::WorkShare> {
         match self.mg.tally.as_mut() {
+            Some(t) => std::mem::take(t),
+            None => Vec::new(),
+        }
+    }
+
+    /// Keeps (`true`) or drops the multigrid's per-cycle log on the field stop
+    /// ([`super::CycleLog`]: explicit grids and [`FiniteSolver::ladder_beyond`]; for
+    /// probes, issue 20 session 41). Off by default.
+    pub fn keep_cycle_log(&mut self, on: bool) {
+        self.mg.cycle_log = on.then(Vec::new);
+    }
+
+    /// The cycles logged since [`FiniteSolver::keep_cycle_log`] (or the last call); the
+    /// log restarts.
+    pub fn take_cycle_log(&mut self) -> Vec<super::CycleLog> {
+        match self.mg.cycle_log.as_mut() {
             Some(t) => std::mem::take(t),
             None => Vec::new(),
         }
@@ -586,6 +610,7 @@ impl FiniteSolver {
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        self.mg.coarse_truncation = self.coarse_truncation;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -651,6 +676,7 @@ impl FiniteSolver {
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        self.mg.coarse_truncation = self.coarse_truncation;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -681,6 +707,9 @@ impl FiniteSolver {
         self.mg.updates = 0;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        // The kernel's correction (see `FiniteSolver::coarse_truncation`); the finer
+        // references of `ladder_beyond` set it on after this.
+        self.mg.coarse_truncation = false;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
@@ -774,9 +803,14 @@ impl FiniteSolver {
             dims.push((2 * nt, 2 * nz));
         }
         let mut out = vec![self.ladder_start(job, g, stop)];
+        // The coarse side truncated too (issue 20 session 41): without it 2048 × 256
+        // stalled on 40 of 96 states at ε 0.88-0.95 and 4096 × 512 on every state tried.
+        // On the grids that converge either way the fields agree to `tol`.
+        self.mg.coarse_truncation = true;
         for &d in &dims[1..] {
             out.push(self.ladder_next(job, g, d, stop));
         }
+        self.mg.coarse_truncation = false;
         out
     }
 
