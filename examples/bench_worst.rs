@@ -10,11 +10,19 @@
 //! `ladder K…` and `replay N ACC…` (see each function); `BW_SCAN`, `BW_SET`, `BW_ACC`
 //! choose the states and the accuracy (see [`states_from_env`] and `main`).
 use bearing_sweep::bearing::finite::{
-    simpson_estimate, simpson_stop_bound, FiniteGrid, FiniteJob, FiniteSolver, LadderStep,
+    ladder_extends, simpson_estimate, simpson_stop_bound, FiniteGrid, FiniteJob, FiniteSolver,
+    LadderStep,
 };
 use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState, FilmModel};
 use bearing_sweep::bench::finite::bench_states;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// The default solves' node updates, and those of the grids past a met bound
+/// (`ladder_extends`) with the number of such states (the main mode's work figures).
+static UPDATES: AtomicU64 = AtomicU64::new(0);
+static EXTRA: AtomicU64 = AtomicU64::new(0);
+static EXTENDED: AtomicU64 = AtomicU64::new(0);
 
 #[path = "../tests/support/finite_states.rs"]
 mod finite_states;
@@ -557,6 +565,19 @@ fn main() {
             } else {
                 [d(n - 1) / 3.0, 0.0, 0.0, it]
             };
+            // Work: node updates of the solve, and those of the extra grid where the
+            // ladder went on past a met bound (`ladder_extends`, session 41).
+            let tr = &solver.trace;
+            UPDATES.fetch_add(tr[n - 1].updates, Relaxed);
+            if n >= 2 && tr[n - 1].n_theta > tr[n - 2].n_theta {
+                let before: Vec<[f64; 4]> = tr[..n - 1].iter().map(|t| t.integrals).collect();
+                if simpson_stop_bound(&before).is_some_and(|b| b <= p.finite.accuracy)
+                    && ladder_extends(&before)
+                {
+                    EXTRA.fetch_add(tr[n - 1].updates - tr[n - 2].updates, Relaxed);
+                    EXTENDED.fetch_add(1, Relaxed);
+                }
+            }
             let same = full
                 .steps
                 .iter()
@@ -573,6 +594,12 @@ fn main() {
         })
         .collect();
     rows.sort_by(|a, b| b.1.total_cmp(&a.1));
+    println!(
+        "node updates per state {:.0}; {} states went on one grid past a met bound, {:.0} updates per state of the set on those grids",
+        UPDATES.load(Relaxed) as f64 / rows.len() as f64,
+        EXTENDED.load(Relaxed),
+        EXTRA.load(Relaxed) as f64 / rows.len() as f64
+    );
     let over = rows.iter().filter(|r| r.1 > 1e-3).count();
     let mut grids: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
     for r in &rows {
@@ -665,9 +692,16 @@ fn main() {
     // Candidate reports from the solver's own ladder (the stop unchanged), over states
     // with errors above 3e-5: name, report from [d₀/3, d₋₁/12, d₋₂/48].
     type Cand = (&'static str, fn(&[f64; 4]) -> f64);
-    let cands: [Cand; 9] = [
+    let cands: [Cand; 11] = [
         ("√(max(c0,c2)·c0) + it", |c| {
             (c[0].max(c[2]) * c[0]).sqrt() + c[3]
+        }),
+        // Session 41: the two parts in quadrature (errors of either sign).
+        ("√(max(c0,c1,c2)·c0) ⊕ it", |c| {
+            (c[0].max(c[1]).max(c[2]) * c[0]).sqrt().hypot(c[3])
+        }),
+        ("√(max(c0,c1,c2)·c0) ⊕ 2 it", |c| {
+            (c[0].max(c[1]).max(c[2]) * c[0]).sqrt().hypot(2.0 * c[3])
         }),
         ("√(max(c0,c1,c2)·c0) + it", |c| {
             (c[0].max(c[1]).max(c[2]) * c[0]).sqrt() + c[3]

@@ -35,7 +35,8 @@ pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, I
 pub(crate) use solver::ALGEBRAIC_FRACTION;
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
-    ladder_estimate, ladder_integrals_on, richardson_estimate, simpson_estimate, simpson_reported,
-    simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
-    LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR, LADDER_LOOSE,
+    ladder_estimate, ladder_extends, ladder_integrals_on, richardson_estimate, simpson_estimate,
+    simpson_reported, simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution,
+    FiniteSolver, LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR,
+    LADDER_LOOSE, LADDER_PAIR_RATIO,
 };

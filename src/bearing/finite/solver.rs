@@ -906,9 +906,16 @@ impl FiniteSolver {
                     ladder_estimate(values).map(|e| (e, e))
                 }
             };
-            // Whether the grid may end the ladder (the bound: without `it`).
+            // Whether the grid may end the ladder (the bound: without `it`; on the
+            // Simpson-summed ladder not where its last pair is out of the asymptotic
+            // range and a finer grid is left, see `ladder_extends`).
+            let more = dims != ladder[ladder.len() - 1];
+            let simpson = self.mg.simpson_z && g.layout.is_empty();
+            let ends = |values: &[FilmIntegrals], bound: f64| {
+                bound <= target && !(simpson && more && ladder_extends(values))
+            };
             let mut est = est_of(&values, self.mg.simpson_z, 0.0);
-            if est.is_some_and(|e| e.0 <= target) && res.1 > floor {
+            if est.is_some_and(|e| ends(&values, e.0)) && res.1 > floor {
                 // Stopped loosely as an intermediate grid, but it may end the ladder:
                 // on to the floor (the cycles continue, none is repeated).
                 res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
@@ -919,7 +926,9 @@ impl FiniteSolver {
             steps.push(step);
             if let Some((bound, e)) = est {
                 estimate = e;
-                if bound <= target {
+                // A grid whose V-cycles did not reach their stop (`res.2`) does not end
+                // the ladder: its loads' iteration error is not known to be small.
+                if ends(&values, bound) && res.2 {
                     met = true;
                     break;
                 }
@@ -1443,6 +1452,37 @@ pub fn simpson_reported(values: &[FilmIntegrals], iteration: f64) -> Option<f64>
         b = b.max(d1 / 12.0 / norm);
     }
     Some((b * e).sqrt() + iteration.max(0.0))
+}
+
+/// Largest ratio `d₀/d₋₁` of the Simpson-summed ladder's last two pair differences for
+/// which the last pair is taken as in its asymptotic range (second order: 1/4); see
+/// [`ladder_extends`]. Measured (examples/bench_worst.rs, session 41): 1 extends 4 of the
+/// 732 dense states at ε 0.8-0.95 and 2 of the 1,032 at ε 0.1-0.95, none of the 32
+/// benchmark states (55,311 node updates per default state, unchanged); 0.5 extended 8
+/// of the 732 and put 4 aligned states at ε 0.83 outside 1/3-3 on their extra grid; 0.35
+/// cost 67,311 node updates (+21.7 %).
+pub const LADDER_PAIR_RATIO: f64 = 1.0;
+
+/// Whether the Simpson-summed ladder, its stop bound met on the last of `values`, goes on
+/// one more grid (issue 20 session 41): where the last pair's difference is more than
+/// [`LADDER_PAIR_RATIO`] × the one before (`d₀ > r d₋₁`; second order gives 1/4), the last
+/// pair is not in its asymptotic range, the grid before the last is an unlucky one
+/// between smaller errors, and `d₀/3` over-estimates the last grid's error (aligned
+/// journals squeezed at ε 0.925-0.932: 3-8× of true errors 3e-5-7e-5). Not where the
+/// grid before the last was itself such an extension (one extra grid at most).
+pub fn ladder_extends(values: &[FilmIntegrals]) -> bool {
+    let n = values.len();
+    if n < 4 {
+        return false;
+    }
+    let d = |i: usize| {
+        (0..4)
+            .map(|k| (values[i][k] - values[i - 1][k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let out = |m: usize| m >= 4 && d(m - 1) > LADDER_PAIR_RATIO * d(m - 2);
+    out(n) && !out(n - 1)
 }
 
 /// Load integrals of an accuracy-ladder field (`nt × nz`, node 0 at `theta0`, `nz`
