@@ -1244,7 +1244,7 @@ fn pair_out(vals: array<f64, 48>, m: u32) -> bool {
 // Whether the plain film's ladder goes on one more grid though its bound is met on the
 // last of `n` values (solver.rs ladder_extends): the last pair out of its asymptotic
 // range, the one before not; never with held bands, nor on the ladder's last grid.
-fn extends(vals: array<f64, 48>, n: u32) -> bool {
+fn ladder_extends(vals: array<f64, 48>, n: u32) -> bool {
     if params.banded != 0u || cur + 1u >= params.n_levels {
         return false;
     }
@@ -1371,7 +1371,7 @@ fn finish_level() {
             n += 1u;
         }
         let e = estimate(vals, n);
-        let ext = extends(vals, n);
+        let ext = ladder_extends(vals, n);
         if e >= 0.0 && e <= params.accuracy && !ext && loose_now > 0.0 && err > params.floor
             && cyc < maxc {
             // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
