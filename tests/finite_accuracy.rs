@@ -179,7 +179,8 @@ fn estimate_is_honest_at_high_eccentricity() {
     // (ε of end i, tilt: 1 − ε_j/ε_i, (vx, vy)/δω at end i, the same at end j too, grids
     // past 1024 × 128 for the reference: 4096 × 512 for the dense scan's two, whose errors
     // are 1.3e-5-2e-5 on 1024 × 128).
-    let cases: [(f64, f64, (f64, f64), bool, usize); 10] = [
+    type Case = (f64, f64, (f64, f64), bool, usize);
+    let cases: [Case; 10] = [
         (dense(52), 0.0, (0.0, -0.03), true, 2),
         (dense(53), 0.0, (0.0, -0.03), true, 2),
         (0.9325, 0.0, (0.0, 0.0), false, 1),
