@@ -202,8 +202,10 @@ pub struct SolveReport {
     /// grid.
     pub error_estimate: f64,
     /// Accuracy mode: whether the ladder's stop rule reached the requested accuracy (false
-    /// when the largest grid, 1024 intervals around, was not enough). The plain film
-    /// stops on [`simpson_stop_bound`]; its reported `error_estimate` can exceed the
+    /// when the largest grid, 1024 intervals around, was not enough, or when its last
+    /// grid's V-cycles did not reach their stop; session 41). The plain film
+    /// stops on [`simpson_stop_bound`] (one grid further where [`ladder_extends`]); its
+    /// reported `error_estimate` can exceed the
     /// accuracy on erratic ladders, where the true error does too (up to 1.64× on the
     /// benchmark's 1024 states at the default, true error 5.4e-4; session 40).
     pub accuracy_met: bool,
@@ -1442,7 +1444,9 @@ pub fn simpson_stop_bound(values: &[FilmIntegrals]) -> Option<f64> {
 /// session 39's `√(bound × d₀/3)` was 0.09-5.5 × the true error, 19 outside 1/3-3,
 /// this one 0.41-3.7, 3 outside (over-estimates of errors ≤ 7e-5, where the last grid's
 /// error is a lucky small one; examples/bench_worst.rs, BENCHMARKS.md "Issue 20: an
-/// honest estimate at high eccentricity, session 40"). `None` below three grids.
+/// honest estimate at high eccentricity, session 40"); with the ladder going on one grid
+/// where the last pair is not asymptotic ([`ladder_extends`], session 41) 0.40-3.67, 2
+/// outside (over-estimates 3.5-3.7× of errors 5e-5-6e-5). `None` below three grids.
 pub fn simpson_reported(values: &[FilmIntegrals], iteration: f64) -> Option<f64> {
     let n = values.len();
     let bound = simpson_stop_bound(values)?;
