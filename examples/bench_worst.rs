@@ -10,11 +10,19 @@
 //! `ladder K…` and `replay N ACC…` (see each function); `BW_SCAN`, `BW_SET`, `BW_ACC`
 //! choose the states and the accuracy (see [`states_from_env`] and `main`).
 use bearing_sweep::bearing::finite::{
-    simpson_estimate, simpson_stop_bound, FiniteGrid, FiniteJob, FiniteSolver, LadderStep,
+    ladder_extends, simpson_estimate, simpson_stop_bound, FiniteGrid, FiniteJob, FiniteSolver,
+    LadderStep,
 };
 use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState, FilmModel};
 use bearing_sweep::bench::finite::bench_states;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// The default solves' node updates, and those of the grids past a met bound
+/// (`ladder_extends`) with the number of such states (the main mode's work figures).
+static UPDATES: AtomicU64 = AtomicU64::new(0);
+static EXTRA: AtomicU64 = AtomicU64::new(0);
+static EXTENDED: AtomicU64 = AtomicU64::new(0);
 
 #[path = "../tests/support/finite_states.rs"]
 mod finite_states;
@@ -405,6 +413,86 @@ fn truth(n: usize) {
     );
 }
 
+/// `stall NT NZ CYCLES`: why the multigrid stops contracting on fine grids at high ε
+/// (issue 20 session 41). Per state of [`states_from_env`]: the explicit grid `NT × NZ`
+/// from cold by full multigrid ([`FiniteSolver::fmg_cycles`]), then CYCLES V-cycles; per
+/// cycle the field's change over its maximum, the observed contraction, the nodes whose
+/// active/free status flipped, and where the largest change is (column, row, its
+/// pressure over the maximum). `BW_CT=1`: with [`FiniteSolver::coarse_truncation`].
+/// `BW_LADDER=1`: instead the ladder carried to NT ([`FiniteSolver::ladder_beyond`],
+/// which truncates the coarse side), its log from NT × NZ on.
+fn stall(nt: usize, nz: usize, cycles: u32) {
+    let (p0, states) = states_from_env(1);
+    let p = BearingParams {
+        model: FilmModel::Finite,
+        ..p0
+    };
+    let mut grid = FiniteGrid::for_bearing(&p);
+    grid.n_theta = nt;
+    grid.n_z = nz;
+    grid.accuracy = None;
+    for (k, s) in states.iter().enumerate() {
+        let Ok(packed) = pack_state(&p, s) else {
+            continue;
+        };
+        let job = FiniteJob::new(&p, &packed);
+        if std::env::var("BW_LADDER").is_ok() {
+            // The ladder's way (node 0 on the maximum film, the stencil freeze, bilinear
+            // starts), carried past 1024 × 128 to NT: the log of the grids from NT × NZ.
+            let mut solver = FiniteSolver::new();
+            solver.keep_cycle_log(true);
+            let ladder = FiniteGrid::for_bearing(&p);
+            let extra = (nt / 1024).max(1).ilog2() as usize;
+            solver.ladder_beyond(&job, &ladder, 1e-10, extra);
+            for c in solver
+                .take_cycle_log()
+                .iter()
+                .filter(|c| c.grid.0 >= nt && c.cycle <= cycles)
+            {
+                println!(
+                    "k {k} {}x{} cycle {:3} change {:.3e} flips {:5} at ({}, {}) p/max {:.3e}",
+                    c.grid.0, c.grid.1, c.cycle, c.change, c.flips, c.at.0, c.at.1, c.at.2
+                );
+            }
+            continue;
+        }
+        let mut prev: Vec<f64> = Vec::new();
+        let mut last = f64::NAN;
+        let mut cycle = 0;
+        let mut observe = |updates: u64, f: &[f64]| {
+            let maxp = f.iter().cloned().fold(0.0, f64::max);
+            if !prev.is_empty() {
+                let (mut dm, mut at) = (0.0f64, 0usize);
+                let mut flips = 0;
+                for (i, (a, b)) in f.iter().zip(&prev).enumerate() {
+                    let d = (a - b).abs();
+                    if d > dm {
+                        dm = d;
+                        at = i;
+                    }
+                    flips += usize::from((*a > 0.0) != (*b > 0.0));
+                }
+                let ch = dm / maxp;
+                println!(
+                    "k {k} cycle {cycle:3} updates {updates:>10} change {ch:.3e} ratio {:.3} flips {flips:5} at ({}, {}) p/max {:.3e}",
+                    ch / last,
+                    at % nt,
+                    at / nt,
+                    f[at] / maxp
+                );
+                last = ch;
+            }
+            cycle += 1;
+            prev.clear();
+            prev.extend_from_slice(f);
+        };
+        // BW_CT=1: the coarse side of the correction truncated too (session 41's fix).
+        let mut solver = FiniteSolver::new();
+        solver.coarse_truncation = std::env::var("BW_CT").is_ok();
+        solver.fmg_cycles(&job, &grid, cycles, Some(&mut observe));
+    }
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     if std::env::args().nth(1).as_deref() == Some("truth") {
@@ -412,6 +500,13 @@ fn main() {
             .nth(2)
             .map_or(1024, |s| s.parse().expect("N"));
         return truth(n);
+    }
+    if std::env::args().nth(1).as_deref() == Some("stall") {
+        let a: Vec<usize> = std::env::args()
+            .skip(2)
+            .map(|s| s.parse().expect("NT NZ CYCLES"))
+            .collect();
+        return stall(a[0], a[1], a[2] as u32);
     }
     if std::env::args().nth(1).as_deref() == Some("replay") {
         let n = std::env::args()
@@ -470,6 +565,19 @@ fn main() {
             } else {
                 [d(n - 1) / 3.0, 0.0, 0.0, it]
             };
+            // Work: node updates of the solve, and those of the extra grid where the
+            // ladder went on past a met bound (`ladder_extends`, session 41).
+            let tr = &solver.trace;
+            UPDATES.fetch_add(tr[n - 1].updates, Relaxed);
+            if n >= 2 && tr[n - 1].n_theta > tr[n - 2].n_theta {
+                let before: Vec<[f64; 4]> = tr[..n - 1].iter().map(|t| t.integrals).collect();
+                if simpson_stop_bound(&before).is_some_and(|b| b <= p.finite.accuracy)
+                    && ladder_extends(&before)
+                {
+                    EXTRA.fetch_add(tr[n - 1].updates - tr[n - 2].updates, Relaxed);
+                    EXTENDED.fetch_add(1, Relaxed);
+                }
+            }
             let same = full
                 .steps
                 .iter()
@@ -486,6 +594,12 @@ fn main() {
         })
         .collect();
     rows.sort_by(|a, b| b.1.total_cmp(&a.1));
+    println!(
+        "node updates per state {:.0}; {} states went on one grid past a met bound, {:.0} updates per state of the set on those grids",
+        UPDATES.load(Relaxed) as f64 / rows.len() as f64,
+        EXTENDED.load(Relaxed),
+        EXTRA.load(Relaxed) as f64 / rows.len() as f64
+    );
     let over = rows.iter().filter(|r| r.1 > 1e-3).count();
     let mut grids: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
     for r in &rows {
@@ -578,9 +692,16 @@ fn main() {
     // Candidate reports from the solver's own ladder (the stop unchanged), over states
     // with errors above 3e-5: name, report from [d₀/3, d₋₁/12, d₋₂/48].
     type Cand = (&'static str, fn(&[f64; 4]) -> f64);
-    let cands: [Cand; 9] = [
+    let cands: [Cand; 11] = [
         ("√(max(c0,c2)·c0) + it", |c| {
             (c[0].max(c[2]) * c[0]).sqrt() + c[3]
+        }),
+        // Session 41: the two parts in quadrature (errors of either sign).
+        ("√(max(c0,c1,c2)·c0) ⊕ it", |c| {
+            (c[0].max(c[1]).max(c[2]) * c[0]).sqrt().hypot(c[3])
+        }),
+        ("√(max(c0,c1,c2)·c0) ⊕ 2 it", |c| {
+            (c[0].max(c[1]).max(c[2]) * c[0]).sqrt().hypot(2.0 * c[3])
         }),
         ("√(max(c0,c1,c2)·c0) + it", |c| {
             (c[0].max(c[1]).max(c[2]) * c[0]).sqrt() + c[3]

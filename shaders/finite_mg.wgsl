@@ -1221,6 +1221,36 @@ fn dist4(a: array<f64, 4>, b: array<f64, 4>) -> f64 {
     return sqrt(s);
 }
 
+// Largest d₀/d₋₁ of the last two pairs taken as asymptotic (solver.rs LADDER_PAIR_RATIO).
+const LADDER_PAIR_RATIO: f64 = 1.0;
+
+// Whether the pair ending at value m − 1 (of m values) is out of its asymptotic range:
+// its difference above LADDER_PAIR_RATIO × the pair before's.
+fn pair_out(vals: array<f64, 48>, m: u32) -> bool {
+    if m < 4u {
+        return false;
+    }
+    var a: array<f64, 4>;
+    var b: array<f64, 4>;
+    var c: array<f64, 4>;
+    for (var q = 0u; q < 4u; q++) {
+        a[q] = vals[4u * (m - 3u) + q];
+        b[q] = vals[4u * (m - 2u) + q];
+        c[q] = vals[4u * (m - 1u) + q];
+    }
+    return dist4(c, b) > LADDER_PAIR_RATIO * dist4(b, a);
+}
+
+// Whether the plain film's ladder goes on one more grid though its bound is met on the
+// last of `n` values (solver.rs ladder_extends): the last pair out of its asymptotic
+// range, the one before not; never with held bands, nor on the ladder's last grid.
+fn ladder_extends(vals: array<f64, 48>, n: u32) -> bool {
+    if params.banded != 0u || cur + 1u >= params.n_levels {
+        return false;
+    }
+    return pair_out(vals, n) && !pair_out(vals, n - 1u);
+}
+
 // The bound the ladder stops on for the last of `n` ladder values (solver.rs
 // simpson_stop_bound and, with held bands, banded_estimate); negative below three grids.
 fn estimate(vals: array<f64, 48>, n: u32) -> f64 {
@@ -1341,7 +1371,8 @@ fn finish_level() {
             n += 1u;
         }
         let e = estimate(vals, n);
-        if e >= 0.0 && e <= params.accuracy && loose_now > 0.0 && err > params.floor
+        let ext = ladder_extends(vals, n);
+        if e >= 0.0 && e <= params.accuracy && !ext && loose_now > 0.0 && err > params.floor
             && cyc < maxc {
             // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
             // floor (the cycles continue, none is repeated; solver.rs solve_accuracy).
@@ -1352,7 +1383,9 @@ fn finish_level() {
         nv = n;
         if e >= 0.0 {
             est = reported(vals, n, e, err);
-            if e <= params.accuracy {
+            // A grid whose cycles did not reach their stop does not end the ladder
+            // (solver.rs solve_accuracy: `res.2`).
+            if e <= params.accuracy && !ext && conv {
                 met = true;
                 ph = PH_DONE;
                 return;

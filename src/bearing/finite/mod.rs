@@ -30,15 +30,16 @@ pub use map::{compute_error_map, error_map_markdown, error_map_svg, ErrorMap, MA
 // For the GPU multigrid driver (src/backend/finite_mg.rs): the same hierarchy and stop rule.
 #[cfg(feature = "gpu")]
 pub(crate) use multigrid::{coarser, Coarsen};
-pub use multigrid::{WorkRole, WorkShare};
+pub use multigrid::{CycleLog, WorkRole, WorkShare};
 pub use settings::{Cavitation, FilmModel, FiniteSettings, FiniteSettingsError, Inlet};
 #[cfg(feature = "gpu")]
 pub(crate) use solver::ALGEBRAIC_FRACTION;
 pub use solver::{
     accuracy_ladder, banded_estimate, finite_integrals, finite_loads, finite_solution,
-    ladder_estimate, ladder_integrals_on, richardson_estimate, simpson_estimate, simpson_reported,
-    simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution, FiniteSolver,
-    LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR, LADDER_LOOSE,
+    ladder_estimate, ladder_extends, ladder_integrals_on, richardson_estimate, simpson_estimate,
+    simpson_reported, simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution,
+    FiniteSolver, LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR,
+    LADDER_LOOSE, LADDER_PAIR_RATIO,
 };
 
 /// The instruction set the multigrid's passes run on in this process (chosen on first use:

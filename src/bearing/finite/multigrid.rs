@@ -1391,17 +1391,55 @@ fn restrict_fas_on<const ST: usize, const SZ: usize>(fine: &Level, coarse: &mut 
 /// formed once per coarse node in `coarse.r` (scratch: the coarse grid's residual is not
 /// read again before its next descent), not up to four times per fine node.
 #[inline(never)]
-fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen) {
-    prolong_correction_with(lanes::isa(), fine, coarse, c);
+fn prolong_correction(fine: &mut Level, coarse: &mut Level, c: Coarsen, truncate_coarse: bool) {
+    prolong_correction_with(lanes::isa(), fine, coarse, c, truncate_coarse);
+}
+
+/// The coarse side of the truncated correction ([`Hierarchy::coarse_truncation`]): the
+/// correction `u_H − u₀` (in `coarse.r`) set to 0 at the coarse nodes outside the
+/// coarse pressure zone, where `u₀` (the injected fine iterate) is 0 at the node or at one
+/// of its four neighbours (the end rows count as positive, as on the fine side). There
+/// the coarse problem's own free boundary, a coarse cell off the fine one, moved the
+/// coarse solution; interpolated, that move reached fine nodes inside the fine zone and
+/// the active set flipped back and forth from cycle to cycle (issue 20 session 41:
+/// 20-100 nodes per cycle, a period-4 limit cycle on 2048 × 256 and 4096 × 512 at ε 0.9).
+fn truncate_outside_zone(coarse: &mut Level) {
+    let (nt, nz) = (coarse.nt, coarse.nz);
+    let (b, e) = (&coarse.base, &mut coarse.r);
+    for j in 1..nz {
+        let row = j * nt;
+        for i in 0..nt {
+            let k = row + i;
+            let ip = row + if i + 1 == nt { 0 } else { i + 1 };
+            let im = row + if i == 0 { nt - 1 } else { i - 1 };
+            let inside = b[k] > 0.0
+                && b[ip] > 0.0
+                && b[im] > 0.0
+                && (j + 1 == nz || b[k + nt] > 0.0)
+                && (j == 1 || b[k - nt] > 0.0);
+            if !inside {
+                e[k] = 0.0;
+            }
+        }
+    }
 }
 
 /// [`prolong_correction`] on the instruction set `isa`: in SIMD lanes
 /// ([`lanes::correct`]) where the CPU has AVX2 or AVX-512F, else the scalar pass; the same
 /// bits.
-fn prolong_correction_with(isa: LaneIsa, fine: &mut Level, coarse: &mut Level, c: Coarsen) {
+fn prolong_correction_with(
+    isa: LaneIsa,
+    fine: &mut Level,
+    coarse: &mut Level,
+    c: Coarsen,
+    truncate_coarse: bool,
+) {
     let cn = coarse.len();
     for ((e, p), b) in coarse.r[..cn].iter_mut().zip(&coarse.p).zip(&coarse.base) {
         *e = p - b;
+    }
+    if truncate_coarse {
+        truncate_outside_zone(coarse);
     }
     let n = fine.len();
     let g = lanes::Grid {
@@ -1892,6 +1930,15 @@ pub(crate) struct Hierarchy {
     pub tally: Option<Vec<WorkShare>>,
     /// The level [`Hierarchy::iterate`] last made the top one (the tally's key).
     cur_top: usize,
+    /// Per V-cycle of [`Hierarchy::iterate`] on the field stop, for probes (`None`, the
+    /// default: not kept; issue 20 session 41, the stall on fine grids): see [`CycleLog`].
+    pub cycle_log: Option<Vec<CycleLog>>,
+    /// Whether the coarse-grid correction is also truncated on the coarse side (see
+    /// [`truncate_outside_zone`]; issue 20 session 41). Default false: the correction as
+    /// the WGSL kernel mirrors it (shaders/finite_mg.wgsl `prolong_correction`). On, the
+    /// V-cycle contracts on the fine grids where it stalls without it (ε 0.9, 4096 × 512:
+    /// ~0.47 per cycle instead of ~1).
+    pub coarse_truncation: bool,
     /// How the coarsest grid is solved inside a V-cycle.
     pub coarsest: CoarsestSolve,
     /// Smoothing sweeps (before, after the correction) on the levels below the grid being
@@ -1952,6 +1999,22 @@ pub struct WorkShare {
     pub sweeps: u64,
     /// Calls (smoothing stages, coarsest solves).
     pub calls: u64,
+}
+
+/// One V-cycle of [`Hierarchy::iterate`] on the field stop, as a probe sees it
+/// ([`Hierarchy::cycle_log`]; issue 20 session 41).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CycleLog {
+    /// The grid solved `(n_theta, n_z)`.
+    pub grid: (usize, usize),
+    /// The cycle's number on this grid (from 1).
+    pub cycle: u32,
+    /// The field's largest change over the cycle over its maximum.
+    pub change: f64,
+    /// Nodes whose pressure went from 0 to positive or back over the cycle.
+    pub flips: usize,
+    /// Where the largest change is: column, row, and the pressure there over the maximum.
+    pub at: (usize, usize, f64),
 }
 
 /// The V-cycle: smoother and smoothing sweeps (issue 20, session 37).
@@ -2128,7 +2191,7 @@ impl Hierarchy {
         self.vcycle(l - 1, aspect);
         let (lo, hi) = self.levels.split_at_mut(l);
         let fine = &mut hi[0];
-        prolong_correction(fine, &mut lo[l - 1], how);
+        prolong_correction(fine, &mut lo[l - 1], how, self.coarse_truncation);
         for _ in 0..nu_post {
             if lines {
                 fine.smooth_lines();
@@ -2185,6 +2248,25 @@ impl Hierarchy {
             let lvl = &mut self.levels[l];
             let n = lvl.len();
             let (p, prev) = (&lvl.p[..n], &mut lvl.base[..n]);
+            if let (Some(log), Stop::Field(_)) = (self.cycle_log.as_mut(), stop) {
+                let (mut dm, mut at, mut flips, mut maxp) = (0.0f64, 0, 0, 0.0f64);
+                for (k, (a, b)) in p.iter().zip(prev.iter()).enumerate() {
+                    let d = (a - b).abs();
+                    if d > dm {
+                        dm = d;
+                        at = k;
+                    }
+                    flips += usize::from((*a > 0.0) != (*b > 0.0));
+                    maxp = maxp.max(*a);
+                }
+                log.push(CycleLog {
+                    grid: (lvl.nt, lvl.nz),
+                    cycle,
+                    change: dm / maxp,
+                    flips,
+                    at: (at % lvl.nt, at / lvl.nt, p[at] / maxp),
+                });
+            }
             // The change of this cycle, relative: of the field over its maximum, or of
             // the load integrals over their norm.
             let change = match stop {
@@ -2897,8 +2979,8 @@ mod tests {
                                 zero_holds(&mut fb);
                             }
                             let (mut ca, mut cb) = (coarse_of(seed), coarse_of(seed));
-                            prolong_correction_with(LaneIsa::Baseline, &mut fa, &mut ca, c);
-                            prolong_correction_with(isa, &mut fb, &mut cb, c);
+                            prolong_correction_with(LaneIsa::Baseline, &mut fa, &mut ca, c, false);
+                            prolong_correction_with(isa, &mut fb, &mut cb, c, false);
                             assert_eq!(
                                 bits(&fa.p),
                                 bits(&fb.p),

@@ -202,8 +202,10 @@ pub struct SolveReport {
     /// grid.
     pub error_estimate: f64,
     /// Accuracy mode: whether the ladder's stop rule reached the requested accuracy (false
-    /// when the largest grid, 1024 intervals around, was not enough). The plain film
-    /// stops on [`simpson_stop_bound`]; its reported `error_estimate` can exceed the
+    /// when the largest grid, 1024 intervals around, was not enough, or when its last
+    /// grid's V-cycles did not reach their stop; session 41). The plain film
+    /// stops on [`simpson_stop_bound`] (one grid further where [`ladder_extends`]); its
+    /// reported `error_estimate` can exceed the
     /// accuracy on erratic ladders, where the true error does too (up to 1.64× on the
     /// benchmark's 1024 states at the default, true error 5.4e-4; session 40).
     pub accuracy_met: bool,
@@ -322,6 +324,14 @@ pub struct FiniteSolver {
     /// Smoothing sweeps on the levels below the grid being solved (`None`, the default:
     /// the cycle's; probes, issue 20 session 38; see the multigrid's `below_top`).
     pub below_top: Option<(u32, u32)>,
+    /// Explicit grids: the coarse-grid correction truncated on the coarse side too (the
+    /// multigrid's `coarse_truncation`; issue 20 session 41). Without it the V-cycle
+    /// stalls in a limit cycle of the free boundary on grids finer than 1024 × 128 at high
+    /// eccentricity (ε 0.9, 4096 × 512: every state tried; the solve then reports
+    /// `converged: false`); with it those grids contract by ~0.5 per cycle. Default false:
+    /// the WGSL kernel mirrors the correction without it (the accuracy ladder never uses
+    /// it). [`FiniteSolver::ladder_beyond`] always uses it.
+    pub coarse_truncation: bool,
 }
 
 /// Nondimensional film thickness `h/δ` at axial fraction `zeta` and angle `(cos θ, sin θ)`
@@ -422,6 +432,22 @@ impl FiniteSolver {
     /// not kept); the tally restarts.
     pub fn take_work_tally(&mut self) -> Vec<super::WorkShare> {
         match self.mg.tally.as_mut() {
+            Some(t) => std::mem::take(t),
+            None => Vec::new(),
+        }
+    }
+
+    /// Keeps (`true`) or drops the multigrid's per-cycle log on the field stop
+    /// ([`super::CycleLog`]: explicit grids and [`FiniteSolver::ladder_beyond`]; for
+    /// probes, issue 20 session 41). Off by default.
+    pub fn keep_cycle_log(&mut self, on: bool) {
+        self.mg.cycle_log = on.then(Vec::new);
+    }
+
+    /// The cycles logged since [`FiniteSolver::keep_cycle_log`] (or the last call); the
+    /// log restarts.
+    pub fn take_cycle_log(&mut self) -> Vec<super::CycleLog> {
+        match self.mg.cycle_log.as_mut() {
             Some(t) => std::mem::take(t),
             None => Vec::new(),
         }
@@ -586,6 +612,7 @@ impl FiniteSolver {
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        self.mg.coarse_truncation = self.coarse_truncation;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         // The coarser grids as in `solve_fixed` (the coarsest solved to the tolerance);
@@ -651,6 +678,7 @@ impl FiniteSolver {
         self.mg.cycle = self.cycle;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        self.mg.coarse_truncation = self.coarse_truncation;
         self.mg.build(job, g.n_theta, g.n_z, g);
         let top = self.mg.levels.len() - 1;
         let res = if warm {
@@ -681,6 +709,9 @@ impl FiniteSolver {
         self.mg.updates = 0;
         self.mg.coarsest = self.coarsest;
         self.mg.below_top = self.below_top;
+        // The kernel's correction (see `FiniteSolver::coarse_truncation`); the finer
+        // references of `ladder_beyond` set it on after this.
+        self.mg.coarse_truncation = false;
         self.mg.line_freeze = false;
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
@@ -774,9 +805,14 @@ impl FiniteSolver {
             dims.push((2 * nt, 2 * nz));
         }
         let mut out = vec![self.ladder_start(job, g, stop)];
+        // The coarse side truncated too (issue 20 session 41): without it 2048 × 256
+        // stalled on 40 of 96 states at ε 0.88-0.95 and 4096 × 512 on every state tried.
+        // On the grids that converge either way the fields agree to `tol`.
+        self.mg.coarse_truncation = true;
         for &d in &dims[1..] {
             out.push(self.ladder_next(job, g, d, stop));
         }
+        self.mg.coarse_truncation = false;
         out
     }
 
@@ -872,9 +908,16 @@ impl FiniteSolver {
                     ladder_estimate(values).map(|e| (e, e))
                 }
             };
-            // Whether the grid may end the ladder (the bound: without `it`).
+            // Whether the grid may end the ladder (the bound: without `it`; on the
+            // Simpson-summed ladder not where its last pair is out of the asymptotic
+            // range and a finer grid is left, see `ladder_extends`).
+            let more = dims != ladder[ladder.len() - 1];
+            let simpson = self.mg.simpson_z && g.layout.is_empty();
+            let ends = |values: &[FilmIntegrals], bound: f64| {
+                bound <= target && !(simpson && more && ladder_extends(values))
+            };
             let mut est = est_of(&values, self.mg.simpson_z, 0.0);
-            if est.is_some_and(|e| e.0 <= target) && res.1 > floor {
+            if est.is_some_and(|e| ends(&values, e.0)) && res.1 > floor {
                 // Stopped loosely as an intermediate grid, but it may end the ladder:
                 // on to the floor (the cycles continue, none is repeated).
                 res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
@@ -885,7 +928,9 @@ impl FiniteSolver {
             steps.push(step);
             if let Some((bound, e)) = est {
                 estimate = e;
-                if bound <= target {
+                // A grid whose V-cycles did not reach their stop (`res.2`) does not end
+                // the ladder: its loads' iteration error is not known to be small.
+                if ends(&values, bound) && res.2 {
                     met = true;
                     break;
                 }
@@ -898,10 +943,19 @@ impl FiniteSolver {
             let res = self
                 .mg
                 .iterate(top, job.aspect, Stop::Field(g.tolerance), MAX_CYCLES);
-            (
-                self.mg.levels[top].loads(self.mg.theta0, self.mg.simpson_z),
-                res,
-            )
+            let polished = self.mg.levels[top].loads(self.mg.theta0, self.mg.simpson_z);
+            if self.mg.simpson_z && g.layout.is_empty() {
+                // The reported estimate of the polished loads: their pairs, and the
+                // polished grid's iteration error instead of the ladder stop's, which
+                // the polish removed (issue 20 session 41: counted, it made the estimate
+                // 4× a true error of 2e-5 at ε 0.9325, squeezed).
+                let mut v = values.clone();
+                *v.last_mut().expect("at least one grid") = polished;
+                if let Some(e) = simpson_reported(&v, res.1) {
+                    estimate = e;
+                }
+            }
+            (polished, res)
         } else {
             (last.integrals, last.result)
         };
@@ -1390,7 +1444,9 @@ pub fn simpson_stop_bound(values: &[FilmIntegrals]) -> Option<f64> {
 /// session 39's `√(bound × d₀/3)` was 0.09-5.5 × the true error, 19 outside 1/3-3,
 /// this one 0.41-3.7, 3 outside (over-estimates of errors ≤ 7e-5, where the last grid's
 /// error is a lucky small one; examples/bench_worst.rs, BENCHMARKS.md "Issue 20: an
-/// honest estimate at high eccentricity, session 40"). `None` below three grids.
+/// honest estimate at high eccentricity, session 40"); with the ladder going on one grid
+/// where the last pair is not asymptotic ([`ladder_extends`], session 41) 0.40-3.67, 2
+/// outside (over-estimates 3.5-3.7× of errors 5e-5-6e-5). `None` below three grids.
 pub fn simpson_reported(values: &[FilmIntegrals], iteration: f64) -> Option<f64> {
     let n = values.len();
     let bound = simpson_stop_bound(values)?;
@@ -1409,6 +1465,37 @@ pub fn simpson_reported(values: &[FilmIntegrals], iteration: f64) -> Option<f64>
         b = b.max(d1 / 12.0 / norm);
     }
     Some((b * e).sqrt() + iteration.max(0.0))
+}
+
+/// Largest ratio `d₀/d₋₁` of the Simpson-summed ladder's last two pair differences for
+/// which the last pair is taken as in its asymptotic range (second order: 1/4); see
+/// [`ladder_extends`]. Measured (examples/bench_worst.rs, session 41): 1 extends 4 of the
+/// 732 dense states at ε 0.8-0.95 and 2 of the 1,032 at ε 0.1-0.95, none of the 32
+/// benchmark states (55,311 node updates per default state, unchanged); 0.5 extended 8
+/// of the 732 and put 4 aligned states at ε 0.83 outside 1/3-3 on their extra grid; 0.35
+/// cost 67,311 node updates (+21.7 %).
+pub const LADDER_PAIR_RATIO: f64 = 1.0;
+
+/// Whether the Simpson-summed ladder, its stop bound met on the last of `values`, goes on
+/// one more grid (issue 20 session 41): where the last pair's difference is more than
+/// [`LADDER_PAIR_RATIO`] × the one before (`d₀ > r d₋₁`; second order gives 1/4), the last
+/// pair is not in its asymptotic range, the grid before the last is an unlucky one
+/// between smaller errors, and `d₀/3` over-estimates the last grid's error (aligned
+/// journals squeezed at ε 0.925-0.932: 3-8× of true errors 3e-5-7e-5). Not where the
+/// grid before the last was itself such an extension (one extra grid at most).
+pub fn ladder_extends(values: &[FilmIntegrals]) -> bool {
+    let n = values.len();
+    if n < 4 {
+        return false;
+    }
+    let d = |i: usize| {
+        (0..4)
+            .map(|k| (values[i][k] - values[i - 1][k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let out = |m: usize| m >= 4 && d(m - 1) > LADDER_PAIR_RATIO * d(m - 2);
+    out(n) && !out(n - 1)
 }
 
 /// Load integrals of an accuracy-ladder field (`nt × nz`, node 0 at `theta0`, `nz`
