@@ -12,7 +12,7 @@ use serde_json::{json, Map, Value};
 
 use super::AppError;
 use crate::backend::{
-    choose_backend, BackendKind, LoadEvaluator, LoadRequest, LoadResult, DEFAULT_CPU_BELOW,
+    auto_cpu_below, choose_backend_for_film, BackendKind, LoadEvaluator, LoadRequest, LoadResult,
 };
 use crate::bearing::{Accuracy, BearingParams, BearingState};
 use crate::json::{deserialize_at, join_path, StrictSeed};
@@ -228,17 +228,23 @@ impl<W: Write> Run<'_, W> {
             return Ok(());
         };
         // The first chunk is the whole input when it is under a chunk: `auto` picks the CPU
-        // for calls below the GPU crossover.
+        // for calls below the GPU crossover (the finite film's is higher: its GPU call has
+        // a floor of one state's chain of kernel steps).
+        let finite = bearing.model != crate::bearing::FilmModel::Short;
         let key = (
             self.backend,
-            self.pending.len() < DEFAULT_CPU_BELOW,
+            self.pending.len() < auto_cpu_below(finite),
             self.accuracy.rtol().to_bits(),
         );
         let evaluator = match self.pool.and_then(|p| p.take(&key)) {
             Some(ev) => ev,
             None => {
-                let (backend, notices) =
-                    choose_backend(self.backend, self.accuracy, Some(self.pending.len()))?;
+                let (backend, notices) = choose_backend_for_film(
+                    self.backend,
+                    self.accuracy,
+                    Some(self.pending.len()),
+                    finite,
+                )?;
                 self.notices.extend(notices);
                 if let Some(p) = self.pool {
                     p.created.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::io::Write;
 
 use super::AppError;
-use crate::backend::{choose_backend, LoadEvaluator};
+use crate::backend::{choose_backend_for_film, LoadEvaluator};
 use crate::plot::Scale;
 use crate::rotor::simplifications::{evaluator_options, evaluator_report, SimplificationSpec};
 use crate::rotor::{
@@ -88,8 +88,16 @@ pub fn run_scene_file(
         .map_err(|r| AppError::input("scenes", r))?;
     // Every integration stage carries one state per bearing of every scene.
     let states_per_call = scenes.iter().map(|s| s.bearings.len()).sum();
-    let (backend, mut notices) =
-        choose_backend(opts.options.backend, accuracy, Some(states_per_call))?;
+    let finite = scenes
+        .iter()
+        .flat_map(|s| &s.bearings)
+        .any(|b| b.model != crate::bearing::FilmModel::Short);
+    let (backend, mut notices) = choose_backend_for_film(
+        opts.options.backend,
+        accuracy,
+        Some(states_per_call),
+        finite,
+    )?;
     if opts.options.full_model {
         for s in &mut scenes {
             s.reductions = SimplificationSpec::full();

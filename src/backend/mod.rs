@@ -324,12 +324,51 @@ pub fn choose_backend(
     accuracy: Accuracy,
     states_per_call: Option<usize>,
 ) -> Result<(Box<dyn FilmBackend>, Vec<String>), BackendError> {
+    choose_backend_for_film(kind, accuracy, states_per_call, false)
+}
+
+/// States per call and per host thread below which `auto` keeps finite-film calls on the
+/// CPU. Measured on an H200 against its host's 16 threads at the default accuracy
+/// (BENCHMARKS.md "Issue 20, session 41: the multigrid kernel's host side on the H200"): a
+/// GPU call is at least one state's chain of kernel steps, ~16-18 ms however few the
+/// states, while a CPU thread solves ~2,000-2,800 default-accuracy states/s; so the GPU
+/// lost 4× at 64 states per call and won 1.55× at 1024, a crossover near 600 on 16
+/// threads, ~36 per thread (40: the round number above it, the CPU's side of a tie).
+pub const FINITE_CPU_BELOW_PER_THREAD: usize = 40;
+
+/// The finite film's `auto` crossover on this host: [`FINITE_CPU_BELOW_PER_THREAD`] times
+/// rayon's threads.
+pub fn finite_cpu_below() -> usize {
+    FINITE_CPU_BELOW_PER_THREAD * rayon::current_num_threads().max(1)
+}
+
+/// The crossover `auto` applies to calls of this film: [`DEFAULT_CPU_BELOW`] for the short
+/// film, [`finite_cpu_below`] where the calls may carry finite-film states.
+pub fn auto_cpu_below(finite: bool) -> usize {
+    if finite {
+        finite_cpu_below().max(DEFAULT_CPU_BELOW)
+    } else {
+        DEFAULT_CPU_BELOW
+    }
+}
+
+/// [`choose_backend`] for calls whose bearings may use the finite film (`finite`: a
+/// bearing's `model` is `finite` or `auto`): `auto` then takes the GPU only from
+/// [`auto_cpu_below`]`(true)` states per call.
+pub fn choose_backend_for_film(
+    kind: BackendKind,
+    accuracy: Accuracy,
+    states_per_call: Option<usize>,
+    finite: bool,
+) -> Result<(Box<dyn FilmBackend>, Vec<String>), BackendError> {
     let cpu = |reason: String| chosen_cpu(kind, accuracy, reason);
+    let below = auto_cpu_below(finite);
+    let film = if finite { "finite-film " } else { "" };
     match (kind, states_per_call) {
         (BackendKind::Cpu, _) => return Ok(cpu("requested".into())),
-        (BackendKind::Auto, Some(n)) if n < DEFAULT_CPU_BELOW => {
+        (BackendKind::Auto, Some(n)) if n < below => {
             return Ok(cpu(format!(
-                "{n} bearing states per call, below the GPU crossover of {DEFAULT_CPU_BELOW}"
+                "{n} bearing states per call, below the {film}GPU crossover of {below}"
             )))
         }
         _ => {}
@@ -549,5 +588,45 @@ mod notice_tests {
             strip("2 bearing states per call, below the GPU crossover of 64"),
             "2 bearing states per call, below the GPU crossover of 64"
         );
+    }
+}
+
+#[cfg(test)]
+mod crossover_tests {
+    use super::*;
+
+    /// `auto` keeps finite-film calls on the CPU up to the finite film's own crossover
+    /// (40 states per host thread, above the short film's 64), whatever adapter exists:
+    /// the decision is made before an adapter is opened, and its reason names the film.
+    #[test]
+    fn auto_keeps_finite_film_calls_below_their_crossover_on_the_cpu() {
+        let threads = rayon::current_num_threads().max(1);
+        let below = auto_cpu_below(true);
+        assert_eq!(
+            below,
+            (40 * threads).max(DEFAULT_CPU_BELOW),
+            "threads {threads}"
+        );
+        assert_eq!(auto_cpu_below(false), DEFAULT_CPU_BELOW);
+        let n = below - 1;
+        let (b, _) = choose_backend_for_film(BackendKind::Auto, Accuracy::default(), Some(n), true)
+            .expect("the CPU backend");
+        let choice = b.choice().expect("auto records its choice");
+        assert_eq!(choice.backend, "cpu");
+        assert_eq!(
+            choice.reason,
+            format!("{n} bearing states per call, below the finite-film GPU crossover of {below}")
+        );
+        // The short film at the same size is past its crossover: not decided by size
+        // (an adapter or its absence decides), so its reason does not cite a crossover.
+        let (b, _) = choose_backend_for_film(
+            BackendKind::Auto,
+            Accuracy::default(),
+            Some(n.max(64)),
+            false,
+        )
+        .expect("a backend");
+        let reason = b.choice().expect("auto records its choice").reason;
+        assert!(!reason.contains("crossover"), "{reason}");
     }
 }
