@@ -138,13 +138,14 @@ pub fn prepare_simulator(
                 (b, (!notices.is_empty()).then(|| notices.join("\n")))
             } else if choice.backend == BackendKind::Auto {
                 // A sweep with the finite film (or `auto` films): the CPU, whatever the
-                // adapter. Measured on an H200 (BENCHMARKS.md "Issue 20: the finite film on
-                // a hardware GPU, session 39" and "... the multigrid kernel on the H200,
-                // session 40"): its multigrid kernel solved 35-68x fewer default-accuracy
-                // states per second than the host's 16 CPU threads in session 39, still
-                // 4.5-5.2x fewer after session 40's cuts, and a 256-variant finite-film
-                // sweep finished no variant in 45 s on it against 7 s on the CPU (session
-                // 39). `--backend gpu` still runs it there.
+                // adapter. Measured on an H200 against its host's 16 threads (BENCHMARKS.md
+                // "Issue 20, session 41: finite-film rotor sweeps on the H200"): the kernel
+                // now wins from ~1,000 states per call in the benchmark, but a rotor sweep's
+                // stages carry easy states (the ladder stops on coarse grids) that the CPU
+                // solves at 100,000-200,000 states/s while a GPU call costs at least one
+                // state's chain of kernel steps: 1,024 variants took 4.4 s on the GPU
+                // against 2.6 s, 4,096 variants 20.1 s against 12.7 s. `--backend gpu`
+                // still runs it there.
                 let (b, notices) = crate::backend::chosen_cpu(
                     BackendKind::Auto,
                     choice.accuracy.level(),
@@ -187,8 +188,8 @@ pub fn prepare_simulator(
 }
 
 /// Reason of `auto`'s choice for a rotor sweep that uses the finite film.
-const FINITE_SWEEP_ON_CPU: &str = "the sweep uses the finite film, whose GPU kernel is \
-     slower than the CPU backend (use --backend gpu to run it there)";
+const FINITE_SWEEP_ON_CPU: &str = "the sweep uses the finite film, whose rotor sweeps ran \
+     slower on the GPU than on the CPU backend (use --backend gpu to run it there)";
 
 /// Whether every variant of a rotor sweep uses the short film: no bearing of the base
 /// scene names another model and no axis sets a bearing's `model` (or a whole bearing).
