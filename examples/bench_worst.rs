@@ -23,11 +23,17 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 static UPDATES: AtomicU64 = AtomicU64::new(0);
 static EXTRA: AtomicU64 = AtomicU64::new(0);
 static EXTENDED: AtomicU64 = AtomicU64::new(0);
-/// PROBE: per state (k, true error, disc part, it, true it (integrals), candidate its).
-static ITS: std::sync::Mutex<Vec<(usize, f64, f64, f64, f64, Vec<f64>)>> =
-    std::sync::Mutex::new(Vec::new());
+/// Per state: index, true error, the estimate's discretisation part, the stop's
+/// iteration estimate, the true iteration error of the returned integrals (against the
+/// same grid to 1e-10), and [`it_cands`] (session 41, s41-honest2).
+type ItRow = (usize, f64, f64, f64, f64, Vec<f64>);
+static ITS: std::sync::Mutex<Vec<ItRow>> = std::sync::Mutex::new(Vec::new());
 
-/// PROBE: candidate iteration-error estimates from the last grid's loads per cycle.
+/// Candidate iteration terms from the last grid's loads per cycle
+/// (`FiniteSolver::cycle_loads`, its start first): the stop's norms' ratio, the load
+/// vector's contraction `δ·δ₋₁/|δ₋₁|²` without and with |ρ| ≥ 0.1 (the reported one since
+/// s41-honest2), the smaller of the last two norms' ratios, the last change itself, and
+/// the number of cycles.
 fn it_cands(h: &[[f64; 4]]) -> Vec<f64> {
     let n = h.len();
     let norm = |a: &[f64; 4]| a.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -756,6 +762,28 @@ fn main() {
             println!(
                 "  it cand {name}: it/true it {:.2}-{:.2} (median {:.2}); total/err {:.2}-{:.2}, {out} outside",
                 r[0], r[r.len() - 1], r[r.len() / 2], t[0], t[t.len() - 1]
+            );
+        }
+        // Combinations of the discretisation part with the reported (vector) iteration
+        // term: sum (taken), quadrature, quadrature of twice it.
+        type Comb = (&'static str, fn(f64, f64) -> f64);
+        let combs: [Comb; 4] = [
+            ("disc + it", |d, i| d + i),
+            ("disc ⊕ it", |d, i| d.hypot(i)),
+            ("disc ⊕ 2 it", |d, i| d.hypot(2.0 * i)),
+            ("disc ⊕ 1.5 it", |d, i| d.hypot(1.5 * i)),
+        ];
+        for (name, f) in combs {
+            let mut t: Vec<f64> = its.iter().map(|x| f(x.2, x.5[2]) / x.1).collect();
+            t.sort_by(f64::total_cmp);
+            let out = t
+                .iter()
+                .filter(|&&x| !(1.0 / 3.0..=3.0).contains(&x))
+                .count();
+            println!(
+                "  comb {name}: total/err {:.2}-{:.2}, {out} outside",
+                t[0],
+                t[t.len() - 1]
             );
         }
         if std::env::var("BW_ITS").is_ok() {

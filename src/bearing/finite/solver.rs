@@ -1478,7 +1478,12 @@ pub fn simpson_stop_bound(values: &[FilmIntegrals]) -> Option<f64> {
 /// error is a lucky small one; examples/bench_worst.rs, BENCHMARKS.md "Issue 20: an
 /// honest estimate at high eccentricity, session 40"); with the ladder going on one grid
 /// where the last pair is not asymptotic ([`ladder_extends`], session 41) 0.40-3.67, 2
-/// outside (over-estimates 3.5-3.7× of errors 5e-5-6e-5). `None` below three grids.
+/// outside (over-estimates 3.5-3.7× of errors 5e-5-6e-5). The accuracy ladder passes as
+/// `iteration` the tail of its last grid's load vector's own contraction
+/// ([`super::multigrid::load_tail_estimate`], s41-honest2; the stop's norms' ratio made
+/// the ε 0.7 squeezed test state 3.65× over at accuracy 1e-3, now 2.60×): 0.40-3.62 on
+/// the 732, the same 2 outside, whose discretisation part alone is 2.3× / 3.0× their true
+/// error. `None` below three grids.
 pub fn simpson_reported(values: &[FilmIntegrals], iteration: f64) -> Option<f64> {
     let n = values.len();
     let bound = simpson_stop_bound(values)?;
