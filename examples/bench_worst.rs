@@ -23,6 +23,49 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 static UPDATES: AtomicU64 = AtomicU64::new(0);
 static EXTRA: AtomicU64 = AtomicU64::new(0);
 static EXTENDED: AtomicU64 = AtomicU64::new(0);
+/// Per state: index, true error, the estimate's discretisation part, the stop's
+/// iteration estimate, the true iteration error of the returned integrals (against the
+/// same grid to 1e-10), and [`it_cands`] (session 41, s41-honest2).
+type ItRow = (usize, f64, f64, f64, f64, Vec<f64>);
+static ITS: std::sync::Mutex<Vec<ItRow>> = std::sync::Mutex::new(Vec::new());
+
+/// Candidate iteration terms from the last grid's loads per cycle
+/// (`FiniteSolver::cycle_loads`, its start first): the stop's norms' ratio, the load
+/// vector's contraction `δ·δ₋₁/|δ₋₁|²` without and with |ρ| ≥ 0.1 (the reported one since
+/// s41-honest2), the smaller of the last two norms' ratios, the last change itself, and
+/// the number of cycles.
+fn it_cands(h: &[[f64; 4]]) -> Vec<f64> {
+    let n = h.len();
+    let norm = |a: &[f64; 4]| a.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let vn = norm(&h[n - 1]);
+    let d = |i: usize| -> [f64; 4] { std::array::from_fn(|q| h[i][q] - h[i - 1][q]) };
+    let c = |i: usize| norm(&d(i)) / vn;
+    if n < 3 {
+        return vec![c(1), c(1), c(1), c(1), c(1), 1.0];
+    }
+    let ck = c(n - 1);
+    let ck1 = c(n - 2);
+    let tail = |rho: f64| ck * rho / (1.0 - rho);
+    let r_norm = (ck / ck1).clamp(0.1, 0.95);
+    let (a, b) = (d(n - 1), d(n - 2));
+    let dot: f64 = (0..4).map(|q| a[q] * b[q]).sum();
+    let rv = (dot / (norm(&b) * norm(&b))).clamp(-0.95, 0.95);
+    let aitken = ck * rv.abs() / (1.0 - rv);
+    let gm = rv.abs().max(0.1) / (1.0 - rv);
+    let rmin = if n >= 4 {
+        r_norm.min((ck1 / c(n - 3)).clamp(0.1, 0.95))
+    } else {
+        r_norm
+    };
+    vec![
+        tail(r_norm),
+        aitken,
+        ck * gm,
+        tail(rmin),
+        ck,
+        (n - 1) as f64,
+    ]
+}
 
 #[path = "../tests/support/finite_states.rs"]
 mod finite_states;
@@ -582,6 +625,21 @@ fn main() {
                 .steps
                 .iter()
                 .position(|t| t.n_theta == rep.n_theta as usize)?;
+            {
+                let h = &solver.cycle_loads;
+                let conv = full.steps[same].integrals;
+                let norm = |a: &[f64; 4]| a.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let diff: [f64; 4] = std::array::from_fn(|q| h[h.len() - 1][q] - conv[q]);
+                let true_it = norm(&diff) / norm(&conv);
+                ITS.lock().unwrap().push((
+                    k,
+                    rel(&v, &full.truth),
+                    (c[0].max(c[1]).max(c[2]) * c[0]).sqrt(),
+                    rep.iteration_error,
+                    true_it,
+                    it_cands(h),
+                ));
+            }
             Some((
                 k,
                 rel(&v, &full.truth),
@@ -689,6 +747,54 @@ fn main() {
         its[its.len() * 9 / 10],
         its[its.len() - 1]
     );
+    {
+        let its = ITS.lock().unwrap();
+        let names = ["tail(norm)", "aitken", "aitken ≥0.1", "tail(rmin)", "c_k"];
+        for (c, name) in names.iter().enumerate() {
+            let mut r: Vec<f64> = its.iter().map(|x| x.5[c] / x.4).collect();
+            r.sort_by(f64::total_cmp);
+            let mut t: Vec<f64> = its.iter().map(|x| (x.2 + x.5[c]) / x.1).collect();
+            t.sort_by(f64::total_cmp);
+            let out = t
+                .iter()
+                .filter(|&&x| !(1.0 / 3.0..=3.0).contains(&x))
+                .count();
+            println!(
+                "  it cand {name}: it/true it {:.2}-{:.2} (median {:.2}); total/err {:.2}-{:.2}, {out} outside",
+                r[0], r[r.len() - 1], r[r.len() / 2], t[0], t[t.len() - 1]
+            );
+        }
+        // Combinations of the discretisation part with the reported (vector) iteration
+        // term: sum (taken), quadrature, quadrature of twice it.
+        type Comb = (&'static str, fn(f64, f64) -> f64);
+        let combs: [Comb; 4] = [
+            ("disc + it", |d, i| d + i),
+            ("disc ⊕ it", |d, i| d.hypot(i)),
+            ("disc ⊕ 2 it", |d, i| d.hypot(2.0 * i)),
+            ("disc ⊕ 1.5 it", |d, i| d.hypot(1.5 * i)),
+        ];
+        for (name, f) in combs {
+            let mut t: Vec<f64> = its.iter().map(|x| f(x.2, x.5[2]) / x.1).collect();
+            t.sort_by(f64::total_cmp);
+            let out = t
+                .iter()
+                .filter(|&&x| !(1.0 / 3.0..=3.0).contains(&x))
+                .count();
+            println!(
+                "  comb {name}: total/err {:.2}-{:.2}, {out} outside",
+                t[0],
+                t[t.len() - 1]
+            );
+        }
+        if std::env::var("BW_ITS").is_ok() {
+            for x in its.iter() {
+                println!(
+                    "    its k {} err {:.2e} disc {:.2e} it {:.2e} true it {:.2e} cands {:.2e} {:.2e} {:.2e} {:.2e} ck {:.2e} cycles {}",
+                    x.0, x.1, x.2, x.3, x.4, x.5[0], x.5[1], x.5[2], x.5[3], x.5[4], x.5[5]
+                );
+            }
+        }
+    }
     // Candidate reports from the solver's own ladder (the stop unchanged), over states
     // with errors above 3e-5: name, report from [d₀/3, d₋₁/12, d₋₂/48].
     type Cand = (&'static str, fn(&[f64; 4]) -> f64);

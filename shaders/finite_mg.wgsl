@@ -1151,6 +1151,13 @@ var<private> vals: array<f64, 48>;
 // Ladder grids after the first: the loose factor of the stop in force (LadderRule::loose
 // while the grid may be an intermediate one, 0 once it is iterated on to the floor).
 var<private> loose_now: f64;
+// Ladder grids after the first: the last cycle's change of the load vector (`dl`) and the
+// estimated iteration error of the loads the estimate reports (`itr`, solver.rs
+// LadderCycles::reported_iteration), both of the step that ends the cycle; the change of
+// the cycle before is kept across dispatches in the free load slot `vals[4 nv ..]` (the
+// current grid's, written by finish_level only once its cycles are over).
+var<private> dl: array<f64, 4>;
+var<private> itr: f64;
 
 // One sweep of the projected SOR on the coarsest level (0) and its stop test: the solve
 // ends when the estimated change is below `tol` of the largest value or, with `rel` > 0
@@ -1375,14 +1382,20 @@ fn finish_level() {
         if e >= 0.0 && e <= params.accuracy && !ext && loose_now > 0.0 && err > params.floor
             && cyc < maxc {
             // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
-            // floor (the cycles continue, none is repeated; solver.rs solve_accuracy).
+            // floor (the cycles continue, none is repeated; solver.rs solve_accuracy);
+            // the grid's load slot holds the last cycle's change again (see `dl`).
             loose_now = 0.0;
+            if nv < MAX_RUNGS {
+                for (var q = 0u; q < 4u; q++) {
+                    vals[4u * nv + q] = dl[q];
+                }
+            }
             ph = PH_CYCLE;
             return;
         }
         nv = n;
         if e >= 0.0 {
-            est = reported(vals, n, e, err);
+            est = reported(vals, n, e, itr);
             // A grid whose cycles did not reach their stop does not end the ladder
             // (solver.rs solve_accuracy: `res.2`).
             if e <= params.accuracy && !ext && conv {
@@ -1470,9 +1483,37 @@ fn cycle_step() {
             let now = loads(t);
             let d = dist4(now, prev);
             let norm = norm4(now);
+            for (var q = 0u; q < 4u; q++) {
+                dl[q] = now[q] - prev[q];
+            }
             prev = now;
             if norm > 0.0 {
                 change = d / norm;
+            }
+            // The reported iteration error (multigrid.rs load_tail_estimate): the tail of
+            // the load vector's own contraction ρ = δ·δ₋₁/|δ₋₁|² within [−0.95, 0.95],
+            // |ρ| at least 0.1; 0.5 on the grid's first cycle (last_change < 0).
+            itr = 0.0;
+            if norm > 0.0 {
+                var rho: f64 = 0.5;
+                if last_change > 0.0 && nv < MAX_RUNGS {
+                    var dot: f64 = 0.0;
+                    var l2: f64 = 0.0;
+                    for (var q = 0u; q < 4u; q++) {
+                        let b = vals[4u * nv + q];
+                        dot += dl[q] * b;
+                        l2 += b * b;
+                    }
+                    if l2 > 0.0 {
+                        rho = clamp(dot / l2, -0.95, 0.95);
+                    }
+                }
+                itr = norm4(dl) / norm * max(abs(rho), 0.1) / (1.0 - rho);
+            }
+            if nv < MAX_RUNGS {
+                for (var q = 0u; q < 4u; q++) {
+                    vals[4u * nv + q] = dl[q];
+                }
             }
             spent += 16u;
         }

@@ -56,18 +56,50 @@ fn at_accuracy(p: &BearingParams, s: &BearingState, accuracy: f64) -> ([f64; 4],
     )
 }
 
+/// The ladder's own loads and reported estimate at `accuracy`: the accuracy-mode solve
+/// without film outputs (no polish), as sweeps and `finite --bench` run it.
+fn ladder_at_accuracy(p: &BearingParams, s: &BearingState, accuracy: f64) -> ([f64; 4], f64, bool) {
+    let p = BearingParams {
+        finite: FiniteSettings {
+            accuracy,
+            ..p.finite
+        },
+        ..*p
+    };
+    let packed = pack_state(&p, s).unwrap();
+    let job = FiniteJob::new(&p, &packed);
+    let g = FiniteGrid::for_bearing(&p);
+    let (ints, r) = FiniteSolver::new().solve(&job, &g, &mut Vec::new());
+    let v = finish_loads(&p, s, &ints, packed.rate_scale).load_vector(p.length);
+    (v, r.error_estimate, r.accuracy_met)
+}
+
 /// The reported error estimate is within a factor 3 of the true error, both ways, at
-/// three accuracies, on aligned (ε 0.1-0.95), tilted and squeezed states; and the
-/// default accuracy is within 1e-3 of the converged solution for every state.
+/// four accuracies, on aligned (ε 0.1-0.95), tilted and squeezed states, both for the
+/// film solution (polished loads, `finite_solution`) and for the ladder's own loads (the
+/// solve without film outputs, as sweeps and the benchmark run it); and the default
+/// accuracy is within 1e-3 of the converged solution for every state. Accuracy 1e-3 and
+/// the ladder's own loads since issue 20 session 41 (s41-honest2): with session 41's
+/// estimate the ε 0.7 squeezed state's ladder loads were 3.65× over at 1e-3 (its last
+/// grid's iteration term 1.51e-4 against a true iteration error of 1.57e-5; the polished
+/// solution, whose polish removes that error, was 1.69×).
 #[test]
 fn estimate_is_honest_and_default_within_1e3() {
     let p = bearing(FiniteSettings::default());
     for (index, (label, s)) in states(&p).into_iter().enumerate() {
         let want = truth(&p, &s);
-        for accuracy in [1e-2, 2e-3, 5e-4] {
-            let (v, est, met) = at_accuracy(&p, &s, accuracy);
+        for (accuracy, ladder) in [1e-2, 2e-3, 1e-3, 5e-4]
+            .into_iter()
+            .flat_map(|a| [(a, false), (a, true)])
+        {
+            let (v, est, met) = if ladder {
+                ladder_at_accuracy(&p, &s, accuracy)
+            } else {
+                at_accuracy(&p, &s, accuracy)
+            };
             let err = rel(&v, &want);
-            println!("{label} accuracy {accuracy:.0e}: estimate {est:.2e}, true {err:.2e}");
+            let what = if ladder { "ladder loads" } else { "solution" };
+            println!("{label} accuracy {accuracy:.0e} {what}: estimate {est:.2e}, true {err:.2e}");
             assert!(met, "{label}: accuracy {accuracy} not met (estimate {est})");
             // No `est <= accuracy`: since session 40 the reported estimate counts the pair
             // one grid back and the last grid's iteration error, which the stop bound
@@ -75,8 +107,8 @@ fn estimate_is_honest_and_default_within_1e3() {
             // at 5e-4: estimate 6.1e-4); its honesty is what is checked.
             assert!(
                 err <= 3.0 * est && est <= 3.0 * err,
-                "index {index} ({label}) at accuracy {accuracy}: true error {err:.3e}, \
-                 estimate {est:.3e}, tolerance factor 3 both ways"
+                "index {index} ({label}) at accuracy {accuracy}, {what}: true error \
+                 {err:.3e}, estimate {est:.3e}, tolerance factor 3 both ways"
             );
         }
         let (v, _, _) = at_accuracy(&p, &s, FiniteSettings::default().accuracy);
