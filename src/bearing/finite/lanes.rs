@@ -38,7 +38,7 @@ use crate::bearing::LaneIsa;
 /// The instruction set the passes run on: where the CPU has both AVX-512F and AVX2, the
 /// faster of the two on this CPU, measured once per process ([`super::calibrate`]: cold
 /// 128 × 32 solves, 5-20 ms: on two hosts of the same VM type either one won, by 3 % and
-/// 13 %; BENCHMARKS.md "Issue 20, session 41: the lanes chosen by measurement"), else the
+/// 13 %; BENCHMARKS.md "Issue 20, session 41: the multigrid's lanes chosen by measurement"), else the
 /// widest it has; a narrower one named by the
 /// environment variable `BEARING_SWEEP_LANES` (`baseline`, `avx2`, `avx512`; a benchmark
 /// knob, read once) is taken as asked. The same bits on every one, so the choice changes
