@@ -36,7 +36,9 @@ use bearing_sweep::backend::{FilmBackend, GpuBackend};
 use bearing_sweep::bearing::finite::{
     FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver, LadderRule, SolveReport, LADDER_FLOOR,
 };
-use bearing_sweep::bearing::{finish_loads, pack_state, BearingParams, BearingState, FilmModel};
+use bearing_sweep::bearing::{
+    finish_loads, pack_state, BearingParams, BearingState, FilmModel, Packed,
+};
 
 use finite_states::rel;
 
@@ -55,6 +57,25 @@ fn bearing(accuracy: f64) -> BearingParams {
 /// Node updates of a report counted as whole sweeps of its final grid.
 fn updates(r: &SolveReport) -> f64 {
     r.sweeps as f64 * r.n_theta as f64 * (r.n_z as f64 - 1.0)
+}
+
+/// The paper bearing at `accuracy`, its grid, and the packed states and their jobs.
+fn prepared(
+    accuracy: f64,
+    states: &[(String, BearingState)],
+) -> (BearingParams, FiniteGrid, Vec<Packed>, Vec<FiniteJob>) {
+    let p = bearing(accuracy);
+    let grid = FiniteGrid::for_bearing(&p);
+    let packed: Vec<Packed> = states
+        .iter()
+        .map(|(_, s)| pack_state(&p, s).unwrap())
+        .collect();
+    let jobs = packed
+        .iter()
+        .zip(states)
+        .map(|(pk, (_, s))| FiniteJob::of_state(&p, pk, s.omega))
+        .collect();
+    (p, grid, packed, jobs)
 }
 
 /// The kernel's loads and reports for `jobs` (cold start).
@@ -105,17 +126,7 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
         .collect();
     let mut dropped = 0;
     for accuracy in [default, 1e-4] {
-        let p = bearing(accuracy);
-        let grid = FiniteGrid::for_bearing(&p);
-        let packed: Vec<_> = states
-            .iter()
-            .map(|(_, s)| pack_state(&p, s).unwrap())
-            .collect();
-        let jobs: Vec<FiniteJob> = packed
-            .iter()
-            .zip(&states)
-            .map(|(pk, (_, s))| FiniteJob::of_state(&p, pk, s.omega))
-            .collect();
+        let (p, grid, packed, jobs) = prepared(accuracy, &states);
         let load = |k: usize, ints: &[f64; 4]| {
             finish_loads(&p, &states[k].1, ints, packed[k].rate_scale).load_vector(p.length)
         };
@@ -253,17 +264,7 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
     // norms' ratio its estimate was 3.65× its true error on the CPU. Both backends: the
     // same grid and verdict, the estimate honest (factor 3 both ways against the
     // reference) and the kernel's within a tenth of the CPU's.
-    let p = bearing(1e-3);
-    let grid = FiniteGrid::for_bearing(&p);
-    let packed: Vec<_> = states
-        .iter()
-        .map(|(_, s)| pack_state(&p, s).unwrap())
-        .collect();
-    let jobs: Vec<FiniteJob> = packed
-        .iter()
-        .zip(&states)
-        .map(|(pk, (_, s))| FiniteJob::of_state(&p, pk, s.omega))
-        .collect();
+    let (p, grid, packed, jobs) = prepared(1e-3, &states);
     let (got, reports) = kernel(&mut backend, &jobs, &grid);
     for (k, job) in jobs.iter().enumerate() {
         let (want, wr) = FiniteSolver::new().solve(job, &grid, &mut Vec::new());

@@ -34,10 +34,7 @@ pub(super) fn faster() -> LaneIsa {
     let Some(jobs) = jobs() else {
         return LaneIsa::Avx512;
     };
-    let grid = FiniteGrid::from(&FiniteSettings {
-        tolerance: TOLERANCE,
-        ..FiniteSettings::with_grid(GRID.0, GRID.1)
-    });
+    let grid = grid();
     let candidates = [LaneIsa::Avx512, LaneIsa::Avx2];
     let mut best = [Duration::MAX; 2];
     let mut solver = FiniteSolver::new();
@@ -58,6 +55,14 @@ pub(super) fn faster() -> LaneIsa {
     } else {
         LaneIsa::Avx512
     }
+}
+
+/// The timed solves' grid: [`GRID`] at [`TOLERANCE`].
+fn grid() -> FiniteGrid {
+    FiniteGrid::from(&FiniteSettings {
+        tolerance: TOLERANCE,
+        ..FiniteSettings::with_grid(GRID.0, GRID.1)
+    })
 }
 
 /// The timed states (the paper's bearing at 100 rad/s, eccentricities as fractions of the
@@ -111,10 +116,7 @@ mod tests {
                 matches!(chosen, LaneIsa::Avx512 | LaneIsa::Avx2),
                 "{chosen:?}"
             );
-            let grid = FiniteGrid::from(&FiniteSettings {
-                tolerance: TOLERANCE,
-                ..FiniteSettings::with_grid(GRID.0, GRID.1)
-            });
+            let grid = grid();
             for (k, job) in jobs.iter().enumerate() {
                 let loads = |isa| {
                     on_isa(isa, || {
