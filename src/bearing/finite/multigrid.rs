@@ -246,45 +246,6 @@ impl Level {
         self.nt * (self.nz + 1)
     }
 
-    /// Room for an `n`-node grid in the per-node arrays every solve writes (the operator,
-    /// `f_own`, the scratch `base` and `r`, the iterate; with `coarse`, also the arrays only
-    /// a correction grid has: `f`, `inv_d_free`), before [`Level::setup`]: each array that
-    /// must grow is allocated afresh and its byte range added to `fresh`, for
-    /// [`pages::populate`] to map all their pages in one call before anything writes them
-    /// (issue 20, session 42: one page fault per 4 KiB otherwise, ~0.2 ms of a 128 × 32
-    /// hierarchy's first state). Allocated, not written (not `calloc` either, which writes
-    /// its zeros, and so faults the pages in, unless the memory is the system's newest):
-    /// `setup`'s `resize` then writes the same zeros into the mapped pages as into a new
-    /// array before. An array that grows loses the values of the smaller grid it held,
-    /// which nothing reads (every array is written for the new grid before it is read, see
-    /// `setup`; `f` and `inv_d_free` are sized where first written). `hold` keeps its own
-    /// rule (see `setup`: a film without held bands never touches its pages).
-    fn give_room(&mut self, n: usize, coarse: bool, fresh: &mut Vec<(usize, usize)>) {
-        for v in [
-            &mut self.ae,
-            &mut self.an,
-            &mut self.d,
-            &mut self.inv_d,
-            &mut self.f_own,
-            &mut self.base,
-            &mut self.r,
-            &mut self.p,
-        ] {
-            if v.capacity() < n {
-                *v = Vec::with_capacity(n);
-                fresh.push(pages::range_of(v));
-            }
-        }
-        if coarse {
-            for v in [&mut self.f, &mut self.inv_d_free] {
-                if v.capacity() < n {
-                    *v = Vec::with_capacity(n);
-                    fresh.push(pages::range_of(v));
-                }
-            }
-        }
-    }
-
     fn interior(&self) -> usize {
         self.nt * (self.nz.max(1) - 1)
     }
@@ -450,6 +411,34 @@ impl Level {
         if self.hold.capacity() < n {
             self.hold = vec![0.0; n];
             hold_zero = true;
+        }
+        // The arrays that must grow (a process's or a thread's first state on this grid),
+        // grown first and their fresh pages mapped in one call before the writes below
+        // (issue 20, session 42: otherwise a page fault per 4 KiB as `resize` writes its
+        // zeros, ~2 µs each on the 2-core VM, ~0.2 ms of a 128 × 32 hierarchy's first
+        // state; see `pages`). Grown exactly as `resize` grows them, in the same order:
+        // the same allocations at the same places (the arrays' relative offsets set how
+        // they share cache sets: a different order measured 4 % slower in steady state).
+        let mut fresh = [(0, 0); 8];
+        let mut grown = 0;
+        for v in [
+            &mut self.ae,
+            &mut self.an,
+            &mut self.d,
+            &mut self.inv_d,
+            &mut self.f_own,
+            &mut self.base,
+            &mut self.r,
+            &mut self.p,
+        ] {
+            if v.capacity() < n {
+                v.reserve(n - v.len());
+                fresh[grown] = pages::range_of(v);
+                grown += 1;
+            }
+        }
+        if grown > 0 {
+            pages::populate(&mut fresh[..grown]);
         }
         for v in [
             &mut self.ae,
@@ -1973,9 +1962,7 @@ pub(crate) struct Hierarchy {
     /// Per V-cycle of [`Hierarchy::iterate`] on the field stop, for probes (`None`, the
     /// default: not kept; issue 20 session 41, the stall on fine grids): see [`CycleLog`].
     pub cycle_log: Option<Vec<CycleLog>>,
-    /// Scratch of [`Hierarchy::build`] and [`Hierarchy::push_finer`]: the byte ranges of
-    /// the arrays allocated for the grids being set up (see [`Level::give_room`]).
-    fresh: Vec<(usize, usize)>,
+
     /// Whether the coarse-grid correction is also truncated on the coarse side (see
     /// [`truncate_outside_zone`]; issue 20 session 41). Default false: the correction as
     /// the WGSL kernel mirrors it (shaders/finite_mg.wgsl `prolong_correction`). On, the
@@ -2134,16 +2121,6 @@ impl Hierarchy {
         while self.levels.len() < dims.len() {
             self.levels.push(self.spare.pop().unwrap_or_default());
         }
-        // The arrays that must grow, allocated and their pages mapped before any write
-        // (see `Level::give_room`); every level below the top serves as a correction grid.
-        let top = dims.len() - 1;
-        self.fresh.clear();
-        for (l, &(a, b, _)) in dims.iter().enumerate() {
-            self.levels[l].give_room(a * (b + 1), l < top, &mut self.fresh);
-        }
-        if !self.fresh.is_empty() {
-            pages::populate(&mut self.fresh);
-        }
         for (l, &(a, b, how)) in dims.iter().enumerate() {
             let (lo, hi) = self.levels.split_at_mut(l);
             let lvl = &mut hi[0];
@@ -2179,17 +2156,6 @@ impl Hierarchy {
         how: Coarsen,
     ) {
         let mut lvl = self.spare.pop().unwrap_or_default();
-        // Its arrays, and the correction-grid arrays of the grid below it (a correction
-        // grid from now on), allocated and mapped before any write (`Level::give_room`).
-        self.fresh.clear();
-        lvl.give_room(nt * (nz + 1), false, &mut self.fresh);
-        if let Some(below) = self.levels.last_mut() {
-            let n = below.len();
-            below.give_room(n, true, &mut self.fresh);
-        }
-        if !self.fresh.is_empty() {
-            pages::populate(&mut self.fresh);
-        }
         let below = self.levels.last();
         lvl.setup(
             job,
