@@ -99,7 +99,7 @@ fn check() {
     };
     let grooved = bearing_sweep::bearing::BearingParams {
         grooves: Grooves::new(&[groove(0.0), groove(180.0)]).expect("two grooves"),
-        ..p.clone()
+        ..p
     };
     let explicit = |t, z| FiniteSettings::with_grid(t, z);
     let accuracy = |a| FiniteSettings {

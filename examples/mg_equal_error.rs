@@ -37,7 +37,13 @@
 //! before it, see `prof`); with `PASSES`, the best of
 //! that many passes in the process too (the solver's arrays reused, as in a sweep). The
 //! last line's load checksum (the states' loads summed, as bits) is what a cost change
-//! must keep.
+//! must keep. Probes of the cold pass (issue 20, session 42), all before or beside the
+//! clock: `MGE_STATE_TIMES=1` prints each state's µs in the first two passes (stderr);
+//! `MGE_WARM_CODE=1` runs one 32 × 8 solve on another solver before the clock (the same
+//! code paths, little memory: what warm code and caches alone are worth);
+//! `MGE_PREFAULT=1` writes and frees 800 kB of heap before the clock (with
+//! `GLIBC_TUNABLES=glibc.malloc.trim_threshold=100000000` the allocator keeps those pages,
+//! and the hierarchy's arrays take them: the pass without fresh pages).
 use std::time::Instant;
 
 use bearing_sweep::bearing::finite::{FiniteGrid, FiniteJob, FiniteSettings, FiniteSolver};
@@ -326,6 +332,20 @@ fn prof(args: &[String]) {
             eprintln!("lanes: {isa:?}");
         }
     }
+    // The cold-pass probes (see the module doc).
+    if std::env::var("MGE_WARM_CODE").is_ok() {
+        // 32 × 8: the smallest grid with the same passes (four levels, lanes everywhere).
+        let g8 = grid(32, 8, FiniteSettings::default().tolerance);
+        let mut s8 = mg_solver();
+        std::hint::black_box(s8.fmg_cycles(&cases[0].job, &g8, 3, None));
+    }
+    if std::env::var("MGE_PREFAULT").is_ok() {
+        // 200 blocks of 4 kB (each below the allocator's mmap threshold): 800 kB, about
+        // twice a 128 × 32 hierarchy.
+        let v: Vec<Vec<f64>> = (0..200).map(|_| vec![1.0; 512]).collect();
+        std::hint::black_box(&v);
+        drop(v);
+    }
     let (mut first, mut best) = (0.0, f64::INFINITY);
     let (mut sweeps_done, mut sum) = (0u64, [0.0; 4]);
     let faults_before = minor_faults();
@@ -336,7 +356,9 @@ fn prof(args: &[String]) {
         }
         (sweeps_done, sum) = (0, [0.0; 4]);
         let start = Instant::now();
+        let mut times = Vec::new();
         for (c, &(cycles, sweeps)) in cases.iter().zip(&work) {
+            let t_state = Instant::now();
             let (ints, r) = if method == "psor" {
                 solver.psor_sweeps(&c.job, &g, &mut Vec::new(), sweeps, |_, _| {})
             } else {
@@ -346,6 +368,11 @@ fn prof(args: &[String]) {
             for (s, v) in sum.iter_mut().zip(ints) {
                 *s += v;
             }
+            times.push(t_state.elapsed().as_secs_f64() * 1e6);
+        }
+        if std::env::var("MGE_STATE_TIMES").is_ok() && pass < 2 {
+            let t: Vec<String> = times.iter().map(|t| format!("{t:.0}")).collect();
+            eprintln!("pass {pass} µs per state: {}", t.join(" "));
         }
         let s = start.elapsed().as_secs_f64();
         if pass == 0 {

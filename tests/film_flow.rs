@@ -431,7 +431,7 @@ fn accuracy_mode_balance_closes_when_flows_are_wanted() {
 fn balance_states(p: &BearingParams) -> [BearingState; 5] {
     let c = p.clearance;
     [
-        aligned(&p, 0.6),
+        aligned(p, 0.6),
         // Tilted in and out of the eccentricity's plane.
         BearingState {
             xi: 0.3 * c,

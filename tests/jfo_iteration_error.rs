@@ -269,7 +269,6 @@ fn reported_iteration_error_is_within_3x_on_whirl_time_steps() {
             vxj: -eps * whirl * s,
             vyj: eps * whirl * c,
             omega: 1.0,
-            ..BearingState::default()
         }
     };
     let mut reynolds = FiniteSolver::new();

@@ -1,9 +1,24 @@
 //! Every WGSL file in `shaders/` parses and validates with naga (the front end wgpu
 //! uses), with f64 allowed; the kernel's f32 variant (its precision block swapped by the
-//! host) validates too, and without the f64 capability.
+//! host) validates too, and without the f64 capability. The shaders' sources are embedded
+//! in the test binary (`include_str!`), so that a prebuilt binary runs on a machine
+//! without the source tree; where `shaders/` is present, the embedded list must be its
+//! `.wgsl` files.
 
 use bearing_sweep::backend::{kernel_source, Precision};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+/// Every `.wgsl` file of `shaders/` (name, source), embedded at build time. A shader added
+/// to the folder fails `the_embedded_shaders_are_the_folders_files` until it is listed here.
+const SHADERS: [(&str, &str); 4] = [
+    ("film.wgsl", include_str!("../shaders/film.wgsl")),
+    ("finite.wgsl", include_str!("../shaders/finite.wgsl")),
+    (
+        "finite_jfo.wgsl",
+        include_str!("../shaders/finite_jfo.wgsl"),
+    ),
+    ("finite_mg.wgsl", include_str!("../shaders/finite_mg.wgsl")),
+];
 
 fn validate(name: &str, source: &str, caps: Capabilities) {
     let module = naga::front::wgsl::parse_str(source)
@@ -15,18 +30,37 @@ fn validate(name: &str, source: &str, caps: Capabilities) {
 
 #[test]
 fn every_shader_file_validates() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
-    let mut count = 0;
-    for entry in std::fs::read_dir(dir).expect("shaders/ exists") {
-        let path = entry.expect("readable entry").path();
-        if path.extension().and_then(|e| e.to_str()) != Some("wgsl") {
-            continue;
-        }
-        let source = std::fs::read_to_string(&path).expect("readable shader");
-        validate(&path.display().to_string(), &source, Capabilities::FLOAT64);
-        count += 1;
+    for (name, source) in SHADERS {
+        validate(name, source, Capabilities::FLOAT64);
     }
-    assert!(count >= 1, "no .wgsl file found in {dir}");
+}
+
+/// Where the source tree is at hand (the build's `shaders/`), its `.wgsl` files are
+/// exactly the embedded ones; elsewhere (a prebuilt binary on another machine) there is
+/// nothing to compare with, and the embedded sources validated above are the check.
+#[test]
+fn the_embedded_shaders_are_the_folders_files() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        eprintln!("{dir} is not here: the embedded shaders alone are checked");
+        return;
+    };
+    let mut on_disk: Vec<String> = entries
+        .map(|e| {
+            e.expect("readable entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    on_disk.sort();
+    let mut embedded: Vec<&str> = SHADERS.iter().map(|(n, _)| *n).collect();
+    embedded.sort();
+    assert_eq!(
+        on_disk, embedded,
+        "the .wgsl files of {dir} (left) against the embedded list SHADERS (right)"
+    );
 }
 
 #[test]

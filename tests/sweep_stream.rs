@@ -300,8 +300,8 @@ fn record_tolerance(path: &str) -> Option<(f64, bool)> {
 /// within [`record_tolerance`]; returns how many were compared.
 fn within_record_tolerance(at: &str, got: &Value, exact: &Value) -> usize {
     let (mut a, mut b) = (Vec::new(), Vec::new());
-    leaves("", &got, &mut a);
-    leaves("", &exact, &mut b);
+    leaves("", got, &mut a);
+    leaves("", exact, &mut b);
     let mut compared = 0;
     for (path, y) in &b {
         let Some((tol, relative)) = record_tolerance(path) else {

@@ -10,6 +10,7 @@ mod jfo;
 mod lanes;
 mod map;
 mod multigrid;
+mod pages;
 mod settings;
 mod solver;
 
