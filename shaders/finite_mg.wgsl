@@ -30,10 +30,16 @@
 // Invocations per workgroup (one workgroup per state) and log2 of it: the host sets both
 // per adapter (src/backend/finite_mg.rs `workgroup_size`: 256 on llvmpipe, whose loop cap
 // the budget is calibrated on, and on hardware GPUs, where 256 beat 1024 on the H200 in two
-// settings of three; `BEARING_SWEEP_MG_WG` overrides it). Same arithmetic for any size
-// except the order of the loads' sums (`reduce_sum4`).
+// settings of three; since session 42 chosen per chunk by its number of states,
+// `workgroup_for`; `BEARING_SWEEP_MG_WG` forces one). The same arithmetic in the same order
+// for any size (the loads' sums run in SUM_LANES fixed lanes): the same bits.
 const WG: u32 = 256u;
 const LOG2_WG: u32 = 8u;
+// Lanes of the loads' sums (`loads`, `reduce_sum4`), fixed whatever WG (≥ 64, the host's
+// smallest workgroup) so that the sums run in one order: the kernel's results do not
+// depend on WG, and the host may choose WG per chunk (src/backend/finite_mg.rs).
+const SUM_LANES: u32 = 64u;
+const LOG2_SUM_LANES: u32 = 6u;
 // Levels of a hierarchy (coarse levels of the first grid plus the ladder's grids).
 const MAX_LEVELS: u32 = 24u;
 // Ladder grids (src/bearing/finite/solver.rs accuracy_ladder: at most 7 below 1024 around).
@@ -135,7 +141,8 @@ struct Params {
 // Per slot: the levels' arrays.
 @group(0) @binding(7) var<storage, read_write> scr: array<f64>;
 
-var<workgroup> red: array<f64, 2u * WG>;
+// The reductions' scratch: reduce_max2's 2 × WG values, reduce_sum4's 4 × SUM_LANES.
+var<workgroup> red: array<f64, max(2u * WG, 4u * SUM_LANES)>;
 var<workgroup> wu: array<f64, 4>;
 // reduce_max2's fan-in (WG/FAN ≤ 64 partial maxima) and its result.
 const FAN: u32 = 1u << ((LOG2_WG + 1u) / 2u);
@@ -340,31 +347,19 @@ fn reduce_max2(a: f64, b: f64) -> vec2<f64> {
     return workgroupUniformLoad(&wv);
 }
 
-// Sum-reduction of four values; uniform results. The upper half of the workgroup hands
-// its values to the lower half (the tree's first halving: the same sums in the same order
-// as a tree over all WG, in half the workgroup memory), then a tree over WG/2.
+// Sum-reduction of four values held by the first SUM_LANES invocations (the others hold
+// zeros and take no part); uniform results. A halving tree over the SUM_LANES lanes: the
+// same sums in the same order whatever the workgroup size (WG ≥ SUM_LANES), so the loads,
+// and every decision taken on them, are bit for bit the same at any WG.
 fn reduce_sum4(v: array<f64, 4>) -> array<f64, 4> {
     tally[T_REDUCTIONS] += 1u;
-    // The 4-value loops around and inside log2(WG) halvings.
-    spent += 8u * (LOG2_WG + 1u);
-    tally[T_RED_SPENT] += 8u * (LOG2_WG + 1u);
-    let h = WG / 2u;
-    var a = v;
-    if lid >= h {
-        for (var q = 0u; q < 4u; q++) {
-            red[q * h + lid - h] = a[q];
-        }
-    }
-    bar();
+    // The 4-value loops around and inside log2(SUM_LANES) halvings.
+    spent += 8u * (LOG2_SUM_LANES + 1u);
+    tally[T_RED_SPENT] += 8u * (LOG2_SUM_LANES + 1u);
+    let h = SUM_LANES;
     if lid < h {
         for (var q = 0u; q < 4u; q++) {
-            a[q] += red[q * h + lid];
-        }
-    }
-    bar();
-    if lid < h {
-        for (var q = 0u; q < 4u; q++) {
-            red[q * h + lid] = a[q];
+            red[q * h + lid] = v[q];
         }
     }
     bar();
@@ -1056,8 +1051,11 @@ fn loads(l: u32) -> array<f64, 4> {
     let interior = interior_of(l);
     let simpson = params.mode != 0u && params.banded == 0u && nz % 2u == 0u;
     var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
-    spent += loops(interior);
-    for (var m = lid; m < interior; m += WG) {
+    // Lane `lid` (< SUM_LANES) sums nodes lid, lid + SUM_LANES, … in order: the same
+    // partial sums at any workgroup size (reduce_sum4).
+    spent += (interior + SUM_LANES - 1u) / SUM_LANES + 1u;
+    let lanes = select(0u, interior, lid < SUM_LANES);
+    for (var m = lid; m < lanes; m += SUM_LANES) {
         let k = m + nt;
         let j = k / nt;
         let i = k % nt;

@@ -155,41 +155,69 @@ const SERIAL_RESERVE: u32 = 10_000;
 /// Workgroup size of the kernel (`WG`) on llvmpipe (lavapipe), whose loop cap
 /// [`LOOP_LIMIT`] was calibrated at this size, and on adapters without room for more.
 const WG: u32 = 256;
-/// Workgroup size on hardware GPUs (where the limits allow it). Measured on the H200
-/// (BENCHMARKS.md "Issue 20: the multigrid kernel on the H200, session 40"; raw outputs in
-/// reports/h200/raw/s40/), states/s at 64 | 1024 states per call: 256 invocations
-/// 3,090 | 6,609 at the default accuracy, 3,280 | 12,371 at 128 × 32, 1,108 | 1,543 at
-/// 1e-4; 1024 invocations 2,043 | 5,787, 2,214 | 9,831, 1,355 | 1,710. A quarter of the
-/// strided iterations per invocation did not pay for 64 registers per invocation and 4×
-/// the threads per reduction: 256 wins two settings of three at both sizes.
-/// `BEARING_SWEEP_MG_WG` overrides it.
+/// Workgroup size on hardware GPUs (where the limits allow it) for chunks of at most
+/// [`SMALL_WG_FROM`] / 2 states. Measured on the H200 (BENCHMARKS.md "Issue 20: the
+/// multigrid kernel on the H200, session 40"; raw outputs in reports/h200/raw/s40/),
+/// states/s at 64 | 1024 states per call: 256 invocations 3,090 | 6,609 at the default
+/// accuracy, 3,280 | 12,371 at 128 × 32, 1,108 | 1,543 at 1e-4; 1024 invocations
+/// 2,043 | 5,787, 2,214 | 9,831, 1,355 | 1,710. A quarter of the strided iterations per
+/// invocation did not pay for 64 registers per invocation and 4× the threads per
+/// reduction: 256 wins two settings of three at both sizes.
 const HARDWARE_WG: u32 = 256;
 
-/// The kernel's workgroup size on `device`: `BEARING_SWEEP_MG_WG` (diagnostics: a power of
-/// two from 64 to 1024 within the device's limits), else [`WG`] on a software adapter and
-/// [`HARDWARE_WG`] on a hardware one whose limits allow it (invocations per workgroup and
-/// workgroup memory, ~21 KiB at 1024: the reductions' 2 × WG f64 and the candidate lists).
-fn workgroup_size(device: &wgpu::Device) -> u32 {
+/// Chunks of at least this many states run at 64 invocations per state on hardware, and
+/// from half of it at 128 ([`workgroup_for`]): with many states per chunk what bounds the
+/// kernel is how many workgroups the GPU holds at once (registers), not one state's chain.
+/// Measured on the H200 (BENCHMARKS.md "Issue 20, session 42: the workgroup size per
+/// chunk"; reports/h200/raw/s42c/), kernel ms per chunk of 2,048 easy rotor states (the
+/// finite-film rotor sweep of 1,024 variants), median of 108: 16.4 at 256 invocations, 8.8
+/// at 128, 6.4 at 64; states/s at 1,024 benchmark states per call, 256 | 128 | 64
+/// invocations: 48,705 | 50,316 | 36,334 at the default accuracy, 10,821 | 8,373 | 4,973
+/// at 1e-4; at 64 states per call 12,922 | 2,421 | 1,449 (one state's chain: 256 wins).
+const SMALL_WG_FROM: usize = 2048;
+
+/// The workgroup size for a chunk of `states` states on hardware ([`SMALL_WG_FROM`]).
+fn workgroup_for(states: usize) -> u32 {
+    if states >= SMALL_WG_FROM {
+        64
+    } else if states > SMALL_WG_FROM / 2 {
+        128
+    } else {
+        HARDWARE_WG
+    }
+}
+
+/// Whether the kernel fits a workgroup of `wg` invocations on a device with `limits`:
+/// invocations per workgroup and workgroup memory (the reductions' max(2 × WG, 256) f64
+/// and the candidate lists, ~6 KiB; ~22 KiB at 1024).
+fn fits(wg: u32, limits: &wgpu::Limits) -> bool {
+    wg.is_power_of_two()
+        && (64..=1024).contains(&wg)
+        && wg <= limits.max_compute_invocations_per_workgroup
+        && wg <= limits.max_compute_workgroup_size_x
+        && 16 * wg.max(128) + 6 * 1024 <= limits.max_compute_workgroup_storage_size
+}
+
+/// The kernel's workgroup size on `device` if one is forced for every chunk:
+/// `BEARING_SWEEP_MG_WG` (diagnostics: a power of two from 64 to 1024 within the device's
+/// limits), else [`WG`] on a software adapter and on a hardware one whose limits do not
+/// allow every size [`workgroup_for`] picks; `None` on a hardware one that does (the size
+/// is then chosen per chunk). The kernel's arithmetic is the same at every size (its
+/// loads' sums run in fixed lanes): the choice changes the time, not the bits.
+fn forced_workgroup_size(device: &wgpu::Device) -> Option<u32> {
     let limits = device.limits();
-    let fits = |wg: u32| {
-        wg.is_power_of_two()
-            && (64..=1024).contains(&wg)
-            && wg <= limits.max_compute_invocations_per_workgroup
-            && wg <= limits.max_compute_workgroup_size_x
-            && 16 * wg + 6 * 1024 <= limits.max_compute_workgroup_storage_size
-    };
     if let Some(wg) = std::env::var("BEARING_SWEEP_MG_WG")
         .ok()
         .and_then(|v| v.trim().parse::<u32>().ok())
-        .filter(|&wg| fits(wg))
+        .filter(|&wg| fits(wg, &limits))
     {
-        return wg;
+        return Some(wg);
     }
     let software = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
-    if !software && fits(HARDWARE_WG) {
-        HARDWARE_WG
+    if !software && [64, 128, HARDWARE_WG].iter().all(|&wg| fits(wg, &limits)) {
+        None
     } else {
-        WG
+        Some(WG)
     }
 }
 
@@ -375,9 +403,15 @@ fn full(d: &Dims) -> usize {
 
 /// The compiled multigrid pipeline on one device.
 pub(crate) struct MultigridPipeline {
-    pipeline: wgpu::ComputePipeline,
-    /// Its workgroup size ([`workgroup_size`]) and loop limit per dispatch ([`loop_limit`]).
-    wg: u32,
+    /// The kernel's source before its workgroup size is set (built in, or the diagnostic
+    /// `BEARING_SWEEP_MG_WGSL` file).
+    source: String,
+    /// The compiled kernel per workgroup size, each built on first use.
+    pipelines: std::sync::Mutex<Vec<(u32, wgpu::ComputePipeline)>>,
+    /// The workgroup size of every chunk, if forced ([`forced_workgroup_size`]); else
+    /// chosen per chunk ([`workgroup_for`]).
+    forced_wg: Option<u32>,
+    /// The loop limit per dispatch ([`loop_limit`]).
     limit: u32,
     /// Whether the device is a software adapter (llvmpipe).
     software: bool,
@@ -458,24 +492,50 @@ impl MultigridPipeline {
         let source = std::env::var("BEARING_SWEEP_MG_WGSL")
             .ok()
             .and_then(|path| std::fs::read_to_string(path).ok());
-        let wg = workgroup_size(device);
-        let source = kernel_source(source.as_deref().unwrap_or(FINITE_MG_WGSL), wg)?;
-        let pipeline = compile_pipeline(
-            device,
-            "finite_mg.wgsl",
-            &source,
-            "finite film multigrid kernel",
-            "the finite-film multigrid kernel",
-        )?;
+        let source = source.unwrap_or_else(|| FINITE_MG_WGSL.to_string());
+        let forced_wg = forced_workgroup_size(device);
         let software = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
-        Ok(MultigridPipeline {
-            pipeline,
-            wg,
+        let this = MultigridPipeline {
+            source,
+            pipelines: std::sync::Mutex::new(Vec::new()),
+            forced_wg,
             limit: loop_limit(software),
             software,
             kept: std::sync::Mutex::new(Kept::default()),
             tables: std::sync::Mutex::new(None),
-        })
+        };
+        // The size most chunks get, compiled now: a validation error shows here.
+        this.pipeline(device, forced_wg.unwrap_or(HARDWARE_WG))?;
+        Ok(this)
+    }
+
+    /// The workgroup size for a chunk of `states` states.
+    fn workgroup(&self, states: usize) -> u32 {
+        self.forced_wg.unwrap_or_else(|| workgroup_for(states))
+    }
+
+    /// The kernel compiled for workgroup size `wg` (compiled on first use, then kept).
+    fn pipeline(
+        &self,
+        device: &wgpu::Device,
+        wg: u32,
+    ) -> Result<wgpu::ComputePipeline, BackendError> {
+        let mut pipelines = self
+            .pipelines
+            .lock()
+            .map_err(|_| BackendError::Device("finite-film multigrid pipelines lock".into()))?;
+        if let Some((_, p)) = pipelines.iter().find(|(w, _)| *w == wg) {
+            return Ok(p.clone());
+        }
+        let pipeline = compile_pipeline(
+            device,
+            "finite_mg.wgsl",
+            &kernel_source(&self.source, wg)?,
+            "finite film multigrid kernel",
+            "the finite-film multigrid kernel",
+        )?;
+        pipelines.push((wg, pipeline.clone()));
+        Ok(pipeline)
     }
 
     /// Solves `jobs` on `grid` (fixed or accuracy mode, Swift–Stieber); `fields[k]` of the
@@ -759,10 +819,23 @@ impl MultigridPipeline {
             Some(target) => (rule.floor * target).max(grid.tolerance),
             None => grid.tolerance,
         };
-        let (budget, cap_dispatches) = loop_budget(dims, self.wg as usize, self.limit)?;
         let mut redo = Vec::new();
         for chunk in group.members.chunks(slots) {
             let n = chunk.len();
+            // A smaller workgroup takes more loop iterations per step: where one step of
+            // the hierarchy's largest level does not fit a dispatch at the chosen size, the
+            // size most chunks get (whose error, if it does not fit either, is the answer).
+            let chosen = self.workgroup(n);
+            let (wg, (budget, cap_dispatches)) =
+                match loop_budget(dims, chosen as usize, self.limit) {
+                    Ok(b) => (chosen, b),
+                    Err(e) if self.forced_wg.is_some() => return Err(e),
+                    Err(_) => (
+                        HARDWARE_WG,
+                        loop_budget(dims, HARDWARE_WG as usize, self.limit)?,
+                    ),
+                };
+            let pipeline = self.pipeline(device, wg)?;
             let mut job_data = Vec::with_capacity(n * JOB_STRIDE);
             let mut inlets = vec![NO_INLET; n * inlet_stride];
             let mut field_data = vec![0.0_f64; n * field_stride];
@@ -843,6 +916,7 @@ impl MultigridPipeline {
                 device,
                 queue,
                 timeout,
+                (&pipeline, wg),
                 &params,
                 &[&trig_buf, &geo_buf],
                 &job_data,
@@ -898,6 +972,7 @@ impl MultigridPipeline {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         timeout: Duration,
+        (pipeline, wg): (&wgpu::ComputePipeline, u32),
         params: &Params,
         shared: &[&wgpu::Buffer; 2],
         job_data: &[f64],
@@ -1015,7 +1090,7 @@ impl MultigridPipeline {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("finite mg bindings"),
-            layout: &self.pipeline.get_bind_group_layout(0),
+            layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -1039,7 +1114,7 @@ impl MultigridPipeline {
                     label: Some(WHAT),
                     timestamp_writes: None,
                 });
-                pass.set_pipeline(&self.pipeline);
+                pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
                 for _ in 0..REPEAT {
                     pass.dispatch_workgroups(n as u32, 1, 1);
@@ -1156,7 +1231,7 @@ impl MultigridPipeline {
                 flat.len() * 8 / 1024,
                 field_bytes / 1024,
                 if fields_wanted { "" } else { ", not wanted" },
-                self.wg
+                wg
             );
         }
         if std::env::var_os("BEARING_SWEEP_MG_COUNT").is_some() {
