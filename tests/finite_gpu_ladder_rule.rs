@@ -20,7 +20,8 @@
 //!   V-cycle's sweeps (3: two pre- and one post-smoothing; the paths of the truncated
 //!   correction differ, tests/finite_gpu_multigrid.rs's module docs), and below the work of
 //!   the kernel run with the rule before session 37 (every grid to accuracy/10 from the
-//!   bilinear start; the driver's diagnostic `BEARING_SWEEP_MG_LADDER_RULE=0,linear,0.1`)
+//!   bilinear start, V(2,1) cycles; the driver's diagnostic
+//!   `BEARING_SWEEP_MG_LADDER_RULE=0,linear,0.1,1`)
 //!   wherever the CPU's work dropped against its own old rule, never above it in all.
 //!
 //! Runs on whatever f64 adapter wgpu finds (lavapipe on CI); skips with a notice without
@@ -103,6 +104,8 @@ fn old_rule() -> LadderRule {
         cubic_start: false,
         // The crate's ALGEBRAIC_FRACTION (crate-private), the old per-grid stop.
         floor: 0.1,
+        // The V(2,1) cycle of the ladder before session 42.
+        post: 1,
     }
 }
 
@@ -133,7 +136,7 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
         std::env::remove_var("BEARING_SWEEP_MG_LADDER_RULE");
         let (got, reports) = kernel(&mut backend, &jobs, &grid);
         // The kernel with the rule before session 37 (the driver's diagnostic switch).
-        std::env::set_var("BEARING_SWEEP_MG_LADDER_RULE", "0,linear,0.1");
+        std::env::set_var("BEARING_SWEEP_MG_LADDER_RULE", "0,linear,0.1,1");
         let (got_old, reports_old) = kernel(&mut backend, &jobs, &grid);
         std::env::remove_var("BEARING_SWEEP_MG_LADDER_RULE");
         let mut solver = FiniteSolver::new();

@@ -256,6 +256,11 @@ pub struct LadderRule {
     /// error of the load vector of the grid that ends the ladder is below it.
     /// Dimensionless, default [`LADDER_FLOOR`].
     pub floor: f64,
+    /// Smoothing sweeps after the coarse-grid correction in the V-cycles of the ladder's
+    /// grids after the first (on every level of the cycle; before it: the cycle's 2).
+    /// Default [`LADDER_POST_SWEEPS`]; 1 is the cycle of explicit grids and the ladder's
+    /// before session 42.
+    pub post: u32,
 }
 
 impl Default for LadderRule {
@@ -264,6 +269,7 @@ impl Default for LadderRule {
             loose: LADDER_LOOSE,
             cubic_start: LADDER_CUBIC_START,
             floor: LADDER_FLOOR,
+            post: LADDER_POST_SWEEPS,
         }
     }
 }
@@ -283,6 +289,17 @@ pub const LADDER_CUBIC_START: bool = true;
 /// a V-cycle less on 256 × 32 for most states that end there (mean node updates at the
 /// default 60,328 at /10, 57,158 at /7, 54,221 at /5 and beyond; `zeta_probe rules`).
 pub const LADDER_FLOOR: f64 = 0.2;
+/// Default of [`LadderRule::post`]: the ladder's V-cycles are V(2,0) (issue 20, session
+/// 42). The ladder reads only load integrals, in which the rough high-frequency error that
+/// a post-smoothing sweep removes nearly cancels, and its next grid starts from an
+/// interpolation that a pre-smoothing sweep smooths anyway; a cycle is then 2 sweeps of
+/// the grid instead of 3 at about the same contraction of the loads. Measured
+/// (examples/zeta_probe.rs `prof 5e-4`, the 32 benchmark states, exact): 55,311 node
+/// updates per default state with V(2,1), 45,109 with V(2,0) (0.83× the old 64 × 16 PSOR
+/// state's 54,150), 31,925 with V(1,0) (but estimates up to 14.6× their true error on the
+/// dense ε 0.8-0.95 scan), 54,968 with V(1,1), 54,345 with V(3,0); estimates within 1/3-3
+/// on every tested set (BENCHMARKS.md "Issue 20, session 42").
+pub const LADDER_POST_SWEEPS: u32 = 0;
 
 /// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
 #[derive(Default)]
@@ -717,6 +734,8 @@ impl FiniteSolver {
         // references of `ladder_beyond` set it on after this.
         self.mg.coarse_truncation = false;
         self.mg.line_freeze = false;
+        // The default V(2,1) (`solve_accuracy` sets the ladder's own from its second grid).
+        self.mg.cycle = MgCycle::default();
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
         // banded estimate is calibrated on it (tests/grooves.rs).
@@ -888,8 +907,12 @@ impl FiniteSolver {
                 loose: 0.0,
                 cubic_start: false,
                 floor: ALGEBRAIC_FRACTION,
+                post: MgCycle::default().post,
             }
         };
+        // The ladder's V-cycles from its second grid on (the first grid's full multigrid
+        // keeps the default cycle; the polish below too).
+        self.mg.cycle.post = rule.post;
         let floor = (rule.floor * target).max(g.tolerance);
         for &dims in &ladder[1..] {
             let below = values[values.len() - 1];
@@ -942,6 +965,7 @@ impl FiniteSolver {
                 }
             }
         }
+        self.mg.cycle = MgCycle::default();
         let top = self.mg.levels.len() - 1;
         let last = steps.last().expect("at least one grid");
         let (integrals, result) = if g.polish {
