@@ -586,6 +586,10 @@ fn main() {
             let packed = pack_state(&p, s).ok()?;
             let job = FiniteJob::new(&p, &packed);
             let mut solver = FiniteSolver::new();
+            // BW_POST: the ladder's post-smoothing sweeps (1: the V(2,1) before session 42).
+            if let Ok(v) = std::env::var("BW_POST") {
+                solver.ladder_rule.post = v.parse().expect("BW_POST: a count");
+            }
             let (ints, rep) = solver.solve(&job, &grid, &mut Vec::new());
             let v = finish_loads(&p, s, &ints, packed.rate_scale).load_vector(p.length);
             let full = full_ladder(&p, &grid, s)?;

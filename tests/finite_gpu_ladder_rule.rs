@@ -230,9 +230,22 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
                 reports_old[k].sweeps,
                 wr_old.sweeps
             );
+            // The old rule's loads within the new one's estimate where both end on the
+            // same grid; where they end on different grids (session 42: the new rule's
+            // V(2,0) cycles take ε = 0.6 at 5e-4 on to 256 × 32, true error 1.3e-4,
+            // where the old one stops on 128 × 16 with 6.2e-4), within the sum of the
+            // two grids' estimates (each bounds its own distance from the truth).
+            let old_d = rel(&load(k, &got_old[k]), &gv);
+            let same_grid = (reports_old[k].n_theta, reports_old[k].n_z) == (r.n_theta, r.n_z);
+            let allowed = if same_grid {
+                wr.error_estimate
+            } else {
+                wr.error_estimate + wr_old.error_estimate
+            };
             assert!(
-                rel(&load(k, &got_old[k]), &gv) <= wr.error_estimate,
-                "{name}: the old rule's loads are not within the estimate of the new one's"
+                old_d <= allowed,
+                "{name}: the old rule's loads {old_d:.3e} from the new one's, above {allowed:.3e} \
+                 (same grid: {same_grid})"
             );
             let (new_u, old_u) = (updates(r), updates(&reports_old[k]));
             if updates(&wr) < updates(&wr_old) {
