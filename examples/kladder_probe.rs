@@ -112,6 +112,7 @@ fn main() {
         floor: 0.1,
         // The V(2,1) cycle of before session 42.
         post: 1,
+        measured_last: false,
     };
     let (mut cpu, mut cpu_exact, mut cpu_old) = (Vec::new(), Vec::new(), Vec::new());
     let (mut cpu_out, mut old_out) = (Vec::new(), Vec::new());

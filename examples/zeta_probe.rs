@@ -843,6 +843,11 @@ fn rule_of(a: &str) -> bearing_sweep::bearing::finite::LadderRule {
             .map_or(bearing_sweep::bearing::finite::LADDER_POST_SWEEPS, |v| {
                 v.parse().expect("ZETA_PROBE_POST: a count")
             }),
+        // `ZETA_PROBE_LAST=0`: the grid that ends the ladder may stop after one cycle.
+        measured_last: std::env::var("ZETA_PROBE_LAST")
+            .map_or(bearing_sweep::bearing::finite::LADDER_MEASURED_LAST, |v| {
+                v != "0"
+            }),
     }
 }
 

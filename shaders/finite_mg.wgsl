@@ -105,7 +105,9 @@ struct Params {
     // level (LadderRule::post; solver.rs solve_accuracy). Fixed grids and the first
     // grid's full multigrid: NU_POST.
     ladder_post: u32,
-    pad1: u32,
+    // Ladder: 1 when the grid that ends it does at least two V-cycles
+    // (LadderRule::measured_last; solver.rs solve_accuracy).
+    measured_last: u32,
     pad2: u32,
     // Fixed grid: tolerance on the field; ladder: on the loads of the first grid and its
     // full-multigrid levels (max(accuracy/10, tol)).
@@ -1382,10 +1384,12 @@ fn finish_level() {
         }
         let e = estimate(vals, n);
         let ext = ladder_extends(vals, n);
-        if e >= 0.0 && e <= params.accuracy && !ext && loose_now > 0.0 && err > params.floor
-            && cyc < maxc {
+        let short = params.measured_last != 0u && cyc < 2u;
+        if e >= 0.0 && e <= params.accuracy && !ext
+            && ((loose_now > 0.0 && err > params.floor) || short) && cyc < maxc {
             // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
-            // floor (the cycles continue, none is repeated; solver.rs solve_accuracy);
+            // floor, and to a second cycle with `measured_last` (the cycles continue, none
+            // is repeated; solver.rs solve_accuracy);
             // the grid's load slot holds the last cycle's change again (see `dl`).
             loose_now = 0.0;
             if nv < MAX_RUNGS {

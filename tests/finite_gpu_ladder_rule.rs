@@ -106,6 +106,7 @@ fn old_rule() -> LadderRule {
         floor: 0.1,
         // The V(2,1) cycle of the ladder before session 42.
         post: 1,
+        measured_last: false,
     }
 }
 

@@ -331,7 +331,8 @@ struct Params {
     limit: u32,
     cubic_start: u32,
     ladder_post: u32,
-    pad: [u32; 2],
+    measured_last: u32,
+    pad: [u32; 1],
     tolerance: f64,
     target: f64,
     floor: f64,
@@ -832,7 +833,8 @@ impl MultigridPipeline {
                 limit: self.limit,
                 cubic_start: u32::from(rule.cubic_start),
                 ladder_post: rule.post,
-                pad: [0; 2],
+                measured_last: u32::from(rule.measured_last),
+                pad: [0; 1],
                 tolerance: stop_tol,
                 target: grid.accuracy.unwrap_or(0.0),
                 floor,
@@ -1209,6 +1211,7 @@ fn ladder_rule(banded: bool) -> LadderRule {
             cubic_start: false,
             floor: ALGEBRAIC_FRACTION,
             post: MgCycle::default().post,
+            measured_last: false,
         };
     }
     std::env::var("BEARING_SWEEP_MG_LADDER_RULE")
@@ -1240,6 +1243,7 @@ fn parse_rule(v: &str) -> Option<LadderRule> {
         cubic_start,
         floor,
         post,
+        measured_last: LadderRule::default().measured_last,
     })
 }
 
