@@ -99,6 +99,50 @@ fn extra_grids() -> usize {
     std::env::var("BW_EXTRA").map_or(0, |v| v.parse().expect("BW_EXTRA: a count"))
 }
 
+/// `BW_REJUDGE=K` (session 42): each state outside 1/3-3 judged again against the ladder
+/// carried K grids past 1024 × 128 (the 1024 × 128 reference's own step can be above the
+/// error it judges at ε ≥ 0.92).
+fn rejudge_grids() -> Option<usize> {
+    std::env::var("BW_REJUDGE")
+        .ok()
+        .map(|v| v.parse().expect("BW_REJUDGE: a count"))
+}
+
+/// The default solve of `s` (with `BW_POST`) against the ladder carried `extra` grids past
+/// 1024 × 128, iterated to 1e-10, its finest pair's rectangle sums extrapolated: (true
+/// error, the solve's estimate, the reference's distance from the extrapolate one grid
+/// down), relative.
+fn rejudge(
+    p: &BearingParams,
+    grid: &FiniteGrid,
+    s: &BearingState,
+    extra: usize,
+) -> (f64, f64, f64) {
+    let packed = pack_state(p, s).expect("a valid state");
+    let job = FiniteJob::new(p, &packed);
+    let lv = |i: &[f64; 4]| finish_loads(p, s, i, packed.rate_scale).load_vector(p.length);
+    let mut solver = FiniteSolver::new();
+    if let Ok(v) = std::env::var("BW_POST") {
+        solver.ladder_rule.post = v.parse().expect("BW_POST: a count");
+    }
+    if let Ok(v) = std::env::var("BW_LAST") {
+        solver.ladder_rule.measured_last = v != "0";
+    }
+    let (ints, rep) = solver.solve(&job, grid, &mut Vec::new());
+    let steps = FiniteSolver::new().ladder_beyond(&job, grid, 1e-10, extra);
+    let m = steps.len();
+    let x = |a: usize| -> [f64; 4] {
+        let (f, c) = (lv(&steps[a].rectangle), lv(&steps[a - 1].rectangle));
+        std::array::from_fn(|q| (4.0 * f[q] - c[q]) / 3.0)
+    };
+    let truth = x(m - 1);
+    (
+        rel(&lv(&ints), &truth),
+        rep.error_estimate,
+        rel(&x(m - 2), &truth),
+    )
+}
+
 fn full_ladder(p: &BearingParams, grid: &FiniteGrid, s: &BearingState) -> Option<FullLadder> {
     let packed = pack_state(p, s).ok()?;
     let job = FiniteJob::new(p, &packed);
@@ -586,6 +630,15 @@ fn main() {
             let packed = pack_state(&p, s).ok()?;
             let job = FiniteJob::new(&p, &packed);
             let mut solver = FiniteSolver::new();
+            // BW_POST: the ladder's post-smoothing sweeps (1: the V(2,1) before session 42).
+            if let Ok(v) = std::env::var("BW_POST") {
+                solver.ladder_rule.post = v.parse().expect("BW_POST: a count");
+            }
+            // BW_LAST=0: the grid that ends the ladder may stop after one cycle (before
+            // session 42).
+            if let Ok(v) = std::env::var("BW_LAST") {
+                solver.ladder_rule.measured_last = v != "0";
+            }
             let (ints, rep) = solver.solve(&job, &grid, &mut Vec::new());
             let v = finish_loads(&p, s, &ints, packed.rate_scale).load_vector(p.length);
             let full = full_ladder(&p, &grid, s)?;
@@ -702,6 +755,14 @@ fn main() {
             g.0,
             g.1
         );
+        if let Some(extra) = rejudge_grids() {
+            let (err2, est2, step2) = rejudge(&p, &grid, s, extra);
+            println!(
+                "    against the ladder {extra} grid(s) past 1024 × 128: error {err2:.2e} \
+                 estimate {est2:.2e} ({:.2}×), that reference's own step {step2:.2e}",
+                est2 / err2
+            );
+        }
     }
     // Honesty of the estimate on all states: ratio estimate/error (factor 3 both ways).
     let mut ratios: Vec<f64> = rows

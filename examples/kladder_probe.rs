@@ -110,6 +110,9 @@ fn main() {
         cubic_start: false,
         // The crate's ALGEBRAIC_FRACTION (crate-private): the rule before session 36.
         floor: 0.1,
+        // The V(2,1) cycle of before session 42.
+        post: 1,
+        measured_last: false,
     };
     let (mut cpu, mut cpu_exact, mut cpu_old) = (Vec::new(), Vec::new(), Vec::new());
     let (mut cpu_out, mut old_out) = (Vec::new(), Vec::new());

@@ -837,6 +837,17 @@ fn rule_of(a: &str) -> bearing_sweep::bearing::finite::LadderRule {
         loose: v[0].parse().expect("LOOSE"),
         cubic_start: v[1] == "cubic",
         floor: v.get(2).map_or(0.1, |f| f.parse().expect("FLOOR")),
+        // Post-smoothing sweeps of the ladder's cycles (session 42): `ZETA_PROBE_POST`,
+        // else the default.
+        post: std::env::var("ZETA_PROBE_POST")
+            .map_or(bearing_sweep::bearing::finite::LADDER_POST_SWEEPS, |v| {
+                v.parse().expect("ZETA_PROBE_POST: a count")
+            }),
+        // `ZETA_PROBE_LAST=0`: the grid that ends the ladder may stop after one cycle.
+        measured_last: std::env::var("ZETA_PROBE_LAST")
+            .map_or(bearing_sweep::bearing::finite::LADDER_MEASURED_LAST, |v| {
+                v != "0"
+            }),
     }
 }
 

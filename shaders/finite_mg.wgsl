@@ -107,8 +107,13 @@ struct Params {
     // Ladder grids after the first (plain film, `LadderRule::cubic_start`): 1 when their
     // start's in-between rows are redone by cubics in ζ.
     cubic_start: u32,
-    pad0: u32,
-    pad1: u32,
+    // Ladder grids after the first: post-smoothing sweeps of their V-cycles on every
+    // level (LadderRule::post; solver.rs solve_accuracy). Fixed grids and the first
+    // grid's full multigrid: NU_POST.
+    ladder_post: u32,
+    // Ladder: 1 when the grid that ends it does at least two V-cycles
+    // (LadderRule::measured_last; solver.rs solve_accuracy).
+    measured_last: u32,
     pad2: u32,
     // Fixed grid: tolerance on the field; ladder: on the loads of the first grid and its
     // full-multigrid levels (max(accuracy/10, tol)).
@@ -1377,10 +1382,12 @@ fn finish_level() {
         }
         let e = estimate(vals, n);
         let ext = ladder_extends(vals, n);
-        if e >= 0.0 && e <= params.accuracy && !ext && loose_now > 0.0 && err > params.floor
-            && cyc < maxc {
+        let short = params.measured_last != 0u && cyc < 2u;
+        if e >= 0.0 && e <= params.accuracy && !ext
+            && ((loose_now > 0.0 && err > params.floor) || short) && cyc < maxc {
             // Stopped loosely as an intermediate grid, but it ends the ladder: on to the
-            // floor (the cycles continue, none is repeated; solver.rs solve_accuracy);
+            // floor, and to a second cycle with `measured_last` (the cycles continue, none
+            // is repeated; solver.rs solve_accuracy);
             // the grid's load slot holds the last cycle's change again (see `dl`).
             loose_now = 0.0;
             if nv < MAX_RUNGS {
@@ -1457,10 +1464,11 @@ fn cycle_step() {
         cat = T_ASCENT;
         let m = vs - t - 1u;
         prolong_correction(m, m == t);
-        for (var s = 0u; s < NU_POST; s++) {
+        let nu_post = select(NU_POST, params.ladder_post, params.mode != 0u && t > params.top0);
+        for (var s = 0u; s < nu_post; s++) {
             sweep(m, 1.0, m == t, false, 0.0, 0.0);
         }
-        updates += f64(NU_POST * interior_of(m));
+        updates += f64(nu_post * interior_of(m));
         vs += 1u;
     } else {
         var change: f64 = 0.0;

@@ -199,6 +199,15 @@ fn default_within_1e3_on_a_dense_eccentricity_scan() {
 /// their last grid's iteration error depends on the bits), where session 40's estimate was
 /// 3.6× and 8.2× the true error (the grid before the last an unlucky one, `d₀ > d₋₁`):
 /// now the ladder goes on one grid ([`bearing_sweep::bearing::finite::ladder_extends`]).
+/// The next three (session 42) are the dense scan's states 603 (ε 0.925, squeezed at both
+/// ends), 626 (ε 0.93) and 638 (ε 0.9325), squeezed at one end: with the ladder's V(2,1)
+/// cycles the ladder's own loads of 603 and 638 were 4.20× and 3.14× their true errors
+/// (5.1e-5, 5.3e-5) against 4096 × 512 (3.62×, 3.30× against 1024 × 128); with V(2,0)
+/// ([`bearing_sweep::bearing::finite::LADDER_POST_SWEEPS`]) 1.10×, 2.80× (626, whose
+/// 1024 × 128 reference's own step, 9.7e-5, is above its error: 3.51× against that one)
+/// and 1.87×. Every case is judged on the polished solution and on the ladder's own loads
+/// (the solve without film outputs, as sweeps and benchmarks run it): with V(2,1) the
+/// test fails (index 2, 4.20×; index 4, 3.14×; checked once).
 #[test]
 fn estimate_is_honest_at_high_eccentricity() {
     use rayon::prelude::*;
@@ -212,9 +221,12 @@ fn estimate_is_honest_at_high_eccentricity() {
     // past 1024 × 128 for the reference: 4096 × 512 for the dense scan's two, whose errors
     // are 1.3e-5-2e-5 on 1024 × 128).
     type Case = (f64, f64, (f64, f64), bool, usize);
-    let cases: [Case; 10] = [
+    let cases: [Case; 13] = [
         (dense(52), 0.0, (0.0, -0.03), true, 2),
         (dense(53), 0.0, (0.0, -0.03), true, 2),
+        (dense(50), 0.0, (0.0, -0.03), true, 2),
+        (dense(52), 0.0, (0.0, -0.03), false, 2),
+        (dense(53), 0.0, (0.0, -0.03), false, 2),
         (0.9325, 0.0, (0.0, 0.0), false, 1),
         (0.915, 0.0, (0.0, -0.03), true, 1),
         (0.9375, 0.0, (0.02, 0.0), false, 1),
@@ -225,7 +237,8 @@ fn estimate_is_honest_at_high_eccentricity() {
         (0.95, 0.25, (0.0, -0.03), true, 1),
     ];
     let g = FiniteGrid::for_bearing(&p);
-    let rows: Vec<(f64, f64, f64, f64)> = cases
+    type Row = (f64, f64, f64, f64, f64, f64);
+    let rows: Vec<Row> = cases
         .par_iter()
         .map(|&(e, tilt, (vx, vy), both, extra)| {
             let j = if both { 1.0 } else { 0.0 };
@@ -241,6 +254,8 @@ fn estimate_is_honest_at_high_eccentricity() {
                 omega: w,
             };
             let (v, est, _) = at_accuracy(&p, &st, FiniteSettings::default().accuracy);
+            let (lv_own, est_own, _) =
+                ladder_at_accuracy(&p, &st, FiniteSettings::default().accuracy);
             let packed = pack_state(&p, &st).unwrap();
             let job = FiniteJob::new(&p, &packed);
             let steps = FiniteSolver::new().ladder_beyond(&job, &g, 1e-10, extra);
@@ -263,26 +278,35 @@ fn estimate_is_honest_at_high_eccentricity() {
                 est,
                 rel(&x(top - 1), &reference),
                 worst_iteration,
+                rel(&lv_own, &reference),
+                est_own,
             )
         })
         .collect();
     let mut bad = Vec::new();
-    for (index, (case, &(err, est, ref_step, it))) in cases.iter().zip(&rows).enumerate() {
+    for (index, (case, &(err, est, ref_step, it, err_own, est_own))) in
+        cases.iter().zip(&rows).enumerate()
+    {
         println!(
-            "{case:?}: true error {err:.3e}, estimate {est:.3e} ({:.2}x), reference step {ref_step:.2e}, \
-             largest iteration error {it:.1e}",
-            est / err
+            "{case:?}: true error {err:.3e}, estimate {est:.3e} ({:.2}x); ladder's own loads \
+             {err_own:.3e}, {est_own:.3e} ({:.2}x); reference step {ref_step:.2e}, largest \
+             iteration error {it:.1e}",
+            est / err,
+            est_own / err_own
         );
-        assert!(
-            it <= 1e-7 && ref_step <= 0.1 * err,
-            "index {index} {case:?}: the reference is not converged enough to judge: iteration \
-             error {it:.2e} (tolerance 1e-7), its own step {ref_step:.2e} against the error \
-             judged {err:.2e} (tolerance 1/10)"
-        );
-        if !(err <= 3.0 * est && est <= 3.0 * err) {
-            bad.push(format!(
-                "index {index} {case:?}: estimate {est:.3e}, true error {err:.3e}, tolerance factor 3 both ways"
-            ));
+        for (what, err, est) in [("polished", err, est), ("ladder", err_own, est_own)] {
+            assert!(
+                it <= 1e-7 && ref_step <= 0.1 * err,
+                "index {index} {case:?} ({what}): the reference is not converged enough to \
+                 judge: iteration error {it:.2e} (tolerance 1e-7), its own step {ref_step:.2e} \
+                 against the error judged {err:.2e} (tolerance 1/10)"
+            );
+            if !(err <= 3.0 * est && est <= 3.0 * err) {
+                bad.push(format!(
+                    "index {index} {case:?} ({what}): estimate {est:.3e}, true error {err:.3e}, \
+                     tolerance factor 3 both ways"
+                ));
+            }
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
@@ -578,6 +602,11 @@ fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
     }
 }
 
+/// The default state's mean work against the old 64 × 16 PSOR state's (session 42: issue
+/// 20 asks "no more than"; 0.9 leaves the measured 0.833× a margin of 8 %, below the 0.95×
+/// asked of the session).
+const MEAN_WORK_BUDGET: f64 = 0.9;
+
 /// Issue 20 item 2's cost goal, in counted work (relaxation node updates on all grids,
 /// machine-independent): at the default accuracy, on the 32 states of the finite benchmark
 /// (ε 0.1-0.9 in golden-angle directions, half tilted, a third squeezed), the median state
@@ -589,6 +618,10 @@ fn accuracy_mode_iterates_only_to_a_fraction_of_the_accuracy() {
 /// (each grid to accuracy/10): median 30,720, mean 69,024, largest 387,072, same grids.
 /// Session 36 (role-dependent per-grid stop, cubic start in ζ): 21,120 / 57,356 / 354,816
 /// counted as here (whole sweeps of the final grid), same grids, largest error 8.5e-4.
+/// The mean too (session 42), counted exactly (the solver's own tally of node updates on
+/// every grid, `LadderStep::updates`; deterministic, not a timing): at most
+/// [`MEAN_WORK_BUDGET`] × the old state's. Measured: 55,311 with the ladder's V(2,1)
+/// cycles (1.02×, fails), 45,109 with V(2,0) (0.833×).
 #[test]
 fn default_accuracy_median_state_costs_no_more_than_old_default() {
     let (p, states) = bearing_sweep::bench::finite::bench_states(32);
@@ -599,7 +632,7 @@ fn default_accuracy_median_state_costs_no_more_than_old_default() {
     };
     let g = FiniteGrid::for_bearing(&p);
     let old = FiniteGrid::from(&FiniteSettings::with_grid(64, 16));
-    let (mut old_total, mut new) = (0u64, Vec::new());
+    let (mut old_total, mut new, mut exact) = (0u64, Vec::new(), 0u64);
     for (k, s) in states.iter().enumerate() {
         let packed = pack_state(&p, s).unwrap();
         let job = FiniteJob::new(&p, &packed);
@@ -608,6 +641,7 @@ fn default_accuracy_median_state_costs_no_more_than_old_default() {
         let mut solver = FiniteSolver::new();
         let (ints, r) = solver.solve(&job, &g, &mut Vec::new());
         new.push(r.sweeps as u64 * (r.n_theta as u64 * (r.n_z as u64 - 1)));
+        exact += solver.trace.last().map_or(0, |t| t.updates);
         let lv = |i: &[f64; 4]| finish_loads(&p, s, i, packed.rate_scale).load_vector(p.length);
         let want = lv(&solver.reference(&job, &g));
         let err = rel(&lv(&ints), &want);
@@ -622,10 +656,18 @@ fn default_accuracy_median_state_costs_no_more_than_old_default() {
     new.sort_unstable();
     let old_mean = old_total / states.len() as u64;
     let median = new[new.len() / 2];
+    let mean_exact = exact as f64 / states.len() as f64;
     println!(
         "node updates per state: old default {old_mean} (mean), default accuracy median \
-         {median}, largest {}",
-        new[new.len() - 1]
+         {median}, largest {}, mean (exact) {mean_exact:.0} ({:.3}x the old)",
+        new[new.len() - 1],
+        mean_exact / old_mean as f64
+    );
+    assert!(
+        mean_exact <= MEAN_WORK_BUDGET * old_mean as f64,
+        "default accuracy: mean {mean_exact:.0} node updates per state (exact), expected ≤ \
+         {MEAN_WORK_BUDGET} × the old 64 × 16 PSOR state's {old_mean} = {:.0}",
+        MEAN_WORK_BUDGET * old_mean as f64
     );
     assert!(
         median <= old_mean,

@@ -20,7 +20,8 @@
 //!   V-cycle's sweeps (3: two pre- and one post-smoothing; the paths of the truncated
 //!   correction differ, tests/finite_gpu_multigrid.rs's module docs), and below the work of
 //!   the kernel run with the rule before session 37 (every grid to accuracy/10 from the
-//!   bilinear start; the driver's diagnostic `BEARING_SWEEP_MG_LADDER_RULE=0,linear,0.1`)
+//!   bilinear start, V(2,1) cycles; the driver's diagnostic
+//!   `BEARING_SWEEP_MG_LADDER_RULE=0,linear,0.1,1`)
 //!   wherever the CPU's work dropped against its own old rule, never above it in all.
 //!
 //! Runs on whatever f64 adapter wgpu finds (lavapipe on CI); skips with a notice without
@@ -103,6 +104,9 @@ fn old_rule() -> LadderRule {
         cubic_start: false,
         // The crate's ALGEBRAIC_FRACTION (crate-private), the old per-grid stop.
         floor: 0.1,
+        // The V(2,1) cycle of the ladder before session 42.
+        post: 1,
+        measured_last: false,
     }
 }
 
@@ -133,7 +137,7 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
         std::env::remove_var("BEARING_SWEEP_MG_LADDER_RULE");
         let (got, reports) = kernel(&mut backend, &jobs, &grid);
         // The kernel with the rule before session 37 (the driver's diagnostic switch).
-        std::env::set_var("BEARING_SWEEP_MG_LADDER_RULE", "0,linear,0.1");
+        std::env::set_var("BEARING_SWEEP_MG_LADDER_RULE", "0,linear,0.1,1");
         let (got_old, reports_old) = kernel(&mut backend, &jobs, &grid);
         std::env::remove_var("BEARING_SWEEP_MG_LADDER_RULE");
         let mut solver = FiniteSolver::new();
@@ -227,9 +231,22 @@ fn kernel_ladder_follows_the_cpu_ladder_rule() {
                 reports_old[k].sweeps,
                 wr_old.sweeps
             );
+            // The old rule's loads within the new one's estimate where both end on the
+            // same grid; where they end on different grids (session 42: the new rule's
+            // V(2,0) cycles take ε = 0.6 at 5e-4 on to 256 × 32, true error 1.3e-4,
+            // where the old one stops on 128 × 16 with 6.2e-4), within the sum of the
+            // two grids' estimates (each bounds its own distance from the truth).
+            let old_d = rel(&load(k, &got_old[k]), &gv);
+            let same_grid = (reports_old[k].n_theta, reports_old[k].n_z) == (r.n_theta, r.n_z);
+            let allowed = if same_grid {
+                wr.error_estimate
+            } else {
+                wr.error_estimate + wr_old.error_estimate
+            };
             assert!(
-                rel(&load(k, &got_old[k]), &gv) <= wr.error_estimate,
-                "{name}: the old rule's loads are not within the estimate of the new one's"
+                old_d <= allowed,
+                "{name}: the old rule's loads {old_d:.3e} from the new one's, above {allowed:.3e} \
+                 (same grid: {same_grid})"
             );
             let (new_u, old_u) = (updates(r), updates(&reports_old[k]));
             if updates(&wr) < updates(&wr_old) {

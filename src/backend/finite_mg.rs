@@ -43,7 +43,7 @@ use wgpu::util::DeviceExt;
 use super::finite_gpu::{compile_pipeline, map_read};
 use super::BackendError;
 use crate::bearing::finite::{
-    accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, LadderRule,
+    accuracy_ladder, coarser, solution_theta0, Coarsen, FiniteGrid, FiniteJob, LadderRule, MgCycle,
     SolveReport, ALGEBRAIC_FRACTION,
 };
 use crate::bearing::FilmIntegrals;
@@ -358,7 +358,9 @@ struct Params {
     budget: u32,
     limit: u32,
     cubic_start: u32,
-    pad: [u32; 3],
+    ladder_post: u32,
+    measured_last: u32,
+    pad: [u32; 1],
     tolerance: f64,
     target: f64,
     floor: f64,
@@ -903,7 +905,9 @@ impl MultigridPipeline {
                 budget,
                 limit: self.limit,
                 cubic_start: u32::from(rule.cubic_start),
-                pad: [0; 3],
+                ladder_post: rule.post,
+                measured_last: u32::from(rule.measured_last),
+                pad: [0; 1],
                 tolerance: stop_tol,
                 target: grid.accuracy.unwrap_or(0.0),
                 floor,
@@ -1269,17 +1273,20 @@ fn keep_tally(res: &[f64], n: usize) {
 /// How the kernel's ladder iterates its grids after the first: the CPU's rule for the
 /// ladder it runs (src/bearing/finite/solver.rs `FiniteSolver::solve_accuracy`): the plain
 /// 360° film's Simpson-summed ladder [`LadderRule::default`], grooves and arcs every grid
-/// to [`ALGEBRAIC_FRACTION`] of the accuracy from the bilinear start (the rule before
-/// session 36, which the CPU keeps for them). Diagnostics: the environment variable
-/// `BEARING_SWEEP_MG_LADDER_RULE=LOOSE,cubic|linear,FLOOR` (examples/zeta_probe.rs's form)
-/// replaces the plain film's rule (`0,linear,0.1`: the kernel before session 37, bit for
-/// bit); an unparsable value keeps the default.
+/// to [`ALGEBRAIC_FRACTION`] of the accuracy from the bilinear start with V(2,1) cycles
+/// (the rule before session 36, which the CPU keeps for them). Diagnostics: the
+/// environment variable `BEARING_SWEEP_MG_LADDER_RULE=LOOSE,cubic|linear,FLOOR[,POST]`
+/// (examples/zeta_probe.rs's form; POST the post-smoothing sweeps, default
+/// [`LadderRule::post`]'s) replaces the plain film's rule (`0,linear,0.1,1`: the kernel
+/// before session 37, bit for bit); an unparsable value keeps the default.
 fn ladder_rule(banded: bool) -> LadderRule {
     if banded {
         return LadderRule {
             loose: 0.0,
             cubic_start: false,
             floor: ALGEBRAIC_FRACTION,
+            post: MgCycle::default().post,
+            measured_last: false,
         };
     }
     std::env::var("BEARING_SWEEP_MG_LADDER_RULE")
@@ -1291,10 +1298,16 @@ fn ladder_rule(banded: bool) -> LadderRule {
 /// `LOOSE,cubic|linear,FLOOR` as a [`LadderRule`] (`None` if malformed).
 fn parse_rule(v: &str) -> Option<LadderRule> {
     let parts: Vec<&str> = v.trim().split(',').map(str::trim).collect();
-    let [loose, start, floor] = parts.as_slice() else {
-        return None;
+    let (loose, start, floor, post) = match parts.as_slice() {
+        [l, s, f] => (*l, *s, *f, None),
+        [l, s, f, p] => (*l, *s, *f, Some(*p)),
+        _ => return None,
     };
-    let cubic_start = match *start {
+    let post = match post {
+        Some(p) => p.parse::<u32>().ok()?,
+        None => LadderRule::default().post,
+    };
+    let cubic_start = match start {
         "cubic" => true,
         "linear" => false,
         _ => return None,
@@ -1304,6 +1317,8 @@ fn parse_rule(v: &str) -> Option<LadderRule> {
         loose,
         cubic_start,
         floor,
+        post,
+        measured_last: LadderRule::default().measured_last,
     })
 }
 

@@ -40,7 +40,7 @@ pub use solver::{
     ladder_estimate, ladder_extends, ladder_integrals_on, richardson_estimate, simpson_estimate,
     simpson_reported, simpson_stop_bound, CoarsestSolve, FiniteGrid, FiniteJob, FiniteSolution,
     FiniteSolver, LadderRule, LadderStep, MgCycle, SolveReport, LADDER_CUBIC_START, LADDER_FLOOR,
-    LADDER_LOOSE, LADDER_PAIR_RATIO,
+    LADDER_LOOSE, LADDER_MEASURED_LAST, LADDER_PAIR_RATIO, LADDER_POST_SWEEPS,
 };
 
 /// The instruction set the multigrid's passes run on in this process (chosen on first use:

@@ -256,6 +256,16 @@ pub struct LadderRule {
     /// error of the load vector of the grid that ends the ladder is below it.
     /// Dimensionless, default [`LADDER_FLOOR`].
     pub floor: f64,
+    /// Smoothing sweeps after the coarse-grid correction in the V-cycles of the ladder's
+    /// grids after the first (on every level of the cycle; before it: the cycle's 2).
+    /// Default [`LADDER_POST_SWEEPS`]; 1 is the cycle of explicit grids and the ladder's
+    /// before session 42.
+    pub post: u32,
+    /// Whether the grid that ends the ladder does at least two V-cycles, so that the
+    /// iteration term its estimate reports is the load vector's measured contraction, not
+    /// the 0.5 assumed after one cycle. Default [`LADDER_MEASURED_LAST`]; false is the rule
+    /// before session 42.
+    pub measured_last: bool,
 }
 
 impl Default for LadderRule {
@@ -264,6 +274,8 @@ impl Default for LadderRule {
             loose: LADDER_LOOSE,
             cubic_start: LADDER_CUBIC_START,
             floor: LADDER_FLOOR,
+            post: LADDER_POST_SWEEPS,
+            measured_last: LADDER_MEASURED_LAST,
         }
     }
 }
@@ -283,6 +295,29 @@ pub const LADDER_CUBIC_START: bool = true;
 /// a V-cycle less on 256 × 32 for most states that end there (mean node updates at the
 /// default 60,328 at /10, 57,158 at /7, 54,221 at /5 and beyond; `zeta_probe rules`).
 pub const LADDER_FLOOR: f64 = 0.2;
+/// Default of [`LadderRule::post`]: the ladder's V-cycles are V(2,0) (issue 20, session
+/// 42). The ladder reads only load integrals, in which the rough high-frequency error that
+/// a post-smoothing sweep removes nearly cancels, and its next grid starts from an
+/// interpolation that a pre-smoothing sweep smooths anyway; a cycle is then 2 sweeps of
+/// the grid instead of 3 at about the same contraction of the loads. Measured
+/// (examples/zeta_probe.rs `prof 5e-4`, the 32 benchmark states, exact): 55,311 node
+/// updates per default state with V(2,1), 45,109 with V(2,0) (0.83× the old 64 × 16 PSOR
+/// state's 54,150), 31,925 with V(1,0) (but estimates up to 14.6× their true error on the
+/// dense ε 0.8-0.95 scan), 54,968 with V(1,1), 54,345 with V(3,0); estimates within 1/3-3
+/// on every tested set (BENCHMARKS.md "Issue 20, session 42").
+pub const LADDER_POST_SWEEPS: u32 = 0;
+/// Default of [`LadderRule::measured_last`] (issue 20, session 42; measured, not taken).
+/// Where the grid that ends the ladder stops after one cycle, its iteration term assumes
+/// a contraction of 0.5: at ε 0.907-0.94 squeezed (the dense scan's states 519, 615, 663,
+/// 674) the returned loads' true iteration error was 2.5-4.7× that term, up to 0.42 of
+/// the accuracy (V(2,0); 0.39 with V(2,1)), and state 615 (ε 0.9275, both ends, its
+/// extra 1024 × 128 grid) was 0.29× its true error against 4096 × 512 (0.33× with
+/// V(2,1)). With `true`: no cost on the 32 benchmark states (45,109 node updates), +5.2 %
+/// on the 732 dense states, the loads' iteration error at most 0.17 of the accuracy,
+/// state 615 1.14×, but state 663 (ε 0.9375, one end) then 0.23× its true error 1.72e-4:
+/// its discretisation part (3.1e-5) is 5× low, which its one-cycle iteration error had
+/// masked (BENCHMARKS.md "Issue 20, session 42").
+pub const LADDER_MEASURED_LAST: bool = false;
 
 /// Scratch space of the CPU solver (face coefficients, right-hand side), reused.
 #[derive(Default)]
@@ -717,6 +752,8 @@ impl FiniteSolver {
         // references of `ladder_beyond` set it on after this.
         self.mg.coarse_truncation = false;
         self.mg.line_freeze = false;
+        // The default V(2,1) (`solve_accuracy` sets the ladder's own from its second grid).
+        self.mg.cycle = MgCycle::default();
         // The plain 360° film sums its loads by Simpson's rule in ζ (see
         // `ladder_integrals_on`); grooves and arcs keep the rectangle rule, whose
         // banded estimate is calibrated on it (tests/grooves.rs).
@@ -888,14 +925,19 @@ impl FiniteSolver {
                 loose: 0.0,
                 cubic_start: false,
                 floor: ALGEBRAIC_FRACTION,
+                post: MgCycle::default().post,
+                measured_last: false,
             }
         };
+        // The ladder's V-cycles from its second grid on (the first grid's full multigrid
+        // keeps the default cycle; the polish below too).
+        self.mg.cycle.post = rule.post;
         let floor = (rule.floor * target).max(g.tolerance);
         for &dims in &ladder[1..] {
             let below = values[values.len() - 1];
             self.ladder_grow(job, g, dims, rule.cubic_start);
             let mut cyc = LadderCycles::default();
-            let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below);
+            let mut res = self.ladder_cycles(job.aspect, &mut cyc, floor, rule.loose, &below, 1);
             let mut step = self.ladder_step_of(&cyc, res);
             values.push(step.integrals);
             // (the bound the ladder stops on, the estimate it reports): one and the same
@@ -921,10 +963,12 @@ impl FiniteSolver {
                 bound <= target && !(simpson && more && ladder_extends(values))
             };
             let mut est = est_of(&values, self.mg.simpson_z, 0.0);
-            if est.is_some_and(|e| ends(&values, e.0)) && res.1 > floor {
+            let last_min = if rule.measured_last { 2 } else { 1 };
+            if est.is_some_and(|e| ends(&values, e.0)) && (res.1 > floor || cyc.cycles < last_min) {
                 // Stopped loosely as an intermediate grid, but it may end the ladder:
-                // on to the floor (the cycles continue, none is repeated).
-                res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below);
+                // on to the floor, and to a second cycle with `measured_last` (the cycles
+                // continue, none is repeated).
+                res = self.ladder_cycles(job.aspect, &mut cyc, floor, 0.0, &below, last_min);
                 step = self.ladder_step_of(&cyc, res);
                 *values.last_mut().expect("pushed") = step.integrals;
             }
@@ -942,6 +986,7 @@ impl FiniteSolver {
                 }
             }
         }
+        self.mg.cycle = MgCycle::default();
         let top = self.mg.levels.len() - 1;
         let last = steps.last().expect("at least one grid");
         let (integrals, result) = if g.polish {
@@ -1023,7 +1068,8 @@ impl FiniteSolver {
     /// first cycle), until the estimated iteration error of its load vector (as
     /// [`super::multigrid::Hierarchy::iterate`] estimates it: the last change times the
     /// measured contraction's geometric tail) is below `max(floor, loose × |v − below| /
-    /// 4 / |v|)`; returns (cycles on this grid, estimated error, converged).
+    /// 4 / |v|)` and at least `min_cycles` are done; returns (cycles on this grid,
+    /// estimated error, converged).
     fn ladder_cycles(
         &mut self,
         aspect: f64,
@@ -1031,6 +1077,7 @@ impl FiniteSolver {
         floor: f64,
         loose: f64,
         below: &FilmIntegrals,
+        min_cycles: u32,
     ) -> (u32, f64, bool) {
         let top = self.mg.levels.len() - 1;
         let simpson = self.mg.simpson_z;
@@ -1064,7 +1111,7 @@ impl FiniteSolver {
             cyc.last_change = err;
             cyc.err = err;
         }
-        if cyc.last_change == 0.0 || cyc.err <= tol(&cyc.prev) {
+        if cyc.last_change == 0.0 || (cyc.err <= tol(&cyc.prev) && cyc.cycles >= min_cycles) {
             return (cyc.cycles, cyc.err, true);
         }
         while cyc.cycles < MAX_CYCLES {
@@ -1079,7 +1126,7 @@ impl FiniteSolver {
             // The estimate of `Hierarchy::iterate`.
             cyc.err = tail_estimate(change, cyc.last_change);
             cyc.last_change = change;
-            if change == 0.0 || cyc.err <= tol(&now) {
+            if change == 0.0 || (cyc.err <= tol(&now) && cyc.cycles >= min_cycles) {
                 return (cyc.cycles, cyc.err, true);
             }
         }
