@@ -170,6 +170,8 @@ var<private> updates: f64;
 var<private> spent: u32;
 // Loop iterations of invocation 0's serial walks (prolong_correction, `emptied`).
 var<private> serial: u32;
+// Loop iterations of invocation 0 that the batched loops save against `spent` (T_TRIPS).
+var<private> saved: u32;
 
 // Diagnostics (BEARING_SWEEP_MG_COUNT, src/backend/finite_mg.rs `Tally`): counts of this
 // dispatch, added to the slot's tally block (OUT_TALLY) at its end. T_* below: the
@@ -213,6 +215,10 @@ const T_SPENT: u32 = 21u;
 // Of those, the reductions' loops over workgroup memory (the rest: loops over the levels'
 // nodes in device memory, and the serial walks).
 const T_RED_SPENT: u32 = 22u;
+// Round trips to device memory of invocation 0: its loop iterations (`spent`) less the
+// reductions' (T_RED_SPENT) and less what the batched loops save (`saved`: a batch of B
+// nodes counts once), all dispatches; equal to spent − T_RED_SPENT for unbatched loops.
+const T_TRIPS: u32 = 23u;
 // Then invocation 0's loop iterations (`spent`) by part, T_INIT .. T_MAIN from here on
 // (the part a step ends in; the reductions' loops included).
 const T_SPENT_PART: u32 = 24u;
@@ -230,6 +236,18 @@ fn bar() {
 // exit test.
 fn loops(n: u32) -> u32 {
     return (n + WG - 1u) / WG + 1u;
+}
+
+// Nodes per invocation that a batched loop reads before it writes: its B nodes' loads are
+// in flight at once, one latency of device memory per B nodes instead of one per node
+// (issue 20, session 42). Only where the iterations are independent: the same nodes per
+// invocation in the same order, so the same arithmetic bit for bit.
+const B: u32 = 4u;
+
+// Round trips of a batched loop `for (var m0 = lid; m0 < n; m0 += WG * B)` for invocation
+// 0, plus its exit test: `loops(n)` less what `saved` counts.
+fn batches(n: u32) -> u32 {
+    return (n + WG * B - 1u) / (WG * B) + 1u;
 }
 
 fn nt_of(l: u32) -> u32 {
@@ -464,33 +482,87 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool, tol: f64, rel: f64) -> vec2<
     let half = nt / 2u;
     let cnt = half * (nz - 1u);
     let ia = select(A_INVF, A_INV, top);
+    // The level's arrays in `scr` (`at`, hoisted) and its holds in `geo` (`hold_of`).
+    let nf = full_of(l);
+    let o = sb + params.lv[l].w;
+    let o_ae = o + A_AE * nf;
+    let o_an = o + A_AN * nf;
+    let o_ia = o + ia * nf;
+    let o_f = o + A_F * nf;
+    let o_p = o + A_P * nf;
+    let o_base = o + A_BASE * nf;
+    let holds = top && params.banded != 0u;
+    let gh = params.lw[l].y + 2u;
+    let with_base = want && rel > 0.0;
     var my_dp: f64 = 0.0;
     var my_p: f64 = 0.0;
     spent += 1u + 2u * loops(cnt);
+    saved += 2u * (loops(cnt) - batches(cnt));
     tally[T_SWEEPS] += 1u;
     for (var colour = 0u; colour < 2u; colour++) {
-        for (var m = lid; m < cnt; m += WG) {
-            let j = 1u + m / half;
-            let i = 2u * (m % half) + ((colour + j) % 2u);
-            let k = j * nt + i;
-            let ik = scr[at(l, ia, k)];
-            let old = scr[at(l, A_P, k)];
-            if ik == 0.0 {
-                if top {
-                    let h = hold_of(l, k);
-                    scr[at(l, A_P, k)] = h;
-                    my_dp = max(my_dp, abs(h - old));
-                    my_p = max(my_p, tol * h);
+        // B nodes per invocation and round trip (`B`): all their loads, then their stores;
+        // within a colour a node reads only the other colour and its own old value.
+        for (var m0 = lid; m0 < cnt; m0 += WG * B) {
+            var kq: array<u32, B>;
+            var ikq: array<f64, B>;
+            var oldq: array<f64, B>;
+            var sq: array<f64, B>;
+            var fq: array<f64, B>;
+            var hq: array<f64, B>;
+            var bq: array<f64, B>;
+            for (var q = 0u; q < B; q++) {
+                let m = m0 + q * WG;
+                if m < cnt {
+                    let j = 1u + m / half;
+                    let i = 2u * (m % half) + ((colour + j) % 2u);
+                    let row = j * nt;
+                    let k = row + i;
+                    let ip = select(k + 1u, row, i + 1u == nt);
+                    let im = select(k - 1u, row + nt - 1u, i == 0u);
+                    kq[q] = k;
+                    ikq[q] = scr[o_ia + k];
+                    oldq[q] = scr[o_p + k];
+                    // `neighbours`, read whether or not the node is held.
+                    sq[q] = scr[o_ae + k] * scr[o_p + ip] + scr[o_ae + im] * scr[o_p + im]
+                        + scr[o_an + k] * scr[o_p + k + nt]
+                        + scr[o_an + k - nt] * scr[o_p + k - nt];
+                    fq[q] = scr[o_f + k];
+                    var h: f64 = 0.0;
+                    if holds {
+                        let g = geo[gh + 3u * k];
+                        if g >= 0.0 {
+                            h = g * supply;
+                        }
+                    }
+                    hq[q] = h;
+                    if with_base {
+                        bq[q] = scr[o_base + k];
+                    }
                 }
-                continue;
             }
-            let s = neighbours(l, A_P, j, i);
-            let new_p = max(old + omega * ((s + scr[at(l, A_F, k)]) * ik - old), 0.0);
-            scr[at(l, A_P, k)] = new_p;
-            my_dp = max(my_dp, abs(new_p - old));
-            my_p = max(my_p, tol * new_p);
-            if want && rel > 0.0 {
-                my_p = max(my_p, rel * abs(new_p - scr[at(l, A_BASE, k)]));
+            for (var q = 0u; q < B; q++) {
+                let m = m0 + q * WG;
+                if m < cnt {
+                    let k = kq[q];
+                    let ik = ikq[q];
+                    let old = oldq[q];
+                    if ik == 0.0 {
+                        if top {
+                            let h = hq[q];
+                            scr[o_p + k] = h;
+                            my_dp = max(my_dp, abs(h - old));
+                            my_p = max(my_p, tol * h);
+                        }
+                        continue;
+                    }
+                    let new_p = max(old + omega * ((sq[q] + fq[q]) * ik - old), 0.0);
+                    scr[o_p + k] = new_p;
+                    my_dp = max(my_dp, abs(new_p - old));
+                    my_p = max(my_p, tol * new_p);
+                    if with_base {
+                        my_p = max(my_p, rel * abs(new_p - bq[q]));
+                    }
+                }
             }
         }
         bar();
@@ -1756,6 +1828,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     }
     tally[T_SPENT_PART + T_MAIN] = spent - steps;
     tally[T_SPENT] = spent;
+    tally[T_TRIPS] = spent - tally[T_RED_SPENT] - saved;
 
     if lid == 0u {
         var status = ST_RUN;
