@@ -581,27 +581,51 @@ fn residual(l: u32, top: bool) {
     let nt = nt_of(l);
     let interior = interior_of(l);
     spent += loops(interior);
+    saved += loops(interior) - batches(interior);
     let ia = select(A_INVF, A_INV, top);
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        let j = k / nt;
-        let i = k % nt;
-        var r: f64 = 0.0;
-        if ((i + j) & 1u) == 0u && scr[at(l, ia, k)] != 0.0 {
-            let row = j * nt;
-            let ip = select(k + 1u, row, i + 1u == nt);
-            let im = select(k - 1u, row + nt - 1u, i == 0u);
-            let pk = scr[at(l, A_P, k)];
-            let v = scr[at(l, A_F, k)] - diag(l, j, i) * pk
-                + scr[at(l, A_AE, k)] * scr[at(l, A_P, ip)]
-                + scr[at(l, A_AE, im)] * scr[at(l, A_P, im)]
-                + scr[at(l, A_AN, k)] * scr[at(l, A_P, k + nt)]
-                + scr[at(l, A_AN, k - nt)] * scr[at(l, A_P, k - nt)];
-            if !(pk <= 0.0 && v < 0.0) {
-                r = v;
+    let nf = full_of(l);
+    let o = sb + params.lv[l].w;
+    let o_ae = o + A_AE * nf;
+    let o_an = o + A_AN * nf;
+    let o_ia = o + ia * nf;
+    let o_f = o + A_F * nf;
+    let o_p = o + A_P * nf;
+    let o_r = o + A_R * nf;
+    // Batched (`B`): every node's loads whatever its colour and hold, then the stores.
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var rq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let j = k / nt;
+                let i = k % nt;
+                let row = j * nt;
+                let ip = select(k + 1u, row, i + 1u == nt);
+                let im = select(k - 1u, row + nt - 1u, i == 0u);
+                let pk = scr[o_p + k];
+                let ik = scr[o_ia + k];
+                let ae = scr[o_ae + k];
+                let aw = scr[o_ae + im];
+                let an = scr[o_an + k];
+                let as_ = scr[o_an + k - nt];
+                // `diag`: the same sum in the same order.
+                let d = ae + aw + an + as_;
+                let v = scr[o_f + k] - d * pk + ae * scr[o_p + ip] + aw * scr[o_p + im]
+                    + an * scr[o_p + k + nt] + as_ * scr[o_p + k - nt];
+                var r: f64 = 0.0;
+                if ((i + j) & 1u) == 0u && ik != 0.0 && !(pk <= 0.0 && v < 0.0) {
+                    r = v;
+                }
+                rq[q] = r;
             }
         }
-        scr[at(l, A_R, k)] = r;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                scr[o_r + m + nt] = rq[q];
+            }
+        }
     }
 }
 
@@ -631,33 +655,64 @@ fn restrict_fas(l: u32, top: bool) {
     let cnz = nz_of(c);
     let nc = full_of(c);
     spent += 2u * loops(nc);
-    for (var kc = lid; kc < nc; kc += WG) {
-        let jc = kc / cnt;
-        let ic = kc % cnt;
-        let v = scr[at(l, A_P, jc * st.y * fnt + ic * st.x)];
-        scr[at(c, A_BASE, kc)] = v;
-        scr[at(c, A_P, kc)] = v;
+    saved += 2u * (loops(nc) - batches(nc));
+    let o_fp = sb + params.lv[l].w + A_P * full_of(l);
+    let o_c = sb + params.lv[c].w;
+    let o_cb = o_c + A_BASE * nc;
+    let o_cp = o_c + A_P * nc;
+    // Batched (`B`): the loads of B nodes, then their stores.
+    for (var m0 = lid; m0 < nc; m0 += WG * B) {
+        var vq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let kc = m0 + q * WG;
+            if kc < nc {
+                let jc = kc / cnt;
+                let ic = kc % cnt;
+                vq[q] = scr[o_fp + jc * st.y * fnt + ic * st.x];
+            }
+        }
+        for (var q = 0u; q < B; q++) {
+            let kc = m0 + q * WG;
+            if kc < nc {
+                scr[o_cb + kc] = vq[q];
+                scr[o_cp + kc] = vq[q];
+            }
+        }
     }
     residual(l, top);
     bar();
-    for (var kc = lid; kc < nc; kc += WG) {
-        let jc = kc / cnt;
-        let ic = kc % cnt;
-        var out: f64 = 0.0;
-        if jc >= 1u && jc < cnz && scr[at(c, A_INVF, kc)] != 0.0 {
-            let jf = jc * st.y;
-            let i0 = ic * st.x;
-            var rr: f64;
-            if st.y == 2u {
-                rr = 0.25 * along(l, jf - 1u, i0, st.x) + 0.5 * along(l, jf, i0, st.x)
-                    + 0.25 * along(l, jf + 1u, i0, st.x);
-            } else {
-                rr = along(l, jf, i0, st.x);
+    let o_ci = o_c + A_INVF * nc;
+    let o_cf = o_c + A_F * nc;
+    for (var m0 = lid; m0 < nc; m0 += WG * B) {
+        var vq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let kc = m0 + q * WG;
+            if kc < nc {
+                let jc = kc / cnt;
+                let ic = kc % cnt;
+                var out: f64 = 0.0;
+                if jc >= 1u && jc < cnz && scr[o_ci + kc] != 0.0 {
+                    let jf = jc * st.y;
+                    let i0 = ic * st.x;
+                    var rr: f64;
+                    if st.y == 2u {
+                        rr = 0.25 * along(l, jf - 1u, i0, st.x) + 0.5 * along(l, jf, i0, st.x)
+                            + 0.25 * along(l, jf + 1u, i0, st.x);
+                    } else {
+                        rr = along(l, jf, i0, st.x);
+                    }
+                    let a = diag(c, jc, ic) * scr[o_cb + kc] - neighbours(c, A_BASE, jc, ic);
+                    out = rr + a;
+                }
+                vq[q] = out;
             }
-            let a = diag(c, jc, ic) * scr[at(c, A_BASE, kc)] - neighbours(c, A_BASE, jc, ic);
-            out = rr + a;
         }
-        scr[at(c, A_F, kc)] = out;
+        for (var q = 0u; q < B; q++) {
+            let kc = m0 + q * WG;
+            if kc < nc {
+                scr[o_cf + kc] = vq[q];
+            }
+        }
     }
     bar();
 }
