@@ -778,9 +778,16 @@ fn inside_before(l: u32, k: u32) -> bool {
     let row = j * nt;
     let ip = select(k + 1u, row, i + 1u == nt);
     let im = select(k - 1u, row + nt - 1u, i == 0u);
-    return scr[at(l, A_P, k)] > 0.0 && scr[at(l, A_P, ip)] > 0.0 && scr[at(l, A_P, im)] > 0.0
-        && (j + 1u == nz || scr[at(l, A_P, k + nt)] > 0.0)
-        && (j == 1u || scr[at(l, A_P, k - nt)] > 0.0);
+    // All five loads first (valid at any interior node: the end rows are stored), so that
+    // none waits on another's test as `&&` would make it.
+    let o = sb + params.lv[l].w + A_P * full_of(l);
+    let pk = scr[o + k];
+    let pe = scr[o + ip];
+    let pw = scr[o + im];
+    let pn = scr[o + k + nt];
+    let ps = scr[o + k - nt];
+    return pk > 0.0 && pe > 0.0 && pw > 0.0 && (j + 1u == nz || pn > 0.0)
+        && (j == 1u || ps > 0.0);
 }
 
 // Whether node x of level l (array ia: its inverse diagonals) was emptied by the truncated
@@ -814,25 +821,57 @@ fn prolong_correction(l: u32, top: bool) {
     }
     serial = 0u;
     spent += 2u * loops(interior) + 2u;
+    saved += 2u * (loops(interior) - batches(interior));
+    let nf = full_of(l);
+    let o = sb + params.lv[l].w;
+    let o_p = o + A_P * nf;
+    let o_ia = o + ia * nf;
+    let o_r = o + A_R * nf;
     bar();
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        let pk = scr[at(l, A_P, k)];
-        var v = pk;
-        if scr[at(l, ia, k)] == 0.0 {
-            if top {
-                v = hold_of(l, k);
-            }
-        } else if inside_before(l, k) {
-            v = max(pk + corr(l, k / nt, k % nt), 0.0);
-            if v <= 0.0 {
-                let slot = atomicAdd(&ncand, 1u);
-                if slot < CAND_CAP {
-                    cand[slot] = k;
+    // Batched (`B`): each node's loads (its hold, its own test and its correction, whether
+    // or not it uses them), then the stores and the candidates.
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var vq: array<f64, B>;
+        var candq: array<bool, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let pk = scr[o_p + k];
+                let ik = scr[o_ia + k];
+                var h: f64 = 0.0;
+                if top {
+                    h = hold_of(l, k);
                 }
+                let inside = inside_before(l, k);
+                let e = corr(l, k / nt, k % nt);
+                var v = pk;
+                var gone_now = false;
+                if ik == 0.0 {
+                    if top {
+                        v = h;
+                    }
+                } else if inside {
+                    v = max(pk + e, 0.0);
+                    gone_now = v <= 0.0;
+                }
+                vq[q] = v;
+                candq[q] = gone_now;
             }
         }
-        scr[at(l, A_R, k)] = v;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                if candq[q] {
+                    let slot = atomicAdd(&ncand, 1u);
+                    if slot < CAND_CAP {
+                        cand[slot] = k;
+                    }
+                }
+                scr[o_r + k] = vq[q];
+            }
+        }
     }
     bar();
     if lid == 0u {
@@ -937,9 +976,21 @@ fn prolong_correction(l: u32, top: bool) {
     bar();
     tally[cat] += 1u;
     spent += workgroupUniformLoad(&wcost);
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        scr[at(l, A_P, k)] = scr[at(l, A_R, k)];
+    // The new field back: batched (`B`).
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var vq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                vq[q] = scr[o_r + m + nt];
+            }
+        }
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                scr[o_p + m + nt] = vq[q];
+            }
+        }
     }
     bar();
 }
