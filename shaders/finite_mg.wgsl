@@ -1235,25 +1235,42 @@ fn loads(l: u32) -> array<f64, 4> {
     let simpson = params.mode != 0u && params.banded == 0u && nz % 2u == 0u;
     var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
     spent += loops(interior);
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        let j = k / nt;
-        let i = k % nt;
-        var w: f64 = 1.0;
-        if simpson {
-            let even: f64 = 2.0 / 3.0;
-            let odd: f64 = 4.0 / 3.0;
-            w = select(even, odd, j % 2u == 1u);
+    saved += loops(interior) - batches(interior);
+    let o_p = sb + params.lv[l].w + A_P * full_of(l);
+    // Batched (`B`): B nodes' values and angles read, then summed in the same order.
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var pq: array<f64, B>;
+        var tq: array<vec2<f64>, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                pq[q] = scr[o_p + k];
+                tq[q] = trig_at(l, 2u * (k % nt));
+            }
         }
-        let v = w * scr[at(l, A_P, k)];
-        let t = trig_at(l, 2u * i);
-        let zeta = f64(j) * dz;
-        let c = v * t.x;
-        let s = v * t.y;
-        acc[0] += c;
-        acc[1] += s;
-        acc[2] += c * zeta;
-        acc[3] += s * zeta;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let j = k / nt;
+                var w: f64 = 1.0;
+                if simpson {
+                    let even: f64 = 2.0 / 3.0;
+                    let odd: f64 = 4.0 / 3.0;
+                    w = select(even, odd, j % 2u == 1u);
+                }
+                let v = w * pq[q];
+                let t = tq[q];
+                let zeta = f64(j) * dz;
+                let c = v * t.x;
+                let s = v * t.y;
+                acc[0] += c;
+                acc[1] += s;
+                acc[2] += c * zeta;
+                acc[3] += s * zeta;
+            }
+        }
     }
     let sum = reduce_sum4(acc);
     var out: array<f64, 4>;
