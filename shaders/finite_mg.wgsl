@@ -1626,8 +1626,24 @@ fn cycle_step() {
         cyc += 1u;
         if field_stop {
             spent += loops(interior);
-            for (var m = lid; m < interior; m += WG) {
-                scr[at(t, A_BASE, m + nt)] = scr[at(t, A_P, m + nt)];
+            saved += loops(interior) - batches(interior);
+            let o_p = sb + params.lv[t].w + A_P * full_of(t) + nt;
+            let o_b = sb + params.lv[t].w + A_BASE * full_of(t) + nt;
+            // Batched (`B`): B values read, then written.
+            for (var m0 = lid; m0 < interior; m0 += WG * B) {
+                var vq: array<f64, B>;
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        vq[q] = scr[o_p + m];
+                    }
+                }
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        scr[o_b + m] = vq[q];
+                    }
+                }
             }
             bar();
         }
@@ -1665,10 +1681,27 @@ fn cycle_step() {
             var dmax: f64 = 0.0;
             var pmax: f64 = 0.0;
             spent += loops(interior);
-            for (var m = lid; m < interior; m += WG) {
-                let a = scr[at(t, A_P, m + nt)];
-                dmax = max(dmax, abs(a - scr[at(t, A_BASE, m + nt)]));
-                pmax = max(pmax, a);
+            saved += loops(interior) - batches(interior);
+            let o_p = sb + params.lv[t].w + A_P * full_of(t) + nt;
+            let o_b = sb + params.lv[t].w + A_BASE * full_of(t) + nt;
+            // Batched (`B`): B nodes' two values read, then compared.
+            for (var m0 = lid; m0 < interior; m0 += WG * B) {
+                var aq: array<f64, B>;
+                var bq: array<f64, B>;
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        aq[q] = scr[o_p + m];
+                        bq[q] = scr[o_b + m];
+                    }
+                }
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        dmax = max(dmax, abs(aq[q] - bq[q]));
+                        pmax = max(pmax, aq[q]);
+                    }
+                }
             }
             let r = reduce_max2(dmax, pmax);
             if r.y > 0.0 {
