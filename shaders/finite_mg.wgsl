@@ -417,52 +417,88 @@ fn setup(l: u32) {
     let ct = aspect2 / (dt * dt);
     let cz = 1.0 / (dz * dz);
     let gb = params.lw[l].y;
-    spent += loops(n) + loops(interior_of(l));
-    for (var k = lid; k < n; k += WG) {
-        let j = k / nt;
-        let i = k % nt;
-        let zeta = f64(j) * dz;
-        let zh = (f64(j) + 0.5) * dz;
-        let tf = trig_at(l, 2u * i + 1u);
-        let tn = trig_at(l, 2u * i);
-        var east: f64 = 1.0;
-        var north: f64 = 1.0;
-        if params.banded != 0u {
-            east = geo[gb + 3u * k];
-            north = geo[gb + 3u * k + 1u];
+    let interior = interior_of(l);
+    spent += loops(n) + loops(interior);
+    saved += loops(n) - batches(n) + loops(interior) - batches(interior);
+    let o = sb + params.lv[l].w;
+    // Batched (`B`): B nodes' coefficients computed (reads of the read-only tables only),
+    // then stored.
+    for (var m0 = lid; m0 < n; m0 += WG * B) {
+        var aeq: array<f64, B>;
+        var anq: array<f64, B>;
+        var fq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let k = m0 + q * WG;
+            if k < n {
+                let j = k / nt;
+                let i = k % nt;
+                let zeta = f64(j) * dz;
+                let zh = (f64(j) + 0.5) * dz;
+                let tf = trig_at(l, 2u * i + 1u);
+                let tn = trig_at(l, 2u * i);
+                var east: f64 = 1.0;
+                var north: f64 = 1.0;
+                if params.banded != 0u {
+                    east = geo[gb + 3u * k];
+                    north = geo[gb + 3u * k + 1u];
+                }
+                let hf = film(zeta, tf.x, tf.y);
+                aeq[q] = ct * hf * hf * hf * east;
+                var an: f64 = 0.0;
+                if j < nz {
+                    let hn = film(zh, tn.x, tn.y);
+                    an = cz * hn * hn * hn * north;
+                }
+                anq[q] = an;
+                fq[q] = f_own(l, j, i);
+            }
         }
-        let hf = film(zeta, tf.x, tf.y);
-        scr[at(l, A_AE, k)] = ct * hf * hf * hf * east;
-        var an: f64 = 0.0;
-        if j < nz {
-            let hn = film(zh, tn.x, tn.y);
-            an = cz * hn * hn * hn * north;
+        for (var q = 0u; q < B; q++) {
+            let k = m0 + q * WG;
+            if k < n {
+                scr[o + A_AE * n + k] = aeq[q];
+                scr[o + A_AN * n + k] = anq[q];
+                scr[o + A_F * n + k] = fq[q];
+                scr[o + A_INV * n + k] = 0.0;
+                scr[o + A_INVF * n + k] = 0.0;
+                scr[o + A_P * n + k] = 0.0;
+                scr[o + A_BASE * n + k] = 0.0;
+                scr[o + A_R * n + k] = 0.0;
+            }
         }
-        scr[at(l, A_AN, k)] = an;
-        scr[at(l, A_F, k)] = f_own(l, j, i);
-        scr[at(l, A_INV, k)] = 0.0;
-        scr[at(l, A_INVF, k)] = 0.0;
-        scr[at(l, A_P, k)] = 0.0;
-        scr[at(l, A_BASE, k)] = 0.0;
-        scr[at(l, A_R, k)] = 0.0;
     }
     bar();
-    let interior = interior_of(l);
     let io = ib + params.lw[l].z;
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        let j = k / nt;
-        let i = k % nt;
-        let d = diag(l, j, i);
-        scr[at(l, A_INVF, k)] = 1.0 / d;
-        var held = false;
-        if params.banded != 0u {
-            held = geo[gb + 3u * k + 2u] >= 0.0;
+    // Batched (`B`): B nodes' diagonals and holds read, then their inverses stored.
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var dq: array<f64, B>;
+        var heldq: array<bool, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let j = k / nt;
+                let i = k % nt;
+                dq[q] = diag(l, j, i);
+                var held = false;
+                if params.banded != 0u {
+                    held = geo[gb + 3u * k + 2u] >= 0.0;
+                }
+                if inlets[io + j] == i {
+                    held = true;
+                }
+                heldq[q] = held;
+            }
         }
-        if inlets[io + j] == i {
-            held = true;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let d = dq[q];
+                scr[o + A_INVF * n + k] = 1.0 / d;
+                scr[o + A_INV * n + k] = select(1.0 / d, 0.0, heldq[q]);
+            }
         }
-        scr[at(l, A_INV, k)] = select(1.0 / d, 0.0, held);
     }
     bar();
 }
