@@ -1098,36 +1098,52 @@ fn prolong_solution(l: u32) {
     let interior = interior_of(l);
     let cubic = params.mode == 0u;
     spent += loops(interior);
-    for (var m = lid; m < interior; m += WG) {
-        let k = m + nt;
-        let j = k / nt;
-        let i = k % nt;
-        let jc = j / st.y;
-        let jo = j % st.y;
-        let ic = i / st.x;
-        let io = i % st.x;
-        let ic1 = (ic + 1u) % cnt;
-        let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
-        var v: f64;
-        if cubic {
-            v = cubic_at(l, j, i);
-        } else if jo == 0u && io == 0u {
-            v = u00;
-        } else if jo == 0u {
-            v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);
-        } else if io == 0u {
-            v = 0.5 * (u00 + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]);
-        } else {
-            v = 0.25 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]
-                + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]
-                + scr[at(c, A_P, (jc + 1u) * cnt + ic1)]);
+    saved += loops(interior) - batches(interior);
+    // Batched (`B`): B nodes' values (the hold read whether or not the node is held), then
+    // their stores.
+    for (var m0 = lid; m0 < interior; m0 += WG * B) {
+        var vq: array<f64, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                let k = m + nt;
+                let j = k / nt;
+                let i = k % nt;
+                let jc = j / st.y;
+                let jo = j % st.y;
+                let ic = i / st.x;
+                let io = i % st.x;
+                let ic1 = (ic + 1u) % cnt;
+                let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
+                var v: f64;
+                if cubic {
+                    v = cubic_at(l, j, i);
+                } else if jo == 0u && io == 0u {
+                    v = u00;
+                } else if jo == 0u {
+                    v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);
+                } else if io == 0u {
+                    v = 0.5 * (u00 + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]);
+                } else {
+                    v = 0.25 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]
+                        + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]
+                        + scr[at(c, A_P, (jc + 1u) * cnt + ic1)]);
+                }
+                let h = hold_of(l, k);
+                if scr[at(l, A_INV, k)] == 0.0 {
+                    v = h;
+                } else {
+                    v = max(v, 0.0);
+                }
+                vq[q] = v;
+            }
         }
-        if scr[at(l, A_INV, k)] == 0.0 {
-            v = hold_of(l, k);
-        } else {
-            v = max(v, 0.0);
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < interior {
+                scr[at(l, A_P, m + nt)] = vq[q];
+            }
         }
-        scr[at(l, A_P, k)] = v;
     }
     bar();
 }
@@ -1143,35 +1159,52 @@ fn cubic_rows_in_zeta(l: u32) {
     let nz = nz_of(l);
     let cnt = nt * (nz / 2u);
     spent += loops(cnt);
-    for (var m = lid; m < cnt; m += WG) {
-        let j = 2u * (m / nt) + 1u;
-        let i = m % nt;
-        let k = j * nt + i;
-        if scr[at(l, A_INV, k)] == 0.0 {
-            continue;
-        }
-        var v: f64;
-        if nz < 6u {
-            // Rows 0, 2, 4 from the nearer end face (p = 0 on the end rows).
-            var a = 0u;
-            var c = 4u;
-            if j != 1u {
-                a = 4u;
-                c = 0u;
+    saved += loops(cnt) - batches(cnt);
+    // Batched (`B`): B nodes' values (read whether or not the node is held), then their
+    // stores.
+    for (var m0 = lid; m0 < cnt; m0 += WG * B) {
+        var vq: array<f64, B>;
+        var freeq: array<bool, B>;
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < cnt {
+                let j = 2u * (m / nt) + 1u;
+                let i = m % nt;
+                let k = j * nt + i;
+                freeq[q] = scr[at(l, A_INV, k)] != 0.0;
+                var v: f64;
+                if nz < 6u {
+                    // Rows 0, 2, 4 from the nearer end face (p = 0 on the end rows).
+                    var a = 0u;
+                    var c = 4u;
+                    if j != 1u {
+                        a = 4u;
+                        c = 0u;
+                    }
+                    v = (3.0 * scr[at(l, A_P, a * nt + i)] + 6.0 * scr[at(l, A_P, 2u * nt + i)]
+                        - scr[at(l, A_P, c * nt + i)]) / 8.0;
+                } else if j == 1u {
+                    v = cubic_edge(scr[at(l, A_P, i)], scr[at(l, A_P, 2u * nt + i)],
+                        scr[at(l, A_P, 4u * nt + i)], scr[at(l, A_P, 6u * nt + i)]);
+                } else if j == nz - 1u {
+                    v = cubic_edge(scr[at(l, A_P, nz * nt + i)],
+                        scr[at(l, A_P, (nz - 2u) * nt + i)], scr[at(l, A_P, (nz - 4u) * nt + i)],
+                        scr[at(l, A_P, (nz - 6u) * nt + i)]);
+                } else {
+                    v = cubic_mid(scr[at(l, A_P, (j - 3u) * nt + i)],
+                        scr[at(l, A_P, (j - 1u) * nt + i)], scr[at(l, A_P, (j + 1u) * nt + i)],
+                        scr[at(l, A_P, (j + 3u) * nt + i)]);
+                }
+                vq[q] = v;
             }
-            v = (3.0 * scr[at(l, A_P, a * nt + i)] + 6.0 * scr[at(l, A_P, 2u * nt + i)]
-                - scr[at(l, A_P, c * nt + i)]) / 8.0;
-        } else if j == 1u {
-            v = cubic_edge(scr[at(l, A_P, i)], scr[at(l, A_P, 2u * nt + i)],
-                scr[at(l, A_P, 4u * nt + i)], scr[at(l, A_P, 6u * nt + i)]);
-        } else if j == nz - 1u {
-            v = cubic_edge(scr[at(l, A_P, nz * nt + i)], scr[at(l, A_P, (nz - 2u) * nt + i)],
-                scr[at(l, A_P, (nz - 4u) * nt + i)], scr[at(l, A_P, (nz - 6u) * nt + i)]);
-        } else {
-            v = cubic_mid(scr[at(l, A_P, (j - 3u) * nt + i)], scr[at(l, A_P, (j - 1u) * nt + i)],
-                scr[at(l, A_P, (j + 1u) * nt + i)], scr[at(l, A_P, (j + 3u) * nt + i)]);
         }
-        scr[at(l, A_P, k)] = max(v, 0.0);
+        for (var q = 0u; q < B; q++) {
+            let m = m0 + q * WG;
+            if m < cnt && freeq[q] {
+                let k = (2u * (m / nt) + 1u) * nt + m % nt;
+                scr[at(l, A_P, k)] = max(vq[q], 0.0);
+            }
+        }
     }
     bar();
 }
