@@ -1851,13 +1851,28 @@ fn step(slot: u32, warm: bool) {
             let interior = interior_of(top0);
             let fb = slot * params.field_stride;
             spent += loops(interior);
-            for (var m = lid; m < interior; m += WG) {
-                let k = m + nt;
-                var v = fields[fb + k];
-                if scr[at(top0, A_INV, k)] == 0.0 {
-                    v = hold_of(top0, k);
+            saved += loops(interior) - batches(interior);
+            // Batched (`B`): B nodes' start, hold and free test read, then their stores.
+            for (var m0 = lid; m0 < interior; m0 += WG * B) {
+                var vq: array<f64, B>;
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        let k = m + nt;
+                        var v = fields[fb + k];
+                        let h = hold_of(top0, k);
+                        if scr[at(top0, A_INV, k)] == 0.0 {
+                            v = h;
+                        }
+                        vq[q] = v;
+                    }
                 }
-                scr[at(top0, A_P, k)] = v;
+                for (var q = 0u; q < B; q++) {
+                    let m = m0 + q * WG;
+                    if m < interior {
+                        scr[at(top0, A_P, m + nt)] = vq[q];
+                    }
+                }
             }
             bar();
             cur = top0;
@@ -1881,8 +1896,23 @@ fn step(slot: u32, warm: bool) {
         let nt = nt_of(l);
         let n = full_of(l);
         spent += loops(n) + l + 1u;
-        for (var k = lid; k < n; k += WG) {
-            scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
+        saved += loops(n) - batches(n);
+        let o_f = sb + params.lv[l].w + A_F * n;
+        // Batched (`B`): B values (from the read-only tables), then their stores.
+        for (var m0 = lid; m0 < n; m0 += WG * B) {
+            var vq: array<f64, B>;
+            for (var q = 0u; q < B; q++) {
+                let k = m0 + q * WG;
+                if k < n {
+                    vq[q] = f_own(l, k / nt, k % nt);
+                }
+            }
+            for (var q = 0u; q < B; q++) {
+                let k = m0 + q * WG;
+                if k < n {
+                    scr[o_f + k] = vq[q];
+                }
+            }
         }
         bar();
         for (var m = l; m >= 1u; m--) {
@@ -1927,8 +1957,23 @@ fn step(slot: u32, warm: bool) {
         let n = full_of(cur);
         let fb = slot * params.field_stride;
         spent += loops(n);
-        for (var k = lid; k < n; k += WG) {
-            fields[fb + k] = scr[at(cur, A_P, k)];
+        saved += loops(n) - batches(n);
+        let o_p = sb + params.lv[cur].w + A_P * n;
+        // Batched (`B`): B values read, then written out.
+        for (var m0 = lid; m0 < n; m0 += WG * B) {
+            var vq: array<f64, B>;
+            for (var q = 0u; q < B; q++) {
+                let k = m0 + q * WG;
+                if k < n {
+                    vq[q] = scr[o_p + k];
+                }
+            }
+            for (var q = 0u; q < B; q++) {
+                let k = m0 + q * WG;
+                if k < n {
+                    fields[fb + k] = vq[q];
+                }
+            }
         }
         let ints = loads(cur);
         if lid == 0u {
