@@ -1236,6 +1236,23 @@ fn inlet_line(c: u32, jc: u32, t: u32) -> u32 {
     return i;
 }
 
+// Whether fine row j of level l (array ia) holds a node of the restriction stencil at
+// column i0 (θ stride sx: the node and its two neighbours, else the node): its three (one)
+// values read before any is tested. `freeze` without an inlet line.
+fn frozen_row(l: u32, ia: u32, j: u32, i0: u32, sx: u32) -> bool {
+    let fnt = nt_of(l);
+    let o = sb + params.lv[l].w + ia * full_of(l) + j * fnt;
+    let im = select(i0 - 1u, fnt - 1u, i0 == 0u);
+    let ip = select(i0 + 1u, 0u, i0 + 1u == fnt);
+    let w = scr[o + im];
+    let c = scr[o + i0];
+    let e = scr[o + ip];
+    if sx == 2u {
+        return w == 0.0 || c == 0.0 || e == 0.0;
+    }
+    return c == 0.0;
+}
+
 // Freezes the nodes of level l − 1 (a correction grid of l, solved level t) whose
 // restriction stencil touches a held or frozen node of l; on fixed grids the inlet line
 // freezes one node per row instead, `inlet_line` (multigrid.rs `freeze`).
@@ -1255,6 +1272,42 @@ fn freeze(l: u32, top: bool, t: u32) {
         per_node = 4u + 2u * (t - c) + 3u * (3u + 2u * (t - l));
     }
     spent += 1u + loops(interior) * per_node;
+    if !line {
+        // The ladder (no inlet line): batched (`B`), B nodes' fine stencils and diagonals
+        // read, then their inverses stored. Its loops: `loops(interior) * 4` counted.
+        saved += (loops(interior) - batches(interior)) * per_node;
+        let o_c = sb + params.lv[c].w + A_INVF * full_of(c);
+        for (var m0 = lid; m0 < interior; m0 += WG * B) {
+            var dq: array<f64, B>;
+            var heldq: array<bool, B>;
+            for (var q = 0u; q < B; q++) {
+                let m = m0 + q * WG;
+                if m < interior {
+                    let kc = m + cnt;
+                    let jc = kc / cnt;
+                    let ic = kc % cnt;
+                    let jf = jc * st.y;
+                    // Fine rows jf − 1 ..= jf + 1 (θ-coarsening only: jf), interior ones.
+                    let lo = select(jf, jf - 1u, st.y == 2u);
+                    let hi = min(select(jf, jf + 1u, st.y == 2u), fnz - 1u);
+                    let a = frozen_row(l, ia, lo, ic * st.x, st.x);
+                    let b = frozen_row(l, ia, min(lo + 1u, fnz), ic * st.x, st.x);
+                    let d = frozen_row(l, ia, min(lo + 2u, fnz), ic * st.x, st.x);
+                    heldq[q] = (lo >= 1u && lo <= hi && a) || (lo + 1u <= hi && b)
+                        || (lo + 2u <= hi && d);
+                    dq[q] = diag(c, jc, ic);
+                }
+            }
+            for (var q = 0u; q < B; q++) {
+                let m = m0 + q * WG;
+                if m < interior {
+                    scr[o_c + m + cnt] = select(1.0 / dq[q], 0.0, heldq[q]);
+                }
+            }
+        }
+        bar();
+        return;
+    }
     for (var m = lid; m < interior; m += WG) {
         let kc = m + cnt;
         let jc = kc / cnt;
