@@ -23,6 +23,14 @@
 // ones), which changes the path of the iteration where a correction empties a node, not
 // its fixed point: the loads agree to the iteration tolerance.
 //
+// Latency (issue 20, session 42): a state's solve is a chain of dependent steps, and every
+// array lives in the one `read_write` buffer `scr`, so the compiler cannot move a strided
+// loop's next loads above this iteration's store (they might alias). So the loops whose
+// iterations are independent are batched: each invocation reads the inputs of up to `B`
+// of its nodes, then computes and stores them (the same nodes per invocation in the same
+// order: the same arithmetic bit for bit), and no load waits on another value's test
+// (a node's hold, the correction's zone test). `saved` and T_TRIPS count the shorter chain.
+//
 // No trigonometric function is evaluated in f64: the host supplies cos and sin at every
 // half grid step of every level (`trig`), cos/sin of the state's node-0 angle (rotation by
 // the angle-addition formulas), the coarsest grid's SOR factor and the inlet columns.
@@ -2193,8 +2201,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         for (var q = 0u; q < WS_LEN; q++) {
             results[o + OUT_STATE + q] = out[q];
         }
+        // The tally block read whole before it is written: one round trip, not one per
+        // entry (a store to `results` would keep the next entry's load behind it).
+        var sums: array<f64, N_TALLY>;
         for (var q = 0u; q < N_TALLY; q++) {
-            results[o + OUT_TALLY + q] += f64(tally[q]);
+            sums[q] = results[o + OUT_TALLY + q];
+        }
+        for (var q = 0u; q < N_TALLY; q++) {
+            results[o + OUT_TALLY + q] = sums[q] + f64(tally[q]);
         }
     }
 }
