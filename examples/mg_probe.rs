@@ -349,7 +349,10 @@ fn dump(path: &str, n: usize) {
         },
     ])
     .expect("valid grooves");
-    let mut cases: Vec<_> = cases.into_iter().map(|(l, f, w)| (l, f, w, false)).collect();
+    let mut cases: Vec<_> = cases
+        .into_iter()
+        .map(|(l, f, w)| (l, f, w, false))
+        .collect();
     cases.push((
         "grooves 128x32 max".into(),
         explicit(128, 32, Inlet::MaxFilm),

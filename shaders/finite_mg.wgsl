@@ -23,14 +23,6 @@
 // ones), which changes the path of the iteration where a correction empties a node, not
 // its fixed point: the loads agree to the iteration tolerance.
 //
-// Latency (issue 20, session 42): a state's solve is a chain of dependent steps, and every
-// array lives in the one `read_write` buffer `scr`, so the compiler cannot move a strided
-// loop's next loads above this iteration's store (they might alias). So the loops whose
-// iterations are independent are batched: each invocation reads the inputs of up to `B`
-// of its nodes, then computes and stores them (the same nodes per invocation in the same
-// order: the same arithmetic bit for bit), and no load waits on another value's test
-// (a node's hold, the correction's zone test). `saved` and T_TRIPS count the shorter chain.
-//
 // No trigonometric function is evaluated in f64: the host supplies cos and sin at every
 // half grid step of every level (`trig`), cos/sin of the state's node-0 angle (rotation by
 // the angle-addition formulas), the coarsest grid's SOR factor and the inlet columns.
@@ -178,8 +170,6 @@ var<private> updates: f64;
 var<private> spent: u32;
 // Loop iterations of invocation 0's serial walks (prolong_correction, `emptied`).
 var<private> serial: u32;
-// Loop iterations of invocation 0 that the batched loops save against `spent` (T_TRIPS).
-var<private> saved: u32;
 
 // Diagnostics (BEARING_SWEEP_MG_COUNT, src/backend/finite_mg.rs `Tally`): counts of this
 // dispatch, added to the slot's tally block (OUT_TALLY) at its end. T_* below: the
@@ -223,10 +213,6 @@ const T_SPENT: u32 = 21u;
 // Of those, the reductions' loops over workgroup memory (the rest: loops over the levels'
 // nodes in device memory, and the serial walks).
 const T_RED_SPENT: u32 = 22u;
-// Round trips to device memory of invocation 0: its loop iterations (`spent`) less the
-// reductions' (T_RED_SPENT) and less what the batched loops save (`saved`: a batch of B
-// nodes counts once), all dispatches; equal to spent − T_RED_SPENT for unbatched loops.
-const T_TRIPS: u32 = 23u;
 // Then invocation 0's loop iterations (`spent`) by part, T_INIT .. T_MAIN from here on
 // (the part a step ends in; the reductions' loops included).
 const T_SPENT_PART: u32 = 24u;
@@ -244,18 +230,6 @@ fn bar() {
 // exit test.
 fn loops(n: u32) -> u32 {
     return (n + WG - 1u) / WG + 1u;
-}
-
-// Nodes per invocation that a batched loop reads before it writes: its B nodes' loads are
-// in flight at once, one latency of device memory per B nodes instead of one per node
-// (issue 20, session 42). Only where the iterations are independent: the same nodes per
-// invocation in the same order, so the same arithmetic bit for bit.
-const B: u32 = 4u;
-
-// Round trips of a batched loop `for (var m0 = lid; m0 < n; m0 += WG * B)` for invocation
-// 0, plus its exit test: `loops(n)` less what `saved` counts.
-fn batches(n: u32) -> u32 {
-    return (n + WG * B - 1u) / (WG * B) + 1u;
 }
 
 fn nt_of(l: u32) -> u32 {
@@ -425,88 +399,52 @@ fn setup(l: u32) {
     let ct = aspect2 / (dt * dt);
     let cz = 1.0 / (dz * dz);
     let gb = params.lw[l].y;
-    let interior = interior_of(l);
-    spent += loops(n) + loops(interior);
-    saved += loops(n) - batches(n) + loops(interior) - batches(interior);
-    let o = sb + params.lv[l].w;
-    // Batched (`B`): B nodes' coefficients computed (reads of the read-only tables only),
-    // then stored.
-    for (var m0 = lid; m0 < n; m0 += WG * B) {
-        var aeq: array<f64, B>;
-        var anq: array<f64, B>;
-        var fq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let k = m0 + q * WG;
-            if k < n {
-                let j = k / nt;
-                let i = k % nt;
-                let zeta = f64(j) * dz;
-                let zh = (f64(j) + 0.5) * dz;
-                let tf = trig_at(l, 2u * i + 1u);
-                let tn = trig_at(l, 2u * i);
-                var east: f64 = 1.0;
-                var north: f64 = 1.0;
-                if params.banded != 0u {
-                    east = geo[gb + 3u * k];
-                    north = geo[gb + 3u * k + 1u];
-                }
-                let hf = film(zeta, tf.x, tf.y);
-                aeq[q] = ct * hf * hf * hf * east;
-                var an: f64 = 0.0;
-                if j < nz {
-                    let hn = film(zh, tn.x, tn.y);
-                    an = cz * hn * hn * hn * north;
-                }
-                anq[q] = an;
-                fq[q] = f_own(l, j, i);
-            }
+    spent += loops(n) + loops(interior_of(l));
+    for (var k = lid; k < n; k += WG) {
+        let j = k / nt;
+        let i = k % nt;
+        let zeta = f64(j) * dz;
+        let zh = (f64(j) + 0.5) * dz;
+        let tf = trig_at(l, 2u * i + 1u);
+        let tn = trig_at(l, 2u * i);
+        var east: f64 = 1.0;
+        var north: f64 = 1.0;
+        if params.banded != 0u {
+            east = geo[gb + 3u * k];
+            north = geo[gb + 3u * k + 1u];
         }
-        for (var q = 0u; q < B; q++) {
-            let k = m0 + q * WG;
-            if k < n {
-                scr[o + A_AE * n + k] = aeq[q];
-                scr[o + A_AN * n + k] = anq[q];
-                scr[o + A_F * n + k] = fq[q];
-                scr[o + A_INV * n + k] = 0.0;
-                scr[o + A_INVF * n + k] = 0.0;
-                scr[o + A_P * n + k] = 0.0;
-                scr[o + A_BASE * n + k] = 0.0;
-                scr[o + A_R * n + k] = 0.0;
-            }
+        let hf = film(zeta, tf.x, tf.y);
+        scr[at(l, A_AE, k)] = ct * hf * hf * hf * east;
+        var an: f64 = 0.0;
+        if j < nz {
+            let hn = film(zh, tn.x, tn.y);
+            an = cz * hn * hn * hn * north;
         }
+        scr[at(l, A_AN, k)] = an;
+        scr[at(l, A_F, k)] = f_own(l, j, i);
+        scr[at(l, A_INV, k)] = 0.0;
+        scr[at(l, A_INVF, k)] = 0.0;
+        scr[at(l, A_P, k)] = 0.0;
+        scr[at(l, A_BASE, k)] = 0.0;
+        scr[at(l, A_R, k)] = 0.0;
     }
     bar();
+    let interior = interior_of(l);
     let io = ib + params.lw[l].z;
-    // Batched (`B`): B nodes' diagonals and holds read, then their inverses stored.
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var dq: array<f64, B>;
-        var heldq: array<bool, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let j = k / nt;
-                let i = k % nt;
-                dq[q] = diag(l, j, i);
-                var held = false;
-                if params.banded != 0u {
-                    held = geo[gb + 3u * k + 2u] >= 0.0;
-                }
-                if inlets[io + j] == i {
-                    held = true;
-                }
-                heldq[q] = held;
-            }
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        let d = diag(l, j, i);
+        scr[at(l, A_INVF, k)] = 1.0 / d;
+        var held = false;
+        if params.banded != 0u {
+            held = geo[gb + 3u * k + 2u] >= 0.0;
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let d = dq[q];
-                scr[o + A_INVF * n + k] = 1.0 / d;
-                scr[o + A_INV * n + k] = select(1.0 / d, 0.0, heldq[q]);
-            }
+        if inlets[io + j] == i {
+            held = true;
         }
+        scr[at(l, A_INV, k)] = select(1.0 / d, 0.0, held);
     }
     bar();
 }
@@ -526,87 +464,33 @@ fn sweep(l: u32, omega: f64, top: bool, want: bool, tol: f64, rel: f64) -> vec2<
     let half = nt / 2u;
     let cnt = half * (nz - 1u);
     let ia = select(A_INVF, A_INV, top);
-    // The level's arrays in `scr` (`at`, hoisted) and its holds in `geo` (`hold_of`).
-    let nf = full_of(l);
-    let o = sb + params.lv[l].w;
-    let o_ae = o + A_AE * nf;
-    let o_an = o + A_AN * nf;
-    let o_ia = o + ia * nf;
-    let o_f = o + A_F * nf;
-    let o_p = o + A_P * nf;
-    let o_base = o + A_BASE * nf;
-    let holds = top && params.banded != 0u;
-    let gh = params.lw[l].y + 2u;
-    let with_base = want && rel > 0.0;
     var my_dp: f64 = 0.0;
     var my_p: f64 = 0.0;
     spent += 1u + 2u * loops(cnt);
-    saved += 2u * (loops(cnt) - batches(cnt));
     tally[T_SWEEPS] += 1u;
     for (var colour = 0u; colour < 2u; colour++) {
-        // B nodes per invocation and round trip (`B`): all their loads, then their stores;
-        // within a colour a node reads only the other colour and its own old value.
-        for (var m0 = lid; m0 < cnt; m0 += WG * B) {
-            var kq: array<u32, B>;
-            var ikq: array<f64, B>;
-            var oldq: array<f64, B>;
-            var sq: array<f64, B>;
-            var fq: array<f64, B>;
-            var hq: array<f64, B>;
-            var bq: array<f64, B>;
-            for (var q = 0u; q < B; q++) {
-                let m = m0 + q * WG;
-                if m < cnt {
-                    let j = 1u + m / half;
-                    let i = 2u * (m % half) + ((colour + j) % 2u);
-                    let row = j * nt;
-                    let k = row + i;
-                    let ip = select(k + 1u, row, i + 1u == nt);
-                    let im = select(k - 1u, row + nt - 1u, i == 0u);
-                    kq[q] = k;
-                    ikq[q] = scr[o_ia + k];
-                    oldq[q] = scr[o_p + k];
-                    // `neighbours`, read whether or not the node is held.
-                    sq[q] = scr[o_ae + k] * scr[o_p + ip] + scr[o_ae + im] * scr[o_p + im]
-                        + scr[o_an + k] * scr[o_p + k + nt]
-                        + scr[o_an + k - nt] * scr[o_p + k - nt];
-                    fq[q] = scr[o_f + k];
-                    var h: f64 = 0.0;
-                    if holds {
-                        let g = geo[gh + 3u * k];
-                        if g >= 0.0 {
-                            h = g * supply;
-                        }
-                    }
-                    hq[q] = h;
-                    if with_base {
-                        bq[q] = scr[o_base + k];
-                    }
+        for (var m = lid; m < cnt; m += WG) {
+            let j = 1u + m / half;
+            let i = 2u * (m % half) + ((colour + j) % 2u);
+            let k = j * nt + i;
+            let ik = scr[at(l, ia, k)];
+            let old = scr[at(l, A_P, k)];
+            if ik == 0.0 {
+                if top {
+                    let h = hold_of(l, k);
+                    scr[at(l, A_P, k)] = h;
+                    my_dp = max(my_dp, abs(h - old));
+                    my_p = max(my_p, tol * h);
                 }
+                continue;
             }
-            for (var q = 0u; q < B; q++) {
-                let m = m0 + q * WG;
-                if m < cnt {
-                    let k = kq[q];
-                    let ik = ikq[q];
-                    let old = oldq[q];
-                    if ik == 0.0 {
-                        if top {
-                            let h = hq[q];
-                            scr[o_p + k] = h;
-                            my_dp = max(my_dp, abs(h - old));
-                            my_p = max(my_p, tol * h);
-                        }
-                        continue;
-                    }
-                    let new_p = max(old + omega * ((sq[q] + fq[q]) * ik - old), 0.0);
-                    scr[o_p + k] = new_p;
-                    my_dp = max(my_dp, abs(new_p - old));
-                    my_p = max(my_p, tol * new_p);
-                    if with_base {
-                        my_p = max(my_p, rel * abs(new_p - bq[q]));
-                    }
-                }
+            let s = neighbours(l, A_P, j, i);
+            let new_p = max(old + omega * ((s + scr[at(l, A_F, k)]) * ik - old), 0.0);
+            scr[at(l, A_P, k)] = new_p;
+            my_dp = max(my_dp, abs(new_p - old));
+            my_p = max(my_p, tol * new_p);
+            if want && rel > 0.0 {
+                my_p = max(my_p, rel * abs(new_p - scr[at(l, A_BASE, k)]));
             }
         }
         bar();
@@ -625,51 +509,27 @@ fn residual(l: u32, top: bool) {
     let nt = nt_of(l);
     let interior = interior_of(l);
     spent += loops(interior);
-    saved += loops(interior) - batches(interior);
     let ia = select(A_INVF, A_INV, top);
-    let nf = full_of(l);
-    let o = sb + params.lv[l].w;
-    let o_ae = o + A_AE * nf;
-    let o_an = o + A_AN * nf;
-    let o_ia = o + ia * nf;
-    let o_f = o + A_F * nf;
-    let o_p = o + A_P * nf;
-    let o_r = o + A_R * nf;
-    // Batched (`B`): every node's loads whatever its colour and hold, then the stores.
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var rq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let j = k / nt;
-                let i = k % nt;
-                let row = j * nt;
-                let ip = select(k + 1u, row, i + 1u == nt);
-                let im = select(k - 1u, row + nt - 1u, i == 0u);
-                let pk = scr[o_p + k];
-                let ik = scr[o_ia + k];
-                let ae = scr[o_ae + k];
-                let aw = scr[o_ae + im];
-                let an = scr[o_an + k];
-                let as_ = scr[o_an + k - nt];
-                // `diag`: the same sum in the same order.
-                let d = ae + aw + an + as_;
-                let v = scr[o_f + k] - d * pk + ae * scr[o_p + ip] + aw * scr[o_p + im]
-                    + an * scr[o_p + k + nt] + as_ * scr[o_p + k - nt];
-                var r: f64 = 0.0;
-                if ((i + j) & 1u) == 0u && ik != 0.0 && !(pk <= 0.0 && v < 0.0) {
-                    r = v;
-                }
-                rq[q] = r;
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        var r: f64 = 0.0;
+        if ((i + j) & 1u) == 0u && scr[at(l, ia, k)] != 0.0 {
+            let row = j * nt;
+            let ip = select(k + 1u, row, i + 1u == nt);
+            let im = select(k - 1u, row + nt - 1u, i == 0u);
+            let pk = scr[at(l, A_P, k)];
+            let v = scr[at(l, A_F, k)] - diag(l, j, i) * pk
+                + scr[at(l, A_AE, k)] * scr[at(l, A_P, ip)]
+                + scr[at(l, A_AE, im)] * scr[at(l, A_P, im)]
+                + scr[at(l, A_AN, k)] * scr[at(l, A_P, k + nt)]
+                + scr[at(l, A_AN, k - nt)] * scr[at(l, A_P, k - nt)];
+            if !(pk <= 0.0 && v < 0.0) {
+                r = v;
             }
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                scr[o_r + m + nt] = rq[q];
-            }
-        }
+        scr[at(l, A_R, k)] = r;
     }
 }
 
@@ -699,64 +559,33 @@ fn restrict_fas(l: u32, top: bool) {
     let cnz = nz_of(c);
     let nc = full_of(c);
     spent += 2u * loops(nc);
-    saved += 2u * (loops(nc) - batches(nc));
-    let o_fp = sb + params.lv[l].w + A_P * full_of(l);
-    let o_c = sb + params.lv[c].w;
-    let o_cb = o_c + A_BASE * nc;
-    let o_cp = o_c + A_P * nc;
-    // Batched (`B`): the loads of B nodes, then their stores.
-    for (var m0 = lid; m0 < nc; m0 += WG * B) {
-        var vq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let kc = m0 + q * WG;
-            if kc < nc {
-                let jc = kc / cnt;
-                let ic = kc % cnt;
-                vq[q] = scr[o_fp + jc * st.y * fnt + ic * st.x];
-            }
-        }
-        for (var q = 0u; q < B; q++) {
-            let kc = m0 + q * WG;
-            if kc < nc {
-                scr[o_cb + kc] = vq[q];
-                scr[o_cp + kc] = vq[q];
-            }
-        }
+    for (var kc = lid; kc < nc; kc += WG) {
+        let jc = kc / cnt;
+        let ic = kc % cnt;
+        let v = scr[at(l, A_P, jc * st.y * fnt + ic * st.x)];
+        scr[at(c, A_BASE, kc)] = v;
+        scr[at(c, A_P, kc)] = v;
     }
     residual(l, top);
     bar();
-    let o_ci = o_c + A_INVF * nc;
-    let o_cf = o_c + A_F * nc;
-    for (var m0 = lid; m0 < nc; m0 += WG * B) {
-        var vq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let kc = m0 + q * WG;
-            if kc < nc {
-                let jc = kc / cnt;
-                let ic = kc % cnt;
-                var out: f64 = 0.0;
-                if jc >= 1u && jc < cnz && scr[o_ci + kc] != 0.0 {
-                    let jf = jc * st.y;
-                    let i0 = ic * st.x;
-                    var rr: f64;
-                    if st.y == 2u {
-                        rr = 0.25 * along(l, jf - 1u, i0, st.x) + 0.5 * along(l, jf, i0, st.x)
-                            + 0.25 * along(l, jf + 1u, i0, st.x);
-                    } else {
-                        rr = along(l, jf, i0, st.x);
-                    }
-                    let a = diag(c, jc, ic) * scr[o_cb + kc] - neighbours(c, A_BASE, jc, ic);
-                    out = rr + a;
-                }
-                vq[q] = out;
+    for (var kc = lid; kc < nc; kc += WG) {
+        let jc = kc / cnt;
+        let ic = kc % cnt;
+        var out: f64 = 0.0;
+        if jc >= 1u && jc < cnz && scr[at(c, A_INVF, kc)] != 0.0 {
+            let jf = jc * st.y;
+            let i0 = ic * st.x;
+            var rr: f64;
+            if st.y == 2u {
+                rr = 0.25 * along(l, jf - 1u, i0, st.x) + 0.5 * along(l, jf, i0, st.x)
+                    + 0.25 * along(l, jf + 1u, i0, st.x);
+            } else {
+                rr = along(l, jf, i0, st.x);
             }
+            let a = diag(c, jc, ic) * scr[at(c, A_BASE, kc)] - neighbours(c, A_BASE, jc, ic);
+            out = rr + a;
         }
-        for (var q = 0u; q < B; q++) {
-            let kc = m0 + q * WG;
-            if kc < nc {
-                scr[o_cf + kc] = vq[q];
-            }
-        }
+        scr[at(c, A_F, kc)] = out;
     }
     bar();
 }
@@ -822,16 +651,9 @@ fn inside_before(l: u32, k: u32) -> bool {
     let row = j * nt;
     let ip = select(k + 1u, row, i + 1u == nt);
     let im = select(k - 1u, row + nt - 1u, i == 0u);
-    // All five loads first (valid at any interior node: the end rows are stored), so that
-    // none waits on another's test as `&&` would make it.
-    let o = sb + params.lv[l].w + A_P * full_of(l);
-    let pk = scr[o + k];
-    let pe = scr[o + ip];
-    let pw = scr[o + im];
-    let pn = scr[o + k + nt];
-    let ps = scr[o + k - nt];
-    return pk > 0.0 && pe > 0.0 && pw > 0.0 && (j + 1u == nz || pn > 0.0)
-        && (j == 1u || ps > 0.0);
+    return scr[at(l, A_P, k)] > 0.0 && scr[at(l, A_P, ip)] > 0.0 && scr[at(l, A_P, im)] > 0.0
+        && (j + 1u == nz || scr[at(l, A_P, k + nt)] > 0.0)
+        && (j == 1u || scr[at(l, A_P, k - nt)] > 0.0);
 }
 
 // Whether node x of level l (array ia: its inverse diagonals) was emptied by the truncated
@@ -865,57 +687,25 @@ fn prolong_correction(l: u32, top: bool) {
     }
     serial = 0u;
     spent += 2u * loops(interior) + 2u;
-    saved += 2u * (loops(interior) - batches(interior));
-    let nf = full_of(l);
-    let o = sb + params.lv[l].w;
-    let o_p = o + A_P * nf;
-    let o_ia = o + ia * nf;
-    let o_r = o + A_R * nf;
     bar();
-    // Batched (`B`): each node's loads (its hold, its own test and its correction, whether
-    // or not it uses them), then the stores and the candidates.
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var vq: array<f64, B>;
-        var candq: array<bool, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let pk = scr[o_p + k];
-                let ik = scr[o_ia + k];
-                var h: f64 = 0.0;
-                if top {
-                    h = hold_of(l, k);
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let pk = scr[at(l, A_P, k)];
+        var v = pk;
+        if scr[at(l, ia, k)] == 0.0 {
+            if top {
+                v = hold_of(l, k);
+            }
+        } else if inside_before(l, k) {
+            v = max(pk + corr(l, k / nt, k % nt), 0.0);
+            if v <= 0.0 {
+                let slot = atomicAdd(&ncand, 1u);
+                if slot < CAND_CAP {
+                    cand[slot] = k;
                 }
-                let inside = inside_before(l, k);
-                let e = corr(l, k / nt, k % nt);
-                var v = pk;
-                var gone_now = false;
-                if ik == 0.0 {
-                    if top {
-                        v = h;
-                    }
-                } else if inside {
-                    v = max(pk + e, 0.0);
-                    gone_now = v <= 0.0;
-                }
-                vq[q] = v;
-                candq[q] = gone_now;
             }
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                if candq[q] {
-                    let slot = atomicAdd(&ncand, 1u);
-                    if slot < CAND_CAP {
-                        cand[slot] = k;
-                    }
-                }
-                scr[o_r + k] = vq[q];
-            }
-        }
+        scr[at(l, A_R, k)] = v;
     }
     bar();
     if lid == 0u {
@@ -1020,21 +810,9 @@ fn prolong_correction(l: u32, top: bool) {
     bar();
     tally[cat] += 1u;
     spent += workgroupUniformLoad(&wcost);
-    // The new field back: batched (`B`).
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var vq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                vq[q] = scr[o_r + m + nt];
-            }
-        }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                scr[o_p + m + nt] = vq[q];
-            }
-        }
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        scr[at(l, A_P, k)] = scr[at(l, A_R, k)];
     }
     bar();
 }
@@ -1106,52 +884,36 @@ fn prolong_solution(l: u32) {
     let interior = interior_of(l);
     let cubic = params.mode == 0u;
     spent += loops(interior);
-    saved += loops(interior) - batches(interior);
-    // Batched (`B`): B nodes' values (the hold read whether or not the node is held), then
-    // their stores.
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var vq: array<f64, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let j = k / nt;
-                let i = k % nt;
-                let jc = j / st.y;
-                let jo = j % st.y;
-                let ic = i / st.x;
-                let io = i % st.x;
-                let ic1 = (ic + 1u) % cnt;
-                let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
-                var v: f64;
-                if cubic {
-                    v = cubic_at(l, j, i);
-                } else if jo == 0u && io == 0u {
-                    v = u00;
-                } else if jo == 0u {
-                    v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);
-                } else if io == 0u {
-                    v = 0.5 * (u00 + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]);
-                } else {
-                    v = 0.25 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]
-                        + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]
-                        + scr[at(c, A_P, (jc + 1u) * cnt + ic1)]);
-                }
-                let h = hold_of(l, k);
-                if scr[at(l, A_INV, k)] == 0.0 {
-                    v = h;
-                } else {
-                    v = max(v, 0.0);
-                }
-                vq[q] = v;
-            }
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        let jc = j / st.y;
+        let jo = j % st.y;
+        let ic = i / st.x;
+        let io = i % st.x;
+        let ic1 = (ic + 1u) % cnt;
+        let u00 = scr[at(c, A_P, jc * cnt + ic % cnt)];
+        var v: f64;
+        if cubic {
+            v = cubic_at(l, j, i);
+        } else if jo == 0u && io == 0u {
+            v = u00;
+        } else if jo == 0u {
+            v = 0.5 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]);
+        } else if io == 0u {
+            v = 0.5 * (u00 + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]);
+        } else {
+            v = 0.25 * (u00 + scr[at(c, A_P, jc * cnt + ic1)]
+                + scr[at(c, A_P, (jc + 1u) * cnt + ic % cnt)]
+                + scr[at(c, A_P, (jc + 1u) * cnt + ic1)]);
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                scr[at(l, A_P, m + nt)] = vq[q];
-            }
+        if scr[at(l, A_INV, k)] == 0.0 {
+            v = hold_of(l, k);
+        } else {
+            v = max(v, 0.0);
         }
+        scr[at(l, A_P, k)] = v;
     }
     bar();
 }
@@ -1167,52 +929,35 @@ fn cubic_rows_in_zeta(l: u32) {
     let nz = nz_of(l);
     let cnt = nt * (nz / 2u);
     spent += loops(cnt);
-    saved += loops(cnt) - batches(cnt);
-    // Batched (`B`): B nodes' values (read whether or not the node is held), then their
-    // stores.
-    for (var m0 = lid; m0 < cnt; m0 += WG * B) {
-        var vq: array<f64, B>;
-        var freeq: array<bool, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < cnt {
-                let j = 2u * (m / nt) + 1u;
-                let i = m % nt;
-                let k = j * nt + i;
-                freeq[q] = scr[at(l, A_INV, k)] != 0.0;
-                var v: f64;
-                if nz < 6u {
-                    // Rows 0, 2, 4 from the nearer end face (p = 0 on the end rows).
-                    var a = 0u;
-                    var c = 4u;
-                    if j != 1u {
-                        a = 4u;
-                        c = 0u;
-                    }
-                    v = (3.0 * scr[at(l, A_P, a * nt + i)] + 6.0 * scr[at(l, A_P, 2u * nt + i)]
-                        - scr[at(l, A_P, c * nt + i)]) / 8.0;
-                } else if j == 1u {
-                    v = cubic_edge(scr[at(l, A_P, i)], scr[at(l, A_P, 2u * nt + i)],
-                        scr[at(l, A_P, 4u * nt + i)], scr[at(l, A_P, 6u * nt + i)]);
-                } else if j == nz - 1u {
-                    v = cubic_edge(scr[at(l, A_P, nz * nt + i)],
-                        scr[at(l, A_P, (nz - 2u) * nt + i)], scr[at(l, A_P, (nz - 4u) * nt + i)],
-                        scr[at(l, A_P, (nz - 6u) * nt + i)]);
-                } else {
-                    v = cubic_mid(scr[at(l, A_P, (j - 3u) * nt + i)],
-                        scr[at(l, A_P, (j - 1u) * nt + i)], scr[at(l, A_P, (j + 1u) * nt + i)],
-                        scr[at(l, A_P, (j + 3u) * nt + i)]);
-                }
-                vq[q] = v;
-            }
+    for (var m = lid; m < cnt; m += WG) {
+        let j = 2u * (m / nt) + 1u;
+        let i = m % nt;
+        let k = j * nt + i;
+        if scr[at(l, A_INV, k)] == 0.0 {
+            continue;
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < cnt && freeq[q] {
-                let k = (2u * (m / nt) + 1u) * nt + m % nt;
-                scr[at(l, A_P, k)] = max(vq[q], 0.0);
+        var v: f64;
+        if nz < 6u {
+            // Rows 0, 2, 4 from the nearer end face (p = 0 on the end rows).
+            var a = 0u;
+            var c = 4u;
+            if j != 1u {
+                a = 4u;
+                c = 0u;
             }
+            v = (3.0 * scr[at(l, A_P, a * nt + i)] + 6.0 * scr[at(l, A_P, 2u * nt + i)]
+                - scr[at(l, A_P, c * nt + i)]) / 8.0;
+        } else if j == 1u {
+            v = cubic_edge(scr[at(l, A_P, i)], scr[at(l, A_P, 2u * nt + i)],
+                scr[at(l, A_P, 4u * nt + i)], scr[at(l, A_P, 6u * nt + i)]);
+        } else if j == nz - 1u {
+            v = cubic_edge(scr[at(l, A_P, nz * nt + i)], scr[at(l, A_P, (nz - 2u) * nt + i)],
+                scr[at(l, A_P, (nz - 4u) * nt + i)], scr[at(l, A_P, (nz - 6u) * nt + i)]);
+        } else {
+            v = cubic_mid(scr[at(l, A_P, (j - 3u) * nt + i)], scr[at(l, A_P, (j - 1u) * nt + i)],
+                scr[at(l, A_P, (j + 1u) * nt + i)], scr[at(l, A_P, (j + 3u) * nt + i)]);
         }
+        scr[at(l, A_P, k)] = max(v, 0.0);
     }
     bar();
 }
@@ -1244,23 +989,6 @@ fn inlet_line(c: u32, jc: u32, t: u32) -> u32 {
     return i;
 }
 
-// Whether fine row j of level l (array ia) holds a node of the restriction stencil at
-// column i0 (θ stride sx: the node and its two neighbours, else the node): its three (one)
-// values read before any is tested. `freeze` without an inlet line.
-fn frozen_row(l: u32, ia: u32, j: u32, i0: u32, sx: u32) -> bool {
-    let fnt = nt_of(l);
-    let o = sb + params.lv[l].w + ia * full_of(l) + j * fnt;
-    let im = select(i0 - 1u, fnt - 1u, i0 == 0u);
-    let ip = select(i0 + 1u, 0u, i0 + 1u == fnt);
-    let w = scr[o + im];
-    let c = scr[o + i0];
-    let e = scr[o + ip];
-    if sx == 2u {
-        return w == 0.0 || c == 0.0 || e == 0.0;
-    }
-    return c == 0.0;
-}
-
 // Freezes the nodes of level l − 1 (a correction grid of l, solved level t) whose
 // restriction stencil touches a held or frozen node of l; on fixed grids the inlet line
 // freezes one node per row instead, `inlet_line` (multigrid.rs `freeze`).
@@ -1280,42 +1008,6 @@ fn freeze(l: u32, top: bool, t: u32) {
         per_node = 4u + 2u * (t - c) + 3u * (3u + 2u * (t - l));
     }
     spent += 1u + loops(interior) * per_node;
-    if !line {
-        // The ladder (no inlet line): batched (`B`), B nodes' fine stencils and diagonals
-        // read, then their inverses stored. Its loops: `loops(interior) * 4` counted.
-        saved += (loops(interior) - batches(interior)) * per_node;
-        let o_c = sb + params.lv[c].w + A_INVF * full_of(c);
-        for (var m0 = lid; m0 < interior; m0 += WG * B) {
-            var dq: array<f64, B>;
-            var heldq: array<bool, B>;
-            for (var q = 0u; q < B; q++) {
-                let m = m0 + q * WG;
-                if m < interior {
-                    let kc = m + cnt;
-                    let jc = kc / cnt;
-                    let ic = kc % cnt;
-                    let jf = jc * st.y;
-                    // Fine rows jf − 1 ..= jf + 1 (θ-coarsening only: jf), interior ones.
-                    let lo = select(jf, jf - 1u, st.y == 2u);
-                    let hi = min(select(jf, jf + 1u, st.y == 2u), fnz - 1u);
-                    let a = frozen_row(l, ia, lo, ic * st.x, st.x);
-                    let b = frozen_row(l, ia, min(lo + 1u, fnz), ic * st.x, st.x);
-                    let d = frozen_row(l, ia, min(lo + 2u, fnz), ic * st.x, st.x);
-                    heldq[q] = (lo >= 1u && lo <= hi && a) || (lo + 1u <= hi && b)
-                        || (lo + 2u <= hi && d);
-                    dq[q] = diag(c, jc, ic);
-                }
-            }
-            for (var q = 0u; q < B; q++) {
-                let m = m0 + q * WG;
-                if m < interior {
-                    scr[o_c + m + cnt] = select(1.0 / dq[q], 0.0, heldq[q]);
-                }
-            }
-        }
-        bar();
-        return;
-    }
     for (var m = lid; m < interior; m += WG) {
         let kc = m + cnt;
         let jc = kc / cnt;
@@ -1365,42 +1057,25 @@ fn loads(l: u32) -> array<f64, 4> {
     let simpson = params.mode != 0u && params.banded == 0u && nz % 2u == 0u;
     var acc = array<f64, 4>(0.0, 0.0, 0.0, 0.0);
     spent += loops(interior);
-    saved += loops(interior) - batches(interior);
-    let o_p = sb + params.lv[l].w + A_P * full_of(l);
-    // Batched (`B`): B nodes' values and angles read, then summed in the same order.
-    for (var m0 = lid; m0 < interior; m0 += WG * B) {
-        var pq: array<f64, B>;
-        var tq: array<vec2<f64>, B>;
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                pq[q] = scr[o_p + k];
-                tq[q] = trig_at(l, 2u * (k % nt));
-            }
+    for (var m = lid; m < interior; m += WG) {
+        let k = m + nt;
+        let j = k / nt;
+        let i = k % nt;
+        var w: f64 = 1.0;
+        if simpson {
+            let even: f64 = 2.0 / 3.0;
+            let odd: f64 = 4.0 / 3.0;
+            w = select(even, odd, j % 2u == 1u);
         }
-        for (var q = 0u; q < B; q++) {
-            let m = m0 + q * WG;
-            if m < interior {
-                let k = m + nt;
-                let j = k / nt;
-                var w: f64 = 1.0;
-                if simpson {
-                    let even: f64 = 2.0 / 3.0;
-                    let odd: f64 = 4.0 / 3.0;
-                    w = select(even, odd, j % 2u == 1u);
-                }
-                let v = w * pq[q];
-                let t = tq[q];
-                let zeta = f64(j) * dz;
-                let c = v * t.x;
-                let s = v * t.y;
-                acc[0] += c;
-                acc[1] += s;
-                acc[2] += c * zeta;
-                acc[3] += s * zeta;
-            }
-        }
+        let v = w * scr[at(l, A_P, k)];
+        let t = trig_at(l, 2u * i);
+        let zeta = f64(j) * dz;
+        let c = v * t.x;
+        let s = v * t.y;
+        acc[0] += c;
+        acc[1] += s;
+        acc[2] += c * zeta;
+        acc[3] += s * zeta;
     }
     let sum = reduce_sum4(acc);
     var out: array<f64, 4>;
@@ -1756,24 +1431,8 @@ fn cycle_step() {
         cyc += 1u;
         if field_stop {
             spent += loops(interior);
-            saved += loops(interior) - batches(interior);
-            let o_p = sb + params.lv[t].w + A_P * full_of(t) + nt;
-            let o_b = sb + params.lv[t].w + A_BASE * full_of(t) + nt;
-            // Batched (`B`): B values read, then written.
-            for (var m0 = lid; m0 < interior; m0 += WG * B) {
-                var vq: array<f64, B>;
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        vq[q] = scr[o_p + m];
-                    }
-                }
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        scr[o_b + m] = vq[q];
-                    }
-                }
+            for (var m = lid; m < interior; m += WG) {
+                scr[at(t, A_BASE, m + nt)] = scr[at(t, A_P, m + nt)];
             }
             bar();
         }
@@ -1811,27 +1470,10 @@ fn cycle_step() {
             var dmax: f64 = 0.0;
             var pmax: f64 = 0.0;
             spent += loops(interior);
-            saved += loops(interior) - batches(interior);
-            let o_p = sb + params.lv[t].w + A_P * full_of(t) + nt;
-            let o_b = sb + params.lv[t].w + A_BASE * full_of(t) + nt;
-            // Batched (`B`): B nodes' two values read, then compared.
-            for (var m0 = lid; m0 < interior; m0 += WG * B) {
-                var aq: array<f64, B>;
-                var bq: array<f64, B>;
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        aq[q] = scr[o_p + m];
-                        bq[q] = scr[o_b + m];
-                    }
-                }
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        dmax = max(dmax, abs(aq[q] - bq[q]));
-                        pmax = max(pmax, aq[q]);
-                    }
-                }
+            for (var m = lid; m < interior; m += WG) {
+                let a = scr[at(t, A_P, m + nt)];
+                dmax = max(dmax, abs(a - scr[at(t, A_BASE, m + nt)]));
+                pmax = max(pmax, a);
             }
             let r = reduce_max2(dmax, pmax);
             if r.y > 0.0 {
@@ -1912,28 +1554,13 @@ fn step(slot: u32, warm: bool) {
             let interior = interior_of(top0);
             let fb = slot * params.field_stride;
             spent += loops(interior);
-            saved += loops(interior) - batches(interior);
-            // Batched (`B`): B nodes' start, hold and free test read, then their stores.
-            for (var m0 = lid; m0 < interior; m0 += WG * B) {
-                var vq: array<f64, B>;
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        let k = m + nt;
-                        var v = fields[fb + k];
-                        let h = hold_of(top0, k);
-                        if scr[at(top0, A_INV, k)] == 0.0 {
-                            v = h;
-                        }
-                        vq[q] = v;
-                    }
+            for (var m = lid; m < interior; m += WG) {
+                let k = m + nt;
+                var v = fields[fb + k];
+                if scr[at(top0, A_INV, k)] == 0.0 {
+                    v = hold_of(top0, k);
                 }
-                for (var q = 0u; q < B; q++) {
-                    let m = m0 + q * WG;
-                    if m < interior {
-                        scr[at(top0, A_P, m + nt)] = vq[q];
-                    }
-                }
+                scr[at(top0, A_P, k)] = v;
             }
             bar();
             cur = top0;
@@ -1957,23 +1584,8 @@ fn step(slot: u32, warm: bool) {
         let nt = nt_of(l);
         let n = full_of(l);
         spent += loops(n) + l + 1u;
-        saved += loops(n) - batches(n);
-        let o_f = sb + params.lv[l].w + A_F * n;
-        // Batched (`B`): B values (from the read-only tables), then their stores.
-        for (var m0 = lid; m0 < n; m0 += WG * B) {
-            var vq: array<f64, B>;
-            for (var q = 0u; q < B; q++) {
-                let k = m0 + q * WG;
-                if k < n {
-                    vq[q] = f_own(l, k / nt, k % nt);
-                }
-            }
-            for (var q = 0u; q < B; q++) {
-                let k = m0 + q * WG;
-                if k < n {
-                    scr[o_f + k] = vq[q];
-                }
-            }
+        for (var k = lid; k < n; k += WG) {
+            scr[at(l, A_F, k)] = f_own(l, k / nt, k % nt);
         }
         bar();
         for (var m = l; m >= 1u; m--) {
@@ -2018,23 +1630,8 @@ fn step(slot: u32, warm: bool) {
         let n = full_of(cur);
         let fb = slot * params.field_stride;
         spent += loops(n);
-        saved += loops(n) - batches(n);
-        let o_p = sb + params.lv[cur].w + A_P * n;
-        // Batched (`B`): B values read, then written out.
-        for (var m0 = lid; m0 < n; m0 += WG * B) {
-            var vq: array<f64, B>;
-            for (var q = 0u; q < B; q++) {
-                let k = m0 + q * WG;
-                if k < n {
-                    vq[q] = scr[o_p + k];
-                }
-            }
-            for (var q = 0u; q < B; q++) {
-                let k = m0 + q * WG;
-                if k < n {
-                    fields[fb + k] = vq[q];
-                }
-            }
+        for (var k = lid; k < n; k += WG) {
+            fields[fb + k] = scr[at(cur, A_P, k)];
         }
         let ints = loads(cur);
         if lid == 0u {
@@ -2159,7 +1756,6 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     }
     tally[T_SPENT_PART + T_MAIN] = spent - steps;
     tally[T_SPENT] = spent;
-    tally[T_TRIPS] = spent - tally[T_RED_SPENT] - saved;
 
     if lid == 0u {
         var status = ST_RUN;
@@ -2201,14 +1797,8 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         for (var q = 0u; q < WS_LEN; q++) {
             results[o + OUT_STATE + q] = out[q];
         }
-        // The tally block read whole before it is written: one round trip, not one per
-        // entry (a store to `results` would keep the next entry's load behind it).
-        var sums: array<f64, N_TALLY>;
         for (var q = 0u; q < N_TALLY; q++) {
-            sums[q] = results[o + OUT_TALLY + q];
-        }
-        for (var q = 0u; q < N_TALLY; q++) {
-            results[o + OUT_TALLY + q] = sums[q] + f64(tally[q]);
+            results[o + OUT_TALLY + q] += f64(tally[q]);
         }
     }
 }

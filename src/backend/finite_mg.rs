@@ -90,7 +90,7 @@ const TALLY_NAMES: [&str; 34] = [
     "reductions",
     "loop iters (spent)",
     "of which reductions",
-    "round trips (batched loops)",
+    "unused",
     "iters init",
     "iters prep",
     "iters enter",

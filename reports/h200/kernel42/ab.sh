@@ -2,9 +2,10 @@
 # Session 42 (issue 20, s42-kernel): A/B of the finite film's multigrid kernel on one binary.
 # Usage: B=/path/to/bearing-sweep bash reports/h200/kernel42/ab.sh
 # For the built-in kernel and then each reports/h200/kernel42/*.wgsl (BEARING_SWEEP_MG_WGSL:
-# s41.wgsl the kernel before session 42, b2/b4/b8 the batched loops with B = 2, 4, 8 nodes
-# per invocation and round trip), the GPU's states/s of `finite --bench --gpu` at 64 and at
-# 1024 states per call (the flags of reports/h200/run41b.sh's bench), each run under
+# b2/b4/b8 the batched loops with B = 2, 4, 8 nodes per invocation and round trip, measured
+# and not taken: BENCHMARKS.md "Issue 20, session 42: the multigrid kernel's batched loops";
+# their base is the kernel of main 9ce3a3a), the GPU's states/s of `finite --bench --gpu`
+# at 64 and at 1024 states per call (the flags of reports/h200/run41b.sh's bench), each under
 # `timeout 60`. One untimed call first: the H200's clock ramps up from 345 MHz.
 # The bench also times the CPU; only the multigrid kernel's rows are printed.
 set -u
