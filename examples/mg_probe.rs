@@ -372,12 +372,8 @@ fn dump(path: &str, n: usize) {
         let p = BearingParams {
             model: bearing_sweep::bearing::FilmModel::Finite,
             finite,
-            grooves: if grooved {
-                grooves.clone()
-            } else {
-                p0.grooves.clone()
-            },
-            ..p0.clone()
+            grooves: if grooved { grooves } else { p0.grooves },
+            ..p0
         };
         let jobs: Vec<FiniteJob> = states
             .iter()
