@@ -290,9 +290,10 @@ fn gpu(nt: u32, nz: u32, n_states: usize) {
 }
 
 /// `mg_probe dump FILE [states]`: the multigrid kernel's loads and reports, as bits, for a
-/// fixed set of settings (explicit 128 × 32 and 256 × 64 with both inlets, grooves, accuracy
-/// mode at the default and 1e-4, a warm start), one line per state, to compare two kernel
-/// versions bit for bit (`diff` the files).
+/// fixed set of settings (explicit 128 × 32 and 256 × 64 with both inlets, accuracy mode at
+/// the default and 1e-3, a warm start; two supplied grooves at 128 × 32 with a warm start and
+/// at accuracy 2e-3: the held bands), one line per state, to compare two kernel versions bit
+/// for bit (`diff` the files; `BEARING_SWEEP_MG_WGSL` runs another kernel source).
 fn dump(path: &str, n: usize) {
     use bearing_sweep::backend::{FilmBackend, GpuBackend, GpuOptions, Precision};
     use std::fmt::Write as _;
@@ -332,10 +333,46 @@ fn dump(path: &str, n: usize) {
             false,
         ),
     ];
-    for (label, finite, warm_too) in cases {
+    // Two supplied grooves (tests/finite_gpu_multigrid.rs `grooved`): the held bands.
+    let grooves = bearing_sweep::bearing::Grooves::new(&[
+        bearing_sweep::bearing::Groove {
+            angle: 90.0,
+            width: 20.0,
+            supply_pressure: 2e4,
+            length: None,
+        },
+        bearing_sweep::bearing::Groove {
+            angle: 270.0,
+            width: 20.0,
+            supply_pressure: 2e4,
+            length: None,
+        },
+    ])
+    .expect("valid grooves");
+    let mut cases: Vec<_> = cases
+        .into_iter()
+        .map(|(l, f, w)| (l, f, w, false))
+        .collect();
+    cases.push((
+        "grooves 128x32 max".into(),
+        explicit(128, 32, Inlet::MaxFilm),
+        true,
+        true,
+    ));
+    cases.push((
+        "grooves accuracy 2e-3".into(),
+        FiniteSettings {
+            accuracy: 2e-3,
+            ..FiniteSettings::default()
+        },
+        false,
+        true,
+    ));
+    for (label, finite, warm_too, grooved) in cases {
         let p = BearingParams {
             model: bearing_sweep::bearing::FilmModel::Finite,
             finite,
+            grooves: if grooved { grooves } else { p0.grooves },
             ..p0
         };
         let jobs: Vec<FiniteJob> = states
