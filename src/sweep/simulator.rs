@@ -144,8 +144,9 @@ pub fn prepare_simulator(
                 // stages carry easy states (the ladder stops on coarse grids) that the CPU
                 // solves at 100,000-200,000 states/s while a GPU call costs at least one
                 // state's chain of kernel steps: 1,024 variants took 4.4 s on the GPU
-                // against 2.6 s, 4,096 variants 20.1 s against 12.7 s. `--backend gpu`
-                // still runs it there.
+                // against 2.6 s, 4,096 variants 20.1 s against 12.7 s. With the workgroup
+                // size per chunk (session 42) 1,024 variants take 2.74 s against 2.50 s:
+                // still no win. `--backend gpu` still runs it there.
                 let (b, notices) = crate::backend::chosen_cpu(
                     BackendKind::Auto,
                     choice.accuracy.level(),
