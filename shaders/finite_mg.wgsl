@@ -28,11 +28,11 @@
 // the angle-addition formulas), the coarsest grid's SOR factor and the inlet columns.
 
 // Invocations per workgroup (one workgroup per state) and log2 of it: the host sets both
-// per adapter (src/backend/finite_mg.rs `workgroup_size`: 256 on llvmpipe, whose loop cap
-// the budget is calibrated on, and on hardware GPUs, where 256 beat 1024 on the H200 in two
-// settings of three; since session 42 chosen per chunk by its number of states,
-// `workgroup_for`; `BEARING_SWEEP_MG_WG` forces one). The same arithmetic in the same order
-// for any size (the loads' sums run in SUM_LANES fixed lanes): the same bits.
+// (src/backend/finite_mg.rs): 256 on llvmpipe, whose loop cap the budget is calibrated on;
+// on hardware GPUs chosen per chunk by its number of states since session 42
+// (`workgroup_for`: 64, 128 or 256); `BEARING_SWEEP_MG_WG` forces one. The same
+// arithmetic in the same order for any size (the loads' sums run in SUM_LANES fixed
+// lanes): the same bits.
 const WG: u32 = 256u;
 const LOG2_WG: u32 = 8u;
 // Lanes of the loads' sums (`loads`, `reduce_sum4`), fixed whatever WG (≥ 64, the host's
