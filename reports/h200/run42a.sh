@@ -7,7 +7,8 @@
 # (the H200's clock ramps up from 345 MHz). Then a finite-film rotor sweep
 # (reports/h200/sweeps41/finite-1024.json) on the CPU's 16 threads and on the GPU with
 # each kernel. Every command under `timeout`. Usage there: bash reports/h200/run42a.sh
-# (outputs under $OUT/raw42a/). Kernels: reports/h200/kernel42/*.wgsl.
+# (outputs under $OUT/raw42a/). Kernels: reports/h200/kernel42/b4.wgsl, and the B = 2 and 8
+# variants made from it by setting its `const B` (the files the call ran, b2/b4/b8.wgsl).
 set -u
 O="${OUT:-/tmp/run42a}/raw42a"; mkdir -p "$O"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
@@ -31,10 +32,14 @@ bench() {  # $1 label, $2 kernel file or "", $3 states
   echo "rc $? (t = $(el) s)" >> "$f"
   echo "== $1 $3 (t = $(el) s)"; grep "^| gpu" "$f" | tail -5 | sed 's/(NVIDIA[^)]*), //;s/ kernel)//'
 }
+KD=$(mktemp -d)
+for b in 2 4 8; do
+  sed "s/^const B: u32 = 4u;/const B: u32 = ${b}u;/" reports/h200/kernel42/b4.wgsl > "$KD/b$b.wgsl"
+done
 for round in 1 2; do
   for n in 64 1024; do
     bench builtin "" $n
-    for k in reports/h200/kernel42/*.wgsl; do bench "$(basename ${k%.wgsl})" "$k" $n; done
+    for k in "$KD"/*.wgsl; do bench "$(basename ${k%.wgsl})" "$k" $n; done
   done
 done
 sweep() {  # $1 label, $2 backend, $3 kernel file or ""
@@ -49,7 +54,7 @@ sweep() {  # $1 label, $2 backend, $3 kernel file or ""
 }
 sweep cpu cpu ""
 sweep gpu-builtin gpu ""
-K=reports/h200/kernel42/b4.wgsl
+K=$KD/b4.wgsl
 sweep gpu-new gpu "$K"
 # The two GPU sweeps' orbits against the CPU's (largest difference of any reduced number).
 python3 - <<'PY' 2>&1 | tee "$O/sweep-compare.txt"

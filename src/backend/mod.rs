@@ -331,9 +331,12 @@ pub fn choose_backend(
 /// CPU. Measured on an H200 against its host's 16 threads at the default accuracy
 /// (BENCHMARKS.md "Issue 20, session 41: the multigrid kernel's host side on the H200"): a
 /// GPU call is at least one state's chain of kernel steps, ~16-18 ms however few the
-/// states, while a CPU thread solves ~2,000-2,800 default-accuracy states/s; so the GPU
-/// lost 4× at 64 states per call and won 1.55× at 1024, a crossover near 600 on 16
-/// threads, ~36 per thread (40: the round number above it, the CPU's side of a tie).
+/// states on a GPU whose clock is still ramping up from idle (as a one-off call meets it),
+/// while a CPU thread solves ~2,000-2,800 default-accuracy states/s; so the GPU lost 4× at
+/// 64 states per call and won 1.55× at 1024, a crossover near 600 on 16 threads, ~36 per
+/// thread (40: the round number above it, the CPU's side of a tie). Once warm, 64 states
+/// per call were level with the 16 threads (session 42: 12,922-14,519 against
+/// 13,252-14,378 states/s); the crossover is kept for the cold, one-off calls.
 pub const FINITE_CPU_BELOW_PER_THREAD: usize = 40;
 
 /// The finite film's `auto` crossover on this host: [`FINITE_CPU_BELOW_PER_THREAD`] times
