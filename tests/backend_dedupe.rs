@@ -40,6 +40,18 @@ fn requests(distinct: usize) -> (BearingParams, Vec<LoadRequest>, u64) {
     reqs.push(plus);
     reqs.push(minus);
     repeats += 1;
+    // A centre on the x axis at +0 and at -0 (and so its y velocity): packed components
+    // of +0 and -0 (`ecc[1]`, `rate[1]`), the same integrals, so a repeat (the key maps
+    // both zeros to one).
+    let mut on_axis = base[3];
+    on_axis.state.yi = 0.0;
+    on_axis.state.vxi = 0.0;
+    let mut on_axis_minus = on_axis;
+    on_axis_minus.state.yi = -0.0;
+    on_axis_minus.state.vxi = -0.0;
+    reqs.push(on_axis);
+    reqs.push(on_axis_minus);
+    repeats += 1;
     (bearing, reqs, repeats)
 }
 

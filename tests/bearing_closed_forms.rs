@@ -293,3 +293,72 @@ fn friction_in_the_loads() {
     );
     assert_scalar("M_z at eps 0.98", 0, l.mz, -f * p.radius * w, 1e-12, 0.0);
 }
+
+/// The friction law with its bearing constants worked out once per bearing
+/// (`FrictionConstants`, issue 28's thirteenth pass) gives bit for bit the law written
+/// out per state in the order MODEL.md section 5 states it (`|W| / (2 r0 B) · φ · φ /
+/// (μ |ω0|)`, `6 · r0 · r0 · B · μ · |ω0| / φ`, `3 φ / S`, `3 φ / √S · r0 · |W|`): both
+/// branches, both conventions, both spin signs, zero and subnormal spins, zero loads. A
+/// regrouped product (e.g. `φ²` formed once) differs in the last bit for some of these
+/// and fails.
+#[test]
+fn friction_constants_keep_the_per_state_arithmetic_bit_for_bit() {
+    let mut index = 0;
+    for conv in [ClearanceConvention::Paper, ClearanceConvention::Vogelpohl] {
+        for (radius, length, clearance, viscosity) in [
+            (0.02, 0.02, 3e-4, 0.0242),
+            (0.0317, 0.0123, 1.7e-4, 0.0121),
+            (0.05, 0.1, 4.5e-4, 0.0484),
+        ] {
+            let p = BearingParams {
+                radius,
+                length,
+                clearance,
+                viscosity,
+                clearance_convention: conv,
+                ..table2()
+            };
+            let phi = conv.relative_clearance(clearance, radius);
+            for w in [0.0, 1e-318, 0.013, 7.3, 512.0, 9.1e4] {
+                for om in [0.0, 1e-320, -3.7e-7, 1.3, -97.1, 2900.0] {
+                    let fr = friction(&p, w, om);
+                    let expected = if om == 0.0 {
+                        (0.0, if w > 0.0 { Some(0.0) } else { None }, None)
+                    } else {
+                        let den = viscosity * om.abs();
+                        let s = if den >= f64::MIN_POSITIVE {
+                            w / (2.0 * radius * length) * phi * phi / den
+                        } else {
+                            w / (2.0 * radius * length) * phi * phi / viscosity / om.abs()
+                        };
+                        let (f, mz_abs) = if s < 1.0 {
+                            let torque =
+                                6.0 * radius * radius * length * viscosity * om.abs() / phi;
+                            let f = 3.0 * phi / s;
+                            ((s > 0.0 && f.is_finite()).then_some(f), torque)
+                        } else {
+                            let f = 3.0 * phi / s.sqrt();
+                            (Some(f), f * radius * w)
+                        };
+                        (-om.signum() * mz_abs, f, s.is_finite().then_some(s))
+                    };
+                    let bits = |v: Option<f64>| v.map(f64::to_bits);
+                    assert!(
+                        fr.mz.to_bits() == expected.0.to_bits()
+                            && bits(fr.coefficient) == bits(expected.1)
+                            && bits(fr.sommerfeld) == bits(expected.2),
+                        "case {index} ({conv:?}, r0 {radius}, |W| {w}, ω0 {om}): got (mz, f, S) = \
+                         ({:e}, {:?}, {:?}), expected ({:e}, {:?}, {:?}) bit for bit",
+                        fr.mz,
+                        fr.coefficient,
+                        fr.sommerfeld,
+                        expected.0,
+                        expected.1,
+                        expected.2
+                    );
+                    index += 1;
+                }
+            }
+        }
+    }
+}

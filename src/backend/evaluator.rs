@@ -6,8 +6,8 @@ use rayon::prelude::*;
 use super::{effective_model, BackendInfo, CpuBackend, FilmBackend};
 use crate::bearing::finite::{FiniteGrid, FiniteJob, SolveReport};
 use crate::bearing::{
-    finish_loads_with, pack_state, BearingParams, BearingState, FilmIntegrals, FilmModel, Loads,
-    Packed, PackedState, StateFault,
+    finish_loads_using, finish_loads_with, pack_state, BearingParams, BearingState, FilmIntegrals,
+    FilmModel, LoadConstants, Loads, Packed, PackedState, StateFault,
 };
 
 /// Calls of at least this many states pack and finish their states on rayon's pool
@@ -46,6 +46,11 @@ pub struct BearingPlan {
     /// other output. One flag per bearing, so that a scene whose bearing needs its film
     /// power (a thermal balance) can keep it while the others skip it.
     pub film_outputs: Vec<bool>,
+    /// [`LoadConstants::of`] each bearing: its loads are finished without working out
+    /// the bearing's force scale and friction constants again for every state (the same
+    /// numbers, so the same loads; BENCHMARKS.md "Issue 28, thirteenth pass"). A plan
+    /// without them (shorter than the list) finishes as an unplanned call does.
+    pub constants: Vec<LoadConstants>,
 }
 
 impl BearingPlan {
@@ -54,6 +59,7 @@ impl BearingPlan {
         BearingPlan {
             valid: bearings.iter().map(validity).collect(),
             film_outputs: vec![film_outputs; bearings.len()],
+            constants: bearings.iter().map(LoadConstants::of).collect(),
         }
     }
 }
@@ -268,10 +274,13 @@ impl DedupeTable {
 
 /// Bit pattern of a packed state: the key of identical kernel inputs.
 fn key_of(p: &PackedState) -> [u64; 8] {
+    // +0 and -0 give identical integrals; one key for both: `v + 0` is `v` for every
+    // other value (packed states are finite) and +0 for both zeros, the key of a `v == 0`
+    // test without its branch per component (~50 instructions a state with it, issue
+    // 28's thirteenth pass).
     let mut k = [0u64; 8];
     for (n, v) in p.ecc.iter().chain(p.rate.iter()).enumerate() {
-        // +0 and -0 give identical integrals; one key for both.
-        k[n] = if *v == 0.0 { 0 } else { v.to_bits() };
+        k[n] = (*v + 0.0).to_bits();
     }
     k
 }
@@ -567,6 +576,14 @@ impl LoadEvaluator {
             let finite = p.rate_scale > 0.0 && effective_model(b, &req.state) == FilmModel::Finite;
             Ok((p, finite))
         };
+        // The bearing's finishing constants: the plan's, else worked out for the state.
+        let planned_constants = plan.map(|p| p.constants.as_slice());
+        let constants_of = move |bearing: u32| -> LoadConstants {
+            match planned_constants.and_then(|c| c.get(bearing as usize)) {
+                Some(c) => *c,
+                None => LoadConstants::of(&bearings[bearing as usize]),
+            }
+        };
         // Large calls prepare every request on rayon's pool first; the others prepare
         // each request in the loop below (one pass: no list of prepared requests
         // written and read back).
@@ -690,10 +707,13 @@ impl LoadEvaluator {
         }
         self.integrals.resize(self.packed.len(), [f64::NAN; 4]);
         self.bad.clear();
+        // Non-finite exactly when `Σ 0 · v` is not 0 (`0 · x` is ±0 for a finite `x`, NaN
+        // for ±∞ or NaN): the verdict of testing each integral, without a branch per
+        // integral (issue 28's thirteenth pass).
         self.bad.extend(
             self.integrals
                 .iter()
-                .map(|v| !v.iter().all(|x| x.is_finite())),
+                .map(|v| 0.0 * v[0] + 0.0 * v[1] + 0.0 * v[2] + 0.0 * v[3] != 0.0),
         );
         let n_bad = self.bad.iter().filter(|&&b| b).count();
         if n_bad > 0 {
@@ -721,8 +741,9 @@ impl LoadEvaluator {
                 return Err(StateFault::BackendNonFinite);
             }
             let req = &requests[k];
-            finish_loads_with(
+            finish_loads_using(
                 &bearings[req.bearing as usize],
+                &constants_of(req.bearing),
                 &req.state,
                 &integrals[n],
                 scale,
@@ -745,8 +766,9 @@ impl LoadEvaluator {
                     continue;
                 }
                 let req = &requests[k];
-                *o = Ok(finish_loads_with(
+                *o = Ok(finish_loads_using(
                     &bearings[req.bearing as usize],
+                    &constants_of(req.bearing),
                     &req.state,
                     &integrals[n],
                     scale,

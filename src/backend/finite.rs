@@ -127,6 +127,12 @@ impl FilmHistory {
 
     /// Commits the latest stage film fraction of `bearing` (an accepted step).
     pub(crate) fn commit(&mut self, bearing: u32) {
+        // Without JFO bearings nothing is ever a candidate: no key hashed (the rotor
+        // commits every bearing of every accepted step, ~1 M of grid9's instructions
+        // hashing into an empty map; issue 28's thirteenth pass).
+        if self.candidates.is_empty() {
+            return;
+        }
         if let Some(c) = self.candidates.remove(&bearing) {
             self.committed.insert(bearing, c);
         }

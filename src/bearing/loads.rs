@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use super::film_flow::{short_film_flow, FilmFlow, FrictionLaw};
-use super::friction::friction;
+use super::friction::FrictionConstants;
 use super::rule::{FilmIntegrals, FilmRule, PackedState};
 use super::{BearingParams, BearingState, StateFault};
 
@@ -135,7 +135,10 @@ pub struct Packed {
 }
 
 /// Validates `state` and nondimensionalises it for the kernel.
-#[inline]
+// Inlined into the evaluator's loop: as a call it returned its 80-byte result through
+// memory and saved and restored registers, ~18 instructions a state of the ~136 (issue
+// 28's thirteenth pass).
+#[inline(always)]
 pub fn pack_state(params: &BearingParams, state: &BearingState) -> Result<Packed, StateFault> {
     state.validate(params.clearance)?;
     let d = params.clearance;
@@ -196,6 +199,29 @@ pub fn finish_loads(
     finish_loads_with(params, state, integrals, rate_scale, true)
 }
 
+/// The parts of [`finish_loads_with`] that depend on the bearing alone: its force scale
+/// ([`BearingParams::force_scale`]) and friction constants, worked out once per bearing
+/// where many states of the same bearings are finished (the evaluator's planned calls,
+/// [`crate::backend::BearingPlan`]). The same numbers as the per-state forms, so loads
+/// finished with them are bit for bit those of [`finish_loads_with`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoadConstants {
+    /// `3 μ r0 B³ / δ²`, N·s.
+    force_scale: f64,
+    friction: FrictionConstants,
+}
+
+impl LoadConstants {
+    /// The constants of bearing `params`.
+    #[inline]
+    pub fn of(params: &BearingParams) -> Self {
+        LoadConstants {
+            force_scale: params.force_scale(),
+            friction: FrictionConstants::of(params),
+        }
+    }
+}
+
 /// [`finish_loads`], with the film friction and flow outputs ([`Loads::film`]) computed
 /// only if `film_outputs`; without them `film` is [`FilmFlow::default`] (zeros, `null`
 /// coefficients) and every other field is bit for bit the same. For callers that never
@@ -212,13 +238,36 @@ pub fn finish_loads_with(
     rate_scale: f64,
     film_outputs: bool,
 ) -> Loads {
-    let f = params.force_scale() * rate_scale;
+    finish_loads_using(
+        params,
+        &LoadConstants::of(params),
+        state,
+        integrals,
+        rate_scale,
+        film_outputs,
+    )
+}
+
+/// [`finish_loads_with`] with `params`' constants worked out beforehand
+/// (`constants` must be [`LoadConstants::of`] `params`).
+#[inline(always)]
+pub fn finish_loads_using(
+    params: &BearingParams,
+    constants: &LoadConstants,
+    state: &BearingState,
+    integrals: &FilmIntegrals,
+    rate_scale: f64,
+    film_outputs: bool,
+) -> Loads {
+    let f = constants.force_scale * rate_scale;
     let (wx, wy) = (f * integrals[0], f * integrals[1]);
     let mx = -f * params.length * integrals[3];
     let my = f * params.length * integrals[2];
     // `|W|` as `√(W_x² + W_y²)` where no square can overflow or underflow (within 2 ulp
     // of the libm `hypot` used before issue 28's ninth pass; `planar_length`).
-    let fr = friction(params, super::state::planar_length(wx, wy), state.omega);
+    let fr = constants
+        .friction
+        .friction(super::state::planar_length(wx, wy), state.omega);
     let film = if film_outputs {
         short_film_flow(params, state, [wx, wy], [mx, my])
     } else {

@@ -18,9 +18,12 @@ pub mod thermal;
 pub use baseline::baseline_loads;
 pub use film_flow::{bearing_loads, FilmFlow, FrictionLaw};
 pub use finite::{FilmModel, FiniteSettings};
-pub use friction::{friction, Friction};
+pub use friction::{friction, Friction, FrictionConstants};
 pub use groove::{Arc, Arcs, FilmLayout, Groove, Grooves};
-pub use loads::{film_loads, finish_loads, finish_loads_with, pack_state, Loads, Packed};
+pub use loads::{
+    film_loads, finish_loads, finish_loads_using, finish_loads_with, pack_state, LoadConstants,
+    Loads, Packed,
+};
 pub use lubricant::Lubricant;
 pub use params::{BearingParams, ClearanceConvention, ParamError};
 pub use rule::{

@@ -399,6 +399,7 @@ impl ShortSeen {
     /// largest so far (the map strictly increases in `ε` below `MAP_LAST_ECC` at a fixed
     /// positive `B/D`). Squared radii instead of `hypot`, with a relative margin of 1e-12
     /// that covers their rounding.
+    #[inline(always)]
     fn may_raise(&mut self, params: &BearingParams, s: &BearingState) -> bool {
         let key = [
             params.length.to_bits(),
@@ -423,6 +424,8 @@ impl ShortSeen {
     /// clearance `c` (m) cannot raise the maximum: `lim² (1 − 1e-12)`, `lim = (ε_lim −
     /// margin) c`; `−∞` where nothing is skipped (no look-up at this aspect yet, or
     /// unusable `bd`, `c`).
+    // Out of line: worked out only when the geometry changes.
+    #[inline(never)]
     fn skip_below(&self, bd: f64, c: f64) -> f64 {
         if !(bd > 0.0 && bd.is_finite() && c > 0.0 && c.is_finite()) {
             return f64::NEG_INFINITY;
@@ -453,6 +456,11 @@ impl ShortSeen {
 
 impl SimplificationTally {
     /// Applies the squeeze drop to `state` where allowed and tallies the checks.
+    // The common case inlined into the film pass (counters and the skip test), the
+    // look-up and the reductions' checks out of line: as one call the tally saved and
+    // restored its registers on every state, ~90 instructions a state on grid9 where
+    // ~30 remain (issue 28's thirteenth pass). The same checks in the same order.
+    #[inline(always)]
     pub fn observe(
         &mut self,
         spec: &SimplificationSpec,
@@ -468,18 +476,37 @@ impl SimplificationTally {
             // instructions (BENCHMARKS.md "Issue 28, eighth pass"); a state less eccentric
             // than one already looked up at the same B/D cannot raise the maximum.
             if self.short_seen.may_raise(params, state) {
-                let bd = params.length / (2.0 * params.radius);
-                let (ei, ej) = state.eccentricity_ratios(params.clearance);
-                let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
-                self.short_seen.seen(bd, ei.max(ej));
-                if e.load.abs() >= self.short_error_max {
-                    self.short_error_max = e.load.abs();
-                    self.short_attitude_at_max = e.attitude_deg;
-                    self.short_error_at = (bd, ei.max(ej));
-                    self.short_error_extrapolated = e.extrapolated;
-                }
+                self.look_up_short_error(params, state);
             }
         }
+        if spec.near_aligned.enabled || spec.squeeze_drop.enabled {
+            self.observe_reductions(spec, params, state);
+        }
+    }
+
+    /// The short model's mapped error at `state`, kept if it is the largest so far.
+    #[inline(never)]
+    fn look_up_short_error(&mut self, params: &BearingParams, state: &BearingState) {
+        let bd = params.length / (2.0 * params.radius);
+        let (ei, ej) = state.eccentricity_ratios(params.clearance);
+        let e = crate::bearing::finite::short_model_error(bd, ei.max(ej));
+        self.short_seen.seen(bd, ei.max(ej));
+        if e.load.abs() >= self.short_error_max {
+            self.short_error_max = e.load.abs();
+            self.short_attitude_at_max = e.attitude_deg;
+            self.short_error_at = (bd, ei.max(ej));
+            self.short_error_extrapolated = e.extrapolated;
+        }
+    }
+
+    /// The near-aligned check and the squeeze drop, where `spec` enables them.
+    #[inline(never)]
+    fn observe_reductions(
+        &mut self,
+        spec: &SimplificationSpec,
+        params: &BearingParams,
+        state: &mut BearingState,
+    ) {
         if spec.near_aligned.enabled {
             let t = tilt_measure(params, state);
             self.tilt_max = self.tilt_max.max(t);

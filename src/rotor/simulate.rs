@@ -744,10 +744,14 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                 continue;
             }
             let y = &ys[k * d..(k + 1) * d];
-            let kin = m.kin(y);
+            // Kept for the derivative that follows and read from its place in `kins` (a
+            // local pushed after the loop was copied once more: 0.8 M of grid9's
+            // instructions, issue 28's thirteenth pass).
+            self.kins.push(m.kin(y));
+            let kin = self.kins.last().expect("just pushed");
             for (b, geom) in m.bearings.iter().enumerate() {
-                let e = m.end_kin(&kin, geom);
-                let mut state = m.bearing_state(&kin, &e);
+                let e = m.end_kin(kin, geom);
+                let mut state = m.bearing_state(kin, &e);
                 self.tallies[id].observe(&self.reductions[id], &geom.params, &mut state);
                 let mut index = self.offsets[id] + b;
                 if let (Some(j), Some(lub), Some(supply)) = (
@@ -776,7 +780,6 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                 self.times.push(ts[k]);
                 self.ends.push(e);
             }
-            self.kins.push(kin);
         }
         self.results.clear();
         if !self.requests.is_empty() {
