@@ -201,9 +201,9 @@ pub fn finish_loads(
 
 /// The parts of [`finish_loads_with`] that depend on the bearing alone: its force scale
 /// ([`BearingParams::force_scale`]) and friction constants, worked out once per bearing
-/// where many states of the same bearings are finished (the evaluator's planned calls,
-/// [`crate::backend::BearingPlan`]). The same numbers as the per-state forms, so loads
-/// finished with them are bit for bit those of [`finish_loads_with`].
+/// where many states of the same bearings are finished (the evaluator's planned calls:
+/// the backend's `BearingPlan`, a level above). The same numbers as the per-state forms,
+/// so loads finished with them are bit for bit those of [`finish_loads_with`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LoadConstants {
     /// `3 μ r0 B³ / δ²`, N·s.
