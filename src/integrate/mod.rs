@@ -12,6 +12,7 @@
 mod common;
 mod dop853;
 mod dopri;
+mod jacobian;
 mod linalg;
 mod radau;
 mod reduced;

@@ -27,6 +27,7 @@ use super::common::{
     admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
     Track,
 };
+use super::jacobian::Jacobians;
 use super::reduced::{NewtonLu, Reduction, MAX_PAIRS};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -126,10 +127,6 @@ const SAFETY: f64 = 0.7;
 const KEEP_H_MAX: f64 = 1.2;
 const FAC_MIN: f64 = 0.2;
 const FAC_MAX: f64 = 8.0;
-/// Finite-difference increment of Jacobian column entry `v` with component scale `scale`.
-fn jacobian_delta(v: f64, scale: f64) -> f64 {
-    f64::EPSILON.sqrt() * v.abs().max(scale)
-}
 
 /// Step shrink after a right-hand-side fault or a Newton failure with a fresh Jacobian.
 const FAULT_SHRINK: f64 = 0.25;
@@ -391,11 +388,6 @@ fn continue_with<S: BatchSystem, const NS: usize>(
     // The Newton systems on the components that need a dense LU (positions whose rate is
     // a velocity and quadratures eliminated in closed form: `super::reduced`).
     let red = Reduction::new(d, jd, sys.kinematic_pairs());
-    // A block whose scale `f` ignores, inside the Jacobian's columns.
-    let block = sys
-        .scale_invariant_block()
-        .filter(|&(b0, len)| len >= 2 && b0 + len <= jd);
-    let mut derived: Vec<Option<usize>> = vec![None; n];
     let mut f0 = vec![0.0; n * d];
     // Row-major d x d per variant.
     let mut jac: Vec<Vec<f64>> = vec![vec![0.0; d * d]; n];
@@ -441,13 +433,9 @@ fn continue_with<S: BatchSystem, const NS: usize>(
     let mut rec = Packed::new();
     let mut ended = Vec::new();
     let mut work: Vec<usize> = Vec::new();
-    let mut retry: Vec<usize> = Vec::new();
-    // Variants whose Jacobian is formed this round, and the buffers of
-    // [`BatchSystem::jacobians`].
+    // Variants whose Jacobian is formed this round, and the Jacobians' scratch.
     let mut formed: Vec<usize> = Vec::new();
-    let mut sj_f0: Vec<f64> = Vec::new();
-    let mut sj_jac: Vec<f64> = Vec::new();
-    let mut sj_cost: Vec<Option<u64>> = Vec::new();
+    let mut jacs = Jacobians::new(sys, n);
 
     while !active.is_empty() {
         // 1. f(t, y) where the state is new.
@@ -494,132 +482,9 @@ fn continue_with<S: BatchSystem, const NS: usize>(
         work.extend(active.iter().copied().filter(|&id| vars[id].need_jac));
         formed.clear();
         formed.extend_from_slice(&work);
-        if sys.has_jacobians() && !work.is_empty() {
-            buf.clear();
-            sj_f0.clear();
-            for &id in &work {
-                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
-                sj_f0.extend_from_slice(&f0[id * d..(id + 1) * d]);
-            }
-            sj_jac.clear();
-            sj_jac.resize(work.len() * d * d, 0.0);
-            sj_cost.clear();
-            sj_cost.resize(work.len(), None);
-            sys.jacobians(
-                &buf.ids,
-                &buf.ts,
-                &buf.ys,
-                &sj_f0,
-                &mut sj_jac,
-                &mut sj_cost,
-            );
-            for (k, &id) in buf.ids.iter().enumerate() {
-                if let Some(c) = sj_cost[k] {
-                    tracks[id].stats.rhs_evaluations += c;
-                    let src = &sj_jac[k * d * d..(k + 1) * d * d];
-                    for p in 0..d {
-                        jac[id][p * d..p * d + jd].copy_from_slice(&src[p * d..p * d + jd]);
-                    }
-                }
-            }
-            let mut k = 0;
-            work.retain(|_| {
-                k += 1;
-                sj_cost[k - 1].is_none()
-            });
-        }
-        // Each variant's column of the scale-invariant block derived from the others
-        // (Euler's relation): the block's largest component, which is far from zero.
-        for &id in &work {
-            derived[id] = block.and_then(|(b0, len)| {
-                let yb = &y[id * d + b0..id * d + b0 + len];
-                let (k, v) = yb
-                    .iter()
-                    .enumerate()
-                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
-                (v.abs() > 0.0 && v.is_finite()).then_some(b0 + k)
-            });
-        }
-        for col in 0..jd {
-            buf.clear();
-            for &id in &work {
-                if derived[id] == Some(col) {
-                    continue;
-                }
-                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
-                slot[col] += jacobian_delta(slot[col], scale[id * d + col]);
-            }
-            buf.eval(sys, tracks);
-            // A forward difference can leave the domain (a journal 1e-10 m off the wall
-            // is pushed through it by the probe of a quaternion component, 1.5e-8 rad):
-            // those columns are retried as backward differences, which move the other
-            // way; only a state faulting both ways ends the variant.
-            retry.clear();
-            for e in 0..buf.len() {
-                let id = buf.ids[e];
-                if buf.faults[e].is_some() {
-                    retry.push(id);
-                    continue;
-                }
-                let del = buf.ys[e * d + col] - y[id * d + col];
-                for p in 0..d {
-                    jac[id][p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
-                }
-            }
-            if retry.is_empty() {
-                continue;
-            }
-            buf.clear();
-            for &id in &retry {
-                let slot = buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
-                slot[col] -= jacobian_delta(slot[col], scale[id * d + col]);
-            }
-            buf.eval(sys, tracks);
-            for e in 0..buf.len() {
-                let id = buf.ids[e];
-                if let Some(f) = &buf.faults[e] {
-                    if matches!(tracks[id].status, Status::Running) {
-                        let time = tracks[id].t;
-                        end(
-                            &mut tracks[id],
-                            Status::Fault {
-                                time,
-                                fault: f.clone(),
-                            },
-                            start,
-                        );
-                        ended.push(id);
-                    }
-                    continue;
-                }
-                let del = buf.ys[e * d + col] - y[id * d + col];
-                for p in 0..d {
-                    jac[id][p * d + col] = (buf.dys[e * d + p] - f0[id * d + p]) / del;
-                }
-            }
-        }
-        // The derived columns: y_c* ∂f_r/∂y_c* = [r ∈ B] f_r − Σ_{c ∈ B, c ≠ c*} y_c ∂f_r/∂y_c.
-        if let Some((b0, len)) = block {
-            for &id in &work {
-                let Some(cs) = derived[id] else { continue };
-                if !matches!(tracks[id].status, Status::Running) {
-                    continue;
-                }
-                let yb = &y[id * d..(id + 1) * d];
-                let jm = &mut jac[id];
-                for p in 0..d {
-                    let mut s = if (b0..b0 + len).contains(&p) {
-                        f0[id * d + p]
-                    } else {
-                        0.0
-                    };
-                    for c in (b0..b0 + len).filter(|&c| c != cs) {
-                        s -= yb[c] * jm[p * d + c];
-                    }
-                    jm[p * d + cs] = s / yb[cs];
-                }
-            }
-        }
+        jacs.form(
+            sys, tracks, y, &f0, &scale, &mut jac, &mut work, &mut ended, start,
+        );
         for &id in &formed {
             let v = &mut vars[id];
             v.need_jac = false;
