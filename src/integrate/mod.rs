@@ -9,6 +9,7 @@
 //! Output goes to [`BatchSystem::record`] at uniform sample times from dense output,
 //! independent of the steps taken. Entry point: [`run_batch`].
 
+mod bdf;
 mod common;
 mod dop853;
 mod dopri;

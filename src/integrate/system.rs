@@ -38,6 +38,9 @@ pub enum Method {
     /// takes 2-2.6x fewer right-hand sides than radau5 at rtol 1e-8 to 1e-9 and none
     /// fewer at 1e-6 (BENCHMARKS.md "Issue 28, twelfth pass").
     Radau9,
+    /// Variable-order BDF (orders 1-5, Shampine's quasi-constant step form), simplified
+    /// Newton with Jacobians kept across steps: one right-hand side per Newton iteration.
+    Bdf,
 }
 
 impl Method {
@@ -50,6 +53,7 @@ impl Method {
             Method::Rk4 => "rk4",
             Method::Dop853 => "dop853",
             Method::Radau9 => "radau9",
+            Method::Bdf => "bdf",
         }
     }
 }
@@ -263,5 +267,6 @@ pub fn run_batch<S: BatchSystem>(
         Method::Radau9 => super::radau::run(sys, y0, settings, start, super::radau::Stages::Five),
         Method::Rk4 => super::rk4::run(sys, y0, settings, start),
         Method::Dop853 => super::dop853::run(sys, y0, settings, start),
+        Method::Bdf => super::bdf::run(sys, y0, settings, start),
     }
 }

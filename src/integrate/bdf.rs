@@ -1,0 +1,634 @@
+//! Variable-order backward differentiation formulas (orders 1-5) in Shampine and
+//! Reichelt's quasi-constant step form (the MATLAB `ode15s` / Shampine 1997 scheme with
+//! the plain BDF coefficients): the history is kept as backward differences `∇^j y` at the
+//! current step size, the step is changed only after `k + 1` equal steps (or on a
+//! rejection) by rescaling the differences, and each step solves
+//! `y_{n+1} = y_pred + d`, `α_k d = h f(y_{n+1}) − Σ_{j=1}^k γ_j ∇^j y_n` (plus the
+//! predictor's terms) by simplified Newton with the Jacobian kept across steps. One right-
+//! hand side per Newton iteration and one real `n x n` system: on a stiff film whose
+//! steps are accuracy-limited this takes far fewer right-hand sides per step than
+//! radau5's three stages. The local error estimate is `C_{k+1} d` with `C_{k+1} = 1/(k+1)`;
+//! the order changes to the neighbour whose estimate allows the largest step. Dense
+//! output: the interpolating polynomial through the backward differences.
+//!
+//! Every variant of the batch advances in lockstep: one [`BatchSystem::eval`] call per
+//! Newton iteration for all variants, Jacobians batched as in radau5
+//! ([`super::jacobian::Jacobians`]).
+
+use std::time::Instant;
+
+use super::common::{
+    admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
+    Track,
+};
+use super::jacobian::Jacobians;
+use super::reduced::{NewtonLu, Reduction};
+use super::system::{BatchSystem, Settings, Stats, Status};
+
+/// Highest order.
+const MAX_ORDER: usize = 5;
+/// Rows of the difference table: `∇^0 .. ∇^{k+2}` at the highest order.
+const ROWS: usize = MAX_ORDER + 3;
+/// Newton iterations at most per step attempt.
+const MAX_NEWTON: usize = 4;
+/// Step factor bounds after a rejection / at a step change.
+const FAC_MIN: f64 = 0.2;
+const FAC_MAX: f64 = 10.0;
+/// Step shrink after a right-hand-side fault and after a Newton failure with a fresh
+/// Jacobian.
+const FAULT_SHRINK: f64 = 0.25;
+const NEWTON_SHRINK: f64 = 0.5;
+/// Newton stopping level in the error norm's unit (as radau5's: 3 % of the tolerance).
+const NEWTON_FRACTION: f64 = 0.03;
+/// Safety factor of the step proposal.
+const SAFETY: f64 = 0.9;
+
+fn newton_tolerance(rtol: f64) -> f64 {
+    (10.0 * f64::EPSILON / rtol).max(NEWTON_FRACTION)
+}
+
+fn env_f64(name: &str) -> Option<f64> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
+/// `γ_k = Σ_{j=1}^k 1/j`, `k = 0..=MAX_ORDER + 1`.
+fn gammas() -> [f64; MAX_ORDER + 2] {
+    let mut g = [0.0; MAX_ORDER + 2];
+    for k in 1..g.len() {
+        g[k] = g[k - 1] + 1.0 / k as f64;
+    }
+    g
+}
+
+/// `R(k, ρ)`: the matrix taking backward differences at step `h` to those at `ρ h`
+/// (`D_new[j] = Σ_i (R(k, ρ) U)_{ij} D[i]` with `U = R(k, 1)`), `(k+1) x (k+1)`:
+/// `R_{0j} = 1`, `R_{i0} = 0` for `i ≥ 1`, `R_{ij} = Π_{m=1}^i (m − 1 − ρ j) / m`.
+fn change_matrix(k: usize, rho: f64) -> [[f64; MAX_ORDER + 1]; MAX_ORDER + 1] {
+    let mut r = [[0.0; MAX_ORDER + 1]; MAX_ORDER + 1];
+    for j in 0..=k {
+        r[0][j] = 1.0;
+    }
+    for i in 1..=k {
+        for j in 0..=k {
+            r[i][j] = r[i - 1][j] * ((i - 1) as f64 - rho * j as f64) / i as f64;
+        }
+    }
+    r
+}
+
+/// Rescales the differences `dd` (rows of length `d`) of order `k` from step `h` to `ρ h`:
+/// row `j` becomes `Σ_i (R U)_{ij} row_i`, through `tmp` (at least `(k + 1) d` long).
+fn change_differences(dd: &mut [f64], d: usize, k: usize, rho: f64, tmp: &mut [f64]) {
+    let r = change_matrix(k, rho);
+    let u = change_matrix(k, 1.0);
+    let tmp = &mut tmp[..(k + 1) * d];
+    tmp.copy_from_slice(&dd[..(k + 1) * d]);
+    for j in 0..=k {
+        let out = &mut dd[j * d..(j + 1) * d];
+        out.fill(0.0);
+        for i in 0..=k {
+            // (R U)_{ij}.
+            let mut c = 0.0;
+            for m in 0..=k {
+                c += r[i][m] * u[m][j];
+            }
+            if c != 0.0 {
+                for (o, &v) in out.iter_mut().zip(&tmp[i * d..(i + 1) * d]) {
+                    *o += c * v;
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Newton {
+    Iterating,
+    Converged,
+    Failed,
+    Fault,
+}
+
+struct Var {
+    /// The difference table holds a history (false until `f(y0)` is known).
+    started: bool,
+    order: usize,
+    /// Steps taken at the current step size and order.
+    equal: usize,
+    need_f0: bool,
+    need_jac: bool,
+    jac_current: bool,
+    need_lu: bool,
+    /// `α_k / h` of the current factorisation.
+    lu_shift: f64,
+    eta: f64,
+    newton: Newton,
+    iters: usize,
+    norm_old: f64,
+    theta: f64,
+    tr_err_rej: u64,
+    tr_newt_stale: u64,
+    tr_newt_fresh: u64,
+    tr_iters: u64,
+    tr_orders: [u64; 6],
+}
+
+pub(crate) fn run<S: BatchSystem>(
+    sys: &mut S,
+    y0: &[f64],
+    settings: &[Settings],
+    start: Instant,
+) -> Vec<(Status<S::Fault>, Stats)> {
+    let d = sys.dim();
+    let mut tracks: Vec<Track<S::Fault>> = settings.iter().map(Track::new).collect();
+    let mut y = y0.to_vec();
+    let mut rec = Packed::new();
+    let mut ended = Vec::new();
+    let active = admit(&mut tracks, settings, &y, d, &mut rec, &mut ended, start);
+    rec.flush_records(sys);
+    notify(sys, &tracks, &mut ended);
+    continue_from(sys, &mut y, settings, &mut tracks, active, start);
+    tracks.into_iter().map(|t| (t.status, t.stats)).collect()
+}
+
+/// Integrates the variants in `active` from where their tracks stand (as
+/// [`super::radau::continue_from`]): a track with a step size set starts with that step at
+/// order 1, a fresh one gets the initial-step heuristic.
+pub(crate) fn continue_from<S: BatchSystem>(
+    sys: &mut S,
+    y: &mut [f64],
+    settings: &[Settings],
+    tracks: &mut [Track<S::Fault>],
+    mut active: Vec<usize>,
+    start: Instant,
+) {
+    let n = settings.len();
+    let d = sys.dim();
+    let jd = sys.jacobian_dim().min(d);
+    let red = Reduction::new(d, jd, sys.kinematic_pairs());
+    let gam = gammas();
+    // α_k = γ_k (plain BDF), error constants 1/(k+1).
+    let err_c: [f64; MAX_ORDER + 2] = std::array::from_fn(|k| 1.0 / (k + 1) as f64);
+    let theta_jac = env_f64("X_BDF_THETA_JAC").unwrap_or(f64::INFINITY);
+    let max_order = env_f64("X_BDF_MAX_ORDER")
+        .map_or(MAX_ORDER, |v| v as usize)
+        .clamp(1, MAX_ORDER);
+    let newt_mult = env_f64("X_BDF_NEWT").unwrap_or(1.0);
+    let newt_ck = std::env::var_os("X_BDF_NEWT_CK").is_some();
+    let mut dd = vec![0.0; n * ROWS * d];
+    let mut f0 = vec![0.0; n * d];
+    let mut jac: Vec<Vec<f64>> = vec![vec![0.0; d * d]; n];
+    let mut scale = vec![1.0; n * d];
+    for id in 0..n {
+        sys.scales(id, &mut scale[id * d..(id + 1) * d]);
+    }
+    let mut wts = vec![1.0; n * d];
+    let mut ypred = vec![0.0; n * d];
+    let mut psi = vec![0.0; n * d];
+    let mut corr = vec![0.0; n * d];
+    let mut hs = vec![0.0; n];
+    let mut lus: Vec<NewtonLu> = vec![NewtonLu::default(); n];
+    let mut vars: Vec<Var> = (0..n)
+        .map(|_| Var {
+            started: false,
+            order: 1,
+            equal: 0,
+            need_f0: true,
+            need_jac: true,
+            jac_current: false,
+            need_lu: true,
+            lu_shift: 0.0,
+            eta: 1.0,
+            newton: Newton::Iterating,
+            iters: 0,
+            norm_old: 0.0,
+            theta: 0.0,
+            tr_err_rej: 0,
+            tr_newt_stale: 0,
+            tr_newt_fresh: 0,
+            tr_iters: 0,
+            tr_orders: [0; 6],
+        })
+        .collect();
+    let mut dy = vec![0.0; d];
+    let mut tmp = vec![0.0; ROWS * d];
+    let mut errv = vec![0.0; d];
+    let mut ynew = vec![0.0; d];
+    let mut yproj = vec![0.0; d];
+    let mut buf = Packed::new();
+    let mut rec = Packed::new();
+    let mut ended = Vec::new();
+    let mut work: Vec<usize> = Vec::new();
+    let mut formed: Vec<usize> = Vec::new();
+    let mut jacs = Jacobians::new(sys, n);
+
+    while !active.is_empty() {
+        // 1. f(t, y) where the history starts or a Jacobian is formed.
+        buf.clear();
+        for &id in &active {
+            let v = &vars[id];
+            if v.need_f0 || v.need_jac {
+                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
+            }
+        }
+        buf.eval(sys, tracks);
+        for e in 0..buf.len() {
+            let id = buf.ids[e];
+            vars[id].need_f0 = false;
+            if let Some(f) = &buf.faults[e] {
+                let time = tracks[id].t;
+                end(
+                    &mut tracks[id],
+                    Status::Fault {
+                        time,
+                        fault: f.clone(),
+                    },
+                    start,
+                );
+                ended.push(id);
+            } else {
+                f0[id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
+            }
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        for &id in &active {
+            let v = &mut vars[id];
+            if v.started {
+                continue;
+            }
+            let s = &settings[id];
+            let r = id * d..(id + 1) * d;
+            if tracks[id].h == 0.0 {
+                tracks[id].h = s.fixed_step.unwrap_or_else(|| {
+                    initial_step(&y[r.clone()], &f0[r.clone()], &scale[r.clone()], s)
+                });
+            }
+            let h = tracks[id].h;
+            let db = &mut dd[id * ROWS * d..(id + 1) * ROWS * d];
+            db.fill(0.0);
+            db[..d].copy_from_slice(&y[r.clone()]);
+            for (o, &f) in db[d..2 * d].iter_mut().zip(&f0[r]) {
+                *o = h * f;
+            }
+            v.started = true;
+            v.order = 1;
+            v.equal = 0;
+            v.need_lu = true;
+        }
+        // 2. Jacobians.
+        work.clear();
+        work.extend(active.iter().copied().filter(|&id| vars[id].need_jac));
+        formed.clear();
+        formed.extend_from_slice(&work);
+        jacs.form(
+            sys, tracks, y, &f0, &scale, &mut jac, &mut work, &mut ended, start,
+        );
+        for &id in &formed {
+            let v = &mut vars[id];
+            v.need_jac = false;
+            v.jac_current = true;
+            v.need_lu = true;
+            tracks[id].stats.jacobians += 1;
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        // 3. Step sizes (landing on t_end and within max_step), predictors, factorisations.
+        work.clear();
+        for &id in &active {
+            let s = &settings[id];
+            let tr = &mut tracks[id];
+            let v = &mut vars[id];
+            let db = &mut dd[id * ROWS * d..(id + 1) * ROWS * d];
+            let left = s.t_end - tr.t;
+            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
+            if h >= left || left - h < 0.01 * h {
+                h = left;
+            }
+            if h != tr.h {
+                change_differences(db, d, v.order, h / tr.h, &mut tmp);
+                tr.h = h;
+                v.equal = 0;
+            }
+            hs[id] = h;
+            let k = v.order;
+            let shift = gam[k] / h;
+            if v.need_lu || shift != v.lu_shift {
+                lus[id].factor(&red, shift, &[], &jac[id]);
+                tr.stats.factorizations += 1;
+                v.need_lu = false;
+                v.lu_shift = shift;
+            }
+            let yp = &mut ypred[id * d..(id + 1) * d];
+            let ps = &mut psi[id * d..(id + 1) * d];
+            yp.copy_from_slice(&db[..d]);
+            ps.fill(0.0);
+            for j in 1..=k {
+                let row = &db[j * d..(j + 1) * d];
+                let g = gam[j];
+                for ((a, q), &v) in yp.iter_mut().zip(ps.iter_mut()).zip(row) {
+                    *a += v;
+                    *q += g * v;
+                }
+            }
+            let inv = 1.0 / gam[k];
+            for q in ps.iter_mut() {
+                *q *= inv;
+            }
+            corr[id * d..(id + 1) * d].fill(0.0);
+            for p in 0..d {
+                wts[id * d + p] = s.atol * scale[id * d + p] + s.rtol * yp[p].abs();
+            }
+            v.newton = if lus[id].singular() {
+                Newton::Failed
+            } else {
+                Newton::Iterating
+            };
+            v.iters = 0;
+            v.eta = v.eta.max(f64::EPSILON).powf(0.8);
+            work.push(id);
+        }
+        // 4. Newton, all variants in one call per iteration.
+        for iter in 0..MAX_NEWTON {
+            buf.clear();
+            for &id in &work {
+                if vars[id].newton != Newton::Iterating {
+                    continue;
+                }
+                let yp = &ypred[id * d..(id + 1) * d];
+                let c = &corr[id * d..(id + 1) * d];
+                buf.push_from(
+                    id,
+                    tracks[id].t + hs[id],
+                    yp.iter().zip(c).map(|(&a, &b)| a + b),
+                );
+            }
+            if buf.len() == 0 {
+                break;
+            }
+            buf.eval(sys, tracks);
+            for e in 0..buf.len() {
+                let id = buf.ids[e];
+                let s = &settings[id];
+                let v = &mut vars[id];
+                if let Some(f) = &buf.faults[e] {
+                    tracks[id].fault = Some(f.clone());
+                    v.newton = Newton::Fault;
+                    continue;
+                }
+                let fs = &buf.dys[e * d..(e + 1) * d];
+                let c = &mut corr[id * d..(id + 1) * d];
+                let ps = &psi[id * d..(id + 1) * d];
+                // (α_k/h I − J) Δ = f − (ψ + d) α_k / h.
+                let shift = v.lu_shift;
+                for p in 0..d {
+                    dy[p] = fs[p] - (ps[p] + c[p]) * shift;
+                }
+                lus[id].solve_real(&red, &mut dy);
+                let wb = &wts[id * d..(id + 1) * d];
+                let mut sum = 0.0;
+                for (&dv, &wv) in dy.iter().zip(wb) {
+                    sum += (dv / wv).powi(2);
+                }
+                let norm = (sum / d as f64).sqrt();
+                let tol = newton_tolerance(s.rtol) * newt_mult
+                    / if newt_ck { err_c[v.order] } else { 1.0 };
+                v.iters = iter + 1;
+                if !norm.is_finite() {
+                    v.newton = Newton::Failed;
+                    continue;
+                }
+                if iter > 0 {
+                    let theta = norm / v.norm_old;
+                    v.theta = theta;
+                    if theta >= 0.99 {
+                        v.newton = Newton::Failed;
+                        continue;
+                    }
+                    v.eta = theta / (1.0 - theta);
+                    let left = (MAX_NEWTON - 1 - iter) as i32;
+                    if theta.powi(left) / (1.0 - theta) * norm > tol {
+                        v.newton = Newton::Failed;
+                        continue;
+                    }
+                } else {
+                    v.theta = 0.0;
+                }
+                v.norm_old = norm.max(f64::MIN_POSITIVE);
+                for (cv, &dv) in c.iter_mut().zip(dy.iter()) {
+                    *cv += dv;
+                }
+                if norm == 0.0 || v.eta * norm <= tol {
+                    v.newton = Newton::Converged;
+                } else if iter + 1 == MAX_NEWTON {
+                    v.newton = Newton::Failed;
+                }
+            }
+        }
+        // 5. Error estimate, accept or reject, order and step changes.
+        for &id in &work {
+            let s = &settings[id];
+            let tr = &mut tracks[id];
+            let v = &mut vars[id];
+            let h = hs[id];
+            let t0 = tr.t;
+            let floor = h_floor(t0, s.t_end);
+            let fixed = s.fixed_step.is_some();
+            let k = v.order;
+            let db = &mut dd[id * ROWS * d..(id + 1) * ROWS * d];
+            match v.newton {
+                Newton::Fault => {
+                    tr.stats.rejected += 1;
+                    change_differences(db, d, k, FAULT_SHRINK, &mut tmp);
+                    tr.h = h * FAULT_SHRINK;
+                    v.equal = 0;
+                    if fixed || tr.h < floor {
+                        let fault = tr.fault.clone().expect("fault recorded");
+                        end(tr, Status::Fault { time: t0, fault }, start);
+                        ended.push(id);
+                    }
+                    continue;
+                }
+                Newton::Failed | Newton::Iterating => {
+                    tr.stats.rejected += 1;
+                    if v.jac_current {
+                        v.tr_newt_fresh += 1
+                    } else {
+                        v.tr_newt_stale += 1
+                    }
+                    if !v.jac_current {
+                        v.need_jac = true;
+                    } else {
+                        change_differences(db, d, k, NEWTON_SHRINK, &mut tmp);
+                        tr.h = h * NEWTON_SHRINK;
+                        v.equal = 0;
+                        if fixed || tr.h < floor {
+                            end(
+                                tr,
+                                Status::StepSizeTooSmall {
+                                    time: t0,
+                                    step: tr.h,
+                                },
+                                start,
+                            );
+                            ended.push(id);
+                        }
+                    }
+                    continue;
+                }
+                Newton::Converged => {}
+            }
+            let yb = &y[id * d..(id + 1) * d];
+            let yp = &ypred[id * d..(id + 1) * d];
+            let c = &corr[id * d..(id + 1) * d];
+            for p in 0..d {
+                ynew[p] = yp[p] + c[p];
+                errv[p] = err_c[k] * c[p];
+            }
+            let sc = &scale[id * d..(id + 1) * d];
+            let norm = if fixed {
+                0.0
+            } else {
+                err_norm(&errv, yb, &ynew, sc, s)
+            };
+            if !norm.is_finite() || !finite(&ynew) {
+                tr.stats.rejected += 1;
+                change_differences(db, d, k, FAC_MIN, &mut tmp);
+                tr.h = h * FAC_MIN;
+                v.equal = 0;
+                if fixed || tr.h < floor {
+                    end(tr, Status::NonFinite { time: t0 }, start);
+                    ended.push(id);
+                }
+                continue;
+            }
+            let safety = SAFETY * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + v.iters) as f64;
+            v.tr_iters += v.iters as u64;
+            if norm > 1.0 {
+                v.tr_err_rej += 1;
+                tr.stats.rejected += 1;
+                tr.last_rejected = true;
+                let fac = (safety * norm.powf(-1.0 / (k + 1) as f64)).max(FAC_MIN);
+                change_differences(db, d, k, fac, &mut tmp);
+                tr.h = h * fac;
+                v.equal = 0;
+                if tr.h < floor {
+                    let step = tr.h;
+                    end(tr, Status::StepSizeTooSmall { time: t0, step }, start);
+                    ended.push(id);
+                }
+                continue;
+            }
+            // Accepted: the projection's change folds into the correction, then the
+            // differences are updated: ∇^{k+2} = d − ∇^{k+1}_old, ∇^{k+1} = d, ∇^j += ∇^{j+1}.
+            yproj.copy_from_slice(&ynew);
+            sys.project(id, &mut yproj);
+            let c = &mut corr[id * d..(id + 1) * d];
+            for p in 0..d {
+                c[p] += yproj[p] - ynew[p];
+            }
+            {
+                let (lo, hi) = db.split_at_mut((k + 2) * d);
+                let (r1, r2) = (&mut lo[(k + 1) * d..], &mut hi[..d]);
+                for ((a, b), &cv) in r2.iter_mut().zip(r1.iter_mut()).zip(c.iter()) {
+                    *a = cv - *b;
+                    *b = cv;
+                }
+            }
+            for j in (0..=k).rev() {
+                let (lo, hi) = db.split_at_mut((j + 1) * d);
+                for (a, &b) in lo[j * d..].iter_mut().zip(&hi[..d]) {
+                    *a += b;
+                }
+            }
+            {
+                let dbr = &*db;
+                tr.emit(id, s, t0, h, d, &mut rec, |th, out| {
+                    // x = θ − 1 in steps from t_{n+1}: Σ_j ∇^j Π_{m<j} (x + m)/(m + 1).
+                    let x = th - 1.0;
+                    let mut w = [0.0; MAX_ORDER + 1];
+                    let mut acc = 1.0;
+                    for (j, wj) in w.iter_mut().enumerate().take(k + 1).skip(1) {
+                        acc *= (x + (j - 1) as f64) / j as f64;
+                        *wj = acc;
+                    }
+                    let out = &mut out[..d];
+                    out.copy_from_slice(&dbr[..d]);
+                    for (j, &wj) in w.iter().enumerate().take(k + 1).skip(1) {
+                        for (o, &v) in out.iter_mut().zip(&dbr[j * d..(j + 1) * d]) {
+                            *o += wj * v;
+                        }
+                    }
+                });
+            }
+            y[id * d..(id + 1) * d].copy_from_slice(&db[..d]);
+            tr.t = if h == s.t_end - t0 { s.t_end } else { t0 + h };
+            tr.stats.steps += 1;
+            tr.last_rejected = false;
+            v.equal += 1;
+            v.tr_orders[k] += 1;
+            if v.theta > theta_jac && v.jac_current {
+                // keep
+            } else if v.theta > theta_jac {
+                v.need_jac = true;
+            }
+            v.jac_current = false;
+            if !fixed && v.equal > k {
+                // Order and step: the neighbours' error estimates from the differences.
+                let wn = |coef: f64, row: &[f64]| -> f64 {
+                    let mut sum = 0.0;
+                    for p in 0..d {
+                        let w = s.atol * sc[p] + s.rtol * db[p].abs();
+                        let r = coef * row[p] / w;
+                        sum += r * r;
+                    }
+                    (sum / d as f64).sqrt()
+                };
+                let em = if k > 1 {
+                    wn(err_c[k - 1], &db[k * d..(k + 1) * d])
+                } else {
+                    f64::INFINITY
+                };
+                let ep = if k < max_order {
+                    wn(err_c[k + 1], &db[(k + 2) * d..(k + 3) * d])
+                } else {
+                    f64::INFINITY
+                };
+                let f = |e: f64, q: usize| {
+                    if e == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        e.powf(-1.0 / (q + 1) as f64)
+                    }
+                };
+                let cands = [
+                    (f(em, k - 1), k - 1),
+                    (f(norm, k), k),
+                    (f(ep, k + 1), k + 1),
+                ];
+                let mut best = cands[1];
+                for &cnd in &[cands[0], cands[2]] {
+                    if cnd.1 >= 1 && cnd.1 <= max_order && cnd.0 > best.0 {
+                        best = cnd;
+                    }
+                }
+                let fac = (safety * best.0).min(FAC_MAX);
+                v.order = best.1;
+                change_differences(db, d, v.order, fac, &mut tmp);
+                tr.h = h * fac;
+                v.equal = 0;
+            }
+            if let Some(status) = status_after_accepted(tr, s) {
+                end(tr, status, start);
+                ended.push(id);
+            }
+        }
+        if std::env::var_os("X_BDF_TRACE").is_some() {
+            for &id in &ended {
+                let v = &vars[id];
+                eprintln!("bdf trace {id}: err_rej {} newt_stale {} newt_fresh {} iters {} orders {:?} jac {} steps {} evals {}", v.tr_err_rej, v.tr_newt_stale, v.tr_newt_fresh, v.tr_iters, v.tr_orders, tracks[id].stats.jacobians, tracks[id].stats.steps, tracks[id].stats.rhs_evaluations);
+            }
+        }
+        active.retain(|&id| matches!(tracks[id].status, Status::Running));
+        rec.flush_records(sys);
+        notify(sys, tracks, &mut ended);
+    }
+}
