@@ -789,7 +789,7 @@ fn bdf_projection_keeps_the_quaternion_normalised() {
     // Fixed steps of 0.05 with samples at the step ends: every sample is a projected state.
     let s = Settings {
         fixed_step: Some(0.05),
-        ..settings(3.0, 0.05, 1e-8)
+        ..settings(3.0, 0.05, 1e-6)
     };
     let (with, st, calls) = run(true, s);
     let (without, ..) = run(false, s);
