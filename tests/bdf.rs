@@ -209,7 +209,7 @@ fn bdf_error_on_the_damped_oscillator_falls_with_the_tolerance_through_dense_out
                 st.jacobians
             );
             // Measured (w = 2π, 3, 7.5): 13, 12, 12 x tol at 1e-4; 25, 31, 24 x at 1e-6; 59,
-            // 66, ~60 x at 1e-8 (the global error goes as about tol^(5/6) at order 5).
+            // 66, 56 x at 1e-8 (the global error goes as about tol^(5/6) at order 5).
             let bound = 250.0 * tol;
             assert!(
                 e <= bound,
