@@ -92,6 +92,7 @@ impl<F: Clone> Track<F> {
     /// Emits the samples in `(t0, t0 + h]` (and at `t0` for the first) into `rec`
     /// through `interp(theta, out)`, `theta` in `[0, 1]`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(crate) fn emit(
         &mut self,
         id: usize,

@@ -356,9 +356,7 @@ pub(crate) fn run<S: BatchSystem>(
         rec.flush_records(sys);
         notify(sys, &tracks, &mut ended);
     }
-    if !handed.is_empty() && std::env::var_os("X_AUTO_BDF").is_some() {
-        super::bdf::continue_from(sys, &mut y, settings, &mut tracks, handed, start);
-    } else if !handed.is_empty() {
+    if !handed.is_empty() {
         super::radau::continue_from(
             sys,
             &mut y,
