@@ -5,7 +5,8 @@
 //! and 4th-order dense output ([`Method::Dopri5`]), the L-stable implicit Radau IIA of
 //! order 5 with simplified Newton and batched finite-difference Jacobians
 //! ([`Method::Radau5`]), fixed-step classical Runge-Kutta ([`Method::Rk4`]), and the
-//! adaptive Dormand-Prince 8(5,3) with 7th-order dense output ([`Method::Dop853`]).
+//! adaptive Dormand-Prince 8(5,3) with 7th-order dense output ([`Method::Dop853`]), and the
+//! variable-order BDF with one right-hand side per Newton iteration ([`Method::Bdf`]).
 //! Output goes to [`BatchSystem::record`] at uniform sample times from dense output,
 //! independent of the steps taken. Entry point: [`run_batch`].
 
