@@ -3,8 +3,9 @@
 //! the plain BDF coefficients): the history is kept as backward differences `∇^j y` at the
 //! current step size, the step is changed only after `k + 1` equal steps (or on a
 //! rejection) by rescaling the differences, and each step solves
-//! `y_{n+1} = y_pred + d`, `α_k d = h f(y_{n+1}) − Σ_{j=1}^k γ_j ∇^j y_n` (plus the
-//! predictor's terms) by simplified Newton with the Jacobian kept across steps. One right-
+//! `d = (h/γ_k) f(t_{n+1}, y_pred + d) − ψ` with `y_pred = Σ_{j=0}^k ∇^j y_n`,
+//! `ψ = Σ_{j=1}^k γ_j ∇^j y_n / γ_k`, `γ_j = Σ_{i=1}^j 1/i` (then `y_{n+1} = y_pred + d`)
+//! by simplified Newton with the Jacobian kept across steps. One right-
 //! hand side per Newton iteration and one real `n x n` system: on a stiff film whose
 //! steps are accuracy-limited this takes far fewer right-hand sides per step than
 //! radau5's three stages. The local error estimate is `C_{k+1} d` with `C_{k+1} = 1/(k+1)`;
@@ -41,13 +42,15 @@ const NEWTON_SHRINK: f64 = 0.5;
 /// Newton stops when its estimated remaining error, carried into the local error estimate
 /// (`C_{k+1}` times the correction's), is below this fraction of the tolerance: CVODE's
 /// choice (its `nlscoef`), 0.6 tolerance units of the correction at order 5. Measured on issue
-/// 28's workloads against a level 10x tighter (radau5's 3 %) and 1.5x looser: at equal error
-/// the fewest instructions (BENCHMARKS.md "Issue 28, fourteenth pass").
+/// 28's workloads against radau5's level (3 % of the tolerance, 20x tighter at order 5) and
+/// levels up to 2x looser: at equal error the fewest load evaluations and instructions
+/// (BENCHMARKS.md "Issue 28, fourteenth pass").
 const NEWTON_LTE_FRACTION: f64 = 0.1;
 /// Safety factor of the step proposal.
 const SAFETY: f64 = 0.9;
 /// A fresh Jacobian after an accepted step whose Newton contraction exceeded this (as
-/// radau5's `THETA_JAC`; 0.15 and 0.2 measured: more Newton failures on stale Jacobians).
+/// radau5's `THETA_JAC`; 0.05-0.3 measured: flat to 0.1, above it fewer Jacobians cost more
+/// Newton failures on stale ones).
 const THETA_JAC: f64 = 0.1;
 /// The step (its factorisation and difference table) is kept while the proposed growth is
 /// within `[1, KEEP_H_MAX]`: fewer rescalings, factorisations and Jacobians for slightly
