@@ -19,10 +19,11 @@
 use std::time::Instant;
 
 use super::common::{
-    admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
-    Track,
+    admit, end, end_with_fault, err_norm, finite, h_floor, initial_step, notify,
+    status_after_accepted, step_to_try, Packed, Track,
 };
 use super::jacobian::Jacobians;
+use super::newton::{Judged, Newton, Rate};
 use super::reduced::{NewtonLu, Reduction};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -125,14 +126,6 @@ fn change_differences(
     }
 }
 
-#[derive(Clone, Copy, PartialEq)]
-enum Newton {
-    Iterating,
-    Converged,
-    Failed,
-    Fault,
-}
-
 struct Var {
     /// The difference table holds a history (false until `f(y0)` is known).
     started: bool,
@@ -145,11 +138,10 @@ struct Var {
     need_lu: bool,
     /// `α_k / h` of the current factorisation.
     lu_shift: f64,
-    eta: f64,
     newton: Newton,
     iters: usize,
-    norm_old: f64,
-    theta: f64,
+    /// Newton's convergence rate, carried across steps.
+    rate: Rate,
 }
 
 pub(crate) fn run<S: BatchSystem>(
@@ -199,7 +191,6 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let mut ypred = vec![0.0; n * d];
     let mut psi = vec![0.0; n * d];
     let mut corr = vec![0.0; n * d];
-    let mut hs = vec![0.0; n];
     let mut lus: Vec<NewtonLu> = vec![NewtonLu::default(); n];
     let mut vars: Vec<Var> = (0..n)
         .map(|_| Var {
@@ -211,11 +202,9 @@ pub(crate) fn continue_from<S: BatchSystem>(
             jac_current: false,
             need_lu: true,
             lu_shift: 0.0,
-            eta: 1.0,
             newton: Newton::Iterating,
             iters: 0,
-            norm_old: 0.0,
-            theta: 0.0,
+            rate: Rate::default(),
         })
         .collect();
     let mut dy = vec![0.0; d];
@@ -245,16 +234,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             let id = buf.ids[e];
             vars[id].need_f0 = false;
             if let Some(f) = &buf.faults[e] {
-                let time = tracks[id].t;
-                end(
-                    &mut tracks[id],
-                    Status::Fault {
-                        time,
-                        fault: f.clone(),
-                    },
-                    start,
-                );
-                ended.push(id);
+                end_with_fault(tracks, id, f, start, &mut ended);
             } else {
                 f0[id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
             }
@@ -307,17 +287,12 @@ pub(crate) fn continue_from<S: BatchSystem>(
             let tr = &mut tracks[id];
             let v = &mut vars[id];
             let db = &mut dd[id * ROWS * d..(id + 1) * ROWS * d];
-            let left = s.t_end - tr.t;
-            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
-            if h >= left || left - h < 0.01 * h {
-                h = left;
-            }
+            let h = step_to_try(tr, s);
             if h != tr.h {
                 change_differences(db, d, v.order, h / tr.h, &units, &mut tmp);
                 tr.h = h;
                 v.equal = 0;
             }
-            hs[id] = h;
             let k = v.order;
             let shift = gam[k] / h;
             if v.need_lu || shift != v.lu_shift {
@@ -352,7 +327,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 Newton::Iterating
             };
             v.iters = 0;
-            v.eta = v.eta.max(f64::EPSILON).powf(0.8);
+            v.rate.start_step();
             work.push(id);
         }
         // 4. Newton, all variants in one call per iteration.
@@ -366,7 +341,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 let c = &corr[id * d..(id + 1) * d];
                 buf.push_from(
                     id,
-                    tracks[id].t + hs[id],
+                    tracks[id].t + tracks[id].h,
                     yp.iter().zip(c).map(|(&a, &b)| a + b),
                 );
             }
@@ -404,30 +379,18 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     v.newton = Newton::Failed;
                     continue;
                 }
-                if iter > 0 {
-                    let theta = norm / v.norm_old;
-                    v.theta = theta;
-                    if theta >= 0.99 {
-                        v.newton = Newton::Failed;
-                        continue;
-                    }
-                    v.eta = theta / (1.0 - theta);
-                    let left = (MAX_NEWTON - 1 - iter) as i32;
-                    if theta.powi(left) / (1.0 - theta) * norm > tol {
-                        v.newton = Newton::Failed;
-                        continue;
-                    }
-                } else {
-                    v.theta = 0.0;
+                let judged = v.rate.judge(iter, MAX_NEWTON, norm, tol);
+                if judged == Judged::Diverging {
+                    v.newton = Newton::Failed;
+                    continue;
                 }
-                v.norm_old = norm.max(f64::MIN_POSITIVE);
                 for (cv, &dv) in c.iter_mut().zip(dy.iter()) {
                     *cv += dv;
                 }
-                if norm == 0.0 || v.eta * norm <= tol {
-                    v.newton = Newton::Converged;
-                } else if iter + 1 == MAX_NEWTON {
-                    v.newton = Newton::Failed;
+                match judged {
+                    Judged::Converged => v.newton = Newton::Converged,
+                    Judged::Exhausted => v.newton = Newton::Failed,
+                    _ => {}
                 }
             }
         }
@@ -436,7 +399,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             let s = &settings[id];
             let tr = &mut tracks[id];
             let v = &mut vars[id];
-            let h = hs[id];
+            let h = tr.h;
             let t0 = tr.t;
             let floor = h_floor(t0, s.t_end);
             let fixed = s.fixed_step.is_some();
@@ -566,7 +529,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             tr.last_rejected = false;
             v.equal += 1;
             // A slow contraction on a reused Jacobian: a fresh one at the new state.
-            if v.theta > THETA_JAC && !v.jac_current {
+            if v.rate.theta > THETA_JAC && !v.jac_current {
                 v.need_jac = true;
             }
             v.jac_current = false;

@@ -368,14 +368,42 @@ pub(crate) fn plan_steps<F>(
     for &id in active {
         let tr = &tracks[id];
         let s = &settings[id];
-        let left = s.t_end - tr.t;
-        let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
-        if h >= left || left - h < 0.01 * h {
-            h = left;
-        }
-        hs[id] = h;
+        hs[id] = step_to_try(tr, s);
         stage_ok[id] = true;
     }
+}
+
+/// The step a variant tries next: its controller's step, capped by `max_step`, landing
+/// on `t_end` rather than leaving a sliver under 1 % of a step.
+#[inline]
+pub(crate) fn step_to_try<F>(tr: &Track<F>, s: &Settings) -> f64 {
+    let left = s.t_end - tr.t;
+    let h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
+    if h >= left || left - h < 0.01 * h {
+        left
+    } else {
+        h
+    }
+}
+
+/// Ends variant `id` with the fault `fault` at its track's time (queued in `ended`).
+pub(crate) fn end_with_fault<F: Clone>(
+    tracks: &mut [Track<F>],
+    id: usize,
+    fault: &F,
+    start: Instant,
+    ended: &mut Vec<usize>,
+) {
+    let time = tracks[id].t;
+    end(
+        &mut tracks[id],
+        Status::Fault {
+            time,
+            fault: fault.clone(),
+        },
+        start,
+    );
+    ended.push(id);
 }
 
 /// After an accepted adaptive step: the status the variant ends with, if any — `t_end`

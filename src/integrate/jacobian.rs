@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use super::common::{end, Packed, Track};
+use super::common::{end_with_fault, Packed, Track};
 use super::system::{BatchSystem, Status};
 
 /// Finite-difference increment of Jacobian column entry `v` with component scale `scale`.
@@ -156,16 +156,7 @@ impl<F: Clone> Jacobians<F> {
                 let id = self.buf.ids[e];
                 if let Some(f) = &self.buf.faults[e] {
                     if matches!(tracks[id].status, Status::Running) {
-                        let time = tracks[id].t;
-                        end(
-                            &mut tracks[id],
-                            Status::Fault {
-                                time,
-                                fault: f.clone(),
-                            },
-                            start,
-                        );
-                        ended.push(id);
+                        end_with_fault(tracks, id, f, start, ended);
                     }
                     continue;
                 }

@@ -16,6 +16,7 @@ mod dop853;
 mod dopri;
 mod jacobian;
 mod linalg;
+mod newton;
 mod radau;
 mod reduced;
 mod rk4;

@@ -24,10 +24,11 @@ use std::time::Instant;
 use nalgebra::Matrix3;
 
 use super::common::{
-    admit, end, err_norm, finite, h_floor, initial_step, notify, status_after_accepted, Packed,
-    Track,
+    admit, end, end_with_fault, err_norm, finite, h_floor, initial_step, notify,
+    status_after_accepted, step_to_try, Packed, Track,
 };
 use super::jacobian::Jacobians;
+use super::newton::{Judged, Newton, Rate};
 use super::reduced::{NewtonLu, Reduction, MAX_PAIRS};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
@@ -294,27 +295,18 @@ impl Tableau<5> {
     }
 }
 
-#[derive(Clone, Copy, PartialEq)]
-enum Newton {
-    Iterating,
-    Converged,
-    Failed,
-    Fault,
-}
-
 struct Var {
     need_f0: bool,
     need_jac: bool,
     jac_current: bool,
     need_lu: bool,
     h_lu: f64,
-    eta: f64,
     have_dense: bool,
     h_old: f64,
     newton: Newton,
     iters: usize,
-    norm_old: f64,
-    theta: f64,
+    /// Newton's convergence rate, carried across steps.
+    rate: Rate,
     /// Moving average of the outcome of steps on reused Jacobians (1: Newton failed),
     /// see [`THETA_JAC_MIN`].
     reuse_fails: f64,
@@ -408,13 +400,11 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             jac_current: false,
             need_lu: true,
             h_lu: 0.0,
-            eta: 1.0,
             have_dense: false,
             h_old: 0.0,
             newton: Newton::Iterating,
             iters: 0,
-            norm_old: 0.0,
-            theta: 0.0,
+            rate: Rate::default(),
             reuse_fails: 0.0,
             have_f3: false,
             f0_shared: false,
@@ -452,16 +442,7 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             vars[id].need_f0 = false;
             vars[id].f0_shared = false;
             if let Some(f) = &buf.faults[e] {
-                let time = tracks[id].t;
-                end(
-                    &mut tracks[id],
-                    Status::Fault {
-                        time,
-                        fault: f.clone(),
-                    },
-                    start,
-                );
-                ended.push(id);
+                end_with_fault(tracks, id, f, start, &mut ended);
             } else {
                 f0[id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d]);
             }
@@ -498,11 +479,7 @@ fn continue_with<S: BatchSystem, const NS: usize>(
         for &id in &active {
             let s = &settings[id];
             let tr = &tracks[id];
-            let left = s.t_end - tr.t;
-            let mut h = tr.h.min(s.max_step.unwrap_or(f64::INFINITY));
-            if h >= left || left - h < 0.01 * h {
-                h = left;
-            }
+            let h = step_to_try(tr, s);
             hs[id] = h;
             let v = &mut vars[id];
             if v.need_lu || h != v.h_lu {
@@ -543,7 +520,7 @@ fn continue_with<S: BatchSystem, const NS: usize>(
             };
             v.iters = 0;
             v.have_f3 = false;
-            v.eta = v.eta.max(f64::EPSILON).powf(0.8);
+            v.rate.start_step();
             // Newton's error weights: the state does not move during the iteration.
             for p in 0..d {
                 wts[id * d + p] = s.atol * scale[id * d + p] + s.rtol * y[id * d + p].abs();
@@ -657,36 +634,23 @@ fn continue_with<S: BatchSystem, const NS: usize>(
                     e += NS;
                     continue;
                 }
-                if iter > 0 {
-                    let theta = norm / v.norm_old;
-                    v.theta = theta;
-                    if theta >= 0.99 {
-                        v.newton = Newton::Failed;
-                        e += NS;
-                        continue;
-                    }
-                    v.eta = theta / (1.0 - theta);
-                    let left = (MAX_NEWTON - 1 - iter) as i32;
-                    if theta.powi(left) / (1.0 - theta) * norm > tol {
-                        v.newton = Newton::Failed;
-                        e += NS;
-                        continue;
-                    }
-                } else {
-                    v.theta = 0.0;
+                let judged = v.rate.judge(iter, MAX_NEWTON, norm, tol);
+                if judged == Judged::Diverging {
+                    v.newton = Newton::Failed;
+                    e += NS;
+                    continue;
                 }
-                v.norm_old = norm.max(f64::MIN_POSITIVE);
                 for (zv, dv) in zb.iter_mut().zip(dz.iter()) {
                     *zv += dv;
                 }
-                if norm == 0.0 || v.eta * norm <= tol {
+                if judged == Judged::Converged {
                     v.newton = Newton::Converged;
                     // The last stage-3 point and `f` there ([`share_f0`]).
                     s3[id * d..(id + 1) * d]
                         .copy_from_slice(&buf.ys[(e + NS - 1) * d..(e + NS) * d]);
                     f3[id * d..(id + 1) * d].copy_from_slice(&fs[(NS - 1) * d..NS * d]);
                     v.have_f3 = true;
-                } else if iter + 1 == MAX_NEWTON {
+                } else if judged == Judged::Exhausted {
                     v.newton = Newton::Failed;
                 }
                 e += NS;
@@ -807,7 +771,7 @@ fn continue_with<S: BatchSystem, const NS: usize>(
                 } else {
                     THETA_JAC
                 };
-                v.need_jac = v.theta > theta_jac;
+                v.need_jac = v.rate.theta > theta_jac;
                 if v.have_f3 && !v.need_jac && share_f0() {
                     // f(y_new) ≈ f(s3) + J (y_new − s3) ([`share_f0`]).
                     let yn = &y[id * d..(id + 1) * d];

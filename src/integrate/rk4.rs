@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use super::common::{admit, end, finite, notify, reached, Packed, Track};
+use super::common::{admit, end, end_with_fault, finite, notify, reached, Packed, Track};
 use super::system::{BatchSystem, Settings, Stats, Status};
 
 /// Stage nodes and the coefficient of the previous stage in each stage's input.
@@ -80,16 +80,7 @@ pub(crate) fn run<S: BatchSystem>(
                 match &buf.faults[e] {
                     Some(f) => {
                         ok[id] = false;
-                        let time = tracks[id].t;
-                        end(
-                            &mut tracks[id],
-                            Status::Fault {
-                                time,
-                                fault: f.clone(),
-                            },
-                            start,
-                        );
-                        ended.push(id);
+                        end_with_fault(&mut tracks, id, f, start, &mut ended);
                     }
                     None => {
                         k[st][id * d..(id + 1) * d].copy_from_slice(&buf.dys[e * d..(e + 1) * d])
