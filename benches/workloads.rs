@@ -262,7 +262,7 @@ fn main() {
     let jacobians: u64 = rs.iter().map(|r| r.stats.jacobians).sum();
     let lus: u64 = rs.iter().map(|r| r.stats.factorizations).sum();
     println!(
-        "workload {name} ({} variants, method {method}): wall {wall:.3} s, {finished} finished, \
+        "workload {name} ({} variants, method {method}): wall {wall:.4} s, {finished} finished, \
          {loads} load evaluations, steps max {} sum {}, {jacobians} jacobians, {lus} LUs",
         scenes.len(),
         steps.iter().max().unwrap_or(&0),

@@ -218,7 +218,8 @@ pub const LANES: usize = 8;
 /// Inputs or outputs of [`slices_lanes`], one slice per lane.
 pub type Lanes = [f64; LANES];
 
-/// `atan(u)` for `|u| <= 1` without a library call (the WGSL kernel's `atan_unit`): two
+/// `atan(u)` for `|u| <= 1` without a library call (the WGSL kernel's `atan_unit`, which
+/// sums the same series by Horner's rule): two
 /// half-angle reductions `atan(u) = 2 atan(u / (1 + √(1 + u²)))` bring `|v| <= tan(π/16)`,
 /// then the odd Taylor series to `v^23` (truncation below 2e-19 relative). Branch-free, so
 /// that it vectorises.
@@ -227,11 +228,20 @@ fn atan_unit(u: f64) -> f64 {
     let v = u / (1.0 + (1.0 + u * u).sqrt());
     let v = v / (1.0 + (1.0 + v * v).sqrt());
     let v2 = v * v;
-    // Coefficients 1/(2k+1) of the alternating series, k = 11 down to 0.
-    let mut p = 1.0 / 23.0;
-    for k in (0..11).rev() {
-        p = 1.0 / (2 * k + 1) as f64 - v2 * p;
-    }
+    // The alternating series' coefficients `(−1)^k / (2k + 1)`, k = 0..11, summed by
+    // Estrin's scheme (pairs, then pairs of pairs: four levels of dependent operations
+    // instead of Horner's twelve).
+    let c = |k: usize| {
+        let sign = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
+        sign / (2 * k + 1) as f64
+    };
+    let x2 = v2 * v2;
+    let x4 = x2 * x2;
+    let q: [f64; 6] = std::array::from_fn(|j| c(2 * j) + c(2 * j + 1) * v2);
+    let r0 = q[0] + q[1] * x2;
+    let r1 = q[2] + q[3] * x2;
+    let r2 = q[4] + q[5] * x2;
+    let p = r0 + (r1 * x4 + r2 * (x4 * x4));
     4.0 * v * p
 }
 
@@ -255,11 +265,12 @@ pub fn atan2_lane(y: f64, x: f64) -> f64 {
 }
 
 /// [`slice_integrals`] for [`LANES`] slices at once, written branch-free (selects instead
-/// of early returns) so that the compiler evaluates the lanes in SIMD registers. Every
-/// operation is the scalar path's, in the same order (Rust does not contract `a * b + c`
-/// into a fused multiply-add, and `+ − × ÷ √` are correctly rounded in SIMD too), except
-/// `atan2`, which is [`atan2_lane`] instead of libm's: results differ from
-/// [`slice_integrals`] only through that angle's last few bits (tests/rule_lanes.rs).
+/// of early returns) so that the compiler evaluates the lanes in SIMD registers. The
+/// scalar path's arithmetic (Rust does not contract `a * b + c` into a fused
+/// multiply-add, and `+ − × ÷ √` are correctly rounded in SIMD too), except that quotients
+/// sharing a denominator multiply by its reciprocal and `atan2` is [`atan2_lane`] instead
+/// of libm's: results differ from [`slice_integrals`] by a few ulp of the slice's size
+/// (tests/rule_lanes.rs).
 /// Identical bit for bit whichever instruction set runs it ([`slices_lanes`]).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // one lane per index across six arrays
@@ -271,33 +282,59 @@ fn slices_lanes_generic(
     out_c: &mut Lanes,
     out_s: &mut Lanes,
 ) {
-    for i in 0..LANES {
+    slices_n(ex, ey, rx, ry, out_c, out_s)
+}
+
+/// [`slices_lanes_generic`] for `N` lanes (8, or 16 for two states' panels at once), the
+/// same operations lane by lane.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across six arrays
+fn slices_n<const N: usize>(
+    ex: &[f64; N],
+    ey: &[f64; N],
+    rx: &[f64; N],
+    ry: &[f64; N],
+    out_c: &mut [f64; N],
+    out_s: &mut [f64; N],
+) {
+    for i in 0..N {
         let (ex, ey, rx, ry) = (ex[i], ey[i], rx[i], ry[i]);
         let r = (rx * rx + ry * ry).sqrt();
         let eps = (ex * ex + ey * ey).sqrt();
         let off = eps > 0.0;
-        let cphi = if off { ex / eps } else { 1.0 };
-        let sphi = if off { ey / eps } else { 0.0 };
-        let (ca, sa) = (rx / r, ry / r);
+        // Reciprocals where a quotient's denominator is shared (here, and below the arc
+        // ends' and the three integrals'): divisions and square roots are the kernel's
+        // slowest operations, 14 divisions a slice before, 7 now. Within a few ulp of
+        // the scalar path's separate quotients (tests/rule_lanes.rs).
+        let inv_eps = 1.0 / eps;
+        let cphi = if off { ex * inv_eps } else { 1.0 };
+        let sphi = if off { ey * inv_eps } else { 0.0 };
+        let inv_r = 1.0 / r;
+        let (ca, sa) = (rx * inv_r, ry * inv_r);
         let cb = ca * cphi + sa * sphi;
         let sb = sa * cphi - ca * sphi;
         let sq2 = (1.0 - eps) * (1.0 + eps);
         let sq = sq2.sqrt();
         let da = 1.0 + eps * cb;
         let db = 1.0 - eps * cb;
-        let cga = (-cb - eps) / da;
-        let sga = -sq * sb / da;
-        let cgb = (cb - eps) / db;
-        let sgb = sq * sb / db;
+        // `da db = 1 − ε² cos²β ≥ 1 − ε² > 0`.
+        let inv_dadb = 1.0 / (da * db);
+        let (inv_da, inv_db) = (db * inv_dadb, da * inv_dadb);
+        let cga = (-cb - eps) * inv_da;
+        let sga = -sq * sb * inv_da;
+        let cgb = (cb - eps) * inv_db;
+        let sgb = sq * sb * inv_db;
         let dg = atan2_lane(cga * sgb - sga * cgb, cga * cgb + sga * sgb);
         let dg = if dg <= 0.0 { dg + 2.0 * PI } else { dg };
         let d_sc = sgb * cgb - sga * cga;
         let a_sc = 0.5 * (sgb * sgb - sga * sga) - eps * (cgb - cga);
         let a_cc = (0.5 + eps * eps) * dg + 0.5 * d_sc + 2.0 * eps * (sgb - sga);
         let a_ss = 0.5 * dg - 0.5 * d_sc;
-        let i_sc = a_sc / (sq2 * sq2);
-        let i_cc = a_cc / (sq2 * sq2 * sq);
-        let i_ss = a_ss / (sq2 * sq);
+        // `1 / ((1 − ε²)^2 √(1 − ε²))`, the three denominators from it.
+        let inv_5 = 1.0 / (sq2 * sq2 * sq);
+        let i_sc = a_sc * (sq * inv_5);
+        let i_cc = a_cc * inv_5;
+        let i_ss = a_ss * (sq2 * inv_5);
         let c_arc = cb * i_sc - sb * i_cc;
         let s_arc = cb * i_ss - sb * i_sc;
         // A zero rate vector: no pressure (the scalar path's early return).
@@ -451,6 +488,109 @@ fn panel_lanes(
             unsafe { panel_lanes_avx2(s, len, line, nodes, weights) }
         }
         _ => panel_lanes_baseline(s, len, line, nodes, weights),
+    }
+}
+
+/// Two states' single panels on `[0, len_k]` at once: [`panel_lanes_generic`] of each,
+/// its 8 lanes beside the other's in 16, so that the two states' long chains of dependent
+/// divisions, roots and series overlap (the kernel waits on those latencies, not on its
+/// arithmetic; issue 28, fifteenth pass). Lane by lane the same operations: each state's
+/// products are the bits `panel_lanes_generic` gives it alone.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
+fn panel_pair_generic(
+    len: [f64; 2],
+    lines: [&FilmLine; 2],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; 2] {
+    const W: usize = 2 * LANES;
+    let (mut z, mut ex, mut ey, mut rx, mut ry) =
+        ([0.0; W], [0.0; W], [0.0; W], [0.0; W], [0.0; W]);
+    for (h, line) in lines.iter().enumerate() {
+        let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = **line;
+        for i in 0..LANES {
+            // `s + len · node` with `s = 0`, as `panel_lanes_generic` forms it.
+            let zi = 0.0 + len[h] * nodes[i];
+            let l = h * LANES + i;
+            z[l] = zi;
+            ex[l] = e0x + e1x * zi;
+            ey[l] = e0y + e1y * zi;
+            rx[l] = r0x + r1x * zi;
+            ry[l] = r0y + r1y * zi;
+        }
+    }
+    let (mut c, mut sn) = ([0.0; W], [0.0; W]);
+    slices_n(&ex, &ey, &rx, &ry, &mut c, &mut sn);
+    let mut out = [[[0.0; LANES]; 4]; 2];
+    for h in 0..2 {
+        for i in 0..LANES {
+            let l = h * LANES + i;
+            let wg = weights[i] * len[h] * z[l] * (1.0 - z[l]);
+            out[h][0][i] = wg * c[l];
+            out[h][1][i] = wg * sn[l];
+            out[h][2][i] = wg * z[l] * c[l];
+            out[h][3][i] = wg * z[l] * sn[l];
+        }
+    }
+    out
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn panel_pair_avx512(
+    len: [f64; 2],
+    lines: [&FilmLine; 2],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; 2] {
+    panel_pair_generic(len, lines, nodes, weights)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn panel_pair_avx2(
+    len: [f64; 2],
+    lines: [&FilmLine; 2],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; 2] {
+    panel_pair_generic(len, lines, nodes, weights)
+}
+
+/// [`panel_pair_generic`] on the build's baseline instruction set (out of line, as
+/// [`panel_lanes_baseline`]).
+#[inline(never)]
+fn panel_pair_baseline(
+    len: [f64; 2],
+    lines: [&FilmLine; 2],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; 2] {
+    panel_pair_generic(len, lines, nodes, weights)
+}
+
+/// [`panel_pair_generic`] on instruction set `isa` (the same bits on every one).
+#[inline]
+fn panel_pair(
+    isa: LaneIsa,
+    len: [f64; 2],
+    lines: [&FilmLine; 2],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; 2] {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            unsafe { panel_pair_avx512(len, lines, nodes, weights) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        LaneIsa::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { panel_pair_avx2(len, lines, nodes, weights) }
+        }
+        _ => panel_pair_baseline(len, lines, nodes, weights),
     }
 }
 
@@ -1086,6 +1226,38 @@ impl Singularities {
     }
 }
 
+/// The film line of packed state `state` (see [`FilmLine`]).
+#[inline]
+fn film_line(state: &PackedState) -> FilmLine {
+    let [e0x, e0y, ejx, ejy] = state.ecc;
+    let [r0x, r0y, rjx, rjy] = state.rate;
+    [
+        e0x,
+        e0y,
+        ejx - e0x,
+        ejy - e0y,
+        r0x,
+        r0y,
+        rjx - r0x,
+        rjy - r0y,
+    ]
+}
+
+/// The sums of one panel's first `m` lanes, node by node (all four sums at each node: the
+/// scalar path's order, so the same bits, tests/rule_panel_lanes.rs).
+#[inline]
+#[allow(clippy::needless_range_loop)] // one node per index across the four sums
+fn lane_sums(prod: &[Lanes; 4], m: usize) -> FilmIntegrals {
+    let mut acc = [0.0; 4];
+    for i in 0..m {
+        acc[0] += prod[0][i];
+        acc[1] += prod[1][i];
+        acc[2] += prod[2][i];
+        acc[3] += prod[3][i];
+    }
+    acc
+}
+
 /// The default rule with its Gauss table built once.
 #[derive(Clone, Debug)]
 pub struct FilmRule {
@@ -1153,6 +1325,8 @@ impl FilmRule {
         // States waiting for a degree-4 root search: (index, quartic and its context).
         let mut queue: [Option<(usize, PendingRoots)>; ROOT_LANES] = [None; ROOT_LANES];
         let mut queued = 0;
+        // A single-panel state waiting for another to share the lanes with.
+        let mut waiting = None;
         for (k, state) in states.iter().enumerate() {
             if let Some((v, _)) = Self::aligned(state) {
                 out[k] = v;
@@ -1162,7 +1336,7 @@ impl FilmRule {
             // Matched by reference: the singularities (128 bytes) are not copied out of
             // the result for `panels` (~16 instructions a state).
             match &located {
-                Located::Done(sing) => out[k] = self.panels(state, sing).0,
+                Located::Done(sing) => self.panels_paired(k, state, sing, &mut waiting, out),
                 &Located::Search(p) if p.n == 4 => {
                     queue[queued] = Some((k, p));
                     queued += 1;
@@ -1174,21 +1348,60 @@ impl FilmRule {
                         let found = quartic_roots_lanes(self.isa, &c);
                         for (q, (roots, sweeps)) in queue.iter().zip(found) {
                             let (i, p) = q.expect("queued");
-                            out[i] = self.panels(&states[i], &p.finish(&roots, 4, sweeps)).0;
+                            let sing = p.finish(&roots, 4, sweeps);
+                            self.panels_paired(i, &states[i], &sing, &mut waiting, out);
                         }
                         queued = 0;
                     }
                 }
                 &Located::Search(p) => {
                     let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
-                    out[k] = self.panels(state, &p.finish(&roots, n, sweeps)).0;
+                    let sing = p.finish(&roots, n, sweeps);
+                    self.panels_paired(k, state, &sing, &mut waiting, out);
                 }
             }
         }
         for q in &queue[..queued] {
             let (i, p) = q.expect("queued");
             let (roots, n, sweeps) = durand_kerner_from(p.c, p.n);
-            out[i] = self.panels(&states[i], &p.finish(&roots, n, sweeps)).0;
+            let sing = p.finish(&roots, n, sweeps);
+            self.panels_paired(i, &states[i], &sing, &mut waiting, out);
+        }
+        if let Some((i, line)) = waiting {
+            let (nodes, weights, m) = &self.node_lanes[0];
+            out[i] = lane_sums(&panel_lanes(self.isa, 0.0, 1.0, &line, nodes, weights), *m);
+        }
+    }
+
+    /// [`FilmRule::panels`] of state `k` into `out[k]`, except that a state whose film is
+    /// one panel of one lane group (most states at the 1e-3 to 1e-9 levels) waits in
+    /// `waiting` for a second such state, and the two are evaluated together
+    /// ([`panel_pair`]): the same bits as `panels` for each.
+    fn panels_paired(
+        &self,
+        k: usize,
+        state: &PackedState,
+        sing: &Singularities,
+        waiting: &mut Option<(usize, FilmLine)>,
+        out: &mut [FilmIntegrals],
+    ) {
+        // `panels`' first panel: `[0, panel_end(0)]`, the whole film when that end is 1.
+        let single = self.node_lanes.len() == 1
+            && self.settings.max_panels > 1
+            && sing.panel_end(0.0, &self.settings) >= 1.0;
+        if !single {
+            out[k] = self.panels(state, sing).0;
+            return;
+        }
+        let line = film_line(state);
+        match waiting.take() {
+            None => *waiting = Some((k, line)),
+            Some((j, other)) => {
+                let (nodes, weights, m) = &self.node_lanes[0];
+                let [a, b] = panel_pair(self.isa, [1.0, 1.0], [&other, &line], nodes, weights);
+                out[j] = lane_sums(&a, *m);
+                out[k] = lane_sums(&b, *m);
+            }
         }
     }
 
@@ -1210,18 +1423,7 @@ impl FilmRule {
     /// ([`panel_lanes`]); the products are summed node by node in the order of the scalar
     /// loop this replaced (the same bits, tests/rule_panel_lanes.rs).
     fn panels(&self, state: &PackedState, sing: &Singularities) -> (FilmIntegrals, u32) {
-        let [e0x, e0y, ejx, ejy] = state.ecc;
-        let [r0x, r0y, rjx, rjy] = state.rate;
-        let line: FilmLine = [
-            e0x,
-            e0y,
-            ejx - e0x,
-            ejy - e0y,
-            r0x,
-            r0y,
-            rjx - r0x,
-            rjy - r0y,
-        ];
+        let line = film_line(state);
         let mut acc = [0.0; 4];
         let mut slices = 0;
         let mut s = 0.0;
