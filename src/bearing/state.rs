@@ -128,6 +128,14 @@ impl BearingState {
 
     /// Minimum film thickness `δ − max(|e_i|, |e_j|)`, m (the film is thinnest at an end face).
     pub fn h_min(&self, clearance_m: f64) -> f64 {
+        clearance_m - self.far_end_offset()
+    }
+
+    /// The larger end-centre offset `max(|e_i|, |e_j|)`, m: [`BearingState::h_min`]'s, and
+    /// the larger eccentricity ratio times the clearance (within 2 ulp of the two
+    /// `hypot`s of [`BearingState::eccentricity_ratios`]).
+    #[inline]
+    pub fn far_end_offset(&self) -> f64 {
         // The farther end's length as `√` of the larger squared length where that square
         // lies in [`PLANAR_RANGE`] (`√` is monotone, so this is the larger of the two
         // `√(x² + y²)`, each within 2 ulp of `hypot`: [`planar_length`]); a libm `hypot`
@@ -139,12 +147,11 @@ impl BearingState {
         let s = si.max(sj);
         // `max` ignores a NaN: both compared with it (false for a NaN) so that a
         // non-finite end goes to `hypot`. The nearer end's square may be 0 or subnormal.
-        let far = if PLANAR_RANGE.contains(&s) && si <= s && sj <= s {
+        if PLANAR_RANGE.contains(&s) && si <= s && sj <= s {
             s.sqrt()
         } else {
             self.xi.hypot(self.yi).max(self.xj.hypot(self.yj))
-        };
-        clearance_m - far
+        }
     }
 
     /// Finite inputs and the journal inside the bore at both ends.

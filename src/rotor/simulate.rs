@@ -1205,8 +1205,11 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                     let res = &self.results[cursor];
                     cursor += 1;
                     let d = geom.params.clearance;
-                    let (ei, ej) = st.eccentricity_ratios(d);
-                    let h = st.h_min(d);
+                    // The larger end offset once for both outputs (two libm `hypot`s a
+                    // sample and bearing before, ~1.5 % of a rotor run; issue 28,
+                    // fifteenth pass): `eccentricity_max` within 2 ulp of theirs.
+                    let far = st.far_end_offset();
+                    let h = d - far;
                     let below = h < m.threshold;
                     let flag = &mut self.below[self.offsets[id] + b];
                     if below && !*flag {
@@ -1235,7 +1238,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                         xj: st.xj,
                         yj: st.yj,
                         h_min: h,
-                        eccentricity_max: ei.max(ej),
+                        eccentricity_max: far / d,
                         wx,
                         wy,
                         mz,
