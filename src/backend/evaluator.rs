@@ -248,11 +248,15 @@ impl DedupeTable {
     ) -> (usize, bool) {
         let key = key_of(state);
         let mask = self.slots.len() - 1;
-        // FxHash's step on each word (as `KeyHasher::write_u64`), without the byte-slice
-        // path of `Hash` for arrays.
-        let h = key.iter().fold(0u64, |h, &w| {
-            (h.rotate_left(5) ^ w).wrapping_mul(FX_MULTIPLIER)
-        });
+        // Pairs of words mixed apart and summed: four independent multiplies instead of
+        // FxHash's chain of eight dependent ones (a state's hash waited on that chain;
+        // issue 28, fifteenth pass). Any mix serves: equal keys still compare in full.
+        let mix = |a: u64, b: u64| (a ^ b.rotate_left(32)).wrapping_mul(FX_MULTIPLIER);
+        let h = mix(key[0], key[1])
+            .wrapping_add(mix(key[2], key[3]).rotate_left(16))
+            .wrapping_add(mix(key[4], key[5]).rotate_left(32))
+            .wrapping_add(mix(key[6], key[7]).rotate_left(48))
+            .wrapping_mul(FX_MULTIPLIER);
         let mut i = (h >> self.shift) as usize;
         loop {
             let v = self.slots[i];
