@@ -218,43 +218,44 @@ pub const LANES: usize = 8;
 /// Inputs or outputs of [`slices_lanes`], one slice per lane.
 pub type Lanes = [f64; LANES];
 
-/// `atan(u)` for `|u| <= 1` without a library call (the WGSL kernel's `atan_unit`, which
-/// sums the same series by Horner's rule): two
-/// half-angle reductions `atan(u) = 2 atan(u / (1 + √(1 + u²)))` bring `|v| <= tan(π/16)`,
-/// then the odd Taylor series to `v^23` (truncation below 2e-19 relative). Branch-free, so
-/// that it vectorises.
+/// `atan(v)` for `|v| <= tan(π/8)` without a library call: the odd Taylor series to
+/// `v^47` (truncation below 1e-20 relative), its coefficients `(−1)^k / (2k + 1)` summed by
+/// Estrin's scheme (pairs, then pairs of pairs: five levels of dependent operations instead
+/// of Horner's twenty-four; the kernel waits on latencies, issue 28's fifteenth pass).
+/// Branch-free, so that it vectorises.
 #[inline(always)]
-fn atan_unit(u: f64) -> f64 {
-    let v = u / (1.0 + (1.0 + u * u).sqrt());
-    let v = v / (1.0 + (1.0 + v * v).sqrt());
+fn atan_small(v: f64) -> f64 {
     let v2 = v * v;
-    // The alternating series' coefficients `(−1)^k / (2k + 1)`, k = 0..11, summed by
-    // Estrin's scheme (pairs, then pairs of pairs: four levels of dependent operations
-    // instead of Horner's twelve).
     let c = |k: usize| {
         let sign = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
         sign / (2 * k + 1) as f64
     };
     let x2 = v2 * v2;
     let x4 = x2 * x2;
-    let q: [f64; 6] = std::array::from_fn(|j| c(2 * j) + c(2 * j + 1) * v2);
-    let r0 = q[0] + q[1] * x2;
-    let r1 = q[2] + q[3] * x2;
-    let r2 = q[4] + q[5] * x2;
-    let p = r0 + (r1 * x4 + r2 * (x4 * x4));
-    4.0 * v * p
+    let x8 = x4 * x4;
+    let q: [f64; 12] = std::array::from_fn(|j| c(2 * j) + c(2 * j + 1) * v2);
+    let r: [f64; 6] = std::array::from_fn(|j| q[2 * j] + q[2 * j + 1] * x2);
+    let t0 = r[0] + r[1] * x4;
+    let t1 = r[2] + r[3] * x4;
+    let t2 = r[4] + r[5] * x4;
+    let p = t0 + (t1 * x8 + t2 * (x8 * x8));
+    v * p
 }
 
-/// `atan2(y, x)` in `(−π, π]` by half angles (the WGSL kernel's `atan2_arith`): `x >= 0`:
-/// `2 atan(y / (r + x))`; `x < 0`: `2 (±π/2 − atan(y / (r − x)))`, both arguments in
-/// `[−1, 1]` and free of cancellation; 0 at the origin. Within a few ulp of libm's `atan2`
-/// (tests/rule_lanes.rs), branch-free.
+/// `atan2(y, x)` in `(−π, π]` by quarter angles (the WGSL kernel's `atan2_arith` takes
+/// the same angles in three halvings): `x >= 0`: `4 atan(t)` with `t = tan(θ/4) = y / (d +
+/// √(2 r d))`, `d = r + x`, `r = |(x, y)|`; `x < 0`: `2 (±π/2 − 2 atan(t))` with `d = r − x`.
+/// `|t| <= tan(π/8)`, free of cancellation; 0 at the origin. Within a few ulp of libm's
+/// `atan2` (tests/rule_lanes.rs), branch-free.
 #[inline(always)]
 pub fn atan2_lane(y: f64, x: f64) -> f64 {
     let r = (x * x + y * y).sqrt();
     let right = x >= 0.0;
     let den = if right { r + x } else { r - x };
-    let a = atan_unit(y / den);
+    // tan of half of `atan(y / den)`: `u / (1 + √(1 + u²))` with `u = y / den`, one
+    // division instead of two (`(1 + u²) den² = 2 r den`).
+    let t = y / (den + (2.0 * r * den).sqrt());
+    let a = 2.0 * atan_small(t);
     let half_pi = if y < 0.0 { -0.5 * PI } else { 0.5 * PI };
     let v = if right { 2.0 * a } else { 2.0 * (half_pi - a) };
     if r == 0.0 {
