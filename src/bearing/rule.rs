@@ -325,7 +325,13 @@ fn slices_n<const N: usize>(
         let sga = -sq * sb * inv_da;
         let cgb = (cb - eps) * inv_db;
         let sgb = sq * sb * inv_db;
-        let dg = atan2_lane(cga * sgb - sga * cgb, cga * cgb + sga * sgb);
+        // The angle from γ_a to γ_b: `atan2` of `(sin, cos)(γ_b − γ_a)` times
+        // `da db > 0`, whose products need no quotient (`atan2` ignores a positive
+        // scale), so the angle's long chain does not wait on the division above.
+        let dg = atan2_lane(
+            -2.0 * eps * sq * sb,
+            -(cb + eps) * (cb - eps) - sq2 * sb * sb,
+        );
         let dg = if dg <= 0.0 { dg + 2.0 * PI } else { dg };
         let d_sc = sgb * cgb - sga * cga;
         let a_sc = 0.5 * (sgb * sgb - sga * sga) - eps * (cgb - cga);
