@@ -21,6 +21,8 @@
 //! Run (harness-less): `cargo bench --bench workloads -- NAME [--method auto] [--rtol X]
 //! [--no-error]` (`--rtol`: `rtol = atol = X` instead of 1e-6).
 //! `--no-error` skips the reference (for instruction counts under callgrind).
+//! `--sample-interval X` samples every X s instead (0.5: start and end only, the
+//! integration timed without the samples' loads and stores; no error then).
 //! `--every K` runs every K-th variant only (spin256 under callgrind; the error is then
 //! over the reference variants among them).
 //! `--kernel` runs the workload once recording its packed states, then times the film
@@ -237,6 +239,14 @@ fn main() {
         .map(|w| w[1].parse().expect("--every takes a positive integer"))
         .unwrap_or(1);
     assert!(every >= 1, "--every takes a positive integer");
+    // `--sample-interval X`: samples every X s instead of 5e-4 (X = 0.5: the start and the
+    // end only, to time the integration without the samples' loads and stores); the error
+    // is then not computed (the reference is sampled every 5e-4 s).
+    let sample_interval: Option<f64> = args
+        .windows(2)
+        .find(|w| w[0] == "--sample-interval")
+        .map(|w| w[1].parse().expect("--sample-interval takes a number"));
+    let no_error = no_error || sample_interval.is_some();
     let all = workload(&name);
     let kept: Vec<usize> = (0..all.len()).step_by(every).collect();
     let mut scenes: Vec<Scene> = kept.iter().map(|&k| all[k].clone()).collect();
@@ -247,6 +257,9 @@ fn main() {
         if let Some(t) = tol {
             s.integrator.rtol = t;
             s.integrator.atol = t;
+        }
+        if let Some(dt) = sample_interval {
+            s.integrator.sample_interval = dt;
         }
     }
     if args.iter().any(|a| a == "--kernel") {

@@ -466,6 +466,8 @@ pub struct SeriesStore {
     series: TimeSeries,
     decimator: Decimator,
     cap: usize,
+    /// Samples the columns are sized for at the first sample (0: grown as they come).
+    reserve: usize,
 }
 
 impl SeriesStore {
@@ -476,7 +478,20 @@ impl SeriesStore {
             decimator: Decimator::default(),
             // Even, so a thinned store's last sample stays on the doubled stride.
             cap: (cap.max(2) + 1) & !1,
+            reserve: 0,
         }
+    }
+
+    /// [`SeriesStore::new`] for a run of `samples` sample times
+    /// ([`crate::integrate::sample_count`]): the columns are sized once, at the first
+    /// sample, for all of them (at most the cap, plus the provisional latest sample a
+    /// thinned store keeps beside it), instead of doubling and copying as they fill
+    /// (~3 % of spin256's samples' cost, issue 28's fifteenth pass). The memory is the
+    /// cap's, which the run's budget already allows.
+    pub fn for_run(cap: usize, samples: usize) -> Self {
+        let mut s = Self::new(cap);
+        s.reserve = samples.min(s.cap + 1);
+        s
     }
 }
 
@@ -485,6 +500,11 @@ impl SampleObserver for SeriesStore {
 
     fn observe(&mut self, x: &Sample<'_>) {
         let s = &mut self.series;
+        if self.reserve > 0 {
+            let n = std::mem::take(&mut self.reserve);
+            s.bearings = vec![BearingSeries::default(); x.bearings.len()];
+            s.columns(|v| v.reserve_exact(n), |v| v.reserve_exact(n));
+        }
         self.decimator.before_push(s);
         s.t.push(x.t);
         s.x_g.push(x.x_g);
@@ -1177,13 +1197,21 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         self.last_ids.clear();
         self.film_pass(ids, ts, ys, false);
         let mut cursor = 0;
+        // The film pass's kinematics of each film-bearing variant, in order (the same
+        // state's: not worked out again, ~1 % of a rotor run).
+        let mut kin_at = 0;
         let mut scratch = [0.0; DIM];
         let d = self.dim;
         for (k, &id) in ids.iter().enumerate() {
             let m = &self.models[id];
             let y = &ys[k * d..(k + 1) * d];
             let g = m.g_position(y);
-            let kin = m.kin(y);
+            let spin = if m.kind == ModelKind::Bearing {
+                kin_at += 1;
+                self.kins[kin_at - 1].w_global[2]
+            } else {
+                m.kin(y).w_global[2]
+            };
             self.row.clear();
             if m.kind == ModelKind::Ideal {
                 m.ideal_derivative(y, &mut scratch, &mut self.ideal_loads);
@@ -1280,7 +1308,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                 t: ts[k],
                 x_g: g[0],
                 y_g: g[1],
-                spin: kin.w_global[2],
+                spin,
                 kinetic_energy: m.kinetic_energy(y),
                 work: y[WORK],
                 bearings: &self.row,
@@ -1567,7 +1595,10 @@ fn stored(
     cap: usize,
     budget: crate::budget::MemoryBudget,
 ) -> Vec<SimResult> {
-    let observers = vec![SeriesStore::new(cap); scenes.len()];
+    let observers = scenes
+        .iter()
+        .map(|s| SeriesStore::for_run(cap, crate::integrate::sample_count(&settings_of(s))))
+        .collect();
     simulate(
         scenes,
         evaluator,
@@ -1812,6 +1843,37 @@ mod decimation_tests {
             assert!(s.len() <= cap, "n {n}: {} kept over cap {cap}", s.len());
         }
         s
+    }
+
+    #[test]
+    fn a_store_sized_for_its_run_keeps_the_same_samples() {
+        let b = [BearingSample {
+            friction_coefficient: Some(0.5),
+            ..BearingSample::default()
+        }; 2];
+        for cap in [2usize, 8, 64, 1000] {
+            for n in [1usize, 7, 64, 65, 300] {
+                let (mut plain, mut sized) = (SeriesStore::new(cap), SeriesStore::for_run(cap, n));
+                for k in 0..n {
+                    let x = Sample {
+                        t: k as f64,
+                        x_g: k as f64 * 2.0,
+                        y_g: 0.0,
+                        spin: 1.0,
+                        kinetic_energy: 0.0,
+                        work: 0.0,
+                        bearings: &b,
+                    };
+                    plain.observe(&x);
+                    sized.observe(&x);
+                }
+                let (a, z) = (plain.take_series(), sized.take_series());
+                assert_eq!(a, z, "cap {cap}, {n} samples");
+                // Sized once: no column grew past what the run (or the cap) needs.
+                let need = n.min(cap.max(2) + 2);
+                assert!(z.t.capacity() <= need, "cap {cap}, {n}: {}", z.t.capacity());
+            }
+        }
     }
 
     #[test]
