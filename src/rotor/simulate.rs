@@ -486,8 +486,8 @@ impl SeriesStore {
     /// ([`crate::integrate::sample_count`]): the columns are sized once, at the first
     /// sample, for all of them (at most the cap, plus the provisional latest sample a
     /// thinned store keeps beside it), instead of doubling and copying as they fill
-    /// (~3 % of spin256's samples' cost, issue 28's fifteenth pass). The memory is the
-    /// cap's, which the run's budget already allows.
+    /// (with the samples' spin taken from the film pass, spin256 ~4 % faster; issue 28's
+    /// fifteenth pass). The memory is the cap's, which the run's budget already allows.
     pub fn for_run(cap: usize, samples: usize) -> Self {
         let mut s = Self::new(cap);
         s.reserve = samples.min(s.cap + 1);
