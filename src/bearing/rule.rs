@@ -395,7 +395,6 @@ type FilmLine = [f64; 8];
 /// gives its sums bit for bit). Node setup, slices and products all in SIMD lanes; pad
 /// lanes (node 0, weight 0) evaluate a valid slice at `z = s` that the caller does not sum.
 #[inline(always)]
-#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
 fn panel_lanes_generic(
     s: f64,
     len: f64,
@@ -403,33 +402,53 @@ fn panel_lanes_generic(
     nodes: &Lanes,
     weights: &Lanes,
 ) -> [Lanes; 4] {
-    let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = *line;
-    let (mut z, mut ex, mut ey, mut rx, mut ry) = (
-        [0.0; LANES],
-        [0.0; LANES],
-        [0.0; LANES],
-        [0.0; LANES],
-        [0.0; LANES],
-    );
-    for i in 0..LANES {
-        let zi = s + len * nodes[i];
-        z[i] = zi;
-        ex[i] = e0x + e1x * zi;
-        ey[i] = e0y + e1y * zi;
-        rx[i] = r0x + r1x * zi;
-        ry[i] = r0y + r1y * zi;
+    let [out] = panels_side_by_side::<1, LANES>([s], [len], [line], nodes, weights);
+    out
+}
+
+/// [`panel_lanes_generic`] of `K` states' panels at once, their `LANES` lanes each side by
+/// side in `W = K · LANES`: lane by lane the same operations, so each state's products
+/// are the bits it gets alone. Two states' (`panel_pair`) overlap their long chains of
+/// dependent divisions, roots and series (the kernel waits on those latencies, not on its
+/// arithmetic; issue 28, fifteenth pass).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
+fn panels_side_by_side<const K: usize, const W: usize>(
+    s: [f64; K],
+    len: [f64; K],
+    lines: [&FilmLine; K],
+    nodes: &Lanes,
+    weights: &Lanes,
+) -> [[Lanes; 4]; K] {
+    const { assert!(W == K * LANES, "W must be K lane groups") };
+    let (mut z, mut ex, mut ey, mut rx, mut ry) =
+        ([0.0; W], [0.0; W], [0.0; W], [0.0; W], [0.0; W]);
+    for (h, line) in lines.iter().enumerate() {
+        let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = **line;
+        for i in 0..LANES {
+            let zi = s[h] + len[h] * nodes[i];
+            let l = h * LANES + i;
+            z[l] = zi;
+            ex[l] = e0x + e1x * zi;
+            ey[l] = e0y + e1y * zi;
+            rx[l] = r0x + r1x * zi;
+            ry[l] = r0y + r1y * zi;
+        }
     }
-    let (mut c, mut sn) = ([0.0; LANES], [0.0; LANES]);
-    slices_lanes_generic(&ex, &ey, &rx, &ry, &mut c, &mut sn);
+    let (mut c, mut sn) = ([0.0; W], [0.0; W]);
+    slices_n(&ex, &ey, &rx, &ry, &mut c, &mut sn);
     // Returned by value (every entry written below): the caller does not clear an
     // output array for each state.
-    let mut out = [[0.0; LANES]; 4];
-    for i in 0..LANES {
-        let wg = weights[i] * len * z[i] * (1.0 - z[i]);
-        out[0][i] = wg * c[i];
-        out[1][i] = wg * sn[i];
-        out[2][i] = wg * z[i] * c[i];
-        out[3][i] = wg * z[i] * sn[i];
+    let mut out = [[[0.0; LANES]; 4]; K];
+    for h in 0..K {
+        for i in 0..LANES {
+            let l = h * LANES + i;
+            let wg = weights[i] * len[h] * z[l] * (1.0 - z[l]);
+            out[h][0][i] = wg * c[l];
+            out[h][1][i] = wg * sn[l];
+            out[h][2][i] = wg * z[l] * c[l];
+            out[h][3][i] = wg * z[l] * sn[l];
+        }
     }
     out
 }
@@ -498,49 +517,15 @@ fn panel_lanes(
     }
 }
 
-/// Two states' single panels on `[0, len_k]` at once: [`panel_lanes_generic`] of each,
-/// its 8 lanes beside the other's in 16, so that the two states' long chains of dependent
-/// divisions, roots and series overlap (the kernel waits on those latencies, not on its
-/// arithmetic; issue 28, fifteenth pass). Lane by lane the same operations: each state's
-/// products are the bits `panel_lanes_generic` gives it alone.
+/// Two states' single panels on `[0, len_k]` at once ([`panels_side_by_side`]).
 #[inline(always)]
-#[allow(clippy::needless_range_loop)] // one lane per index across the arrays
 fn panel_pair_generic(
     len: [f64; 2],
     lines: [&FilmLine; 2],
     nodes: &Lanes,
     weights: &Lanes,
 ) -> [[Lanes; 4]; 2] {
-    const W: usize = 2 * LANES;
-    let (mut z, mut ex, mut ey, mut rx, mut ry) =
-        ([0.0; W], [0.0; W], [0.0; W], [0.0; W], [0.0; W]);
-    for (h, line) in lines.iter().enumerate() {
-        let [e0x, e0y, e1x, e1y, r0x, r0y, r1x, r1y] = **line;
-        for i in 0..LANES {
-            // `s + len · node` with `s = 0`, as `panel_lanes_generic` forms it.
-            let zi = 0.0 + len[h] * nodes[i];
-            let l = h * LANES + i;
-            z[l] = zi;
-            ex[l] = e0x + e1x * zi;
-            ey[l] = e0y + e1y * zi;
-            rx[l] = r0x + r1x * zi;
-            ry[l] = r0y + r1y * zi;
-        }
-    }
-    let (mut c, mut sn) = ([0.0; W], [0.0; W]);
-    slices_n(&ex, &ey, &rx, &ry, &mut c, &mut sn);
-    let mut out = [[[0.0; LANES]; 4]; 2];
-    for h in 0..2 {
-        for i in 0..LANES {
-            let l = h * LANES + i;
-            let wg = weights[i] * len[h] * z[l] * (1.0 - z[l]);
-            out[h][0][i] = wg * c[l];
-            out[h][1][i] = wg * sn[l];
-            out[h][2][i] = wg * z[l] * c[l];
-            out[h][3][i] = wg * z[l] * sn[l];
-        }
-    }
-    out
+    panels_side_by_side::<2, { 2 * LANES }>([0.0; 2], len, lines, nodes, weights)
 }
 
 #[cfg(target_arch = "x86_64")]
