@@ -10,7 +10,8 @@
 #[derive(Clone, Debug, Default)]
 pub(crate) struct RealLu {
     n: usize,
-    /// `L` (unit diagonal, below) and `U` (on and above the diagonal), row-major.
+    /// `L` (unit diagonal, below) and `U` (above the diagonal; on it the reciprocals of
+    /// `U`'s diagonal, the pivots), row-major.
     a: Vec<f64>,
     /// Row exchanged with row `k` at step `k`.
     piv: Vec<usize>,
@@ -147,6 +148,8 @@ fn real_eliminate(n: usize, a: &mut [f64], piv: &mut Vec<usize>) -> bool {
         piv[k] = p;
         if best == 0.0 {
             singular = true;
+            // The solve multiplies by ±∞ here, as it divided by ±0 before.
+            a[k * n + k] = 1.0 / a[k * n + k];
             continue;
         }
         if p != k {
@@ -154,6 +157,9 @@ fn real_eliminate(n: usize, a: &mut [f64], piv: &mut Vec<usize>) -> bool {
             top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
         }
         let inv = 1.0 / a[k * n + k];
+        // Kept in place of the pivot, which nothing else reads: the solve multiplies by
+        // it instead of dividing (issue 28, sixteenth pass).
+        a[k * n + k] = inv;
         // Row slices instead of indices (no bounds checks in the inner loop; the same
         // operations in the same order).
         let (top, bottom) = a.split_at_mut((k + 1) * n);
@@ -189,10 +195,15 @@ fn real_solve(n: usize, a: &[f64], piv: &[usize], b: &mut [f64]) {
     for i in (0..n).rev() {
         let (head, tail) = b.split_at_mut(i + 1);
         let mut s = head[i];
-        for (&u, &x) in a[i * n + i + 1..(i + 1) * n].iter().zip(tail.iter()) {
+        // From the last unknown back, so that the one just solved for comes last: each
+        // row waits on its predecessor for one multiply-subtract, not for its whole sum
+        // (a 9 x 9 solve was a chain of ~80 dependent operations; issue 28, sixteenth
+        // pass).
+        for (&u, &x) in a[i * n + i + 1..(i + 1) * n].iter().zip(tail.iter()).rev() {
             s -= u * x;
         }
-        head[i] = s / a[i * n + i];
+        // The pivot's reciprocal (kept by `real_eliminate`).
+        head[i] = s * a[i * n + i];
     }
 }
 
