@@ -364,6 +364,35 @@ impl TimeSeries {
     }
 }
 
+/// What a [`Decimator`] thins: a store of samples that can drop its last one and keep
+/// every other one.
+trait Decimated {
+    /// Samples kept.
+    fn kept(&self) -> usize;
+    /// Sample times between kept samples.
+    fn stride(&self) -> u64;
+    /// Drops the last sample.
+    fn drop_last(&mut self);
+    /// Keeps samples 0, 2, 4, ... and the last one, doubles the stride, and says whether
+    /// the last one is now off the stride (see [`TimeSeries::thin`]).
+    fn thin(&mut self) -> bool;
+}
+
+impl Decimated for TimeSeries {
+    fn kept(&self) -> usize {
+        self.len()
+    }
+    fn stride(&self) -> u64 {
+        self.sample_stride
+    }
+    fn drop_last(&mut self) {
+        self.pop();
+    }
+    fn thin(&mut self) -> bool {
+        TimeSeries::thin(self)
+    }
+}
+
 /// The decimating store's state of one simulation (see [`TimeSeries`]).
 #[derive(Clone, Copy, Debug, Default)]
 struct Decimator {
@@ -376,21 +405,21 @@ struct Decimator {
 impl Decimator {
     /// Before sample time number `seen` is pushed to `s`: drops a provisional last
     /// sample and says whether the new one will be provisional.
-    fn before_push(&mut self, s: &mut TimeSeries) {
+    fn before_push(&mut self, s: &mut impl Decimated) {
         if self.provisional {
-            s.pop();
+            s.drop_last();
         }
-        self.provisional = !self.seen.is_multiple_of(s.sample_stride);
+        self.provisional = !self.seen.is_multiple_of(s.stride());
         self.seen += 1;
     }
 
     /// After the push: a full store (`cap` samples on the stride) is thinned to `cap / 2`
     /// on the doubled stride plus the latest sample (provisional), so at most `cap`
     /// samples are ever kept.
-    fn after_push(&mut self, s: &mut TimeSeries, cap: usize) {
+    fn after_push(&mut self, s: &mut impl Decimated, cap: usize) {
         // Only when the samples on the stride fill it: a provisional one on top of
         // `cap - 1` is replaced by the next, not a reason to decimate.
-        if !self.provisional && s.len() >= cap {
+        if !self.provisional && s.kept() >= cap {
             self.provisional = s.thin();
         }
     }
@@ -463,7 +492,7 @@ pub trait SampleObserver: Send {
 /// The decimating store of one simulation: at most `cap` samples (see [`TimeSeries`]).
 #[derive(Clone, Debug)]
 pub struct SeriesStore {
-    series: TimeSeries,
+    kept: StagedSeries,
     decimator: Decimator,
     cap: usize,
     /// Samples the columns are sized for at the first sample (0: grown as they come).
@@ -474,7 +503,7 @@ impl SeriesStore {
     /// A store keeping at most `cap` samples (rounded up to an even number, at least 2).
     pub fn new(cap: usize) -> Self {
         SeriesStore {
-            series: TimeSeries::default(),
+            kept: StagedSeries::default(),
             decimator: Decimator::default(),
             // Even, so a thinned store's last sample stays on the doubled stride.
             cap: (cap.max(2) + 1) & !1,
@@ -499,54 +528,213 @@ impl SampleObserver for SeriesStore {
     const STORES_SERIES: bool = true;
 
     fn observe(&mut self, x: &Sample<'_>) {
-        let s = &mut self.series;
         if self.reserve > 0 {
             let n = std::mem::take(&mut self.reserve);
+            let s = &mut self.kept.series;
             s.bearings = vec![BearingSeries::default(); x.bearings.len()];
             s.columns(|v| v.reserve_exact(n), |v| v.reserve_exact(n));
         }
-        self.decimator.before_push(s);
-        s.t.push(x.t);
-        s.x_g.push(x.x_g);
-        s.y_g.push(x.y_g);
-        s.spin.push(x.spin);
-        s.kinetic_energy.push(x.kinetic_energy);
-        s.work.push(x.work);
-        if s.bearings.len() != x.bearings.len() {
-            s.bearings = vec![BearingSeries::default(); x.bearings.len()];
-        }
-        for (bs, b) in s.bearings.iter_mut().zip(x.bearings) {
-            bs.xi.push(b.xi);
-            bs.yi.push(b.yi);
-            bs.xj.push(b.xj);
-            bs.yj.push(b.yj);
-            bs.h_min.push(b.h_min);
-            bs.eccentricity_max.push(b.eccentricity_max);
-            bs.wx.push(b.wx);
-            bs.wy.push(b.wy);
-            bs.mz.push(b.mz);
-            bs.friction_coefficient.push(b.friction_coefficient);
-            if let Some(x) = b.thermal {
-                let th = bs.thermal.get_or_insert_with(ThermalSeries::default);
-                th.temperature_c.push(x.temperature_c);
-                th.viscosity_pa_s.push(x.viscosity_pa_s);
-                th.power_w.push(x.power_w);
-                th.heat_to_flow_w.push(x.heat_to_flow_w);
-                th.heat_to_housing_w.push(x.heat_to_housing_w);
-            }
-            if let Some(x) = b.film {
-                let fl = bs.film.get_or_insert_with(FilmSeries::default);
-                fl.friction_torque_nm.push(x.friction_torque_nm);
-                fl.power_loss_w.push(x.power_loss_w);
-                fl.side_flow_m3_per_s.push(x.side_flow_m3_per_s);
-                fl.inlet_flow_m3_per_s.push(x.inlet_flow_m3_per_s);
-            }
-        }
-        self.decimator.after_push(s, self.cap);
+        self.decimator.before_push(&mut self.kept);
+        self.kept.stage(x);
+        self.decimator.after_push(&mut self.kept, self.cap);
     }
 
     fn take_series(&mut self) -> TimeSeries {
-        std::mem::take(&mut self.series)
+        self.kept.flush();
+        std::mem::take(&mut self.kept.series)
+    }
+}
+
+/// Samples staged in rows before they go to [`TimeSeries`]' columns, this many at a time.
+/// A lockstep batch takes one sample of each of its variants in turn, so a sample pushed
+/// straight into its ~26 columns touched ~26 pages, each last touched a whole round of
+/// variants earlier: with 256 variants, 7 680 pages in turn, far more than the TLB holds
+/// (a store alone: ~200 ns a sample at 256 variants against ~55 at 32). Staged, a sample
+/// is written to one short row and each column takes 16 samples at once (issue 28,
+/// sixteenth pass: spin256 ~5 % faster). The rows add `16 x 8 x` [`numbers_per_sample`]
+/// bytes a variant: within the slack [`crate::budget::BYTES_PER_SAMPLED_NUMBER`] allows
+/// over the 8 bytes a number, as the cap is at least [`crate::budget::MIN_SAMPLE_CAP`].
+const STAGE_ROWS: usize = 16;
+
+/// A [`TimeSeries`] with up to [`STAGE_ROWS`] of its latest samples still in rows.
+#[derive(Clone, Debug, Default)]
+struct StagedSeries {
+    series: TimeSeries,
+    /// Staged samples, `width` numbers a row: `t, x_g, y_g, spin, kinetic_energy, work`,
+    /// then per bearing `xi, yi, xj, yj, h_min, eccentricity_max, wx, wy, mz`, its five
+    /// thermal values where `shape` has them and its four film values where it has them
+    /// (the order of [`TimeSeries::columns`]).
+    rows: Vec<f64>,
+    /// Staged friction coefficients, one a bearing a row.
+    friction: Vec<Option<f64>>,
+    /// Per bearing of the staged rows: (a thermal sample, a film sample).
+    shape: Vec<(bool, bool)>,
+    /// Numbers a staged row.
+    width: usize,
+    /// Staged rows.
+    staged: usize,
+}
+
+impl StagedSeries {
+    /// Stages sample `x` after the staged ones (a sample of another shape first flushes
+    /// them).
+    fn stage(&mut self, x: &Sample<'_>) {
+        let same = self.shape.len() == x.bearings.len()
+            && self
+                .shape
+                .iter()
+                .zip(x.bearings)
+                .all(|(&(th, fl), b)| th == b.thermal.is_some() && fl == b.film.is_some());
+        if !same {
+            self.flush();
+            self.shape.clear();
+            self.shape.extend(
+                x.bearings
+                    .iter()
+                    .map(|b| (b.thermal.is_some(), b.film.is_some())),
+            );
+            self.width = 6 + self
+                .shape
+                .iter()
+                .map(|&(th, fl)| 9 + 5 * usize::from(th) + 4 * usize::from(fl))
+                .sum::<usize>();
+        }
+        let r = &mut self.rows;
+        r.extend_from_slice(&[x.t, x.x_g, x.y_g, x.spin, x.kinetic_energy, x.work]);
+        for b in x.bearings {
+            r.extend_from_slice(&[
+                b.xi,
+                b.yi,
+                b.xj,
+                b.yj,
+                b.h_min,
+                b.eccentricity_max,
+                b.wx,
+                b.wy,
+                b.mz,
+            ]);
+            if let Some(t) = b.thermal {
+                r.extend_from_slice(&[
+                    t.temperature_c,
+                    t.viscosity_pa_s,
+                    t.power_w,
+                    t.heat_to_flow_w,
+                    t.heat_to_housing_w,
+                ]);
+            }
+            if let Some(f) = b.film {
+                r.extend_from_slice(&[
+                    f.friction_torque_nm,
+                    f.power_loss_w,
+                    f.side_flow_m3_per_s,
+                    f.inlet_flow_m3_per_s,
+                ]);
+            }
+            self.friction.push(b.friction_coefficient);
+        }
+        self.staged += 1;
+        if self.staged >= STAGE_ROWS {
+            self.flush();
+        }
+    }
+
+    /// Moves the staged samples into the columns, in order: the same columns as pushing
+    /// each sample in turn.
+    fn flush(&mut self) {
+        if self.staged == 0 {
+            return;
+        }
+        let (w, nb) = (self.width, self.shape.len());
+        let rows = &self.rows[..self.staged * w];
+        let col = |v: &mut Vec<f64>, c: usize| v.extend(rows.chunks_exact(w).map(|r| r[c]));
+        let s = &mut self.series;
+        for (c, v) in [
+            &mut s.t,
+            &mut s.x_g,
+            &mut s.y_g,
+            &mut s.spin,
+            &mut s.kinetic_energy,
+            &mut s.work,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            col(v, c);
+        }
+        if s.bearings.len() != nb {
+            s.bearings = vec![BearingSeries::default(); nb];
+        }
+        let mut c = 6;
+        for (b, bs) in s.bearings.iter_mut().enumerate() {
+            for v in [
+                &mut bs.xi,
+                &mut bs.yi,
+                &mut bs.xj,
+                &mut bs.yj,
+                &mut bs.h_min,
+                &mut bs.eccentricity_max,
+                &mut bs.wx,
+                &mut bs.wy,
+                &mut bs.mz,
+            ] {
+                col(v, c);
+                c += 1;
+            }
+            bs.friction_coefficient
+                .extend(self.friction.chunks_exact(nb).map(|f| f[b]));
+            let (th, fl) = self.shape[b];
+            if th {
+                let t = bs.thermal.get_or_insert_with(ThermalSeries::default);
+                for v in [
+                    &mut t.temperature_c,
+                    &mut t.viscosity_pa_s,
+                    &mut t.power_w,
+                    &mut t.heat_to_flow_w,
+                    &mut t.heat_to_housing_w,
+                ] {
+                    col(v, c);
+                    c += 1;
+                }
+            }
+            if fl {
+                let f = bs.film.get_or_insert_with(FilmSeries::default);
+                for v in [
+                    &mut f.friction_torque_nm,
+                    &mut f.power_loss_w,
+                    &mut f.side_flow_m3_per_s,
+                    &mut f.inlet_flow_m3_per_s,
+                ] {
+                    col(v, c);
+                    c += 1;
+                }
+            }
+        }
+        debug_assert_eq!(c, w);
+        self.rows.clear();
+        self.friction.clear();
+        self.staged = 0;
+    }
+}
+
+impl Decimated for StagedSeries {
+    fn kept(&self) -> usize {
+        self.series.len() + self.staged
+    }
+    fn stride(&self) -> u64 {
+        self.series.sample_stride
+    }
+    fn drop_last(&mut self) {
+        if self.staged > 0 {
+            self.staged -= 1;
+            self.rows.truncate(self.staged * self.width);
+            self.friction.truncate(self.staged * self.shape.len());
+        } else {
+            self.series.pop();
+        }
+    }
+    fn thin(&mut self) -> bool {
+        self.flush();
+        self.series.thin()
     }
 }
 
@@ -1843,6 +2031,137 @@ mod decimation_tests {
             assert!(s.len() <= cap, "n {n}: {} kept over cap {cap}", s.len());
         }
         s
+    }
+
+    /// Sample `k` of a two-bearing run whose second bearing has a lumped temperature
+    /// and (from sample 7 on) a JFO film, every value distinct.
+    fn bearings_of(k: u64) -> [BearingSample; 2] {
+        let v = |c: u64| (k * 40 + c) as f64;
+        let plain = |o: u64| BearingSample {
+            xi: v(o),
+            yi: v(o + 1),
+            xj: v(o + 2),
+            yj: v(o + 3),
+            h_min: v(o + 4),
+            eccentricity_max: v(o + 5),
+            wx: v(o + 6),
+            wy: v(o + 7),
+            mz: v(o + 8),
+            friction_coefficient: (!k.is_multiple_of(3)).then(|| v(o + 9)),
+            thermal: None,
+            film: None,
+        };
+        let mut second = plain(20);
+        second.thermal = Some(ThermalSample {
+            temperature_c: v(30),
+            viscosity_pa_s: v(31),
+            power_w: v(32),
+            heat_to_flow_w: v(33),
+            heat_to_housing_w: v(34),
+        });
+        second.film = (k >= 7).then(|| FilmSample {
+            friction_torque_nm: v(35),
+            power_loss_w: v(36),
+            side_flow_m3_per_s: v(37),
+            inlet_flow_m3_per_s: v(38),
+        });
+        [plain(10), second]
+    }
+
+    /// The same samples pushed one at a time straight into the columns (the store before
+    /// it staged rows), as the reference.
+    fn straight(n: u64, cap: usize) -> TimeSeries {
+        let cap = (cap.max(2) + 1) & !1;
+        let mut s = TimeSeries::default();
+        let mut d = Decimator::default();
+        for k in 0..n {
+            d.before_push(&mut s);
+            let (t, b) = (k as f64 * 0.5, bearings_of(k));
+            s.t.push(t);
+            s.x_g.push(t + 1.0);
+            s.y_g.push(t + 2.0);
+            s.spin.push(t + 3.0);
+            s.kinetic_energy.push(t + 4.0);
+            s.work.push(t + 5.0);
+            if s.bearings.len() != b.len() {
+                s.bearings = vec![BearingSeries::default(); b.len()];
+            }
+            for (bs, b) in s.bearings.iter_mut().zip(&b) {
+                for (col, x) in [
+                    (&mut bs.xi, b.xi),
+                    (&mut bs.yi, b.yi),
+                    (&mut bs.xj, b.xj),
+                    (&mut bs.yj, b.yj),
+                    (&mut bs.h_min, b.h_min),
+                    (&mut bs.eccentricity_max, b.eccentricity_max),
+                    (&mut bs.wx, b.wx),
+                    (&mut bs.wy, b.wy),
+                    (&mut bs.mz, b.mz),
+                ] {
+                    col.push(x);
+                }
+                bs.friction_coefficient.push(b.friction_coefficient);
+                if let Some(x) = b.thermal {
+                    let th = bs.thermal.get_or_insert_with(ThermalSeries::default);
+                    th.temperature_c.push(x.temperature_c);
+                    th.viscosity_pa_s.push(x.viscosity_pa_s);
+                    th.power_w.push(x.power_w);
+                    th.heat_to_flow_w.push(x.heat_to_flow_w);
+                    th.heat_to_housing_w.push(x.heat_to_housing_w);
+                }
+                if let Some(x) = b.film {
+                    let fl = bs.film.get_or_insert_with(FilmSeries::default);
+                    fl.friction_torque_nm.push(x.friction_torque_nm);
+                    fl.power_loss_w.push(x.power_loss_w);
+                    fl.side_flow_m3_per_s.push(x.side_flow_m3_per_s);
+                    fl.inlet_flow_m3_per_s.push(x.inlet_flow_m3_per_s);
+                }
+            }
+            d.after_push(&mut s, cap);
+        }
+        s
+    }
+
+    #[test]
+    fn staged_store_equals_pushing_each_sample_into_the_columns() {
+        // Caps below, at and above the staging block, counts across several blocks and
+        // several thinnings (provisional samples dropped from the rows and the columns).
+        for cap in [2usize, 3, 8, 15, 16, 17, 40, 1000] {
+            for (n, sized) in (0..100u64)
+                .chain([255, 256, 257, 700])
+                .flat_map(|n| [(n, false), (n, true)])
+            {
+                let mut store = if sized {
+                    SeriesStore::for_run(cap, n as usize)
+                } else {
+                    SeriesStore::new(cap)
+                };
+                for k in 0..n {
+                    let t = k as f64 * 0.5;
+                    let b = bearings_of(k);
+                    store.observe(&Sample {
+                        t,
+                        x_g: t + 1.0,
+                        y_g: t + 2.0,
+                        spin: t + 3.0,
+                        kinetic_energy: t + 4.0,
+                        work: t + 5.0,
+                        bearings: &b,
+                    });
+                }
+                let got = store.take_series();
+                let want = straight(n, cap);
+                assert_eq!(
+                    got, want,
+                    "cap {cap}, {n} samples (sized {sized}): staged store differs from the column pushes"
+                );
+                assert!(
+                    got.len() <= cap.max(2) + 1,
+                    "cap {cap}, {n}: {} kept",
+                    got.len()
+                );
+            }
+        }
     }
 
     #[test]
