@@ -245,6 +245,10 @@ impl RotorModel {
             .collect()
     }
 
+    // Inlined so that `film_pass` builds it in its slot of `kins` (out of line it was
+    // built on the stack and copied by `memcpy`, ~1 % of a rotor run; issue 28,
+    // sixteenth pass).
+    #[inline(always)]
     pub(crate) fn kin(&self, y: &[f64]) -> Kin {
         let r = quat_matrix(&y[Q..Q + 4]);
         let w_body = Vector3::new(y[W], y[W + 1], y[W + 2]);
