@@ -1119,3 +1119,156 @@ fn bdf_rotor_variants_alone_and_in_a_batch_agree_bit_for_bit() {
         );
     }
 }
+
+/// A stiff pair relaxing toward `(cos t, sin t)` at rates that swing by a factor of 19
+/// (`μ (1 ± 0.9 sin)`), so a Jacobian goes stale while the steps succeed.
+fn swinging(t: f64, y: &[f64], mu: f64, dy: &mut [f64]) {
+    let a = mu * (1.0 + 0.9 * (20.0 * t).sin());
+    let b = 0.5 * mu * (1.0 + 0.9 * (15.0 * t).cos());
+    dy[0] = -a * (y[0] - t.cos()) + y[1] * y[1];
+    dy[1] = -b * (y[1] - t.sin()) - y[0] * y[1];
+}
+
+/// What a [`Watched`] batch saw, in order.
+#[derive(Clone, Copy, PartialEq)]
+enum Seen {
+    /// `f` evaluated for a variant at a state (its bits).
+    Eval(usize, [u64; 2]),
+    /// A variant's step accepted (`project`).
+    Accepted(usize),
+    /// A Jacobian of a variant formed at a state.
+    Jacobian(usize, [u64; 2]),
+}
+
+/// A batch of [`swinging`] with closed-form Jacobians, logging its evaluations, accepted
+/// steps and Jacobians.
+struct Watched {
+    mus: Vec<f64>,
+    log: std::cell::RefCell<Vec<Seen>>,
+}
+
+fn bits(y: &[f64]) -> [u64; 2] {
+    [y[0].to_bits(), y[1].to_bits()]
+}
+
+impl BatchSystem for Watched {
+    type Fault = String;
+    fn dim(&self) -> usize {
+        2
+    }
+    fn eval(
+        &mut self,
+        ids: &[usize],
+        ts: &[f64],
+        ys: &[f64],
+        dys: &mut [f64],
+        _faults: &mut [Option<String>],
+    ) {
+        for (k, &id) in ids.iter().enumerate() {
+            let y = &ys[2 * k..2 * k + 2];
+            self.log.borrow_mut().push(Seen::Eval(id, bits(y)));
+            swinging(ts[k], y, self.mus[id], &mut dys[2 * k..2 * k + 2]);
+        }
+    }
+    fn has_jacobians(&self) -> bool {
+        true
+    }
+    fn jacobians(
+        &mut self,
+        ids: &[usize],
+        ts: &[f64],
+        ys: &[f64],
+        _f0s: &[f64],
+        jac: &mut [f64],
+        cost: &mut [Option<u64>],
+    ) {
+        for (k, &id) in ids.iter().enumerate() {
+            let (t, y, mu) = (ts[k], &ys[2 * k..2 * k + 2], self.mus[id]);
+            self.log.borrow_mut().push(Seen::Jacobian(id, bits(y)));
+            let a = mu * (1.0 + 0.9 * (20.0 * t).sin());
+            let b = 0.5 * mu * (1.0 + 0.9 * (15.0 * t).cos());
+            jac[4 * k..4 * k + 4].copy_from_slice(&[-a, 2.0 * y[1], -y[1], -b - y[0]]);
+            cost[k] = Some(0);
+        }
+    }
+    fn project(&self, id: usize, _y: &mut [f64]) {
+        self.log.borrow_mut().push(Seen::Accepted(id));
+    }
+    fn record(&mut self, _ids: &[usize], _ts: &[f64], _ys: &[f64]) {}
+    fn finished(&mut self, _id: usize, _status: &Status<String>, _stats: &Stats) {}
+}
+
+#[test]
+fn bdf_forms_a_jacobian_after_an_accepted_step_at_its_last_newton_iterate_without_evaluating_f() {
+    // Issue 28, sixteenth pass: a Jacobian wanted after an accepted step (a slow Newton
+    // contraction) is formed at the step's last Newton iterate, where `f` is already
+    // known (before the step was accepted), instead of at the step's end with one more
+    // evaluation of `f` for it (after). Only a Jacobian wanted after a Newton failure, or
+    // the first, still has `f` evaluated for it.
+    let mus = [1e3, 1e4];
+    let mut sys = Watched {
+        mus: mus.to_vec(),
+        log: Default::default(),
+    };
+    let sets = vec![settings(1.0, 0.01, 1e-6); mus.len()];
+    let y0s: Vec<f64> = mus.iter().flat_map(|_| [1.0, 0.0]).collect();
+    let out = run_batch(Method::Bdf, &mut sys, &y0s, &sets);
+    let log = sys.log.borrow();
+    for (id, (st, stats)) in out.iter().enumerate() {
+        assert_eq!(*st, Status::Finished, "μ = {}", mus[id]);
+        // Per Jacobian: was its state evaluated since the variant's last accepted step?
+        let (mut since, mut before, mut never) = (0u64, 0u64, 0u64);
+        for (n, e) in log.iter().enumerate() {
+            let Seen::Jacobian(j, y) = *e else { continue };
+            if j != id {
+                continue;
+            }
+            let mut verdict = None;
+            let mut accepted_between = false;
+            for e in log[..n].iter().rev() {
+                match *e {
+                    Seen::Accepted(a) if a == id => accepted_between = true,
+                    Seen::Eval(a, z) if a == id && z == y => {
+                        verdict = Some(accepted_between);
+                        break;
+                    }
+                    _ => {}
+                }
+            }
+            match verdict {
+                Some(false) => since += 1,
+                Some(true) => before += 1,
+                None => never += 1,
+            }
+        }
+        eprintln!(
+            "μ = {}: {} steps, {} rejected, {} Jacobians: at an iterate evaluated before the \
+             last accepted step {before}, at a state evaluated since {since}, never {never}",
+            mus[id], stats.steps, stats.rejected, stats.jacobians
+        );
+        assert_eq!(before + since + never, stats.jacobians, "μ = {}", mus[id]);
+        assert_eq!(never, 0, "μ = {}: a Jacobian where f never was", mus[id]);
+        assert!(
+            stats.jacobians >= 10,
+            "μ = {}: {} Jacobians",
+            mus[id],
+            stats.jacobians
+        );
+        // Before: every Jacobian at a state evaluated for it since the last accepted step
+        // (0 of 41 and 0 of 50 at an earlier iterate). Now only the first and those after a
+        // Newton failure: measured 38 of 41 (μ = 1e3) and 28 of 50 (μ = 1e4, 44 rejected
+        // steps) at an iterate.
+        assert!(
+            before > 0,
+            "μ = {}: no Jacobian at an earlier iterate",
+            mus[id]
+        );
+        assert!(
+            since <= stats.rejected + 1,
+            "μ = {}: {since} of {} Jacobians at a state evaluated for them, {} rejected steps",
+            mus[id],
+            stats.jacobians,
+            stats.rejected
+        );
+    }
+}

@@ -134,6 +134,9 @@ struct Var {
     equal: usize,
     need_f0: bool,
     need_jac: bool,
+    /// The Jacobian is wanted at the last converged Newton iterate (`y_last`, `f` there
+    /// in `f_last`): no evaluation at the step's end for it.
+    jac_at_last: bool,
     jac_current: bool,
     need_lu: bool,
     /// `α_k / h` of the current factorisation.
@@ -182,6 +185,11 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let err_c: [f64; MAX_ORDER + 2] = std::array::from_fn(|k| 1.0 / (k + 1) as f64);
     let mut dd = vec![0.0; n * ROWS * d];
     let mut f0 = vec![0.0; n * d];
+    // Each variant's last converged Newton iterate and `f` there (see `jac_at_last`), and
+    // the states the Jacobians are formed at.
+    let mut y_last = vec![0.0; n * d];
+    let mut f_last = vec![0.0; n * d];
+    let mut y_jac = vec![0.0; n * d];
     let mut jac: Vec<Vec<f64>> = vec![vec![0.0; d * d]; n];
     let mut scale = vec![1.0; n * d];
     for id in 0..n {
@@ -199,6 +207,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             equal: 0,
             need_f0: true,
             need_jac: true,
+            jac_at_last: false,
             jac_current: false,
             need_lu: true,
             lu_shift: 0.0,
@@ -225,8 +234,16 @@ pub(crate) fn continue_from<S: BatchSystem>(
         buf.clear();
         for &id in &active {
             let v = &vars[id];
-            if v.need_f0 || v.need_jac {
-                buf.push_from(id, tracks[id].t, y[id * d..(id + 1) * d].iter().copied());
+            let r = id * d..(id + 1) * d;
+            if v.need_f0 || (v.need_jac && !v.jac_at_last) {
+                buf.push_from(id, tracks[id].t, y[r.clone()].iter().copied());
+                y_jac[r.clone()].copy_from_slice(&y[r]);
+            } else if v.need_jac {
+                // At the iterate of the step just accepted whose `f` is known, within
+                // Newton's tolerance of the step's end (a system keeping the loads of its
+                // last right-hand side per variant forms it without any evaluation).
+                f0[r.clone()].copy_from_slice(&f_last[r.clone()]);
+                y_jac[r.clone()].copy_from_slice(&y_last[r]);
             }
         }
         buf.eval(sys, tracks);
@@ -270,11 +287,12 @@ pub(crate) fn continue_from<S: BatchSystem>(
         formed.clear();
         formed.extend_from_slice(&work);
         jacs.form(
-            sys, tracks, y, &f0, &scale, &mut jac, &mut work, &mut ended, start,
+            sys, tracks, &y_jac, &f0, &scale, &mut jac, &mut work, &mut ended, start,
         );
         for &id in &formed {
             let v = &mut vars[id];
             v.need_jac = false;
+            v.jac_at_last = false;
             v.jac_current = true;
             v.need_lu = true;
             tracks[id].stats.jacobians += 1;
@@ -384,6 +402,19 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     v.newton = Newton::Failed;
                     continue;
                 }
+                if judged == Judged::Converged {
+                    // The iterate `f` was evaluated at (the same sums as pushed above),
+                    // kept for a Jacobian there.
+                    let yp = &ypred[id * d..(id + 1) * d];
+                    for ((o, &a), &b) in y_last[id * d..(id + 1) * d]
+                        .iter_mut()
+                        .zip(yp)
+                        .zip(c.iter())
+                    {
+                        *o = a + b;
+                    }
+                    f_last[id * d..(id + 1) * d].copy_from_slice(fs);
+                }
                 for (cv, &dv) in c.iter_mut().zip(dy.iter()) {
                     *cv += dv;
                 }
@@ -422,6 +453,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                     tr.stats.rejected += 1;
                     if !v.jac_current {
                         v.need_jac = true;
+                        v.jac_at_last = false;
                     } else {
                         change_differences(db, d, k, NEWTON_SHRINK, &units, &mut tmp);
                         tr.h = h * NEWTON_SHRINK;
@@ -531,6 +563,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
             // A slow contraction on a reused Jacobian: a fresh one at the new state.
             if v.rate.theta > THETA_JAC && !v.jac_current {
                 v.need_jac = true;
+                v.jac_at_last = true;
             }
             v.jac_current = false;
             if fixed && v.equal > k && k < MAX_ORDER {

@@ -905,12 +905,14 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     /// without lumped temperatures whose bearings are all short films (no grooves, no
     /// arcs) and whose states the squeeze drop does not change.
     jac_ok: Vec<bool>,
-    /// The last right-hand-side call's variants and states (its loads are `results`),
-    /// emptied by a sample call: a Jacobian at one of those states reuses them.
-    last_ids: Vec<usize>,
-    last_ys: Vec<f64>,
-    /// Per variant: its entry in `last_ids` and its first request there.
-    jac_at: Vec<(usize, usize)>,
+    /// Per variant, the state of its last right-hand side (`dim` numbers a variant;
+    /// `base_set` once there is one) and per bearing (as `offsets`) the loads there
+    /// (`None` where they failed): a Jacobian at that state reuses them, whatever calls
+    /// came between (the integrator's Newton iterate a Jacobian is formed at, issue 28's
+    /// sixteenth pass).
+    base_ys: Vec<f64>,
+    base_set: Vec<bool>,
+    base_loads: Vec<Option<[f64; 4]>>,
     /// The probes of one [`BatchSystem::jacobians`] call: requests, results, each
     /// bearing's probes and base loads (or the request that evaluates them), and each
     /// variant's `(entry, first bearing)` in them.
@@ -1011,6 +1013,44 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
                     &mut self.results,
                 );
             }
+        }
+    }
+
+    /// Keeps each bearing-model variant's state of this right-hand-side call and its
+    /// bearings' loads (`results` of the film pass just made) as its Jacobian base.
+    fn keep_bases(&mut self, ids: &[usize], ys: &[f64]) {
+        let d = self.dim;
+        if self.base_set.len() != self.models.len() {
+            self.base_set = vec![false; self.models.len()];
+            self.base_ys = vec![0.0; self.models.len() * d];
+            self.base_loads = vec![None; self.params.len()];
+        }
+        if d != DIM {
+            // Lumped temperatures: no Jacobian from the bearings (`jacobians`).
+            return;
+        }
+        let mut cursor = 0;
+        for (k, &id) in ids.iter().enumerate() {
+            let m = &self.models[id];
+            if m.kind != ModelKind::Bearing {
+                continue;
+            }
+            let nb = m.bearings.len();
+            if self.jac_ok[id] {
+                self.base_set[id] = true;
+                // Sized copies (no `memcpy` call a variant).
+                let dst: &mut [f64; DIM] = (&mut self.base_ys[id * DIM..(id + 1) * DIM])
+                    .try_into()
+                    .expect("DIM numbers a variant");
+                *dst = ys[k * DIM..(k + 1) * DIM].try_into().expect("DIM numbers");
+                for b in 0..nb {
+                    self.base_loads[self.offsets[id] + b] = self.results[cursor + b]
+                        .as_ref()
+                        .ok()
+                        .map(super::jacobian::load_vector);
+                }
+            }
+            cursor += nb;
         }
     }
 
@@ -1122,16 +1162,6 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             return;
         }
         let d = DIM;
-        // Where the last right-hand side's call has each variant (its base loads).
-        self.jac_at.clear();
-        self.jac_at.resize(self.models.len(), (usize::MAX, 0));
-        let mut first = 0;
-        for (k, &id) in self.last_ids.iter().enumerate() {
-            if self.models[id].kind == ModelKind::Bearing {
-                self.jac_at[id] = (k, first);
-                first += self.models[id].bearings.len();
-            }
-        }
         self.jac_requests.clear();
         self.jac_probes.clear();
         self.jac_base.clear();
@@ -1142,9 +1172,8 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             }
             let m = &self.models[id];
             let y = &ys[k * d..(k + 1) * d];
-            let (entry, first) = self.jac_at[id];
-            let cached = entry != usize::MAX
-                && self.last_ys[entry * d..(entry + 1) * d]
+            let cached = self.base_set.get(id).copied().unwrap_or(false)
+                && self.base_ys[id * d..(id + 1) * d]
                     .iter()
                     .zip(y)
                     .all(|(a, b)| a.to_bits() == b.to_bits());
@@ -1160,8 +1189,8 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
                     break;
                 };
                 let bearing = (self.offsets[id] + b) as u32;
-                let base = match cached.then(|| &self.results[first + b]) {
-                    Some(Ok(l)) => Ok(load_vector(l)),
+                let base = match cached.then(|| self.base_loads[bearing as usize]) {
+                    Some(Some(l)) => Ok(l),
                     _ => {
                         self.jac_requests.push(LoadRequest { bearing, state: s0 });
                         Err(self.jac_requests.len() - 1)
@@ -1280,10 +1309,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
         self.film_pass(ids, ts, ys, true);
         if self.has_jacobians() {
             // A Jacobian at one of these states reuses their loads (`jacobians`).
-            self.last_ids.clear();
-            self.last_ids.extend_from_slice(ids);
-            self.last_ys.clear();
-            self.last_ys.extend_from_slice(ys);
+            self.keep_bases(ids, ys);
         }
         let mut cursor = 0;
         // Index into `kins` (bearing-model entries only).
@@ -1381,8 +1407,6 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
     }
 
     fn record(&mut self, ids: &[usize], ts: &[f64], ys: &[f64]) {
-        // The film pass below replaces the loads of the last right-hand side.
-        self.last_ids.clear();
         self.film_pass(ids, ts, ys, false);
         let mut cursor = 0;
         // The film pass's kinematics of each film-bearing variant, in order (the same
@@ -1994,9 +2018,9 @@ fn simulate<O: SampleObserver>(
                 .iter()
                 .map(|&i| jacobian_from_bearings(&scenes[i], n_thermal))
                 .collect(),
-            last_ids: Vec::new(),
-            last_ys: Vec::new(),
-            jac_at: Vec::new(),
+            base_ys: Vec::new(),
+            base_set: Vec::new(),
+            base_loads: Vec::new(),
             jac_requests: Vec::new(),
             jac_results: Vec::new(),
             jac_probes: Vec::new(),
