@@ -5,7 +5,8 @@
 //! rejection) by rescaling the differences, and each step solves
 //! `d = (h/γ_k) f(t_{n+1}, y_pred + d) − ψ` with `y_pred = Σ_{j=0}^k ∇^j y_n`,
 //! `ψ = Σ_{j=1}^k γ_j ∇^j y_n / γ_k`, `γ_j = Σ_{i=1}^j 1/i` (then `y_{n+1} = y_pred + d`)
-//! by simplified Newton with the Jacobian kept across steps. One right-
+//! by simplified Newton with the Jacobian kept across steps (a fresh one wanted after an
+//! accepted step is formed at that step's last Newton iterate, where `f` is known). One right-
 //! hand side per Newton iteration and one real `n x n` system: on a stiff film whose
 //! steps are accuracy-limited this takes far fewer right-hand sides per step than
 //! radau5's three stages. The local error estimate is `C_{k+1} d` with `C_{k+1} = 1/(k+1)`;
