@@ -271,7 +271,61 @@ impl Default for TimeSeries {
     }
 }
 
+impl BearingSeries {
+    /// The nine plain columns, in [`TimeSeries::columns`]' order.
+    fn plain_columns(&mut self) -> [&mut Vec<f64>; 9] {
+        [
+            &mut self.xi,
+            &mut self.yi,
+            &mut self.xj,
+            &mut self.yj,
+            &mut self.h_min,
+            &mut self.eccentricity_max,
+            &mut self.wx,
+            &mut self.wy,
+            &mut self.mz,
+        ]
+    }
+}
+
+impl ThermalSeries {
+    /// The five columns, in [`TimeSeries::columns`]' order.
+    fn columns_mut(&mut self) -> [&mut Vec<f64>; 5] {
+        [
+            &mut self.temperature_c,
+            &mut self.viscosity_pa_s,
+            &mut self.power_w,
+            &mut self.heat_to_flow_w,
+            &mut self.heat_to_housing_w,
+        ]
+    }
+}
+
+impl FilmSeries {
+    /// The four columns, in [`TimeSeries::columns`]' order.
+    fn columns_mut(&mut self) -> [&mut Vec<f64>; 4] {
+        [
+            &mut self.friction_torque_nm,
+            &mut self.power_loss_w,
+            &mut self.side_flow_m3_per_s,
+            &mut self.inlet_flow_m3_per_s,
+        ]
+    }
+}
+
 impl TimeSeries {
+    /// The six columns before the bearings', in [`TimeSeries::columns`]' order.
+    fn head_columns(&mut self) -> [&mut Vec<f64>; 6] {
+        [
+            &mut self.t,
+            &mut self.x_g,
+            &mut self.y_g,
+            &mut self.spin,
+            &mut self.kinetic_energy,
+            &mut self.work,
+        ]
+    }
+
     /// Kept samples.
     pub fn len(&self) -> usize {
         self.t.len()
@@ -284,51 +338,15 @@ impl TimeSeries {
 
     /// Applies `f` to every `f64` column and `g` to every optional one.
     fn columns(&mut self, f: impl Fn(&mut Vec<f64>), g: impl Fn(&mut Vec<Option<f64>>)) {
-        for v in [
-            &mut self.t,
-            &mut self.x_g,
-            &mut self.y_g,
-            &mut self.spin,
-            &mut self.kinetic_energy,
-            &mut self.work,
-        ] {
-            f(v);
-        }
+        self.head_columns().into_iter().for_each(&f);
         for b in &mut self.bearings {
-            for v in [
-                &mut b.xi,
-                &mut b.yi,
-                &mut b.xj,
-                &mut b.yj,
-                &mut b.h_min,
-                &mut b.eccentricity_max,
-                &mut b.wx,
-                &mut b.wy,
-                &mut b.mz,
-            ] {
-                f(v);
-            }
+            b.plain_columns().into_iter().for_each(&f);
             g(&mut b.friction_coefficient);
             if let Some(th) = &mut b.thermal {
-                for v in [
-                    &mut th.temperature_c,
-                    &mut th.viscosity_pa_s,
-                    &mut th.power_w,
-                    &mut th.heat_to_flow_w,
-                    &mut th.heat_to_housing_w,
-                ] {
-                    f(v);
-                }
+                th.columns_mut().into_iter().for_each(&f);
             }
             if let Some(fl) = &mut b.film {
-                for v in [
-                    &mut fl.friction_torque_nm,
-                    &mut fl.power_loss_w,
-                    &mut fl.side_flow_m3_per_s,
-                    &mut fl.inlet_flow_m3_per_s,
-                ] {
-                    f(v);
-                }
+                fl.columns_mut().into_iter().for_each(&f);
             }
         }
     }
@@ -646,67 +664,29 @@ impl StagedSeries {
         }
         let (w, nb) = (self.width, self.shape.len());
         let rows = &self.rows[..self.staged * w];
-        let col = |v: &mut Vec<f64>, c: usize| v.extend(rows.chunks_exact(w).map(|r| r[c]));
+        // Column `c` of the rows onto `v`, then the next column.
+        let mut c = 0;
+        let mut col = |v: &mut Vec<f64>| {
+            v.extend(rows.chunks_exact(w).map(|r| r[c]));
+            c += 1;
+        };
         let s = &mut self.series;
-        for (c, v) in [
-            &mut s.t,
-            &mut s.x_g,
-            &mut s.y_g,
-            &mut s.spin,
-            &mut s.kinetic_energy,
-            &mut s.work,
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            col(v, c);
-        }
+        s.head_columns().into_iter().for_each(&mut col);
         if s.bearings.len() != nb {
             s.bearings = vec![BearingSeries::default(); nb];
         }
-        let mut c = 6;
         for (b, bs) in s.bearings.iter_mut().enumerate() {
-            for v in [
-                &mut bs.xi,
-                &mut bs.yi,
-                &mut bs.xj,
-                &mut bs.yj,
-                &mut bs.h_min,
-                &mut bs.eccentricity_max,
-                &mut bs.wx,
-                &mut bs.wy,
-                &mut bs.mz,
-            ] {
-                col(v, c);
-                c += 1;
-            }
+            bs.plain_columns().into_iter().for_each(&mut col);
             bs.friction_coefficient
                 .extend(self.friction.chunks_exact(nb).map(|f| f[b]));
             let (th, fl) = self.shape[b];
             if th {
                 let t = bs.thermal.get_or_insert_with(ThermalSeries::default);
-                for v in [
-                    &mut t.temperature_c,
-                    &mut t.viscosity_pa_s,
-                    &mut t.power_w,
-                    &mut t.heat_to_flow_w,
-                    &mut t.heat_to_housing_w,
-                ] {
-                    col(v, c);
-                    c += 1;
-                }
+                t.columns_mut().into_iter().for_each(&mut col);
             }
             if fl {
                 let f = bs.film.get_or_insert_with(FilmSeries::default);
-                for v in [
-                    &mut f.friction_torque_nm,
-                    &mut f.power_loss_w,
-                    &mut f.side_flow_m3_per_s,
-                    &mut f.inlet_flow_m3_per_s,
-                ] {
-                    col(v, c);
-                    c += 1;
-                }
+                f.columns_mut().into_iter().for_each(&mut col);
             }
         }
         debug_assert_eq!(c, w);
@@ -905,7 +885,7 @@ struct RotorBatch<'a, 'p, O: SampleObserver> {
     /// without lumped temperatures whose bearings are all short films (no grooves, no
     /// arcs) and whose states the squeeze drop does not change.
     jac_ok: Vec<bool>,
-    /// Per variant, the state of its last right-hand side (`dim` numbers a variant;
+    /// Per variant, the state of its last right-hand side (`DIM` numbers a variant;
     /// `base_set` once there is one) and per bearing (as `offsets`) the loads there
     /// (`None` where they failed): a Jacobian at that state reuses them, whatever calls
     /// came between (the integrator's Newton iterate a Jacobian is formed at, issue 28's
@@ -1019,13 +999,7 @@ impl<O: SampleObserver> RotorBatch<'_, '_, O> {
     /// Keeps each bearing-model variant's state of this right-hand-side call and its
     /// bearings' loads (`results` of the film pass just made) as its Jacobian base.
     fn keep_bases(&mut self, ids: &[usize], ys: &[f64]) {
-        let d = self.dim;
-        if self.base_set.len() != self.models.len() {
-            self.base_set = vec![false; self.models.len()];
-            self.base_ys = vec![0.0; self.models.len() * d];
-            self.base_loads = vec![None; self.params.len()];
-        }
-        if d != DIM {
+        if self.dim != DIM {
             // Lumped temperatures: no Jacobian from the bearings (`jacobians`).
             return;
         }
@@ -1172,7 +1146,7 @@ impl<O: SampleObserver> BatchSystem for RotorBatch<'_, '_, O> {
             }
             let m = &self.models[id];
             let y = &ys[k * d..(k + 1) * d];
-            let cached = self.base_set.get(id).copied().unwrap_or(false)
+            let cached = self.base_set[id]
                 && self.base_ys[id * d..(id + 1) * d]
                     .iter()
                     .zip(y)
@@ -2018,9 +1992,9 @@ fn simulate<O: SampleObserver>(
                 .iter()
                 .map(|&i| jacobian_from_bearings(&scenes[i], n_thermal))
                 .collect(),
-            base_ys: Vec::new(),
-            base_set: Vec::new(),
-            base_loads: Vec::new(),
+            base_ys: vec![0.0; n * DIM],
+            base_set: vec![false; n],
+            base_loads: vec![None; n_bearings],
             jac_requests: Vec::new(),
             jac_results: Vec::new(),
             jac_probes: Vec::new(),
