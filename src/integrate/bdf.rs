@@ -59,11 +59,81 @@ const THETA_JAC: f64 = 0.1;
 /// more steps; 1.0, 1.5, 2.0 and 3.0 measured, 3.0 the fewest instructions at equal error
 /// on the rotor workloads (BENCHMARKS.md "Issue 28, fourteenth pass").
 const KEEP_H_MAX: f64 = 3.0;
+/// The step-size safety factor after a Newton iteration of `iters` corrections
+/// (Hairer's RADAU5: lower the more corrections it took).
+fn safety_after(iters: usize) -> f64 {
+    SAFETY * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + iters) as f64
+}
+
+/// Differences of logarithms of step factors below which the factors themselves are
+/// compared (far above the ~1e-13 error of `ln` and `pow` in that domain).
+const LN_MARGIN: f64 = 1e-9;
 
 /// Newton's stopping level in the error norm's unit at order `k` (error constant `c_k`),
 /// raised to `10 ε / rtol` where rounding would not let the iteration get there.
 fn newton_tolerance(rtol: f64, c_k: f64) -> f64 {
     (10.0 * f64::EPSILON / rtol).max(NEWTON_LTE_FRACTION / c_k)
+}
+
+/// The order check after `k + 1` steps at order `k`: from the error estimates `e` of
+/// orders `k − 1`, `k` and `k + 1` (`∞` for one out of range), the order whose step
+/// factor `safety · e_q^(−1/(q+1))` is largest, and that factor (at most `FAC_MAX`);
+/// `None` to keep the step (the same order, a factor within `[1, KEEP_H_MAX]`).
+///
+/// The factors are compared by their logarithms (a `ln` costs half a `pow`, and three
+/// `pow`s an order check were 1 % of a BDF rotor run; issue 28, seventeenth pass); a
+/// comparison the logarithms leave within `LN_MARGIN` is decided by the `pow`s
+/// themselves, so the decisions are those of comparing the `pow`s. `ln_safety` is
+/// `safety.ln()`.
+fn order_and_step(k: usize, e: [f64; 3], safety: f64, ln_safety: f64) -> Option<(usize, f64)> {
+    let f = |e: f64, q: usize| {
+        if e == 0.0 {
+            f64::INFINITY
+        } else {
+            e.powf(-1.0 / (q + 1) as f64)
+        }
+    };
+    let lf = |e: f64, q: usize| {
+        if e == 0.0 {
+            f64::INFINITY
+        } else {
+            -e.ln() / (q + 1) as f64
+        }
+    };
+    // `Some(a > b)` where the logarithms settle it (an infinite one included).
+    let settled = |la: f64, lb: f64| {
+        if la - lb > LN_MARGIN {
+            Some(true)
+        } else if lb - la > LN_MARGIN {
+            Some(false)
+        } else {
+            None
+        }
+    };
+    let q_of = |c: usize| k + c - 1;
+    let mut best = 1;
+    let mut l_best = lf(e[1], k);
+    for c in [0, 2] {
+        let q = q_of(c);
+        if !(1..=MAX_ORDER).contains(&q) {
+            continue;
+        }
+        let l = lf(e[c], q);
+        if settled(l, l_best).unwrap_or_else(|| f(e[c], q) > f(e[best], q_of(best))) {
+            best = c;
+            l_best = l;
+        }
+    }
+    let q = q_of(best);
+    let fac = || (safety * f(e[best], q)).min(FAC_MAX);
+    let l_fac = l_best + ln_safety;
+    let keep = q == k
+        && match (settled(l_fac, 0.0), settled(KEEP_H_MAX.ln(), l_fac)) {
+            (Some(above), Some(below)) => above && below,
+            (Some(false), _) | (_, Some(false)) => false,
+            _ => (1.0..=KEEP_H_MAX).contains(&fac()),
+        };
+    (!keep).then(|| (q, fac()))
 }
 
 /// `γ_k = Σ_{j=1}^k 1/j`, `k = 0..=MAX_ORDER + 1`.
@@ -184,6 +254,8 @@ pub(crate) fn continue_from<S: BatchSystem>(
     let gam = gammas();
     // α_k = γ_k (plain BDF), error constants 1/(k+1).
     let err_c: [f64; MAX_ORDER + 2] = std::array::from_fn(|k| 1.0 / (k + 1) as f64);
+    // ln of each safety factor, for the order checks' comparisons by logarithm.
+    let ln_safety: [f64; MAX_NEWTON + 1] = std::array::from_fn(|i| safety_after(i).ln());
     let mut dd = vec![0.0; n * ROWS * d];
     let mut f0 = vec![0.0; n * d];
     // Each variant's last converged Newton iterate and `f` there (see `jac_at_last`), and
@@ -499,7 +571,7 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 }
                 continue;
             }
-            let safety = SAFETY * (2 * MAX_NEWTON + 1) as f64 / (2 * MAX_NEWTON + v.iters) as f64;
+            let safety = safety_after(v.iters);
             if norm > 1.0 {
                 tr.stats.rejected += 1;
                 tr.last_rejected = true;
@@ -593,28 +665,11 @@ pub(crate) fn continue_from<S: BatchSystem>(
                 } else {
                     f64::INFINITY
                 };
-                let f = |e: f64, q: usize| {
-                    if e == 0.0 {
-                        f64::INFINITY
-                    } else {
-                        e.powf(-1.0 / (q + 1) as f64)
-                    }
-                };
-                let cands = [
-                    (f(em, k - 1), k - 1),
-                    (f(norm, k), k),
-                    (f(ep, k + 1), k + 1),
-                ];
-                let mut best = cands[1];
-                for &cnd in &[cands[0], cands[2]] {
-                    if cnd.1 >= 1 && cnd.1 <= MAX_ORDER && cnd.0 > best.0 {
-                        best = cnd;
-                    }
-                }
-                let fac = (safety * best.0).min(FAC_MAX);
-                if best.1 != k || !(1.0..=KEEP_H_MAX).contains(&fac) {
-                    v.order = best.1;
-                    change_differences(db, d, v.order, fac, &units, &mut tmp);
+                if let Some((order, fac)) =
+                    order_and_step(k, [em, norm, ep], safety, ln_safety[v.iters])
+                {
+                    v.order = order;
+                    change_differences(db, d, order, fac, &units, &mut tmp);
                     tr.h = h * fac;
                 }
                 v.equal = 0;
@@ -627,5 +682,85 @@ pub(crate) fn continue_from<S: BatchSystem>(
         active.retain(|&id| matches!(tracks[id].status, Status::Running));
         rec.flush_records(sys);
         notify(sys, tracks, &mut ended);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The order check by `pow`s (as before the logarithms): the reference.
+    fn by_pows(k: usize, e: [f64; 3], safety: f64) -> Option<(usize, f64)> {
+        let f = |e: f64, q: usize| {
+            if e == 0.0 {
+                f64::INFINITY
+            } else {
+                e.powf(-1.0 / (q + 1) as f64)
+            }
+        };
+        let cands = [
+            (f(e[0], k - 1), k - 1),
+            (f(e[1], k), k),
+            (f(e[2], k + 1), k + 1),
+        ];
+        let mut best = cands[1];
+        for &c in &[cands[0], cands[2]] {
+            if c.1 >= 1 && c.1 <= MAX_ORDER && c.0 > best.0 {
+                best = c;
+            }
+        }
+        let fac = (safety * best.0).min(FAC_MAX);
+        (best.1 != k || !(1.0..=KEEP_H_MAX).contains(&fac)).then_some((best.1, fac))
+    }
+
+    #[test]
+    fn order_check_by_logarithms_decides_as_the_pows_do() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut kept, mut changed) = (0, 0);
+        for n in 0..200_000 {
+            let k = 1 + n % MAX_ORDER;
+            let safety = safety_after(1 + n % MAX_NEWTON);
+            let mut e = [0.0; 3];
+            for v in &mut e {
+                *v = 10f64.powf(-6.0 * next());
+            }
+            // Ties and edges: a neighbour's factor equal to this order's, a factor at
+            // exactly 1 or KEEP_H_MAX, zero and infinite estimates.
+            match n % 7 {
+                1 => e[2] = e[1].powf((k + 2) as f64 / (k + 1) as f64),
+                2 => e[1] = safety.powi(k as i32 + 1),
+                3 => e[1] = (safety / KEEP_H_MAX).powi(k as i32 + 1),
+                4 => e[0] = 0.0,
+                5 => e[2] = f64::INFINITY,
+                _ => {}
+            }
+            if k == 1 {
+                e[0] = f64::INFINITY;
+            }
+            if k == MAX_ORDER {
+                e[2] = f64::INFINITY;
+            }
+            let want = by_pows(k, e, safety);
+            let got = order_and_step(k, e, safety, safety.ln());
+            assert_eq!(
+                got, want,
+                "case {n}: order {k}, estimates {e:?}, safety {safety}"
+            );
+            if want.is_some() {
+                changed += 1;
+            } else {
+                kept += 1;
+            }
+        }
+        assert!(
+            kept > 10_000 && changed > 10_000,
+            "{kept} kept, {changed} changed"
+        );
     }
 }
