@@ -9,7 +9,9 @@
 //!
 //! Every workload runs as ONE lockstep batch (`simulate_batch`) on the CPU backend on one
 //! thread at the 1e-6 load level, `rtol = atol = 1e-6` (the scenes' defaults), with the
-//! method given by `--method` (default `dopri5`, the sweep file's choice).
+//! method given by `--method` (default `dopri5`, the sweep file's choice), with the
+//! `bearing-sweep` binary's allocator switched to mimalloc's huge pages as `run` switches
+//! it (`bearing_sweep::allocator`).
 //!
 //! Error: the largest distance over all samples and variants between the run's `G`
 //! (Figs. 8-9) and a reference's, and the same for the journal centres at both end faces
@@ -29,6 +31,11 @@
 //! rule alone on them (states per second per thread, slices and root sweeps per state).
 
 use std::time::Instant;
+
+/// The `bearing-sweep` binary's allocator, switched as `run` switches it
+/// ([`bearing_sweep::allocator`]), so that these timings are the command's.
+#[global_allocator]
+static ALLOCATOR: bearing_sweep::allocator::Allocator = bearing_sweep::allocator::Allocator;
 
 use bearing_sweep::backend::{BackendError, BackendInfo, CpuBackend, FilmBackend, LoadEvaluator};
 use bearing_sweep::bearing::{
@@ -212,6 +219,8 @@ fn track(r: &SimResult) -> Track {
 }
 
 fn main() {
+    // As `bearing-sweep run` does before its sweep.
+    bearing_sweep::allocator::use_huge_pages();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let name = args
         .iter()

@@ -3,6 +3,7 @@
 //! The physics contract is `docs/model.md` (the model, its frames, signs and closed forms);
 //! conventions there hold here.
 
+pub mod allocator;
 pub mod app;
 pub mod backend;
 pub mod bearing;

@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+#[global_allocator]
+static ALLOCATOR: bearing_sweep::allocator::Allocator = bearing_sweep::allocator::Allocator;
+
 fn main() -> ExitCode {
     // Before any thread: the Vulkan loader would print an XDG_RUNTIME_DIR error otherwise.
     bearing_sweep::backend::ensure_xdg_runtime_dir();

@@ -34,6 +34,8 @@ pub fn run(cli: Cli) -> ExitCode {
             eval(a).map_err(|e| name_file(&file, e))
         }
         Command::Run(a) => {
+            // A batch run: its stored samples on huge pages (`crate::allocator`).
+            crate::allocator::use_huge_pages();
             let file = a.file.clone();
             run_cmd(a).map_err(|e| name_file(&file, e))
         }
