@@ -119,7 +119,10 @@ mod tests {
             assert!(huge_pages());
             let after: Vec<*mut u8> = layouts.iter().map(|&l| a.alloc_zeroed(l)).collect();
             for (&p, l) in after.iter().zip(&layouts) {
-                assert!(!p.is_null() && (p as usize).is_multiple_of(l.align()), "{l:?}");
+                assert!(
+                    !p.is_null() && (p as usize).is_multiple_of(l.align()),
+                    "{l:?}"
+                );
                 assert!(Allocator::is_mimalloc(p), "{l:?} not from mimalloc");
                 assert!(std::slice::from_raw_parts(p, l.size())
                     .iter()

@@ -68,7 +68,7 @@ impl Rate {
     /// The carried `η` with every owed decay applied: `n` decays at once as
     /// `max(η, ε)^(0.8^n)` (one `pow`, not `n`; the same value up to roundings, since a
     /// decayed `η` is above `ε` already).
-    pub(crate) fn eta(&mut self) -> f64 {
+    fn eta(&mut self) -> f64 {
         if self.pending > 0 {
             // 0.8^n underflows to 0 after ~3 300 decays: η is 1 by then.
             let exponent = ETA_DECAY.powi(self.pending.min(i32::MAX as u32) as i32);

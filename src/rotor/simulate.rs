@@ -569,9 +569,10 @@ impl SampleObserver for SeriesStore {
 /// variants earlier: with 256 variants, 7 680 pages in turn, far more than the TLB holds
 /// (`benches/sample_store.rs`: 343 ns a sample at 256 variants against 152 at 32). Staged,
 /// a sample is written to one short row and each column takes 16 samples at once (93 and
-/// 74 ns; issue 28, sixteenth pass: spin256 ~5 % faster). The rows add `16 x 8 x` [`numbers_per_sample`]
-/// bytes a variant: within the slack [`crate::budget::BYTES_PER_SAMPLED_NUMBER`] allows
-/// over the 8 bytes a number, as the cap is at least [`crate::budget::MIN_SAMPLE_CAP`].
+/// 74 ns; issue 28, sixteenth pass: spin256 ~5 % faster). The rows add `16 x 8 x`
+/// [`numbers_per_sample`] bytes a variant: within the slack
+/// [`crate::budget::BYTES_PER_SAMPLED_NUMBER`] allows over the 8 bytes a number, as the cap
+/// is at least [`crate::budget::MIN_SAMPLE_CAP`].
 const STAGE_ROWS: usize = 16;
 
 /// A [`TimeSeries`] with up to [`STAGE_ROWS`] of its latest samples still in rows.
